@@ -1,0 +1,410 @@
+//! A chain of rigid links and algorithm RESOLUTION-TRACTRIX (section 4.1) over it.
+//!
+//! # State
+//!
+//! Joints are numbered `0..=n`: joint 0 is the *tail* end (the base of a manipulator), joint `n` the
+//! *head*. Link `i` (1-based) joins joints `i−1` and `i`. The state is flat: the position of joint 0 and
+//! one contiguous buffer of link vectors `lᵢ = Xᵢ − Xᵢ₋₁`, plus the nominal lengths.
+//!
+//! Storing link vectors rather than absolute positions is a deliberate choice: a link's length is then a
+//! property of one stored vector, so it is kept to a few ulps *relative to the link* however far the chain
+//! has travelled (a rope 10⁹ link lengths from the origin, or an f32 chain in metres with millimetre
+//! links). Absolute positions are produced on demand by a prefix sum ([`Chain::write_positions`]), which
+//! the service does anyway when it writes a response.
+//!
+//! # Moves
+//!
+//! [`Chain::move_joint`] moves any joint along a straight segment. A head move runs the tractrix from the
+//! head to the tail; a tail move from the tail to the head; an interior joint splits the chain into two
+//! parts that both follow outward (remark 2). A move can be split into substeps ([`Substeps`]); the moved
+//! joint lands exactly on its target. A move allocates nothing.
+
+use super::link::{Method, step};
+use super::math::{Embed3, Real, Vector, all_finite};
+
+/// How a move is divided into straight substeps. Motion is path dependent: finer substeps follow a curved
+/// path more closely (error ∝ h² for the tractrix, ∝ h for follow-the-leader) and cost proportionally more.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Substeps<T> {
+    /// Exactly `k ≥ 1` equal substeps.
+    Fixed(u32),
+    /// As many equal substeps as needed so that none is longer than this fraction of the chain's shortest
+    /// link (must be positive and finite).
+    MaxStep(T),
+}
+
+/// Options of a move. `Default` is the closed-form tractrix in one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MoveOptions<T> {
+    /// Single-link method propagated down the chain.
+    pub method: Method,
+    /// Substep policy.
+    pub substeps: Substeps<T>,
+    /// Upper bound on substeps per move; a move that would need more is refused (`TooManySubsteps`)
+    /// rather than spinning. Each substep costs one pass over the chain.
+    pub max_substeps: u32,
+}
+
+impl<T> Default for MoveOptions<T> {
+    fn default() -> Self {
+        MoveOptions {
+            method: Method::Tractrix,
+            substeps: Substeps::Fixed(1),
+            max_substeps: 1 << 16,
+        }
+    }
+}
+
+/// What a successful move did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MoveOutcome {
+    /// Substeps taken (0 for a move to where the joint already is).
+    pub substeps: u32,
+    /// Link steps where the paper's form was undefined and the closed form was used instead.
+    pub paper_fallbacks: u32,
+}
+
+/// Why a chain could not be built or moved. A failed move leaves the chain unchanged.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum ChainError {
+    /// A chain needs at least one link (two joints).
+    #[error("a chain needs at least one link")]
+    Empty,
+    /// A link length is zero, negative or not finite.
+    #[error("link {link}: length {length} is not a positive finite number")]
+    BadLength { link: usize, length: f64 },
+    /// A coordinate is NaN or infinite.
+    #[error("non-finite coordinate")]
+    NonFinite,
+    /// The joint index is past the head.
+    #[error("joint {joint} out of range (the chain has joints 0..={last})")]
+    JointOutOfRange { joint: usize, last: usize },
+    /// The move needs more substeps than `max_substeps`.
+    #[error("move needs {required} substeps, more than the limit {limit}")]
+    TooManySubsteps { required: u64, limit: u32 },
+    /// An option is out of range.
+    #[error("invalid option: {0}")]
+    BadOption(&'static str),
+}
+
+/// A chain of rigid links in `D` dimensions (see the module docs for the layout).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Chain<T: Real, const D: usize> {
+    origin: Vector<T, D>,
+    links: Vec<Vector<T, D>>,
+    lengths: Vec<T>,
+    min_length: T,
+}
+
+impl<T: Real, const D: usize> Chain<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    /// A chain through the given joint positions (tail first). Lengths are taken from the points.
+    pub fn from_points(points: &[Vector<T, D>]) -> Result<Self, ChainError> {
+        if points.len() < 2 {
+            return Err(ChainError::Empty);
+        }
+        if !points.iter().all(all_finite) {
+            return Err(ChainError::NonFinite);
+        }
+        let links: Vec<_> = points.windows(2).map(|w| w[1] - w[0]).collect();
+        let lengths: Vec<_> = links.iter().map(|l| l.norm()).collect();
+        Self::from_parts(points[0], links, lengths)
+    }
+
+    /// A straight chain of `n` links of length `len` from `origin` along `dir` (normalised here).
+    pub fn straight(
+        n: usize,
+        len: T,
+        origin: Vector<T, D>,
+        dir: Vector<T, D>,
+    ) -> Result<Self, ChainError> {
+        let dn = dir.norm();
+        if !(dn > T::zero()) || !dn.is_finite() {
+            return Err(ChainError::BadOption("direction must be a non-zero finite vector"));
+        }
+        let unit = dir / dn;
+        Self::from_parts(origin, vec![unit * len; n], vec![len; n])
+    }
+
+    /// A chain from the position of joint 0, the link vectors and their nominal lengths. Each link vector
+    /// is rescaled to its nominal length (its direction is what counts).
+    pub fn from_parts(
+        origin: Vector<T, D>,
+        mut links: Vec<Vector<T, D>>,
+        lengths: Vec<T>,
+    ) -> Result<Self, ChainError> {
+        if links.is_empty() {
+            return Err(ChainError::Empty);
+        }
+        if links.len() != lengths.len() {
+            return Err(ChainError::BadOption("links and lengths differ in count"));
+        }
+        if !all_finite(&origin) || !links.iter().all(all_finite) {
+            return Err(ChainError::NonFinite);
+        }
+        for (i, (l, &len)) in links.iter_mut().zip(&lengths).enumerate() {
+            let n = l.norm();
+            if !(len > T::zero()) || !len.is_finite() || !(n > T::zero()) || !n.is_finite() {
+                return Err(ChainError::BadLength {
+                    link: i + 1,
+                    length: if len > T::zero() { n.to_f64() } else { len.to_f64() },
+                });
+            }
+            *l *= len / n;
+        }
+        let min_length = lengths.iter().copied().fold(lengths[0], T::min);
+        Ok(Chain {
+            origin,
+            links,
+            lengths,
+            min_length,
+        })
+    }
+
+    /// Number of links `n`.
+    pub fn n_links(&self) -> usize {
+        self.links.len()
+    }
+
+    /// Index of the head joint, `n`.
+    pub fn head_index(&self) -> usize {
+        self.links.len()
+    }
+
+    /// Nominal link lengths, tail first.
+    pub fn lengths(&self) -> &[T] {
+        &self.lengths
+    }
+
+    /// Link vectors `lᵢ = Xᵢ − Xᵢ₋₁`, tail first.
+    pub fn links(&self) -> &[Vector<T, D>] {
+        &self.links
+    }
+
+    /// Position of joint 0 (the base of a manipulator).
+    pub fn origin(&self) -> Vector<T, D> {
+        self.origin
+    }
+
+    /// The shortest nominal link length.
+    pub fn min_length(&self) -> T {
+        self.min_length
+    }
+
+    /// Total nominal length.
+    pub fn total_length(&self) -> T {
+        self.lengths.iter().fold(T::zero(), |a, &b| a + b)
+    }
+
+    /// Position of joint `i` (O(i)).
+    pub fn joint(&self, i: usize) -> Vector<T, D> {
+        self.links[..i].iter().fold(self.origin, |a, l| a + l)
+    }
+
+    /// Position of the head joint.
+    pub fn head(&self) -> Vector<T, D> {
+        self.joint(self.n_links())
+    }
+
+    /// Writes the `n + 1` joint positions into `out` (tail first). Panics if `out` is shorter.
+    pub fn write_positions(&self, out: &mut [Vector<T, D>]) {
+        let mut p = self.origin;
+        out[0] = p;
+        for (o, l) in out[1..=self.links.len()].iter_mut().zip(&self.links) {
+            p += l;
+            *o = p;
+        }
+    }
+
+    /// The joint positions as a new vector (allocates; for tests and tools, not the hot path).
+    pub fn positions(&self) -> Vec<Vector<T, D>> {
+        let mut v = vec![Vector::zeros(); self.links.len() + 1];
+        self.write_positions(&mut v);
+        v
+    }
+
+    /// Replaces the joint positions, keeping the nominal lengths (each link is rescaled along its new
+    /// direction). Used by collision handling and restores. Fails, changing nothing, on a count mismatch,
+    /// a non-finite point or coincident neighbours.
+    pub fn set_positions(&mut self, points: &[Vector<T, D>]) -> Result<(), ChainError> {
+        if points.len() != self.links.len() + 1 {
+            return Err(ChainError::BadOption("point count does not match the chain"));
+        }
+        if !points.iter().all(all_finite) {
+            return Err(ChainError::NonFinite);
+        }
+        for (i, w) in points.windows(2).enumerate() {
+            if !((w[1] - w[0]).norm() > T::zero()) {
+                return Err(ChainError::BadLength {
+                    link: i + 1,
+                    length: 0.0,
+                });
+            }
+        }
+        self.origin = points[0];
+        for ((l, w), &len) in self.links.iter_mut().zip(points.windows(2)).zip(&self.lengths) {
+            let v = w[1] - w[0];
+            *l = v * (len / v.norm());
+        }
+        Ok(())
+    }
+
+    /// Moves the origin (joint 0) to `p` without rotating any link: a rigid translation.
+    pub fn translate_to(&mut self, p: Vector<T, D>) {
+        self.origin = p;
+    }
+
+    /// Overwrites link vectors directly (same count; used by solvers that rotate links). Callers keep
+    /// lengths: the vectors are not rescaled here.
+    pub(crate) fn links_mut(&mut self) -> &mut [Vector<T, D>] {
+        &mut self.links
+    }
+
+    /// Link vectors (mutable) beside the nominal lengths, for solvers that rotate links in place.
+    pub(crate) fn links_and_lengths_mut(&mut self) -> (&mut [Vector<T, D>], &[T]) {
+        (&mut self.links, &self.lengths)
+    }
+
+    /// How many substeps `opts` asks for when a joint moves by `delta`.
+    pub fn substep_count(&self, delta: &Vector<T, D>, opts: &MoveOptions<T>) -> Result<u32, ChainError> {
+        let required: u64 = match opts.substeps {
+            Substeps::Fixed(0) => return Err(ChainError::BadOption("substeps must be at least 1")),
+            Substeps::Fixed(k) => k as u64,
+            Substeps::MaxStep(f) => {
+                if !(f > T::zero()) || !f.is_finite() {
+                    return Err(ChainError::BadOption("max step must be a positive finite fraction"));
+                }
+                let ratio = (delta.norm() / (f * self.min_length)).to_f64();
+                if !ratio.is_finite() {
+                    u64::MAX
+                } else {
+                    (ratio.ceil() as u64).max(1)
+                }
+            }
+        };
+        if required > opts.max_substeps as u64 {
+            return Err(ChainError::TooManySubsteps {
+                required,
+                limit: opts.max_substeps,
+            });
+        }
+        Ok(required as u32)
+    }
+
+    /// Moves joint `joint` (0 = tail, `n` = head) along the straight segment to `target`; the rest of the
+    /// chain follows by `opts.method`. On error nothing changes.
+    pub fn move_joint(
+        &mut self,
+        joint: usize,
+        target: Vector<T, D>,
+        opts: &MoveOptions<T>,
+    ) -> Result<MoveOutcome, ChainError> {
+        self.check_joint(joint)?;
+        if !all_finite(&target) {
+            return Err(ChainError::NonFinite);
+        }
+        let delta = target - self.joint(joint);
+        let k = self.substep_count(&delta, opts)?;
+        Ok(self.apply_move(joint, target, delta, k, opts.method))
+    }
+
+    /// Moves joint `joint` through `targets` in order, one straight move per target. Every target and
+    /// substep count is validated before anything moves.
+    pub fn move_along(
+        &mut self,
+        joint: usize,
+        targets: &[Vector<T, D>],
+        opts: &MoveOptions<T>,
+    ) -> Result<MoveOutcome, ChainError> {
+        self.check_joint(joint)?;
+        let mut from = self.joint(joint);
+        for t in targets {
+            if !all_finite(t) {
+                return Err(ChainError::NonFinite);
+            }
+            self.substep_count(&(t - from), opts)?;
+            from = *t;
+        }
+        let mut total = MoveOutcome::default();
+        for t in targets {
+            let delta = t - self.joint(joint);
+            let k = self.substep_count(&delta, opts)?;
+            let o = self.apply_move(joint, *t, delta, k, opts.method);
+            total.substeps = total.substeps.saturating_add(o.substeps);
+            total.paper_fallbacks = total.paper_fallbacks.saturating_add(o.paper_fallbacks);
+        }
+        Ok(total)
+    }
+
+    fn check_joint(&self, joint: usize) -> Result<(), ChainError> {
+        if joint > self.links.len() {
+            return Err(ChainError::JointOutOfRange {
+                joint,
+                last: self.links.len(),
+            });
+        }
+        Ok(())
+    }
+
+    fn apply_move(
+        &mut self,
+        joint: usize,
+        target: Vector<T, D>,
+        delta: Vector<T, D>,
+        k: u32,
+        method: Method,
+    ) -> MoveOutcome {
+        if delta.iter().all(|c| *c == T::zero()) {
+            return MoveOutcome::default();
+        }
+        let sd = delta / T::lit(k as f64);
+        let mut fallbacks = 0u32;
+        for _ in 0..k {
+            fallbacks = fallbacks.saturating_add(self.sweep(joint, &sd, method));
+        }
+        // The moved joint lands exactly on its target: joint 0 is placed from it.
+        self.origin = self.links[..joint].iter().fold(target, |a, l| a - l);
+        MoveOutcome {
+            substeps: k,
+            paper_fallbacks: fallbacks,
+        }
+    }
+
+    /// One substep: joint `m` moves by `s`; links toward the tail and toward the head follow outward.
+    /// Returns the number of paper-form fallbacks.
+    fn sweep(&mut self, m: usize, s: &Vector<T, D>, method: Method) -> u32 {
+        let (fallbacks, _) = self.sweep_tail_side(m, s, method, 0);
+        // Toward the head: the moving end of link index i is joint i, its trailing end joint i+1.
+        let mut fallbacks = fallbacks;
+        let mut shift = *s;
+        for i in m..self.links.len() {
+            let (st, fb) = step(method, &self.links[i], &shift, self.lengths[i]);
+            self.links[i] = st.link;
+            shift = st.tail_shift;
+            fallbacks += fb as u32;
+        }
+        fallbacks
+    }
+
+    /// Joint `m` moves by `s`; links with 0-based index `lo..m` follow toward the tail (link index `i` has
+    /// its head at joint `i+1`). Returns the fallbacks and the displacement of joint `lo`.
+    pub(crate) fn sweep_tail_side(
+        &mut self,
+        m: usize,
+        s: &Vector<T, D>,
+        method: Method,
+        lo: usize,
+    ) -> (u32, Vector<T, D>) {
+        let mut fallbacks = 0;
+        let mut shift = *s;
+        for i in (lo..m).rev() {
+            let (st, fb) = step(method, &(-self.links[i]), &shift, self.lengths[i]);
+            self.links[i] = -st.link;
+            shift = st.tail_shift;
+            fallbacks += fb as u32;
+        }
+        (fallbacks, shift)
+    }
+}

@@ -1,0 +1,367 @@
+//! Fixed-base hyper-redundant manipulators (section 5 of the tractrix paper).
+//!
+//! Joint 0 of the [`Chain`] is the base and never moves. Two strategies of the paper:
+//!
+//! * [`Strategy::TranslateBack`]: RESOLUTION-TRACTRIX for the whole chain, then the whole chain is
+//!   translated rigidly so that joint 0 is back on the base; repeated until the head is on target. The
+//!   base drift shrinks every iteration because motion dies out from head to tail (observation 4).
+//! * [`Strategy::TractrixTwoLink`]: RESOLUTION-TRACTRIX down to the tail of the third link, then the
+//!   closed-form two-link solution (Korein & Badler's algebraic solution of the perfectly constrained 2R
+//!   subchain; in space, two spherical joints, whose elbow circle is resolved toward the current elbow).
+//!
+//! The paper notes that the closed form "does not work very well when the links are fully stretched out":
+//! the tractrix pulls the distal part toward the target and often leaves joint 2 *outside* the two-link
+//! annulus. Here that case is handled by placing joint 2 at the nearest point of the annulus (the
+//! stretched or folded pose), carrying the distal part along rigidly, and iterating; the iteration
+//! converges for the same reason as strategy (i). Elbow angles are computed from a clamped cosine so the
+//! singular pose itself yields no NaN.
+//!
+//! Before iterating, the target is checked against the workspace: an annulus (plane) or spherical shell
+//! (space) with outer radius `Σ Lᵢ` and inner radius `max(0, 2 max Lᵢ − Σ Lᵢ)` (Korein & Badler's reach
+//! hierarchy: the goal must lie in `W[1]`). An unreachable target is an error that names the nearest
+//! reachable point and the residual; nothing moves.
+
+use super::chain::{Chain, ChainError, MoveOptions, Substeps};
+use super::link::Method;
+use super::math::{Embed3, Real, Vector, all_finite};
+use nalgebra::Vector3;
+
+/// Which of the paper's two fixed-base strategies to use.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Strategy {
+    /// (i) tractrix, then rigid translation back to the base, repeated. The paper's preferred strategy.
+    #[default]
+    TranslateBack = 0,
+    /// (ii) tractrix down to the third link, closed-form two-link solution for the first two.
+    TractrixTwoLink = 1,
+}
+
+/// Options of a fixed-base reach.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReachOptions<T> {
+    /// Strategy (i) or (ii).
+    pub strategy: Strategy,
+    /// Single-link method for the tractrix passes.
+    pub method: Method,
+    /// Substeps of each tractrix pass. More substeps follow the straight head path more closely; the
+    /// converged pose differs slightly, the cost grows linearly.
+    pub substeps: u32,
+    /// Accepted distance between head and target, as a fraction of the chain's total length. Smaller
+    /// costs more iterations; below ~100 ε of the scalar type it may not be reachable at all.
+    pub tolerance: T,
+    /// Iteration limit; reaching it is reported as [`ReachError::NotConverged`] and nothing moves.
+    pub max_iterations: u32,
+}
+
+impl<T: Real> Default for ReachOptions<T> {
+    fn default() -> Self {
+        ReachOptions {
+            strategy: Strategy::TranslateBack,
+            method: Method::Tractrix,
+            substeps: 1,
+            tolerance: T::lit(1e-9).max(T::EPSILON * T::lit(64.0)),
+            max_iterations: 64,
+        }
+    }
+}
+
+/// What a successful reach did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReachOutcome<T> {
+    /// Iterations used (tractrix passes).
+    pub iterations: u32,
+    /// Final distance between head and target (absolute).
+    pub residual: T,
+}
+
+/// Why a reach failed. In every case the chain is unchanged.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum ReachError<T: Real, const D: usize> {
+    /// The target lies outside the workspace.
+    #[error("target unreachable: {residual:?} outside the workspace; nearest reachable point {nearest:?}")]
+    Unreachable {
+        /// The nearest point of the workspace to the target.
+        nearest: Vector<T, D>,
+        /// Distance from the target to the workspace.
+        residual: T,
+    },
+    /// The iteration limit was reached first.
+    #[error("not converged after {iterations} iterations, residual {residual:?}")]
+    NotConverged { iterations: u32, residual: T },
+    /// Bad input (non-finite target, bad options).
+    #[error(transparent)]
+    Chain(#[from] ChainError),
+}
+
+/// Workspace radii of a fixed-base chain: `(inner, outer)`.
+pub fn workspace_radii<T: Real>(lengths: &[T]) -> (T, T) {
+    let total = lengths.iter().fold(T::zero(), |a, &b| a + b);
+    let longest = lengths.iter().fold(T::zero(), |a, &b| a.max(b));
+    ((longest * T::lit(2.0) - total).max(T::zero()), total)
+}
+
+/// The nearest reachable point to `target` for a chain with base `base` and these lengths, and the
+/// distance to it (zero when reachable). `fallback_dir` is used when the target sits on the base.
+pub fn nearest_reachable<T: Real, const D: usize>(
+    base: &Vector<T, D>,
+    lengths: &[T],
+    target: &Vector<T, D>,
+    fallback_dir: &Vector<T, D>,
+) -> (Vector<T, D>, T) {
+    let (inner, outer) = workspace_radii(lengths);
+    let v = target - base;
+    let r = v.norm();
+    if r > outer {
+        (base + v * (outer / r), r - outer)
+    } else if r < inner {
+        let dir = if r > T::zero() {
+            v / r
+        } else {
+            let f = fallback_dir.norm();
+            if f > T::zero() {
+                fallback_dir / f
+            } else {
+                let mut e = Vector::zeros();
+                e[0] = T::one();
+                e
+            }
+        };
+        (base + dir * inner, inner - r)
+    } else {
+        (*target, T::zero())
+    }
+}
+
+/// Scratch space for [`reach`], owned by the caller and reused across calls so a reach allocates nothing
+/// once warm.
+#[derive(Clone, Debug, Default)]
+pub struct ReachWorkspace<T: Real, const D: usize> {
+    backup: Vec<Vector<T, D>>,
+}
+
+/// Moves the head of the fixed-base `chain` to `target`, keeping joint 0 where it is.
+pub fn reach<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    target: &Vector<T, D>,
+    opts: &ReachOptions<T>,
+    ws: &mut ReachWorkspace<T, D>,
+) -> Result<ReachOutcome<T>, ReachError<T, D>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if !all_finite(target) {
+        return Err(ChainError::NonFinite.into());
+    }
+    if !(opts.tolerance > T::zero()) || !opts.tolerance.is_finite() {
+        return Err(ChainError::BadOption("tolerance must be positive and finite").into());
+    }
+    if opts.substeps == 0 || opts.max_iterations == 0 {
+        return Err(ChainError::BadOption("substeps and max_iterations must be at least 1").into());
+    }
+    let base = chain.origin();
+    let head = chain.head();
+    let (nearest, residual) = nearest_reachable(&base, chain.lengths(), target, &(head - base));
+    if residual > T::zero() {
+        return Err(ReachError::Unreachable { nearest, residual });
+    }
+    let tol = opts.tolerance * chain.total_length();
+    ws.backup.clear();
+    ws.backup.extend_from_slice(chain.links());
+    let result = match opts.strategy {
+        Strategy::TranslateBack => translate_back(chain, target, opts, tol),
+        Strategy::TractrixTwoLink if chain.n_links() >= 3 => tractrix_two_link(chain, target, opts, tol),
+        // With one or two links there is nothing for the tractrix to do: the closed form alone.
+        Strategy::TractrixTwoLink => {
+            two_link_closed_form(chain, target);
+            let residual = (chain.head() - target).norm();
+            if residual <= tol {
+                Ok(ReachOutcome {
+                    iterations: 1,
+                    residual,
+                })
+            } else {
+                Err(ReachError::NotConverged {
+                    iterations: 1,
+                    residual,
+                })
+            }
+        }
+    };
+    if result.is_err() {
+        chain.links_mut().copy_from_slice(&ws.backup);
+        chain.translate_to(base);
+    }
+    result
+}
+
+fn translate_back<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    target: &Vector<T, D>,
+    opts: &ReachOptions<T>,
+    tol: T,
+) -> Result<ReachOutcome<T>, ReachError<T, D>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let base = chain.origin();
+    let n = chain.n_links();
+    let mopts = MoveOptions {
+        method: opts.method,
+        substeps: Substeps::Fixed(opts.substeps),
+        max_substeps: opts.substeps,
+    };
+    let mut residual = (chain.head() - target).norm();
+    let mut last = residual;
+    for it in 1..=opts.max_iterations {
+        if residual <= tol {
+            return Ok(ReachOutcome {
+                iterations: it - 1,
+                residual,
+            });
+        }
+        // A chain lying straight along the line of the correction is pushed (or pulled) rigidly: an
+        // exact collinear push moves the base as far as the head and the iteration stalls. When the
+        // residual stops shrinking, the head takes a detour sideways (half the correction) so the
+        // chain buckles; the motion is still a tractrix, only along a bent head path.
+        let stalled = it > 1 && residual > last * T::lit(0.9);
+        if stalled {
+            let err = target - chain.head();
+            let side = perpendicular(&err) * (err.norm() * T::lit(0.5));
+            let mid = chain.head() + err * T::lit(0.5) + side;
+            chain.move_joint(n, mid, &mopts)?;
+        }
+        chain.move_joint(n, *target, &mopts)?;
+        chain.translate_to(base);
+        last = residual;
+        residual = (chain.head() - target).norm();
+    }
+    if residual <= tol {
+        return Ok(ReachOutcome {
+            iterations: opts.max_iterations,
+            residual,
+        });
+    }
+    Err(ReachError::NotConverged {
+        iterations: opts.max_iterations,
+        residual,
+    })
+}
+
+fn tractrix_two_link<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    target: &Vector<T, D>,
+    opts: &ReachOptions<T>,
+    tol: T,
+) -> Result<ReachOutcome<T>, ReachError<T, D>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = chain.n_links();
+    let k = T::lit(opts.substeps as f64);
+    let mut residual = (chain.head() - target).norm();
+    for it in 1..=opts.max_iterations {
+        if residual <= tol {
+            return Ok(ReachOutcome {
+                iterations: it - 1,
+                residual,
+            });
+        }
+        // Tractrix of links 3..n with the head moving straight to the target; joint 2 follows.
+        let s = (target - chain.head()) / k;
+        for _ in 0..opts.substeps {
+            chain.sweep_tail_side(n, &s, opts.method, 2);
+        }
+        // Where joint 2 must be for the head to be on target, then the two-link solution for it.
+        let distal: Vector<T, D> = chain.links()[2..].iter().fold(Vector::zeros(), |a, l| a + l);
+        two_link_closed_form(chain, &(target - distal));
+        residual = (chain.head() - target).norm();
+    }
+    if residual <= tol {
+        return Ok(ReachOutcome {
+            iterations: opts.max_iterations,
+            residual,
+        });
+    }
+    Err(ReachError::NotConverged {
+        iterations: opts.max_iterations,
+        residual,
+    })
+}
+
+/// Places joints 1 and 2 by the closed-form two-link solution so that joint 2 is as close as possible to
+/// `goal` (exactly on it when `goal` is in the two-link annulus, else on the annulus's nearest point).
+/// The elbow is chosen on the side of the current elbow (continuity; in space, the nearest point of the
+/// elbow circle). With a one-link chain, the link points at the goal.
+fn two_link_closed_form<T: Real, const D: usize>(chain: &mut Chain<T, D>, goal: &Vector<T, D>)
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let base = chain.origin();
+    let lens = chain.lengths();
+    let a1 = lens[0];
+    if lens.len() == 1 {
+        let v = goal - base;
+        let r = v.norm();
+        if r > T::zero() {
+            chain.links_mut()[0] = v * (a1 / r);
+        }
+        return;
+    }
+    let a2 = lens[1];
+    let cur_elbow = chain.links()[0];
+    let v = goal - base;
+    let r = v.norm();
+    let axis = if r > T::zero() {
+        v / r
+    } else {
+        let c = chain.links()[0] + chain.links()[1];
+        let cn = c.norm();
+        if cn > T::zero() { c / cn } else { cur_elbow / a1 }
+    };
+    // Clamp the distance into the annulus [|a1 − a2|, a1 + a2].
+    let d = r.max((a1 - a2).abs()).min(a1 + a2);
+    // Elbow foot along the axis and the circle radius; the cosine is clamped so the stretched-out and
+    // folded singular poses give h = 0 instead of NaN.
+    let x = if d > T::zero() {
+        ((d * d + a1 * a1 - a2 * a2) / (T::lit(2.0) * d)).max(-a1).min(a1)
+    } else {
+        T::zero()
+    };
+    let h = (a1 * a1 - x * x).max(T::zero()).sqrt();
+    let mut side = cur_elbow - axis * cur_elbow.dot(&axis);
+    let sn = side.norm();
+    if sn > a1 * T::EPSILON * T::lit(16.0) {
+        side /= sn;
+    } else {
+        side = perpendicular(&axis);
+    }
+    let elbow = axis * x + side * h;
+    let wrist = axis * d;
+    let links = chain.links_mut();
+    links[0] = elbow * (a1 / elbow.norm());
+    let l2 = wrist - elbow;
+    let l2n = l2.norm();
+    links[1] = if l2n > T::zero() { l2 * (a2 / l2n) } else { axis * a2 };
+}
+
+/// A unit vector perpendicular to `v` in the chain's own space (in the plane for planar chains).
+fn perpendicular<T: Real, const D: usize>(v: &Vector<T, D>) -> Vector<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let v3 = v.to_3d();
+    let mut p = Vector3::z().cross(&v3);
+    if D == 3 && p.norm() <= v3.norm() * T::lit(0.1) {
+        p = Vector3::x().cross(&v3);
+    }
+    let out = Vector::<T, D>::from_3d(&p);
+    let n = out.norm();
+    if n > T::zero() {
+        out / n
+    } else {
+        let mut e = Vector::zeros();
+        e[D - 1] = T::one();
+        e
+    }
+}
