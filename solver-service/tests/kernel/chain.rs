@@ -1,0 +1,222 @@
+//! Invariants of RESOLUTION-TRACTRIX on whole chains.
+
+use crate::support::{Rng, max_length_error, max_position_length_error};
+use nalgebra::{Vector2, Vector3};
+use proptest::prelude::*;
+use solver::kernel::link::step;
+use solver::kernel::{Chain, ChainError, Method, MoveOptions, Substeps};
+
+fn curled_rope(n: usize, seed: u64) -> Chain<f64, 3> {
+    let mut rng = Rng(seed);
+    let mut p = vec![Vector3::zeros()];
+    let mut dir = Vector3::x();
+    for _ in 0..n {
+        dir = (dir + rng.dir3() * 0.6).normalize();
+        p.push(p.last().unwrap() + dir);
+    }
+    Chain::from_points(&p).unwrap()
+}
+
+fn opts(method: Method, k: u32) -> MoveOptions<f64> {
+    MoveOptions {
+        method,
+        substeps: Substeps::Fixed(k),
+        ..MoveOptions::default()
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// Any joint, any method, any substeps: the joint lands on its target, lengths are kept, everything
+    /// is finite.
+    #[test]
+    fn moved_joint_lands_and_lengths_are_kept(
+        seed in 0u64..1000, joint_frac in 0.0f64..=1.0, m in 0usize..3, k in 1u32..8,
+        tx in -30.0f64..30.0, ty in -30.0f64..30.0, tz in -30.0f64..30.0,
+    ) {
+        let mut c = curled_rope(20, seed);
+        let joint = (joint_frac * 20.0).round() as usize;
+        let target = Vector3::new(tx, ty, tz);
+        c.move_joint(joint, target, &opts(Method::ALL[m], k)).unwrap();
+        prop_assert!((c.joint(joint) - target).norm() <= 1e-12 * (1.0 + target.norm()));
+        prop_assert!(max_length_error(&c) <= 1e-12);
+        prop_assert!(max_position_length_error(&c) <= 1e-12);
+        prop_assert!(c.positions().iter().all(|p| p.iter().all(|x| x.is_finite())));
+    }
+
+    /// Observation 4 of section 4: for a single straight move of the head, dr₀ ≤ dr₁ ≤ … ≤ drₙ. Checked on
+    /// the displacements the sweep propagates (relative, so it holds for moves of 1e-12 too), and on the
+    /// published positions for moves large enough to stand above their rounding (ε·|X|).
+    #[test]
+    fn displacements_die_out_from_head_to_tail(
+        seed in 0u64..1000, m in 0usize..3, log_d in -12.0f64..2.0,
+        dx in -1.0f64..1.0, dy in -1.0f64..1.0, dz in -1.0f64..1.0,
+    ) {
+        let d = Vector3::new(dx, dy, dz);
+        prop_assume!(d.norm() > 1e-3);
+        let method = Method::ALL[m];
+        let mut c = curled_rope(30, seed);
+        let mut shift = d.normalize() * 10f64.powf(log_d);
+        let target = c.head() + shift;
+        for (l, &len) in c.links().iter().zip(c.lengths()).rev() {
+            let (st, _) = step(method, &(-l), &shift, len);
+            // The paper's form gets the shift as new position − old position: ε·L absolute rounding.
+            let slack = if method == Method::TractrixPaper { 4.0 * f64::EPSILON * len } else { 0.0 };
+            prop_assert!(st.tail_shift.norm() <= shift.norm() * (1.0 + 1e-12) + slack,
+                "{method:?}: tail shift {:e} > head shift {:e}", st.tail_shift.norm(), shift.norm());
+            shift = st.tail_shift;
+        }
+        let before = c.positions();
+        c.move_joint(30, target, &opts(method, 1)).unwrap();
+        let after = c.positions();
+        let dr: Vec<f64> = before.iter().zip(&after).map(|(a, b)| (b - a).norm()).collect();
+        let rounding = 8.0 * f64::EPSILON * before.iter().chain(&after).map(|p| p.norm()).fold(1.0, f64::max);
+        for i in 1..dr.len() {
+            prop_assert!(dr[i - 1] <= dr[i] * (1.0 + 1e-12) + rounding,
+                "dr[{}] = {:e} > dr[{}] = {:e}", i - 1, dr[i - 1], i, dr[i]);
+        }
+    }
+}
+
+/// A spatial chain lying in a plane, moved within the plane, stays in it exactly; and a planar (2D)
+/// chain gives the same answer as its 3D embedding.
+#[test]
+fn planar_stays_planar_and_matches_its_embedding() {
+    let mut rng = Rng(5);
+    let mut p2 = vec![Vector2::zeros()];
+    for _ in 0..25 {
+        let a = rng.range(-1.0, 1.0);
+        p2.push(p2.last().unwrap() + Vector2::new(a.cos(), a.sin()) * 0.2);
+    }
+    let p3: Vec<_> = p2.iter().map(|p| Vector3::new(p.x, p.y, 0.0)).collect();
+    for method in Method::ALL {
+        let mut c2 = Chain::<f64, 2>::from_points(&p2).unwrap();
+        let mut c3 = Chain::<f64, 3>::from_points(&p3).unwrap();
+        for _ in 0..200 {
+            let joint = rng.below(26);
+            let t = Vector2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0));
+            c2.move_joint(joint, t, &opts(method, 3)).unwrap();
+            c3.move_joint(joint, Vector3::new(t.x, t.y, 0.0), &opts(method, 3)).unwrap();
+        }
+        for (a, b) in c2.positions().iter().zip(c3.positions()) {
+            assert_eq!(b.z, 0.0, "{method:?}: left the plane");
+            assert!((a - b.xy()).norm() < 1e-9, "{method:?}: 2D {a:?} vs 3D {b:?}");
+        }
+    }
+}
+
+/// Remark 2: an interior joint splits the chain; both parts follow outward. Moving joint m equals moving
+/// the head of the tail part and the tail of the head part separately.
+#[test]
+fn interior_move_splits_the_chain() {
+    let c0 = curled_rope(24, 9);
+    let pts = c0.positions();
+    let m = 10;
+    let target = pts[m] + Vector3::new(0.7, -0.4, 1.1);
+    let mut whole = c0.clone();
+    whole.move_joint(m, target, &opts(Method::Tractrix, 4)).unwrap();
+    let mut lower = Chain::from_points(&pts[..=m]).unwrap();
+    lower.move_joint(m, target, &opts(Method::Tractrix, 4)).unwrap();
+    let mut upper = Chain::from_points(&pts[m..]).unwrap();
+    upper.move_joint(0, target, &opts(Method::Tractrix, 4)).unwrap();
+    let w = whole.positions();
+    for (i, p) in lower.positions().iter().enumerate() {
+        assert!((w[i] - p).norm() < 1e-12);
+    }
+    for (i, p) in upper.positions().iter().enumerate() {
+        assert!((w[m + i] - p).norm() < 1e-12);
+    }
+}
+
+/// Moving the tail is moving the head of the reversed chain.
+#[test]
+fn tail_move_is_head_move_of_reversed_chain() {
+    let c = curled_rope(15, 21);
+    let mut pts = c.positions();
+    let target = pts[0] + Vector3::new(-2.0, 1.0, 0.5);
+    let mut a = c.clone();
+    a.move_joint(0, target, &opts(Method::Tractrix, 2)).unwrap();
+    pts.reverse();
+    let mut b = Chain::from_points(&pts).unwrap();
+    b.move_joint(15, target, &opts(Method::Tractrix, 2)).unwrap();
+    let mut pb = b.positions();
+    pb.reverse();
+    for (x, y) in a.positions().iter().zip(&pb) {
+        assert!((x - y).norm() < 1e-12);
+    }
+}
+
+/// Substeps by maximum step: the count follows the shortest link, and a path is a sequence of moves.
+#[test]
+fn substeps_and_paths() {
+    let mut c = Chain::<f64, 3>::from_parts(
+        Vector3::zeros(),
+        vec![Vector3::x(); 4],
+        vec![1.0, 0.5, 2.0, 1.0],
+    )
+    .unwrap();
+    let o = MoveOptions {
+        substeps: Substeps::MaxStep(0.1),
+        ..MoveOptions::default()
+    };
+    assert_eq!(c.substep_count(&Vector3::new(1.0, 0.0, 0.0), &o), Ok(20));
+    let path = [Vector3::new(4.0, 1.0, 0.0), Vector3::new(3.0, 2.0, 0.0), Vector3::new(2.0, 2.0, 1.0)];
+    let mut stepwise = c.clone();
+    let out = c.move_along(4, &path, &o).unwrap();
+    let mut total = 0;
+    for p in &path {
+        total += stepwise.move_joint(4, *p, &o).unwrap().substeps;
+    }
+    assert_eq!(out.substeps, total);
+    assert_eq!(c, stepwise);
+}
+
+/// Bad input gets an error and changes nothing.
+#[test]
+fn errors_change_nothing() {
+    let c0 = curled_rope(10, 1);
+    let mut c = c0.clone();
+    let nan = Vector3::new(f64::NAN, 0.0, 0.0);
+    assert_eq!(c.move_joint(3, nan, &MoveOptions::default()), Err(ChainError::NonFinite));
+    assert!(matches!(
+        c.move_joint(11, Vector3::zeros(), &MoveOptions::default()),
+        Err(ChainError::JointOutOfRange { joint: 11, last: 10 })
+    ));
+    let tight = MoveOptions {
+        substeps: Substeps::MaxStep(1e-9),
+        max_substeps: 1000,
+        ..MoveOptions::default()
+    };
+    assert!(matches!(
+        c.move_joint(10, Vector3::new(50.0, 0.0, 0.0), &tight),
+        Err(ChainError::TooManySubsteps { limit: 1000, .. })
+    ));
+    for bad in [Substeps::Fixed(0), Substeps::MaxStep(0.0), Substeps::MaxStep(f64::NAN), Substeps::MaxStep(-1.0)] {
+        let o = MoveOptions { substeps: bad, ..MoveOptions::default() };
+        assert!(matches!(c.move_joint(10, Vector3::zeros(), &o), Err(ChainError::BadOption(_))));
+    }
+    // A path with one bad point moves nothing, even the points before it.
+    let path = [Vector3::new(1.0, 2.0, 3.0), nan];
+    assert_eq!(c.move_along(10, &path, &MoveOptions::default()), Err(ChainError::NonFinite));
+    assert_eq!(c, c0);
+    // Construction errors.
+    assert_eq!(Chain::<f64, 3>::from_points(&[Vector3::zeros()]), Err(ChainError::Empty));
+    assert!(matches!(
+        Chain::<f64, 3>::from_points(&[Vector3::zeros(), Vector3::zeros()]),
+        Err(ChainError::BadLength { link: 1, .. })
+    ));
+}
+
+/// The paper's method falls back to the closed form exactly where it is undefined, and says so.
+#[test]
+fn paper_method_counts_its_fallbacks() {
+    let mut c = Chain::<f64, 3>::straight(8, 1.0, Vector3::zeros(), Vector3::x()).unwrap();
+    // Pulling a straight chain along its axis: every link is collinear with its head's motion.
+    let out = c.move_joint(8, Vector3::new(9.0, 0.0, 0.0), &opts(Method::TractrixPaper, 1)).unwrap();
+    assert_eq!(out.paper_fallbacks, 8);
+    assert!((c.origin() - Vector3::new(1.0, 0.0, 0.0)).norm() < 1e-12);
+    // Off the line: no fallback.
+    let out = c.move_joint(8, Vector3::new(9.0, 1.0, 0.0), &opts(Method::TractrixPaper, 1)).unwrap();
+    assert_eq!(out.paper_fallbacks, 0);
+}
