@@ -20,7 +20,7 @@
 //! joint lands exactly on its target. A move allocates nothing.
 
 use super::link::{Method, step};
-use super::math::{Embed3, Real, Vector, all_finite};
+use super::math::{CompensatedSum, Embed3, Real, Vector, all_finite};
 
 /// How a move is divided into straight substeps. Motion is path dependent: finer substeps follow a curved
 /// path more closely (error ∝ h² for the tractrix, ∝ h for follow-the-leader) and cost proportionally more.
@@ -198,9 +198,13 @@ where
         self.lengths.iter().fold(T::zero(), |a, &b| a + b)
     }
 
-    /// Position of joint `i` (O(i)).
+    /// Position of joint `i` (O(i), compensated sum).
     pub fn joint(&self, i: usize) -> Vector<T, D> {
-        self.links[..i].iter().fold(self.origin, |a, l| a + l)
+        let mut acc = CompensatedSum::new(self.origin);
+        for l in &self.links[..i] {
+            acc.add(l);
+        }
+        acc.value()
     }
 
     /// Position of the head joint.
@@ -209,12 +213,14 @@ where
     }
 
     /// Writes the `n + 1` joint positions into `out` (tail first). Panics if `out` is shorter.
+    /// Positions are accurate to a few ulps of their magnitude whatever the chain's length (compensated
+    /// prefix sum).
     pub fn write_positions(&self, out: &mut [Vector<T, D>]) {
-        let mut p = self.origin;
-        out[0] = p;
+        let mut acc = CompensatedSum::new(self.origin);
+        out[0] = self.origin;
         for (o, l) in out[1..=self.links.len()].iter_mut().zip(&self.links) {
-            p += l;
-            *o = p;
+            acc.add(l);
+            *o = acc.value();
         }
     }
 
@@ -364,8 +370,12 @@ where
         for _ in 0..k {
             fallbacks = fallbacks.saturating_add(self.sweep(joint, &sd, method));
         }
-        // The moved joint lands exactly on its target: joint 0 is placed from it.
-        self.origin = self.links[..joint].iter().fold(target, |a, l| a - l);
+        // The moved joint lands on its target: joint 0 is placed from it.
+        let mut acc = CompensatedSum::new(target);
+        for l in &self.links[..joint] {
+            acc.add(&-l);
+        }
+        self.origin = acc.value();
         MoveOutcome {
             substeps: k,
             paper_fallbacks: fallbacks,

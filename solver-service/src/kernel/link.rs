@@ -36,7 +36,11 @@
 //!   `|w|² / (1 − c)` (the `1 − cos = sin² / (1 + cos)` trick);
 //! * the tail's displacement is computed in its own form, `(b − p m (1−E)/D) û + (e₁ (2c − e₁ m)/D) w`
 //!   with `e₁ = 1 − q = −expm1(−b)`, so a move of `10⁻¹²·L` gives a displacement accurate to the last
-//!   digits instead of the difference of two nearly equal positions.
+//!   digits instead of the difference of two nearly equal positions (and `2c − e₁ m = q m − p` when the
+//!   tail is ahead, where it would cancel);
+//! * near the line of motion `w` is tiny and the factor `2q/D` large (up to `1/|w|` for a long push), so
+//!   `w` is orthogonalised against `û` twice: one Gram–Schmidt pass leaves an `ε`-sized component along
+//!   `û` that would otherwise come out as a length error of `ε/|w|` (seen as 1.7e-11 in a 10⁶-move walk).
 //!
 //! The collinear pull (`w = 0`, `c = −1`: `m = 0`) and push (`w = 0`, `c = 1`: `p = 0`) need no branch.
 //! The only guard is the zero move and `D = 0`, which happens only for an exactly collinear push so large
@@ -108,6 +112,9 @@ pub fn tractrix_step<T: Real, const D: usize>(
     let tt = t * inv_len;
     let c = tt.dot(&u);
     let w = tt - u * c;
+    // Second Gram–Schmidt pass: near the line of motion |w| ≪ 1 keeps an ε-sized component along û,
+    // which the factor 2q/D (up to ~1/|w|) would amplify into a length error.
+    let w = w - u * w.dot(&u);
     let y2 = w.norm_squared();
     // p = 1 + tanh a = 1 − c, m = 1 − tanh a = 1 + c; the one that cancels is rewritten as |w|²/(1 ± c).
     let (p, m) = if c > T::zero() {
@@ -136,7 +143,8 @@ pub fn tractrix_step<T: Real, const D: usize>(
     let link = (u * (e * m - p) + w * (two * q)) * (inv_d * len);
     // 1 − E = e1 (1 + q)
     let cu = b - p * m * e1 * (one + q) * inv_d;
-    let cw = e1 * (two * c - e1 * m) * inv_d;
+    // 2c − e1 m; for c > 0 it cancels toward c − 1 + q m and is written q m − p (p = 1 − c, accurately).
+    let cw = if c > T::zero() { e1 * (q * m - p) } else { e1 * (two * c - e1 * m) } * inv_d;
     let tail_shift = (u * cu + w * cw) * len;
     LinkStep { link, tail_shift }
 }
@@ -236,9 +244,10 @@ pub fn follow_the_leader_step<T: Real, const D: usize>(
         };
     }
     let link = r * (len / rn);
-    // tail_shift = link − r = r (len − rn)/rn, with len − rn = (len² − rn²)/(len + rn) and
-    // len² − rn² = (len² − |t|²) + s·(2t − s): no cancellation for small moves.
-    let num = (len * len - t.norm_squared()) + s.dot(&(t * T::lit(2.0) - s));
+    // tail_shift = link − r = r (len − rn)/rn, with len − rn = (len² − rn²)/(len + rn) and, for a link
+    // of exact length, len² − rn² = s·(2t − s): no cancellation for small moves. The stored vector's own
+    // rounding (|t|² − len² ~ ε) is left out on purpose: it would fabricate a shift for tiny moves.
+    let num = s.dot(&(t * T::lit(2.0) - s));
     let tail_shift = r * (num / (rn * (len + rn)));
     LinkStep { link, tail_shift }
 }

@@ -98,3 +98,39 @@ pub fn robust_norm<T: Real, const D: usize>(v: &Vector<T, D>) -> T {
 pub fn all_finite<T: Real, const D: usize>(v: &Vector<T, D>) -> bool {
     v.iter().all(|c| c.is_finite())
 }
+
+/// Compensated (Neumaier) summation of vectors: the sum of `n` terms is accurate to a few ulps of the
+/// result instead of `n` ulps. Turning a million link vectors into positions needs it; for 40 links it
+/// costs a few flops per joint.
+#[derive(Clone, Copy, Debug)]
+pub struct CompensatedSum<T: Real, const D: usize> {
+    sum: Vector<T, D>,
+    carry: Vector<T, D>,
+}
+
+impl<T: Real, const D: usize> CompensatedSum<T, D> {
+    /// Starts at `start`.
+    #[inline]
+    pub fn new(start: Vector<T, D>) -> Self {
+        CompensatedSum {
+            sum: start,
+            carry: Vector::zeros(),
+        }
+    }
+    /// Adds `v`.
+    #[inline]
+    pub fn add(&mut self, v: &Vector<T, D>) {
+        for k in 0..D {
+            let s = self.sum[k];
+            let x = v[k];
+            let t = s + x;
+            self.carry[k] += if s.abs() >= x.abs() { (s - t) + x } else { (x - t) + s };
+            self.sum[k] = t;
+        }
+    }
+    /// The compensated total so far.
+    #[inline]
+    pub fn value(&self) -> Vector<T, D> {
+        self.sum + self.carry
+    }
+}

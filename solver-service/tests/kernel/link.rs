@@ -180,3 +180,16 @@ fn tiny_moves_keep_relative_accuracy() {
         assert!((c.tail_shift - first_order).norm() <= 1e-9 * s.norm(), "{:?} vs {first_order:?}", c.tail_shift);
     }
 }
+
+/// A move of 1e9 link lengths: the closed form keeps the length to a few ulps; the paper's form, which
+/// computes `x_r ≈ |S|` and then subtracts `|S|`, loses about ε·|S|/L of it.
+#[test]
+fn paper_form_loses_length_on_huge_moves() {
+    let t = Vector3::new(-0.6f64, 0.8, 0.0);
+    let s = Vector3::new(1e9f64, 3e8, -2e8);
+    let c = tractrix_step(&t, &s, 1.0);
+    let p = tractrix_paper_step3(&t, &s, 1.0).unwrap();
+    assert!((c.link.norm() - 1.0).abs() <= 4.0 * f64::EPSILON);
+    assert!((c.link + s.normalize()).norm() <= 1e-15, "the tail ends straight behind the head");
+    assert!((p.link.norm() - 1.0).abs() > 1e-9, "paper form length error {:e}", (p.link.norm() - 1.0).abs());
+}
