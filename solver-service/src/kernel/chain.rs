@@ -20,7 +20,7 @@
 //! joint lands exactly on its target. A move allocates nothing.
 
 use super::link::{Method, step};
-use super::math::{CompensatedSum, Embed3, Real, Vector, all_finite};
+use super::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
 
 /// How a move is divided into straight substeps. Motion is path dependent: finer substeps follow a curved
 /// path more closely (error ∝ h² for the tractrix, ∝ h for follow-the-leader) and cost proportionally more.
@@ -121,8 +121,10 @@ where
         dir: Vector<T, D>,
     ) -> Result<Self, ChainError> {
         let dn = dir.norm();
-        if !(dn > T::zero()) || !dn.is_finite() {
-            return Err(ChainError::BadOption("direction must be a non-zero finite vector"));
+        if !positive_finite(dn) {
+            return Err(ChainError::BadOption(
+                "direction must be a non-zero finite vector",
+            ));
         }
         let unit = dir / dn;
         Self::from_parts(origin, vec![unit * len; n], vec![len; n])
@@ -146,10 +148,14 @@ where
         }
         for (i, (l, &len)) in links.iter_mut().zip(&lengths).enumerate() {
             let n = l.norm();
-            if !(len > T::zero()) || !len.is_finite() || !(n > T::zero()) || !n.is_finite() {
+            if !positive_finite(len) || !positive_finite(n) {
                 return Err(ChainError::BadLength {
                     link: i + 1,
-                    length: if len > T::zero() { n.to_f64() } else { len.to_f64() },
+                    length: if len > T::zero() {
+                        n.to_f64()
+                    } else {
+                        len.to_f64()
+                    },
                 });
             }
             *l *= len / n;
@@ -236,13 +242,15 @@ where
     /// a non-finite point or coincident neighbours.
     pub fn set_positions(&mut self, points: &[Vector<T, D>]) -> Result<(), ChainError> {
         if points.len() != self.links.len() + 1 {
-            return Err(ChainError::BadOption("point count does not match the chain"));
+            return Err(ChainError::BadOption(
+                "point count does not match the chain",
+            ));
         }
         if !points.iter().all(all_finite) {
             return Err(ChainError::NonFinite);
         }
         for (i, w) in points.windows(2).enumerate() {
-            if !((w[1] - w[0]).norm() > T::zero()) {
+            if !positive_finite((w[1] - w[0]).norm()) {
                 return Err(ChainError::BadLength {
                     link: i + 1,
                     length: 0.0,
@@ -250,7 +258,12 @@ where
             }
         }
         self.origin = points[0];
-        for ((l, w), &len) in self.links.iter_mut().zip(points.windows(2)).zip(&self.lengths) {
+        for ((l, w), &len) in self
+            .links
+            .iter_mut()
+            .zip(points.windows(2))
+            .zip(&self.lengths)
+        {
             let v = w[1] - w[0];
             *l = v * (len / v.norm());
         }
@@ -274,13 +287,19 @@ where
     }
 
     /// How many substeps `opts` asks for when a joint moves by `delta`.
-    pub fn substep_count(&self, delta: &Vector<T, D>, opts: &MoveOptions<T>) -> Result<u32, ChainError> {
+    pub fn substep_count(
+        &self,
+        delta: &Vector<T, D>,
+        opts: &MoveOptions<T>,
+    ) -> Result<u32, ChainError> {
         let required: u64 = match opts.substeps {
             Substeps::Fixed(0) => return Err(ChainError::BadOption("substeps must be at least 1")),
             Substeps::Fixed(k) => k as u64,
             Substeps::MaxStep(f) => {
-                if !(f > T::zero()) || !f.is_finite() {
-                    return Err(ChainError::BadOption("max step must be a positive finite fraction"));
+                if !positive_finite(f) {
+                    return Err(ChainError::BadOption(
+                        "max step must be a positive finite fraction",
+                    ));
                 }
                 let ratio = (delta.norm() / (f * self.min_length)).to_f64();
                 if !ratio.is_finite() {

@@ -23,7 +23,7 @@
 
 use super::chain::{Chain, ChainError, MoveOptions, Substeps};
 use super::link::Method;
-use super::math::{Embed3, Real, Vector, all_finite};
+use super::math::{Embed3, Real, Vector, all_finite, positive_finite};
 use nalgebra::Vector3;
 
 /// Which of the paper's two fixed-base strategies to use.
@@ -50,7 +50,9 @@ pub struct ReachOptions<T> {
     /// Accepted distance between head and target, as a fraction of the chain's total length. Smaller
     /// costs more iterations; below ~100 ε of the scalar type it may not be reachable at all.
     pub tolerance: T,
-    /// Iteration limit; reaching it is reported as [`ReachError::NotConverged`] and nothing moves.
+    /// Iteration limit; reaching it is reported as [`ReachError::NotConverged`] and nothing moves. Most
+    /// targets need about 3 iterations (as the paper found); targets near full reach, where a nearly
+    /// straight chain passes a pull on almost undamped, need hundreds.
     pub max_iterations: u32,
 }
 
@@ -61,7 +63,7 @@ impl<T: Real> Default for ReachOptions<T> {
             method: Method::Tractrix,
             substeps: 1,
             tolerance: T::lit(1e-9).max(T::EPSILON * T::lit(64.0)),
-            max_iterations: 64,
+            max_iterations: 1000,
         }
     }
 }
@@ -79,7 +81,9 @@ pub struct ReachOutcome<T> {
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum ReachError<T: Real, const D: usize> {
     /// The target lies outside the workspace.
-    #[error("target unreachable: {residual:?} outside the workspace; nearest reachable point {nearest:?}")]
+    #[error(
+        "target unreachable: {residual:?} outside the workspace; nearest reachable point {nearest:?}"
+    )]
     Unreachable {
         /// The nearest point of the workspace to the target.
         nearest: Vector<T, D>,
@@ -153,7 +157,7 @@ where
     if !all_finite(target) {
         return Err(ChainError::NonFinite.into());
     }
-    if !(opts.tolerance > T::zero()) || !opts.tolerance.is_finite() {
+    if !positive_finite(opts.tolerance) {
         return Err(ChainError::BadOption("tolerance must be positive and finite").into());
     }
     if opts.substeps == 0 || opts.max_iterations == 0 {
@@ -170,7 +174,9 @@ where
     ws.backup.extend_from_slice(chain.links());
     let result = match opts.strategy {
         Strategy::TranslateBack => translate_back(chain, target, opts, tol),
-        Strategy::TractrixTwoLink if chain.n_links() >= 3 => tractrix_two_link(chain, target, opts, tol),
+        Strategy::TractrixTwoLink if chain.n_links() >= 3 => {
+            tractrix_two_link(chain, target, opts, tol)
+        }
         // With one or two links there is nothing for the tractrix to do: the closed form alone.
         Strategy::TractrixTwoLink => {
             two_link_closed_form(chain, target);
@@ -273,7 +279,9 @@ where
             chain.sweep_tail_side(n, &s, opts.method, 2);
         }
         // Where joint 2 must be for the head to be on target, then the two-link solution for it.
-        let distal: Vector<T, D> = chain.links()[2..].iter().fold(Vector::zeros(), |a, l| a + l);
+        let distal: Vector<T, D> = chain.links()[2..]
+            .iter()
+            .fold(Vector::zeros(), |a, l| a + l);
         two_link_closed_form(chain, &(target - distal));
         residual = (chain.head() - target).norm();
     }
@@ -317,14 +325,20 @@ where
     } else {
         let c = chain.links()[0] + chain.links()[1];
         let cn = c.norm();
-        if cn > T::zero() { c / cn } else { cur_elbow / a1 }
+        if cn > T::zero() {
+            c / cn
+        } else {
+            cur_elbow / a1
+        }
     };
     // Clamp the distance into the annulus [|a1 − a2|, a1 + a2].
     let d = r.max((a1 - a2).abs()).min(a1 + a2);
     // Elbow foot along the axis and the circle radius; the cosine is clamped so the stretched-out and
     // folded singular poses give h = 0 instead of NaN.
     let x = if d > T::zero() {
-        ((d * d + a1 * a1 - a2 * a2) / (T::lit(2.0) * d)).max(-a1).min(a1)
+        ((d * d + a1 * a1 - a2 * a2) / (T::lit(2.0) * d))
+            .max(-a1)
+            .min(a1)
     } else {
         T::zero()
     };
@@ -342,7 +356,11 @@ where
     links[0] = elbow * (a1 / elbow.norm());
     let l2 = wrist - elbow;
     let l2n = l2.norm();
-    links[1] = if l2n > T::zero() { l2 * (a2 / l2n) } else { axis * a2 };
+    links[1] = if l2n > T::zero() {
+        l2 * (a2 / l2n)
+    } else {
+        axis * a2
+    };
 }
 
 /// A unit vector perpendicular to `v` in the chain's own space (in the plane for planar chains).

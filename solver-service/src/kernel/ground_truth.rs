@@ -65,7 +65,11 @@ impl<const D: usize> TractrixOde<D> {
     }
     /// The trailing joint's velocity given the leading joint's.
     #[inline]
-    fn follow(lead: &Vector<f64, D>, trail: &Vector<f64, D>, lead_vel: &Vector<f64, D>) -> Vector<f64, D> {
+    fn follow(
+        lead: &Vector<f64, D>,
+        trail: &Vector<f64, D>,
+        lead_vel: &Vector<f64, D>,
+    ) -> Vector<f64, D> {
         let e = trail - lead;
         let n2 = e.norm_squared();
         if n2 == 0.0 {

@@ -46,7 +46,7 @@
 //! The only guard is the zero move and `D = 0`, which happens only for an exactly collinear push so large
 //! that `E` underflows (`b ≳ 745` in f64); its limit, the tail staying ahead, is returned.
 
-use super::math::{Embed3, Real, Vector, robust_norm};
+use super::math::{Embed3, Real, Vector, positive_finite, robust_norm};
 use nalgebra::Vector3;
 
 /// The outcome of moving one link's head.
@@ -74,7 +74,11 @@ pub enum Method {
 
 impl Method {
     /// All methods, for tables and tests.
-    pub const ALL: [Method; 3] = [Method::Tractrix, Method::TractrixPaper, Method::FollowTheLeader];
+    pub const ALL: [Method; 3] = [
+        Method::Tractrix,
+        Method::TractrixPaper,
+        Method::FollowTheLeader,
+    ];
 
     /// Short name used in reports and on the command line.
     pub fn name(self) -> &'static str {
@@ -132,7 +136,7 @@ pub fn tractrix_step<T: Real, const D: usize>(
     };
     let e = q * q;
     let d = p + e * m;
-    if !(d > T::zero()) {
+    if !positive_finite(d) {
         // Exactly collinear push with E underflowed: the tail stays ahead, the link translates.
         return LinkStep {
             link: *t,
@@ -144,7 +148,11 @@ pub fn tractrix_step<T: Real, const D: usize>(
     // 1 − E = e1 (1 + q)
     let cu = b - p * m * e1 * (one + q) * inv_d;
     // 2c − e1 m; for c > 0 it cancels toward c − 1 + q m and is written q m − p (p = 1 − c, accurately).
-    let cw = if c > T::zero() { e1 * (q * m - p) } else { e1 * (two * c - e1 * m) } * inv_d;
+    let cw = if c > T::zero() {
+        e1 * (q * m - p)
+    } else {
+        e1 * (two * c - e1 * m)
+    } * inv_d;
     let tail_shift = (u * cu + w * cw) * len;
     LinkStep { link, tail_shift }
 }
@@ -195,7 +203,11 @@ pub fn tractrix_paper_step3<T: Real>(
     let z = (y / len).min(one);
     let asech = ((one + (one - z * z).sqrt()) / z).ln();
     let behind = xr.dot(t) <= T::zero();
-    let p = if behind { len * asech + sn } else { len * asech - sn };
+    let p = if behind {
+        len * asech + sn
+    } else {
+        len * asech - sn
+    };
     let th = (p / len).tanh(); // step 7, eq. (13)
     let x_r = if behind { sn - len * th } else { sn + len * th };
     let y_r = len / (p / len).cosh();

@@ -93,6 +93,13 @@ pub fn robust_norm<T: Real, const D: usize>(v: &Vector<T, D>) -> T {
     (v / m).norm() * m
 }
 
+/// `x > 0` and finite; `false` for NaN (which every plain comparison also fails, so a NaN never slips
+/// through as "not negative").
+#[inline]
+pub fn positive_finite<T: Real>(x: T) -> bool {
+    x > T::zero() && x.is_finite()
+}
+
 /// `true` when every component is finite.
 #[inline]
 pub fn all_finite<T: Real, const D: usize>(v: &Vector<T, D>) -> bool {
@@ -124,7 +131,11 @@ impl<T: Real, const D: usize> CompensatedSum<T, D> {
             let s = self.sum[k];
             let x = v[k];
             let t = s + x;
-            self.carry[k] += if s.abs() >= x.abs() { (s - t) + x } else { (x - t) + s };
+            self.carry[k] += if s.abs() >= x.abs() {
+                (s - t) + x
+            } else {
+                (x - t) + s
+            };
             self.sum[k] = t;
         }
     }

@@ -94,7 +94,10 @@ where
             break;
         };
         // ωⱼ = rⱼ × y, applied base-outward: link i turns by R(ω₁)…R(ωᵢ).
-        let mut r_from_head: Vector3<T> = chain.links().iter().fold(Vector3::zeros(), |a, l| a + l.to_3d());
+        let mut r_from_head: Vector3<T> = chain
+            .links()
+            .iter()
+            .fold(Vector3::zeros(), |a, l| a + l.to_3d());
         let mut rot = UnitQuaternion::<T>::identity();
         let (links, lengths) = chain.links_and_lengths_mut();
         for (l, &len) in links.iter_mut().zip(lengths) {

@@ -97,11 +97,15 @@ fn planar_stays_planar_and_matches_its_embedding() {
             let joint = rng.below(26);
             let t = Vector2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0));
             c2.move_joint(joint, t, &opts(method, 3)).unwrap();
-            c3.move_joint(joint, Vector3::new(t.x, t.y, 0.0), &opts(method, 3)).unwrap();
+            c3.move_joint(joint, Vector3::new(t.x, t.y, 0.0), &opts(method, 3))
+                .unwrap();
         }
         for (a, b) in c2.positions().iter().zip(c3.positions()) {
             assert_eq!(b.z, 0.0, "{method:?}: left the plane");
-            assert!((a - b.xy()).norm() < 1e-9, "{method:?}: 2D {a:?} vs 3D {b:?}");
+            assert!(
+                (a - b.xy()).norm() < 1e-9,
+                "{method:?}: 2D {a:?} vs 3D {b:?}"
+            );
         }
     }
 }
@@ -115,11 +119,17 @@ fn interior_move_splits_the_chain() {
     let m = 10;
     let target = pts[m] + Vector3::new(0.7, -0.4, 1.1);
     let mut whole = c0.clone();
-    whole.move_joint(m, target, &opts(Method::Tractrix, 4)).unwrap();
+    whole
+        .move_joint(m, target, &opts(Method::Tractrix, 4))
+        .unwrap();
     let mut lower = Chain::from_points(&pts[..=m]).unwrap();
-    lower.move_joint(m, target, &opts(Method::Tractrix, 4)).unwrap();
+    lower
+        .move_joint(m, target, &opts(Method::Tractrix, 4))
+        .unwrap();
     let mut upper = Chain::from_points(&pts[m..]).unwrap();
-    upper.move_joint(0, target, &opts(Method::Tractrix, 4)).unwrap();
+    upper
+        .move_joint(0, target, &opts(Method::Tractrix, 4))
+        .unwrap();
     let w = whole.positions();
     for (i, p) in lower.positions().iter().enumerate() {
         assert!((w[i] - p).norm() < 1e-12);
@@ -139,7 +149,8 @@ fn tail_move_is_head_move_of_reversed_chain() {
     a.move_joint(0, target, &opts(Method::Tractrix, 2)).unwrap();
     pts.reverse();
     let mut b = Chain::from_points(&pts).unwrap();
-    b.move_joint(15, target, &opts(Method::Tractrix, 2)).unwrap();
+    b.move_joint(15, target, &opts(Method::Tractrix, 2))
+        .unwrap();
     let mut pb = b.positions();
     pb.reverse();
     for (x, y) in a.positions().iter().zip(&pb) {
@@ -161,7 +172,11 @@ fn substeps_and_paths() {
         ..MoveOptions::default()
     };
     assert_eq!(c.substep_count(&Vector3::new(1.0, 0.0, 0.0), &o), Ok(20));
-    let path = [Vector3::new(4.0, 1.0, 0.0), Vector3::new(3.0, 2.0, 0.0), Vector3::new(2.0, 2.0, 1.0)];
+    let path = [
+        Vector3::new(4.0, 1.0, 0.0),
+        Vector3::new(3.0, 2.0, 0.0),
+        Vector3::new(2.0, 2.0, 1.0),
+    ];
     let mut stepwise = c.clone();
     let out = c.move_along(4, &path, &o).unwrap();
     let mut total = 0;
@@ -178,10 +193,16 @@ fn errors_change_nothing() {
     let c0 = curled_rope(10, 1);
     let mut c = c0.clone();
     let nan = Vector3::new(f64::NAN, 0.0, 0.0);
-    assert_eq!(c.move_joint(3, nan, &MoveOptions::default()), Err(ChainError::NonFinite));
+    assert_eq!(
+        c.move_joint(3, nan, &MoveOptions::default()),
+        Err(ChainError::NonFinite)
+    );
     assert!(matches!(
         c.move_joint(11, Vector3::zeros(), &MoveOptions::default()),
-        Err(ChainError::JointOutOfRange { joint: 11, last: 10 })
+        Err(ChainError::JointOutOfRange {
+            joint: 11,
+            last: 10
+        })
     ));
     let tight = MoveOptions {
         substeps: Substeps::MaxStep(1e-9),
@@ -192,16 +213,33 @@ fn errors_change_nothing() {
         c.move_joint(10, Vector3::new(50.0, 0.0, 0.0), &tight),
         Err(ChainError::TooManySubsteps { limit: 1000, .. })
     ));
-    for bad in [Substeps::Fixed(0), Substeps::MaxStep(0.0), Substeps::MaxStep(f64::NAN), Substeps::MaxStep(-1.0)] {
-        let o = MoveOptions { substeps: bad, ..MoveOptions::default() };
-        assert!(matches!(c.move_joint(10, Vector3::zeros(), &o), Err(ChainError::BadOption(_))));
+    for bad in [
+        Substeps::Fixed(0),
+        Substeps::MaxStep(0.0),
+        Substeps::MaxStep(f64::NAN),
+        Substeps::MaxStep(-1.0),
+    ] {
+        let o = MoveOptions {
+            substeps: bad,
+            ..MoveOptions::default()
+        };
+        assert!(matches!(
+            c.move_joint(10, Vector3::zeros(), &o),
+            Err(ChainError::BadOption(_))
+        ));
     }
     // A path with one bad point moves nothing, even the points before it.
     let path = [Vector3::new(1.0, 2.0, 3.0), nan];
-    assert_eq!(c.move_along(10, &path, &MoveOptions::default()), Err(ChainError::NonFinite));
+    assert_eq!(
+        c.move_along(10, &path, &MoveOptions::default()),
+        Err(ChainError::NonFinite)
+    );
     assert_eq!(c, c0);
     // Construction errors.
-    assert_eq!(Chain::<f64, 3>::from_points(&[Vector3::zeros()]), Err(ChainError::Empty));
+    assert_eq!(
+        Chain::<f64, 3>::from_points(&[Vector3::zeros()]),
+        Err(ChainError::Empty)
+    );
     assert!(matches!(
         Chain::<f64, 3>::from_points(&[Vector3::zeros(), Vector3::zeros()]),
         Err(ChainError::BadLength { link: 1, .. })
@@ -213,10 +251,22 @@ fn errors_change_nothing() {
 fn paper_method_counts_its_fallbacks() {
     let mut c = Chain::<f64, 3>::straight(8, 1.0, Vector3::zeros(), Vector3::x()).unwrap();
     // Pulling a straight chain along its axis: every link is collinear with its head's motion.
-    let out = c.move_joint(8, Vector3::new(9.0, 0.0, 0.0), &opts(Method::TractrixPaper, 1)).unwrap();
+    let out = c
+        .move_joint(
+            8,
+            Vector3::new(9.0, 0.0, 0.0),
+            &opts(Method::TractrixPaper, 1),
+        )
+        .unwrap();
     assert_eq!(out.paper_fallbacks, 8);
     assert!((c.origin() - Vector3::new(1.0, 0.0, 0.0)).norm() < 1e-12);
     // Off the line: no fallback.
-    let out = c.move_joint(8, Vector3::new(9.0, 1.0, 0.0), &opts(Method::TractrixPaper, 1)).unwrap();
+    let out = c
+        .move_joint(
+            8,
+            Vector3::new(9.0, 1.0, 0.0),
+            &opts(Method::TractrixPaper, 1),
+        )
+        .unwrap();
     assert_eq!(out.paper_fallbacks, 0);
 }

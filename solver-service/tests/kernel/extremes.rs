@@ -30,7 +30,11 @@ const KINDS: [Kind; 7] = [
 /// Picks a joint and a target of the given kind for `chain`. Collinear and perpendicular moves are taken
 /// relative to the link next to the moved joint (after a huge move the whole chain lies straight, so the
 /// collinear moves that follow are collinear for every link).
-fn random_move<T: Real, const D: usize>(chain: &Chain<T, D>, rng: &mut Rng, kind: Kind) -> (usize, SVector<T, D>)
+fn random_move<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    rng: &mut Rng,
+    kind: Kind,
+) -> (usize, SVector<T, D>)
 where
     SVector<T, D>: Embed3<T>,
 {
@@ -42,7 +46,11 @@ where
     };
     let here = chain.joint(joint);
     // The link adjacent to the joint, pointing away from it.
-    let away: SVector<T, D> = if joint == n { -chain.links()[n - 1] } else { chain.links()[joint] };
+    let away: SVector<T, D> = if joint == n {
+        -chain.links()[n - 1]
+    } else {
+        chain.links()[joint]
+    };
     let len = chain.lengths()[if joint == n { n - 1 } else { joint }];
     let unit = away / away.norm();
     let rand_dir = SVector::<T, D>::from_fn(|k, _| T::lit(rng.dir3()[k]));
@@ -102,11 +110,20 @@ where
         drift.landing = drift.landing.max(land);
         if i % 64 == 0 || matches!(kind, Kind::Huge | Kind::Tiny) {
             drift.state = drift.state.max(crate::support::max_length_error(chain));
-            assert!(chain.links().iter().all(|l| l.iter().all(|x| x.is_finite())), "move {i}: non-finite link");
-            assert!(chain.origin().iter().all(|x| x.is_finite()), "move {i}: non-finite origin");
+            assert!(
+                chain
+                    .links()
+                    .iter()
+                    .all(|l| l.iter().all(|x| x.is_finite())),
+                "move {i}: non-finite link"
+            );
+            assert!(
+                chain.origin().iter().all(|x| x.is_finite()),
+                "move {i}: non-finite origin"
+            );
         }
         if matches!(kind, Kind::Huge) && rng.below(2) == 0 {
-            let back = SVector::<T, D>::from_fn(|k, _| T::lit(rng.range(-1.0, 1.0) * total));
+            let back = SVector::<T, D>::from_fn(|_, _| T::lit(rng.range(-1.0, 1.0) * total));
             chain.move_joint(joint, back, &opts).unwrap();
         }
     }
@@ -121,12 +138,17 @@ where
 fn a_million_random_moves_f64() {
     let mut c = Chain::<f64, 3>::from_parts(
         Vector3::zeros(),
-        (0..8).map(|i| Vector3::new(1.0, (i as f64).sin(), 0.3)).collect(),
+        (0..8)
+            .map(|i| Vector3::new(1.0, (i as f64).sin(), 0.3))
+            .collect(),
         vec![1.0, 0.5, 2.0, 1.0, 0.25, 1.0, 3.0, 1.0],
     )
     .unwrap();
     let d = random_walk(&mut c, 1_000_000, 42, Method::Tractrix, &KINDS);
-    println!("f64 tractrix, 1e6 moves: max link-length drift {:.2e}, max landing error {:.2e}", d.state, d.landing);
+    println!(
+        "f64 tractrix, 1e6 moves: max link-length drift {:.2e}, max landing error {:.2e}",
+        d.state, d.landing
+    );
     assert!(d.state <= 1e-12, "length drift {:e}", d.state);
     assert!(d.landing <= 1e-12, "landing error {:e}", d.landing);
 }
@@ -137,15 +159,38 @@ fn a_million_random_moves_f64() {
 #[test]
 fn random_moves_other_methods_and_planar() {
     for method in [Method::TractrixPaper, Method::FollowTheLeader] {
-        let mut c = Chain::<f64, 3>::straight(12, 0.7, Vector3::zeros(), Vector3::new(1.0, 1.0, 0.0)).unwrap();
-        let kinds: Vec<Kind> = KINDS.iter().copied().filter(|k| method != Method::TractrixPaper || !matches!(k, Kind::Huge)).collect();
+        let mut c =
+            Chain::<f64, 3>::straight(12, 0.7, Vector3::zeros(), Vector3::new(1.0, 1.0, 0.0))
+                .unwrap();
+        let kinds: Vec<Kind> = KINDS
+            .iter()
+            .copied()
+            .filter(|k| method != Method::TractrixPaper || !matches!(k, Kind::Huge))
+            .collect();
         let d = random_walk(&mut c, 100_000, 7, method, &kinds);
-        println!("f64 {}: max drift {:.2e}, landing {:.2e}", method.name(), d.state, d.landing);
-        assert!(d.state <= 1e-12 && d.landing <= 1e-12, "{method:?}: drift {:e}, landing {:e}", d.state, d.landing);
+        println!(
+            "f64 {}: max drift {:.2e}, landing {:.2e}",
+            method.name(),
+            d.state,
+            d.landing
+        );
+        assert!(
+            d.state <= 1e-12 && d.landing <= 1e-12,
+            "{method:?}: drift {:e}, landing {:e}",
+            d.state,
+            d.landing
+        );
     }
-    let mut p = Chain::<f64, 2>::straight(10, 0.2, nalgebra::Vector2::zeros(), nalgebra::Vector2::x()).unwrap();
+    let mut p =
+        Chain::<f64, 2>::straight(10, 0.2, nalgebra::Vector2::zeros(), nalgebra::Vector2::x())
+            .unwrap();
     let d = random_walk(&mut p, 200_000, 9, Method::Tractrix, &KINDS);
-    assert!(d.state <= 1e-12 && d.landing <= 1e-12, "planar: drift {:e}, landing {:e}", d.state, d.landing);
+    assert!(
+        d.state <= 1e-12 && d.landing <= 1e-12,
+        "planar: drift {:e}, landing {:e}",
+        d.state,
+        d.landing
+    );
 }
 
 /// f32: the same walk, drift measured and reported. Lengths live in each link vector, so f32 keeps them
@@ -154,13 +199,22 @@ fn random_moves_other_methods_and_planar() {
 fn f32_drift_is_measured() {
     let mut c = Chain::<f32, 3>::from_parts(
         Vector3::zeros(),
-        (0..8).map(|i| Vector3::new(1.0, (i as f32).cos(), -0.2)).collect(),
+        (0..8)
+            .map(|i| Vector3::new(1.0, (i as f32).cos(), -0.2))
+            .collect(),
         vec![1.0, 0.5, 2.0, 1.0, 0.25, 1.0, 3.0, 1.0],
     )
     .unwrap();
     let d = random_walk(&mut c, 200_000, 43, Method::Tractrix, &KINDS);
-    println!("f32 tractrix, 2e5 moves: max link-length drift {:.2e}, max landing error {:.2e}", d.state, d.landing);
-    assert!(d.state <= 8.0 * f32::EPSILON as f64, "f32 length drift {:e}", d.state);
+    println!(
+        "f32 tractrix, 2e5 moves: max link-length drift {:.2e}, max landing error {:.2e}",
+        d.state, d.landing
+    );
+    assert!(
+        d.state <= 8.0 * f32::EPSILON as f64,
+        "f32 length drift {:e}",
+        d.state
+    );
     assert!(d.landing <= 1e-5, "f32 landing error {:e}", d.landing);
 }
 
@@ -170,7 +224,9 @@ fn link_lengths_from_micro_to_mega() {
     for k in -6..=6 {
         let len = 10f64.powi(k);
         for method in Method::ALL {
-            let mut c = Chain::<f64, 3>::straight(20, len, Vector3::new(1.0, 2.0, 3.0) * len, Vector3::z()).unwrap();
+            let mut c =
+                Chain::<f64, 3>::straight(20, len, Vector3::new(1.0, 2.0, 3.0) * len, Vector3::z())
+                    .unwrap();
             let mut rng = Rng((k + 100) as u64);
             let opts = MoveOptions {
                 method,
@@ -192,7 +248,11 @@ fn link_lengths_from_micro_to_mega() {
 #[test]
 fn one_link_and_a_million_links() {
     let mut one = Chain::<f64, 3>::straight(1, 1.0, Vector3::zeros(), Vector3::x()).unwrap();
-    for t in [Vector3::new(1.0, 5.0, 0.0), Vector3::new(-3.0, 0.0, 0.0), Vector3::new(-3.0, 0.0, 0.0)] {
+    for t in [
+        Vector3::new(1.0, 5.0, 0.0),
+        Vector3::new(-3.0, 0.0, 0.0),
+        Vector3::new(-3.0, 0.0, 0.0),
+    ] {
         for j in [0, 1] {
             one.move_joint(j, t, &MoveOptions::default()).unwrap();
             assert!((one.joint(j) - t).norm() <= 2.0 * f64::EPSILON * t.norm());
@@ -208,12 +268,24 @@ fn one_link_and_a_million_links() {
         ..MoveOptions::default()
     };
     big.move_joint(n, target, &opts).unwrap();
-    assert!((big.head() - target).norm() <= 1e-12 * target.norm(), "head off by {:e}", (big.head() - target).norm());
+    assert!(
+        (big.head() - target).norm() <= 1e-12 * target.norm(),
+        "head off by {:e}",
+        (big.head() - target).norm()
+    );
     assert!(max_length_error(&big) <= 1e-12);
     // A taut rope transmits the axial part of a pull to its far end (collinear pull: dr = dp); the
     // lateral part dies out. The tail of the kilometre-long rope slides along its axis only.
     let tail = big.origin();
-    assert!(tail.yz().norm() < 1e-9, "tail moved sideways by {:e}", tail.yz().norm());
+    assert!(
+        tail.yz().norm() < 1e-9,
+        "tail moved sideways by {:e}",
+        tail.yz().norm()
+    );
     assert!(tail.x > 0.0 && tail.x <= (target - Vector3::new(1000.0, 0.0, 0.0)).norm());
-    assert!(big.positions().iter().all(|p| p.iter().all(|x| x.is_finite())));
+    assert!(
+        big.positions()
+            .iter()
+            .all(|p| p.iter().all(|x| x.is_finite()))
+    );
 }

@@ -66,13 +66,19 @@ fn paper_form_breaks_on_the_line_of_motion() {
     );
     // Pull: head moves away from the tail along the link.
     let pull = Vector3::new(0.3, 0.0, 0.0);
-    assert_eq!(tractrix_paper_step3(&t, &pull, 1.0), Err(PaperFormDegenerate::Collinear));
+    assert_eq!(
+        tractrix_paper_step3(&t, &pull, 1.0),
+        Err(PaperFormDegenerate::Collinear)
+    );
     let c = tractrix_step(&t, &pull, 1.0);
     assert_eq!(c.link, t, "a pulled collinear link translates");
     assert!((c.tail_shift - pull).norm() < 1e-16);
     // Push: head moves into the tail along the link; the tail stays ahead (unstable equilibrium).
     let push = Vector3::new(-0.3, 0.0, 0.0);
-    assert_eq!(tractrix_paper_step3(&t, &push, 1.0), Err(PaperFormDegenerate::Collinear));
+    assert_eq!(
+        tractrix_paper_step3(&t, &push, 1.0),
+        Err(PaperFormDegenerate::Collinear)
+    );
     let c = tractrix_step(&t, &push, 1.0);
     assert!((c.link - t).norm() < 1e-15);
     assert!((c.tail_shift - push).norm() < 1e-15);
@@ -97,7 +103,10 @@ fn paper_form_accuracy_near_the_line_of_motion() {
         let c = tractrix_step(&t, &s, 1.0);
         let p = tractrix_paper_step3(&t, &s, 1.0).expect("defined off the line");
         let err = (c.link - p.link).norm();
-        assert!(err <= 1e-12, "angle 1e-{k}: closed and paper differ by {err:e}");
+        assert!(
+            err <= 1e-12,
+            "angle 1e-{k}: closed and paper differ by {err:e}"
+        );
     }
 }
 
@@ -117,9 +126,15 @@ fn paper_form_loses_digits_near_perpendicular() {
         let truth = follow_path(&[head + t, head], 1, &[head + s], &gt).unwrap()[0];
         let closed = (t + tractrix_step(&t, &s, 1.0).tail_shift - truth).norm();
         let paper = (t + tractrix_paper_step3(&t, &s, 1.0).unwrap().tail_shift - truth).norm();
-        assert!(closed < 1e-12, "c = {c:e}: closed form off the ground truth by {closed:e}");
+        assert!(
+            closed < 1e-12,
+            "c = {c:e}: closed form off the ground truth by {closed:e}"
+        );
         if k == 8 {
-            assert!(paper > 1e-10, "c = {c:e}: expected the paper form to lose digits, error {paper:e}");
+            assert!(
+                paper > 1e-10,
+                "c = {c:e}: expected the paper form to lose digits, error {paper:e}"
+            );
         }
     }
 }
@@ -143,7 +158,10 @@ fn closed_form_equals_ground_truth_for_one_link() {
         let err = ((head + t + c.tail_shift) - truth[0]).norm();
         worst = worst.max(err);
     }
-    assert!(worst < 1e-10, "worst difference to the ground truth {worst:e}");
+    assert!(
+        worst < 1e-10,
+        "worst difference to the ground truth {worst:e}"
+    );
 }
 
 /// Follow-the-leader puts the tail on the line from the new head to the old tail, at the link length.
@@ -177,7 +195,11 @@ fn tiny_moves_keep_relative_accuracy() {
         let first_order = e * s.dot(&e);
         let c = tractrix_step(&t, &s, 1.0);
         // Second-order remainder is O(|s|²) = 1e-24; allow 1e-9 relative to |s|.
-        assert!((c.tail_shift - first_order).norm() <= 1e-9 * s.norm(), "{:?} vs {first_order:?}", c.tail_shift);
+        assert!(
+            (c.tail_shift - first_order).norm() <= 1e-9 * s.norm(),
+            "{:?} vs {first_order:?}",
+            c.tail_shift
+        );
     }
 }
 
@@ -190,6 +212,13 @@ fn paper_form_loses_length_on_huge_moves() {
     let c = tractrix_step(&t, &s, 1.0);
     let p = tractrix_paper_step3(&t, &s, 1.0).unwrap();
     assert!((c.link.norm() - 1.0).abs() <= 4.0 * f64::EPSILON);
-    assert!((c.link + s.normalize()).norm() <= 1e-15, "the tail ends straight behind the head");
-    assert!((p.link.norm() - 1.0).abs() > 1e-9, "paper form length error {:e}", (p.link.norm() - 1.0).abs());
+    assert!(
+        (c.link + s.normalize()).norm() <= 1e-15,
+        "the tail ends straight behind the head"
+    );
+    assert!(
+        (p.link.norm() - 1.0).abs() > 1e-9,
+        "paper form length error {:e}",
+        (p.link.norm() - 1.0).abs()
+    );
 }

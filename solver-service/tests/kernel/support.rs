@@ -53,7 +53,11 @@ impl Rng {
     /// A uniformly random unit vector in 3D.
     pub fn dir3(&mut self) -> Vector3<f64> {
         loop {
-            let v = Vector3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let v = Vector3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
             let n = v.norm();
             if n > 1e-3 && n <= 1.0 {
                 return v / n;
@@ -63,11 +67,22 @@ impl Rng {
 }
 
 /// Points of a helix of radius `r`, pitch `pitch` per turn, starting at `start` and advancing along +z.
-pub fn helix(start: Vector3<f64>, r: f64, pitch: f64, turns: f64, samples: usize) -> Vec<Vector3<f64>> {
+pub fn helix(
+    start: Vector3<f64>,
+    r: f64,
+    pitch: f64,
+    turns: f64,
+    samples: usize,
+) -> Vec<Vector3<f64>> {
     (1..=samples)
         .map(|k| {
             let a = std::f64::consts::TAU * turns * k as f64 / samples as f64;
-            start + Vector3::new(r * a.cos() - r, r * a.sin(), pitch * a / std::f64::consts::TAU)
+            start
+                + Vector3::new(
+                    r * a.cos() - r,
+                    r * a.sin(),
+                    pitch * a / std::f64::consts::TAU,
+                )
         })
         .collect()
 }
