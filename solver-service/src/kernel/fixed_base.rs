@@ -16,6 +16,12 @@
 //! converges for the same reason as strategy (i). Elbow angles are computed from a clamped cosine so the
 //! singular pose itself yields no NaN.
 //!
+//! Near full reach both iterations converge linearly with a rate that tends to 1 (a nearly straight chain
+//! passes each correction on almost undamped). After [`ReachOptions::hierarchy_after`] iterations the
+//! reach hierarchy of Korein & Badler finishes from the tractrix pose: from the base outward each link
+//! turns only as much as needed for the goal to lie in the workspace of the links beyond it, and the last
+//! two links are solved in closed form; one O(n) pass, exact for a reachable goal.
+//!
 //! Before iterating, the target is checked against the workspace: an annulus (plane) or spherical shell
 //! (space) with outer radius `Σ Lᵢ` and inner radius `max(0, 2 max Lᵢ − Σ Lᵢ)` (Korein & Badler's reach
 //! hierarchy: the goal must lie in `W[1]`). An unreachable target is an error that names the nearest
@@ -54,6 +60,11 @@ pub struct ReachOptions<T> {
     /// targets need about 3 iterations (as the paper found); targets near full reach, where a nearly
     /// straight chain passes a pull on almost undamped, need hundreds.
     pub max_iterations: u32,
+    /// After this many tractrix iterations without convergence, finish with Korein & Badler's reach
+    /// hierarchy from the current pose (0 = never). The iteration converges linearly with a rate that
+    /// tends to 1 near full reach; the hierarchy places each joint minimally (proximal joints least) and
+    /// lands exactly in one O(n) pass. Larger keeps more of the tractrix's character, smaller is faster.
+    pub hierarchy_after: u32,
 }
 
 impl<T: Real> Default for ReachOptions<T> {
@@ -64,6 +75,7 @@ impl<T: Real> Default for ReachOptions<T> {
             substeps: 1,
             tolerance: T::lit(1e-9).max(T::EPSILON * T::lit(64.0)),
             max_iterations: 1000,
+            hierarchy_after: 16,
         }
     }
 }
@@ -230,6 +242,16 @@ where
         // exact collinear push moves the base as far as the head and the iteration stalls. When the
         // residual stops shrinking, the head takes a detour sideways (half the correction) so the
         // chain buckles; the motion is still a tractrix, only along a bent head path.
+        if opts.hierarchy_after > 0 && it > opts.hierarchy_after {
+            reach_hierarchy(chain, target);
+            residual = (chain.head() - target).norm();
+            if residual <= tol {
+                return Ok(ReachOutcome {
+                    iterations: it,
+                    residual,
+                });
+            }
+        }
         let stalled = it > 1 && residual > last * T::lit(0.9);
         if stalled {
             let err = target - chain.head();
@@ -273,6 +295,16 @@ where
                 residual,
             });
         }
+        if opts.hierarchy_after > 0 && it > opts.hierarchy_after {
+            reach_hierarchy(chain, target);
+            residual = (chain.head() - target).norm();
+            if residual <= tol {
+                return Ok(ReachOutcome {
+                    iterations: it,
+                    residual,
+                });
+            }
+        }
         // Tractrix of links 3..n with the head moving straight to the target; joint 2 follows.
         let s = (target - chain.head()) / k;
         for _ in 0..opts.substeps {
@@ -297,10 +329,60 @@ where
     })
 }
 
+/// The closed-form two-link solution about `base`: new vectors of the first and second link so that the
+/// second link's end is as close as possible to `goal` (exactly on it inside the annulus
+/// `[|a1 − a2|, a1 + a2]`, else on the annulus's nearest point). The elbow stays on the side of the
+/// current first link `cur` (continuity; in space, the nearest point of the elbow circle). The cosine is
+/// clamped so the stretched-out and folded singular poses give a straight or folded pair, never NaN.
+fn two_link<T: Real, const D: usize>(
+    base: &Vector<T, D>,
+    goal: &Vector<T, D>,
+    a1: T,
+    a2: T,
+    cur: &Vector<T, D>,
+) -> (Vector<T, D>, Vector<T, D>)
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let v = goal - base;
+    let r = v.norm();
+    let axis = if r > T::zero() {
+        v / r
+    } else {
+        cur / cur.norm()
+    };
+    let d = r.max((a1 - a2).abs()).min(a1 + a2);
+    let x = if d > T::zero() {
+        ((d * d + a1 * a1 - a2 * a2) / (T::lit(2.0) * d))
+            .max(-a1)
+            .min(a1)
+    } else {
+        T::zero()
+    };
+    let h = (a1 * a1 - x * x).max(T::zero()).sqrt();
+    let mut side = cur - axis * cur.dot(&axis);
+    let sn = side.norm();
+    if sn > a1 * T::EPSILON * T::lit(16.0) {
+        side /= sn;
+    } else {
+        side = perpendicular(&axis);
+    }
+    let elbow = axis * x + side * h;
+    let l1 = elbow * (a1 / elbow.norm());
+    let l2 = axis * d - l1;
+    let l2n = l2.norm();
+    (
+        l1,
+        if l2n > T::zero() {
+            l2 * (a2 / l2n)
+        } else {
+            axis * a2
+        },
+    )
+}
+
 /// Places joints 1 and 2 by the closed-form two-link solution so that joint 2 is as close as possible to
-/// `goal` (exactly on it when `goal` is in the two-link annulus, else on the annulus's nearest point).
-/// The elbow is chosen on the side of the current elbow (continuity; in space, the nearest point of the
-/// elbow circle). With a one-link chain, the link points at the goal.
+/// `goal`. With a one-link chain, the link points at the goal.
 fn two_link_closed_form<T: Real, const D: usize>(chain: &mut Chain<T, D>, goal: &Vector<T, D>)
 where
     Vector<T, D>: Embed3<T>,
@@ -317,50 +399,46 @@ where
         return;
     }
     let a2 = lens[1];
-    let cur_elbow = chain.links()[0];
-    let v = goal - base;
-    let r = v.norm();
-    let axis = if r > T::zero() {
-        v / r
-    } else {
-        let c = chain.links()[0] + chain.links()[1];
-        let cn = c.norm();
-        if cn > T::zero() {
-            c / cn
-        } else {
-            cur_elbow / a1
-        }
-    };
-    // Clamp the distance into the annulus [|a1 − a2|, a1 + a2].
-    let d = r.max((a1 - a2).abs()).min(a1 + a2);
-    // Elbow foot along the axis and the circle radius; the cosine is clamped so the stretched-out and
-    // folded singular poses give h = 0 instead of NaN.
-    let x = if d > T::zero() {
-        ((d * d + a1 * a1 - a2 * a2) / (T::lit(2.0) * d))
-            .max(-a1)
-            .min(a1)
-    } else {
-        T::zero()
-    };
-    let h = (a1 * a1 - x * x).max(T::zero()).sqrt();
-    let mut side = cur_elbow - axis * cur_elbow.dot(&axis);
-    let sn = side.norm();
-    if sn > a1 * T::EPSILON * T::lit(16.0) {
-        side /= sn;
-    } else {
-        side = perpendicular(&axis);
-    }
-    let elbow = axis * x + side * h;
-    let wrist = axis * d;
+    let cur = chain.links()[0];
+    let (l1, l2) = two_link(&base, goal, a1, a2, &cur);
     let links = chain.links_mut();
-    links[0] = elbow * (a1 / elbow.norm());
-    let l2 = wrist - elbow;
-    let l2n = l2.norm();
-    links[1] = if l2n > T::zero() {
-        l2 * (a2 / l2n)
-    } else {
-        axis * a2
-    };
+    links[0] = l1;
+    links[1] = l2;
+}
+
+/// Korein & Badler's reach hierarchy from the current pose: going from the base outward, each link turns
+/// only as much as needed for the goal to lie in the workspace annulus (shell) of the links beyond it;
+/// the last two links are solved in closed form. Links beyond the one being turned are carried along
+/// rigidly. For a reachable goal the head lands on it in one pass.
+fn reach_hierarchy<T: Real, const D: usize>(chain: &mut Chain<T, D>, goal: &Vector<T, D>)
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = chain.n_links();
+    if n <= 2 {
+        two_link_closed_form(chain, goal);
+        return;
+    }
+    let mut pos = chain.origin();
+    for i in 0..n - 2 {
+        let (inner, outer) = workspace_radii(&chain.lengths()[i + 1..]);
+        let li = chain.lengths()[i];
+        let cur = chain.links()[i];
+        let d = (goal - (pos + cur)).norm();
+        if d > outer || d < inner {
+            // Turn link i minimally: its end goes to the nearest point at the clamped distance from the goal.
+            let want = d.max(inner).min(outer);
+            let (l, _) = two_link(&pos, goal, li, want, &cur);
+            chain.links_mut()[i] = l;
+        }
+        pos += chain.links()[i];
+    }
+    let (a1, a2) = (chain.lengths()[n - 2], chain.lengths()[n - 1]);
+    let cur = chain.links()[n - 2];
+    let (l1, l2) = two_link(&pos, goal, a1, a2, &cur);
+    let links = chain.links_mut();
+    links[n - 2] = l1;
+    links[n - 1] = l2;
 }
 
 /// A unit vector perpendicular to `v` in the chain's own space (in the plane for planar chains).
