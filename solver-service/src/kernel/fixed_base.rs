@@ -264,16 +264,7 @@ where
         last = residual;
         residual = (chain.head() - target).norm();
     }
-    if residual <= tol {
-        return Ok(ReachOutcome {
-            iterations: opts.max_iterations,
-            residual,
-        });
-    }
-    Err(ReachError::NotConverged {
-        iterations: opts.max_iterations,
-        residual,
-    })
+    verdict(residual, tol, opts.max_iterations)
 }
 
 fn tractrix_two_link<T: Real, const D: usize>(
@@ -317,16 +308,26 @@ where
         two_link_closed_form(chain, &(target - distal));
         residual = (chain.head() - target).norm();
     }
+    verdict(residual, tol, opts.max_iterations)
+}
+
+/// The result after the last allowed iteration.
+fn verdict<T: Real, const D: usize>(
+    residual: T,
+    tol: T,
+    iterations: u32,
+) -> Result<ReachOutcome<T>, ReachError<T, D>> {
     if residual <= tol {
-        return Ok(ReachOutcome {
-            iterations: opts.max_iterations,
+        Ok(ReachOutcome {
+            iterations,
             residual,
-        });
+        })
+    } else {
+        Err(ReachError::NotConverged {
+            iterations,
+            residual,
+        })
     }
-    Err(ReachError::NotConverged {
-        iterations: opts.max_iterations,
-        residual,
-    })
 }
 
 /// The closed-form two-link solution about `base`: new vectors of the first and second link so that the
