@@ -238,20 +238,13 @@ where
                 residual,
             });
         }
+        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual) {
+            return Ok(done);
+        }
         // A chain lying straight along the line of the correction is pushed (or pulled) rigidly: an
         // exact collinear push moves the base as far as the head and the iteration stalls. When the
         // residual stops shrinking, the head takes a detour sideways (half the correction) so the
         // chain buckles; the motion is still a tractrix, only along a bent head path.
-        if opts.hierarchy_after > 0 && it > opts.hierarchy_after {
-            reach_hierarchy(chain, target);
-            residual = (chain.head() - target).norm();
-            if residual <= tol {
-                return Ok(ReachOutcome {
-                    iterations: it,
-                    residual,
-                });
-            }
-        }
         let stalled = it > 1 && residual > last * T::lit(0.9);
         if stalled {
             let err = target - chain.head();
@@ -286,15 +279,8 @@ where
                 residual,
             });
         }
-        if opts.hierarchy_after > 0 && it > opts.hierarchy_after {
-            reach_hierarchy(chain, target);
-            residual = (chain.head() - target).norm();
-            if residual <= tol {
-                return Ok(ReachOutcome {
-                    iterations: it,
-                    residual,
-                });
-            }
+        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual) {
+            return Ok(done);
         }
         // Tractrix of links 3..n with the head moving straight to the target; joint 2 follows.
         let s = (target - chain.head()) / k;
@@ -309,6 +295,30 @@ where
         residual = (chain.head() - target).norm();
     }
     verdict(residual, tol, opts.max_iterations)
+}
+
+/// Once `it` is past `opts.hierarchy_after`, finishes with the reach hierarchy and updates `residual`;
+/// returns the outcome when that converged.
+fn hierarchy_if_due<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    target: &Vector<T, D>,
+    opts: &ReachOptions<T>,
+    tol: T,
+    it: u32,
+    residual: &mut T,
+) -> Option<ReachOutcome<T>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if opts.hierarchy_after == 0 || it <= opts.hierarchy_after {
+        return None;
+    }
+    reach_hierarchy(chain, target);
+    *residual = (chain.head() - target).norm();
+    (*residual <= tol).then_some(ReachOutcome {
+        iterations: it,
+        residual: *residual,
+    })
 }
 
 /// The result after the last allowed iteration.
