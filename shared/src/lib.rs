@@ -1,2 +1,751 @@
-//! The wire protocol of the solver service (payload types, byte layout, service names and limits).
-//! Filled in with the service (issue 3); empty until then.
+//! The wire protocol of the tractrix solver service: payload types, their byte layout, service names and
+//! limits. Every process that talks to the service (the Rust clients, the Python client, C and C++ code)
+//! mirrors exactly what this crate declares.
+//!
+//! # Services
+//!
+//! All names are relative to the iceoryx2 prefix of the instance (`--prefix` or the environment variable
+//! [`PREFIX_ENV`]; processes only see each other with the same prefix).
+//!
+//! | service | pattern | types | purpose |
+//! |---|---|---|---|
+//! | [`SERVICE_COMMAND`] | request-response, one server | request: user header [`RequestHeader`], payload slice of [`Vec3`] (targets); response: user header [`ResponseHeader`], payload slice of [`Vec3`] (joints, then joint rotations) | every command |
+//! | [`SERVICE_STATE`] | publish-subscribe | user header [`StateHeader`], payload slice of [`Vec3`] (joints) | every accepted change, in order |
+//! | [`SERVICE_WAKE_SERVER`] | event | – | a client notifies it after sending, so a server in `event`/`hybrid` mode wakes |
+//! | [`SERVICE_WAKE_CLIENT`] | event | – | the server notifies the listener whose id a request carries in [`RequestHeader::client_listener`] |
+//!
+//! A client that busy-polls its response leaves `client_listener` at zero and needs no event service. A
+//! client that sleeps creates a listener on [`SERVICE_WAKE_CLIENT`] and puts the listener's 128-bit id in
+//! `client_listener` (low 64 bits first). Every client should notify [`SERVICE_WAKE_SERVER`] after sending
+//! unless it knows the server spins.
+//!
+//! # One command
+//!
+//! 1. Loan a request slice of `n` [`Vec3`]: `n = 1` for [`Command::Move`] and [`Command::Reach`], `1..=`
+//!    [`MAX_PATH_POINTS`] for [`Command::Path`], `0` for the others.
+//! 2. Fill the [`RequestHeader`] (zero it first: zero means "the chain's default" for every option).
+//! 3. Send, notify, and receive one response. Its [`ResponseHeader::status`] is a [`Status`]; on error
+//!    [`ResponseHeader::reason`] says what was wrong and the chain is unchanged. The payload holds
+//!    `n_joints` joint positions (tail first, joint 0 = tail, joint `n_links` = head) followed by `n_angles`
+//!    joint rotations as rotation vectors (axis × angle in radians; for a planar chain `(0, 0, θ)`). An
+//!    error response carries no elements.
+//!
+//! # Byte layout
+//!
+//! Little-endian x86-64 / aarch64, natural alignment, no implicit padding (every gap is a named `reserved`
+//! field that must be zero). The table is checked against the Rust types by a unit test, and each row by a
+//! compile-time `offset_of!` assertion.
+//!
+//! <!-- layout-table-start -->
+//! | type | field | offset | C type |
+//! |---|---|---|---|
+//! | Vec3 (24 B, align 8) | x | 0 | double |
+//! | | y | 8 | double |
+//! | | z | 16 | double |
+//! | RequestHeader (96 B, align 8) | command | 0 | uint32_t |
+//! | | chain | 4 | uint32_t |
+//! | | joint | 8 | uint32_t |
+//! | | method | 12 | uint32_t |
+//! | | precision | 16 | uint32_t |
+//! | | substep_mode | 20 | uint32_t |
+//! | | substeps | 24 | uint32_t |
+//! | | strategy | 28 | uint32_t |
+//! | | max_iterations | 32 | uint32_t |
+//! | | flags | 36 | uint32_t |
+//! | | client_listener | 40 | uint64_t[2] |
+//! | | request_id | 56 | uint64_t |
+//! | | max_step | 64 | double |
+//! | | tolerance | 72 | double |
+//! | | reserved | 80 | uint64_t[2] |
+//! | ResponseHeader (256 B, align 8) | status | 0 | uint32_t |
+//! | | command | 4 | uint32_t |
+//! | | chain | 8 | uint32_t |
+//! | | n_joints | 12 | uint32_t |
+//! | | n_angles | 16 | uint32_t |
+//! | | iterations | 20 | uint32_t |
+//! | | substeps | 24 | uint32_t |
+//! | | paper_fallbacks | 28 | uint32_t |
+//! | | sequence | 32 | uint64_t |
+//! | | request_id | 40 | uint64_t |
+//! | | solve_ns | 48 | uint64_t |
+//! | | residual | 56 | double |
+//! | | n_chains | 64 | uint32_t |
+//! | | kind | 68 | uint32_t |
+//! | | dims | 72 | uint32_t |
+//! | | n_links | 76 | uint32_t |
+//! | | precision | 80 | uint32_t |
+//! | | method | 84 | uint32_t |
+//! | | collision | 88 | uint32_t |
+//! | | substep_mode | 92 | uint32_t |
+//! | | substeps_default | 96 | uint32_t |
+//! | | reserved | 100 | uint32_t |
+//! | | max_step | 104 | double |
+//! | | total_length | 112 | double |
+//! | | thickness | 120 | double |
+//! | | name | 128 | uint8_t[32] |
+//! | | reason | 160 | uint8_t[96] |
+//! | StateHeader (32 B, align 8) | sequence | 0 | uint64_t |
+//! | | chain | 8 | uint32_t |
+//! | | n_joints | 12 | uint32_t |
+//! | | command | 16 | uint32_t |
+//! | | reserved | 20 | uint32_t |
+//! | | request_id | 24 | uint64_t |
+//! <!-- layout-table-end -->
+//!
+//! Type names (what iceoryx2 compares when a peer opens a service; a peer of another protocol version
+//! is refused at `open` instead of reading garbage): `tractrix.v1.Vec3`, `tractrix.v1.RequestHeader`,
+//! `tractrix.v1.ResponseHeader`, `tractrix.v1.StateHeader`.
+//!
+//! # Enumerations (all `uint32_t`)
+//!
+//! * [`Command`]: 1 move, 2 path, 3 reach, 4 query, 5 reset, 6 describe, 7 snapshot.
+//! * [`Status`]: 0 ok, then one value per error (see the type).
+//! * `joint`: the joint index, 0 = tail; [`JOINT_HEAD`] (`0xFFFFFFFF`) = the head whatever the length.
+//! * `method` ([`WireMethod`]): 0 chain default, 1 closed-form tractrix, 2 the paper's form, 3
+//!   follow-the-leader.
+//! * `precision` ([`Precision`]): 0 chain's, 1 f64, 2 f32 (must match the chain's declared precision).
+//! * `substep_mode` ([`SubstepMode`]): 0 chain default, 1 `substeps` equal substeps, 2 no substep longer
+//!   than `max_step` × the chain's shortest link.
+//! * `strategy` ([`WireStrategy`]): 0 default (translate back), 1 translate back, 2 tractrix + two-link.
+//! * `flags`: bit 0 [`FLAG_ANGLES`] (reach and query: append joint rotations).
+//! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base. `collision`: bit 0 self, bit 1 obstacles.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+pub mod text;
+
+/// Protocol version; it is part of every type name.
+pub const PROTOCOL_VERSION: u32 = 1;
+/// Request-response service of every command.
+pub const SERVICE_COMMAND: &str = "tractrix/v1/command";
+/// Publish-subscribe stream of accepted states.
+pub const SERVICE_STATE: &str = "tractrix/v1/state";
+/// Event service a client notifies after sending a request.
+pub const SERVICE_WAKE_SERVER: &str = "tractrix/v1/wake-server";
+/// Event service through which the server wakes a waiting client.
+pub const SERVICE_WAKE_CLIENT: &str = "tractrix/v1/wake-client";
+/// Environment variable holding the iceoryx2 prefix that isolates one instance (and its clients).
+pub const PREFIX_ENV: &str = "TRACTRIX_IOX_PREFIX";
+/// Default iceoryx2 prefix.
+pub const DEFAULT_PREFIX: &str = "tractrix_";
+
+/// Most links in one chain. Bounds scenes, snapshots and the response memory (24 B per joint).
+pub const MAX_LINKS: u32 = 65_536;
+/// Most joints in a response: joints plus one rotation per link.
+pub const MAX_RESPONSE_ELEMENTS: u32 = 2 * MAX_LINKS + 1;
+/// Most points in one [`Command::Path`] request.
+pub const MAX_PATH_POINTS: u32 = 4096;
+/// Most chains in one scene.
+pub const MAX_CHAINS: u32 = 256;
+/// Most concurrent client ports (each running client binary takes one).
+pub const MAX_CLIENTS: usize = 16;
+/// Bytes of a chain name (UTF-8, NUL-padded; a name fills at most `NAME_LEN - 1` bytes).
+pub const NAME_LEN: usize = 32;
+/// Bytes of an error reason (UTF-8, NUL-padded).
+pub const REASON_LEN: usize = 96;
+/// `joint` value meaning "the head", whatever the chain's length.
+pub const JOINT_HEAD: u32 = u32::MAX;
+/// Flag: append joint rotations to the response.
+pub const FLAG_ANGLES: u32 = 1;
+/// Collision bit: the chain avoids itself.
+pub const COLLISION_SELF: u32 = 1;
+/// Collision bit: the chain avoids the scene's obstacles.
+pub const COLLISION_OBSTACLES: u32 = 2;
+
+/// A point or vector in metres (or the scene's unit). Planar chains use `z = 0`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("tractrix.v1.Vec3")]
+pub struct Vec3 {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+}
+
+impl Vec3 {
+    pub const fn new(x: f64, y: f64, z: f64) -> Self {
+        Vec3 { x, y, z }
+    }
+    pub const fn to_array(self) -> [f64; 3] {
+        [self.x, self.y, self.z]
+    }
+    pub const fn from_array(a: [f64; 3]) -> Self {
+        Vec3::new(a[0], a[1], a[2])
+    }
+    pub fn is_finite(&self) -> bool {
+        self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
+    }
+}
+
+/// A command (see the crate docs for the payload each takes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Command {
+    /// Move `joint` to the one target point.
+    Move = 1,
+    /// Move `joint` through the target points in order.
+    Path = 2,
+    /// Fixed-base chain: bring the head to the target, base fixed.
+    Reach = 3,
+    /// Current joints (and rotations with [`FLAG_ANGLES`]).
+    Query = 4,
+    /// Back to the scene's initial state.
+    Reset = 5,
+    /// The chain's description in the header, and its joints.
+    Describe = 6,
+    /// Write a snapshot now (chain ignored; no joints returned).
+    Snapshot = 7,
+}
+
+impl Command {
+    pub const ALL: [Command; 7] = [
+        Command::Move,
+        Command::Path,
+        Command::Reach,
+        Command::Query,
+        Command::Reset,
+        Command::Describe,
+        Command::Snapshot,
+    ];
+    pub fn from_u32(v: u32) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| *c as u32 == v)
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Command::Move => "move",
+            Command::Path => "path",
+            Command::Reach => "reach",
+            Command::Query => "query",
+            Command::Reset => "reset",
+            Command::Describe => "describe",
+            Command::Snapshot => "snapshot",
+        }
+    }
+    /// Whether an accepted command of this kind changes the state (and is journaled and published).
+    pub fn changes_state(self) -> bool {
+        matches!(
+            self,
+            Command::Move | Command::Path | Command::Reach | Command::Reset
+        )
+    }
+}
+
+/// Outcome of a command. Every error leaves the state unchanged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Status {
+    Ok = 0,
+    /// `command` is not a known [`Command`].
+    UnknownCommand = 1,
+    /// `chain` is not a chain of the scene.
+    UnknownChain = 2,
+    /// `joint` is past the head.
+    JointOutOfRange = 3,
+    /// A target or option is NaN or infinite.
+    NonFinite = 4,
+    /// An option is out of range (method, precision, substeps, tolerance, flags, reserved fields ...).
+    BadOption = 5,
+    /// The number of target points does not fit the command.
+    BadPointCount = 6,
+    /// A fixed-base target lies outside the workspace.
+    Unreachable = 7,
+    /// A fixed-base reach hit its iteration limit.
+    NotConverged = 8,
+    /// The move would need more substeps than the service allows.
+    TooManySubsteps = 9,
+    /// The command does not apply to this chain (reach on a free chain, move on a fixed-base chain ...).
+    WrongChainKind = 10,
+    /// A planar chain got a target off its plane (`z != 0`).
+    OffPlane = 11,
+    /// A snapshot or journal write failed; the command was not applied.
+    PersistenceFailed = 12,
+    /// The response could not be written (too large for the service's memory).
+    Internal = 13,
+}
+
+impl Status {
+    pub const ALL: [Status; 14] = [
+        Status::Ok,
+        Status::UnknownCommand,
+        Status::UnknownChain,
+        Status::JointOutOfRange,
+        Status::NonFinite,
+        Status::BadOption,
+        Status::BadPointCount,
+        Status::Unreachable,
+        Status::NotConverged,
+        Status::TooManySubsteps,
+        Status::WrongChainKind,
+        Status::OffPlane,
+        Status::PersistenceFailed,
+        Status::Internal,
+    ];
+    pub fn from_u32(v: u32) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| *c as u32 == v)
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::UnknownCommand => "unknown-command",
+            Status::UnknownChain => "unknown-chain",
+            Status::JointOutOfRange => "joint-out-of-range",
+            Status::NonFinite => "non-finite",
+            Status::BadOption => "bad-option",
+            Status::BadPointCount => "bad-point-count",
+            Status::Unreachable => "unreachable",
+            Status::NotConverged => "not-converged",
+            Status::TooManySubsteps => "too-many-substeps",
+            Status::WrongChainKind => "wrong-chain-kind",
+            Status::OffPlane => "off-plane",
+            Status::PersistenceFailed => "persistence-failed",
+            Status::Internal => "internal",
+        }
+    }
+}
+
+/// Single-link method on the wire (0 = the chain's default).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum WireMethod {
+    Default = 0,
+    Tractrix = 1,
+    Paper = 2,
+    FollowTheLeader = 3,
+}
+
+/// Arithmetic of a chain on the wire (0 = the chain's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Precision {
+    Default = 0,
+    F64 = 1,
+    F32 = 2,
+}
+
+/// Substep policy on the wire (0 = the chain's default).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum SubstepMode {
+    Default = 0,
+    /// `substeps` equal substeps.
+    Fixed = 1,
+    /// No substep longer than `max_step` × the shortest link.
+    MaxStep = 2,
+}
+
+/// Fixed-base strategy on the wire (0 = translate back).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum WireStrategy {
+    Default = 0,
+    TranslateBack = 1,
+    TractrixTwoLink = 2,
+}
+
+/// What a chain is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum ChainKind {
+    /// A rope, suture or snake: every joint free.
+    Free = 0,
+    /// A manipulator whose joint 0 is fixed.
+    FixedBase = 1,
+}
+
+macro_rules! wire_enum_from_u32 {
+    ($($t:ident { $($v:ident),* })*) => {$(
+        impl $t {
+            /// The value for a wire number, `None` if unknown.
+            pub fn from_u32(v: u32) -> Option<Self> {
+                [$($t::$v),*].into_iter().find(|x| *x as u32 == v)
+            }
+        }
+    )*};
+}
+wire_enum_from_u32! {
+    WireMethod { Default, Tractrix, Paper, FollowTheLeader }
+    Precision { Default, F64, F32 }
+    SubstepMode { Default, Fixed, MaxStep }
+    WireStrategy { Default, TranslateBack, TractrixTwoLink }
+    ChainKind { Free, FixedBase }
+}
+
+/// The request's user header. Zero every field you do not set: zero means "default".
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("tractrix.v1.RequestHeader")]
+pub struct RequestHeader {
+    /// A [`Command`].
+    pub command: u32,
+    /// Chain handle: its index in the scene (see [`Command::Describe`]).
+    pub chain: u32,
+    /// Joint to move: 0 = tail, [`JOINT_HEAD`] = head.
+    pub joint: u32,
+    /// A [`WireMethod`].
+    pub method: u32,
+    /// A [`Precision`].
+    pub precision: u32,
+    /// A [`SubstepMode`].
+    pub substep_mode: u32,
+    /// Substeps with [`SubstepMode::Fixed`] (≥ 1); for reach, substeps of each tractrix pass (0 = 1).
+    pub substeps: u32,
+    /// A [`WireStrategy`] (reach).
+    pub strategy: u32,
+    /// Reach iteration limit (0 = the default, 1000).
+    pub max_iterations: u32,
+    /// Bit set of `FLAG_*`.
+    pub flags: u32,
+    /// Id of the client's listener on [`SERVICE_WAKE_CLIENT`] (low 64 bits, high 64 bits); zero if the
+    /// client polls.
+    pub client_listener: [u64; 2],
+    /// The client's own tag, echoed in the response and on the state stream.
+    pub request_id: u64,
+    /// With [`SubstepMode::MaxStep`]: the longest substep as a fraction of the shortest link (> 0).
+    pub max_step: f64,
+    /// Reach tolerance as a fraction of the chain's total length (0 = default 1e-9).
+    pub tolerance: f64,
+    /// Must be zero.
+    pub reserved: [u64; 2],
+}
+
+impl RequestHeader {
+    /// A header for `command` on `chain`, every option at its default.
+    pub fn new(command: Command, chain: u32) -> Self {
+        RequestHeader {
+            command: command as u32,
+            chain,
+            joint: JOINT_HEAD,
+            ..Default::default()
+        }
+    }
+    /// The listener id as one number.
+    pub fn listener_id(&self) -> u128 {
+        (self.client_listener[0] as u128) | ((self.client_listener[1] as u128) << 64)
+    }
+    /// Stores a listener id.
+    pub fn set_listener_id(&mut self, id: u128) {
+        self.client_listener = [id as u64, (id >> 64) as u64];
+    }
+}
+
+/// The response's user header.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("tractrix.v1.ResponseHeader")]
+pub struct ResponseHeader {
+    /// A [`Status`].
+    pub status: u32,
+    /// The request's command, echoed.
+    pub command: u32,
+    /// The request's chain, echoed.
+    pub chain: u32,
+    /// Joint positions in the payload (tail first).
+    pub n_joints: u32,
+    /// Joint rotations after the positions.
+    pub n_angles: u32,
+    /// Reach iterations.
+    pub iterations: u32,
+    /// Substeps taken (all points of a path).
+    pub substeps: u32,
+    /// Link steps where the paper's form was undefined and the closed form stood in.
+    pub paper_fallbacks: u32,
+    /// Sequence number of the state this response reflects (the state stream's counter).
+    pub sequence: u64,
+    /// The request's `request_id`, echoed.
+    pub request_id: u64,
+    /// Time spent solving, in nanoseconds (validation, kernel, journal).
+    pub solve_ns: u64,
+    /// Reach: final head-target distance; move and path: head-target distance after the move (0 unless
+    /// a collision response moved the head); on `Unreachable`, the distance to the workspace.
+    pub residual: f64,
+    /// Chains in the scene.
+    pub n_chains: u32,
+    /// The chain's [`ChainKind`].
+    pub kind: u32,
+    /// 2 (planar, in the z = 0 plane) or 3.
+    pub dims: u32,
+    /// Links of the chain.
+    pub n_links: u32,
+    /// The chain's [`Precision`] (1 f64, 2 f32).
+    pub precision: u32,
+    /// The chain's default [`WireMethod`].
+    pub method: u32,
+    /// The chain's collision bits.
+    pub collision: u32,
+    /// The chain's default [`SubstepMode`] (1 or 2).
+    pub substep_mode: u32,
+    /// The chain's default substep count (mode 1).
+    pub substeps_default: u32,
+    /// Zero.
+    pub reserved: u32,
+    /// The chain's default max step (mode 2).
+    pub max_step: f64,
+    /// Sum of the link lengths.
+    pub total_length: f64,
+    /// Thickness (diameter) of the chain.
+    pub thickness: f64,
+    /// Chain name, UTF-8, NUL-padded.
+    pub name: [u8; NAME_LEN],
+    /// Why the command failed, UTF-8, NUL-padded (empty when ok).
+    pub reason: [u8; REASON_LEN],
+}
+
+impl Default for ResponseHeader {
+    fn default() -> Self {
+        ResponseHeader {
+            status: 0,
+            command: 0,
+            chain: 0,
+            n_joints: 0,
+            n_angles: 0,
+            iterations: 0,
+            substeps: 0,
+            paper_fallbacks: 0,
+            sequence: 0,
+            request_id: 0,
+            solve_ns: 0,
+            residual: 0.0,
+            n_chains: 0,
+            kind: 0,
+            dims: 0,
+            n_links: 0,
+            precision: 0,
+            method: 0,
+            collision: 0,
+            substep_mode: 0,
+            substeps_default: 0,
+            reserved: 0,
+            max_step: 0.0,
+            total_length: 0.0,
+            thickness: 0.0,
+            name: [0; NAME_LEN],
+            reason: [0; REASON_LEN],
+        }
+    }
+}
+
+impl ResponseHeader {
+    /// The status, or `None` for a number this version does not know.
+    pub fn status(&self) -> Option<Status> {
+        Status::from_u32(self.status)
+    }
+    /// The chain name as text (up to the first NUL; invalid UTF-8 is replaced).
+    pub fn name_str(&self) -> String {
+        c_string(&self.name)
+    }
+    /// The reason as text.
+    pub fn reason_str(&self) -> String {
+        c_string(&self.reason)
+    }
+    /// Writes `text` into `reason`, cut at a character boundary to fit.
+    pub fn set_reason(&mut self, text: &str) {
+        write_c_string(&mut self.reason, text);
+    }
+    /// Writes `text` into `name`, cut at a character boundary to fit.
+    pub fn set_name(&mut self, text: &str) {
+        write_c_string(&mut self.name, text);
+    }
+}
+
+/// The state stream's user header; the payload is the chain's `n_joints` joints.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("tractrix.v1.StateHeader")]
+pub struct StateHeader {
+    /// Increases by one with every accepted change, over all chains; a gap means a missed sample.
+    pub sequence: u64,
+    /// The chain that changed.
+    pub chain: u32,
+    /// Joints in the payload.
+    pub n_joints: u32,
+    /// The [`Command`] that changed it.
+    pub command: u32,
+    /// Zero.
+    pub reserved: u32,
+    /// The `request_id` of that command.
+    pub request_id: u64,
+}
+
+fn c_string(bytes: &[u8]) -> String {
+    let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+    String::from_utf8_lossy(&bytes[..end]).into_owned()
+}
+
+/// Copies `text` into a NUL-padded buffer, keeping at least one NUL and whole UTF-8 characters.
+pub fn write_c_string(buf: &mut [u8], text: &str) {
+    let mut end = text.len().min(buf.len().saturating_sub(1));
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    buf.fill(0);
+    buf[..end].copy_from_slice(&text.as_bytes()[..end]);
+}
+
+/// One field of a wire type, as the crate docs' layout table lists it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FieldLayout {
+    pub name: &'static str,
+    pub offset: usize,
+    /// The C type, as a C header declares it (`uint32_t`, `double`, `uint8_t[32]` ...).
+    pub c_type: &'static str,
+}
+
+/// Layout of one wire type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TypeLayout {
+    pub name: &'static str,
+    /// The iceoryx2 type name.
+    pub type_name: &'static str,
+    pub size: usize,
+    pub align: usize,
+    pub fields: &'static [FieldLayout],
+}
+
+macro_rules! wire_layout {
+    ($t:ident, $tn:literal, size = $size:literal, align = $align:literal,
+     [$($f:ident : $c:literal @ $off:literal),* $(,)?]) => {
+        const _: () = {
+            assert!(core::mem::size_of::<$t>() == $size);
+            assert!(core::mem::align_of::<$t>() == $align);
+            $(assert!(core::mem::offset_of!($t, $f) == $off);)*
+        };
+        impl $t {
+            /// The byte layout (checked at compile time).
+            pub const LAYOUT: TypeLayout = TypeLayout {
+                name: stringify!($t),
+                type_name: $tn,
+                size: $size,
+                align: $align,
+                fields: &[$(FieldLayout { name: stringify!($f), offset: $off, c_type: $c }),*],
+            };
+        }
+    };
+}
+
+wire_layout!(Vec3, "tractrix.v1.Vec3", size = 24, align = 8, [
+    x: "double" @ 0, y: "double" @ 8, z: "double" @ 16,
+]);
+wire_layout!(RequestHeader, "tractrix.v1.RequestHeader", size = 96, align = 8, [
+    command: "uint32_t" @ 0, chain: "uint32_t" @ 4, joint: "uint32_t" @ 8, method: "uint32_t" @ 12,
+    precision: "uint32_t" @ 16, substep_mode: "uint32_t" @ 20, substeps: "uint32_t" @ 24,
+    strategy: "uint32_t" @ 28, max_iterations: "uint32_t" @ 32, flags: "uint32_t" @ 36,
+    client_listener: "uint64_t[2]" @ 40, request_id: "uint64_t" @ 56, max_step: "double" @ 64,
+    tolerance: "double" @ 72, reserved: "uint64_t[2]" @ 80,
+]);
+wire_layout!(ResponseHeader, "tractrix.v1.ResponseHeader", size = 256, align = 8, [
+    status: "uint32_t" @ 0, command: "uint32_t" @ 4, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12,
+    n_angles: "uint32_t" @ 16, iterations: "uint32_t" @ 20, substeps: "uint32_t" @ 24,
+    paper_fallbacks: "uint32_t" @ 28, sequence: "uint64_t" @ 32, request_id: "uint64_t" @ 40,
+    solve_ns: "uint64_t" @ 48, residual: "double" @ 56, n_chains: "uint32_t" @ 64, kind: "uint32_t" @ 68,
+    dims: "uint32_t" @ 72, n_links: "uint32_t" @ 76, precision: "uint32_t" @ 80, method: "uint32_t" @ 84,
+    collision: "uint32_t" @ 88, substep_mode: "uint32_t" @ 92, substeps_default: "uint32_t" @ 96,
+    reserved: "uint32_t" @ 100, max_step: "double" @ 104, total_length: "double" @ 112,
+    thickness: "double" @ 120, name: "uint8_t[32]" @ 128, reason: "uint8_t[96]" @ 160,
+]);
+wire_layout!(StateHeader, "tractrix.v1.StateHeader", size = 32, align = 8, [
+    sequence: "uint64_t" @ 0, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12, command: "uint32_t" @ 16,
+    reserved: "uint32_t" @ 20, request_id: "uint64_t" @ 24,
+]);
+
+/// Every wire type's layout, in the order of the crate docs' table.
+pub const WIRE_TYPES: [TypeLayout; 4] = [
+    Vec3::LAYOUT,
+    RequestHeader::LAYOUT,
+    ResponseHeader::LAYOUT,
+    StateHeader::LAYOUT,
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The docs' table is what other languages are written from: it must say exactly what the types are.
+    #[test]
+    fn docs_layout_table_matches_the_types() {
+        let src = include_str!("lib.rs");
+        let start = src.find("<!-- layout-table-start -->").unwrap();
+        let end = src.find("<!-- layout-table-end -->").unwrap();
+        let rows: Vec<Vec<String>> = src[start..end]
+            .lines()
+            .map(|l| l.trim_start_matches("//!").trim())
+            .filter(|l| l.starts_with('|') && !l.starts_with("|---") && !l.starts_with("| type"))
+            .map(|l| {
+                l.trim_matches('|')
+                    .split('|')
+                    .map(|c| c.trim().to_string())
+                    .collect()
+            })
+            .collect();
+        let mut expected = Vec::new();
+        for t in WIRE_TYPES {
+            for (i, f) in t.fields.iter().enumerate() {
+                let head = if i == 0 {
+                    format!("{} ({} B, align {})", t.name, t.size, t.align)
+                } else {
+                    String::new()
+                };
+                expected.push(vec![
+                    head,
+                    f.name.to_string(),
+                    f.offset.to_string(),
+                    f.c_type.to_string(),
+                ]);
+            }
+        }
+        assert_eq!(rows, expected);
+    }
+
+    /// Fields tile each type without gaps: no implicit padding a C compiler could place differently.
+    #[test]
+    fn wire_types_have_no_implicit_padding() {
+        fn c_size(c: &str) -> usize {
+            let (base, count) = match c.split_once('[') {
+                Some((b, n)) => (b, n.trim_end_matches(']').parse::<usize>().unwrap()),
+                None => (c, 1),
+            };
+            let s = match base {
+                "double" | "uint64_t" => 8,
+                "uint32_t" => 4,
+                "uint8_t" => 1,
+                other => panic!("unknown C type {other}"),
+            };
+            s * count
+        }
+        for t in WIRE_TYPES {
+            let mut at = 0;
+            for f in t.fields {
+                assert_eq!(f.offset, at, "{}.{} leaves a gap", t.name, f.name);
+                at += c_size(f.c_type);
+            }
+            assert_eq!(at, t.size, "{} has tail padding", t.name);
+        }
+    }
+
+    #[test]
+    fn enums_round_trip_and_reject_unknown_values() {
+        for c in Command::ALL {
+            assert_eq!(Command::from_u32(c as u32), Some(c));
+        }
+        for s in Status::ALL {
+            assert_eq!(Status::from_u32(s as u32), Some(s));
+        }
+        assert_eq!(Command::from_u32(0), None);
+        assert_eq!(Command::from_u32(8), None);
+        assert_eq!(Status::from_u32(14), None);
+        assert_eq!(WireMethod::from_u32(4), None);
+        assert_eq!(Precision::from_u32(2), Some(Precision::F32));
+    }
+
+    #[test]
+    fn strings_are_cut_at_char_boundaries_and_keep_a_nul() {
+        let mut h = ResponseHeader::default();
+        h.set_reason(&"é".repeat(100));
+        assert!(h.reason.contains(&0));
+        assert_eq!(h.reason_str(), "é".repeat(47));
+        h.set_name("rope");
+        assert_eq!(h.name_str(), "rope");
+        let mut r = RequestHeader::default();
+        r.set_listener_id(0x0123_4567_89ab_cdef_fedc_ba98_7654_3210);
+        assert_eq!(r.listener_id(), 0x0123_4567_89ab_cdef_fedc_ba98_7654_3210);
+    }
+}

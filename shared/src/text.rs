@@ -1,0 +1,327 @@
+//! The text form of requests and responses: one JSON object per line, used by the service's batch mode,
+//! by `chainctl --json` and by regression files. It maps one to one onto the wire types; nothing here is on
+//! the hot path.
+//!
+//! ```json
+//! {"cmd":"move","chain":"rope","joint":"head","target":[40,5,0],"method":"tractrix","substeps":8}
+//! {"cmd":"path","chain":0,"joint":"tail","path":[[0,1,0],[0,2,0]],"max_step":0.1}
+//! {"cmd":"reach","chain":"arm","target":[1.2,0.8],"tolerance":1e-9,"angles":true}
+//! {"cmd":"query","chain":"snake"}
+//! ```
+//!
+//! Field names are those of [`RequestHeader`]; `chain` is a name or an index, `joint` is `"head"`,
+//! `"tail"` or an index, points have 2 or 3 coordinates (a missing `z` is 0), `method` is `tractrix`,
+//! `paper` or `ftl`, `precision` is `f64` or `f32`, `strategy` is `translate-back` or `two-link`. Unknown
+//! fields are an error.
+
+use crate::{
+    Command, FLAG_ANGLES, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader,
+    Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+};
+use serde::{Deserialize, Serialize};
+
+/// A chain by name or by index.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ChainRef {
+    Index(u32),
+    Name(String),
+}
+
+/// A joint: `"head"`, `"tail"` or an index.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum JointRef {
+    Index(u32),
+    Named(String),
+}
+
+/// One request in text form.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TextRequest {
+    pub cmd: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chain: Option<ChainRef>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint: Option<JointRef>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<Vec<Vec<f64>>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub precision: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub substeps: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_step: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strategy: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_iterations: Option<u32>,
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub angles: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub request_id: Option<u64>,
+}
+
+/// Parses a command name.
+pub fn parse_command(s: &str) -> Result<Command, String> {
+    Command::ALL
+        .into_iter()
+        .find(|c| c.name() == s)
+        .ok_or_else(|| {
+            format!("unknown command {s:?} (expected move, path, reach, query, reset, describe or snapshot)")
+        })
+}
+
+/// Parses a method name.
+pub fn parse_method(s: &str) -> Result<WireMethod, String> {
+    match s {
+        "tractrix" => Ok(WireMethod::Tractrix),
+        "paper" => Ok(WireMethod::Paper),
+        "ftl" | "follow-the-leader" => Ok(WireMethod::FollowTheLeader),
+        _ => Err(format!(
+            "unknown method {s:?} (expected tractrix, paper or ftl)"
+        )),
+    }
+}
+
+/// The name of a wire method value.
+pub fn method_name(m: u32) -> &'static str {
+    match WireMethod::from_u32(m) {
+        Some(WireMethod::Tractrix) => "tractrix",
+        Some(WireMethod::Paper) => "paper",
+        Some(WireMethod::FollowTheLeader) => "ftl",
+        Some(WireMethod::Default) => "default",
+        None => "?",
+    }
+}
+
+/// Parses a precision name.
+pub fn parse_precision(s: &str) -> Result<Precision, String> {
+    match s {
+        "f64" => Ok(Precision::F64),
+        "f32" => Ok(Precision::F32),
+        _ => Err(format!("unknown precision {s:?} (expected f64 or f32)")),
+    }
+}
+
+/// Parses a fixed-base strategy name.
+pub fn parse_strategy(s: &str) -> Result<WireStrategy, String> {
+    match s {
+        "translate-back" => Ok(WireStrategy::TranslateBack),
+        "two-link" => Ok(WireStrategy::TractrixTwoLink),
+        _ => Err(format!(
+            "unknown strategy {s:?} (expected translate-back or two-link)"
+        )),
+    }
+}
+
+/// A point of 2 or 3 coordinates.
+pub fn parse_point(p: &[f64]) -> Result<Vec3, String> {
+    match p {
+        [x, y] => Ok(Vec3::new(*x, *y, 0.0)),
+        [x, y, z] => Ok(Vec3::new(*x, *y, *z)),
+        _ => Err(format!("a point has 2 or 3 coordinates, not {}", p.len())),
+    }
+}
+
+impl TextRequest {
+    /// The wire form. `resolve` maps a chain name to its handle.
+    pub fn to_wire(
+        &self,
+        resolve: &dyn Fn(&str) -> Option<u32>,
+    ) -> Result<(RequestHeader, Vec<Vec3>), String> {
+        let command = parse_command(&self.cmd)?;
+        let chain = match &self.chain {
+            None if command == Command::Snapshot => 0,
+            None => return Err(format!("{}: field `chain` is missing", self.cmd)),
+            Some(ChainRef::Index(i)) => *i,
+            Some(ChainRef::Name(n)) => resolve(n).ok_or_else(|| format!("unknown chain {n:?}"))?,
+        };
+        let mut h = RequestHeader::new(command, chain);
+        h.joint = match &self.joint {
+            None => JOINT_HEAD,
+            Some(JointRef::Index(i)) => *i,
+            Some(JointRef::Named(s)) if s == "head" => JOINT_HEAD,
+            Some(JointRef::Named(s)) if s == "tail" => 0,
+            Some(JointRef::Named(s)) => {
+                return Err(format!(
+                    "joint {s:?}: expected \"head\", \"tail\" or an index"
+                ));
+            }
+        };
+        if let Some(m) = &self.method {
+            h.method = parse_method(m)? as u32;
+        }
+        if let Some(p) = &self.precision {
+            h.precision = parse_precision(p)? as u32;
+        }
+        match (self.substeps, self.max_step) {
+            (Some(_), Some(_)) => {
+                return Err("give `substeps` or `max_step`, not both".into());
+            }
+            (Some(k), None) => {
+                h.substep_mode = SubstepMode::Fixed as u32;
+                h.substeps = k;
+            }
+            (None, Some(s)) => {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = s;
+            }
+            (None, None) => {}
+        }
+        if command == Command::Reach {
+            // Reach takes `substeps` as the count of each tractrix pass, not as a mode.
+            h.substep_mode = 0;
+        }
+        if let Some(s) = &self.strategy {
+            h.strategy = parse_strategy(s)? as u32;
+        }
+        h.tolerance = self.tolerance.unwrap_or(0.0);
+        h.max_iterations = self.max_iterations.unwrap_or(0);
+        if self.angles {
+            h.flags |= FLAG_ANGLES;
+        }
+        h.request_id = self.request_id.unwrap_or(0);
+        let points = match command {
+            Command::Move | Command::Reach => {
+                let t = self
+                    .target
+                    .as_ref()
+                    .ok_or_else(|| format!("{}: field `target` is missing", self.cmd))?;
+                vec![parse_point(t)?]
+            }
+            Command::Path => {
+                let p = self
+                    .path
+                    .as_ref()
+                    .ok_or_else(|| "path: field `path` is missing".to_string())?;
+                if p.is_empty() || p.len() > MAX_PATH_POINTS as usize {
+                    return Err(format!(
+                        "path: {} points (1..={MAX_PATH_POINTS} allowed)",
+                        p.len()
+                    ));
+                }
+                p.iter().map(|q| parse_point(q)).collect::<Result<_, _>>()?
+            }
+            _ => Vec::new(),
+        };
+        Ok((h, points))
+    }
+}
+
+/// One response in text form.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TextResponse {
+    pub status: String,
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub reason: String,
+    pub command: String,
+    pub chain: u32,
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub name: String,
+    pub sequence: u64,
+    pub request_id: u64,
+    pub solve_ns: u64,
+    pub iterations: u32,
+    pub substeps: u32,
+    pub residual: f64,
+    pub joints: Vec<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub angles: Vec<[f64; 3]>,
+}
+
+impl TextResponse {
+    /// From a header and its payload (`n_joints` positions then `n_angles` rotations; a payload shorter
+    /// than the header claims is cut to what is there).
+    pub fn from_wire(h: &ResponseHeader, payload: &[Vec3]) -> Self {
+        let nj = (h.n_joints as usize).min(payload.len());
+        let na = (h.n_angles as usize).min(payload.len() - nj);
+        TextResponse {
+            status: Status::from_u32(h.status)
+                .map(|s| s.name().to_string())
+                .unwrap_or_else(|| format!("status-{}", h.status)),
+            reason: h.reason_str(),
+            command: Command::from_u32(h.command)
+                .map(|c| c.name().to_string())
+                .unwrap_or_else(|| format!("command-{}", h.command)),
+            chain: h.chain,
+            name: h.name_str(),
+            sequence: h.sequence,
+            request_id: h.request_id,
+            solve_ns: h.solve_ns,
+            iterations: h.iterations,
+            substeps: h.substeps,
+            residual: h.residual,
+            joints: payload[..nj].iter().map(|v| v.to_array()).collect(),
+            angles: payload[nj..nj + na].iter().map(|v| v.to_array()).collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_move_maps_onto_the_wire() {
+        let r = TextRequest {
+            cmd: "move".into(),
+            chain: Some(ChainRef::Name("rope".into())),
+            joint: Some(JointRef::Named("tail".into())),
+            target: Some(vec![1.0, 2.0]),
+            method: Some("ftl".into()),
+            substeps: Some(8),
+            ..Default::default()
+        };
+        let (h, p) = r
+            .to_wire(&|n| (n == "rope").then_some(3))
+            .expect("valid request");
+        assert_eq!(h.command, Command::Move as u32);
+        assert_eq!(h.chain, 3);
+        assert_eq!(h.joint, 0);
+        assert_eq!(h.method, WireMethod::FollowTheLeader as u32);
+        assert_eq!((h.substep_mode, h.substeps), (SubstepMode::Fixed as u32, 8));
+        assert_eq!(p, vec![Vec3::new(1.0, 2.0, 0.0)]);
+    }
+
+    #[test]
+    fn text_errors_name_the_field() {
+        let bad = |r: TextRequest| r.to_wire(&|_| Some(0)).unwrap_err();
+        assert!(
+            bad(TextRequest {
+                cmd: "fly".into(),
+                ..Default::default()
+            })
+            .contains("fly")
+        );
+        let no_target = TextRequest {
+            cmd: "move".into(),
+            chain: Some(ChainRef::Index(0)),
+            ..Default::default()
+        };
+        assert!(bad(no_target).contains("target"));
+        let empty = TextRequest {
+            cmd: "path".into(),
+            chain: Some(ChainRef::Index(0)),
+            path: Some(vec![]),
+            ..Default::default()
+        };
+        assert!(bad(empty).contains("0 points"));
+        let both = TextRequest {
+            cmd: "move".into(),
+            chain: Some(ChainRef::Index(0)),
+            target: Some(vec![0.0, 0.0]),
+            substeps: Some(2),
+            max_step: Some(0.1),
+            ..Default::default()
+        };
+        assert!(bad(both).contains("not both"));
+    }
+}
