@@ -111,6 +111,7 @@
 //! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base. `collision`: bit 0 self, bit 1 obstacles.
 
 use iceoryx2::prelude::ZeroCopySend;
+use serde::{Deserialize, Serialize};
 
 pub mod text;
 
@@ -153,7 +154,7 @@ pub const COLLISION_SELF: u32 = 1;
 pub const COLLISION_OBSTACLES: u32 = 2;
 
 /// A point or vector in metres (or the scene's unit). Planar chains use `z = 0`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 #[type_name("tractrix.v1.Vec3")]
 pub struct Vec3 {
@@ -371,7 +372,7 @@ wire_enum_from_u32! {
 }
 
 /// The request's user header. Zero every field you do not set: zero means "default".
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]
 #[type_name("tractrix.v1.RequestHeader")]
 pub struct RequestHeader {
