@@ -45,10 +45,10 @@ pub enum Geometry {
 macro_rules! each_form {
     ($g:expr, $h:ident => $body:expr) => {
         match $g {
-            Geometry::Planar64($h) => $body,
-            Geometry::Spatial64($h) => $body,
-            Geometry::Planar32($h) => $body,
-            Geometry::Spatial32($h) => $body,
+            $crate::chain_set::Geometry::Planar64($h) => $body,
+            $crate::chain_set::Geometry::Spatial64($h) => $body,
+            $crate::chain_set::Geometry::Planar32($h) => $body,
+            $crate::chain_set::Geometry::Spatial32($h) => $body,
         }
     };
 }

@@ -17,4 +17,5 @@
 
 pub mod chain_set;
 pub mod kernel;
+pub mod persist;
 pub mod scene;

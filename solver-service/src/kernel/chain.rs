@@ -169,6 +169,42 @@ where
         })
     }
 
+    /// A chain from stored parts, bit for bit (a snapshot restore): unlike [`Chain::from_parts`] the link
+    /// vectors are not rescaled. Each must be finite and within `√ε` (relative) of its nominal length,
+    /// or the parts did not come from a chain.
+    pub fn from_raw_parts(
+        origin: Vector<T, D>,
+        links: Vec<Vector<T, D>>,
+        lengths: Vec<T>,
+    ) -> Result<Self, ChainError> {
+        if links.is_empty() {
+            return Err(ChainError::Empty);
+        }
+        if links.len() != lengths.len() {
+            return Err(ChainError::BadOption("links and lengths differ in count"));
+        }
+        if !all_finite(&origin) || !links.iter().all(all_finite) {
+            return Err(ChainError::NonFinite);
+        }
+        let tol = T::EPSILON.sqrt();
+        for (i, (l, &len)) in links.iter().zip(&lengths).enumerate() {
+            let n = l.norm();
+            if !positive_finite(len) || !((n - len).abs() <= tol * len) {
+                return Err(ChainError::BadLength {
+                    link: i + 1,
+                    length: n.to_f64(),
+                });
+            }
+        }
+        let min_length = lengths.iter().copied().fold(lengths[0], T::min);
+        Ok(Chain {
+            origin,
+            links,
+            lengths,
+            min_length,
+        })
+    }
+
     /// Number of links `n`.
     pub fn n_links(&self) -> usize {
         self.links.len()

@@ -1,0 +1,501 @@
+//! Snapshots and the journal: nothing acknowledged is lost. The only module that touches bincode.
+//!
+//! * A **snapshot** is the whole state (every chain's joint 0 and link vectors, bit for bit, and the
+//!   sequence number), written to a temporary file, synced and renamed over `snapshot.bin`, so a crash
+//!   leaves either the old or the new snapshot, never half of one.
+//! * The **journal** `journal.bin` holds every accepted state-changing request since that snapshot, each
+//!   record `[u32 length][u32 crc32][bincode record]`, appended *before* the response is sent. Replaying
+//!   it through the same handler reproduces the state bit for bit (the kernel is deterministic).
+//!
+//! With [`JournalMode::Write`] a record reaches the kernel's page cache before the response: it survives
+//! `kill -9` of the service but not a power cut; [`JournalMode::Fsync`] also survives the latter at the
+//! cost of one `fdatasync` per request. Sizes read back are bounded: a snapshot by the scene's size, a
+//! record by [`MAX_RECORD_BYTES`].
+
+use crate::chain_set::{ChainSet, each_form};
+use crate::kernel::Chain;
+use crate::kernel::math::{Embed3, Real, Vector};
+use protocol::{MAX_PATH_POINTS, RequestHeader, ResponseHeader, Status, Vec3};
+use serde::{Deserialize, Serialize};
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Write};
+use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
+use std::path::{Path, PathBuf};
+
+const SNAPSHOT_MAGIC: u32 = 0x5452_5853; // "TRXS"
+const JOURNAL_MAGIC: [u8; 8] = *b"TRXJ\x01\0\0\0";
+/// Largest journal record (a full path request with its header).
+pub const MAX_RECORD_BYTES: usize = 256 + 32 * MAX_PATH_POINTS as usize;
+
+type Config = bincode::config::Configuration;
+fn config() -> Config {
+    bincode::config::standard()
+}
+
+/// How the journal is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JournalMode {
+    /// No journal: state since the last snapshot is lost on a crash.
+    Off,
+    /// Written before each response (survives the process being killed).
+    Write,
+    /// Written and `fdatasync`ed before each response (survives a power cut).
+    Fsync,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct ChainSnapshot {
+    name: String,
+    dims: u32,
+    precision: u32,
+    lengths: Vec<f64>,
+    origin: Vec<f64>,
+    links: Vec<f64>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct Snapshot {
+    magic: u32,
+    sequence: u64,
+    chains: Vec<ChainSnapshot>,
+}
+
+#[derive(Debug, Serialize)]
+struct RecordRef<'a> {
+    sequence: u64,
+    header: &'a RequestHeader,
+    points: &'a [Vec3],
+}
+
+#[derive(Debug, Deserialize)]
+struct Record {
+    sequence: u64,
+    header: RequestHeader,
+    points: Vec<Vec3>,
+}
+
+/// The state directory of one instance.
+#[derive(Debug)]
+pub struct Store {
+    dir: PathBuf,
+    mode: JournalMode,
+    journal: Option<File>,
+    buf: Vec<u8>,
+}
+
+/// What a restore found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Restored {
+    pub snapshot_sequence: u64,
+    pub replayed: u64,
+    /// Bytes at the journal's end that did not form a whole record (a write cut by the crash; never
+    /// acknowledged).
+    pub dropped_tail_bytes: u64,
+}
+
+fn io(path: &Path, what: &str, e: impl std::fmt::Display) -> String {
+    format!("{}: {what}: {e}", path.display())
+}
+
+impl Store {
+    /// Opens (creating, owner-only) the state directory.
+    pub fn open(dir: &Path, mode: JournalMode) -> Result<Self, String> {
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o700)
+            .create(dir)
+            .map_err(|e| io(dir, "cannot create the state directory", e))?;
+        Ok(Store {
+            dir: dir.to_path_buf(),
+            mode,
+            journal: None,
+            buf: vec![0; MAX_RECORD_BYTES + 8],
+        })
+    }
+
+    pub fn snapshot_path(&self) -> PathBuf {
+        self.dir.join("snapshot.bin")
+    }
+    pub fn journal_path(&self) -> PathBuf {
+        self.dir.join("journal.bin")
+    }
+    pub fn mode(&self) -> JournalMode {
+        self.mode
+    }
+
+    /// Writes a snapshot of `set` atomically, then starts an empty journal after it.
+    pub fn snapshot(&mut self, set: &ChainSet) -> Result<(), String> {
+        let snap = Snapshot {
+            magic: SNAPSHOT_MAGIC,
+            sequence: set.sequence(),
+            chains: set
+                .entries()
+                .iter()
+                .map(|e| {
+                    let (origin, links) = each_form!(&e.geometry, g => raw_parts(&g.chain));
+                    ChainSnapshot {
+                        name: e.def.name.clone(),
+                        dims: e.def.dims,
+                        precision: e.def.precision as u32,
+                        lengths: e.def.lengths.clone(),
+                        origin,
+                        links,
+                    }
+                })
+                .collect(),
+        };
+        let bytes = bincode::serde::encode_to_vec(&snap, config())
+            .map_err(|e| format!("cannot encode the snapshot: {e}"))?;
+        let path = self.snapshot_path();
+        let tmp = self.dir.join("snapshot.bin.tmp");
+        let mut f = owner_only()
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&tmp)
+            .map_err(|e| io(&tmp, "cannot create", e))?;
+        f.write_all(&bytes)
+            .and_then(|_| f.sync_all())
+            .map_err(|e| io(&tmp, "cannot write", e))?;
+        std::fs::rename(&tmp, &path).map_err(|e| io(&path, "cannot rename into place", e))?;
+        File::open(&self.dir)
+            .and_then(|d| d.sync_all())
+            .map_err(|e| io(&self.dir, "cannot sync", e))?;
+        self.start_journal()
+    }
+
+    fn start_journal(&mut self) -> Result<(), String> {
+        self.journal = None;
+        if self.mode == JournalMode::Off {
+            let _ = std::fs::remove_file(self.journal_path());
+            return Ok(());
+        }
+        let path = self.journal_path();
+        let mut f = owner_only()
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&path)
+            .map_err(|e| io(&path, "cannot create", e))?;
+        f.write_all(&JOURNAL_MAGIC)
+            .and_then(|_| f.sync_all())
+            .map_err(|e| io(&path, "cannot write", e))?;
+        self.journal = Some(f);
+        Ok(())
+    }
+
+    /// Appends an accepted request that produced state `sequence`. Must succeed before the response is
+    /// sent. No allocation: the record is encoded into a buffer kept for the purpose.
+    pub fn append(
+        &mut self,
+        sequence: u64,
+        header: &RequestHeader,
+        points: &[Vec3],
+    ) -> Result<(), String> {
+        let Some(f) = self.journal.as_mut() else {
+            return Ok(());
+        };
+        let rec = RecordRef {
+            sequence,
+            header,
+            points,
+        };
+        let n = bincode::serde::encode_into_slice(&rec, &mut self.buf[8..], config())
+            .map_err(|e| format!("cannot encode a journal record: {e}"))?;
+        let crc = crc32fast::hash(&self.buf[8..8 + n]);
+        self.buf[0..4].copy_from_slice(&(n as u32).to_le_bytes());
+        self.buf[4..8].copy_from_slice(&crc.to_le_bytes());
+        f.write_all(&self.buf[..8 + n])
+            .map_err(|e| format!("journal write failed: {e}"))?;
+        if self.mode == JournalMode::Fsync {
+            f.sync_data()
+                .map_err(|e| format!("journal sync failed: {e}"))?;
+        }
+        Ok(())
+    }
+
+    /// Restores `set` (built from the same scene) from the snapshot and the journal, then compacts: a
+    /// new snapshot of the restored state and an empty journal.
+    pub fn restore(&mut self, set: &mut ChainSet) -> Result<Restored, String> {
+        let path = self.snapshot_path();
+        let bound = snapshot_bound(set);
+        let bytes = read_bounded(&path, bound)?;
+        let (snap, _): (Snapshot, usize) = bincode::serde::decode_from_slice(&bytes, config())
+            .map_err(|e| io(&path, "not a snapshot", e))?;
+        if snap.magic != SNAPSHOT_MAGIC {
+            return Err(io(&path, "not a snapshot", "wrong magic number"));
+        }
+        install(set, &snap).map_err(|e| io(&path, "does not fit the scene", e))?;
+        let mut restored = Restored {
+            snapshot_sequence: snap.sequence,
+            replayed: 0,
+            dropped_tail_bytes: 0,
+        };
+        let jpath = self.journal_path();
+        if jpath.exists() {
+            let bound = 16 + (MAX_RECORD_BYTES as u64 + 8) * (1 << 24);
+            let bytes = read_bounded(&jpath, bound)?;
+            if bytes.len() < 8 || bytes[..8] != JOURNAL_MAGIC {
+                return Err(io(&jpath, "not a journal", "wrong magic number"));
+            }
+            let mut at = 8;
+            let mut resp = ResponseHeader::default();
+            while at < bytes.len() {
+                let Some(rec) = next_record(&bytes, at) else {
+                    restored.dropped_tail_bytes = (bytes.len() - at) as u64;
+                    break;
+                };
+                let (rec, len) = rec;
+                at += len;
+                if rec.sequence <= set.sequence() {
+                    continue;
+                }
+                if rec.sequence != set.sequence() + 1 {
+                    return Err(io(
+                        &jpath,
+                        "gap",
+                        format!("record {} follows state {}", rec.sequence, set.sequence()),
+                    ));
+                }
+                let changed = set.apply(&rec.header, &rec.points, &mut resp);
+                if !changed || resp.status != Status::Ok as u32 {
+                    return Err(io(
+                        &jpath,
+                        "does not replay on this scene",
+                        format!("record {}: {}", rec.sequence, resp.reason_str()),
+                    ));
+                }
+                restored.replayed += 1;
+            }
+        }
+        self.snapshot(set)?;
+        Ok(restored)
+    }
+}
+
+fn owner_only() -> OpenOptions {
+    let mut o = OpenOptions::new();
+    o.mode(0o600);
+    o
+}
+
+fn read_bounded(path: &Path, bound: u64) -> Result<Vec<u8>, String> {
+    let f = File::open(path).map_err(|e| io(path, "cannot open", e))?;
+    let len = f.metadata().map_err(|e| io(path, "cannot stat", e))?.len();
+    if len > bound {
+        return Err(io(
+            path,
+            "too large",
+            format!("{len} bytes, at most {bound} expected"),
+        ));
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    f.take(bound)
+        .read_to_end(&mut bytes)
+        .map_err(|e| io(path, "cannot read", e))?;
+    Ok(bytes)
+}
+
+/// The most bytes a snapshot of this scene can take (varint-encoded lengths are smaller).
+fn snapshot_bound(set: &ChainSet) -> u64 {
+    64 + set
+        .entries()
+        .iter()
+        .map(|e| 128 + 9 * 8 * (e.def.lengths.len() as u64 + 1) + e.def.name.len() as u64)
+        .sum::<u64>()
+}
+
+fn next_record(bytes: &[u8], at: usize) -> Option<(Record, usize)> {
+    let head = bytes.get(at..at + 8)?;
+    let n = u32::from_le_bytes(head[0..4].try_into().ok()?) as usize;
+    let crc = u32::from_le_bytes(head[4..8].try_into().ok()?);
+    if n > MAX_RECORD_BYTES {
+        return None;
+    }
+    let body = bytes.get(at + 8..at + 8 + n)?;
+    if crc32fast::hash(body) != crc {
+        return None;
+    }
+    let (rec, used): (Record, usize) = bincode::serde::decode_from_slice(body, config()).ok()?;
+    (used == n && rec.points.len() <= MAX_PATH_POINTS as usize).then_some((rec, 8 + n))
+}
+
+fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>)
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let origin = c.origin().iter().map(|x| x.to_f64()).collect();
+    let links = c
+        .links()
+        .iter()
+        .flat_map(|l| l.iter().map(|x| x.to_f64()))
+        .collect();
+    (origin, links)
+}
+
+fn install(set: &mut ChainSet, snap: &Snapshot) -> Result<(), String> {
+    if snap.chains.len() != set.len() {
+        return Err(format!(
+            "{} chains, the scene has {}",
+            snap.chains.len(),
+            set.len()
+        ));
+    }
+    // Check everything before changing anything.
+    let mut built = Vec::with_capacity(set.len());
+    for (e, s) in set.entries().iter().zip(&snap.chains) {
+        let d = &e.def;
+        if s.name != d.name || s.dims != d.dims || s.precision != d.precision as u32 {
+            return Err(format!(
+                "chain {:?} ({}D) in the snapshot, {:?} ({}D) in the scene",
+                s.name, s.dims, d.name, d.dims
+            ));
+        }
+        if s.lengths.len() != d.lengths.len()
+            || s.lengths
+                .iter()
+                .zip(&d.lengths)
+                .any(|(a, b)| a.to_bits() != b.to_bits())
+        {
+            return Err(format!(
+                "chain {:?}: link lengths differ from the scene",
+                d.name
+            ));
+        }
+        let mut g = e.geometry.clone();
+        each_form!(&mut g, h => {
+            h.chain = rebuild(&h.initial, &s.origin, &s.links).map_err(|m| format!("chain {:?}: {m}", d.name))?;
+        });
+        built.push(g);
+    }
+    for (e, g) in set.entries_mut().iter_mut().zip(built) {
+        e.geometry = g;
+    }
+    set.set_sequence(snap.sequence);
+    Ok(())
+}
+
+fn rebuild<T: Real, const D: usize>(
+    like: &Chain<T, D>,
+    origin: &[f64],
+    links: &[f64],
+) -> Result<Chain<T, D>, String>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = like.n_links();
+    if origin.len() != D || links.len() != n * D {
+        return Err(format!("{} link numbers, expected {}", links.len(), n * D));
+    }
+    let o = Vector::<T, D>::from_iterator(origin.iter().map(|&x| T::lit(x)));
+    let l: Vec<Vector<T, D>> = links
+        .chunks_exact(D)
+        .map(|c| Vector::<T, D>::from_iterator(c.iter().map(|&x| T::lit(x))))
+        .collect();
+    Chain::from_raw_parts(o, l, like.lengths().to_vec()).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::default_scene;
+    use protocol::{Command, JOINT_HEAD};
+
+    fn joints(set: &ChainSet) -> Vec<u64> {
+        (0..set.len() as u32)
+            .flat_map(|c| set.elements(c, true).collect::<Vec<_>>())
+            .flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+            .collect()
+    }
+
+    /// Snapshot in the middle, journal after it, a torn record at the end: the restore holds exactly
+    /// the state after the last whole record.
+    #[test]
+    fn snapshot_plus_journal_restores_bit_for_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = default_scene();
+        let mut set = ChainSet::new(&scene).unwrap();
+        let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+        store.snapshot(&set).unwrap();
+        let mut resp = ResponseHeader::default();
+        for i in 0..200u32 {
+            let t = (i as f64) * 0.37;
+            let (req, p) = match i % 3 {
+                0 => {
+                    let mut r = RequestHeader::new(Command::Move, 0);
+                    r.joint = if i % 2 == 0 { JOINT_HEAD } else { 0 };
+                    (
+                        r,
+                        vec![Vec3::new(20.0 + 5.0 * t.cos(), 5.0 * t.sin(), t.sin())],
+                    )
+                }
+                1 => (
+                    RequestHeader::new(Command::Path, 1),
+                    vec![
+                        Vec3::new(t.sin(), -50.0 + t, 0.3),
+                        Vec3::new(t.cos(), -49.0 + t, 0.1),
+                    ],
+                ),
+                _ => (
+                    RequestHeader::new(Command::Reach, 2),
+                    vec![Vec3::new(1.2 * t.cos(), 1.2 * t.sin(), 0.0)],
+                ),
+            };
+            assert!(set.apply(&req, &p, &mut resp), "{}", resp.reason_str());
+            store.append(set.sequence(), &req, &p).unwrap();
+            if i == 90 {
+                store.snapshot(&set).unwrap();
+            }
+        }
+        let expected = joints(&set);
+        let expected_seq = set.sequence();
+        drop(store);
+        // A record cut short by a crash, never acknowledged.
+        let mut f = OpenOptions::new()
+            .append(true)
+            .open(dir.path().join("journal.bin"))
+            .unwrap();
+        f.write_all(&[200, 0, 0, 0, 1, 2]).unwrap();
+        drop(f);
+
+        let mut fresh = ChainSet::new(&scene).unwrap();
+        let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+        let r = store.restore(&mut fresh).unwrap();
+        assert_eq!(r.snapshot_sequence, 91);
+        assert_eq!(r.replayed, 109);
+        assert_eq!(r.dropped_tail_bytes, 6);
+        assert_eq!(fresh.sequence(), expected_seq);
+        assert_eq!(joints(&fresh), expected);
+    }
+
+    #[test]
+    fn a_snapshot_of_another_scene_is_refused_and_changes_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut set = ChainSet::new(&default_scene()).unwrap();
+        Store::open(dir.path(), JournalMode::Off)
+            .unwrap()
+            .snapshot(&set)
+            .unwrap();
+        let other = crate::scene::parse_scene(
+            "[[chain]]\nname = \"rope\"\nlinks = 40\nlink_length = 0.5\n",
+            "o.toml",
+        )
+        .unwrap();
+        let mut other_set = ChainSet::new(&other).unwrap();
+        let before = joints(&other_set);
+        let e = Store::open(dir.path(), JournalMode::Off)
+            .unwrap()
+            .restore(&mut other_set)
+            .unwrap_err();
+        assert!(e.contains("chains"), "{e}");
+        assert_eq!(joints(&other_set), before);
+        // Garbage is refused as well.
+        std::fs::write(dir.path().join("snapshot.bin"), b"garbage").unwrap();
+        assert!(
+            Store::open(dir.path(), JournalMode::Off)
+                .unwrap()
+                .restore(&mut set)
+                .is_err()
+        );
+    }
+}
