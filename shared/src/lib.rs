@@ -153,6 +153,31 @@ pub const COLLISION_SELF: u32 = 1;
 /// Collision bit: the chain avoids the scene's obstacles.
 pub const COLLISION_OBSTACLES: u32 = 2;
 
+/// The iceoryx2 configuration of one instance: the global configuration with `prefix` (a valid file-name
+/// prefix such as `tractrix_` or `kt1234_7_`). Processes see each other only with the same prefix.
+pub fn iceoryx_config(prefix: &str) -> Result<iceoryx2::config::Config, String> {
+    if prefix.is_empty()
+        || prefix.len() > 64
+        || !prefix
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-' || b == b'.')
+    {
+        return Err(format!(
+            "prefix {prefix:?}: use 1..=64 characters from [A-Za-z0-9_.-]"
+        ));
+    }
+    let mut cfg = iceoryx2::config::Config::global_config().clone();
+    use iceoryx2::prelude::SemanticString;
+    cfg.global.prefix = iceoryx2::prelude::FileName::new(prefix.as_bytes())
+        .map_err(|e| format!("prefix {prefix:?}: {e:?}"))?;
+    Ok(cfg)
+}
+
+/// The prefix from the environment ([`PREFIX_ENV`]) or the default.
+pub fn prefix_from_env() -> String {
+    std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.to_string())
+}
+
 /// A point or vector in metres (or the scene's unit). Planar chains use `z = 0`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
 #[repr(C)]

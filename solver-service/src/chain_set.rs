@@ -29,6 +29,8 @@ use std::fmt::Write as _;
 pub struct Held<T: Real, const D: usize> {
     pub chain: Chain<T, D>,
     pub initial: Chain<T, D>,
+    /// The state before the request being applied (for a rollback).
+    spare: Chain<T, D>,
     ws: ReachWorkspace<T, D>,
 }
 
@@ -78,6 +80,7 @@ where
     let chain = Chain::from_parts(p[0], links, lengths)?;
     Ok(Held {
         initial: chain.clone(),
+        spare: chain.clone(),
         chain,
         ws: ReachWorkspace::default(),
     })
@@ -147,6 +150,22 @@ impl ChainSet {
             .position(|e| e.def.name == name)
             .map(|i| i as u32)
     }
+    /// Remembers `chain`'s state (and the sequence) so that [`ChainSet::rollback`] can undo the next
+    /// request. `None` for an unknown chain. Copies into a kept buffer: no allocation.
+    pub fn backup(&mut self, chain: u32) -> Option<u64> {
+        let e = self.entries.get_mut(chain as usize)?;
+        each_form!(&mut e.geometry, g => g.spare.copy_from(&g.chain));
+        Some(self.sequence)
+    }
+
+    /// Undoes everything since [`ChainSet::backup`] returned `backup`.
+    pub fn rollback(&mut self, chain: u32, backup: Option<u64>) {
+        if let (Some(seq), Some(e)) = (backup, self.entries.get_mut(chain as usize)) {
+            each_form!(&mut e.geometry, g => std::mem::swap(&mut g.chain, &mut g.spare));
+            self.sequence = seq;
+        }
+    }
+
     /// Joints of a chain (`n_links + 1`).
     pub fn n_joints(&self, chain: u32) -> usize {
         self.entries[chain as usize].def.lengths.len() + 1

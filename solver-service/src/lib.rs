@@ -15,7 +15,9 @@
 //! assert!((rope.head() - Vector3::new(40.0, 5.0, 0.0)).norm() < 1e-12);
 //! ```
 
+pub mod batch;
 pub mod chain_set;
 pub mod kernel;
 pub mod persist;
 pub mod scene;
+pub mod service;

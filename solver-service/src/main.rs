@@ -1,8 +1,204 @@
-//! `solver-service`: placeholder entry point until the service lands (issue 3).
+//! `solver-service`: serves a scene over iceoryx2 (the default), or applies a batch of requests to it.
+//!
+//! Exit codes: 0 ok, 1 failure (including refused batch requests), 2 usage or scene error.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use solver::batch::{Format, run_batch};
+use solver::chain_set::ChainSet;
+use solver::persist::JournalMode;
+use solver::scene::{Scene, default_scene, load_scene};
+use solver::service::{Persistence, ServiceConfig, WaitMode, run};
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Parser, Debug)]
+#[command(
+    version,
+    about = "Tractrix solver service for ropes, snakes and hyper-redundant manipulators"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Cmd>,
+    #[command(flatten)]
+    serve: ServeArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Apply a file of JSON-lines requests to the scene, without IPC, and write the resulting joints.
+    Batch(BatchArgs),
+    /// Validate the scene and print its chains.
+    Check {
+        /// Scene file (default: the embedded scene).
+        #[arg(long)]
+        scene: Option<PathBuf>,
+    },
+}
+
+#[derive(Args, Debug)]
+struct ServeArgs {
+    /// Scene file (TOML). Default: the embedded scene (rope, snake, planar arm of the paper).
+    #[arg(long, global = true)]
+    scene: Option<PathBuf>,
+    /// iceoryx2 prefix isolating this instance and its clients.
+    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    prefix: String,
+    /// How to wait for requests: spin (lowest latency, one core busy), event (sleeps), hybrid (sleeps,
+    /// spins for --spin-us after each request).
+    #[arg(long, default_value = "hybrid")]
+    wait: String,
+    /// Hybrid mode: microseconds of spinning after the last request.
+    #[arg(long, default_value_t = 2000)]
+    spin_us: u64,
+    /// Pin the serving thread to this CPU core.
+    #[arg(long)]
+    pin: Option<usize>,
+    /// Directory of snapshots and the journal (default: $XDG_STATE_HOME/tractrix-solver/<prefix>).
+    #[arg(long)]
+    state_dir: Option<PathBuf>,
+    /// Keep no snapshots and no journal.
+    #[arg(long)]
+    no_persist: bool,
+    /// Journal: write (survives kill -9), fsync (survives power loss), off (snapshots only).
+    #[arg(long, default_value = "write")]
+    journal: String,
+    /// Start from the saved state (snapshot + journal) instead of the scene.
+    #[arg(long)]
+    restore: bool,
+    /// Seconds between snapshots while the state changes (0: only on shutdown and on command).
+    #[arg(long, default_value_t = 10.0)]
+    snapshot_every: f64,
+}
+
+#[derive(Args, Debug)]
+struct BatchArgs {
+    /// Requests, one JSON object per line ('-' for stdin).
+    #[arg(long)]
+    requests: PathBuf,
+    /// Output file ('-' for stdout).
+    #[arg(long, default_value = "-")]
+    out: PathBuf,
+    /// Output format: jsonl or csv.
+    #[arg(long, default_value = "jsonl")]
+    format: String,
+}
+
+fn scene(path: &Option<PathBuf>) -> Result<Scene> {
+    match path {
+        Some(p) => Ok(load_scene(p)?),
+        None => Ok(default_scene()),
+    }
+}
+
+fn state_dir(prefix: &str) -> PathBuf {
+    let base = std::env::var_os("XDG_STATE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/state")))
+        .unwrap_or_else(|| PathBuf::from("."));
+    base.join("tractrix-solver").join(prefix)
+}
+
+fn serve_config(a: &ServeArgs) -> Result<ServiceConfig> {
+    let wait = WaitMode::parse(&a.wait).map_err(anyhow::Error::msg)?;
+    let journal = match a.journal.as_str() {
+        "write" => JournalMode::Write,
+        "fsync" => JournalMode::Fsync,
+        "off" => JournalMode::Off,
+        j => bail!("--journal {j:?}: expected write, fsync or off"),
+    };
+    if !(a.snapshot_every.is_finite() && a.snapshot_every >= 0.0) {
+        bail!("--snapshot-every must be a number of seconds ≥ 0");
+    }
+    if a.restore && a.no_persist {
+        bail!("--restore needs persistence; drop --no-persist");
+    }
+    protocol::iceoryx_config(&a.prefix).map_err(anyhow::Error::msg)?;
+    Ok(ServiceConfig {
+        prefix: a.prefix.clone(),
+        wait,
+        spin_budget: Duration::from_micros(a.spin_us),
+        pin: a.pin,
+        persistence: (!a.no_persist).then(|| Persistence {
+            dir: a.state_dir.clone().unwrap_or_else(|| state_dir(&a.prefix)),
+            journal,
+            restore: a.restore,
+            snapshot_every: Duration::from_secs_f64(a.snapshot_every),
+        }),
+    })
+}
 
 fn main() {
-    eprintln!(
-        "solver-service: the iceoryx2 service is not built yet; the kernel is in the `solver` library"
-    );
-    std::process::exit(1);
+    let cli = Cli::parse();
+    let code = match real_main(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("solver-service: {e:#}");
+            if e.downcast_ref::<solver::scene::SceneError>().is_some() {
+                2
+            } else {
+                1
+            }
+        }
+    };
+    std::process::exit(code);
+}
+
+fn real_main(cli: Cli) -> Result<i32> {
+    match cli.command {
+        None => {
+            let cfg = serve_config(&cli.serve)?;
+            let set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
+            run(&cfg, set, |msg| {
+                println!("{msg}");
+                let _ = std::io::stdout().flush();
+            })
+            .map_err(anyhow::Error::msg)?;
+            Ok(0)
+        }
+        Some(Cmd::Check { scene: s }) => {
+            let sc = scene(&s.or(cli.serve.scene))?;
+            for c in &sc.chains {
+                println!(
+                    "{}: {:?}, {}D, {} links, total length {}, {:?}",
+                    c.name,
+                    c.kind,
+                    c.dims,
+                    c.lengths.len(),
+                    c.lengths.iter().sum::<f64>(),
+                    c.precision
+                );
+            }
+            Ok(0)
+        }
+        Some(Cmd::Batch(b)) => {
+            let format = match b.format.as_str() {
+                "jsonl" => Format::JsonLines,
+                "csv" => Format::Csv,
+                f => bail!("--format {f:?}: expected jsonl or csv"),
+            };
+            let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
+            let source = b.requests.display().to_string();
+            let mut input: Box<dyn std::io::BufRead> = if source == "-" {
+                Box::new(std::io::stdin().lock())
+            } else {
+                Box::new(std::io::BufReader::new(
+                    std::fs::File::open(&b.requests).with_context(|| source.clone())?,
+                ))
+            };
+            let mut out: Box<dyn Write> = if b.out.as_os_str() == "-" {
+                Box::new(std::io::BufWriter::new(std::io::stdout().lock()))
+            } else {
+                Box::new(std::io::BufWriter::new(
+                    std::fs::File::create(&b.out).with_context(|| b.out.display().to_string())?,
+                ))
+            };
+            let s = run_batch(&mut set, &mut input, &mut out, format, &source)
+                .map_err(anyhow::Error::msg)?;
+            out.flush()?;
+            eprintln!("{} requests, {} refused", s.requests, s.failed);
+            Ok(if s.failed > 0 { 1 } else { 0 })
+        }
+    }
 }

@@ -205,6 +205,19 @@ where
         })
     }
 
+    /// Makes `self` equal to `other`, reusing `self`'s buffers when the sizes match (no allocation: the
+    /// service's per-request backup).
+    pub fn copy_from(&mut self, other: &Self) {
+        if self.links.len() == other.links.len() {
+            self.origin = other.origin;
+            self.links.copy_from_slice(&other.links);
+            self.lengths.copy_from_slice(&other.lengths);
+            self.min_length = other.min_length;
+        } else {
+            *self = other.clone();
+        }
+    }
+
     /// Number of links `n`.
     pub fn n_links(&self) -> usize {
         self.links.len()

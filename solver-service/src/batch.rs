@@ -1,0 +1,179 @@
+//! Batch mode: a file of requests (JSON lines, [`protocol::text`]) applied to a scene without IPC, through
+//! the same handler as the service, with the resulting joints written as JSON lines or CSV. For scripts,
+//! regression files and debugging.
+
+use crate::chain_set::ChainSet;
+use protocol::text::{TextRequest, TextResponse};
+use protocol::{ResponseHeader, Status};
+use std::io::{BufRead, Write};
+
+/// Output format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// One [`TextResponse`] per line.
+    JsonLines,
+    /// `line,sequence,status,chain,kind,index,x,y,z`: one row per joint (`kind = joint`) and rotation
+    /// (`kind = angle`); an error row has `kind = error` and no coordinates.
+    Csv,
+}
+
+/// What a batch did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Summary {
+    pub requests: u64,
+    pub failed: u64,
+}
+
+/// Largest request line read (bytes): a full path of 4096 points in text.
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+
+/// Applies every request of `input` to `set` and writes the responses to `out`. A malformed line stops
+/// the batch with an error naming the line; a request the solver refuses is reported in the output (and
+/// counted) and the batch goes on.
+pub fn run_batch(
+    set: &mut ChainSet,
+    input: &mut dyn BufRead,
+    out: &mut dyn Write,
+    format: Format,
+    source: &str,
+) -> Result<Summary, String> {
+    let mut summary = Summary::default();
+    let mut h = ResponseHeader::default();
+    let mut line = String::new();
+    let mut number = 0usize;
+    if format == Format::Csv {
+        writeln!(out, "line,sequence,status,chain,kind,index,x,y,z").map_err(|e| e.to_string())?;
+    }
+    loop {
+        line.clear();
+        number += 1;
+        let n = std::io::Read::take(&mut *input, MAX_LINE_BYTES as u64 + 1)
+            .read_line(&mut line)
+            .map_err(|e| format!("{source}:{number}: {e}"))?;
+        if n == 0 {
+            break;
+        }
+        if n > MAX_LINE_BYTES {
+            return Err(format!(
+                "{source}:{number}: line longer than {MAX_LINE_BYTES} bytes"
+            ));
+        }
+        let text = line.trim();
+        if text.is_empty() || text.starts_with('#') {
+            continue;
+        }
+        let req: TextRequest =
+            serde_json::from_str(text).map_err(|e| format!("{source}:{number}: {e}"))?;
+        let (header, points) = req
+            .to_wire(&|name| set.find(name))
+            .map_err(|e| format!("{source}:{number}: {e}"))?;
+        set.apply(&header, &points, &mut h);
+        summary.requests += 1;
+        let ok = h.status == Status::Ok as u32;
+        if !ok {
+            summary.failed += 1;
+        }
+        let payload: Vec<_> = if ok && h.n_joints > 0 {
+            set.elements(h.chain, h.n_angles > 0)
+                .take((h.n_joints + h.n_angles) as usize)
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let w = |e: std::io::Error| e.to_string();
+        match format {
+            Format::JsonLines => {
+                let r = TextResponse::from_wire(&h, &payload);
+                serde_json::to_writer(&mut *out, &r).map_err(|e| e.to_string())?;
+                writeln!(out).map_err(w)?;
+            }
+            Format::Csv => {
+                let status = Status::from_u32(h.status).map(Status::name).unwrap_or("?");
+                if !ok {
+                    writeln!(
+                        out,
+                        "{number},{},{status},{},error,,,,",
+                        h.sequence, h.chain
+                    )
+                    .map_err(w)?;
+                }
+                for (i, p) in payload.iter().enumerate() {
+                    let (kind, index) = if i < h.n_joints as usize {
+                        ("joint", i)
+                    } else {
+                        ("angle", i - h.n_joints as usize)
+                    };
+                    writeln!(
+                        out,
+                        "{number},{},{status},{},{kind},{index},{:?},{:?},{:?}",
+                        h.sequence, h.chain, p.x, p.y, p.z
+                    )
+                    .map_err(w)?;
+                }
+            }
+        }
+    }
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::default_scene;
+
+    #[test]
+    fn a_batch_moves_reaches_and_reports_refusals() {
+        let mut set = ChainSet::new(&default_scene()).unwrap();
+        let input = r#"
+# comment lines and blank lines are skipped
+{"cmd":"move","chain":"rope","target":[40,5,0]}
+{"cmd":"reach","chain":"arm","target":[1.0,0.9],"angles":true}
+{"cmd":"reach","chain":"arm","target":[5.0,0.0]}
+{"cmd":"query","chain":"snake"}
+"#;
+        let mut out = Vec::new();
+        let s = run_batch(
+            &mut set,
+            &mut input.as_bytes(),
+            &mut out,
+            Format::JsonLines,
+            "t.jsonl",
+        )
+        .unwrap();
+        assert_eq!(
+            s,
+            Summary {
+                requests: 4,
+                failed: 1
+            }
+        );
+        let lines: Vec<TextResponse> = String::from_utf8(out)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(lines[0].status, "ok");
+        assert_eq!(lines[0].joints.len(), 41);
+        assert_eq!(lines[0].joints[40], [40.0, 5.0, 0.0]);
+        assert_eq!(lines[1].angles.len(), 10);
+        assert_eq!(lines[2].status, "unreachable");
+        assert!(lines[2].joints.is_empty());
+        assert_eq!(lines[3].sequence, 2);
+    }
+
+    #[test]
+    fn a_malformed_line_is_named() {
+        let mut set = ChainSet::new(&default_scene()).unwrap();
+        let input = "{\"cmd\":\"query\",\"chain\":0}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[1,2,3,4]}\n";
+        let e = run_batch(
+            &mut set,
+            &mut input.as_bytes(),
+            &mut Vec::new(),
+            Format::Csv,
+            "r.jsonl",
+        )
+        .unwrap_err();
+        assert!(e.starts_with("r.jsonl:2:"), "{e}");
+        assert!(e.contains("2 or 3 coordinates"), "{e}");
+    }
+}
