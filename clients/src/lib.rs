@@ -1,2 +1,6 @@
-//! Client library of the solver service (connect, hand scripts, recording, rendering).
-//! Filled in with the service and the hand controllers (issues 3 and 4); empty until then.
+//! Clients of the tractrix solver service: the connection plumbing every binary shares, and thin binaries
+//! on top (`chainctl`: one request from the shell).
+
+pub mod connection;
+
+pub use connection::{CallError, ClientWait, ConnectOptions, Connection, Reply, StateStream};

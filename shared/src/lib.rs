@@ -92,8 +92,9 @@
 //! | | request_id | 24 | uint64_t |
 //! <!-- layout-table-end -->
 //!
-//! Type names (what iceoryx2 compares when a peer opens a service; a peer of another protocol version
-//! is refused at `open` instead of reading garbage): `tractrix.v1.Vec3`, `tractrix.v1.RequestHeader`,
+//! Service names carry no version on purpose: a peer of another protocol version finds the service and
+//! is refused at `open` because the type names differ (iceoryx2's `IncompatibleRequestOrResponseType`),
+//! so it can say why instead of reading garbage or timing out. Type names: `tractrix.v1.Vec3`, `tractrix.v1.RequestHeader`,
 //! `tractrix.v1.ResponseHeader`, `tractrix.v1.StateHeader`.
 //!
 //! # Enumerations (all `uint32_t`)
@@ -118,13 +119,13 @@ pub mod text;
 /// Protocol version; it is part of every type name.
 pub const PROTOCOL_VERSION: u32 = 1;
 /// Request-response service of every command.
-pub const SERVICE_COMMAND: &str = "tractrix/v1/command";
+pub const SERVICE_COMMAND: &str = "tractrix/command";
 /// Publish-subscribe stream of accepted states.
-pub const SERVICE_STATE: &str = "tractrix/v1/state";
+pub const SERVICE_STATE: &str = "tractrix/state";
 /// Event service a client notifies after sending a request.
-pub const SERVICE_WAKE_SERVER: &str = "tractrix/v1/wake-server";
+pub const SERVICE_WAKE_SERVER: &str = "tractrix/wake-server";
 /// Event service through which the server wakes a waiting client.
-pub const SERVICE_WAKE_CLIENT: &str = "tractrix/v1/wake-client";
+pub const SERVICE_WAKE_CLIENT: &str = "tractrix/wake-client";
 /// Environment variable holding the iceoryx2 prefix that isolates one instance (and its clients).
 pub const PREFIX_ENV: &str = "TRACTRIX_IOX_PREFIX";
 /// Default iceoryx2 prefix.
@@ -165,6 +166,10 @@ pub fn iceoryx_config(prefix: &str) -> Result<iceoryx2::config::Config, String> 
         return Err(format!(
             "prefix {prefix:?}: use 1..=64 characters from [A-Za-z0-9_.-]"
         ));
+    }
+    // iceoryx2 warns on stderr that no config file exists; the defaults are what we want.
+    if std::env::var_os("IOX2_LOG_LEVEL").is_none() {
+        iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
     }
     let mut cfg = iceoryx2::config::Config::global_config().clone();
     use iceoryx2::prelude::SemanticString;

@@ -1,0 +1,217 @@
+//! `chainctl`: one request to a running solver service, printed as text or JSON.
+//!
+//! ```text
+//! chainctl describe
+//! chainctl move rope --joint head --target 40,5,0 --substeps 8
+//! chainctl path snake --path "0,-50,1 1,-50,2" --max-step 0.25
+//! chainctl reach arm --target 1.0,0.9 --angles
+//! chainctl query rope --json
+//! chainctl reset rope
+//! chainctl snapshot
+//! ```
+//!
+//! Exit codes: 0 ok, 1 the service refused the request or could not be reached, 2 usage.
+
+use anyhow::{Result, bail};
+use clap::{Parser, ValueEnum};
+use clients::{ClientWait, ConnectOptions, Connection};
+use protocol::text::{ChainRef, JointRef, TextRequest, TextResponse};
+use protocol::{Command, RequestHeader};
+use std::time::Duration;
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+enum Cmd {
+    Move,
+    Path,
+    Reach,
+    Query,
+    Reset,
+    Describe,
+    Snapshot,
+}
+
+#[derive(Parser, Debug)]
+#[command(version, about = "Send one request to a running solver-service")]
+struct Args {
+    /// What to do.
+    command: Cmd,
+    /// Chain name or index (describe without it lists every chain).
+    chain: Option<String>,
+    /// Joint: head, tail or an index.
+    #[arg(long, default_value = "head")]
+    joint: String,
+    /// Target point x,y[,z].
+    #[arg(long)]
+    target: Option<String>,
+    /// Path points, space-separated x,y[,z] groups.
+    #[arg(long)]
+    path: Option<String>,
+    /// Method: tractrix, paper or ftl (default: the chain's).
+    #[arg(long)]
+    method: Option<String>,
+    /// Precision: f64 or f32 (must match the chain's).
+    #[arg(long)]
+    precision: Option<String>,
+    /// Equal substeps per move (reach: per tractrix pass).
+    #[arg(long)]
+    substeps: Option<u32>,
+    /// Longest substep as a fraction of the shortest link.
+    #[arg(long)]
+    max_step: Option<f64>,
+    /// Reach strategy: translate-back or two-link.
+    #[arg(long)]
+    strategy: Option<String>,
+    /// Reach tolerance (fraction of the chain's length).
+    #[arg(long)]
+    tolerance: Option<f64>,
+    /// Reach iteration limit.
+    #[arg(long)]
+    max_iterations: Option<u32>,
+    /// Also return joint rotations.
+    #[arg(long)]
+    angles: bool,
+    /// Print the response as one JSON object.
+    #[arg(long)]
+    json: bool,
+    /// iceoryx2 prefix of the service.
+    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    prefix: String,
+    /// Seconds to wait for a service to appear (default: fail at once).
+    #[arg(long, default_value_t = 0.0)]
+    wait_for_service: f64,
+    /// Seconds to wait for the response.
+    #[arg(long, default_value_t = 5.0)]
+    timeout: f64,
+}
+
+fn point(s: &str) -> Result<Vec<f64>> {
+    let v: Result<Vec<f64>, _> = s.split(',').map(|x| x.trim().parse::<f64>()).collect();
+    match v {
+        Ok(v) if (2..=3).contains(&v.len()) => Ok(v),
+        _ => bail!("{s:?} is not a point x,y[,z]"),
+    }
+}
+
+fn main() {
+    let args = Args::parse();
+    std::process::exit(match run(args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("chainctl: {e:#}");
+            1
+        }
+    });
+}
+
+fn print(r: &TextResponse, json: bool) -> Result<()> {
+    if json {
+        println!("{}", serde_json::to_string(r)?);
+        return Ok(());
+    }
+    if r.status != "ok" {
+        println!("{} {}: {} ({})", r.command, r.chain, r.status, r.reason);
+        return Ok(());
+    }
+    if r.command == "snapshot" {
+        println!("snapshot written at state {}", r.sequence);
+        return Ok(());
+    }
+    println!(
+        "{} chain {} {:?}: ok, state {}, {} substeps, {} iterations, residual {:.3e}, solved in {} ns",
+        r.command, r.chain, r.name, r.sequence, r.substeps, r.iterations, r.residual, r.solve_ns
+    );
+    for (i, j) in r.joints.iter().enumerate() {
+        println!(
+            "  joint {i:>5}: {:>14.9} {:>14.9} {:>14.9}",
+            j[0], j[1], j[2]
+        );
+    }
+    for (i, a) in r.angles.iter().enumerate() {
+        println!(
+            "  rot   {i:>5}: {:>14.9} {:>14.9} {:>14.9}",
+            a[0], a[1], a[2]
+        );
+    }
+    Ok(())
+}
+
+fn run(a: Args) -> Result<i32> {
+    if !(a.timeout.is_finite()
+        && a.timeout > 0.0
+        && a.wait_for_service.is_finite()
+        && a.wait_for_service >= 0.0)
+    {
+        bail!("--timeout must be positive and --wait-for-service non-negative");
+    }
+    let mut conn = Connection::connect(ConnectOptions {
+        prefix: a.prefix.clone(),
+        wait: ClientWait::Spin,
+        connect_timeout: Duration::from_secs_f64(a.wait_for_service),
+        call_timeout: Duration::from_secs_f64(a.timeout),
+    })?;
+    if a.command == Cmd::Describe && a.chain.is_none() {
+        let first = conn.call(RequestHeader::new(Command::Describe, 0), &[])?;
+        let n = first.header.n_chains;
+        for c in 0..n {
+            let r = conn.call(RequestHeader::new(Command::Describe, c), &[])?;
+            let h = &r.header;
+            if a.json {
+                println!(
+                    "{}",
+                    serde_json::to_string(&TextResponse::from_wire(h, &r.payload))?
+                );
+            } else {
+                println!(
+                    "{c}: {:?} {} {}D, {} links, length {}, thickness {}, precision {}, method {}",
+                    h.name_str(),
+                    if h.kind == 1 { "fixed-base" } else { "free" },
+                    h.dims,
+                    h.n_links,
+                    h.total_length,
+                    h.thickness,
+                    if h.precision == 2 { "f32" } else { "f64" },
+                    protocol::text::method_name(h.method)
+                );
+            }
+        }
+        return Ok(0);
+    }
+    let chain = match a.chain.as_deref() {
+        None if a.command == Cmd::Snapshot => None,
+        None => bail!("which chain? (chainctl describe lists them)"),
+        Some(s) => Some(match s.parse::<u32>() {
+            Ok(i) => ChainRef::Index(i),
+            Err(_) => ChainRef::Index(
+                conn.find_chain(s)?
+                    .ok_or_else(|| anyhow::anyhow!("the service has no chain {s:?}"))?,
+            ),
+        }),
+    };
+    let req = TextRequest {
+        cmd: format!("{:?}", a.command).to_lowercase(),
+        chain,
+        joint: Some(match a.joint.parse::<u32>() {
+            Ok(i) => JointRef::Index(i),
+            Err(_) => JointRef::Named(a.joint.clone()),
+        }),
+        target: a.target.as_deref().map(point).transpose()?,
+        path: a
+            .path
+            .as_deref()
+            .map(|p| p.split_whitespace().map(point).collect::<Result<Vec<_>>>())
+            .transpose()?,
+        method: a.method,
+        precision: a.precision,
+        substeps: a.substeps,
+        max_step: a.max_step,
+        strategy: a.strategy,
+        tolerance: a.tolerance,
+        max_iterations: a.max_iterations,
+        angles: a.angles,
+        request_id: None,
+    };
+    let (header, points) = req.to_wire(&|_| None).map_err(anyhow::Error::msg)?;
+    let r = conn.call(header, &points)?;
+    print(&TextResponse::from_wire(&r.header, &r.payload), a.json)?;
+    Ok(if r.is_ok() { 0 } else { 1 })
+}

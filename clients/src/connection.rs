@@ -1,0 +1,324 @@
+//! A connection to a running solver service: one request-response client port, optionally the wake-up
+//! events, and the state stream. Every wait has a deadline.
+
+use iceoryx2::port::client::Client;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use iceoryx2::service::builder::request_response::RequestResponseOpenError;
+use protocol::{
+    Command, RequestHeader, ResponseHeader, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT,
+    SERVICE_WAKE_SERVER, StateHeader, Vec3,
+};
+use std::time::{Duration, Instant};
+
+type Svc = ipc::Service;
+
+/// How a client waits for its response.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ClientWait {
+    /// Busy-poll (lowest latency; costs a core while waiting).
+    Spin,
+    /// Sleep on a listener until the service wakes it.
+    Event,
+    /// Spin for the budget, then sleep.
+    Hybrid(Duration),
+}
+
+impl ClientWait {
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "spin" => Ok(ClientWait::Spin),
+            "event" => Ok(ClientWait::Event),
+            "hybrid" => Ok(ClientWait::Hybrid(Duration::from_micros(50))),
+            _ => Err(format!("wait mode {s:?}: expected spin, event or hybrid")),
+        }
+    }
+}
+
+/// Connection options.
+#[derive(Debug, Clone)]
+pub struct ConnectOptions {
+    pub prefix: String,
+    pub wait: ClientWait,
+    /// How long to wait for the service to appear (0: fail at once if none runs).
+    pub connect_timeout: Duration,
+    /// How long to wait for each response.
+    pub call_timeout: Duration,
+}
+
+impl Default for ConnectOptions {
+    fn default() -> Self {
+        ConnectOptions {
+            prefix: protocol::prefix_from_env(),
+            wait: ClientWait::Hybrid(Duration::from_micros(50)),
+            connect_timeout: Duration::ZERO,
+            call_timeout: Duration::from_secs(5),
+        }
+    }
+}
+
+/// Why a call failed (the service's refusals are not errors: they come back as a status).
+#[derive(Debug, thiserror::Error)]
+pub enum CallError {
+    #[error(
+        "no solver-service runs with prefix {prefix:?} (start one: cargo run --release -p solver-service)"
+    )]
+    NoService { prefix: String },
+    #[error(
+        "the service with prefix {prefix:?} speaks another protocol version (this client: v{})",
+        protocol::PROTOCOL_VERSION
+    )]
+    VersionMismatch { prefix: String },
+    #[error("no response within {0:?}")]
+    Timeout(Duration),
+    #[error("the service went away before answering")]
+    Disconnected,
+    #[error("iceoryx2: {0}")]
+    Ipc(String),
+}
+
+fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> CallError {
+    move |e| CallError::Ipc(format!("{what}: {e:?}"))
+}
+
+/// A response copied out of shared memory.
+#[derive(Debug, Clone)]
+pub struct Reply {
+    pub header: ResponseHeader,
+    /// `n_joints` joints, then `n_angles` rotations.
+    pub payload: Vec<Vec3>,
+}
+
+impl Reply {
+    pub fn joints(&self) -> &[Vec3] {
+        &self.payload[..(self.header.n_joints as usize).min(self.payload.len())]
+    }
+    pub fn angles(&self) -> &[Vec3] {
+        &self.payload[(self.header.n_joints as usize).min(self.payload.len())..]
+    }
+    pub fn is_ok(&self) -> bool {
+        self.header.status == protocol::Status::Ok as u32
+    }
+}
+
+/// A connected client.
+pub struct Connection {
+    node: Node<Svc>,
+    client: Client<Svc, [Vec3], RequestHeader, [Vec3], ResponseHeader>,
+    wake_server: Option<Notifier<Svc>>,
+    listener: Option<Listener<Svc>>,
+    opts: ConnectOptions,
+    next_id: u64,
+}
+
+impl std::fmt::Debug for Connection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Connection")
+            .field("prefix", &self.opts.prefix)
+            .finish()
+    }
+}
+
+impl Connection {
+    /// Connects, waiting up to `opts.connect_timeout` for the service to appear.
+    pub fn connect(opts: ConnectOptions) -> Result<Self, CallError> {
+        let cfg = protocol::iceoryx_config(&opts.prefix).map_err(CallError::Ipc)?;
+        let node = NodeBuilder::new()
+            .config(&cfg)
+            .create::<Svc>()
+            .map_err(ipc("node"))?;
+        let deadline = Instant::now() + opts.connect_timeout;
+        let name =
+            |s: &str| -> Result<ServiceName, CallError> { s.try_into().map_err(ipc("name")) };
+        let command = loop {
+            match node
+                .service_builder(&name(SERVICE_COMMAND)?)
+                .request_response::<[Vec3], [Vec3]>()
+                .request_user_header::<RequestHeader>()
+                .response_user_header::<ResponseHeader>()
+                .open()
+            {
+                Ok(s) => break s,
+                Err(RequestResponseOpenError::DoesNotExist) if Instant::now() < deadline => {
+                    std::thread::sleep(Duration::from_millis(20));
+                }
+                Err(RequestResponseOpenError::DoesNotExist) => {
+                    return Err(CallError::NoService {
+                        prefix: opts.prefix.clone(),
+                    });
+                }
+                Err(RequestResponseOpenError::IncompatibleRequestOrResponseType) => {
+                    return Err(CallError::VersionMismatch {
+                        prefix: opts.prefix.clone(),
+                    });
+                }
+                Err(e) => return Err(ipc("open the command service")(e)),
+            }
+        };
+        let client = command
+            .client_builder()
+            .initial_max_slice_len(protocol::MAX_PATH_POINTS as usize)
+            .create()
+            .map_err(ipc("client port (too many clients?)"))?;
+        let (wake_server, listener) = match opts.wait {
+            ClientWait::Spin => (None, None),
+            _ => {
+                let ws = node
+                    .service_builder(&name(SERVICE_WAKE_SERVER)?)
+                    .event()
+                    .open()
+                    .map_err(ipc("wake-server event"))?;
+                let wc = node
+                    .service_builder(&name(SERVICE_WAKE_CLIENT)?)
+                    .event()
+                    .open()
+                    .map_err(ipc("wake-client event"))?;
+                (
+                    Some(ws.notifier_builder().create().map_err(ipc("notifier"))?),
+                    Some(wc.listener_builder().create().map_err(ipc("listener"))?),
+                )
+            }
+        };
+        Ok(Connection {
+            node,
+            client,
+            wake_server,
+            listener,
+            opts,
+            next_id: 1,
+        })
+    }
+
+    /// Sends one request and hands the response, in shared memory, to `read`: no copy. `header.
+    /// request_id` is set to a fresh number unless it is non-zero.
+    pub fn call_with<R>(
+        &mut self,
+        mut header: RequestHeader,
+        points: &[Vec3],
+        read: impl FnOnce(&ResponseHeader, &[Vec3]) -> R,
+    ) -> Result<R, CallError> {
+        if header.request_id == 0 {
+            header.request_id = self.next_id;
+            self.next_id += 1;
+        }
+        if let Some(l) = &self.listener {
+            header.set_listener_id(l.id().value());
+            // Drop wake-ups left from an earlier call that timed out.
+            let _ = l.try_wait(|_| {});
+        }
+        let mut req = self
+            .client
+            .loan_slice_uninit(points.len())
+            .map_err(ipc("loan a request"))?
+            .write_from_slice(points);
+        *req.user_header_mut() = header;
+        let pending = req.send().map_err(ipc("send"))?;
+        if pending.number_of_server_connections() == 0 {
+            return Err(CallError::NoService {
+                prefix: self.opts.prefix.clone(),
+            });
+        }
+        if let Some(n) = &self.wake_server {
+            n.notify().map_err(ipc("notify"))?;
+        }
+        let start = Instant::now();
+        loop {
+            if let Some(r) = pending.receive().map_err(ipc("receive"))? {
+                return Ok(read(r.user_header(), r.payload()));
+            }
+            let waited = start.elapsed();
+            if waited >= self.opts.call_timeout {
+                return Err(CallError::Timeout(self.opts.call_timeout));
+            }
+            if !pending.is_connected() {
+                // The response may have landed between `receive` and `is_connected`.
+                if let Some(r) = pending.receive().map_err(ipc("receive"))? {
+                    return Ok(read(r.user_header(), r.payload()));
+                }
+                return Err(CallError::Disconnected);
+            }
+            match (self.opts.wait, &self.listener) {
+                (ClientWait::Hybrid(budget), Some(l)) if waited >= budget => {
+                    let _ = l.timed_wait(|_| {}, Duration::from_millis(5));
+                }
+                (ClientWait::Event, Some(l)) => {
+                    let _ = l.timed_wait(|_| {}, Duration::from_millis(5));
+                }
+                _ => std::hint::spin_loop(),
+            }
+        }
+    }
+
+    /// Sends one request and copies the response out.
+    pub fn call(&mut self, header: RequestHeader, points: &[Vec3]) -> Result<Reply, CallError> {
+        self.call_with(header, points, |h, p| Reply {
+            header: *h,
+            payload: p.to_vec(),
+        })
+    }
+
+    /// The handle of a chain by name (one describe per chain until found).
+    pub fn find_chain(&mut self, name: &str) -> Result<Option<u32>, CallError> {
+        let first = self.call(RequestHeader::new(Command::Describe, 0), &[])?;
+        for c in 0..first.header.n_chains {
+            let r = if c == 0 {
+                first.clone()
+            } else {
+                self.call(RequestHeader::new(Command::Describe, c), &[])?
+            };
+            if r.header.name_str() == name {
+                return Ok(Some(c));
+            }
+        }
+        Ok(None)
+    }
+
+    /// Subscribes to the state stream.
+    pub fn subscribe(&self) -> Result<StateStream, CallError> {
+        let svc = self
+            .node
+            .service_builder(&SERVICE_STATE.try_into().map_err(ipc("name"))?)
+            .publish_subscribe::<[Vec3]>()
+            .user_header::<StateHeader>()
+            .open()
+            .map_err(ipc("open the state stream"))?;
+        Ok(StateStream {
+            subscriber: svc
+                .subscriber_builder()
+                .create()
+                .map_err(ipc("subscriber"))?,
+        })
+    }
+
+    /// The node, for callers that wait on it (signals).
+    pub fn node(&self) -> &Node<Svc> {
+        &self.node
+    }
+}
+
+/// The state stream: every accepted change, in order.
+pub struct StateStream {
+    subscriber: Subscriber<Svc, [Vec3], StateHeader>,
+}
+
+impl std::fmt::Debug for StateStream {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("StateStream")
+    }
+}
+
+impl StateStream {
+    /// The next sample, if one is waiting, handed to `read` in place.
+    pub fn try_next<R>(
+        &self,
+        read: impl FnOnce(&StateHeader, &[Vec3]) -> R,
+    ) -> Result<Option<R>, CallError> {
+        Ok(self
+            .subscriber
+            .receive()
+            .map_err(ipc("receive a state"))?
+            .map(|s| read(s.user_header(), s.payload())))
+    }
+}
