@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Runs every test of the workspace. The test profile is optimised (Cargo.toml), so the long property and
-# stability tests (10^6 moves, 10^6 links) take seconds.
+# The project's test command (README): builds the binaries the end-to-end tests start, then runs every
+# test of the workspace.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+cargo build --workspace --bins --profile test
 cargo test --workspace "$@"

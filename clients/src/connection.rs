@@ -46,6 +46,9 @@ pub struct ConnectOptions {
     pub connect_timeout: Duration,
     /// How long to wait for each response.
     pub call_timeout: Duration,
+    /// Largest request (points) this client can send; the service accepts up to
+    /// [`protocol::MAX_PATH_POINTS`]. Shared memory for it is reserved at connect time.
+    pub max_request_points: usize,
 }
 
 impl Default for ConnectOptions {
@@ -55,6 +58,7 @@ impl Default for ConnectOptions {
             wait: ClientWait::Hybrid(Duration::from_micros(50)),
             connect_timeout: Duration::ZERO,
             call_timeout: Duration::from_secs(5),
+            max_request_points: protocol::MAX_PATH_POINTS as usize,
         }
     }
 }
@@ -159,7 +163,7 @@ impl Connection {
         };
         let client = command
             .client_builder()
-            .initial_max_slice_len(protocol::MAX_PATH_POINTS as usize)
+            .initial_max_slice_len(opts.max_request_points.max(1))
             .create()
             .map_err(ipc("client port (too many clients?)"))?;
         let (wake_server, listener) = match opts.wait {

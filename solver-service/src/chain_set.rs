@@ -483,9 +483,12 @@ impl ChainSet {
     /// The response payload of a chain: its joints (tail first), then, with `angles`, one rotation vector
     /// per joint (joint 0: from +x to link 1; joint i: from link i to link i+1). Written in order, with no
     /// intermediate buffer.
+    /// An unknown chain yields nothing (an error response has no elements).
     pub fn elements(&self, chain: u32, angles: bool) -> Elements<'_> {
-        let g = &self.entries[chain as usize].geometry;
-        match g {
+        let Some(e) = self.entries.get(chain as usize) else {
+            return Elements::Empty;
+        };
+        match &e.geometry {
             Geometry::Planar64(h) => Elements::Planar64(ChainElements::new(&h.chain, angles)),
             Geometry::Spatial64(h) => Elements::Spatial64(ChainElements::new(&h.chain, angles)),
             Geometry::Planar32(h) => Elements::Planar32(ChainElements::new(&h.chain, angles)),
@@ -662,6 +665,7 @@ where
 /// The payload of a response, in any of the four chain forms.
 #[derive(Debug)]
 pub enum Elements<'a> {
+    Empty,
     Planar64(ChainElements<'a, f64, 2>),
     Spatial64(ChainElements<'a, f64, 3>),
     Planar32(ChainElements<'a, f32, 2>),
@@ -673,6 +677,7 @@ impl Iterator for Elements<'_> {
     #[inline]
     fn next(&mut self) -> Option<Vec3> {
         match self {
+            Elements::Empty => None,
             Elements::Planar64(e) => e.next(),
             Elements::Spatial64(e) => e.next(),
             Elements::Planar32(e) => e.next(),

@@ -148,6 +148,7 @@ fn run(a: Args) -> Result<i32> {
         wait: ClientWait::Spin,
         connect_timeout: Duration::from_secs_f64(a.wait_for_service),
         call_timeout: Duration::from_secs_f64(a.timeout),
+        ..ConnectOptions::default()
     })?;
     if a.command == Cmd::Describe && a.chain.is_none() {
         let first = conn.call(RequestHeader::new(Command::Describe, 0), &[])?;

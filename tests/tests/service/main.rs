@@ -1,0 +1,621 @@
+//! End-to-end tests of the solver service: the real binary as a process with its own iceoryx2 prefix,
+//! spoken to through the protocol.
+//!
+//! * every command answers (`every_command_answers`);
+//! * every error status, with the state unchanged afterwards (`every_error_leaves_the_state_unchanged`);
+//! * the state stream's sequence numbers (`the_state_stream_has_every_change_in_order`);
+//! * `kill -9` then `--restore`, bit for bit (`kill_9_then_restore_is_bit_for_bit`);
+//! * SIGTERM shuts down cleanly and keeps the state (`sigterm_shuts_down_cleanly_and_keeps_the_state`);
+//! * the event wait mode (`event_mode_serves_sleeping_clients`);
+//! * batch mode and chainctl from the shell (`batch_mode_writes_csv`, `chainctl_fails_fast_without_a_service`).
+
+use clients::{ClientWait, Connection};
+use integration_tests::{Service, bin, unique_prefix};
+use protocol::{
+    Command, FLAG_ANGLES, JOINT_HEAD, Precision, RequestHeader, Status, SubstepMode, Vec3,
+    WireMethod, WireStrategy,
+};
+use std::time::{Duration, Instant};
+
+fn req(cmd: Command, chain: u32) -> RequestHeader {
+    RequestHeader::new(cmd, chain)
+}
+
+/// Every chain's joints as bits, and the sequence number.
+fn state(c: &mut Connection) -> (Vec<u64>, u64) {
+    let mut bits = Vec::new();
+    let mut seq = 0;
+    for chain in 0..3 {
+        let r = c.call(req(Command::Query, chain), &[]).unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        seq = r.header.sequence;
+        bits.extend(
+            r.joints()
+                .iter()
+                .flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]),
+        );
+    }
+    (bits, seq)
+}
+
+fn dist(a: Vec3, b: Vec3) -> f64 {
+    ((a.x - b.x).powi(2) + (a.y - b.y).powi(2) + (a.z - b.z).powi(2)).sqrt()
+}
+
+fn no_persist() -> Vec<&'static str> {
+    vec!["--no-persist"]
+}
+
+#[test]
+fn every_command_answers() {
+    let svc = Service::start(&unique_prefix(), &no_persist());
+    let mut c = svc.connect();
+    // describe
+    let names: Vec<String> = (0..3)
+        .map(|i| {
+            let r = c.call(req(Command::Describe, i), &[]).unwrap();
+            assert!(r.is_ok());
+            assert_eq!(r.header.n_chains, 3);
+            r.header.name_str()
+        })
+        .collect();
+    assert_eq!(names, ["rope", "snake", "arm"]);
+    assert_eq!(c.find_chain("arm").unwrap(), Some(2));
+
+    // move the head, the tail and an interior joint; lengths are kept and the joint lands on target
+    for (joint, target) in [
+        (JOINT_HEAD, Vec3::new(35.0, 8.0, 2.0)),
+        (0, Vec3::new(-3.0, 1.0, -1.0)),
+        (20, Vec3::new(15.0, 4.0, 6.0)),
+    ] {
+        let mut h = req(Command::Move, 0);
+        h.joint = joint;
+        h.substep_mode = SubstepMode::MaxStep as u32;
+        h.max_step = 0.25;
+        let r = c.call(h, &[target]).unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        let j = r.joints();
+        assert_eq!(j.len(), 41);
+        let idx = if joint == JOINT_HEAD {
+            40
+        } else {
+            joint as usize
+        };
+        assert!(dist(j[idx], target) < 1e-12);
+        for w in j.windows(2) {
+            assert!((dist(w[0], w[1]) - 1.0).abs() < 1e-12);
+        }
+        assert!(r.header.substeps > 1);
+    }
+
+    // a path, with follow-the-leader
+    let mut h = req(Command::Path, 1);
+    h.method = WireMethod::FollowTheLeader as u32;
+    let path: Vec<Vec3> = (0..50)
+        .map(|i| {
+            let t = i as f64 * 0.1;
+            Vec3::new(3.0 * t.sin(), -50.0 - t, 3.0 * t.cos() - 3.0)
+        })
+        .collect();
+    let r = c.call(h, &path).unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    assert!(dist(r.joints()[40], path[49]) < 1e-12);
+
+    // reach with joint rotations
+    let mut h = req(Command::Reach, 2);
+    h.flags = FLAG_ANGLES;
+    h.strategy = WireStrategy::TractrixTwoLink as u32;
+    let target = Vec3::new(0.9, 1.1, 0.0);
+    let r = c.call(h, &[target]).unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    assert_eq!((r.joints().len(), r.angles().len()), (11, 10));
+    assert_eq!(r.joints()[0], Vec3::default(), "the base never moves");
+    assert!(dist(r.joints()[10], target) <= 1e-9 * 2.0);
+    assert!(r.header.iterations >= 1);
+    // the rotations rebuild the joints: planar, accumulated angles along unit x
+    let mut angle = 0.0;
+    let mut p = Vec3::default();
+    for (k, a) in r.angles().iter().enumerate() {
+        assert_eq!((a.x, a.y), (0.0, 0.0));
+        angle += a.z;
+        p = Vec3::new(p.x + 0.2 * angle.cos(), p.y + 0.2 * angle.sin(), 0.0);
+        assert!(dist(p, r.joints()[k + 1]) < 1e-9);
+    }
+
+    // reset puts the rope back; query sees it
+    let r = c.call(req(Command::Reset, 0), &[]).unwrap();
+    assert!(r.is_ok());
+    let q = c.call(req(Command::Query, 0), &[]).unwrap();
+    for (i, j) in q.joints().iter().enumerate() {
+        assert_eq!(*j, Vec3::new(i as f64, 0.0, 0.0));
+    }
+    // snapshot without persistence is an honest error
+    let r = c.call(req(Command::Snapshot, 0), &[]).unwrap();
+    assert_eq!(r.header.status, Status::PersistenceFailed as u32);
+    assert!(r.header.reason_str().contains("persistence is off"));
+}
+
+#[test]
+fn every_error_leaves_the_state_unchanged() {
+    let svc = Service::start(&unique_prefix(), &no_persist());
+    let mut c = svc.connect();
+    // Move something first so "unchanged" is not the scene state.
+    let r = c
+        .call(req(Command::Move, 0), &[Vec3::new(30.0, 10.0, 0.0)])
+        .unwrap();
+    assert!(r.is_ok());
+    let before = state(&mut c);
+    let p = |x, y, z| vec![Vec3::new(x, y, z)];
+    let with = |cmd, chain, f: &dyn Fn(&mut RequestHeader)| {
+        let mut h = req(cmd, chain);
+        f(&mut h);
+        h
+    };
+    use Command::*;
+    let cases: Vec<(&str, RequestHeader, Vec<Vec3>, Status, &str)> = vec![
+        (
+            "unknown command",
+            with(Move, 0, &|h| h.command = 99),
+            p(1., 0., 0.),
+            Status::UnknownCommand,
+            "command 99",
+        ),
+        (
+            "zero command",
+            with(Move, 0, &|h| h.command = 0),
+            p(1., 0., 0.),
+            Status::UnknownCommand,
+            "command 0",
+        ),
+        (
+            "unknown chain",
+            req(Move, 7),
+            p(1., 0., 0.),
+            Status::UnknownChain,
+            "chain 7",
+        ),
+        (
+            "joint past the head",
+            with(Move, 0, &|h| h.joint = 41),
+            p(1., 0., 0.),
+            Status::JointOutOfRange,
+            "joint 41",
+        ),
+        (
+            "NaN target",
+            req(Move, 0),
+            p(f64::NAN, 0., 0.),
+            Status::NonFinite,
+            "not finite",
+        ),
+        (
+            "infinite target",
+            req(Move, 0),
+            p(0., f64::INFINITY, 0.),
+            Status::NonFinite,
+            "not finite",
+        ),
+        (
+            "-inf in a path",
+            req(Path, 1),
+            vec![Vec3::new(0., 0., 0.), Vec3::new(f64::NEG_INFINITY, 0., 0.)],
+            Status::NonFinite,
+            "point 1",
+        ),
+        (
+            "unknown method",
+            with(Move, 0, &|h| h.method = 9),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "method 9",
+        ),
+        (
+            "f32 on an f64 chain",
+            with(Move, 0, &|h| h.precision = Precision::F32 as u32),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "f64",
+        ),
+        (
+            "zero substeps",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::Fixed as u32;
+                h.substeps = 0
+            }),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "substeps",
+        ),
+        (
+            "negative max step",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = -1.0
+            }),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "max_step",
+        ),
+        (
+            "NaN max step",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = f64::NAN
+            }),
+            p(1., 0., 0.),
+            Status::NonFinite,
+            "max_step",
+        ),
+        (
+            "unknown substep mode",
+            with(Move, 0, &|h| h.substep_mode = 3),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "substep_mode",
+        ),
+        (
+            "unknown flag",
+            with(Query, 0, &|h| h.flags = 6),
+            vec![],
+            Status::BadOption,
+            "flag",
+        ),
+        (
+            "reserved field",
+            with(Query, 0, &|h| h.reserved = [0, 1]),
+            vec![],
+            Status::BadOption,
+            "reserved",
+        ),
+        (
+            "move without a target",
+            req(Move, 0),
+            vec![],
+            Status::BadPointCount,
+            "got 0",
+        ),
+        (
+            "empty path",
+            req(Path, 0),
+            vec![],
+            Status::BadPointCount,
+            "got 0",
+        ),
+        (
+            "oversized path",
+            req(Path, 0),
+            vec![Vec3::new(1., 1., 1.); 4097],
+            Status::BadPointCount,
+            "got 4097",
+        ),
+        (
+            "query with a point",
+            req(Query, 0),
+            p(1., 0., 0.),
+            Status::BadPointCount,
+            "got 1",
+        ),
+        (
+            "too many substeps",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = 1e-9
+            }),
+            p(1e6, 0., 0.),
+            Status::TooManySubsteps,
+            "substeps",
+        ),
+        (
+            "1e308 target",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = 0.5
+            }),
+            p(1e308, 0., 0.),
+            Status::TooManySubsteps,
+            "substeps",
+        ),
+        (
+            "reach a free chain",
+            req(Reach, 0),
+            p(1., 0., 0.),
+            Status::WrongChainKind,
+            "free",
+        ),
+        (
+            "move a fixed-base chain",
+            req(Move, 2),
+            p(1., 0., 0.),
+            Status::WrongChainKind,
+            "fixed base",
+        ),
+        (
+            "off the plane",
+            req(Reach, 2),
+            p(1., 0., 0.5),
+            Status::OffPlane,
+            "planar",
+        ),
+        (
+            "unreachable",
+            req(Reach, 2),
+            p(3., 0., 0.),
+            Status::Unreachable,
+            "nearest",
+        ),
+        (
+            "not converged",
+            with(Reach, 2, &|h| {
+                h.max_iterations = 1;
+                h.tolerance = 1e-12
+            }),
+            p(-1.0, 1.2, 0.),
+            Status::NotConverged,
+            "1 iterations",
+        ),
+        (
+            "zero-ish tolerance",
+            with(Reach, 2, &|h| h.tolerance = -1e-3),
+            p(1., 1., 0.),
+            Status::BadOption,
+            "tolerance",
+        ),
+        (
+            "NaN tolerance",
+            with(Reach, 2, &|h| h.tolerance = f64::NAN),
+            p(1., 1., 0.),
+            Status::NonFinite,
+            "tolerance",
+        ),
+        (
+            "unknown strategy",
+            with(Reach, 2, &|h| h.strategy = 5),
+            p(1., 1., 0.),
+            Status::BadOption,
+            "strategy",
+        ),
+        (
+            "huge iteration limit",
+            with(Reach, 2, &|h| h.max_iterations = 1 << 30),
+            p(1., 1., 0.),
+            Status::BadOption,
+            "max_iterations",
+        ),
+        (
+            "substep mode on reach",
+            with(Reach, 2, &|h| h.substep_mode = 1),
+            p(1., 1., 0.),
+            Status::BadOption,
+            "substep_mode",
+        ),
+    ];
+    let mut seen = std::collections::HashSet::new();
+    for (what, h, points, status, fragment) in cases {
+        let r = c.call(h, &points).unwrap();
+        assert_eq!(
+            Status::from_u32(r.header.status),
+            Some(status),
+            "{what}: got {:?} ({})",
+            Status::from_u32(r.header.status),
+            r.header.reason_str()
+        );
+        assert!(
+            r.header.reason_str().contains(fragment),
+            "{what}: reason {:?} should mention {fragment:?}",
+            r.header.reason_str()
+        );
+        assert!(r.payload.is_empty(), "{what}: an error carries no joints");
+        assert_eq!(state(&mut c), before, "{what} changed the state");
+        seen.insert(status as u32);
+    }
+    // Every error status a request can cause is covered (PersistenceFailed and Internal need faults).
+    for s in Status::ALL {
+        if !matches!(s, Status::Ok | Status::PersistenceFailed | Status::Internal) {
+            assert!(seen.contains(&(s as u32)), "no case for {s:?}");
+        }
+    }
+}
+
+#[test]
+fn the_state_stream_has_every_change_in_order() {
+    let svc = Service::start(&unique_prefix(), &no_persist());
+    let mut c = svc.connect();
+    let stream = c.subscribe().unwrap();
+    let mut acked = Vec::new();
+    for i in 0..40u32 {
+        let t = i as f64 * 0.2;
+        let r = if i % 10 == 7 {
+            // a refusal publishes nothing
+            c.call(req(Command::Move, 0), &[Vec3::new(f64::NAN, 0.0, 0.0)])
+                .unwrap()
+        } else if i % 2 == 0 {
+            c.call(
+                req(Command::Move, 0),
+                &[Vec3::new(40.0 + t.sin(), t.cos(), 0.0)],
+            )
+            .unwrap()
+        } else {
+            c.call(req(Command::Reach, 2), &[Vec3::new(t.cos(), t.sin(), 0.0)])
+                .unwrap()
+        };
+        if r.is_ok() {
+            acked.push((r.header.sequence, r.header.chain, r.joints().to_vec()));
+        }
+    }
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut got = Vec::new();
+    while got.len() < acked.len() {
+        assert!(
+            Instant::now() < deadline,
+            "only {} of {} states arrived",
+            got.len(),
+            acked.len()
+        );
+        match stream
+            .try_next(|h, p| (h.sequence, h.chain, p.to_vec()))
+            .unwrap()
+        {
+            Some(s) => got.push(s),
+            None => std::thread::sleep(Duration::from_millis(1)),
+        }
+    }
+    assert_eq!(
+        got, acked,
+        "the stream carries exactly the acknowledged states, in order"
+    );
+    let seqs: Vec<u64> = got.iter().map(|g| g.0).collect();
+    assert_eq!(seqs, (1..=acked.len() as u64).collect::<Vec<_>>());
+}
+
+#[test]
+fn kill_9_then_restore_is_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let prefix = unique_prefix();
+    let args = ["--state-dir", d, "--snapshot-every", "0"];
+    let svc = Service::start(&prefix, &args);
+    let mut c = svc.connect();
+    for i in 0..300u32 {
+        let t = i as f64 * 0.05;
+        let r = match i % 3 {
+            0 => c.call(
+                req(Command::Move, 0),
+                &[Vec3::new(40.0 * t.cos(), 40.0 * t.sin(), t)],
+            ),
+            1 => c.call(
+                req(Command::Path, 1),
+                &[Vec3::new(t, -50.0, 0.5), Vec3::new(t, -49.0, 1.0)],
+            ),
+            _ => c.call(
+                req(Command::Reach, 2),
+                &[Vec3::new(1.5 * t.cos(), 1.5 * t.sin(), 0.0)],
+            ),
+        }
+        .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        if i == 120 {
+            let s = c.call(req(Command::Snapshot, 0), &[]).unwrap();
+            assert!(s.is_ok(), "{}", s.header.reason_str());
+        }
+    }
+    let before = state(&mut c);
+    assert_eq!(before.1, 300);
+    drop(c);
+    svc.kill9();
+
+    let svc = Service::start(&prefix, &["--state-dir", d, "--restore"]);
+    assert!(
+        svc.ready_line.contains("restored state 300"),
+        "{}",
+        svc.ready_line
+    );
+    assert!(
+        svc.ready_line
+            .contains("snapshot 121 + 179 journal records"),
+        "{}",
+        svc.ready_line
+    );
+    let mut c = svc.connect();
+    assert_eq!(state(&mut c), before, "the restored state differs");
+    // and it goes on from there
+    let r = c
+        .call(req(Command::Move, 0), &[Vec3::new(1.0, 2.0, 3.0)])
+        .unwrap();
+    assert_eq!(r.header.sequence, 301);
+}
+
+#[test]
+fn sigterm_shuts_down_cleanly_and_keeps_the_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let prefix = unique_prefix();
+    let mut svc = Service::start(
+        &prefix,
+        &["--state-dir", d, "--journal", "off", "--wait", "event"],
+    );
+    let mut c = svc.connect_with(ClientWait::Event);
+    let r = c
+        .call(req(Command::Move, 1), &[Vec3::new(5.0, -45.0, 3.0)])
+        .unwrap();
+    assert!(r.is_ok());
+    let before = state(&mut c);
+    drop(c);
+    svc.signal("TERM");
+    let status = svc.wait_exit(Duration::from_secs(10));
+    assert!(status.success(), "{status:?}");
+    // Without a journal, the shutdown snapshot alone carries the state.
+    let svc = Service::start(
+        &prefix,
+        &["--state-dir", d, "--journal", "off", "--restore"],
+    );
+    let mut c = svc.connect();
+    assert_eq!(state(&mut c), before);
+    // SIGINT too
+    let mut svc = svc;
+    drop(c);
+    svc.signal("INT");
+    assert!(svc.wait_exit(Duration::from_secs(10)).success());
+    // State files are the owner's alone.
+    use std::os::unix::fs::PermissionsExt;
+    for f in ["snapshot.bin"] {
+        let mode = std::fs::metadata(dir.path().join(f))
+            .unwrap()
+            .permissions()
+            .mode();
+        assert_eq!(mode & 0o077, 0, "{f} is readable by others: {mode:o}");
+    }
+}
+
+#[test]
+fn event_mode_serves_sleeping_clients() {
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let mut a = svc.connect_with(ClientWait::Event);
+    let mut b = svc.connect_with(ClientWait::Event);
+    for i in 0..50 {
+        let t = i as f64 * 0.1;
+        let ra = a
+            .call(req(Command::Move, 0), &[Vec3::new(40.0, t, 0.0)])
+            .unwrap();
+        let rb = b
+            .call(req(Command::Move, 1), &[Vec3::new(t, -50.0, 0.0)])
+            .unwrap();
+        assert!(ra.is_ok() && rb.is_ok());
+        assert_eq!(rb.header.sequence, ra.header.sequence + 1);
+    }
+}
+
+#[test]
+fn batch_mode_writes_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("r.jsonl");
+    std::fs::write(
+        &input,
+        "{\"cmd\":\"move\",\"chain\":\"rope\",\"target\":[40,5,0]}\n{\"cmd\":\"reach\",\"chain\":\"arm\",\"target\":[9,9]}\n",
+    )
+    .unwrap();
+    let out = std::process::Command::new(bin("solver-service"))
+        .args(["batch", "--format", "csv", "--requests"])
+        .arg(&input)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "one request was refused");
+    let csv = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], "line,sequence,status,chain,kind,index,x,y,z");
+    assert_eq!(lines.len(), 1 + 41 + 1);
+    assert_eq!(lines[41], "1,1,ok,0,joint,40,40.0,5.0,0.0");
+    assert!(lines[42].starts_with("2,1,unreachable,2,error"));
+}
+
+#[test]
+fn chainctl_fails_fast_without_a_service() {
+    let t0 = Instant::now();
+    let out = std::process::Command::new(bin("chainctl"))
+        .args(["--prefix", &unique_prefix(), "query", "rope"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no solver-service runs"), "{err}");
+    assert!(t0.elapsed() < Duration::from_secs(5));
+}
