@@ -326,12 +326,13 @@ impl Solver {
     }
 
     fn snapshot_if_due(&mut self, due: bool) {
-        if due && self.dirty_since_snapshot {
-            if let Some(store) = self.store.as_mut() {
-                match store.snapshot(&self.set) {
-                    Ok(()) => self.dirty_since_snapshot = false,
-                    Err(e) => eprintln!("solver-service: periodic snapshot failed: {e}"),
-                }
+        if due
+            && self.dirty_since_snapshot
+            && let Some(store) = self.store.as_mut()
+        {
+            match store.snapshot(&self.set) {
+                Ok(()) => self.dirty_since_snapshot = false,
+                Err(e) => eprintln!("solver-service: periodic snapshot failed: {e}"),
             }
         }
     }
@@ -413,7 +414,7 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
                     continue;
                 }
                 idle = idle.wrapping_add(1);
-                if idle % 4096 == 0 {
+                if idle.is_multiple_of(4096) {
                     if ports.node.wait(Duration::ZERO).is_err() {
                         break;
                     }
@@ -467,7 +468,7 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
                             last = Instant::now();
                         }
                         polls = polls.wrapping_add(1);
-                        if polls % 4096 == 0 && ports.node.wait(Duration::ZERO).is_err() {
+                        if polls.is_multiple_of(4096) && ports.node.wait(Duration::ZERO).is_err() {
                             break;
                         }
                         std::hint::spin_loop();

@@ -189,7 +189,7 @@ where
         let tol = T::EPSILON.sqrt();
         for (i, (l, &len)) in links.iter().zip(&lengths).enumerate() {
             let n = l.norm();
-            if !positive_finite(len) || !((n - len).abs() <= tol * len) {
+            if !positive_finite(len) || (n - len).abs() > tol * len {
                 return Err(ChainError::BadLength {
                     link: i + 1,
                     length: n.to_f64(),

@@ -527,7 +527,9 @@ fn kill_9_then_restore_is_bit_for_bit() {
 #[test]
 fn sigterm_shuts_down_cleanly_and_keeps_the_state() {
     let dir = tempfile::tempdir().unwrap();
-    let d = dir.path().to_str().unwrap();
+    // A directory the service creates itself (owner-only).
+    let state_dir = dir.path().join("state");
+    let d = state_dir.to_str().unwrap();
     let prefix = unique_prefix();
     let mut svc = Service::start(
         &prefix,
@@ -557,12 +559,14 @@ fn sigterm_shuts_down_cleanly_and_keeps_the_state() {
     assert!(svc.wait_exit(Duration::from_secs(10)).success());
     // State files are the owner's alone.
     use std::os::unix::fs::PermissionsExt;
-    for f in ["snapshot.bin"] {
-        let mode = std::fs::metadata(dir.path().join(f))
-            .unwrap()
-            .permissions()
-            .mode();
-        assert_eq!(mode & 0o077, 0, "{f} is readable by others: {mode:o}");
+    for path in [state_dir.join("snapshot.bin"), state_dir.clone()] {
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(
+            mode & 0o077,
+            0,
+            "{} is open to others: {mode:o}",
+            path.display()
+        );
     }
 }
 
