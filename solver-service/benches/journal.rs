@@ -1,0 +1,76 @@
+//! What the journal costs per request, beside what the request itself costs, measured in one run.
+//!
+//! `cargo bench -p solver-service --bench journal` prints, for a head move of the 40-link rope with
+//! 8 substeps: the solve time and the journal append time with the journal off, written (survives
+//! `kill -9`) and fsynced (survives power loss): median, p99 and max over interleaved rounds.
+
+use protocol::{Command, RequestHeader, ResponseHeader, SubstepMode, Vec3};
+use solver::chain_set::ChainSet;
+use solver::persist::{JournalMode, Store};
+use solver::scene::default_scene;
+use std::time::Instant;
+
+fn pct(v: &mut [u64], p: f64) -> u64 {
+    v.sort_unstable();
+    v[((v.len() - 1) as f64 * p).round() as usize]
+}
+
+fn main() {
+    let rounds = 20;
+    let per_round = std::env::var("JOURNAL_BENCH_N")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(500);
+    let modes = [JournalMode::Off, JournalMode::Write, JournalMode::Fsync];
+    let mut solve: Vec<Vec<u64>> = vec![Vec::new(); 3];
+    let mut append: Vec<Vec<u64>> = vec![Vec::new(); 3];
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut h = ResponseHeader::default();
+    let mut req = RequestHeader::new(Command::Move, 0);
+    req.substep_mode = SubstepMode::Fixed as u32;
+    req.substeps = 8;
+    for round in 0..rounds {
+        for (m, mode) in modes.iter().enumerate() {
+            // fsync rounds are slow; fewer of them give the same medians.
+            let n = if *mode == JournalMode::Fsync {
+                per_round / 10
+            } else {
+                per_round
+            };
+            let mut set = ChainSet::new(&default_scene()).expect("scene");
+            let mut store = Store::open(&dir.path().join(format!("{m}")), *mode).expect("store");
+            store.snapshot(&set).expect("snapshot");
+            for i in 0..n {
+                let t = (round * n + i) as f64 * 0.01;
+                let p = [Vec3::new(40.0 + t.cos(), t.sin(), 0.1 * t)];
+                let t0 = Instant::now();
+                assert!(set.apply(&req, &p, &mut h));
+                let t1 = Instant::now();
+                store.append(set.sequence(), &req, &p).expect("append");
+                let t2 = Instant::now();
+                solve[m].push((t1 - t0).as_nanos() as u64);
+                append[m].push((t2 - t1).as_nanos() as u64);
+            }
+        }
+        eprint!("\rround {}/{rounds}", round + 1);
+    }
+    eprintln!();
+    println!(
+        "| journal | solve p50 | append p50 | append p99 | append max | append / solve (p50) |"
+    );
+    println!("|---|---|---|---|---|---|");
+    for (m, mode) in modes.iter().enumerate() {
+        let s50 = pct(&mut solve[m], 0.5);
+        let a50 = pct(&mut append[m], 0.5);
+        let a99 = pct(&mut append[m], 0.99);
+        let amax = pct(&mut append[m], 1.0);
+        println!(
+            "| {mode:?} | {:.2} µs | {:.2} µs | {:.2} µs | {:.1} µs | {:.2} |",
+            s50 as f64 / 1e3,
+            a50 as f64 / 1e3,
+            a99 as f64 / 1e3,
+            amax as f64 / 1e3,
+            a50 as f64 / s50 as f64
+        );
+    }
+}
