@@ -29,12 +29,8 @@ struct Cli {
 enum Cmd {
     /// Apply a file of JSON-lines requests to the scene, without IPC, and write the resulting joints.
     Batch(BatchArgs),
-    /// Validate the scene and print its chains.
-    Check {
-        /// Scene file (default: the embedded scene).
-        #[arg(long)]
-        scene: Option<PathBuf>,
-    },
+    /// Validate the scene (--scene, or the embedded one) and print its chains.
+    Check,
 }
 
 #[derive(Args, Debug)]
@@ -157,8 +153,8 @@ fn real_main(cli: Cli) -> Result<i32> {
             .map_err(anyhow::Error::msg)?;
             Ok(0)
         }
-        Some(Cmd::Check { scene: s }) => {
-            let sc = scene(&s.or(cli.serve.scene))?;
+        Some(Cmd::Check) => {
+            let sc = scene(&cli.serve.scene)?;
             for c in &sc.chains {
                 println!(
                     "{}: {:?}, {}D, {} links, total length {}, {:?}",
