@@ -161,6 +161,54 @@ mod tests {
         assert_eq!(lines[3].sequence, 2);
     }
 
+    /// An f32 planar chain is served in f32: moves land within f32 rounding, a target that overflows
+    /// f32 is refused, asking for f64 is refused.
+    #[test]
+    fn an_f32_planar_chain_is_served_in_f32() {
+        let scene = crate::scene::parse_scene(
+            "[[chain]]\nname = \"hair\"\nspace = \"planar\"\nprecision = \"f32\"\nlinks = 20\nlink_length = 0.01\nshape = \"arc\"\nradius = 0.1\n",
+            "f32.toml",
+        )
+        .unwrap();
+        let mut set = ChainSet::new(&scene).unwrap();
+        let input = "{\"cmd\":\"move\",\"chain\":\"hair\",\"target\":[0.3,0.1],\"substeps\":16}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[1e39,0]}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[0,0],\"precision\":\"f64\"}\n";
+        let mut out = Vec::new();
+        let s = run_batch(
+            &mut set,
+            &mut input.as_bytes(),
+            &mut out,
+            Format::JsonLines,
+            "t",
+        )
+        .unwrap();
+        assert_eq!(
+            s,
+            Summary {
+                requests: 3,
+                failed: 2
+            }
+        );
+        let lines: Vec<TextResponse> = String::from_utf8(out)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        let j = &lines[0].joints;
+        assert_eq!(j[20], [0.3f32 as f64, 0.1f32 as f64, 0.0]);
+        // Lengths are kept in the stored link vectors; positions (|x| < 0.5) are f32 numbers, each
+        // rounded by up to half an ulp of 0.5, so a distance read off them is good to about 2 ulps.
+        let tol = 2.0 * 0.5 * f32::EPSILON as f64;
+        for w in j.windows(2) {
+            let d = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt();
+            assert!((d - 0.01).abs() < tol, "{d}");
+        }
+        assert_eq!(
+            (lines[1].status.as_str(), lines[2].status.as_str()),
+            ("non-finite", "bad-option")
+        );
+        assert!(lines[1].reason.contains("f32"), "{}", lines[1].reason);
+    }
+
     #[test]
     fn a_malformed_line_is_named() {
         let mut set = ChainSet::new(&default_scene()).unwrap();
