@@ -229,18 +229,6 @@ pub enum Command {
 }
 
 impl Command {
-    pub const ALL: [Command; 7] = [
-        Command::Move,
-        Command::Path,
-        Command::Reach,
-        Command::Query,
-        Command::Reset,
-        Command::Describe,
-        Command::Snapshot,
-    ];
-    pub fn from_u32(v: u32) -> Option<Self> {
-        Self::ALL.into_iter().find(|c| *c as u32 == v)
-    }
     pub fn name(self) -> &'static str {
         match self {
             Command::Move => "move",
@@ -295,25 +283,6 @@ pub enum Status {
 }
 
 impl Status {
-    pub const ALL: [Status; 14] = [
-        Status::Ok,
-        Status::UnknownCommand,
-        Status::UnknownChain,
-        Status::JointOutOfRange,
-        Status::NonFinite,
-        Status::BadOption,
-        Status::BadPointCount,
-        Status::Unreachable,
-        Status::NotConverged,
-        Status::TooManySubsteps,
-        Status::WrongChainKind,
-        Status::OffPlane,
-        Status::PersistenceFailed,
-        Status::Internal,
-    ];
-    pub fn from_u32(v: u32) -> Option<Self> {
-        Self::ALL.into_iter().find(|c| *c as u32 == v)
-    }
     pub fn name(self) -> &'static str {
         match self {
             Status::Ok => "ok",
@@ -386,14 +355,20 @@ pub enum ChainKind {
 macro_rules! wire_enum_from_u32 {
     ($($t:ident { $($v:ident),* })*) => {$(
         impl $t {
+            /// Every value, in wire order.
+            pub const ALL: [$t; [$($t::$v),*].len()] = [$($t::$v),*];
             /// The value for a wire number, `None` if unknown.
             pub fn from_u32(v: u32) -> Option<Self> {
-                [$($t::$v),*].into_iter().find(|x| *x as u32 == v)
+                Self::ALL.into_iter().find(|x| *x as u32 == v)
             }
         }
     )*};
 }
 wire_enum_from_u32! {
+    Command { Move, Path, Reach, Query, Reset, Describe, Snapshot }
+    Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
+             Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
+             Internal }
     WireMethod { Default, Tractrix, Paper, FollowTheLeader }
     Precision { Default, F64, F32 }
     SubstepMode { Default, Fixed, MaxStep }

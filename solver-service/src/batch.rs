@@ -121,6 +121,18 @@ mod tests {
     use super::*;
     use crate::scene::default_scene;
 
+    /// Runs `input` as a batch and parses the JSON-lines output.
+    fn run_lines(set: &mut ChainSet, input: &str) -> (Summary, Vec<TextResponse>) {
+        let mut out = Vec::new();
+        let s = run_batch(set, &mut input.as_bytes(), &mut out, Format::JsonLines, "t").unwrap();
+        let lines = String::from_utf8(out)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        (s, lines)
+    }
+
     #[test]
     fn a_batch_moves_reaches_and_reports_refusals() {
         let mut set = ChainSet::new(&default_scene()).unwrap();
@@ -131,15 +143,7 @@ mod tests {
 {"cmd":"reach","chain":"arm","target":[5.0,0.0]}
 {"cmd":"query","chain":"snake"}
 "#;
-        let mut out = Vec::new();
-        let s = run_batch(
-            &mut set,
-            &mut input.as_bytes(),
-            &mut out,
-            Format::JsonLines,
-            "t.jsonl",
-        )
-        .unwrap();
+        let (s, lines) = run_lines(&mut set, input);
         assert_eq!(
             s,
             Summary {
@@ -147,11 +151,6 @@ mod tests {
                 failed: 1
             }
         );
-        let lines: Vec<TextResponse> = String::from_utf8(out)
-            .unwrap()
-            .lines()
-            .map(|l| serde_json::from_str(l).unwrap())
-            .collect();
         assert_eq!(lines[0].status, "ok");
         assert_eq!(lines[0].joints.len(), 41);
         assert_eq!(lines[0].joints[40], [40.0, 5.0, 0.0]);
@@ -172,15 +171,7 @@ mod tests {
         .unwrap();
         let mut set = ChainSet::new(&scene).unwrap();
         let input = "{\"cmd\":\"move\",\"chain\":\"hair\",\"target\":[0.3,0.1],\"substeps\":16}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[1e39,0]}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[0,0],\"precision\":\"f64\"}\n";
-        let mut out = Vec::new();
-        let s = run_batch(
-            &mut set,
-            &mut input.as_bytes(),
-            &mut out,
-            Format::JsonLines,
-            "t",
-        )
-        .unwrap();
+        let (s, lines) = run_lines(&mut set, input);
         assert_eq!(
             s,
             Summary {
@@ -188,11 +179,6 @@ mod tests {
                 failed: 2
             }
         );
-        let lines: Vec<TextResponse> = String::from_utf8(out)
-            .unwrap()
-            .lines()
-            .map(|l| serde_json::from_str(l).unwrap())
-            .collect();
         let j = &lines[0].joints;
         assert_eq!(j[20], [0.3f32 as f64, 0.1f32 as f64, 0.0]);
         // Lengths are kept in the stored link vectors; positions (|x| < 0.5) are f32 numbers, each

@@ -461,14 +461,7 @@ impl ChainSet {
                     max_iterations,
                     ..ReachOptions::default()
                 };
-                each_form!(&mut entry.geometry, g => reach_generic(g, &points[0], &opts, h))
-                    .map_err(|(s, r)| {
-                        if s == Status::Internal {
-                            chain_error(r.chain.unwrap_or(ChainError::Empty), def)
-                        } else {
-                            (s, r)
-                        }
-                    })?;
+                each_form!(&mut entry.geometry, g => reach_generic(g, &points[0], &opts, def, h))?;
                 true
             }
             Command::Query | Command::Describe => false,
@@ -505,7 +498,6 @@ impl ChainSet {
 pub struct Reason {
     buf: [u8; REASON_LEN],
     len: usize,
-    chain: Option<ChainError>,
 }
 
 impl Reason {
@@ -533,7 +525,6 @@ fn fail(status: Status, args: std::fmt::Arguments<'_>) -> (Status, Reason) {
     let mut r = Reason {
         buf: [0; REASON_LEN],
         len: 0,
-        chain: None,
     };
     let _ = r.write_fmt(args);
     (status, r)
@@ -586,13 +577,12 @@ where
         substeps,
         max_substeps: opts.max_substeps,
     };
-    let last = points[points.len() - 1];
+    let last: Vector<T, D> = from_array(points[points.len() - 1].to_array());
     let outcome = if points.len() == 1 {
-        let t: Vector<T, D> = from_array(points[0].to_array());
-        if !all_finite(&t) {
+        if !all_finite(&last) {
             return Err(ChainError::NonFinite);
         }
-        g.chain.move_joint(joint, t, &opts)?
+        g.chain.move_joint(joint, last, &opts)?
     } else {
         // Converting a path needs a buffer; paths are bounded by MAX_PATH_POINTS.
         let targets: Vec<Vector<T, D>> = points.iter().map(|p| from_array(p.to_array())).collect();
@@ -600,8 +590,7 @@ where
     };
     h.substeps = outcome.substeps;
     h.paper_fallbacks = outcome.paper_fallbacks;
-    let t: Vector<T, D> = from_array(last.to_array());
-    h.residual = (g.chain.joint(joint) - t).norm().to_f64();
+    h.residual = (g.chain.joint(joint) - last).norm().to_f64();
     Ok(())
 }
 
@@ -610,6 +599,7 @@ fn reach_generic<T: Real, const D: usize>(
     g: &mut Held<T, D>,
     target: &Vec3,
     opts: &ReachOptions<f64>,
+    def: &ChainDef,
     h: &mut ResponseHeader,
 ) -> Result<(), (Status, Reason)>
 where
@@ -658,11 +648,7 @@ where
                 ),
             ))
         }
-        Err(ReachError::Chain(e)) => {
-            let mut r = fail(Status::Internal, format_args!(""));
-            r.1.chain = Some(e);
-            Err(r)
-        }
+        Err(ReachError::Chain(e)) => Err(chain_error(e, def)),
     }
 }
 

@@ -137,15 +137,7 @@ where
         mut links: Vec<Vector<T, D>>,
         lengths: Vec<T>,
     ) -> Result<Self, ChainError> {
-        if links.is_empty() {
-            return Err(ChainError::Empty);
-        }
-        if links.len() != lengths.len() {
-            return Err(ChainError::BadOption("links and lengths differ in count"));
-        }
-        if !all_finite(&origin) || !links.iter().all(all_finite) {
-            return Err(ChainError::NonFinite);
-        }
+        check_parts(&origin, &links, &lengths)?;
         for (i, (l, &len)) in links.iter_mut().zip(&lengths).enumerate() {
             let n = l.norm();
             if !positive_finite(len) || !positive_finite(n) {
@@ -160,13 +152,7 @@ where
             }
             *l *= len / n;
         }
-        let min_length = lengths.iter().copied().fold(lengths[0], T::min);
-        Ok(Chain {
-            origin,
-            links,
-            lengths,
-            min_length,
-        })
+        Ok(Self::assemble(origin, links, lengths))
     }
 
     /// A chain from stored parts, bit for bit (a snapshot restore): unlike [`Chain::from_parts`] the link
@@ -177,15 +163,7 @@ where
         links: Vec<Vector<T, D>>,
         lengths: Vec<T>,
     ) -> Result<Self, ChainError> {
-        if links.is_empty() {
-            return Err(ChainError::Empty);
-        }
-        if links.len() != lengths.len() {
-            return Err(ChainError::BadOption("links and lengths differ in count"));
-        }
-        if !all_finite(&origin) || !links.iter().all(all_finite) {
-            return Err(ChainError::NonFinite);
-        }
+        check_parts(&origin, &links, &lengths)?;
         let tol = T::EPSILON.sqrt();
         for (i, (l, &len)) in links.iter().zip(&lengths).enumerate() {
             let n = l.norm();
@@ -196,13 +174,17 @@ where
                 });
             }
         }
+        Ok(Self::assemble(origin, links, lengths))
+    }
+
+    fn assemble(origin: Vector<T, D>, links: Vec<Vector<T, D>>, lengths: Vec<T>) -> Self {
         let min_length = lengths.iter().copied().fold(lengths[0], T::min);
-        Ok(Chain {
+        Chain {
             origin,
             links,
             lengths,
             min_length,
-        })
+        }
     }
 
     /// Makes `self` equal to `other`, reusing `self`'s buffers when the sizes match (no allocation: the
@@ -485,4 +467,22 @@ where
         }
         (fallbacks, shift)
     }
+}
+
+/// The checks every constructor shares: at least one link, one length per link, finite coordinates.
+fn check_parts<T: Real, const D: usize>(
+    origin: &Vector<T, D>,
+    links: &[Vector<T, D>],
+    lengths: &[T],
+) -> Result<(), ChainError> {
+    if links.is_empty() {
+        return Err(ChainError::Empty);
+    }
+    if links.len() != lengths.len() {
+        return Err(ChainError::BadOption("links and lengths differ in count"));
+    }
+    if !all_finite(origin) || !links.iter().all(all_finite) {
+        return Err(ChainError::NonFinite);
+    }
+    Ok(())
 }
