@@ -280,6 +280,9 @@ pub enum Status {
     PersistenceFailed = 12,
     /// The response could not be written (too large for the service's memory).
     Internal = 13,
+    /// Collision handling could not keep the links apart (the chain is "locked", section 4.2): the
+    /// move was refused. Pulling a knot tight ends this way.
+    Locked = 14,
 }
 
 impl Status {
@@ -299,6 +302,7 @@ impl Status {
             Status::OffPlane => "off-plane",
             Status::PersistenceFailed => "persistence-failed",
             Status::Internal => "internal",
+            Status::Locked => "locked",
         }
     }
 }
@@ -368,7 +372,7 @@ wire_enum_from_u32! {
     Command { Move, Path, Reach, Query, Reset, Describe, Snapshot }
     Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
              Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
-             Internal }
+             Internal, Locked }
     WireMethod { Default, Tractrix, Paper, FollowTheLeader }
     Precision { Default, F64, F32 }
     SubstepMode { Default, Fixed, MaxStep }

@@ -552,6 +552,16 @@ fn chain_error(e: ChainError, def: &ChainDef) -> (Status, Reason) {
             format_args!("the move needs {required} substeps; the chain allows {limit}"),
         ),
         ChainError::BadOption(s) => fail(Status::BadOption, format_args!("{s}")),
+        ChainError::Locked {
+            substep,
+            iterations,
+            penetration,
+        } => fail(
+            Status::Locked,
+            format_args!(
+                "links still {penetration:.2e} too close after {iterations} passes at substep {substep}"
+            ),
+        ),
         e @ (ChainError::Empty | ChainError::BadLength { .. }) => {
             fail(Status::Internal, format_args!("{e}"))
         }

@@ -62,6 +62,10 @@ pub struct MoveOutcome {
     pub substeps: u32,
     /// Link steps where the paper's form was undefined and the closed form was used instead.
     pub paper_fallbacks: u32,
+    /// Collision resolution passes that pushed something, summed over substeps (0 without collision).
+    pub collision_iterations: u32,
+    /// Contacts pushed apart, summed over passes and substeps.
+    pub contacts: u32,
 }
 
 /// Why a chain could not be built or moved. A failed move leaves the chain unchanged.
@@ -85,6 +89,19 @@ pub enum ChainError {
     /// An option is out of range.
     #[error("invalid option: {0}")]
     BadOption(&'static str),
+    /// Collision handling could not separate the links within its iteration limit: the chain is
+    /// "locked" (section 4.2) and the move is refused.
+    #[error(
+        "locked by collision at substep {substep}: {penetration:.3e} penetration left after {iterations} iterations"
+    )]
+    Locked {
+        /// 1-based substep at which the chain locked.
+        substep: u32,
+        /// Iterations spent on that substep.
+        iterations: u32,
+        /// Worst penetration left, in the chain's length unit.
+        penetration: f64,
+    },
 }
 
 /// A chain of rigid links in `D` dimensions (see the module docs for the layout).
@@ -394,7 +411,7 @@ where
         Ok(total)
     }
 
-    fn check_joint(&self, joint: usize) -> Result<(), ChainError> {
+    pub(crate) fn check_joint(&self, joint: usize) -> Result<(), ChainError> {
         if joint > self.links.len() {
             return Err(ChainError::JointOutOfRange {
                 joint,
@@ -429,12 +446,13 @@ where
         MoveOutcome {
             substeps: k,
             paper_fallbacks: fallbacks,
+            ..MoveOutcome::default()
         }
     }
 
     /// One substep: joint `m` moves by `s`; links toward the tail and toward the head follow outward.
-    /// Returns the number of paper-form fallbacks.
-    fn sweep(&mut self, m: usize, s: &Vector<T, D>, method: Method) -> u32 {
+    /// Returns the number of paper-form fallbacks. The origin is not updated (callers place it).
+    pub(crate) fn sweep(&mut self, m: usize, s: &Vector<T, D>, method: Method) -> u32 {
         let (fallbacks, _) = self.sweep_tail_side(m, s, method, 0);
         // Toward the head: the moving end of link index i is joint i, its trailing end joint i+1.
         let mut fallbacks = fallbacks;

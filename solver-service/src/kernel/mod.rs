@@ -4,15 +4,19 @@
 //! * [`math`]: scalar trait, vector aliases, tolerances.
 //! * [`link`]: one link, three ways (closed-form tractrix, the paper's TRACTRIX3D, follow-the-leader).
 //! * [`chain`]: flat chain state and RESOLUTION-TRACTRIX (head, tail or interior joint moves, substeps).
+//! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a hash grid).
 //! * [`fixed_base`]: fixed-base manipulators, both of the paper's strategies, workspace checks.
+//! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
 //! * [`angles`]: joint angles (eq. 15, relative rotations).
 //! * [`pseudo_inverse`]: the damped-least-squares resolved-rate baseline of Korein & Badler.
 //! * [`ground_truth`]: the continuous motion integrated by DOP853, for tests and accuracy reports.
 
 pub mod angles;
 pub mod chain;
+pub mod collision;
 pub mod fixed_base;
 pub mod ground_truth;
+pub mod knot;
 pub mod link;
 pub mod math;
 pub mod pseudo_inverse;

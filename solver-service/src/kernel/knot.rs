@@ -1,0 +1,754 @@
+//! Knot identification from a chain's geometry: unknot, trefoil, square, granny or other.
+//!
+//! An open rope has no knot type until it is closed. The rope is closed through a point far away (three
+//! times the rope's radius from its centroid, so the closing arc stays clear of the knotted region), seen
+//! along a projection direction, and its crossings found with their over/under order and their signs.
+//! The cyclic sequence of crossings along the rope (its Gauss code) is reduced with Reidemeister moves I
+//! (a crossing met twice in a row: a kink) and II (two crossings met in a row twice, over-over and
+//! under-under: a bigon). The reduced diagram's Jones polynomial, a knot invariant computed from the
+//! Kauffman bracket (a state sum over the 2^c smoothings of its `c` crossings), names the knot:
+//!
+//! | knot | Jones polynomial `V(t)` (one chirality; the mirror has `t → 1/t`) | determinant | writhe |
+//! |---|---|---|---|
+//! | unknot | `1` | 1 | 0 |
+//! | trefoil (overhand) | `t + t³ − t⁴` | 3 | ±3 |
+//! | granny = trefoil # trefoil | `(t + t³ − t⁴)²` | 9 | ±6 |
+//! | square = trefoil # mirror | `(t + t³ − t⁴)(t⁻¹ + t⁻³ − t⁻⁴)` | 9 | 0 |
+//!
+//! The determinant `|V(−1)|` alone cannot tell square from granny; the polynomial (or the writhe of a
+//! reduced diagram) can. Any other polynomial is "other".
+//!
+//! One closure and one projection can mislead (a closing arc through the knot, a near-degenerate view),
+//! so [`identify`] tries six closure directions and three projections each and takes the majority;
+//! views where three strands nearly meet or a crossing sits on a joint are skipped as degenerate.
+//! This is a tool (it allocates); it is not on the per-move path.
+
+use nalgebra::Vector3;
+
+/// The knots [`identify`] can name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum KnotType {
+    /// No knot.
+    Unknot,
+    /// The overhand knot, either hand.
+    Trefoil,
+    /// The square (reef) knot: a trefoil and its mirror in series.
+    Square,
+    /// The granny knot: two trefoils of the same hand in series.
+    Granny,
+    /// Anything else (including diagrams too large to evaluate).
+    Other,
+}
+
+impl KnotType {
+    /// Lower-case name, as printed by the tools.
+    pub fn name(self) -> &'static str {
+        match self {
+            KnotType::Unknot => "unknot",
+            KnotType::Trefoil => "trefoil",
+            KnotType::Square => "square",
+            KnotType::Granny => "granny",
+            KnotType::Other => "other",
+        }
+    }
+}
+
+/// What [`identify`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KnotReport {
+    /// The majority name.
+    pub kind: KnotType,
+    /// How many views gave that name.
+    pub votes: u32,
+    /// How many views were evaluated (degenerate ones are not counted).
+    pub views: u32,
+    /// Crossings of the simplest winning view after reduction.
+    pub crossings: u32,
+    /// Writhe (sum of crossing signs) of that reduced diagram.
+    pub writhe: i32,
+    /// `|V(−1)|`, the knot determinant, of that view.
+    pub determinant: u64,
+    /// Its Jones polynomial as `(lowest power of t, coefficients)`.
+    pub jones: (i32, Vec<i64>),
+}
+
+/// Reduced diagrams larger than this are not evaluated (2^c states) and count as [`KnotType::Other`].
+pub const MAX_EVALUATED_CROSSINGS: usize = 18;
+
+/// Names the knot tied in an open chain through `points` (joint positions, tail first).
+pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
+    let n = points.len().max(1) as f64;
+    let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p) / n;
+    let radius = points
+        .iter()
+        .map(|p| (p - centroid).norm())
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let mut tallies: Vec<(KnotType, u32, Option<Diagram>)> = Vec::new();
+    let mut views = 0;
+    let mut closed: Vec<Vector3<f64>> = Vec::with_capacity(points.len() + 1);
+    for u in closure_directions() {
+        closed.clear();
+        closed.extend_from_slice(points);
+        closed.push(centroid + u * (3.0 * radius));
+        for v in projection_directions(&u) {
+            let Some(d) = Diagram::project(&closed, &v) else {
+                continue;
+            };
+            let d = d.reduced();
+            let kind = d.name();
+            views += 1;
+            match tallies.iter_mut().find(|t| t.0 == kind) {
+                Some(t) => {
+                    t.1 += 1;
+                    // Report the simplest diagram seen of this knot.
+                    if t.2
+                        .as_ref()
+                        .is_some_and(|best| d.crossings() < best.crossings())
+                    {
+                        t.2 = Some(d);
+                    }
+                }
+                None => tallies.push((kind, 1, Some(d))),
+            }
+        }
+    }
+    // Majority; ties go to the simpler knot (the enum's order).
+    tallies.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    match tallies.into_iter().next() {
+        Some((kind, votes, Some(d))) => {
+            let jones = d.jones().unwrap_or_default();
+            KnotReport {
+                kind,
+                votes,
+                views,
+                crossings: d.crossings() as u32,
+                writhe: d.writhe(),
+                determinant: jones.determinant(),
+                jones: (-(jones.lo + jones.coef.len() as i32 - 1) / 4, jones.to_t()),
+            }
+        }
+        _ => KnotReport {
+            kind: KnotType::Other,
+            votes: 0,
+            views,
+            crossings: 0,
+            writhe: 0,
+            determinant: 0,
+            jones: (0, Vec::new()),
+        },
+    }
+}
+
+/// Six closure directions spread over the sphere, none along an axis (ropes are often laid out along
+/// axes, and an axis-aligned closure would run along the rope).
+fn closure_directions() -> impl Iterator<Item = Vector3<f64>> {
+    let phi = (1.0 + 5f64.sqrt()) / 2.0;
+    // Icosahedron vertices, one of each antipodal pair, tilted off the axes.
+    let tilt = nalgebra::Rotation3::from_euler_angles(0.31, 0.17, 0.23);
+    [
+        Vector3::new(0.0, 1.0, phi),
+        Vector3::new(0.0, -1.0, phi),
+        Vector3::new(1.0, phi, 0.0),
+        Vector3::new(-1.0, phi, 0.0),
+        Vector3::new(phi, 0.0, 1.0),
+        Vector3::new(-phi, 0.0, 1.0),
+    ]
+    .into_iter()
+    .map(move |v| tilt * v.normalize())
+}
+
+/// Three viewing directions, well away from the closure direction `u`.
+fn projection_directions(u: &Vector3<f64>) -> [Vector3<f64>; 3] {
+    let a = u.cross(&Vector3::new(0.267, 0.534, 0.802)).normalize();
+    let b = u.cross(&a).normalize();
+    let c = (a + b * 0.61 + u * 0.37).normalize();
+    [a, b, c]
+}
+
+/// One passage of the rope through a crossing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Passage {
+    crossing: usize,
+    over: bool,
+}
+
+/// A knot diagram: the cyclic sequence of passages and, per crossing, its sign (+1 right-handed).
+#[derive(Clone, Debug, PartialEq)]
+struct Diagram {
+    seq: Vec<Passage>,
+    sign: Vec<i8>,
+}
+
+impl Diagram {
+    /// Projects the closed polygon `p` (the last point joins the first) along `view`. `None` for a
+    /// degenerate view.
+    fn project(p: &[Vector3<f64>], view: &Vector3<f64>) -> Option<Diagram> {
+        // A frame with e1 × e2 = view, so the picture is the one seen from +view (over = larger depth).
+        let e1 = view.cross(&Vector3::new(0.577, -0.211, 0.789)).normalize();
+        let e2 = view.cross(&e1);
+        let m = p.len();
+        let q: Vec<(f64, f64, f64)> = p
+            .iter()
+            .map(|x| (x.dot(&e1), x.dot(&e2), x.dot(view)))
+            .collect();
+        let scale = q
+            .iter()
+            .map(|x| x.0.abs().max(x.1.abs()))
+            .fold(0.0, f64::max);
+        let eps = 1e-9;
+        let mut passages: Vec<(f64, Passage)> = Vec::new();
+        let mut sign = Vec::new();
+        for i in 0..m {
+            let (a0, a1) = (q[i], q[(i + 1) % m]);
+            for j in i + 2..m {
+                if i == 0 && j == m - 1 {
+                    continue;
+                }
+                let (b0, b1) = (q[j], q[(j + 1) % m]);
+                let da = (a1.0 - a0.0, a1.1 - a0.1);
+                let db = (b1.0 - b0.0, b1.1 - b0.1);
+                let den = da.0 * db.1 - da.1 * db.0;
+                let r = (b0.0 - a0.0, b0.1 - a0.1);
+                let la = da.0.hypot(da.1);
+                let lb = db.0.hypot(db.1);
+                if den.abs() <= 1e-12 * la * lb {
+                    // Parallel: a degenerate view only if the segments overlap on one line.
+                    let off = (r.0 * da.1 - r.1 * da.0).abs();
+                    if off <= 1e-9 * scale.max(1.0) * la {
+                        let t0 = (r.0 * da.0 + r.1 * da.1) / (la * la);
+                        let t1 = ((b1.0 - a0.0) * da.0 + (b1.1 - a0.1) * da.1) / (la * la);
+                        if t0.max(t1) >= 0.0 && t0.min(t1) <= 1.0 {
+                            return None;
+                        }
+                    }
+                    continue;
+                }
+                let s = (r.0 * db.1 - r.1 * db.0) / den;
+                let t = (r.0 * da.1 - r.1 * da.0) / den;
+                if !(-eps..=1.0 + eps).contains(&s) || !(-eps..=1.0 + eps).contains(&t) {
+                    continue;
+                }
+                if s < eps || s > 1.0 - eps || t < eps || t > 1.0 - eps {
+                    return None; // a crossing on a joint
+                }
+                let ha = a0.2 + (a1.2 - a0.2) * s;
+                let hb = b0.2 + (b1.2 - b0.2) * t;
+                if (ha - hb).abs() <= 1e-9 * scale.max(1.0) {
+                    return None; // the strands meet in space
+                }
+                let a_over = ha > hb;
+                let x = sign.len();
+                // Right-handed (positive) when the over strand turns counterclockwise onto the under one.
+                let (dover, dunder) = if a_over { (da, db) } else { (db, da) };
+                let c = dover.0 * dunder.1 - dover.1 * dunder.0;
+                sign.push(if c > 0.0 { 1 } else { -1 });
+                passages.push((
+                    i as f64 + s,
+                    Passage {
+                        crossing: x,
+                        over: a_over,
+                    },
+                ));
+                passages.push((
+                    j as f64 + t,
+                    Passage {
+                        crossing: x,
+                        over: !a_over,
+                    },
+                ));
+            }
+        }
+        passages.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for w in passages.windows(2) {
+            if w[1].0 - w[0].0 < eps {
+                return None; // two crossings at one point of the rope
+            }
+        }
+        Some(Diagram {
+            seq: passages.into_iter().map(|p| p.1).collect(),
+            sign,
+        })
+    }
+
+    fn crossings(&self) -> usize {
+        self.seq.len() / 2
+    }
+
+    fn writhe(&self) -> i32 {
+        let mut seen = vec![false; self.sign.len()];
+        let mut w = 0;
+        for p in &self.seq {
+            if !seen[p.crossing] {
+                seen[p.crossing] = true;
+                w += self.sign[p.crossing] as i32;
+            }
+        }
+        w
+    }
+
+    /// Applies Reidemeister I and II moves until none applies.
+    fn reduced(mut self) -> Diagram {
+        loop {
+            let n = self.seq.len();
+            if n == 0 {
+                return self;
+            }
+            // I: a crossing passed twice in a row (a kink).
+            if let Some(k) =
+                (0..n).find(|&k| self.seq[k].crossing == self.seq[(k + 1) % n].crossing)
+            {
+                self.remove(&[k, (k + 1) % n]);
+                continue;
+            }
+            // II: crossings X, Y passed in a row over-over, and in a row (either order) under-under.
+            let mut found = None;
+            'outer: for k in 0..n {
+                let (a, b) = (self.seq[k], self.seq[(k + 1) % n]);
+                if a.over != b.over {
+                    continue;
+                }
+                for l in 0..n {
+                    if l == k {
+                        continue;
+                    }
+                    let (c, d) = (self.seq[l], self.seq[(l + 1) % n]);
+                    let same = (c.crossing == a.crossing && d.crossing == b.crossing)
+                        || (c.crossing == b.crossing && d.crossing == a.crossing);
+                    if same && c.over != a.over && d.over != a.over {
+                        found = Some([k, (k + 1) % n, l, (l + 1) % n]);
+                        break 'outer;
+                    }
+                }
+            }
+            match found {
+                Some(idx) => self.remove(&idx),
+                None => return self,
+            }
+        }
+    }
+
+    fn remove(&mut self, idx: &[usize]) {
+        let mut k = 0;
+        self.seq.retain(|_| {
+            let keep = !idx.contains(&k);
+            k += 1;
+            keep
+        });
+    }
+
+    /// The knot's name from its Jones polynomial.
+    fn name(&self) -> KnotType {
+        let Some(v) = self.jones() else {
+            return KnotType::Other;
+        };
+        let t = Laurent::trefoil();
+        let m = t.mirror();
+        if v == Laurent::one() {
+            KnotType::Unknot
+        } else if v == t || v == m {
+            KnotType::Trefoil
+        } else if v == t.mul(&t) || v == m.mul(&m) {
+            KnotType::Granny
+        } else if v == t.mul(&m) {
+            KnotType::Square
+        } else {
+            KnotType::Other
+        }
+    }
+
+    /// The Jones polynomial in powers of `A` (`t = A⁻⁴`): `(−A³)^(−w) ⟨D⟩` with the Kauffman bracket
+    /// `⟨D⟩` summed over all smoothings. `None` past [`MAX_EVALUATED_CROSSINGS`].
+    fn jones(&self) -> Option<Laurent> {
+        let c = self.crossings();
+        if c == 0 {
+            return Some(Laurent::one());
+        }
+        if c > MAX_EVALUATED_CROSSINGS {
+            return None;
+        }
+        // Arcs: arc e runs from passage e to passage e+1; a passage's incoming arc is e−1.
+        let n = self.seq.len();
+        let mut ids = vec![usize::MAX; self.sign.len()];
+        let mut pd: Vec<[usize; 4]> = Vec::with_capacity(c);
+        let mut under = vec![usize::MAX; self.sign.len()];
+        let mut over = vec![usize::MAX; self.sign.len()];
+        for (k, p) in self.seq.iter().enumerate() {
+            if p.over {
+                over[p.crossing] = k;
+            } else {
+                under[p.crossing] = k;
+            }
+        }
+        for p in &self.seq {
+            let x = p.crossing;
+            if ids[x] != usize::MAX {
+                continue;
+            }
+            ids[x] = pd.len();
+            let (u, o) = (under[x], over[x]);
+            let (i, k) = ((u + n - 1) % n, u);
+            let (oin, oout) = ((o + n - 1) % n, o);
+            // Counterclockwise from the incoming under arc: the incoming over arc comes next at a
+            // positive crossing's mirror, the outgoing one at a positive crossing.
+            pd.push(if self.sign[x] > 0 {
+                [i, oin, k, oout]
+            } else {
+                [i, oout, k, oin]
+            });
+        }
+        // counts[a][loops]: states with `a` A-smoothings and `loops` loops.
+        let mut counts = vec![vec![0i64; n + 2]; c + 1];
+        let mut parent = vec![0usize; n];
+        for state in 0u32..(1u32 << c) {
+            for (i, p) in parent.iter_mut().enumerate() {
+                *p = i;
+            }
+            let mut a_count = 0;
+            for (x, q) in pd.iter().enumerate() {
+                // The A-smoothing joins the regions swept counterclockwise from the over strand:
+                // with `q` counterclockwise from the incoming under arc, arcs q0–q3 and q1–q2.
+                if state >> x & 1 == 0 {
+                    a_count += 1;
+                    union(&mut parent, q[0], q[3]);
+                    union(&mut parent, q[1], q[2]);
+                } else {
+                    union(&mut parent, q[0], q[1]);
+                    union(&mut parent, q[2], q[3]);
+                }
+            }
+            let loops = (0..n).filter(|&i| find(&mut parent, i) == i).count();
+            counts[a_count][loops] += 1;
+        }
+        // <D> = Σ A^(a − b) d^(loops − 1), d = −A² − A⁻².
+        let d = Laurent {
+            lo: -2,
+            coef: vec![-1, 0, 0, 0, -1],
+        };
+        let mut bracket = Laurent::zero();
+        for (a, row) in counts.iter().enumerate() {
+            for (loops, &cnt) in row.iter().enumerate() {
+                if cnt == 0 {
+                    continue;
+                }
+                let mut term = Laurent::monomial(2 * a as i32 - c as i32, cnt);
+                for _ in 1..loops {
+                    term = term.mul(&d);
+                }
+                bracket = bracket.add(&term);
+            }
+        }
+        // (−A³)^(−w) = (−1)^w A^(−3w).
+        let w = self.writhe();
+        let norm = Laurent::monomial(-3 * w, if w % 2 == 0 { 1 } else { -1 });
+        Some(bracket.mul(&norm).trimmed())
+    }
+}
+
+fn find(parent: &mut [usize], mut i: usize) -> usize {
+    while parent[i] != i {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    i
+}
+
+fn union(parent: &mut [usize], a: usize, b: usize) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra != rb {
+        parent[ra] = rb;
+    }
+}
+
+/// A Laurent polynomial in `A` with integer coefficients: `Σ coef[k] A^(lo + k)`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+struct Laurent {
+    lo: i32,
+    coef: Vec<i64>,
+}
+
+impl Laurent {
+    fn zero() -> Self {
+        Laurent {
+            lo: 0,
+            coef: vec![],
+        }
+    }
+    fn one() -> Self {
+        Laurent::monomial(0, 1)
+    }
+    fn monomial(e: i32, c: i64) -> Self {
+        Laurent {
+            lo: e,
+            coef: vec![c],
+        }
+    }
+    /// A polynomial in `t` (lowest power `lo`, coefficients) written in `A` with `t = A⁻⁴`.
+    fn from_t(lo: i32, coef: &[i64]) -> Self {
+        let mut p = Laurent::zero();
+        for (k, &c) in coef.iter().enumerate() {
+            p = p.add(&Laurent::monomial(-4 * (lo + k as i32), c));
+        }
+        p.trimmed()
+    }
+    /// The left- or right-handed trefoil (whichever `t + t³ − t⁴` is); its mirror is [`Laurent::mirror`].
+    fn trefoil() -> Self {
+        Laurent::from_t(1, &[1, 0, 1, -1])
+    }
+    fn mirror(&self) -> Self {
+        let mut coef = self.coef.clone();
+        coef.reverse();
+        Laurent {
+            lo: -(self.lo + self.coef.len() as i32 - 1),
+            coef,
+        }
+        .trimmed()
+    }
+    fn add(&self, o: &Laurent) -> Laurent {
+        if self.coef.is_empty() {
+            return o.clone();
+        }
+        if o.coef.is_empty() {
+            return self.clone();
+        }
+        let lo = self.lo.min(o.lo);
+        let hi = (self.lo + self.coef.len() as i32).max(o.lo + o.coef.len() as i32);
+        let mut coef = vec![0; (hi - lo) as usize];
+        for (k, c) in self.coef.iter().enumerate() {
+            coef[(self.lo - lo) as usize + k] += c;
+        }
+        for (k, c) in o.coef.iter().enumerate() {
+            coef[(o.lo - lo) as usize + k] += c;
+        }
+        Laurent { lo, coef }.trimmed()
+    }
+    fn mul(&self, o: &Laurent) -> Laurent {
+        if self.coef.is_empty() || o.coef.is_empty() {
+            return Laurent::zero();
+        }
+        let mut coef = vec![0; self.coef.len() + o.coef.len() - 1];
+        for (i, a) in self.coef.iter().enumerate() {
+            for (j, b) in o.coef.iter().enumerate() {
+                coef[i + j] += a * b;
+            }
+        }
+        Laurent {
+            lo: self.lo + o.lo,
+            coef,
+        }
+        .trimmed()
+    }
+    fn trimmed(mut self) -> Laurent {
+        while self.coef.last() == Some(&0) {
+            self.coef.pop();
+        }
+        let lead = self.coef.iter().take_while(|c| **c == 0).count();
+        self.coef.drain(..lead);
+        self.lo += lead as i32;
+        if self.coef.is_empty() {
+            self.lo = 0;
+        }
+        self
+    }
+    /// `|V(−1)|`: `t = −1` is `A⁴ = −1`, i.e. `A^e` is `(−1)^(e/4)` for the multiples of 4 a knot has.
+    fn determinant(&self) -> u64 {
+        let mut s: i64 = 0;
+        for (k, c) in self.coef.iter().enumerate() {
+            let e = self.lo + k as i32;
+            if e.rem_euclid(4) != 0 {
+                continue;
+            }
+            s += if (e / 4).rem_euclid(2) == 0 { *c } else { -*c };
+        }
+        s.unsigned_abs()
+    }
+    /// Coefficients in powers of `t`, lowest power first (only powers `A^(4k)` occur for a knot).
+    fn to_t(&self) -> Vec<i64> {
+        let mut out: Vec<i64> = self.coef.iter().rev().step_by(4).copied().collect();
+        if out.is_empty() {
+            out.push(0);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::TAU;
+
+    /// The standard trefoil `(sin t + 2 sin 2t, cos t − 2 cos 2t, −sin 3t)`, `n` points, closed.
+    fn trefoil(n: usize, mirror: bool, shift: f64) -> Vec<Vector3<f64>> {
+        (0..n)
+            .map(|k| {
+                let t = TAU * k as f64 / n as f64;
+                let z = -(3.0 * t).sin();
+                Vector3::new(
+                    t.sin() + 2.0 * (2.0 * t).sin() + shift,
+                    t.cos() - 2.0 * (2.0 * t).cos(),
+                    if mirror { -z } else { z },
+                )
+            })
+            .collect()
+    }
+
+    /// Two closed knots joined by a band between the right-most point of `a` and the left-most of `b`:
+    /// their connected sum, returned as one closed polygon.
+    fn connected_sum(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+        let ia = (0..a.len())
+            .max_by(|&i, &j| a[i].x.total_cmp(&a[j].x))
+            .unwrap();
+        let ib = (0..b.len())
+            .min_by(|&i, &j| b[i].x.total_cmp(&b[j].x))
+            .unwrap();
+        let mut out = Vec::new();
+        for k in 1..=a.len() {
+            out.push(a[(ia + k) % a.len()]);
+        }
+        for k in 0..b.len() {
+            out.push(b[(ib + k) % b.len()]);
+        }
+        out
+    }
+
+    fn circle(n: usize) -> Vec<Vector3<f64>> {
+        (0..n)
+            .map(|k| {
+                let t = TAU * k as f64 / n as f64;
+                Vector3::new(5.0 * t.cos(), 5.0 * t.sin(), 0.3 * (2.0 * t).sin())
+            })
+            .collect()
+    }
+
+    /// A closed knot cut open at its left-most point, both ends run straight out to `x = −40`: an open
+    /// rope whose ends lie far from the knotted region, as a rope pulled out at both ends.
+    fn long_knot(closed: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+        let n = closed.len();
+        let c = (0..n)
+            .min_by(|&i, &j| closed[i].x.total_cmp(&closed[j].x))
+            .unwrap();
+        let first = closed[(c + 1) % n];
+        let last = closed[(c + n - 1) % n];
+        let mut out = vec![Vector3::new(-40.0, first.y, first.z)];
+        for k in 1..n {
+            out.push(closed[(c + k) % n]);
+        }
+        out.push(Vector3::new(-40.0, last.y, last.z));
+        out
+    }
+
+    #[test]
+    fn laurent_trefoil_values() {
+        let t = Laurent::trefoil();
+        assert_eq!(t.determinant(), 3);
+        assert_eq!(t.mul(&t).determinant(), 9);
+        assert_eq!(t.mul(&t.mirror()).determinant(), 9);
+        assert_ne!(t.mul(&t), t.mul(&t.mirror()));
+        assert_eq!(t.mirror().mirror(), t);
+    }
+
+    fn test_knots() -> Vec<(Vec<Vector3<f64>>, KnotType)> {
+        vec![
+            (circle(60), KnotType::Unknot),
+            (trefoil(90, false, 0.0), KnotType::Trefoil),
+            (trefoil(90, true, 0.0), KnotType::Trefoil),
+            (
+                connected_sum(&trefoil(90, false, 0.0), &trefoil(90, false, 8.0)),
+                KnotType::Granny,
+            ),
+            (
+                connected_sum(&trefoil(90, true, 0.0), &trefoil(90, true, 8.0)),
+                KnotType::Granny,
+            ),
+            (
+                connected_sum(&trefoil(90, false, 0.0), &trefoil(90, true, 8.0)),
+                KnotType::Square,
+            ),
+        ]
+    }
+
+    #[test]
+    fn every_view_of_a_closed_knot_agrees() {
+        // Closed polygons seen from many directions: the conventions (crossing signs, smoothings,
+        // writhe normalisation) are consistent, or diagrams of one knot would disagree.
+        for (points, want) in test_knots() {
+            let mut views = 0;
+            for u in closure_directions() {
+                for v in projection_directions(&u) {
+                    if let Some(d) = Diagram::project(&points, &v) {
+                        if d.crossings() <= MAX_EVALUATED_CROSSINGS {
+                            assert_eq!(d.name(), want, "unreduced, view {v:?}");
+                        }
+                        assert_eq!(d.reduced().name(), want, "reduced, view {v:?}");
+                        views += 1;
+                    }
+                }
+            }
+            assert!(views >= 12, "{views} generic views");
+        }
+    }
+
+    #[test]
+    fn names_the_open_test_knots_with_ends_pulled_out() {
+        for (points, want) in test_knots() {
+            let r = identify(&long_knot(&points));
+            assert_eq!(r.kind, want, "{r:?}");
+            assert_eq!(r.votes, r.views, "{r:?}");
+            assert!(r.views >= 12, "{r:?}");
+        }
+    }
+
+    #[test]
+    fn invariants_of_each_knot() {
+        let r = identify(&long_knot(&trefoil(90, false, 0.0)));
+        assert_eq!((r.crossings, r.writhe.abs(), r.determinant), (3, 3, 3));
+        let r = identify(&long_knot(&connected_sum(
+            &trefoil(90, false, 0.0),
+            &trefoil(90, false, 8.0),
+        )));
+        assert_eq!((r.crossings, r.writhe.abs(), r.determinant), (6, 6, 9));
+        let r = identify(&long_knot(&connected_sum(
+            &trefoil(90, false, 0.0),
+            &trefoil(90, true, 8.0),
+        )));
+        assert_eq!((r.crossings, r.writhe, r.determinant), (6, 0, 9));
+        let r = identify(&circle(50));
+        assert_eq!(
+            (r.crossings, r.determinant, r.jones.1.clone()),
+            (0, 1, vec![1])
+        );
+    }
+
+    #[test]
+    fn jones_unchanged_by_kinks_without_reduction() {
+        // A trefoil with a small curl added: the unreduced diagram has an extra crossing, and its Jones
+        // polynomial must still be the trefoil's (the writhe normalisation matches the smoothing rule).
+        let mut p = trefoil(120, false, 0.0);
+        let at = p[10];
+        let dir = (p[11] - p[10]).normalize();
+        let side = dir.cross(&Vector3::z()).normalize();
+        let curl: Vec<_> = (1..12)
+            .map(|k| {
+                let a = TAU * k as f64 / 12.0;
+                at + dir * (0.15 * a.sin())
+                    + side * (0.15 * (1.0 - a.cos()))
+                    + Vector3::z() * (0.05 * a.sin())
+            })
+            .collect();
+        p.splice(11..11, curl);
+        let v = Vector3::new(0.1, 0.2, 1.0).normalize();
+        let d = Diagram::project(&p, &v).expect("generic view");
+        assert!(d.crossings() > 3, "the curl adds a crossing");
+        assert_eq!(d.name(), KnotType::Trefoil);
+        assert_eq!(d.reduced().crossings(), 3);
+    }
+
+    #[test]
+    fn open_rope_straight_is_unknot_and_mirror_trefoil_is_trefoil() {
+        let straight: Vec<_> = (0..=40).map(|k| Vector3::new(k as f64, 0.0, 0.0)).collect();
+        assert_eq!(identify(&straight).kind, KnotType::Unknot);
+        // An open trefoil: the closed curve cut open at one point, ends left where they were.
+        let r = identify(&long_knot(&trefoil(90, true, 0.0)));
+        assert_eq!(r.kind, KnotType::Trefoil);
+    }
+}
