@@ -153,6 +153,8 @@ pub const FLAG_ANGLES: u32 = 1;
 pub const COLLISION_SELF: u32 = 1;
 /// Collision bit: the chain avoids the scene's obstacles.
 pub const COLLISION_OBSTACLES: u32 = 2;
+/// Collision bit: the chain uses the paper's bounding spheres (section 4.2) instead of capsules.
+pub const COLLISION_PAPER_SPHERES: u32 = 4;
 
 /// The iceoryx2 configuration of one instance: the global configuration with `prefix` (a valid file-name
 /// prefix such as `tractrix_` or `kt1234_7_`). Processes see each other only with the same prefix.
@@ -453,7 +455,8 @@ pub struct ResponseHeader {
     pub n_joints: u32,
     /// Joint rotations after the positions.
     pub n_angles: u32,
-    /// Reach iterations.
+    /// Reach iterations, or for a move on a chain with collision handling, the resolution passes that
+    /// pushed links apart (summed over substeps).
     pub iterations: u32,
     /// Substeps taken (all points of a path).
     pub substeps: u32,
@@ -741,7 +744,8 @@ mod tests {
         }
         assert_eq!(Command::from_u32(0), None);
         assert_eq!(Command::from_u32(8), None);
-        assert_eq!(Status::from_u32(14), None);
+        assert_eq!(Status::from_u32(14), Some(Status::Locked));
+        assert_eq!(Status::from_u32(15), None);
         assert_eq!(WireMethod::from_u32(4), None);
         assert_eq!(Precision::from_u32(2), Some(Precision::F32));
     }

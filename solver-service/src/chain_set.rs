@@ -10,12 +10,15 @@
 //! No I/O and no clock here: the service measures time and does the persistence around it.
 
 use crate::kernel::angles::rotation_between;
+use crate::kernel::collision::{
+    CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, move_joint_colliding,
+};
 use crate::kernel::math::{CompensatedSum, Embed3, Real, Vector, all_finite};
 use crate::kernel::{
-    Chain, ChainError, Method, MoveOptions, ReachError, ReachOptions, ReachWorkspace, Strategy,
-    Substeps, reach,
+    Chain, ChainError, Method, MoveOptions, MoveOutcome, ReachError, ReachOptions, ReachWorkspace,
+    Strategy, Substeps, reach,
 };
-use crate::scene::{ChainDef, Scene};
+use crate::scene::{ChainDef, ObstacleDef, Scene};
 use nalgebra::Vector3;
 use protocol::{
     ChainKind, Command, FLAG_ANGLES, JOINT_HEAD, MAX_PATH_POINTS, Precision, REASON_LEN,
@@ -32,6 +35,8 @@ pub struct Held<T: Real, const D: usize> {
     /// The state before the request being applied (for a rollback).
     spare: Chain<T, D>,
     ws: ReachWorkspace<T, D>,
+    /// Collision model and buffers, only for chains whose scene declares collision.
+    collision: Option<(CollisionModel<T, D>, CollisionWorkspace<T, D>)>,
 }
 
 /// One of the four chain forms.
@@ -78,11 +83,45 @@ where
     let links: Vec<_> = p.windows(2).map(|w| w[1] - w[0]).collect();
     let lengths: Vec<T> = def.lengths.iter().map(|&l| T::lit(l)).collect();
     let chain = Chain::from_parts(p[0], links, lengths)?;
+    let collision = def.collision_spec.as_ref().map(|spec| {
+        let v = |q: &[f64; 3]| from_array::<T, D>(*q);
+        let obstacles = spec
+            .obstacles
+            .iter()
+            .map(|o| match o {
+                ObstacleDef::Sphere { center, radius } => Obstacle::Sphere {
+                    center: v(center),
+                    radius: T::lit(*radius),
+                },
+                ObstacleDef::Capsule { a, b, radius } => Obstacle::Capsule {
+                    a: v(a),
+                    b: v(b),
+                    radius: T::lit(*radius),
+                },
+                ObstacleDef::Plane { point, normal } => Obstacle::HalfSpace {
+                    point: v(point),
+                    normal: v(normal),
+                },
+            })
+            .collect();
+        let model = CollisionModel {
+            options: CollisionOptions {
+                scheme: spec.scheme,
+                self_collision: spec.self_collision,
+                thickness: T::lit(def.thickness),
+                max_iterations: spec.iterations,
+                tolerance: T::lit(spec.tolerance),
+            },
+            obstacles,
+        };
+        (model, CollisionWorkspace::new())
+    });
     Ok(Held {
         initial: chain.clone(),
         spare: chain.clone(),
         chain,
         ws: ReachWorkspace::default(),
+        collision,
     })
 }
 
@@ -588,7 +627,22 @@ where
         max_substeps: opts.max_substeps,
     };
     let last: Vector<T, D> = from_array(points[points.len() - 1].to_array());
-    let outcome = if points.len() == 1 {
+    let outcome = if let Some((model, ws)) = &mut g.collision {
+        // Each target is a straight move with collision; a failure anywhere is rolled back by the
+        // caller (the whole request changes nothing).
+        let mut total = MoveOutcome::default();
+        for p in points {
+            let t: Vector<T, D> = from_array(p.to_array());
+            let o = move_joint_colliding(&mut g.chain, joint, t, &opts, model, ws)?;
+            total.substeps = total.substeps.saturating_add(o.substeps);
+            total.paper_fallbacks = total.paper_fallbacks.saturating_add(o.paper_fallbacks);
+            total.collision_iterations = total
+                .collision_iterations
+                .saturating_add(o.collision_iterations);
+            total.contacts = total.contacts.saturating_add(o.contacts);
+        }
+        total
+    } else if points.len() == 1 {
         if !all_finite(&last) {
             return Err(ChainError::NonFinite);
         }
@@ -600,6 +654,7 @@ where
     };
     h.substeps = outcome.substeps;
     h.paper_fallbacks = outcome.paper_fallbacks;
+    h.iterations = outcome.collision_iterations;
     h.residual = (g.chain.joint(joint) - last).norm().to_f64();
     Ok(())
 }

@@ -17,7 +17,11 @@
 //! | `radius`, `bend` | number, vector | –, `[0, 1, 0]` | arc radius (≥ half the longest link) and the side it bends to |
 //! | `points` | list of `links + 1` points | – | explicit joints (`shape = "points"`); lengths come from them |
 //! | `thickness` | number ≥ 0 | 0 | diameter, for collision and pictures |
-//! | `collision` | `"none"` | `"none"` | collision handling (self and obstacles come with the knot work) |
+//! | `collision` | `"none"` \| `"capsules"` \| `"paper-spheres"` | `"none"` | collision scheme (free chains only; see `kernel::collision`) |
+//! | `self_collision` | bool | `true` with a scheme | whether links collide with each other |
+//! | `obstacles` | list of obstacle names | `[]` | the `[[obstacle]]`s this chain avoids (needs a scheme) |
+//! | `collision_iterations` | integer 1..=10000 | 64 | passes per substep before the chain is "locked" |
+//! | `collision_tolerance` | number in (0, 1) | 0.01 | accepted penetration, fraction of the clearance |
 //! | `precision` | `"f64"` \| `"f32"` | `"f64"` | arithmetic and storage of the chain |
 //! | `method` | `"tractrix"` \| `"paper"` \| `"ftl"` | `"tractrix"` | default single-link method |
 //! | `substeps` / `max_step` | integer ≥ 1 / fraction of the shortest link | `substeps = 1` | default substep policy |
@@ -26,10 +30,18 @@
 //! | `tolerance` | number in (0, 0.1] | 1e-9 | fixed-base tolerance, fraction of the total length |
 //! | `max_iterations` | integer 1..=100000 | 1000 | fixed-base iteration limit |
 //!
+//! Static obstacles are `[[obstacle]]` tables: `name`, `shape = "sphere"` (`center`, `radius`),
+//! `"capsule"` (`a`, `b`, `radius`) or `"plane"` (`point`, `normal`: the free side). A chain lists the
+//! ones it avoids; a planar chain's obstacles must lie in its plane.
+//!
 //! Errors name the file, the line and the field; sizes are checked before anything is allocated.
 
+use crate::kernel::collision::Scheme;
 use crate::kernel::{Method, Strategy, Substeps};
-use protocol::{ChainKind, MAX_CHAINS, MAX_LINKS, NAME_LEN, Precision};
+use protocol::{
+    COLLISION_OBSTACLES, COLLISION_PAPER_SPHERES, COLLISION_SELF, ChainKind, MAX_CHAINS, MAX_LINKS,
+    NAME_LEN, Precision,
+};
 use serde::Deserialize;
 use std::fmt;
 use toml::Spanned;
@@ -80,12 +92,43 @@ pub struct ChainDef {
     pub thickness: f64,
     /// Collision bits (`protocol::COLLISION_*`).
     pub collision: u32,
+    /// Collision handling, when the chain declares a scheme.
+    pub collision_spec: Option<CollisionSpec>,
     pub method: Method,
     pub substeps: Substeps<f64>,
     pub max_substeps: u32,
     pub strategy: Strategy,
     pub tolerance: f64,
     pub max_iterations: u32,
+}
+
+/// A chain's collision handling as its scene declares it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CollisionSpec {
+    pub scheme: Scheme,
+    pub self_collision: bool,
+    pub iterations: u32,
+    pub tolerance: f64,
+    pub obstacles: Vec<ObstacleDef>,
+}
+
+/// A static obstacle of the scene.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ObstacleDef {
+    Sphere {
+        center: [f64; 3],
+        radius: f64,
+    },
+    Capsule {
+        a: [f64; 3],
+        b: [f64; 3],
+        radius: f64,
+    },
+    /// `normal` is unit length.
+    Plane {
+        point: [f64; 3],
+        normal: [f64; 3],
+    },
 }
 
 /// A validated scene.
@@ -99,7 +142,25 @@ pub struct Scene {
 struct RawScene {
     #[serde(default)]
     chain: Vec<Spanned<RawChain>>,
+    #[serde(default)]
+    obstacle: Vec<Spanned<RawObstacle>>,
 }
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObstacle {
+    name: Spanned<String>,
+    shape: Spanned<String>,
+    center: Option<Spanned<Vec<f64>>>,
+    radius: Option<Spanned<f64>>,
+    a: Option<Spanned<Vec<f64>>>,
+    b: Option<Spanned<Vec<f64>>>,
+    point: Option<Spanned<Vec<f64>>>,
+    normal: Option<Spanned<Vec<f64>>>,
+}
+
+/// Most obstacles a scene may declare (each is tested against every link of the chains that list it).
+pub const MAX_OBSTACLES: usize = 256;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -118,6 +179,10 @@ struct RawChain {
     points: Option<Spanned<Vec<Vec<f64>>>>,
     thickness: Option<Spanned<f64>>,
     collision: Option<Spanned<String>>,
+    self_collision: Option<Spanned<bool>>,
+    obstacles: Option<Spanned<Vec<String>>>,
+    collision_iterations: Option<Spanned<i64>>,
+    collision_tolerance: Option<Spanned<f64>>,
     precision: Option<Spanned<String>>,
     method: Option<Spanned<String>>,
     substeps: Option<Spanned<i64>>,
@@ -204,9 +269,33 @@ pub fn parse_scene(text: &str, file: &str) -> Result<Scene, SceneError> {
             ),
         ));
     }
+    if raw.obstacle.len() > MAX_OBSTACLES {
+        return Err(at(
+            raw.obstacle[MAX_OBSTACLES].span(),
+            format!(
+                "{} obstacles; a scene may have at most {MAX_OBSTACLES}",
+                raw.obstacle.len()
+            ),
+        ));
+    }
+    let mut obstacles: Vec<(String, ObstacleDef)> = Vec::with_capacity(raw.obstacle.len());
+    for o in &raw.obstacle {
+        let o = o.get_ref();
+        let def = obstacle_def(o, &at)?;
+        if obstacles.iter().any(|(n, _)| n == o.name.get_ref()) {
+            return Err(at(
+                o.name.span(),
+                format!(
+                    "obstacle {:?}: field `name`: declared twice",
+                    o.name.get_ref()
+                ),
+            ));
+        }
+        obstacles.push((o.name.get_ref().clone(), def));
+    }
     let mut chains: Vec<ChainDef> = Vec::with_capacity(raw.chain.len());
     for c in &raw.chain {
-        let def = chain_def(c.get_ref(), &at)?;
+        let def = chain_def(c.get_ref(), &obstacles, &at)?;
         if chains.iter().any(|d| d.name == def.name) {
             let c = c.get_ref();
             return Err(at(
@@ -229,7 +318,78 @@ fn line_of(text: &str, offset: usize) -> usize {
 
 type At<'a> = dyn Fn(std::ops::Range<usize>, String) -> SceneError + 'a;
 
-fn chain_def(c: &RawChain, at: &At<'_>) -> Result<ChainDef, SceneError> {
+/// A 2- or 3-vector of finite numbers (`z = 0` when two are given).
+fn vector3(f: &Spanned<Vec<f64>>) -> Result<[f64; 3], String> {
+    let v = f.get_ref();
+    let p = match v.as_slice() {
+        [x, y] => [*x, *y, 0.0],
+        [x, y, z] => [*x, *y, *z],
+        _ => return Err(format!("a point has 2 or 3 numbers, not {}", v.len())),
+    };
+    if p.iter().all(|x| x.is_finite()) {
+        Ok(p)
+    } else {
+        Err(format!("{v:?} is not finite"))
+    }
+}
+
+fn obstacle_def(o: &RawObstacle, at: &At<'_>) -> Result<ObstacleDef, SceneError> {
+    let name = o.name.get_ref();
+    let err = |span: std::ops::Range<usize>, field: &str, what: String| {
+        at(span, format!("obstacle {name:?}: field `{field}`: {what}"))
+    };
+    let need_vec = |f: &Option<Spanned<Vec<f64>>>, field: &str| -> Result<[f64; 3], SceneError> {
+        match f {
+            Some(v) => vector3(v).map_err(|m| err(v.span(), field, m)),
+            None => Err(err(o.shape.span(), field, "missing".into())),
+        }
+    };
+    let radius = || -> Result<f64, SceneError> {
+        match &o.radius {
+            Some(r) if r.get_ref().is_finite() && *r.get_ref() > 0.0 => Ok(*r.get_ref()),
+            Some(r) => Err(err(
+                r.span(),
+                "radius",
+                format!("{} is not a positive finite number", r.get_ref()),
+            )),
+            None => Err(err(o.shape.span(), "radius", "missing".into())),
+        }
+    };
+    match o.shape.get_ref().as_str() {
+        "sphere" => Ok(ObstacleDef::Sphere {
+            center: need_vec(&o.center, "center")?,
+            radius: radius()?,
+        }),
+        "capsule" => Ok(ObstacleDef::Capsule {
+            a: need_vec(&o.a, "a")?,
+            b: need_vec(&o.b, "b")?,
+            radius: radius()?,
+        }),
+        "plane" => {
+            let n = need_vec(&o.normal, "normal")?;
+            let len = norm(n);
+            if !(len > 0.0 && len.is_finite()) {
+                let span = o.normal.as_ref().map(|s| s.span()).unwrap_or(0..0);
+                return Err(err(span, "normal", "must be a non-zero vector".into()));
+            }
+            Ok(ObstacleDef::Plane {
+                point: need_vec(&o.point, "point")?,
+                normal: [n[0] / len, n[1] / len, n[2] / len],
+            })
+        }
+        other => Err(err(
+            o.shape.span(),
+            "shape",
+            format!("{other:?} is not one of [\"sphere\", \"capsule\", \"plane\"]"),
+        )),
+    }
+}
+
+fn chain_def(
+    c: &RawChain,
+    obstacles: &[(String, ObstacleDef)],
+    at: &At<'_>,
+) -> Result<ChainDef, SceneError> {
     let name = c.name.get_ref().clone();
     let err = |span: std::ops::Range<usize>, field: &str, what: String| {
         at(span, format!("chain {name:?}: field `{field}`: {what}"))
@@ -271,18 +431,12 @@ fn chain_def(c: &RawChain, at: &At<'_>) -> Result<ChainDef, SceneError> {
     let strategy = [Strategy::TranslateBack, Strategy::TractrixTwoLink]
         [choice(&c.strategy, "strategy", &["translate-back", "two-link"], 0)?];
     let shape = choice(&c.shape, "shape", &["straight", "arc", "points"], 0)?;
-    let collision = choice(&c.collision, "collision", &["none", "self", "obstacles"], 0)?;
-    if collision != 0 {
-        let s = c.collision.as_ref().expect("chosen");
-        return Err(err(
-            s.span(),
-            "collision",
-            format!(
-                "{:?} is not available in this version (only \"none\")",
-                s.get_ref()
-            ),
-        ));
-    }
+    let scheme = [None, Some(Scheme::Capsules), Some(Scheme::PaperSpheres)][choice(
+        &c.collision,
+        "collision",
+        &["none", "capsules", "paper-spheres"],
+        0,
+    )?];
 
     // A vector field: 2 or 3 finite numbers; planar chains must stay in z = 0.
     let vector = |f: &Spanned<Vec<f64>>, field: &str| -> Result<[f64; 3], SceneError> {
@@ -516,6 +670,105 @@ fn chain_def(c: &RawChain, at: &At<'_>) -> Result<ChainDef, SceneError> {
         Some(m) => count(m, "max_iterations", 1, 100_000)?,
         None => 1000,
     };
+    let collision_spec = match scheme {
+        None => {
+            // Collision knobs without a scheme would silently do nothing: refuse them.
+            let stray = [
+                c.self_collision
+                    .as_ref()
+                    .map(|s| ("self_collision", s.span())),
+                c.obstacles.as_ref().map(|s| ("obstacles", s.span())),
+                c.collision_iterations
+                    .as_ref()
+                    .map(|s| ("collision_iterations", s.span())),
+                c.collision_tolerance
+                    .as_ref()
+                    .map(|s| ("collision_tolerance", s.span())),
+            ];
+            if let Some((field, span)) = stray.into_iter().flatten().next() {
+                return Err(err(
+                    span,
+                    field,
+                    "needs `collision = \"capsules\"` or `\"paper-spheres\"`".into(),
+                ));
+            }
+            None
+        }
+        Some(scheme) => {
+            let span = c.collision.as_ref().map(|s| s.span()).unwrap_or(0..0);
+            if kind == ChainKind::FixedBase {
+                return Err(err(
+                    span,
+                    "collision",
+                    "collision is handled for free chains; a fixed-base reach does not check it"
+                        .into(),
+                ));
+            }
+            if scheme == Scheme::Capsules && thickness <= 0.0 {
+                return Err(err(
+                    span,
+                    "thickness",
+                    "capsule collision needs a positive `thickness` (the rope's diameter)".into(),
+                ));
+            }
+            let iterations = match &c.collision_iterations {
+                Some(m) => count(m, "collision_iterations", 1, 10_000)?,
+                None => 64,
+            };
+            let tolerance = match &c.collision_tolerance {
+                Some(t) if *t.get_ref() > 0.0 && *t.get_ref() < 1.0 => *t.get_ref(),
+                Some(t) => {
+                    return Err(err(
+                        t.span(),
+                        "collision_tolerance",
+                        format!("{} is not strictly between 0 and 1", t.get_ref()),
+                    ));
+                }
+                None => 0.01,
+            };
+            let mut list = Vec::new();
+            if let Some(names) = &c.obstacles {
+                for n in names.get_ref() {
+                    let Some((_, o)) = obstacles.iter().find(|(m, _)| m == n) else {
+                        return Err(err(
+                            names.span(),
+                            "obstacles",
+                            format!("no [[obstacle]] is named {n:?}"),
+                        ));
+                    };
+                    if dims == 2 && !in_plane(o) {
+                        return Err(err(
+                            names.span(),
+                            "obstacles",
+                            format!("obstacle {n:?} is not in the planar chain's plane z = 0"),
+                        ));
+                    }
+                    list.push(o.clone());
+                }
+            }
+            let self_collision = c.self_collision.as_ref().is_none_or(|s| *s.get_ref());
+            Some(CollisionSpec {
+                scheme,
+                self_collision,
+                iterations,
+                tolerance,
+                obstacles: list,
+            })
+        }
+    };
+    let collision = collision_spec.as_ref().map_or(0, |s| {
+        (if s.self_collision { COLLISION_SELF } else { 0 })
+            | (if s.obstacles.is_empty() {
+                0
+            } else {
+                COLLISION_OBSTACLES
+            })
+            | (if s.scheme == Scheme::PaperSpheres {
+                COLLISION_PAPER_SPHERES
+            } else {
+                0
+            })
+    });
     Ok(ChainDef {
         name,
         kind,
@@ -524,7 +777,8 @@ fn chain_def(c: &RawChain, at: &At<'_>) -> Result<ChainDef, SceneError> {
         points,
         lengths,
         thickness,
-        collision: 0,
+        collision,
+        collision_spec,
         method,
         substeps,
         max_substeps,
@@ -532,6 +786,15 @@ fn chain_def(c: &RawChain, at: &At<'_>) -> Result<ChainDef, SceneError> {
         tolerance,
         max_iterations,
     })
+}
+
+/// Whether a planar chain (z = 0) can use the obstacle: its geometry lies in the plane.
+fn in_plane(o: &ObstacleDef) -> bool {
+    match o {
+        ObstacleDef::Sphere { center, .. } => center[2] == 0.0,
+        ObstacleDef::Capsule { a, b, .. } => a[2] == 0.0 && b[2] == 0.0,
+        ObstacleDef::Plane { point, normal } => point[2] == 0.0 && normal[2] == 0.0,
+    }
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {

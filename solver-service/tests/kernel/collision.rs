@@ -1,0 +1,293 @@
+//! Collision handling: what it guarantees after every substep, and what it costs nothing to have.
+
+use crate::support::{Rng, max_length_error};
+use nalgebra::Vector3;
+use solver::kernel::collision::{
+    CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, Scheme,
+    closest_nonadjacent_links, move_joint_colliding,
+};
+use solver::kernel::knot::{KnotType, identify};
+use solver::kernel::{Chain, ChainError, MoveOptions, Substeps};
+
+fn capsules(thickness: f64) -> CollisionModel<f64, 3> {
+    CollisionModel {
+        options: CollisionOptions {
+            thickness,
+            ..CollisionOptions::default()
+        },
+        obstacles: vec![],
+    }
+}
+
+/// A hairpin: `n` links out along +x, a U-turn, `n` links back at `gap` above.
+fn hairpin(n: usize, gap: f64) -> Chain<f64, 3> {
+    let mut p: Vec<_> = (0..=n).map(|k| Vector3::new(k as f64, 0.0, 0.0)).collect();
+    p.push(Vector3::new(n as f64 + 0.5, gap * 0.5, 0.0));
+    p.extend((0..=n).rev().map(|k| Vector3::new(k as f64, gap, 0.0)));
+    // The two U-turn links are shorter; lengths come from the points.
+    Chain::from_points(&p).unwrap()
+}
+
+fn clearance(c: &Chain<f64, 3>) -> f64 {
+    closest_nonadjacent_links(&c.positions()).unwrap().0
+}
+
+#[test]
+fn without_contact_a_move_is_bit_for_bit_the_plain_move() {
+    let mut rng = Rng(7);
+    let mut a = Chain::<f64, 3>::straight(30, 1.0, Vector3::zeros(), Vector3::x()).unwrap();
+    let mut b = a.clone();
+    let model = capsules(0.2);
+    let mut ws = CollisionWorkspace::new();
+    // Small moves that keep the rope nearly straight: no two links come near each other.
+    let opts = MoveOptions::default();
+    for _ in 0..500 {
+        let t = a.head() + Vector3::new(0.08, rng.range(-0.05, 0.05), rng.range(-0.05, 0.05));
+        let oa = move_joint_colliding(&mut a, 30, t, &opts, &model, &mut ws).unwrap();
+        // The same substep count (collision caps a substep at half a thickness).
+        let ob = b
+            .move_joint(
+                30,
+                t,
+                &MoveOptions {
+                    substeps: Substeps::Fixed(oa.substeps),
+                    ..opts
+                },
+            )
+            .unwrap();
+        assert_eq!(oa.contacts, 0);
+        assert_eq!(ob.substeps, oa.substeps);
+    }
+    assert_eq!(a.links(), b.links());
+    assert_eq!(a.origin(), b.origin());
+}
+
+#[test]
+fn a_head_pushed_through_the_other_arm_of_a_hairpin_never_passes_it() {
+    // The head (end of the upper arm) is driven straight down through the lower arm. Every accepted
+    // move keeps non-adjacent links one thickness apart (within the 1 % tolerance); a move that cannot
+    // is refused as locked and changes nothing.
+    for thickness in [0.1, 0.3] {
+        let mut c = hairpin(12, 1.0);
+        let model = capsules(thickness);
+        let mut ws = CollisionWorkspace::new();
+        let head = c.head_index();
+        let start = c.head();
+        let (mut locked, mut accepted, mut contacts) = (0, 0, 0);
+        for k in 1..=60 {
+            let t = start + Vector3::new(0.3, -0.05 * k as f64, 0.0);
+            let before = c.clone();
+            match move_joint_colliding(&mut c, head, t, &MoveOptions::default(), &model, &mut ws) {
+                Ok(o) => {
+                    accepted += 1;
+                    contacts += o.contacts;
+                }
+                Err(ChainError::Locked { .. }) => {
+                    assert_eq!(c, before, "a locked move changes nothing");
+                    locked += 1;
+                }
+                Err(e) => panic!("{e}"),
+            }
+            let d = clearance(&c);
+            assert!(
+                d >= thickness * (1.0 - model.options.tolerance) - 1e-12,
+                "thickness {thickness}: step {k}: clearance {d}"
+            );
+            assert!(max_length_error(&c) < 1e-12);
+        }
+        assert!(
+            accepted > 10,
+            "the head moved ({accepted} accepted, {locked} locked)"
+        );
+        // The lower arm was in the way and was pushed ahead of the head (its far end is free).
+        assert!(contacts > 0, "the arm was never touched");
+        assert!(
+            c.joint(0).y < -0.5,
+            "the arm was pushed down: {:?}",
+            c.joint(0)
+        );
+    }
+}
+
+#[test]
+fn random_crumpled_ropes_are_separated_by_the_grid_as_by_brute_force() {
+    // Ropes driven hard in random directions pile up; whatever the grid finds, the O(n²) check agrees
+    // that no contact is deeper than the tolerance after any accepted move.
+    let mut rng = Rng(42);
+    for trial in 0..6 {
+        let mut c = Chain::<f64, 3>::straight(60, 0.5, Vector3::zeros(), Vector3::x()).unwrap();
+        let model = capsules(0.25);
+        let mut ws = CollisionWorkspace::new();
+        let n = c.n_links();
+        for step in 0..300 {
+            let joint = if step % 2 == 0 { n } else { 0 };
+            let t =
+                c.joint(joint) + rng.dir3() * 0.4 + (c.joint(n - joint) - c.joint(joint)) * 0.02;
+            let _ =
+                move_joint_colliding(&mut c, joint, t, &MoveOptions::default(), &model, &mut ws);
+            let d = clearance(&c);
+            assert!(
+                d >= 0.25 * (1.0 - model.options.tolerance) - 1e-12,
+                "trial {trial} step {step}: {d}"
+            );
+        }
+    }
+}
+
+#[test]
+fn paper_spheres_keep_link_centres_apart() {
+    let mut c = hairpin(10, 2.0);
+    let model = CollisionModel {
+        options: CollisionOptions {
+            scheme: Scheme::PaperSpheres,
+            ..CollisionOptions::default()
+        },
+        obstacles: vec![],
+    };
+    let mut ws = CollisionWorkspace::new();
+    let head = c.head_index();
+    let start = c.head();
+    for k in 1..=40 {
+        let t = start + Vector3::new(0.2, -0.1 * k as f64, 0.0);
+        let _ = move_joint_colliding(&mut c, head, t, &MoveOptions::default(), &model, &mut ws);
+        let p = c.positions();
+        let l = c.lengths();
+        for i in 0..l.len() {
+            for j in i + 2..l.len() {
+                let d = ((p[i] + p[i + 1]) - (p[j] + p[j + 1])).norm() * 0.5;
+                let clearance = (l[i] + l[j]) * 0.5;
+                assert!(
+                    d >= clearance * 0.99 - 1e-12,
+                    "step {k}: links {i},{j}: {d}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn obstacles_are_avoided_and_a_hand_inside_one_is_locked() {
+    let table = Obstacle::HalfSpace {
+        point: Vector3::new(0.0, 0.0, -1.0),
+        normal: Vector3::z(),
+    };
+    let post = Obstacle::Capsule {
+        a: Vector3::new(5.0, 3.0, -5.0),
+        b: Vector3::new(5.0, 3.0, 5.0),
+        radius: 0.5,
+    };
+    let ball = Obstacle::Sphere {
+        center: Vector3::new(10.0, -3.0, 0.0),
+        radius: 1.0,
+    };
+    let model = CollisionModel {
+        options: CollisionOptions {
+            thickness: 0.2,
+            ..CollisionOptions::default()
+        },
+        obstacles: vec![table, post, ball],
+    };
+    let mut ws = CollisionWorkspace::new();
+    // A rope dragged by its head around the post and down toward the table, then across the ball.
+    let mut c =
+        Chain::<f64, 3>::straight(20, 0.5, Vector3::new(0.0, 0.0, 0.0), Vector3::x()).unwrap();
+    let waypoints = [
+        Vector3::new(10.0, 6.0, 0.0),
+        Vector3::new(5.0, 8.0, 0.0),
+        Vector3::new(0.0, 5.0, -0.5),
+        Vector3::new(5.0, 1.0, -0.85),
+        Vector3::new(12.0, -3.0, -0.5),
+        Vector3::new(16.0, -3.0, 0.0),
+    ];
+    for w in waypoints {
+        let from = c.head();
+        for k in 1..=50 {
+            let t = from + (w - from) * (k as f64 / 50.0);
+            let _ = move_joint_colliding(&mut c, 20, t, &MoveOptions::default(), &model, &mut ws);
+            for p in c.positions() {
+                assert!(p.z >= -1.0 + 0.1 * 0.99 - 1e-12, "below the table: {p:?}");
+            }
+            let p = c.positions();
+            for s in p.windows(2) {
+                for k in 0..=10 {
+                    let q = s[0] + (s[1] - s[0]) * (k as f64 / 10.0);
+                    let to_post = Vector3::new(q.x - 5.0, q.y - 3.0, 0.0).norm();
+                    assert!(to_post >= 0.6 * 0.99 - 1e-9, "in the post: {q:?}");
+                    assert!((q - Vector3::new(10.0, -3.0, 0.0)).norm() >= 1.1 * 0.99 - 1e-9);
+                }
+            }
+        }
+    }
+    // The hand itself driven into the ball cannot be satisfied: locked, nothing changes.
+    let before = c.clone();
+    let e = move_joint_colliding(
+        &mut c,
+        20,
+        Vector3::new(10.0, -3.0, 0.0),
+        &MoveOptions::default(),
+        &model,
+        &mut ws,
+    );
+    assert!(matches!(e, Err(ChainError::Locked { .. })), "{e:?}");
+    assert_eq!(c, before);
+}
+
+/// The open trefoil path of the one-hand knot: the standard trefoil scaled by `s`, cut open at its
+/// right-most point, entered from the hand's start.
+fn trefoil_path(start: Vector3<f64>, s: f64, step: f64) -> Vec<Vector3<f64>> {
+    let f = |t: f64| {
+        Vector3::new(
+            t.sin() + 2.0 * (2.0 * t).sin(),
+            t.cos() - 2.0 * (2.0 * t).cos(),
+            -(3.0 * t).sin(),
+        ) * s
+    };
+    let n = 400;
+    let pts: Vec<_> = (0..n)
+        .map(|k| f(std::f64::consts::TAU * k as f64 / n as f64))
+        .collect();
+    let c = (0..n)
+        .min_by(|&i, &j| pts[i].x.total_cmp(&pts[j].x))
+        .unwrap();
+    let off = start + Vector3::x() - pts[c];
+    let mut raw: Vec<_> = (1..=n).map(|k| pts[(c + k) % n] + off).collect();
+    raw.push(pts[c] + off + Vector3::new(3.0, -3.0, 0.0));
+    let mut out = vec![];
+    let mut prev = start;
+    for p in raw {
+        let k = ((p - prev).norm() / step).ceil().max(1.0) as usize;
+        out.extend((1..=k).map(|i| prev + (p - prev) * (i as f64 / k as f64)));
+        prev = p;
+    }
+    out
+}
+
+#[test]
+fn an_overhand_knot_holds_only_with_collision_and_a_fine_enough_rope() {
+    // The head of a 40-unit rope traces an open trefoil. The tractrix cuts corners by about n·L²/R: with
+    // 160 links of 0.25 and capsule collision the rope keeps the knot; without collision the strands
+    // pass through each other; with 40 unit links the loops collapse before they are threaded.
+    let run = |links: usize, collide: bool| {
+        let len = 40.0 / links as f64;
+        let mut c = Chain::<f64, 3>::straight(links, len, Vector3::zeros(), Vector3::x()).unwrap();
+        let mut model = capsules(0.2);
+        model.options.self_collision = collide;
+        let mut ws = CollisionWorkspace::new();
+        let mut min_clear = f64::INFINITY;
+        for t in trefoil_path(c.head(), 0.9, 0.1) {
+            move_joint_colliding(&mut c, links, t, &MoveOptions::default(), &model, &mut ws)
+                .unwrap();
+            min_clear = min_clear.min(clearance(&c));
+        }
+        (identify(&c.positions()).kind, min_clear)
+    };
+    let (kind, clear) = run(160, true);
+    assert_eq!(kind, KnotType::Trefoil);
+    assert!(clear >= 0.2 * 0.99 - 1e-12, "{clear}");
+    let (_, clear) = run(160, false);
+    assert!(
+        clear < 0.2 * 0.5,
+        "without collision the strands meet: {clear}"
+    );
+    assert_eq!(run(40, true).0, KnotType::Unknot);
+}
