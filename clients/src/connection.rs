@@ -13,7 +13,7 @@ use protocol::{
 };
 use std::time::{Duration, Instant};
 
-type Svc = ipc::Service;
+pub type Svc = ipc::Service;
 
 /// How a client waits for its response.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -83,7 +83,7 @@ pub enum CallError {
     Ipc(String),
 }
 
-fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> CallError {
+pub(crate) fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> CallError {
     move |e| CallError::Ipc(format!("{what}: {e:?}"))
 }
 

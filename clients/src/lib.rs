@@ -1,6 +1,9 @@
 //! Clients of the tractrix solver service: the connection plumbing every binary shares, and thin binaries
-//! on top (`chainctl`: one request from the shell).
+//! on top (`chainctl`: one request from the shell; `hand`: a hand controller running a script, with
+//! recording and replay).
 
 pub mod connection;
+pub mod hand;
+pub mod script;
 
 pub use connection::{CallError, ClientWait, ConnectOptions, Connection, Reply, StateStream};

@@ -8,6 +8,7 @@
 //! chainctl query rope --json
 //! chainctl reset rope
 //! chainctl snapshot
+//! chainctl knot reef
 //! ```
 //!
 //! Exit codes: 0 ok, 1 the service refused the request or could not be reached, 2 usage.
@@ -28,6 +29,8 @@ enum Cmd {
     Reset,
     Describe,
     Snapshot,
+    /// Query the chain and name the knot tied in it (unknot, trefoil, square, granny, other).
+    Knot,
 }
 
 #[derive(Parser, Debug)]
@@ -188,6 +191,43 @@ fn run(a: Args) -> Result<i32> {
             ),
         }),
     };
+    if a.command == Cmd::Knot {
+        let Some(ChainRef::Index(id)) = chain else {
+            bail!("which chain?");
+        };
+        let r = conn.call(RequestHeader::new(Command::Query, id), &[])?;
+        if !r.is_ok() {
+            bail!("query refused: {}", r.header.reason_str());
+        }
+        let pts: Vec<_> = r
+            .joints()
+            .iter()
+            .map(|p| nalgebra::Vector3::new(p.x, p.y, p.z))
+            .collect();
+        let k = solver::kernel::knot::identify(&pts);
+        if a.json {
+            println!(
+                "{{\"knot\":\"{}\",\"votes\":{},\"views\":{},\"crossings\":{},\"writhe\":{},\"determinant\":{}}}",
+                k.kind.name(),
+                k.votes,
+                k.views,
+                k.crossings,
+                k.writhe,
+                k.determinant
+            );
+        } else {
+            println!(
+                "knot: {} ({}/{} views; {} crossings, writhe {}, determinant {})",
+                k.kind.name(),
+                k.votes,
+                k.views,
+                k.crossings,
+                k.writhe,
+                k.determinant
+            );
+        }
+        return Ok(0);
+    }
     let req = TextRequest {
         cmd: format!("{:?}", a.command).to_lowercase(),
         chain,

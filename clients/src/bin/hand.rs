@@ -1,0 +1,183 @@
+//! `hand`: a hand controller. It grasps a joint of a chain and drives it through a script's turns,
+//! taking turns with the script's other hands (each its own process); it can record what it sent and
+//! replay recordings bit for bit.
+//!
+//! ```text
+//! hand run --builtin overhand --identify overhand
+//! hand run --builtin square --hand A --record a.jsonl &   hand run --builtin square --hand B --record b.jsonl
+//! hand run --script my.toml --hand A --rate 1000
+//! hand replay a.jsonl b.jsonl          # resets the chains, re-sends in order, compares every state
+//! hand print square                    # a built-in script as TOML, to start your own
+//! ```
+//!
+//! Exit codes: 0 ok, 1 failure (no service, a turn timed out, a replay differed), 2 usage.
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+use clients::hand::{HandConfig, read_records, replay, run_hand};
+use clients::script::{BUILTINS, Script};
+use clients::{ClientWait, ConnectOptions, Connection};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Parser, Debug)]
+#[command(version, about = "Drive a chain of a running solver-service like a hand")]
+struct Args {
+    #[command(subcommand)]
+    cmd: Cmd,
+    /// iceoryx2 prefix of the service.
+    #[arg(long, global = true, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    prefix: String,
+    /// Seconds to wait for the service to appear.
+    #[arg(long, global = true, default_value_t = 5.0)]
+    wait_for_service: f64,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Run one hand of a script.
+    Run {
+        /// Script file (TOML).
+        #[arg(long, conflicts_with = "builtin")]
+        script: Option<PathBuf>,
+        /// Built-in script: overhand, square, granny, wave.
+        #[arg(long)]
+        builtin: Option<String>,
+        /// Which hand of the script this process is.
+        #[arg(long, default_value = "A")]
+        hand: String,
+        /// Requests per second (0: as fast as the service answers).
+        #[arg(long, default_value_t = 0.0)]
+        rate: f64,
+        /// Override the script's longest hand motion per request.
+        #[arg(long)]
+        max_step: Option<f64>,
+        /// Run every turn on this chain instead of the script's.
+        #[arg(long)]
+        chain: Option<String>,
+        /// Record every request (JSON lines) to this file.
+        #[arg(long)]
+        record: Option<PathBuf>,
+        /// Seconds to wait for another hand's turn.
+        #[arg(long, default_value_t = 120.0)]
+        turn_timeout: f64,
+        /// After the script, name the knot tied in this chain.
+        #[arg(long)]
+        identify: Option<String>,
+        /// No progress lines.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
+    Replay {
+        /// Recording files (several hands' recordings are merged by sequence number).
+        #[arg(required = true)]
+        records: Vec<PathBuf>,
+        /// Do not reset the chains first.
+        #[arg(long)]
+        no_reset: bool,
+    },
+    /// Print a built-in script as TOML.
+    Print { name: String },
+}
+
+fn main() {
+    let args = Args::parse();
+    std::process::exit(match run(args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("hand: {e:#}");
+            1
+        }
+    });
+}
+
+fn connect(prefix: &str, wait: f64) -> Result<Connection> {
+    if !(wait.is_finite() && wait >= 0.0) {
+        bail!("--wait-for-service must be a non-negative number of seconds");
+    }
+    Ok(Connection::connect(ConnectOptions {
+        prefix: prefix.to_string(),
+        wait: ClientWait::Hybrid(Duration::from_micros(200)),
+        connect_timeout: Duration::from_secs_f64(wait),
+        call_timeout: Duration::from_secs(10),
+        ..ConnectOptions::default()
+    })?)
+}
+
+fn builtin(name: &str) -> Result<Script> {
+    Script::builtin(name).with_context(|| format!("no built-in script {name:?} (there are {BUILTINS:?})"))
+}
+
+fn run(a: Args) -> Result<i32> {
+    match a.cmd {
+        Cmd::Print { name } => {
+            print!("{}", toml::to_string(&builtin(&name)?)?);
+            Ok(0)
+        }
+        Cmd::Run { script, builtin: b, hand, rate, max_step, chain, record, turn_timeout, identify, quiet } => {
+            let mut script = match (script, b) {
+                (Some(p), None) => {
+                    let text = std::fs::read_to_string(&p).with_context(|| format!("read {}", p.display()))?;
+                    Script::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)?
+                }
+                (None, Some(n)) => builtin(&n)?,
+                _ => bail!("give --script FILE or --builtin NAME"),
+            };
+            if let Some(m) = max_step {
+                script.max_step = m;
+            }
+            if let Some(c) = chain {
+                for t in &mut script.turn {
+                    t.chain = c.clone();
+                }
+            }
+            script.check().map_err(anyhow::Error::msg)?;
+            if !(rate.is_finite() && rate >= 0.0 && turn_timeout.is_finite() && turn_timeout > 0.0) {
+                bail!("--rate must be ≥ 0 and --turn-timeout positive");
+            }
+            let mut conn = connect(&a.prefix, a.wait_for_service)?;
+            let cfg = HandConfig {
+                hand: hand.clone(),
+                script,
+                rate_hz: rate,
+                turn_timeout: Duration::from_secs_f64(turn_timeout),
+                record,
+                progress: !quiet,
+            };
+            let r = run_hand(&mut conn, &cfg)?;
+            let refused: Vec<String> = r.refused.iter().map(|(n, c)| format!("{c} {n}")).collect();
+            println!(
+                "hand {hand}: {} requests, {} ok, {} locked{}",
+                r.requests,
+                r.ok,
+                r.locked,
+                if refused.is_empty() { String::new() } else { format!(", refused: {}", refused.join(", ")) }
+            );
+            if let Some(name) = identify {
+                let id = conn.find_chain(&name)?.with_context(|| format!("no chain {name:?}"))?;
+                let q = conn.call(protocol::RequestHeader::new(protocol::Command::Query, id), &[])?;
+                let pts: Vec<_> = q.joints().iter().map(|p| nalgebra::Vector3::new(p.x, p.y, p.z)).collect();
+                let k = solver::kernel::knot::identify(&pts);
+                println!(
+                    "knot: {} ({}/{} views; {} crossings, writhe {}, determinant {})",
+                    k.kind.name(), k.votes, k.views, k.crossings, k.writhe, k.determinant
+                );
+            }
+            Ok(if r.refused.is_empty() { 0 } else { 1 })
+        }
+        Cmd::Replay { records, no_reset } => {
+            let mut all = Vec::new();
+            for p in &records {
+                all.extend(read_records(p)?);
+            }
+            let mut conn = connect(&a.prefix, a.wait_for_service)?;
+            let r = replay(&mut conn, all, !no_reset)?;
+            for (i, what) in r.mismatches.iter().take(10) {
+                println!("request {i}: {what}");
+            }
+            println!("replayed {} requests: {} differed", r.sent, r.mismatches.len());
+            Ok(if r.mismatches.is_empty() { 0 } else { 1 })
+        }
+    }
+}

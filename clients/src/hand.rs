@@ -1,0 +1,324 @@
+//! A hand controller: grasps a joint and drives it through a script's turns, taking turns with the other
+//! hands of the script (each its own process), recording what it sent; and the replay of recordings.
+//!
+//! Turn-taking runs over an iceoryx2 event service `tractrix/turns/<script name>`: when a hand finishes
+//! turn `k` it notifies event id `k`; a hand whose turn is next waits for that id. Notifications reach
+//! only listeners that exist, so a hand keeps re-announcing the last turn it finished while it waits,
+//! and at the end each hand announces it is finished and waits for the others: hands may be started in
+//! any order, seconds apart. Every wait has a deadline.
+
+use crate::connection::{CallError, Connection, Svc, ipc};
+use crate::script::{Script, parse_joint};
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::prelude::*;
+use protocol::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// Event ids from this value on mean "hand number `id − FINISHED` is finished".
+const FINISHED: usize = 220;
+
+/// One request a hand sent, as recorded (one JSON line each).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// Wall-clock time the request was sent, ns since the Unix epoch (orders two hands' records).
+    pub t_ns: u64,
+    pub hand: String,
+    /// 0-based turn of the script.
+    pub turn: u32,
+    pub chain: String,
+    /// Wire joint (`4294967295` = head).
+    pub joint: u32,
+    pub target: [f64; 3],
+    pub request_id: u64,
+    /// Status name (`ok`, `locked`, ...).
+    pub status: String,
+    /// State sequence number after the request.
+    pub sequence: u64,
+    /// CRC-32 of the returned joint positions (little-endian f64 x, y, z per joint): bit-for-bit check.
+    pub digest: u32,
+}
+
+/// What a hand did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HandReport {
+    pub requests: u64,
+    pub ok: u64,
+    pub locked: u64,
+    /// Other refusals (status name, count).
+    pub refused: Vec<(String, u64)>,
+}
+
+/// How a hand runs.
+#[derive(Debug)]
+pub struct HandConfig {
+    pub hand: String,
+    pub script: Script,
+    /// Requests per second (0: as fast as the service answers).
+    pub rate_hz: f64,
+    /// Longest wait for another hand's turn.
+    pub turn_timeout: Duration,
+    /// Where to append the record of every request.
+    pub record: Option<std::path::PathBuf>,
+    /// Print progress to stderr.
+    pub progress: bool,
+}
+
+/// CRC-32 of joint positions, as recorded.
+pub fn digest(joints: &[Vec3]) -> u32 {
+    let mut h = crc32fast::Hasher::new();
+    for p in joints {
+        for c in p.to_array() {
+            h.update(&c.to_le_bytes());
+        }
+    }
+    h.finalize()
+}
+
+fn now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
+/// The turn-taking channel of one script.
+struct Baton {
+    notifier: Notifier<Svc>,
+    listener: Listener<Svc>,
+    seen: [bool; 256],
+}
+
+impl Baton {
+    fn open(conn: &Connection, script: &str) -> Result<Baton, CallError> {
+        let name = format!("tractrix/turns/{script}");
+        let svc = conn
+            .node()
+            .service_builder(&name.as_str().try_into().map_err(ipc("turn service name"))?)
+            .event()
+            .open_or_create()
+            .map_err(ipc("turn event service"))?;
+        Ok(Baton {
+            notifier: svc.notifier_builder().create().map_err(ipc("turn notifier"))?,
+            listener: svc.listener_builder().create().map_err(ipc("turn listener"))?,
+            seen: [false; 256],
+        })
+    }
+
+    fn announce(&self, ids: &[usize]) {
+        for &id in ids {
+            let _ = self.notifier.notify_with_custom_event_id(EventId::new(id));
+        }
+    }
+
+    /// Waits until every id in `want` has been seen, re-announcing `mine` every 20 ms.
+    fn wait_all(&mut self, want: &[usize], mine: &[usize], timeout: Duration) -> Result<(), String> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            self.announce(mine);
+            let seen = &mut self.seen;
+            let _ = self.listener.timed_wait(
+                |ev| {
+                    if let Some(s) = seen.get_mut(ev.id.as_value()) {
+                        *s = true;
+                    }
+                },
+                Duration::from_millis(20),
+            );
+            if want.iter().all(|&w| self.seen[w]) {
+                return Ok(());
+            }
+            if Instant::now() >= deadline {
+                return Err(format!("waited {timeout:?} for the other hands (events {want:?})"));
+            }
+        }
+    }
+}
+
+/// Runs hand `cfg.hand` of `cfg.script` against a connected service.
+pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandReport> {
+    use anyhow::{Context, bail};
+    let hands = cfg.script.hands();
+    let me = hands
+        .iter()
+        .position(|h| *h == cfg.hand)
+        .with_context(|| format!("hand {:?} has no turn in script {:?} (hands: {hands:?})", cfg.hand, cfg.script.name))?;
+    let mut baton = Baton::open(conn, &cfg.script.name)?;
+    let mut record = match &cfg.record {
+        Some(p) => Some(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("create {}", p.display()))?,
+        )),
+        None => None,
+    };
+    let mut report = HandReport::default();
+    let mut mine: Vec<usize> = Vec::new();
+    let period = if cfg.rate_hz > 0.0 {
+        Some(Duration::from_secs_f64(1.0 / cfg.rate_hz))
+    } else {
+        None
+    };
+    for (k, turn) in cfg.script.turn.iter().enumerate() {
+        if turn.hand != cfg.hand {
+            if k > 0 {
+                baton
+                    .wait_all(&[k - 1], &mine, cfg.turn_timeout)
+                    .map_err(anyhow::Error::msg)?;
+            }
+            continue;
+        }
+        if k > 0 && cfg.script.turn[k - 1].hand != cfg.hand {
+            baton
+                .wait_all(&[k - 1], &mine, cfg.turn_timeout)
+                .map_err(anyhow::Error::msg)?;
+        }
+        let chain = conn
+            .find_chain(&turn.chain)?
+            .with_context(|| format!("the service has no chain {:?}", turn.chain))?;
+        let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
+        let q = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
+        let joints = q.joints();
+        let idx = if joint == JOINT_HEAD {
+            joints.len().saturating_sub(1)
+        } else {
+            joint as usize
+        };
+        let Some(start) = joints.get(idx) else {
+            bail!("joint {} is not a joint of {:?}", turn.joint, turn.chain);
+        };
+        let targets = turn.targets(start.to_array(), cfg.script.max_step);
+        let t0 = Instant::now();
+        for (i, t) in targets.iter().enumerate() {
+            if let Some(p) = period {
+                let due = t0 + p * i as u32;
+                let now = Instant::now();
+                if due > now {
+                    std::thread::sleep(due - now);
+                }
+            }
+            let mut h = RequestHeader::new(Command::Move, chain);
+            h.joint = joint;
+            let sent = now_ns();
+            let (status, seq, rid, dg) = conn.call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
+                let n = (rh.n_joints as usize).min(pts.len());
+                (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
+            })?;
+            report.requests += 1;
+            let name = Status::from_u32(status).map_or("unknown", |s| s.name());
+            match Status::from_u32(status) {
+                Some(Status::Ok) => report.ok += 1,
+                Some(Status::Locked) => report.locked += 1,
+                _ => match report.refused.iter_mut().find(|r| r.0 == name) {
+                    Some(r) => r.1 += 1,
+                    None => report.refused.push((name.to_string(), 1)),
+                },
+            }
+            if let Some(w) = &mut record {
+                let r = Record {
+                    t_ns: sent,
+                    hand: cfg.hand.clone(),
+                    turn: k as u32,
+                    chain: turn.chain.clone(),
+                    joint,
+                    target: *t,
+                    request_id: rid,
+                    status: name.to_string(),
+                    sequence: seq,
+                    digest: dg,
+                };
+                serde_json::to_writer(&mut *w, &r)?;
+                w.write_all(b"\n")?;
+            }
+            if cfg.progress && (i + 1) % 500 == 0 {
+                eprintln!(
+                    "hand {}: turn {}/{}: {}/{} requests, {} locked",
+                    cfg.hand,
+                    k + 1,
+                    cfg.script.turn.len(),
+                    i + 1,
+                    targets.len(),
+                    report.locked
+                );
+            }
+        }
+        if let Some(w) = &mut record {
+            w.flush()?;
+        }
+        mine.push(k);
+        baton.announce(&mine);
+    }
+    mine.push(FINISHED + me);
+    let everyone: Vec<usize> = (0..hands.len()).map(|i| FINISHED + i).collect();
+    baton
+        .wait_all(&everyone, &mine, cfg.turn_timeout)
+        .map_err(anyhow::Error::msg)?;
+    Ok(report)
+}
+
+/// Reads recordings (JSON lines), each line checked.
+pub fn read_records(path: &std::path::Path) -> anyhow::Result<Vec<Record>> {
+    use anyhow::Context;
+    let text = std::fs::read_to_string(path).with_context(|| format!("read {}", path.display()))?;
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            let r: Record = serde_json::from_str(l)
+                .with_context(|| format!("{}:{}: not a record", path.display(), i + 1))?;
+            if !r.target.iter().all(|x| x.is_finite()) {
+                anyhow::bail!("{}:{}: field `target`: not finite", path.display(), i + 1);
+            }
+            Ok(r)
+        })
+        .collect()
+}
+
+/// What a replay found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ReplayReport {
+    pub sent: u64,
+    /// `(record index, what differed)`.
+    pub mismatches: Vec<(usize, String)>,
+}
+
+/// Sends the recorded requests again, in the order the service applied them (by sequence number, then
+/// time), after resetting each chain they touch when `reset`; compares each status and each returned
+/// state bit for bit (digest).
+pub fn replay(conn: &mut Connection, mut records: Vec<Record>, reset: bool) -> anyhow::Result<ReplayReport> {
+    use anyhow::Context;
+    records.sort_by_key(|r| (r.sequence, r.t_ns));
+    let mut chains: Vec<(String, u32)> = Vec::new();
+    for r in &records {
+        if !chains.iter().any(|c| c.0 == r.chain) {
+            let id = conn
+                .find_chain(&r.chain)?
+                .with_context(|| format!("the service has no chain {:?}", r.chain))?;
+            chains.push((r.chain.clone(), id));
+        }
+    }
+    if reset {
+        for (_, id) in &chains {
+            let rep = conn.call(RequestHeader::new(Command::Reset, *id), &[])?;
+            anyhow::ensure!(rep.is_ok(), "reset refused: {}", rep.header.reason_str());
+        }
+    }
+    let mut out = ReplayReport::default();
+    for (i, r) in records.iter().enumerate() {
+        let id = chains.iter().find(|c| c.0 == r.chain).map(|c| c.1).unwrap_or(0);
+        let mut h = RequestHeader::new(Command::Move, id);
+        h.joint = r.joint;
+        let (status, dg) = conn.call_with(h, &[Vec3::new(r.target[0], r.target[1], r.target[2])], |rh, pts| {
+            let n = (rh.n_joints as usize).min(pts.len());
+            (rh.status, digest(&pts[..n]))
+        })?;
+        out.sent += 1;
+        let name = Status::from_u32(status).map_or("unknown", |s| s.name());
+        if name != r.status {
+            out.mismatches.push((i, format!("status {name}, recorded {}", r.status)));
+        } else if dg != r.digest {
+            out.mismatches.push((i, format!("state digest {dg:08x}, recorded {:08x}", r.digest)));
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,358 @@
+//! Hand scripts: what a hand controller does, turn by turn.
+//!
+//! A script is a list of *turns*. Each turn belongs to one hand (`"A"`, `"B"`, ...), grasps one joint of
+//! one chain and drives it through waypoints *relative to where that joint is when the turn starts* (a
+//! turn cannot know where the previous turns left the rope). Hands run as separate processes and take
+//! the turns in order: a hand waits until the turn before its own is done ([`crate::hand`]).
+//!
+//! ```toml
+//! name = "square"          # names the turn-taking channel between the hands
+//! max_step = 0.1           # longest hand motion per request (length units)
+//!
+//! [[turn]]
+//! hand = "A"
+//! chain = "reef"
+//! joint = "tail"           # "head", "tail" or an index
+//! throw = { handedness = "left", outward = [-1, 0, 0], scale = 0.8, exit = 30 }
+//! waypoints = [[0, 0, 1]]  # after the throw, relative to the turn's start
+//! ```
+//!
+//! A *throw* is one overhand throw: the grasped end traces an open trefoil, entered from where the end
+//! is, heading `outward`, then leaves it by `exit` length units straight on. Traced by a free end of a
+//! tractrix rope with collision handling, the rope follows the end like a snake and keeps the knot. A
+//! `"left"` throw is a trefoil of negative writhe; `"right"` its mirror. Two throws of opposite
+//! handedness in series make a square knot, of the same handedness a granny.
+//!
+//! Errors name the line and the field (the `toml` crate's spans).
+
+use serde::{Deserialize, Serialize};
+
+/// Largest number of turns a script may have (turn numbers travel as event ids, at most 255).
+pub const MAX_TURNS: usize = 200;
+/// Largest number of waypoints of one turn.
+pub const MAX_WAYPOINTS: usize = 100_000;
+
+/// A whole script.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Script {
+    /// Name of the turn-taking channel (hands of one script must agree on it).
+    pub name: String,
+    /// Longest motion of the grasped joint per request.
+    #[serde(default = "default_max_step")]
+    pub max_step: f64,
+    /// The turns, in order.
+    pub turn: Vec<Turn>,
+}
+
+fn default_max_step() -> f64 {
+    0.1
+}
+
+/// One hand's turn.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Turn {
+    pub hand: String,
+    pub chain: String,
+    /// `"head"`, `"tail"` or a joint index.
+    pub joint: String,
+    #[serde(default)]
+    pub throw: Option<Throw>,
+    /// Relative to the joint's position when the turn starts.
+    #[serde(default)]
+    pub waypoints: Vec<[f64; 3]>,
+}
+
+/// One overhand throw (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Throw {
+    pub handedness: Handedness,
+    /// Direction the throw heads in (normalised here).
+    pub outward: [f64; 3],
+    /// Size of the trefoil: the path is `28.8 × scale` long.
+    #[serde(default = "default_scale")]
+    pub scale: f64,
+    /// Straight run after the knot, along `outward`.
+    #[serde(default)]
+    pub exit: f64,
+}
+
+fn default_scale() -> f64 {
+    0.9
+}
+
+/// Chirality of a throw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Handedness {
+    Left,
+    Right,
+}
+
+impl Script {
+    /// Parses and checks a script; errors carry the line.
+    pub fn parse(text: &str, file: &str) -> Result<Script, String> {
+        let s: Script = toml::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|sp| text[..sp.start.min(text.len())].matches('\n').count() + 1);
+            match line {
+                Some(l) => format!("{file}:{l}: {}", e.message().trim()),
+                None => format!("{file}: {}", e.message().trim()),
+            }
+        })?;
+        s.check().map_err(|m| format!("{file}: {m}"))?;
+        Ok(s)
+    }
+
+    /// Checks sizes and numbers (a script from a file is outside input).
+    pub fn check(&self) -> Result<(), String> {
+        if self.turn.is_empty() || self.turn.len() > MAX_TURNS {
+            return Err(format!("a script has 1..={MAX_TURNS} turns, not {}", self.turn.len()));
+        }
+        if !(self.max_step > 0.0 && self.max_step.is_finite()) {
+            return Err(format!("max_step {} is not a positive length", self.max_step));
+        }
+        if self.name.is_empty() || self.name.len() > 64 || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+            return Err(format!("name {:?}: 1..=64 letters, digits, - or _", self.name));
+        }
+        for (k, t) in self.turn.iter().enumerate() {
+            let at = |m: String| format!("turn {}: {m}", k + 1);
+            if t.waypoints.len() > MAX_WAYPOINTS {
+                return Err(at(format!("more than {MAX_WAYPOINTS} waypoints")));
+            }
+            if t.hand.is_empty() || t.hand.len() > 16 {
+                return Err(at("hand: 1..=16 characters".into()));
+            }
+            parse_joint(&t.joint).map_err(at)?;
+            if !t.waypoints.iter().flatten().all(|x| x.is_finite()) {
+                return Err(at("a waypoint is not finite".into()));
+            }
+            if let Some(th) = &t.throw {
+                let n = norm(th.outward);
+                if !(n > 0.0 && n.is_finite()) {
+                    return Err(at("throw.outward must be a non-zero vector".into()));
+                }
+                if !(th.scale > 0.0 && th.scale.is_finite() && th.scale <= 1e6) {
+                    return Err(at(format!("throw.scale {} is not in (0, 1e6]", th.scale)));
+                }
+                if !(th.exit >= 0.0 && th.exit.is_finite() && th.exit <= 1e9) {
+                    return Err(at(format!("throw.exit {} is not in [0, 1e9]", th.exit)));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The hands of the script, in order of first appearance.
+    pub fn hands(&self) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        for t in &self.turn {
+            if !out.contains(&t.hand) {
+                out.push(t.hand.clone());
+            }
+        }
+        out
+    }
+
+    /// A built-in script by name (see [`BUILTINS`]).
+    pub fn builtin(name: &str) -> Option<Script> {
+        let throw = |h, outward: [f64; 3], exit| Throw {
+            handedness: h,
+            outward,
+            scale: 0.8,
+            exit,
+        };
+        let turn = |hand: &str, chain: &str, joint: &str, throw: Option<Throw>, waypoints| Turn {
+            hand: hand.into(),
+            chain: chain.into(),
+            joint: joint.into(),
+            throw,
+            waypoints,
+        };
+        let two_hands = |second| Script {
+            name: name.into(),
+            max_step: 0.05,
+            turn: vec![
+                // A throws at the tail end and walks on far enough that B's pull, which drags the
+                // rope toward B, does not bring the tail back through A's knot.
+                turn("A", "reef", "tail", Some(throw(Handedness::Left, [-1.0, 0.0, 0.0], 30.0)), vec![]),
+                turn("B", "reef", "head", Some(throw(second, [1.0, 0.0, 0.0], 0.0)), vec![]),
+            ],
+        };
+        match name {
+            "overhand" => Some(Script {
+                name: name.into(),
+                max_step: 0.1,
+                turn: vec![turn(
+                    "A",
+                    "overhand",
+                    "head",
+                    Some(Throw {
+                        handedness: Handedness::Left,
+                        outward: [1.0, 0.0, 0.0],
+                        scale: 0.9,
+                        exit: 0.0,
+                    }),
+                    vec![],
+                )],
+            }),
+            "square" => Some(two_hands(Handedness::Right)),
+            "granny" => Some(two_hands(Handedness::Left)),
+            "wave" => Some(Script {
+                name: name.into(),
+                max_step: 0.1,
+                turn: vec![turn(
+                    "A",
+                    "rope",
+                    "head",
+                    None,
+                    vec![[2.0, 3.0, 0.0], [4.0, -3.0, 1.0], [6.0, 3.0, -1.0], [8.0, 0.0, 0.0]],
+                )],
+            }),
+            _ => None,
+        }
+    }
+}
+
+/// Names accepted by [`Script::builtin`].
+pub const BUILTINS: &[&str] = &["overhand", "square", "granny", "wave"];
+
+/// `"head"`, `"tail"` or an index, as the wire's joint field.
+pub fn parse_joint(s: &str) -> Result<u32, String> {
+    match s {
+        "head" => Ok(protocol::JOINT_HEAD),
+        "tail" => Ok(0),
+        n => n
+            .parse::<u32>()
+            .map_err(|_| format!("joint {n:?}: expected head, tail or an index")),
+    }
+}
+
+impl Turn {
+    /// The absolute targets of this turn for a joint starting at `start`, split so that no request
+    /// moves the joint more than `max_step`.
+    pub fn targets(&self, start: [f64; 3], max_step: f64) -> Vec<[f64; 3]> {
+        let mut corners: Vec<[f64; 3]> = Vec::new();
+        if let Some(th) = &self.throw {
+            corners.extend(throw_path(start, th));
+        }
+        corners.extend(self.waypoints.iter().map(|w| add(start, *w)));
+        densify(start, &corners, max_step)
+    }
+}
+
+/// The corners of a throw's path (400 points on the trefoil, then the exit).
+fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
+    // A right-handed frame (u, v, u × v) turns the trefoil's own axes onto the throw's: a rotation, so
+    // handedness is kept whatever the outward direction.
+    let u = scale(th.outward, 1.0 / norm(th.outward));
+    let helper = if u[2].abs() < 0.9 { [0.0, 0.0, 1.0] } else { [1.0, 0.0, 0.0] };
+    let v = {
+        let c = cross(helper, u);
+        scale(c, 1.0 / norm(c))
+    };
+    let w = cross(u, v);
+    let mirror = if th.handedness == Handedness::Right { -1.0 } else { 1.0 };
+    let n = 400;
+    let local: Vec<[f64; 3]> = (0..n)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / n as f64;
+            [
+                (t.sin() + 2.0 * (2.0 * t).sin()) * th.scale,
+                (t.cos() - 2.0 * (2.0 * t).cos()) * th.scale,
+                -(3.0 * t).sin() * th.scale * mirror,
+            ]
+        })
+        .collect();
+    // Enter at the trefoil's point nearest the hand (least along its x axis), one unit ahead.
+    let c = (0..n).min_by(|&i, &j| local[i][0].total_cmp(&local[j][0])).expect("points");
+    let world = |p: [f64; 3]| {
+        let q = [p[0] - local[c][0] + 1.0, p[1] - local[c][1], p[2] - local[c][2]];
+        add(start, add(add(scale(u, q[0]), scale(v, q[1])), scale(w, q[2])))
+    };
+    let mut out: Vec<[f64; 3]> = (1..=n).map(|k| world(local[(c + k) % n])).collect();
+    let last = *out.last().expect("points");
+    let away = add(last, add(scale(u, 3.0), scale(v, -3.0)));
+    out.push(away);
+    if th.exit > 0.0 {
+        out.push(add(away, scale(u, th.exit)));
+    }
+    out
+}
+
+fn densify(start: [f64; 3], corners: &[[f64; 3]], max_step: f64) -> Vec<[f64; 3]> {
+    let mut out = Vec::new();
+    let mut prev = start;
+    for &p in corners {
+        let d = [p[0] - prev[0], p[1] - prev[1], p[2] - prev[2]];
+        let k = (norm(d) / max_step).ceil().clamp(1.0, 1e7) as usize;
+        for i in 1..=k {
+            out.push(add(prev, scale(d, i as f64 / k as f64)));
+        }
+        prev = p;
+    }
+    out
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtins_round_trip_through_toml() {
+        for name in BUILTINS {
+            let s = Script::builtin(name).unwrap();
+            s.check().unwrap();
+            let text = toml::to_string(&s).unwrap();
+            assert_eq!(Script::parse(&text, "x").unwrap(), s);
+        }
+    }
+
+    #[test]
+    fn bad_scripts_name_the_line_and_field() {
+        let e = Script::parse("name = \"a\"\n[[turn]]\nhand = \"A\"\nchain = \"r\"\njoint = \"elbow\"\n", "s.toml")
+            .unwrap_err();
+        assert!(e.contains("joint \"elbow\""), "{e}");
+        let e = Script::parse("name = \"a\"\n[[turn]]\nhand = \"A\"\nchain = 3\njoint = \"head\"\n", "s.toml")
+            .unwrap_err();
+        assert!(e.starts_with("s.toml:4:"), "{e}");
+        let e = Script::parse("name = \"a\"\nmax_step = -1\n[[turn]]\nhand = \"A\"\nchain = \"r\"\njoint = \"head\"\n", "s")
+            .unwrap_err();
+        assert!(e.contains("max_step"), "{e}");
+    }
+
+    #[test]
+    fn targets_start_next_to_the_hand_and_respect_the_step() {
+        let t = &Script::builtin("square").unwrap().turn[0];
+        let start = [0.0, 0.0, 0.0];
+        let p = t.targets(start, 0.05);
+        let mut prev = start;
+        for q in &p {
+            let d = norm([q[0] - prev[0], q[1] - prev[1], q[2] - prev[2]]);
+            assert!(d <= 0.05 + 1e-12, "{d}");
+            prev = *q;
+        }
+        // Heads outward (−x) and ends 30 further on.
+        assert!(p.last().unwrap()[0] < -30.0);
+    }
+}
