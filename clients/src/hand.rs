@@ -101,8 +101,14 @@ impl Baton {
             .open_or_create()
             .map_err(ipc("turn event service"))?;
         Ok(Baton {
-            notifier: svc.notifier_builder().create().map_err(ipc("turn notifier"))?,
-            listener: svc.listener_builder().create().map_err(ipc("turn listener"))?,
+            notifier: svc
+                .notifier_builder()
+                .create()
+                .map_err(ipc("turn notifier"))?,
+            listener: svc
+                .listener_builder()
+                .create()
+                .map_err(ipc("turn listener"))?,
             seen: [false; 256],
         })
     }
@@ -114,7 +120,12 @@ impl Baton {
     }
 
     /// Waits until every id in `want` has been seen, re-announcing `mine` every 20 ms.
-    fn wait_all(&mut self, want: &[usize], mine: &[usize], timeout: Duration) -> Result<(), String> {
+    fn wait_all(
+        &mut self,
+        want: &[usize],
+        mine: &[usize],
+        timeout: Duration,
+    ) -> Result<(), String> {
         let deadline = Instant::now() + timeout;
         loop {
             self.announce(mine);
@@ -131,7 +142,9 @@ impl Baton {
                 return Ok(());
             }
             if Instant::now() >= deadline {
-                return Err(format!("waited {timeout:?} for the other hands (events {want:?})"));
+                return Err(format!(
+                    "waited {timeout:?} for the other hands (events {want:?})"
+                ));
             }
         }
     }
@@ -141,10 +154,12 @@ impl Baton {
 pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandReport> {
     use anyhow::{Context, bail};
     let hands = cfg.script.hands();
-    let me = hands
-        .iter()
-        .position(|h| *h == cfg.hand)
-        .with_context(|| format!("hand {:?} has no turn in script {:?} (hands: {hands:?})", cfg.hand, cfg.script.name))?;
+    let me = hands.iter().position(|h| *h == cfg.hand).with_context(|| {
+        format!(
+            "hand {:?} has no turn in script {:?} (hands: {hands:?})",
+            cfg.hand, cfg.script.name
+        )
+    })?;
     let mut baton = Baton::open(conn, &cfg.script.name)?;
     let mut record = match &cfg.record {
         Some(p) => Some(std::io::BufWriter::new(
@@ -200,10 +215,11 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
             let mut h = RequestHeader::new(Command::Move, chain);
             h.joint = joint;
             let sent = now_ns();
-            let (status, seq, rid, dg) = conn.call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
-                let n = (rh.n_joints as usize).min(pts.len());
-                (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
-            })?;
+            let (status, seq, rid, dg) =
+                conn.call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
+                    let n = (rh.n_joints as usize).min(pts.len());
+                    (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
+                })?;
             report.requests += 1;
             let name = Status::from_u32(status).map_or("unknown", |s| s.name());
             match Status::from_u32(status) {
@@ -285,7 +301,11 @@ pub struct ReplayReport {
 /// Sends the recorded requests again, in the order the service applied them (by sequence number, then
 /// time), after resetting each chain they touch when `reset`; compares each status and each returned
 /// state bit for bit (digest).
-pub fn replay(conn: &mut Connection, mut records: Vec<Record>, reset: bool) -> anyhow::Result<ReplayReport> {
+pub fn replay(
+    conn: &mut Connection,
+    mut records: Vec<Record>,
+    reset: bool,
+) -> anyhow::Result<ReplayReport> {
     use anyhow::Context;
     records.sort_by_key(|r| (r.sequence, r.t_ns));
     let mut chains: Vec<(String, u32)> = Vec::new();
@@ -305,19 +325,31 @@ pub fn replay(conn: &mut Connection, mut records: Vec<Record>, reset: bool) -> a
     }
     let mut out = ReplayReport::default();
     for (i, r) in records.iter().enumerate() {
-        let id = chains.iter().find(|c| c.0 == r.chain).map(|c| c.1).unwrap_or(0);
+        let id = chains
+            .iter()
+            .find(|c| c.0 == r.chain)
+            .map(|c| c.1)
+            .unwrap_or(0);
         let mut h = RequestHeader::new(Command::Move, id);
         h.joint = r.joint;
-        let (status, dg) = conn.call_with(h, &[Vec3::new(r.target[0], r.target[1], r.target[2])], |rh, pts| {
-            let n = (rh.n_joints as usize).min(pts.len());
-            (rh.status, digest(&pts[..n]))
-        })?;
+        let (status, dg) = conn.call_with(
+            h,
+            &[Vec3::new(r.target[0], r.target[1], r.target[2])],
+            |rh, pts| {
+                let n = (rh.n_joints as usize).min(pts.len());
+                (rh.status, digest(&pts[..n]))
+            },
+        )?;
         out.sent += 1;
         let name = Status::from_u32(status).map_or("unknown", |s| s.name());
         if name != r.status {
-            out.mismatches.push((i, format!("status {name}, recorded {}", r.status)));
+            out.mismatches
+                .push((i, format!("status {name}, recorded {}", r.status)));
         } else if dg != r.digest {
-            out.mismatches.push((i, format!("state digest {dg:08x}, recorded {:08x}", r.digest)));
+            out.mismatches.push((
+                i,
+                format!("state digest {dg:08x}, recorded {:08x}", r.digest),
+            ));
         }
     }
     Ok(out)

@@ -110,13 +110,28 @@ impl Script {
     /// Checks sizes and numbers (a script from a file is outside input).
     pub fn check(&self) -> Result<(), String> {
         if self.turn.is_empty() || self.turn.len() > MAX_TURNS {
-            return Err(format!("a script has 1..={MAX_TURNS} turns, not {}", self.turn.len()));
+            return Err(format!(
+                "a script has 1..={MAX_TURNS} turns, not {}",
+                self.turn.len()
+            ));
         }
         if !(self.max_step > 0.0 && self.max_step.is_finite()) {
-            return Err(format!("max_step {} is not a positive length", self.max_step));
+            return Err(format!(
+                "max_step {} is not a positive length",
+                self.max_step
+            ));
         }
-        if self.name.is_empty() || self.name.len() > 64 || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
-            return Err(format!("name {:?}: 1..=64 letters, digits, - or _", self.name));
+        if self.name.is_empty()
+            || self.name.len() > 64
+            || !self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return Err(format!(
+                "name {:?}: 1..=64 letters, digits, - or _",
+                self.name
+            ));
         }
         for (k, t) in self.turn.iter().enumerate() {
             let at = |m: String| format!("turn {}: {m}", k + 1);
@@ -178,8 +193,20 @@ impl Script {
             turn: vec![
                 // A throws at the tail end and walks on far enough that B's pull, which drags the
                 // rope toward B, does not bring the tail back through A's knot.
-                turn("A", "reef", "tail", Some(throw(Handedness::Left, [-1.0, 0.0, 0.0], 30.0)), vec![]),
-                turn("B", "reef", "head", Some(throw(second, [1.0, 0.0, 0.0], 0.0)), vec![]),
+                turn(
+                    "A",
+                    "reef",
+                    "tail",
+                    Some(throw(Handedness::Left, [-1.0, 0.0, 0.0], 30.0)),
+                    vec![],
+                ),
+                turn(
+                    "B",
+                    "reef",
+                    "head",
+                    Some(throw(second, [1.0, 0.0, 0.0], 0.0)),
+                    vec![],
+                ),
             ],
         };
         match name {
@@ -209,7 +236,12 @@ impl Script {
                     "rope",
                     "head",
                     None,
-                    vec![[2.0, 3.0, 0.0], [4.0, -3.0, 1.0], [6.0, 3.0, -1.0], [8.0, 0.0, 0.0]],
+                    vec![
+                        [2.0, 3.0, 0.0],
+                        [4.0, -3.0, 1.0],
+                        [6.0, 3.0, -1.0],
+                        [8.0, 0.0, 0.0],
+                    ],
                 )],
             }),
             _ => None,
@@ -249,13 +281,21 @@ fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
     // A right-handed frame (u, v, u × v) turns the trefoil's own axes onto the throw's: a rotation, so
     // handedness is kept whatever the outward direction.
     let u = scale(th.outward, 1.0 / norm(th.outward));
-    let helper = if u[2].abs() < 0.9 { [0.0, 0.0, 1.0] } else { [1.0, 0.0, 0.0] };
+    let helper = if u[2].abs() < 0.9 {
+        [0.0, 0.0, 1.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
     let v = {
         let c = cross(helper, u);
         scale(c, 1.0 / norm(c))
     };
     let w = cross(u, v);
-    let mirror = if th.handedness == Handedness::Right { -1.0 } else { 1.0 };
+    let mirror = if th.handedness == Handedness::Right {
+        -1.0
+    } else {
+        1.0
+    };
     let n = 400;
     let local: Vec<[f64; 3]> = (0..n)
         .map(|k| {
@@ -268,10 +308,19 @@ fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
         })
         .collect();
     // Enter at the trefoil's point nearest the hand (least along its x axis), one unit ahead.
-    let c = (0..n).min_by(|&i, &j| local[i][0].total_cmp(&local[j][0])).expect("points");
+    let c = (0..n)
+        .min_by(|&i, &j| local[i][0].total_cmp(&local[j][0]))
+        .expect("points");
     let world = |p: [f64; 3]| {
-        let q = [p[0] - local[c][0] + 1.0, p[1] - local[c][1], p[2] - local[c][2]];
-        add(start, add(add(scale(u, q[0]), scale(v, q[1])), scale(w, q[2])))
+        let q = [
+            p[0] - local[c][0] + 1.0,
+            p[1] - local[c][1],
+            p[2] - local[c][2],
+        ];
+        add(
+            start,
+            add(add(scale(u, q[0]), scale(v, q[1])), scale(w, q[2])),
+        )
     };
     let mut out: Vec<[f64; 3]> = (1..=n).map(|k| world(local[(c + k) % n])).collect();
     let last = *out.last().expect("points");
@@ -330,11 +379,17 @@ mod tests {
 
     #[test]
     fn bad_scripts_name_the_line_and_field() {
-        let e = Script::parse("name = \"a\"\n[[turn]]\nhand = \"A\"\nchain = \"r\"\njoint = \"elbow\"\n", "s.toml")
-            .unwrap_err();
+        let e = Script::parse(
+            "name = \"a\"\n[[turn]]\nhand = \"A\"\nchain = \"r\"\njoint = \"elbow\"\n",
+            "s.toml",
+        )
+        .unwrap_err();
         assert!(e.contains("joint \"elbow\""), "{e}");
-        let e = Script::parse("name = \"a\"\n[[turn]]\nhand = \"A\"\nchain = 3\njoint = \"head\"\n", "s.toml")
-            .unwrap_err();
+        let e = Script::parse(
+            "name = \"a\"\n[[turn]]\nhand = \"A\"\nchain = 3\njoint = \"head\"\n",
+            "s.toml",
+        )
+        .unwrap_err();
         assert!(e.starts_with("s.toml:4:"), "{e}");
         let e = Script::parse("name = \"a\"\nmax_step = -1\n[[turn]]\nhand = \"A\"\nchain = \"r\"\njoint = \"head\"\n", "s")
             .unwrap_err();

@@ -21,7 +21,10 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 #[derive(Parser, Debug)]
-#[command(version, about = "Drive a chain of a running solver-service like a hand")]
+#[command(
+    version,
+    about = "Drive a chain of a running solver-service like a hand"
+)]
 struct Args {
     #[command(subcommand)]
     cmd: Cmd,
@@ -106,7 +109,8 @@ fn connect(prefix: &str, wait: f64) -> Result<Connection> {
 }
 
 fn builtin(name: &str) -> Result<Script> {
-    Script::builtin(name).with_context(|| format!("no built-in script {name:?} (there are {BUILTINS:?})"))
+    Script::builtin(name)
+        .with_context(|| format!("no built-in script {name:?} (there are {BUILTINS:?})"))
 }
 
 fn run(a: Args) -> Result<i32> {
@@ -115,10 +119,22 @@ fn run(a: Args) -> Result<i32> {
             print!("{}", toml::to_string(&builtin(&name)?)?);
             Ok(0)
         }
-        Cmd::Run { script, builtin: b, hand, rate, max_step, chain, record, turn_timeout, identify, quiet } => {
+        Cmd::Run {
+            script,
+            builtin: b,
+            hand,
+            rate,
+            max_step,
+            chain,
+            record,
+            turn_timeout,
+            identify,
+            quiet,
+        } => {
             let mut script = match (script, b) {
                 (Some(p), None) => {
-                    let text = std::fs::read_to_string(&p).with_context(|| format!("read {}", p.display()))?;
+                    let text = std::fs::read_to_string(&p)
+                        .with_context(|| format!("read {}", p.display()))?;
                     Script::parse(&text, &p.display().to_string()).map_err(anyhow::Error::msg)?
                 }
                 (None, Some(n)) => builtin(&n)?,
@@ -133,7 +149,8 @@ fn run(a: Args) -> Result<i32> {
                 }
             }
             script.check().map_err(anyhow::Error::msg)?;
-            if !(rate.is_finite() && rate >= 0.0 && turn_timeout.is_finite() && turn_timeout > 0.0) {
+            if !(rate.is_finite() && rate >= 0.0 && turn_timeout.is_finite() && turn_timeout > 0.0)
+            {
                 bail!("--rate must be ≥ 0 and --turn-timeout positive");
             }
             let mut conn = connect(&a.prefix, a.wait_for_service)?;
@@ -152,16 +169,34 @@ fn run(a: Args) -> Result<i32> {
                 r.requests,
                 r.ok,
                 r.locked,
-                if refused.is_empty() { String::new() } else { format!(", refused: {}", refused.join(", ")) }
+                if refused.is_empty() {
+                    String::new()
+                } else {
+                    format!(", refused: {}", refused.join(", "))
+                }
             );
             if let Some(name) = identify {
-                let id = conn.find_chain(&name)?.with_context(|| format!("no chain {name:?}"))?;
-                let q = conn.call(protocol::RequestHeader::new(protocol::Command::Query, id), &[])?;
-                let pts: Vec<_> = q.joints().iter().map(|p| nalgebra::Vector3::new(p.x, p.y, p.z)).collect();
+                let id = conn
+                    .find_chain(&name)?
+                    .with_context(|| format!("no chain {name:?}"))?;
+                let q = conn.call(
+                    protocol::RequestHeader::new(protocol::Command::Query, id),
+                    &[],
+                )?;
+                let pts: Vec<_> = q
+                    .joints()
+                    .iter()
+                    .map(|p| nalgebra::Vector3::new(p.x, p.y, p.z))
+                    .collect();
                 let k = solver::kernel::knot::identify(&pts);
                 println!(
                     "knot: {} ({}/{} views; {} crossings, writhe {}, determinant {})",
-                    k.kind.name(), k.votes, k.views, k.crossings, k.writhe, k.determinant
+                    k.kind.name(),
+                    k.votes,
+                    k.views,
+                    k.crossings,
+                    k.writhe,
+                    k.determinant
                 );
             }
             Ok(if r.refused.is_empty() { 0 } else { 1 })
@@ -176,7 +211,11 @@ fn run(a: Args) -> Result<i32> {
             for (i, what) in r.mismatches.iter().take(10) {
                 println!("request {i}: {what}");
             }
-            println!("replayed {} requests: {} differed", r.sent, r.mismatches.len());
+            println!(
+                "replayed {} requests: {} differed",
+                r.sent,
+                r.mismatches.len()
+            );
             Ok(if r.mismatches.is_empty() { 0 } else { 1 })
         }
     }

@@ -7,7 +7,10 @@
 //! * `kill -9` then `--restore`, bit for bit (`kill_9_then_restore_is_bit_for_bit`);
 //! * SIGTERM shuts down cleanly and keeps the state (`sigterm_shuts_down_cleanly_and_keeps_the_state`);
 //! * the event wait mode (`event_mode_serves_sleeping_clients`);
-//! * batch mode and chainctl from the shell (`batch_mode_writes_csv`, `chainctl_fails_fast_without_a_service`).
+//! * batch mode and chainctl from the shell (`batch_mode_writes_csv`, `chainctl_fails_fast_without_a_service`);
+//! * knots tied by hand processes, checked at every published state, replayed bit for bit (`knots`).
+
+mod knots;
 
 use clients::{ClientWait, Connection};
 use integration_tests::{Service, bin, unique_prefix};

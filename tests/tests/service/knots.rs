@@ -1,0 +1,244 @@
+//! Knots tied by hand processes through the service (issue 4): the overhand by one hand, the square and
+//! granny knots by two hands taking turns as two processes; every published state of the rope keeps
+//! non-adjacent links a thickness apart; a replay of the recordings reproduces every state bit for bit.
+
+use integration_tests::{Service, bin, unique_prefix};
+use protocol::{Command, RequestHeader};
+use solver::kernel::collision::closest_params_segment_segment;
+use solver::kernel::knot::{KnotType, identify};
+use std::process::{Child, Command as Process, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+type V = nalgebra::Vector3<f64>;
+
+/// The rope's thickness in `knots.toml`, and the collision tolerance the kernel guarantees (1 %).
+const THICKNESS: f64 = 0.2;
+const TOLERANCE: f64 = 0.01;
+
+fn knot_service() -> Service {
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../solver-service/scenes/knots.toml"
+    );
+    Service::start(
+        &unique_prefix(),
+        &["--scene", scene, "--wait", "event", "--no-persist"],
+    )
+}
+
+fn hand(svc: &Service, args: &[&str]) -> Child {
+    Process::new(bin("hand"))
+        .arg("--prefix")
+        .arg(&svc.prefix)
+        .arg("run")
+        .args(["--rate", "1000", "--quiet", "--turn-timeout", "60"])
+        .args(args)
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("spawn hand")
+}
+
+/// Waits (with a deadline) for a hand and returns its stdout.
+fn finish(mut child: Child) -> String {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            let mut out = String::new();
+            std::io::Read::read_to_string(child.stdout.as_mut().unwrap(), &mut out).unwrap();
+            assert!(st.success(), "hand failed: {st}\n{out}");
+            return out;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("a hand did not finish within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Smallest distance between the axes of non-adjacent links (pairs whose joints are far apart are
+/// skipped: they cannot be closer than one thickness).
+fn clearance(p: &[V], link: f64) -> f64 {
+    let reach = (2.0 * link + THICKNESS).powi(2);
+    let mut best = f64::INFINITY;
+    for i in 0..p.len() - 1 {
+        for j in i + 2..p.len() - 1 {
+            if (p[i] - p[j]).norm_squared() > reach {
+                continue;
+            }
+            let (s, t) = closest_params_segment_segment(&p[i], &p[i + 1], &p[j], &p[j + 1]);
+            let d = (p[i] + (p[i + 1] - p[i]) * s - p[j] - (p[j + 1] - p[j]) * t).norm();
+            best = best.min(d);
+        }
+    }
+    best
+}
+
+/// Watches the state stream on its own thread: checks every published state of `chain` and that no
+/// state was missed (sequence numbers without gaps). Returns (states checked, smallest clearance).
+struct Watcher {
+    stop: Arc<AtomicBool>,
+    handle: std::thread::JoinHandle<(u64, f64)>,
+}
+
+impl Watcher {
+    fn start(svc: &Service, chain: u32) -> Watcher {
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let mut conn = svc.connect();
+        let seq0 = conn
+            .call(RequestHeader::new(Command::Query, chain), &[])
+            .unwrap()
+            .header
+            .sequence;
+        drop(conn);
+        let prefix = svc.prefix.clone();
+        let handle = std::thread::spawn(move || {
+            let conn = clients::Connection::connect(clients::ConnectOptions {
+                prefix,
+                ..clients::ConnectOptions::default()
+            })
+            .unwrap();
+            let stream = conn.subscribe().unwrap();
+            let (mut next, mut checked, mut min) = (seq0 + 1, 0u64, f64::INFINITY);
+            let mut idle_since = None;
+            loop {
+                let got = stream
+                    .try_next(|h, p| {
+                        (
+                            h.sequence,
+                            h.chain,
+                            p.iter().map(|q| V::new(q.x, q.y, q.z)).collect::<Vec<_>>(),
+                        )
+                    })
+                    .unwrap();
+                match got {
+                    Some((seq, c, pts)) => {
+                        idle_since = None;
+                        if seq < next {
+                            continue; // published before the watcher subscribed
+                        }
+                        assert_eq!(seq, next, "a published state was missed");
+                        next += 1;
+                        if c == chain {
+                            min = min.min(clearance(&pts, 0.25));
+                            checked += 1;
+                        }
+                    }
+                    None => {
+                        if flag.load(Ordering::Relaxed) {
+                            let t = *idle_since.get_or_insert_with(Instant::now);
+                            if t.elapsed() > Duration::from_millis(300) {
+                                return (checked, min);
+                            }
+                        }
+                        std::thread::sleep(Duration::from_micros(200));
+                    }
+                }
+            }
+        });
+        Watcher { stop, handle }
+    }
+
+    fn finish(self) -> (u64, f64) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.handle.join().expect("watcher")
+    }
+}
+
+fn knot_of(svc: &Service, chain: &str) -> solver::kernel::knot::KnotReport {
+    let mut c = svc.connect();
+    let id = c.find_chain(chain).unwrap().unwrap();
+    let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    let pts: Vec<V> = r.joints().iter().map(|q| V::new(q.x, q.y, q.z)).collect();
+    identify(&pts)
+}
+
+fn assert_never_passed_through(checked: u64, min: f64, expected_states: u64) {
+    assert!(
+        checked >= expected_states,
+        "checked {checked} states, expected {expected_states}"
+    );
+    assert!(
+        min >= THICKNESS * (1.0 - TOLERANCE) - 1e-9,
+        "two non-adjacent links came {min} apart (thickness {THICKNESS})"
+    );
+}
+
+#[test]
+fn one_hand_ties_an_overhand_knot_a_trefoil() {
+    let svc = knot_service();
+    let id = svc.connect().find_chain("overhand").unwrap().unwrap();
+    let w = Watcher::start(&svc, id);
+    let out = finish(hand(&svc, &["--builtin", "overhand"]));
+    let (checked, min) = w.finish();
+    assert!(out.contains("0 locked"), "{out}");
+    assert_never_passed_through(checked, min, 400);
+    let k = knot_of(&svc, "overhand");
+    assert_eq!(k.kind, KnotType::Trefoil, "{k:?}");
+    assert!(
+        k.votes * 3 >= k.views * 2,
+        "a clear majority of views: {k:?}"
+    );
+}
+
+/// Two hand processes, started together, take turns on the 80-unit rope.
+fn two_hands(script: &str, dir: &std::path::Path, svc: &Service) -> (u64, f64) {
+    let id = svc.connect().find_chain("reef").unwrap().unwrap();
+    let w = Watcher::start(svc, id);
+    let rec = |h: &str| {
+        dir.join(format!("{script}-{h}.jsonl"))
+            .display()
+            .to_string()
+    };
+    let a = hand(
+        svc,
+        &["--builtin", script, "--hand", "A", "--record", &rec("A")],
+    );
+    let b = hand(
+        svc,
+        &["--builtin", script, "--hand", "B", "--record", &rec("B")],
+    );
+    finish(a);
+    finish(b);
+    w.finish()
+}
+
+#[test]
+fn two_hand_processes_tie_a_square_knot_and_its_replay_is_bit_for_bit() {
+    let svc = knot_service();
+    let dir = tempfile::tempdir().unwrap();
+    let (checked, min) = two_hands("square", dir.path(), &svc);
+    assert_never_passed_through(checked, min, 2000);
+    let k = knot_of(&svc, "reef");
+    assert_eq!(k.kind, KnotType::Square, "{k:?}");
+    assert_eq!(k.determinant, 9);
+
+    // Replay both recordings on the same service: the chain is reset, the requests re-sent in the
+    // order the service applied them, every returned state compared bit for bit.
+    let out = Process::new(bin("hand"))
+        .arg("--prefix")
+        .arg(&svc.prefix)
+        .arg("replay")
+        .arg(dir.path().join("square-A.jsonl"))
+        .arg(dir.path().join("square-B.jsonl"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains(": 0 differed"), "{text}");
+    assert_eq!(knot_of(&svc, "reef").kind, KnotType::Square);
+}
+
+#[test]
+fn both_throws_the_same_way_tie_a_granny_knot() {
+    let svc = knot_service();
+    let dir = tempfile::tempdir().unwrap();
+    let (checked, min) = two_hands("granny", dir.path(), &svc);
+    assert_never_passed_through(checked, min, 2000);
+    let k = knot_of(&svc, "reef");
+    assert_eq!(k.kind, KnotType::Granny, "{k:?}");
+    assert!(k.writhe.abs() >= 4, "a granny's writhe is far from 0: {k:?}");
+}
