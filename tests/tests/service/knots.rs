@@ -240,5 +240,8 @@ fn both_throws_the_same_way_tie_a_granny_knot() {
     assert_never_passed_through(checked, min, 2000);
     let k = knot_of(&svc, "reef");
     assert_eq!(k.kind, KnotType::Granny, "{k:?}");
-    assert!(k.writhe.abs() >= 4, "a granny's writhe is far from 0: {k:?}");
+    assert!(
+        k.writhe.abs() >= 4,
+        "a granny's writhe is far from 0: {k:?}"
+    );
 }
