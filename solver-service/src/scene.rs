@@ -931,6 +931,41 @@ mod tests {
                 "`collision`",
             ),
             (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\ncollision = \"capsules\"\n",
+                5,
+                "`thickness`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nobstacles = [\"post\"]\n",
+                5,
+                "`obstacles`: needs `collision",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\nobstacles = [\"post\"]\n",
+                7,
+                "no [[obstacle]] is named \"post\"",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nkind = \"fixed-base\"\nlinks = 2\nlink_length = 1.0\ncollision = \"paper-spheres\"\n",
+                6,
+                "free chains",
+            ),
+            (
+                "[[obstacle]]\nname = \"b\"\nshape = \"sphere\"\ncenter = [0, 0]\nradius = -1\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\n",
+                5,
+                "obstacle \"b\": field `radius`",
+            ),
+            (
+                "[[obstacle]]\nname = \"t\"\nshape = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n[[chain]]\nname = \"a\"\nspace = \"planar\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\nobstacles = [\"t\"]\n",
+                13,
+                "not in the planar chain's plane",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ncollision_tolerance = 1.5\n",
+                7,
+                "`collision_tolerance`",
+            ),
+            (
                 "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nsubsteps = 0\n",
                 5,
                 "`substeps`",
