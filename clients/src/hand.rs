@@ -354,3 +354,31 @@ pub fn replay(
     }
     Ok(out)
 }
+
+/// Queries chain `chain` and names the knot tied in it.
+pub fn knot_of(
+    conn: &mut Connection,
+    chain: u32,
+) -> anyhow::Result<solver::kernel::knot::KnotReport> {
+    let r = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
+    anyhow::ensure!(r.is_ok(), "query refused: {}", r.header.reason_str());
+    let pts: Vec<_> = r
+        .joints()
+        .iter()
+        .map(|p| nalgebra::Vector3::new(p.x, p.y, p.z))
+        .collect();
+    Ok(solver::kernel::knot::identify(&pts))
+}
+
+/// One line describing a knot report, as the tools print it.
+pub fn knot_line(k: &solver::kernel::knot::KnotReport) -> String {
+    format!(
+        "knot: {} ({}/{} views; {} crossings, writhe {}, determinant {})",
+        k.kind.name(),
+        k.votes,
+        k.views,
+        k.crossings,
+        k.writhe,
+        k.determinant
+    )
+}

@@ -195,16 +195,7 @@ fn run(a: Args) -> Result<i32> {
         let Some(ChainRef::Index(id)) = chain else {
             bail!("which chain?");
         };
-        let r = conn.call(RequestHeader::new(Command::Query, id), &[])?;
-        if !r.is_ok() {
-            bail!("query refused: {}", r.header.reason_str());
-        }
-        let pts: Vec<_> = r
-            .joints()
-            .iter()
-            .map(|p| nalgebra::Vector3::new(p.x, p.y, p.z))
-            .collect();
-        let k = solver::kernel::knot::identify(&pts);
+        let k = clients::hand::knot_of(&mut conn, id)?;
         if a.json {
             println!(
                 "{{\"knot\":\"{}\",\"votes\":{},\"views\":{},\"crossings\":{},\"writhe\":{},\"determinant\":{}}}",
@@ -216,15 +207,7 @@ fn run(a: Args) -> Result<i32> {
                 k.determinant
             );
         } else {
-            println!(
-                "knot: {} ({}/{} views; {} crossings, writhe {}, determinant {})",
-                k.kind.name(),
-                k.votes,
-                k.views,
-                k.crossings,
-                k.writhe,
-                k.determinant
-            );
+            println!("{}", clients::hand::knot_line(&k));
         }
         return Ok(0);
     }

@@ -14,7 +14,7 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use clients::hand::{HandConfig, read_records, replay, run_hand};
+use clients::hand::{HandConfig, knot_line, knot_of, read_records, replay, run_hand};
 use clients::script::{BUILTINS, Script};
 use clients::{ClientWait, ConnectOptions, Connection};
 use std::path::PathBuf;
@@ -179,25 +179,7 @@ fn run(a: Args) -> Result<i32> {
                 let id = conn
                     .find_chain(&name)?
                     .with_context(|| format!("no chain {name:?}"))?;
-                let q = conn.call(
-                    protocol::RequestHeader::new(protocol::Command::Query, id),
-                    &[],
-                )?;
-                let pts: Vec<_> = q
-                    .joints()
-                    .iter()
-                    .map(|p| nalgebra::Vector3::new(p.x, p.y, p.z))
-                    .collect();
-                let k = solver::kernel::knot::identify(&pts);
-                println!(
-                    "knot: {} ({}/{} views; {} crossings, writhe {}, determinant {})",
-                    k.kind.name(),
-                    k.votes,
-                    k.views,
-                    k.crossings,
-                    k.writhe,
-                    k.determinant
-                );
+                println!("{}", knot_line(&knot_of(&mut conn, id)?));
             }
             Ok(if r.refused.is_empty() { 0 } else { 1 })
         }

@@ -5,7 +5,7 @@
 use integration_tests::{Service, bin, unique_prefix};
 use protocol::{Command, RequestHeader};
 use solver::kernel::collision::closest_params_segment_segment;
-use solver::kernel::knot::{KnotType, identify};
+use solver::kernel::knot::KnotType;
 use std::process::{Child, Command as Process, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -151,9 +151,7 @@ impl Watcher {
 fn knot_of(svc: &Service, chain: &str) -> solver::kernel::knot::KnotReport {
     let mut c = svc.connect();
     let id = c.find_chain(chain).unwrap().unwrap();
-    let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
-    let pts: Vec<V> = r.joints().iter().map(|q| V::new(q.x, q.y, q.z)).collect();
-    identify(&pts)
+    clients::hand::knot_of(&mut c, id).unwrap()
 }
 
 fn assert_never_passed_through(checked: u64, min: f64, expected_states: u64) {
