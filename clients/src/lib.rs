@@ -4,6 +4,7 @@
 
 pub mod connection;
 pub mod hand;
+pub mod render;
 pub mod script;
 
 pub use connection::{CallError, ClientWait, ConnectOptions, Connection, Reply, StateStream};
