@@ -63,6 +63,25 @@ impl Default for ConnectOptions {
     }
 }
 
+impl ConnectOptions {
+    /// What the command-line tools use: wait up to `wait_s` seconds for the service to appear, sleep on
+    /// events after a short spin, 10 s per call.
+    pub fn for_tool(prefix: &str, wait_s: f64) -> Result<Self, String> {
+        if !(wait_s.is_finite() && (0.0..=3600.0).contains(&wait_s)) {
+            return Err(format!(
+                "wait for the service {wait_s} s: expected 0 to 3600 seconds"
+            ));
+        }
+        Ok(ConnectOptions {
+            prefix: prefix.to_string(),
+            wait: ClientWait::Hybrid(Duration::from_micros(200)),
+            connect_timeout: Duration::from_secs_f64(wait_s),
+            call_timeout: Duration::from_secs(10),
+            ..ConnectOptions::default()
+        })
+    }
+}
+
 /// Why a call failed (the service's refusals are not errors: they come back as a status).
 #[derive(Debug, thiserror::Error)]
 pub enum CallError {

@@ -6,5 +6,6 @@ pub mod connection;
 pub mod hand;
 pub mod render;
 pub mod script;
+pub mod snake;
 
 pub use connection::{CallError, ClientWait, ConnectOptions, Connection, Reply, StateStream};

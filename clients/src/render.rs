@@ -46,6 +46,37 @@ impl View {
         elevation_deg: 30.0,
     };
 
+    /// Looking from the side at motion along `dir` (which runs left to right), from `elevation_deg` above.
+    pub fn side_on(dir: [f64; 3], elevation_deg: f64) -> View {
+        let az = if dir[0].hypot(dir[1]) > 1e-12 {
+            dir[1].atan2(dir[0]).to_degrees() - 90.0
+        } else {
+            -90.0
+        };
+        View {
+            azimuth_deg: az,
+            elevation_deg,
+        }
+    }
+
+    /// `azimuth,elevation` in degrees.
+    pub fn parse(s: &str) -> Result<View, String> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("view {s:?}: expected azimuth,elevation in degrees"))?;
+        match v[..] {
+            [a, e] if a.is_finite() && (-90.0..=90.0).contains(&e) => Ok(View {
+                azimuth_deg: a,
+                elevation_deg: e,
+            }),
+            _ => Err(format!(
+                "view {s:?}: expected azimuth,elevation with elevation in [-90, 90]"
+            )),
+        }
+    }
+
     /// Screen `(x, y)` and depth (larger is nearer the viewer) of a point.
     pub fn project(&self, p: [f64; 3]) -> (f64, f64, f64) {
         let (sa, ca) = self.azimuth_deg.to_radians().sin_cos();
@@ -110,9 +141,13 @@ pub fn write_frames_svg(
     if !(lo[0] <= hi[0]) {
         (lo, hi) = ([-1.0; 3], [1.0; 3]);
     }
-    let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-9) * 1.08;
+    // Equal scales on both axes; the panel's shape follows the picture's (within 1:4 and 3:2).
+    let (wx, wy) = ((hi[0] - lo[0]).max(1e-9) * 1.08, (hi[1] - lo[1]).max(1e-9) * 1.08);
+    let aspect = (wy / wx).clamp(0.25, 1.5);
+    let (wx, wy) = (wx.max(wy / aspect), wy.max(wx * aspect));
+    let span = wx.max(wy);
     let (cx, cy) = ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0);
-    let (xr, yr) = (cx - span / 2.0..cx + span / 2.0, cy - span / 2.0..cy + span / 2.0);
+    let (xr, yr) = (cx - wx / 2.0..cx + wx / 2.0, cy - wy / 2.0..cy + wy / 2.0);
     let depth_span = (hi[2] - lo[2]).max(1e-12);
     // 0 at the far end, 1 at the near end (a flat picture is all near).
     let nearness = |d: f64| {
@@ -124,10 +159,8 @@ pub fn write_frames_svg(
     };
 
     let e = err(path);
-    let size = (
-        PANEL_PX * columns as u32,
-        (PANEL_PX + 20) * rows as u32 + 30,
-    );
+    let panel_h = (PANEL_PX as f64 * aspect).round() as u32 + 30;
+    let size = (PANEL_PX * columns as u32, panel_h * rows as u32 + 30);
     let root = SVGBackend::new(path, size).into_drawing_area();
     root.fill(&WHITE).map_err(&e)?;
     let root = root.titled(title, ("sans-serif", 18)).map_err(&e)?;
@@ -298,6 +331,10 @@ mod tests {
         assert!((x * x + y * y + d * d - 14.0).abs() < 1e-12, "lengths are kept");
         let (x, y, d) = View::TOP.project([1.5, -2.0, 0.0]);
         assert!((x - 1.5).abs() < 1e-12 && (y + 2.0).abs() < 1e-12 && d.abs() < 1e-12);
+        // Side on: the motion runs left to right.
+        let v = View::side_on([0.0, -1.0, 0.0], 0.0);
+        assert!(v.project([0.0, -1.0, 0.0]).0 > 0.999);
+        assert!(View::parse("30,95").is_err() && View::parse("30").is_err());
         // Looking down, a point above is nearer.
         assert!(View::TOP.project([0.0, 0.0, 1.0]).2 > 0.0);
     }

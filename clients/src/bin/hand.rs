@@ -16,7 +16,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use clients::hand::{HandConfig, knot_line, knot_of, read_records, replay, run_hand};
 use clients::script::{BUILTINS, Script};
-use clients::{ClientWait, ConnectOptions, Connection};
+use clients::{ConnectOptions, Connection};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -96,16 +96,8 @@ fn main() {
 }
 
 fn connect(prefix: &str, wait: f64) -> Result<Connection> {
-    if !(wait.is_finite() && wait >= 0.0) {
-        bail!("--wait-for-service must be a non-negative number of seconds");
-    }
-    Ok(Connection::connect(ConnectOptions {
-        prefix: prefix.to_string(),
-        wait: ClientWait::Hybrid(Duration::from_micros(200)),
-        connect_timeout: Duration::from_secs_f64(wait),
-        call_timeout: Duration::from_secs(10),
-        ..ConnectOptions::default()
-    })?)
+    let opts = ConnectOptions::for_tool(prefix, wait).map_err(anyhow::Error::msg)?;
+    Ok(Connection::connect(opts)?)
 }
 
 fn builtin(name: &str) -> Result<Script> {
