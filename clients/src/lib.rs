@@ -4,6 +4,7 @@
 
 pub mod connection;
 pub mod hand;
+pub mod reach;
 pub mod render;
 pub mod script;
 pub mod snake;
