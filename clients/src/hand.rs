@@ -42,13 +42,15 @@ pub struct Record {
 }
 
 /// What a hand did.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct HandReport {
     pub requests: u64,
     pub ok: u64,
     pub locked: u64,
     /// Other refusals (status name, count).
     pub refused: Vec<(String, u64)>,
+    /// Key frames: `(label, joints)`, kept when asked for ([`HandConfig::frames_per_turn`]).
+    pub frames: Vec<(String, Vec<[f64; 3]>)>,
 }
 
 /// How a hand runs.
@@ -64,6 +66,8 @@ pub struct HandConfig {
     pub record: Option<std::path::PathBuf>,
     /// Print progress to stderr.
     pub progress: bool,
+    /// Key frames to keep per turn of this hand, evenly spaced, the last at the turn's end (0: none).
+    pub frames_per_turn: usize,
 }
 
 /// CRC-32 of joint positions, as recorded.
@@ -203,6 +207,13 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
             bail!("joint {} is not a joint of {:?}", turn.joint, turn.chain);
         };
         let targets = turn.targets(start.to_array(), cfg.script.max_step);
+        let every = (targets.len() / cfg.frames_per_turn.max(1)).max(1);
+        if cfg.frames_per_turn > 0 && report.frames.is_empty() {
+            let joints = q.joints().iter().map(|p| p.to_array()).collect();
+            report
+                .frames
+                .push((format!("{}: start", turn.chain), joints));
+        }
         let t0 = Instant::now();
         for (i, t) in targets.iter().enumerate() {
             if let Some(p) = period {
@@ -215,11 +226,26 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
             let mut h = RequestHeader::new(Command::Move, chain);
             h.joint = joint;
             let sent = now_ns();
-            let (status, seq, rid, dg) =
+            let keep = cfg.frames_per_turn > 0
+                && ((i + 1) % every == 0 || i + 1 == targets.len())
+                && (i + 1) / every <= cfg.frames_per_turn;
+            let (status, seq, rid, dg, frame) =
                 conn.call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
                     let n = (rh.n_joints as usize).min(pts.len());
-                    (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
+                    let frame: Option<Vec<[f64; 3]>> =
+                        keep.then(|| pts[..n].iter().map(|p| p.to_array()).collect());
+                    (
+                        rh.status,
+                        rh.sequence,
+                        rh.request_id,
+                        digest(&pts[..n]),
+                        frame,
+                    )
                 })?;
+            if let Some(f) = frame {
+                let label = format!("hand {}, turn {}, move {}", cfg.hand, k + 1, i + 1);
+                report.frames.push((label, f));
+            }
             report.requests += 1;
             let name = Status::from_u32(status).map_or("unknown", |s| s.name());
             match Status::from_u32(status) {

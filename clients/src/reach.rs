@@ -93,10 +93,7 @@ fn accumulate(rotation: &mut [f64], before: &[[f64; 3]], after: &[[f64; 3]]) {
 }
 
 /// Runs every target with both methods.
-pub fn run_reach(
-    conn: &mut Connection,
-    cfg: &ReachConfig,
-) -> anyhow::Result<Vec<TargetResult>> {
+pub fn run_reach(conn: &mut Connection, cfg: &ReachConfig) -> anyhow::Result<Vec<TargetResult>> {
     if cfg.targets.is_empty() || cfg.targets.len() > MAX_TARGETS {
         bail!("give 1 to {MAX_TARGETS} targets");
     }
@@ -111,7 +108,10 @@ pub fn run_reach(
         .with_context(|| format!("the service has no chain {:?}", cfg.chain))?;
     let d = conn.call(RequestHeader::new(Command::Describe, chain), &[])?;
     if d.header.kind != ChainKind::FixedBase as u32 || d.header.dims != 2 {
-        bail!("chain {:?} is not a planar fixed-base manipulator", cfg.chain);
+        bail!(
+            "chain {:?} is not a planar fixed-base manipulator",
+            cfg.chain
+        );
     }
     if cfg.reset {
         let r = conn.call(RequestHeader::new(Command::Reset, chain), &[])?;

@@ -108,6 +108,9 @@ pub struct Frame {
     pub marks: Vec<[f64; 3]>,
 }
 
+/// A projected link: depth, ends on screen, colour.
+type Segment = (f64, (f64, f64), (f64, f64), (u8, u8, u8));
+
 /// Pixel size of one panel.
 pub const PANEL_PX: u32 = 360;
 
@@ -138,11 +141,14 @@ pub fn write_frames_svg(
             }
         }
     }
-    if !(lo[0] <= hi[0]) {
+    if lo[0] > hi[0] || lo[0].is_nan() {
         (lo, hi) = ([-1.0; 3], [1.0; 3]);
     }
     // Equal scales on both axes; the panel's shape follows the picture's (within 1:4 and 3:2).
-    let (wx, wy) = ((hi[0] - lo[0]).max(1e-9) * 1.08, (hi[1] - lo[1]).max(1e-9) * 1.08);
+    let (wx, wy) = (
+        (hi[0] - lo[0]).max(1e-9) * 1.08,
+        (hi[1] - lo[1]).max(1e-9) * 1.08,
+    );
     let aspect = (wy / wx).clamp(0.25, 1.5);
     let (wx, wy) = (wx.max(wy / aspect), wy.max(wx * aspect));
     let span = wx.max(wy);
@@ -179,7 +185,7 @@ pub fn write_frames_svg(
             )))
             .map_err(&e)?;
         // Every link of every chain, painted far to near.
-        let mut segments: Vec<(f64, (f64, f64), (f64, f64), (u8, u8, u8))> = Vec::new();
+        let mut segments: Vec<Segment> = Vec::new();
         for line in &frame.lines {
             for w in line.joints.windows(2) {
                 let (a, b) = (view.project(w[0]), view.project(w[1]));
@@ -250,8 +256,8 @@ pub fn write_plot_svg(
     let columns = columns.clamp(1, panels.len().max(1));
     let rows = panels.len().div_ceil(columns).max(1);
     let e = err(path);
-    let root = SVGBackend::new(path, (440 * columns as u32, 340 * rows as u32 + 30))
-        .into_drawing_area();
+    let root =
+        SVGBackend::new(path, (440 * columns as u32, 340 * rows as u32 + 30)).into_drawing_area();
     root.fill(&WHITE).map_err(&e)?;
     let root = root.titled(title, ("sans-serif", 18)).map_err(&e)?;
     for (area, panel) in root.split_evenly((rows, columns)).iter().zip(panels) {
@@ -328,7 +334,10 @@ mod tests {
     fn projection_is_orthonormal_and_top_view_keeps_the_plane() {
         let v = View::OBLIQUE;
         let (x, y, d) = v.project([1.0, 2.0, 3.0]);
-        assert!((x * x + y * y + d * d - 14.0).abs() < 1e-12, "lengths are kept");
+        assert!(
+            (x * x + y * y + d * d - 14.0).abs() < 1e-12,
+            "lengths are kept"
+        );
         let (x, y, d) = View::TOP.project([1.5, -2.0, 0.0]);
         assert!((x - 1.5).abs() < 1e-12 && (y + 2.0).abs() < 1e-12 && d.abs() < 1e-12);
         // Side on: the motion runs left to right.
@@ -365,10 +374,22 @@ mod tests {
         assert!(svg.starts_with("<svg"));
         let lines: Vec<&str> = svg.lines().filter(|l| l.contains("<polyline")).collect();
         assert_eq!(lines.len(), 2, "one path per link: {svg}");
-        assert!(lines[0].contains("stroke-width=\"1\""), "far first, thin: {}", lines[0]);
-        assert!(lines[1].contains("stroke-width=\"4\""), "near last, wide: {}", lines[1]);
+        assert!(
+            lines[0].contains("stroke-width=\"1\""),
+            "far first, thin: {}",
+            lines[0]
+        );
+        assert!(
+            lines[1].contains("stroke-width=\"4\""),
+            "near last, wide: {}",
+            lines[1]
+        );
         assert!(lines[0].contains("#B3B3B3"), "far is faded: {}", lines[0]);
-        assert!(lines[1].contains("#000000"), "near keeps its colour: {}", lines[1]);
+        assert!(
+            lines[1].contains("#000000"),
+            "near keeps its colour: {}",
+            lines[1]
+        );
     }
 
     #[test]
@@ -388,6 +409,9 @@ mod tests {
         write_plot_svg(&path, "t", ("joint", "deg"), &[panel], 1).unwrap();
         let svg = std::fs::read_to_string(&path).unwrap();
         let texts: Vec<&str> = svg.lines().map(str::trim).collect();
-        assert!(texts.contains(&"tractrix") && texts.contains(&"pseudo-inverse"), "{svg}");
+        assert!(
+            texts.contains(&"tractrix") && texts.contains(&"pseudo-inverse"),
+            "{svg}"
+        );
     }
 }

@@ -221,7 +221,9 @@ impl Script {
                         handedness: Handedness::Left,
                         outward: [1.0, 0.0, 0.0],
                         scale: 0.9,
-                        exit: 0.0,
+                        // The rope slides through the knot after the head: walking on 12 units
+                        // brings the knot near the middle of the 40-unit rope.
+                        exit: 12.0,
                     }),
                     vec![],
                 )],

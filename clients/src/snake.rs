@@ -40,7 +40,10 @@ impl Curve {
                     format!("curve {path:?}: not crawl, helix or a readable file ({e})")
                 })?;
                 if meta.len() > 64 * MAX_CURVE_POINTS as u64 {
-                    return Err(format!("{path}: larger than {} bytes", 64 * MAX_CURVE_POINTS));
+                    return Err(format!(
+                        "{path}: larger than {} bytes",
+                        64 * MAX_CURVE_POINTS
+                    ));
                 }
                 let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
                 Curve::parse_points(&text, path).map(Curve::Points)
@@ -57,7 +60,10 @@ impl Curve {
                 continue;
             }
             if out.len() == MAX_CURVE_POINTS {
-                return Err(format!("{origin}:{}: more than {MAX_CURVE_POINTS} points", i + 1));
+                return Err(format!(
+                    "{origin}:{}: more than {MAX_CURVE_POINTS} points",
+                    i + 1
+                ));
             }
             let v: Vec<&str> = line
                 .split(|c: char| c == ',' || c.is_whitespace())
@@ -77,7 +83,11 @@ impl Curve {
                     .ok()
                     .filter(|x| x.is_finite())
                     .ok_or_else(|| {
-                        format!("{origin}:{}: field {}: {s:?} is not a finite number", i + 1, k + 1)
+                        format!(
+                            "{origin}:{}: field {}: {s:?} is not a finite number",
+                            i + 1,
+                            k + 1
+                        )
                     })?;
             }
             out.push(p);
@@ -247,7 +257,11 @@ pub fn run_snake(conn: &mut Connection, cfg: &SnakeConfig) -> anyhow::Result<Sna
         bail!("the curve is empty");
     }
     let mut report = SnakeReport {
-        path: start.iter().copied().chain(targets.iter().copied()).collect(),
+        path: start
+            .iter()
+            .copied()
+            .chain(targets.iter().copied())
+            .collect(),
         ..SnakeReport::default()
     };
     let every = (targets.len() / cfg.frames.saturating_sub(1).max(1)).max(1);
@@ -287,13 +301,16 @@ pub fn run_snake(conn: &mut Connection, cfg: &SnakeConfig) -> anyhow::Result<Sna
             }
         }
         let done = i + 1;
-        if cfg.frames > 0 && (done % every == 0 || done == targets.len()) {
-            if report.frames.len() < cfg.frames || done == targets.len() {
-                if report.frames.len() == cfg.frames {
-                    report.frames.pop();
-                }
-                report.frames.push((done, last.clone()));
+        let at_end = done == targets.len();
+        if cfg.frames > 0
+            && (done % every == 0 || at_end)
+            && (report.frames.len() < cfg.frames || at_end)
+        {
+            // The last frame is always the final pose.
+            if report.frames.len() == cfg.frames {
+                report.frames.pop();
             }
+            report.frames.push((done, last.clone()));
         }
         if cfg.progress && done % 100 == 0 {
             eprintln!("snake: {done}/{} moves", targets.len());

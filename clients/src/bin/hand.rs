@@ -15,6 +15,7 @@
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use clients::hand::{HandConfig, knot_line, knot_of, read_records, replay, run_hand};
+use clients::render::{Frame, Polyline, View, write_frames_svg};
 use clients::script::{BUILTINS, Script};
 use clients::{ConnectOptions, Connection};
 use std::path::PathBuf;
@@ -36,6 +37,8 @@ struct Args {
     wait_for_service: f64,
 }
 
+// Parsed once per process: the size of the largest variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand, Debug)]
 enum Cmd {
     /// Run one hand of a script.
@@ -70,6 +73,15 @@ enum Cmd {
         /// No progress lines.
         #[arg(long)]
         quiet: bool,
+        /// Write key frames of this hand's turns to DIR/SCRIPT-HAND.svg (figures 5 and 6).
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        /// Key frames per turn.
+        #[arg(long, default_value_t = 3)]
+        frames: usize,
+        /// View of the pictures, azimuth,elevation in degrees (default: from above, tilted 20°).
+        #[arg(long, default_value = "-90,70")]
+        view: String,
     },
     /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
     Replay {
@@ -122,7 +134,14 @@ fn run(a: Args) -> Result<i32> {
             turn_timeout,
             identify,
             quiet,
+            svg,
+            frames,
+            view,
         } => {
+            let view = View::parse(&view).map_err(anyhow::Error::msg)?;
+            if !(1..=32).contains(&frames) {
+                bail!("--frames must be 1 to 32");
+            }
             let mut script = match (script, b) {
                 (Some(p), None) => {
                     let text = std::fs::read_to_string(&p)
@@ -153,6 +172,7 @@ fn run(a: Args) -> Result<i32> {
                 turn_timeout: Duration::from_secs_f64(turn_timeout),
                 record,
                 progress: !quiet,
+                frames_per_turn: if svg.is_some() { frames } else { 0 },
             };
             let r = run_hand(&mut conn, &cfg)?;
             let refused: Vec<String> = r.refused.iter().map(|(n, c)| format!("{c} {n}")).collect();
@@ -167,6 +187,27 @@ fn run(a: Args) -> Result<i32> {
                     format!(", refused: {}", refused.join(", "))
                 }
             );
+            if let Some(dir) = &svg {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("create {}", dir.display()))?;
+                let file = dir.join(format!("{}-{hand}.svg", cfg.script.name));
+                let panels: Vec<Frame> = r
+                    .frames
+                    .iter()
+                    .map(|(label, joints)| Frame {
+                        label: label.clone(),
+                        lines: vec![Polyline {
+                            joints: joints.clone(),
+                            color: (150, 60, 20),
+                            markers: false,
+                        }],
+                        marks: vec![],
+                    })
+                    .collect();
+                let title = format!("{}: hand {hand}", cfg.script.name);
+                write_frames_svg(&file, &title, &panels, view, 3)?;
+                println!("wrote {}", file.display());
+            }
             if let Some(name) = identify {
                 let id = conn
                     .find_chain(&name)?

@@ -70,7 +70,8 @@ fn run(a: Args) -> Result<i32> {
             return Ok(2);
         }
     };
-    let opts = ConnectOptions::for_tool(&a.prefix, a.wait_for_service).map_err(anyhow::Error::msg)?;
+    let opts =
+        ConnectOptions::for_tool(&a.prefix, a.wait_for_service).map_err(anyhow::Error::msg)?;
     let mut conn = Connection::connect(opts)?;
     let cfg = ReachConfig {
         chain: a.chain.clone(),
@@ -101,7 +102,10 @@ fn print_target(i: usize, r: &TargetResult, steps: usize) {
         "  {:<15} {:>10} {:>10} {:>10} {:>11} {:>10}",
         "method", "iterations", "residual", "solve µs", "Σ|Δθ| deg", "base half"
     );
-    for (name, leg) in [("tractrix", &r.tractrix), ("pseudo-inverse", &r.pseudo_inverse)] {
+    for (name, leg) in [
+        ("tractrix", &r.tractrix),
+        ("pseudo-inverse", &r.pseudo_inverse),
+    ] {
         println!(
             "  {:<15} {:>10} {:>10.2e} {:>10.1} {:>11.2} {:>9.1}%",
             name,

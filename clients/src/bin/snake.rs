@@ -66,7 +66,7 @@ fn main() {
 }
 
 fn run(a: Args) -> Result<i32> {
-    if !(a.rate.is_finite() && a.rate >= 0.0) || !(1..=64).contains(&a.frames) {
+    if !(a.rate.is_finite() && a.rate >= 0.0 && (1..=64).contains(&a.frames)) {
         eprintln!("snake: --rate must be ≥ 0 and --frames 1 to 64");
         return Ok(2);
     }
@@ -84,7 +84,8 @@ fn run(a: Args) -> Result<i32> {
             return Ok(2);
         }
     };
-    let opts = ConnectOptions::for_tool(&a.prefix, a.wait_for_service).map_err(anyhow::Error::msg)?;
+    let opts =
+        ConnectOptions::for_tool(&a.prefix, a.wait_for_service).map_err(anyhow::Error::msg)?;
     let mut conn = Connection::connect(opts)?;
     let cfg = SnakeConfig {
         chain: a.chain.clone(),

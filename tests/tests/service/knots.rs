@@ -95,6 +95,7 @@ impl Watcher {
             .sequence;
         drop(conn);
         let prefix = svc.prefix.clone();
+        let (ready_tx, ready) = std::sync::mpsc::channel();
         let handle = std::thread::spawn(move || {
             let conn = clients::Connection::connect(clients::ConnectOptions {
                 prefix,
@@ -102,6 +103,7 @@ impl Watcher {
             })
             .unwrap();
             let stream = conn.subscribe().unwrap();
+            let _ = ready_tx.send(());
             let (mut next, mut checked, mut min) = (seq0 + 1, 0u64, f64::INFINITY);
             let mut idle_since = None;
             loop {
@@ -139,6 +141,10 @@ impl Watcher {
                 }
             }
         });
+        // Subscribed before any hand starts: a state published earlier would count as missed.
+        ready
+            .recv_timeout(Duration::from_secs(20))
+            .expect("the watcher subscribes");
         Watcher { stop, handle }
     }
 
@@ -170,9 +176,22 @@ fn one_hand_ties_an_overhand_knot_a_trefoil() {
     let svc = knot_service();
     let id = svc.connect().find_chain("overhand").unwrap().unwrap();
     let w = Watcher::start(&svc, id);
-    let out = finish(hand(&svc, &["--builtin", "overhand"]));
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().display().to_string();
+    let out = finish(hand(
+        &svc,
+        &["--builtin", "overhand", "--svg", &svg, "--frames", "4"],
+    ));
     let (checked, min) = w.finish();
     assert!(out.contains("0 locked"), "{out}");
+    // Key frames (figure 5): the start and 4 in the one turn, each a panel with a caption.
+    let pic = std::fs::read_to_string(dir.path().join("overhand-A.svg")).unwrap();
+    let captions = pic
+        .lines()
+        .filter(|l| l.contains("hand A, turn 1, move"))
+        .count();
+    assert!(pic.lines().any(|l| l.trim() == "overhand: start"), "{pic}");
+    assert!((4..=5).contains(&captions), "{captions} key frames");
     assert_never_passed_through(checked, min, 400);
     let k = knot_of(&svc, "overhand");
     assert_eq!(k.kind, KnotType::Trefoil, "{k:?}");

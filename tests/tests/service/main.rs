@@ -8,9 +8,11 @@
 //! * SIGTERM shuts down cleanly and keeps the state (`sigterm_shuts_down_cleanly_and_keeps_the_state`);
 //! * the event wait mode (`event_mode_serves_sleeping_clients`);
 //! * batch mode and chainctl from the shell (`batch_mode_writes_csv`, `chainctl_fails_fast_without_a_service`);
-//! * knots tied by hand processes, checked at every published state, replayed bit for bit (`knots`).
+//! * knots tied by hand processes, checked at every published state, replayed bit for bit (`knots`);
+//! * the snake, reach and watch tools, and a locked move on a collision scene (`tools`).
 
 mod knots;
+mod tools;
 
 use clients::{ClientWait, Connection};
 use integration_tests::{Service, bin, unique_prefix};
@@ -412,8 +414,8 @@ fn every_error_leaves_the_state_unchanged() {
         seen.insert(status as u32);
     }
     // Every error status a request can cause is covered (PersistenceFailed and Internal need faults;
-    // Locked needs a chain with collision, which the default scene has none of: the kernel test
-    // `collision::obstacles_are_avoided_and_a_hand_inside_one_is_locked` covers it).
+    // Locked needs a chain with collision, which the default scene has none of: the end-to-end test
+    // `tools::a_hand_driven_into_an_obstacle_is_locked_and_changes_nothing` covers it on its own scene).
     for s in Status::ALL {
         if !matches!(
             s,

@@ -1,0 +1,223 @@
+//! `watch`: subscribes to the service's state stream (every accepted change, in order) and writes it as
+//! CSV and as SVG frames.
+//!
+//! ```text
+//! watch --csv states.csv --duration 10            # every change of every chain for 10 s
+//! watch --chain snake --svg frames/ --every 20    # every 20th state of the snake as frames/snake-SEQ.svg
+//! ```
+//!
+//! CSV columns: `sequence,chain,command,request_id,joint,x,y,z`, one row per joint, numbers printed so
+//! they read back bit for bit. A gap in `sequence`
+//! (a viewer too slow for its buffer) is counted and reported at the end. Stops after `--count` states,
+//! after `--duration` seconds, or on Ctrl-C. Exit codes: 0 ok, 1 failure, 2 usage.
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use clients::render::{Frame, Polyline, View, write_frames_svg};
+use clients::{ConnectOptions, Connection};
+use protocol::{Command, RequestHeader};
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+#[derive(Parser, Debug)]
+#[command(
+    version,
+    about = "Write the state stream of a running solver-service as CSV and SVG"
+)]
+struct Args {
+    /// Only these chains (by name; repeatable). Default: all.
+    #[arg(long)]
+    chain: Vec<String>,
+    /// CSV output file ("-" for standard output).
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Write SVG frames into DIR.
+    #[arg(long)]
+    svg: Option<PathBuf>,
+    /// Keep every Nth state of each chain for the SVG frames.
+    #[arg(long, default_value_t = 1)]
+    every: u64,
+    /// View of the frames, azimuth,elevation in degrees (default: planar chains from above, spatial
+    /// ones oblique).
+    #[arg(long)]
+    view: Option<String>,
+    /// Stop after this many states.
+    #[arg(long)]
+    count: Option<u64>,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    duration: Option<f64>,
+    /// iceoryx2 prefix of the service.
+    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    prefix: String,
+    /// Seconds to wait for the service to appear.
+    #[arg(long, default_value_t = 5.0)]
+    wait_for_service: f64,
+}
+
+fn main() {
+    let args = Args::parse();
+    std::process::exit(match run(args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("watch: {e:#}");
+            1
+        }
+    });
+}
+
+struct ChainInfo {
+    name: String,
+    planar: bool,
+    seen: u64,
+}
+
+fn run(a: Args) -> Result<i32> {
+    let view = match a.view.as_deref().map(View::parse).transpose() {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("watch: {e}");
+            return Ok(2);
+        }
+    };
+    if a.every == 0 || a.duration.is_some_and(|d| !(d.is_finite() && d > 0.0)) {
+        eprintln!("watch: --every must be ≥ 1 and --duration positive");
+        return Ok(2);
+    }
+    let opts =
+        ConnectOptions::for_tool(&a.prefix, a.wait_for_service).map_err(anyhow::Error::msg)?;
+    let mut conn = Connection::connect(opts)?;
+    // Chain names and kinds, once.
+    let mut chains: HashMap<u32, ChainInfo> = HashMap::new();
+    let first = conn.call(RequestHeader::new(Command::Describe, 0), &[])?;
+    for c in 0..first.header.n_chains {
+        let d = conn.call(RequestHeader::new(Command::Describe, c), &[])?;
+        chains.insert(
+            c,
+            ChainInfo {
+                name: d.header.name_str(),
+                planar: d.header.dims == 2,
+                seen: 0,
+            },
+        );
+    }
+    for name in &a.chain {
+        if !chains.values().any(|c| &c.name == name) {
+            anyhow::bail!("the service has no chain {name:?}");
+        }
+    }
+    let stream = conn.subscribe()?;
+    let mut csv: Option<Box<dyn Write>> = match &a.csv {
+        Some(p) if p.as_os_str() == "-" => Some(Box::new(std::io::stdout().lock())),
+        Some(p) => Some(Box::new(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("create {}", p.display()))?,
+        ))),
+        None => None,
+    };
+    if let Some(w) = &mut csv {
+        writeln!(w, "sequence,chain,command,request_id,joint,x,y,z")?;
+    }
+    if let Some(dir) = &a.svg {
+        std::fs::create_dir_all(dir).with_context(|| format!("create {}", dir.display()))?;
+    }
+    let deadline = a
+        .duration
+        .map(|d| Instant::now() + Duration::from_secs_f64(d));
+    let (mut states, mut frames, mut missed) = (0u64, 0u64, 0u64);
+    let mut last_seq: Option<u64> = None;
+    // Frames are drawn when the stream is idle (drawing takes about a millisecond; a subscriber's buffer
+    // holds 64 states), at most one per idle turn, and all at the end.
+    let mut pending = std::collections::VecDeque::new();
+    eprintln!("watch: listening (Ctrl-C to stop)");
+    'outer: loop {
+        // Drain what is waiting, then sleep a millisecond: a viewer need not spin.
+        loop {
+            let got = stream.try_next(|h, pts| {
+                (
+                    *h,
+                    pts[..(h.n_joints as usize).min(pts.len())]
+                        .iter()
+                        .map(|p| p.to_array())
+                        .collect::<Vec<_>>(),
+                )
+            })?;
+            let Some((h, joints)) = got else { break };
+            if let Some(prev) = last_seq
+                && h.sequence > prev + 1
+            {
+                missed += h.sequence - prev - 1;
+            }
+            last_seq = Some(h.sequence);
+            let Some(info) = chains.get_mut(&h.chain) else {
+                continue;
+            };
+            if !a.chain.is_empty() && !a.chain.contains(&info.name) {
+                continue;
+            }
+            states += 1;
+            info.seen += 1;
+            if let Some(w) = &mut csv {
+                let cmd = Command::from_u32(h.command).map_or("unknown", |c| c.name());
+                for (j, p) in joints.iter().enumerate() {
+                    writeln!(
+                        w,
+                        "{},{},{cmd},{},{j},{:?},{:?},{:?}",
+                        h.sequence, info.name, h.request_id, p[0], p[1], p[2]
+                    )?;
+                }
+            }
+            if a.svg.is_some() && (info.seen - 1).is_multiple_of(a.every) {
+                let v = view.unwrap_or(if info.planar {
+                    View::TOP
+                } else {
+                    View::OBLIQUE
+                });
+                pending.push_back((info.name.clone(), h.sequence, v, joints, info.planar));
+            }
+            if a.count.is_some_and(|c| states >= c) {
+                break 'outer;
+            }
+        }
+        if let (Some(dir), Some(f)) = (&a.svg, pending.pop_front()) {
+            frames += draw(dir, f)?;
+            continue;
+        }
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            break;
+        }
+        // Returns an error on SIGINT / SIGTERM.
+        if conn.node().wait(Duration::from_millis(1)).is_err() {
+            break;
+        }
+    }
+    if let Some(dir) = &a.svg {
+        for f in pending {
+            frames += draw(dir, f)?;
+        }
+    }
+    if let Some(w) = &mut csv {
+        w.flush()?;
+    }
+    eprintln!("watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps)");
+    Ok(0)
+}
+
+fn draw(
+    dir: &std::path::Path,
+    (name, sequence, view, joints, planar): (String, u64, View, Vec<[f64; 3]>, bool),
+) -> Result<u64> {
+    let file = dir.join(format!("{name}-{sequence:08}.svg"));
+    let frame = Frame {
+        label: format!("{name} after change {sequence}"),
+        lines: vec![Polyline {
+            joints,
+            color: (20, 60, 160),
+            markers: planar,
+        }],
+        marks: vec![],
+    };
+    write_frames_svg(&file, &name, &[frame], view, 1)?;
+    Ok(1)
+}

@@ -1,0 +1,310 @@
+//! The client binaries as a user runs them (issue 4): `snake` crawls to the end of its curve, `reach`
+//! runs both methods and plots them, `watch` writes every state as CSV and frames; and a hand driven into
+//! an obstacle of a collision scene is refused as locked with the state unchanged.
+
+use integration_tests::{Service, bin, unique_prefix};
+use protocol::{Command, RequestHeader, Status, Vec3};
+use std::io::{BufRead, BufReader, Read};
+use std::process::{Child, Command as Process, ExitStatus, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+const TOOL_TIMEOUT: Duration = Duration::from_secs(60);
+
+fn default_service() -> Service {
+    Service::start(&unique_prefix(), &["--wait", "event", "--no-persist"])
+}
+
+fn spawn(svc: &Service, tool: &str, args: &[&str]) -> Child {
+    Process::new(bin(tool))
+        .arg("--prefix")
+        .arg(&svc.prefix)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("spawn {tool}: {e}"))
+}
+
+/// Waits for a child with a deadline; returns its status, stdout and stderr.
+fn finish(mut child: Child, what: &str) -> (ExitStatus, String, String) {
+    let deadline = Instant::now() + TOOL_TIMEOUT;
+    // Drain the pipes on threads so a chatty child cannot block on a full pipe.
+    let mut out = child.stdout.take().unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let o = std::thread::spawn(move || {
+        let mut s = String::new();
+        out.read_to_string(&mut s).map(|_| s).unwrap_or_default()
+    });
+    let e = std::thread::spawn(move || {
+        let mut s = String::new();
+        err.read_to_string(&mut s).map(|_| s).unwrap_or_default()
+    });
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break st;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("{what} did not finish within {TOOL_TIMEOUT:?}");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    (status, o.join().unwrap(), e.join().unwrap())
+}
+
+fn run(svc: &Service, tool: &str, args: &[&str]) -> String {
+    let (st, out, err) = finish(spawn(svc, tool, args), tool);
+    assert!(st.success(), "{tool} {args:?}: {st}\n{out}\n{err}");
+    out
+}
+
+/// The number after `key` in `text` (`key` ends with a space or similar).
+fn number_after(text: &str, key: &str) -> f64 {
+    let at = text
+        .find(key)
+        .unwrap_or_else(|| panic!("{key:?} in {text}"))
+        + key.len();
+    let tail: String = text[at..]
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || "+-.e".contains(*c))
+        .collect();
+    tail.parse()
+        .unwrap_or_else(|_| panic!("a number after {key:?} in {text}"))
+}
+
+fn head_of(svc: &Service, chain: &str) -> Vec3 {
+    let mut c = svc.connect();
+    let id = c.find_chain(chain).unwrap().unwrap();
+    let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    *r.joints().last().unwrap()
+}
+
+#[test]
+fn snake_crawls_to_the_end_of_its_curve_keeping_its_links() {
+    let svc = default_service();
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().display().to_string();
+    let out = run(&svc, "snake", &["--quiet", "--svg", &svg, "--frames", "6"]);
+    assert!(out.contains("240 moves, 240 ok"), "{out}");
+    assert!(number_after(&out, "head error ") < 1e-12, "{out}");
+    assert!(number_after(&out, "link length error ") < 1e-12, "{out}");
+    // The head ends where the curve does, computed here from the scene's snake (head at (0,-50,0)
+    // heading -y) without the service.
+    let end = *clients::snake::Curve::Crawl
+        .targets([0.0, -50.0, 0.0], [0.0, -1.0, 0.0], 60.0, 0.25)
+        .last()
+        .unwrap();
+    let h = head_of(&svc, "snake");
+    let d = ((h.x - end[0]).powi(2) + (h.y - end[1]).powi(2) + (h.z - end[2]).powi(2)).sqrt();
+    assert!(d < 1e-12, "head {h:?}, curve end {end:?}");
+    let pic = std::fs::read_to_string(dir.path().join("snake.svg")).unwrap();
+    let panels = pic
+        .lines()
+        .filter(|l| l.trim().starts_with("after "))
+        .count();
+    assert_eq!(panels, 6, "six key frames");
+}
+
+#[test]
+fn reach_runs_the_tractrix_and_the_pseudo_inverse_and_plots_both() {
+    let svc = default_service();
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().display().to_string();
+    let out = run(
+        &svc,
+        "reach",
+        &[
+            "--targets",
+            "1.0,0.9 -0.8,1.2",
+            "--steps",
+            "4",
+            "--svg",
+            &svg,
+        ],
+    );
+    for k in ["target 1 (1.0000, 0.9000)", "target 2 (-0.8000, 1.2000)"] {
+        assert!(out.contains(k), "{out}");
+    }
+    // Every method row reports a residual within the tolerance (1e-9 of the 2-unit arm).
+    let rows: Vec<&str> = out
+        .lines()
+        .filter(|l| !l.contains('°'))
+        .filter(|l| l.trim_start().starts_with("tractrix ") || l.contains("pseudo-inverse "))
+        .collect();
+    assert_eq!(rows.len(), 4, "{out}");
+    for r in &rows {
+        let residual: f64 = r.split_whitespace().nth(2).unwrap().parse().unwrap();
+        assert!(residual <= 2e-9, "{r}");
+    }
+    // Ten joint rotations per method and target.
+    let per_joint = out
+        .lines()
+        .filter(|l| l.contains(" °"))
+        .map(|l| l.split('°').nth(1).unwrap().split_whitespace().count())
+        .collect::<Vec<_>>();
+    assert_eq!(per_joint, vec![10; 4], "{out}");
+    // The service's arm is at the last target.
+    let h = head_of(&svc, "arm");
+    assert!((h.x + 0.8).hypot(h.y - 1.2) < 2e-9, "{h:?}");
+    let fig7 = std::fs::read_to_string(dir.path().join("reach.svg")).unwrap();
+    assert!(fig7.contains("<circle"), "joints are marked");
+    let fig8 = std::fs::read_to_string(dir.path().join("rotations.svg")).unwrap();
+    let texts: Vec<&str> = fig8.lines().map(str::trim).collect();
+    assert!(texts.contains(&"tractrix") && texts.contains(&"pseudo-inverse"));
+}
+
+#[test]
+fn watch_writes_every_state_as_csv_and_frames() {
+    let svc = default_service();
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("states.csv");
+    let frames = dir.path().join("frames");
+    let (csv_s, frames_s) = (csv.display().to_string(), frames.display().to_string());
+    let mut watch = spawn(
+        &svc,
+        "watch",
+        &[
+            "--chain",
+            "snake",
+            "--csv",
+            &csv_s,
+            "--svg",
+            &frames_s,
+            "--every",
+            "40",
+            "--count",
+            "240",
+            "--duration",
+            "50",
+        ],
+    );
+    // Wait until it listens, so no state is published before it subscribed.
+    let err = watch.stderr.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for l in BufReader::new(err).lines().map_while(Result::ok) {
+            let _ = tx.send(l);
+        }
+    });
+    let line = rx
+        .recv_timeout(Duration::from_secs(20))
+        .expect("watch listens");
+    assert!(line.contains("listening"), "{line}");
+    // 240 head moves at 2 kHz: 0.12 s.
+    run(&svc, "snake", &["--quiet", "--rate", "2000"]);
+    let deadline = Instant::now() + TOOL_TIMEOUT;
+    let st = loop {
+        if let Some(st) = watch.try_wait().unwrap() {
+            break st;
+        }
+        assert!(Instant::now() < deadline, "watch did not stop");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert!(st.success());
+    let summary: Vec<String> = rx.try_iter().collect();
+    assert!(
+        summary
+            .iter()
+            .any(|l| l.contains("240 states, 6 SVG frames, 0 missed")),
+        "{summary:?}"
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("sequence,chain,command,request_id,joint,x,y,z")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 240 * 41, "41 joints per state");
+    let seqs: Vec<u64> = rows
+        .iter()
+        .step_by(41)
+        .map(|r| r[0].parse().unwrap())
+        .collect();
+    assert!(
+        seqs.windows(2).all(|w| w[1] == w[0] + 1),
+        "every state, in order"
+    );
+    // The last state read back bit for bit equals the service's.
+    let mut c = svc.connect();
+    let id = c.find_chain("snake").unwrap().unwrap();
+    let q = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    for (row, p) in rows[rows.len() - 41..].iter().zip(q.joints()) {
+        let v: Vec<f64> = row[5..8].iter().map(|x| x.parse().unwrap()).collect();
+        assert_eq!(
+            [v[0].to_bits(), v[1].to_bits(), v[2].to_bits()],
+            [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+        );
+    }
+    let svgs = std::fs::read_dir(&frames).unwrap().count();
+    assert_eq!(svgs, 6, "every 40th of 240 states");
+}
+
+/// A scene with a collision rope and a ball: the head driven into the ball cannot be satisfied, so the
+/// move is refused as locked and nothing changes; a move past the ball is served with contacts.
+#[test]
+fn a_hand_driven_into_an_obstacle_is_locked_and_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("ball.toml");
+    std::fs::write(
+        &scene,
+        r#"
+[[chain]]
+name = "rope"
+links = 20
+link_length = 0.5
+axis = [1.0, 0.0, 0.0]
+thickness = 0.2
+collision = "capsules"
+obstacles = ["ball"]
+
+[[obstacle]]
+name = "ball"
+shape = "sphere"
+center = [10.0, -3.0, 0.0]
+radius = 1.0
+"#,
+    )
+    .unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &["--scene", scene.to_str().unwrap(), "--no-persist"],
+    );
+    let mut c = svc.connect();
+    let before = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    let r = c
+        .call(
+            RequestHeader::new(Command::Move, 0),
+            &[Vec3::new(10.0, -3.0, 0.0)],
+        )
+        .unwrap();
+    assert_eq!(
+        r.header.status(),
+        Some(Status::Locked),
+        "{}",
+        r.header.reason_str()
+    );
+    assert!(!r.header.reason_str().is_empty());
+    let after = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    assert_eq!(
+        before.payload, after.payload,
+        "a locked move changes nothing"
+    );
+    assert_eq!(before.header.sequence, after.header.sequence);
+    // Sweeping the rope down past the ball: served, and no joint inside it.
+    for k in 1..=40 {
+        let y = -6.0 * k as f64 / 40.0;
+        let r = c
+            .call(
+                RequestHeader::new(Command::Move, 0),
+                &[Vec3::new(12.0, y, 0.0)],
+            )
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        for p in r.joints() {
+            let d = ((p.x - 10.0).powi(2) + (p.y + 3.0).powi(2) + p.z.powi(2)).sqrt();
+            assert!(d >= 1.1 * 0.99 - 1e-9, "joint {p:?} in the ball");
+        }
+    }
+}
