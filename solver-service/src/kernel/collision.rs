@@ -17,7 +17,9 @@
 //!   normal until they are just apart. All pairs are tested, O(n²), as in the paper. The spheres are as
 //!   thick as a link is long: a rope of unit links behaves as a rope one unit thick.
 //! * [`Scheme::Capsules`]: each link is a capsule of diameter [`CollisionOptions::thickness`] (the rope's
-//!   real thickness); two non-adjacent links collide when their axes are closer than one thickness. The
+//!   real thickness); two links collide when their axes are closer than one thickness, unless there is
+//!   less than a thickness of rope between them ([`neighbour_span`]: only adjacent links when the links
+//!   are longer than the rope is thick). The
 //!   contact pushes the four joints along the common normal in proportion to where the closest points
 //!   lie on each link (the grasped joint does not move). Candidate pairs come from a spatial hash grid
 //!   with cells one link plus one thickness wide, so detection costs O(n) for a rope that is not piled
@@ -348,6 +350,22 @@ fn restraighten<T: Real, const D: usize>(
     }
 }
 
+/// How many links on each side of a link are its neighbours, never tested against it: those closer along
+/// the rope than one thickness (`m` links of length `min_len` with `m·min_len ≥ thickness`). Two links
+/// with fewer than a thickness of rope between them touch even when the rope is straight; testing them
+/// would lock every move of a rope whose links are shorter than it is thick.
+pub fn neighbour_span<T: Real>(min_len: T, thickness: T) -> usize {
+    if !(positive_finite(min_len) && thickness.is_finite() && thickness > T::zero()) {
+        return 1;
+    }
+    let m = (thickness / min_len).ceil().to_f64();
+    if m.is_finite() {
+        (m as usize).max(1)
+    } else {
+        1
+    }
+}
+
 /// Resolution passes on `ws.pos` (positions of the chain after the sweep). Returns the passes that
 /// pushed something and the contacts pushed, or, when locked, the passes and the worst penetration.
 fn resolve<T: Real, const D: usize>(
@@ -363,6 +381,7 @@ where
     let mut contacts = 0u32;
     let mut iterations = 0u32;
     let use_grid = opts.self_collision && opts.scheme == Scheme::Capsules;
+    let span = neighbour_span(chain.min_length(), opts.thickness);
     loop {
         if use_grid {
             ws.grid.build(&ws.pos, opts.thickness * T::lit(0.5));
@@ -375,7 +394,7 @@ where
         };
         if opts.self_collision {
             match opts.scheme {
-                Scheme::Capsules => pass.capsules(&mut ws.pos, &mut ws.grid, opts.thickness),
+                Scheme::Capsules => pass.capsules(&mut ws.pos, &mut ws.grid, opts.thickness, span),
                 Scheme::PaperSpheres => pass.spheres(&mut ws.pos),
             }
         }
@@ -433,6 +452,7 @@ impl<T: Real> Pass<T> {
         pos: &mut [Vector<T, D>],
         grid: &mut HashGrid,
         thickness: T,
+        span: usize,
     ) where
         Vector<T, D>: Embed3<T>,
     {
@@ -445,7 +465,7 @@ impl<T: Real> Pass<T> {
                         let h = grid.slot([cx, cy, cz]);
                         for e in grid.starts[h]..grid.starts[h + 1] {
                             let j = grid.entries[e as usize] as usize;
-                            if j <= i + 1 || !grid.first_visit(j, i) {
+                            if j <= i + span || !grid.first_visit(j, i) {
                                 continue;
                             }
                             self.capsule_pair(pos, i, j, thickness);

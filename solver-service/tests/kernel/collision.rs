@@ -4,7 +4,7 @@ use crate::support::{Rng, max_length_error};
 use nalgebra::Vector3;
 use solver::kernel::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, Scheme,
-    closest_nonadjacent_links, move_joint_colliding,
+    closest_nonadjacent_links, move_joint_colliding, neighbour_span,
 };
 use solver::kernel::knot::{KnotType, identify};
 use solver::kernel::{Chain, ChainError, MoveOptions, Substeps};
@@ -290,4 +290,31 @@ fn an_overhand_knot_holds_only_with_collision_and_a_fine_enough_rope() {
         "without collision the strands meet: {clear}"
     );
     assert_eq!(run(40, true).0, KnotType::Unknot);
+}
+
+/// Regression: a rope of links shorter than it is thick (320 links of 0.125, thickness 0.2) was locked
+/// on every move, because links two apart are closer than a thickness even when the rope is straight.
+/// Links with less than a thickness of rope between them are neighbours and are not tested.
+#[test]
+fn a_rope_thicker_than_its_links_is_not_locked_by_its_own_neighbours() {
+    assert_eq!(neighbour_span(0.125, 0.2), 2);
+    assert_eq!(neighbour_span(0.25, 0.2), 1);
+    assert_eq!(neighbour_span(0.2, 0.2), 1);
+    let model = CollisionModel {
+        options: CollisionOptions {
+            thickness: 0.2,
+            ..CollisionOptions::default()
+        },
+        obstacles: vec![],
+    };
+    let mut ws = CollisionWorkspace::new();
+    let mut c = Chain::<f64, 3>::straight(320, 0.125, Vector3::zeros(), Vector3::x()).unwrap();
+    // Forward along a circle of radius 15: the rope bends gently and never meets itself.
+    for k in 1..=200 {
+        let a = k as f64 * 0.1 / 15.0;
+        let t = Vector3::new(40.0 + 15.0 * a.sin(), 15.0 - 15.0 * a.cos(), 0.0);
+        let out = move_joint_colliding(&mut c, 320, t, &MoveOptions::default(), &model, &mut ws)
+            .unwrap_or_else(|e| panic!("move {k}: {e:?}"));
+        assert_eq!(out.contacts, 0, "move {k}");
+    }
 }
