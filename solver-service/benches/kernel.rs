@@ -1,0 +1,120 @@
+//! The kernel's cost per link per substep: the closed-form tractrix, the paper's TRACTRIX3D and
+//! follow-the-leader, in f64 and f32, on chains of 10, 40, 1000 and 10⁶ links, measured side by side.
+//!
+//! `cargo bench -p solver-service --bench kernel` prints one row per (links, precision, method): the
+//! median and p99 over batches of ns per link per substep, and the ratio of medians to follow-the-leader
+//! of the same size and precision. Each batch is a run of head moves (a third of a link each, one
+//! substep) along a wide helix, timed as a whole so the clock's own cost (~20 ns) does not count; methods
+//! are interleaved batch by batch. `KERNEL_BENCH_SCALE` (default 1.0) scales the work per row.
+
+use nalgebra::Vector3;
+use solver::kernel::{Chain, Method, MoveOptions, Real, Substeps};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// Link-steps per timed batch.
+const BATCH_WORK: usize = 200_000;
+
+fn target<T: Real>(n: usize, k: usize) -> Vector3<T> {
+    // A helix of radius n/4 (at most 50) about the initial chain's axis, a third of a link per move.
+    let r = (n as f64 / 4.0).min(50.0);
+    let s = k as f64 / 3.0;
+    let a = s / r.max(1.0);
+    Vector3::new(
+        T::lit(n as f64 + s * 0.3),
+        T::lit(r * (1.0 - a.cos())),
+        T::lit(r * a.sin()),
+    )
+}
+
+struct Bench<T: Real> {
+    chain: Chain<T, 3>,
+    opts: MoveOptions<T>,
+    k: usize,
+}
+
+impl<T: Real> Bench<T> {
+    fn new(n: usize, method: Method) -> Self {
+        let chain = Chain::<T, 3>::straight(n, T::one(), Vector3::zeros(), Vector3::x())
+            .expect("a straight chain");
+        let opts = MoveOptions {
+            method,
+            substeps: Substeps::Fixed(1),
+            ..MoveOptions::default()
+        };
+        let mut b = Bench { chain, opts, k: 0 };
+        // Warm up: bend the chain so no method sees a straight line.
+        b.batch(4.max(1000 / n.max(1)));
+        b
+    }
+
+    /// `moves` head moves; returns ns per link per substep.
+    fn batch(&mut self, moves: usize) -> f64 {
+        let n = self.chain.n_links();
+        let t0 = Instant::now();
+        for _ in 0..moves {
+            self.k += 1;
+            let t = target::<T>(n, self.k);
+            black_box(self.chain.move_joint(n, t, &self.opts).expect("a move"));
+        }
+        t0.elapsed().as_nanos() as f64 / (moves * n) as f64
+    }
+}
+
+fn pct(v: &mut [f64], p: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * p).round() as usize]
+}
+
+fn row<T: Real>(n: usize, precision: &str, scale: f64) {
+    let methods = [
+        Method::Tractrix,
+        Method::TractrixPaper,
+        Method::FollowTheLeader,
+    ];
+    let mut benches: Vec<Bench<T>> = methods.iter().map(|m| Bench::new(n, *m)).collect();
+    let moves = (BATCH_WORK / n).max(1);
+    let batches = ((40.0 * scale) as usize)
+        .max(5)
+        .min(((2e8 * scale) as usize / (moves * n)).max(5));
+    let mut ns: Vec<Vec<f64>> = vec![Vec::new(); methods.len()];
+    for b in 0..batches {
+        for k in 0..methods.len() {
+            let i = (k + b) % methods.len();
+            ns[i].push(benches[i].batch(moves));
+        }
+    }
+    let ftl = pct(&mut ns[2].clone(), 0.5);
+    for (i, m) in methods.iter().enumerate() {
+        let med = pct(&mut ns[i], 0.5);
+        println!(
+            "{:>9} {:<6} {:<18} {:>9.2} {:>9.2} {:>7.2}",
+            n,
+            precision,
+            format!("{m:?}"),
+            med,
+            pct(&mut ns[i], 0.99),
+            med / ftl
+        );
+    }
+}
+
+fn main() {
+    let scale: f64 = std::env::var("KERNEL_BENCH_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .filter(|s: &f64| s.is_finite() && *s > 0.0)
+        .unwrap_or(1.0);
+    println!(
+        "ns per link per substep, head moves of 1/3 link along a helix \
+         (cargo bench -p solver-service --bench kernel)"
+    );
+    println!(
+        "{:>9} {:<6} {:<18} {:>9} {:>9} {:>7}",
+        "links", "prec", "method", "median", "p99", "÷ FTL"
+    );
+    for n in [10usize, 40, 1000, 1_000_000] {
+        row::<f64>(n, "f64", scale);
+        row::<f32>(n, "f32", scale);
+    }
+}
