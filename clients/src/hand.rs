@@ -7,7 +7,7 @@
 //! and at the end each hand announces it is finished and waits for the others: hands may be started in
 //! any order, seconds apart. Every wait has a deadline.
 
-use crate::connection::{CallError, Connection, Svc, ipc};
+use crate::connection::{CallError, Connection, Pacer, Svc, count_refusal, ipc};
 use crate::script::{Script, parse_joint};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
@@ -173,11 +173,6 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
     };
     let mut report = HandReport::default();
     let mut mine: Vec<usize> = Vec::new();
-    let period = if cfg.rate_hz > 0.0 {
-        Some(Duration::from_secs_f64(1.0 / cfg.rate_hz))
-    } else {
-        None
-    };
     for (k, turn) in cfg.script.turn.iter().enumerate() {
         if turn.hand != cfg.hand {
             if k > 0 {
@@ -214,15 +209,9 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
                 .frames
                 .push((format!("{}: start", turn.chain), joints));
         }
-        let t0 = Instant::now();
+        let pacer = Pacer::new(cfg.rate_hz);
         for (i, t) in targets.iter().enumerate() {
-            if let Some(p) = period {
-                let due = t0 + p * i as u32;
-                let now = Instant::now();
-                if due > now {
-                    std::thread::sleep(due - now);
-                }
-            }
+            pacer.wait(i);
             let mut h = RequestHeader::new(Command::Move, chain);
             h.joint = joint;
             let sent = now_ns();
@@ -251,10 +240,7 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
             match Status::from_u32(status) {
                 Some(Status::Ok) => report.ok += 1,
                 Some(Status::Locked) => report.locked += 1,
-                _ => match report.refused.iter_mut().find(|r| r.0 == name) {
-                    Some(r) => r.1 += 1,
-                    None => report.refused.push((name.to_string(), 1)),
-                },
+                _ => count_refusal(&mut report.refused, name),
             }
             if let Some(w) = &mut record {
                 let r = Record {

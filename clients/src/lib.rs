@@ -9,4 +9,7 @@ pub mod render;
 pub mod script;
 pub mod snake;
 
-pub use connection::{CallError, ClientWait, ConnectOptions, Connection, Reply, StateStream};
+pub use connection::{
+    CallError, ClientWait, ConnectOptions, Connection, Pacer, Reply, StateStream, ToolArgs,
+    count_refusal,
+};

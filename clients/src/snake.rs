@@ -9,7 +9,7 @@
 //! and the body following the head's path (each joint's distance from the path the head traced; the
 //! tractrix cuts corners by about `L²/(2R)` for links of length `L` on a bend of radius `R`).
 
-use crate::connection::Connection;
+use crate::connection::{Connection, Pacer, count_refusal};
 use anyhow::{Context, bail};
 use protocol::{Command, RequestHeader, Status, Vec3};
 use std::time::{Duration, Instant};
@@ -211,7 +211,7 @@ pub struct SnakeReport {
     pub requests: usize,
     pub ok: usize,
     /// Refusals by status name.
-    pub refused: Vec<(String, usize)>,
+    pub refused: Vec<(String, u64)>,
     /// Largest distance between the head and its target after a move.
     pub head_error: f64,
     /// Largest change of a link's length over the kept frames and the final state.
@@ -268,18 +268,12 @@ pub fn run_snake(conn: &mut Connection, cfg: &SnakeConfig) -> anyhow::Result<Sna
     if cfg.frames > 0 {
         report.frames.push((0, start.clone()));
     }
-    let period = (cfg.rate_hz > 0.0).then(|| Duration::from_secs_f64(1.0 / cfg.rate_hz));
+    let pacer = Pacer::new(cfg.rate_hz);
     let t0 = Instant::now();
     let mut last = start.clone();
     let mut prev = head;
     for (i, t) in targets.iter().enumerate() {
-        if let Some(p) = period {
-            let due = t0 + p * i as u32;
-            let now = Instant::now();
-            if due > now {
-                std::thread::sleep(due - now);
-            }
-        }
+        pacer.wait(i);
         let h = RequestHeader::new(Command::Move, chain);
         let r = conn.call(h, &[Vec3::new(t[0], t[1], t[2])])?;
         report.requests += 1;
@@ -292,13 +286,7 @@ pub fn run_snake(conn: &mut Connection, cfg: &SnakeConfig) -> anyhow::Result<Sna
                 report.travelled += dist(prev, *t);
                 prev = *t;
             }
-            other => {
-                let name = other.map_or("unknown", |s| s.name()).to_string();
-                match report.refused.iter_mut().find(|r| r.0 == name) {
-                    Some(r) => r.1 += 1,
-                    None => report.refused.push((name, 1)),
-                }
-            }
+            other => count_refusal(&mut report.refused, other.map_or("unknown", |s| s.name())),
         }
         let done = i + 1;
         let at_end = done == targets.len();

@@ -11,9 +11,9 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
+use clients::ToolArgs;
 use clients::reach::{Leg, ReachConfig, TargetResult, parse_targets, run_reach};
 use clients::render::{Frame, Panel, Polyline, Series, View, write_frames_svg, write_plot_svg};
-use clients::{ConnectOptions, Connection};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -40,12 +40,8 @@ struct Args {
     /// Write DIR/reach.svg (figure 7) and DIR/rotations.svg (figure 8).
     #[arg(long)]
     svg: Option<PathBuf>,
-    /// iceoryx2 prefix of the service.
-    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
-    prefix: String,
-    /// Seconds to wait for the service to appear.
-    #[arg(long, default_value_t = 5.0)]
-    wait_for_service: f64,
+    #[command(flatten)]
+    service: ToolArgs,
 }
 
 fn main() {
@@ -70,9 +66,7 @@ fn run(a: Args) -> Result<i32> {
             return Ok(2);
         }
     };
-    let opts =
-        ConnectOptions::for_tool(&a.prefix, a.wait_for_service).map_err(anyhow::Error::msg)?;
-    let mut conn = Connection::connect(opts)?;
+    let mut conn = a.service.connect()?;
     let cfg = ReachConfig {
         chain: a.chain.clone(),
         targets,

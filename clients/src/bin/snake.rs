@@ -11,9 +11,9 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
+use clients::ToolArgs;
 use clients::render::{Frame, Polyline, View, write_frames_svg};
 use clients::snake::{Curve, SnakeConfig, run_snake};
-use clients::{ConnectOptions, Connection};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -46,12 +46,8 @@ struct Args {
     /// No progress lines.
     #[arg(long)]
     quiet: bool,
-    /// iceoryx2 prefix of the service.
-    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
-    prefix: String,
-    /// Seconds to wait for the service to appear.
-    #[arg(long, default_value_t = 5.0)]
-    wait_for_service: f64,
+    #[command(flatten)]
+    service: ToolArgs,
 }
 
 fn main() {
@@ -84,9 +80,7 @@ fn run(a: Args) -> Result<i32> {
             return Ok(2);
         }
     };
-    let opts =
-        ConnectOptions::for_tool(&a.prefix, a.wait_for_service).map_err(anyhow::Error::msg)?;
-    let mut conn = Connection::connect(opts)?;
+    let mut conn = a.service.connect()?;
     let cfg = SnakeConfig {
         chain: a.chain.clone(),
         curve,

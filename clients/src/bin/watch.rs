@@ -13,8 +13,8 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
+use clients::ToolArgs;
 use clients::render::{Frame, Polyline, View, write_frames_svg};
-use clients::{ConnectOptions, Connection};
 use protocol::{Command, RequestHeader};
 use std::collections::HashMap;
 use std::io::Write;
@@ -49,12 +49,8 @@ struct Args {
     /// Stop after this many seconds.
     #[arg(long)]
     duration: Option<f64>,
-    /// iceoryx2 prefix of the service.
-    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
-    prefix: String,
-    /// Seconds to wait for the service to appear.
-    #[arg(long, default_value_t = 5.0)]
-    wait_for_service: f64,
+    #[command(flatten)]
+    service: ToolArgs,
 }
 
 fn main() {
@@ -86,9 +82,7 @@ fn run(a: Args) -> Result<i32> {
         eprintln!("watch: --every must be ≥ 1 and --duration positive");
         return Ok(2);
     }
-    let opts =
-        ConnectOptions::for_tool(&a.prefix, a.wait_for_service).map_err(anyhow::Error::msg)?;
-    let mut conn = Connection::connect(opts)?;
+    let mut conn = a.service.connect()?;
     // Chain names and kinds, once.
     let mut chains: HashMap<u32, ChainInfo> = HashMap::new();
     let first = conn.call(RequestHeader::new(Command::Describe, 0), &[])?;
