@@ -96,14 +96,7 @@ fn point(s: &str) -> Result<Vec<f64>> {
 }
 
 fn main() {
-    let args = Args::parse();
-    std::process::exit(match run(args) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("chainctl: {e:#}");
-            1
-        }
-    });
+    clients::cli::exit_with("chainctl", run(Args::parse()));
 }
 
 fn print(r: &TextResponse, json: bool) -> Result<()> {

@@ -97,14 +97,7 @@ enum Cmd {
 }
 
 fn main() {
-    let args = Args::parse();
-    std::process::exit(match run(args) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("hand: {e:#}");
-            1
-        }
-    });
+    clients::cli::exit_with("hand", run(Args::parse()));
 }
 
 fn connect(prefix: &str, wait: f64) -> Result<Connection> {

@@ -12,6 +12,7 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use clients::ToolArgs;
+use clients::cli::usage;
 use clients::reach::{Leg, ReachConfig, TargetResult, parse_targets, run_reach};
 use clients::render::{Frame, Panel, Polyline, Series, View, write_frames_svg, write_plot_svg};
 use std::path::PathBuf;
@@ -45,27 +46,14 @@ struct Args {
 }
 
 fn main() {
-    let args = Args::parse();
-    std::process::exit(match run(args) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("reach: {e:#}");
-            1
-        }
-    });
+    clients::cli::exit_with("reach", run(Args::parse()));
 }
 
 const BLUE: (u8, u8, u8) = (30, 70, 220);
 const BLACK: (u8, u8, u8) = (0, 0, 0);
 
 fn run(a: Args) -> Result<i32> {
-    let targets = match parse_targets(&a.targets) {
-        Ok(t) => t,
-        Err(e) => {
-            eprintln!("reach: --targets: {e}");
-            return Ok(2);
-        }
-    };
+    let targets = parse_targets(&a.targets).map_err(|e| usage(format!("--targets: {e}")))?;
     let mut conn = a.service.connect()?;
     let cfg = ReachConfig {
         chain: a.chain.clone(),

@@ -12,6 +12,7 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use clients::ToolArgs;
+use clients::cli::usage;
 use clients::render::{Frame, Polyline, View, write_frames_svg};
 use clients::snake::{Curve, SnakeConfig, run_snake};
 use std::path::PathBuf;
@@ -51,35 +52,20 @@ struct Args {
 }
 
 fn main() {
-    let args = Args::parse();
-    std::process::exit(match run(args) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("snake: {e:#}");
-            1
-        }
-    });
+    clients::cli::exit_with("snake", run(Args::parse()));
 }
 
 fn run(a: Args) -> Result<i32> {
     if !(a.rate.is_finite() && a.rate >= 0.0 && (1..=64).contains(&a.frames)) {
-        eprintln!("snake: --rate must be ≥ 0 and --frames 1 to 64");
-        return Ok(2);
+        return Err(usage("--rate must be ≥ 0 and --frames 1 to 64"));
     }
-    let view = match a.view.as_deref().map(View::parse).transpose() {
-        Ok(v) => v,
-        Err(e) => {
-            eprintln!("snake: {e}");
-            return Ok(2);
-        }
-    };
-    let curve = match Curve::parse(&a.curve) {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("snake: {e}");
-            return Ok(2);
-        }
-    };
+    let view = a
+        .view
+        .as_deref()
+        .map(View::parse)
+        .transpose()
+        .map_err(usage)?;
+    let curve = Curve::parse(&a.curve).map_err(usage)?;
     let mut conn = a.service.connect()?;
     let cfg = SnakeConfig {
         chain: a.chain.clone(),

@@ -14,6 +14,7 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use clients::ToolArgs;
+use clients::cli::usage;
 use clients::render::{Frame, Polyline, View, write_frames_svg};
 use protocol::{Command, RequestHeader};
 use std::collections::HashMap;
@@ -54,14 +55,7 @@ struct Args {
 }
 
 fn main() {
-    let args = Args::parse();
-    std::process::exit(match run(args) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("watch: {e:#}");
-            1
-        }
-    });
+    clients::cli::exit_with("watch", run(Args::parse()));
 }
 
 struct ChainInfo {
@@ -71,16 +65,14 @@ struct ChainInfo {
 }
 
 fn run(a: Args) -> Result<i32> {
-    let view = match a.view.as_deref().map(View::parse).transpose() {
-        Ok(v) => v,
-        Err(e) => {
-            eprintln!("watch: {e}");
-            return Ok(2);
-        }
-    };
+    let view = a
+        .view
+        .as_deref()
+        .map(View::parse)
+        .transpose()
+        .map_err(usage)?;
     if a.every == 0 || a.duration.is_some_and(|d| !(d.is_finite() && d > 0.0)) {
-        eprintln!("watch: --every must be ≥ 1 and --duration positive");
-        return Ok(2);
+        return Err(usage("--every must be ≥ 1 and --duration positive"));
     }
     let mut conn = a.service.connect()?;
     // Chain names and kinds, once.
