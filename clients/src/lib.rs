@@ -5,6 +5,8 @@
 pub mod cli;
 pub mod connection;
 pub mod hand;
+pub mod latency;
+pub mod latency_bench;
 pub mod reach;
 pub mod render;
 pub mod script;

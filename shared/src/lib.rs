@@ -111,6 +111,7 @@
 //! * `flags`: bit 0 [`FLAG_ANGLES`] (reach and query: append joint rotations).
 //! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base. `collision`: bit 0 self, bit 1 obstacles.
 
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
@@ -186,7 +187,9 @@ pub fn prefix_from_env() -> String {
 }
 
 /// A point or vector in metres (or the scene's unit). Planar chains use `z = 0`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize, Pod, Zeroable,
+)]
 #[repr(C)]
 #[type_name("tractrix.v1.Vec3")]
 pub struct Vec3 {
@@ -383,7 +386,9 @@ wire_enum_from_u32! {
 }
 
 /// The request's user header. Zero every field you do not set: zero means "default".
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize, Pod, Zeroable,
+)]
 #[repr(C)]
 #[type_name("tractrix.v1.RequestHeader")]
 pub struct RequestHeader {
@@ -441,7 +446,7 @@ impl RequestHeader {
 }
 
 /// The response's user header.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[repr(C)]
 #[type_name("tractrix.v1.ResponseHeader")]
 pub struct ResponseHeader {
@@ -561,7 +566,7 @@ impl ResponseHeader {
 }
 
 /// The state stream's user header; the payload is the chain's `n_joints` joints.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[repr(C)]
 #[type_name("tractrix.v1.StateHeader")]
 pub struct StateHeader {

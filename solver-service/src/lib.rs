@@ -21,3 +21,4 @@ pub mod kernel;
 pub mod persist;
 pub mod scene;
 pub mod service;
+pub mod unix_socket;

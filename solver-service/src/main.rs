@@ -31,6 +31,22 @@ enum Cmd {
     Batch(BatchArgs),
     /// Validate the scene (--scene, or the embedded one) and print its chains.
     Check,
+    /// Serve the same protocol over a Unix domain socket (the latency bench's comparison transport):
+    /// no persistence, one connection at a time.
+    Unix(UnixArgs),
+}
+
+#[derive(Args, Debug)]
+struct UnixArgs {
+    /// Socket path (created; an existing file is an error).
+    #[arg(long)]
+    socket: PathBuf,
+    /// Pin the serving thread to this CPU core.
+    #[arg(long)]
+    pin: Option<usize>,
+    /// Exit after this many connections (default: serve forever).
+    #[arg(long)]
+    connections: Option<usize>,
 }
 
 #[derive(Args, Debug)]
@@ -166,6 +182,23 @@ fn real_main(cli: Cli) -> Result<i32> {
                     c.precision
                 );
             }
+            Ok(0)
+        }
+        Some(Cmd::Unix(u)) => {
+            let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
+            if let Some(core) = u.pin {
+                solver::service::pin_current_thread(core).map_err(anyhow::Error::msg)?;
+            }
+            let listener = std::os::unix::net::UnixListener::bind(&u.socket)
+                .with_context(|| format!("bind {}", u.socket.display()))?;
+            println!(
+                "solver-service ready: {} chains, unix socket {}",
+                set.len(),
+                u.socket.display()
+            );
+            let _ = std::io::stdout().flush();
+            solver::unix_socket::serve(&listener, &mut set, u.connections)?;
+            let _ = std::fs::remove_file(&u.socket);
             Ok(0)
         }
         Some(Cmd::Batch(b)) => {

@@ -1,0 +1,237 @@
+//! `latency`: round-trip latency of joint moves against a running service, the raw iceoryx2 echo it is
+//! compared with, and the bench that runs them side by side on two pinned cores.
+//!
+//! ```text
+//! latency client --chain rope --samples 20000 --pin 1          # back to back, percentiles in µs
+//! latency client --chain rope --joint tail --rate 1000         # a 1 kHz hand, latency from due time
+//! latency raw-server --prefix raw_ --elements 41 --wait spin   # the echo baseline
+//! latency bench                                                # everything, Markdown tables
+//! ```
+//!
+//! Exit codes: 0 ok, 1 failure, 2 usage.
+
+use anyhow::Result;
+use clap::{Args, Parser, Subcommand};
+use clients::cli::usage;
+use clients::latency::{Plan, Target, WaitMode, connect_options, run as run_plan, serve_raw};
+use clients::latency_bench::{BenchConfig, run as run_bench};
+use protocol::JOINT_HEAD;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Parser, Debug)]
+#[command(
+    version,
+    about = "Round-trip latency of the solver service, its baselines, and the two-core bench"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Measure round trips of one joint's moves against a running service (or a baseline).
+    Client(ClientArgs),
+    /// Serve a raw iceoryx2 echo: the service's ports and waits, no solving.
+    RawServer(RawArgs),
+    /// Start everything in turn and print the tables of BENCHMARKS.md.
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug)]
+struct ClientArgs {
+    /// iceoryx2 prefix of the service (or of the raw echo).
+    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    prefix: String,
+    /// The target is the raw echo (`latency raw-server`), not the service.
+    #[arg(long)]
+    raw: bool,
+    /// Talk to `solver-service unix --socket PATH` instead of iceoryx2.
+    #[arg(long)]
+    unix: Option<PathBuf>,
+    /// How to wait for a response: spin, event or hybrid.
+    #[arg(long, default_value = "hybrid")]
+    wait: String,
+    /// Chain to move.
+    #[arg(long, default_value = "rope")]
+    chain: String,
+    /// Joint to move: head, tail or an index.
+    #[arg(long, default_value = "head")]
+    joint: String,
+    #[arg(long, default_value_t = 20_000)]
+    samples: usize,
+    #[arg(long, default_value_t = 2_000)]
+    warmup: usize,
+    /// Requests per second (0: back to back).
+    #[arg(long, default_value_t = 0.0)]
+    rate: f64,
+    /// Radius of the joint's circle, in links.
+    #[arg(long, default_value_t = 0.5)]
+    radius: f64,
+    /// Pin this process to a CPU core.
+    #[arg(long)]
+    pin: Option<usize>,
+    /// Print one JSON line instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args, Debug)]
+struct RawArgs {
+    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    prefix: String,
+    /// Elements in each response (the chain's joints: links + 1).
+    #[arg(long, default_value_t = 41)]
+    elements: usize,
+    /// spin, event or hybrid (as the service's --wait).
+    #[arg(long, default_value = "hybrid")]
+    wait: String,
+    /// Hybrid: microseconds of spinning after the last request.
+    #[arg(long, default_value_t = 2000)]
+    spin_us: u64,
+    #[arg(long)]
+    pin: Option<usize>,
+}
+
+#[derive(Args, Debug)]
+struct BenchArgs {
+    #[arg(long, default_value_t = 20_000)]
+    samples: usize,
+    #[arg(long, default_value_t = 2_000)]
+    warmup: usize,
+    /// Chain sizes in links, comma-separated.
+    #[arg(long, default_value = "40,1000")]
+    sizes: String,
+    /// Wait modes, comma-separated.
+    #[arg(long, default_value = "spin,event,hybrid")]
+    modes: String,
+    /// Seconds of the loaded run (0 skips it).
+    #[arg(long, default_value_t = 10.0)]
+    loaded_seconds: f64,
+}
+
+fn main() {
+    clients::cli::exit_with("latency", run(Cli::parse()));
+}
+
+fn pin(core: Option<usize>) -> Result<()> {
+    if let Some(c) = core {
+        solver::service::pin_current_thread(c).map_err(usage)?;
+    }
+    Ok(())
+}
+
+fn run(cli: Cli) -> Result<i32> {
+    match cli.command {
+        Cmd::Client(a) => {
+            let wait = WaitMode::parse(&a.wait).map_err(usage)?;
+            let joint = match a.joint.as_str() {
+                "head" => JOINT_HEAD,
+                "tail" => 0,
+                j => j
+                    .parse()
+                    .map_err(|_| usage(format!("--joint {j:?}: head, tail or an index")))?,
+            };
+            protocol::iceoryx_config(&a.prefix).map_err(usage)?;
+            let target = match (a.unix, a.raw) {
+                (Some(_), true) => return Err(usage("--unix and --raw exclude each other")),
+                (Some(p), false) => Target::Unix(p),
+                (None, true) => Target::Raw(connect_options(&a.prefix, wait)),
+                (None, false) => Target::Service(connect_options(&a.prefix, wait)),
+            };
+            let plan = Plan {
+                chain: a.chain,
+                joint,
+                samples: a.samples,
+                warmup: a.warmup,
+                rate_hz: a.rate,
+                radius: a.radius,
+                ..Plan::default()
+            };
+            pin(a.pin)?;
+            let s = run_plan(&target, &plan)?;
+            if a.json {
+                println!("{}", serde_json::to_string(&s)?);
+            } else {
+                let p = |name: &str, q: &clients::latency::Percentiles| {
+                    println!(
+                        "{name:>10}: p50 {:.1} µs, p90 {:.1}, p99 {:.1}, p99.9 {:.1}, max {:.1} ({} samples)",
+                        q.p50 as f64 / 1e3,
+                        q.p90 as f64 / 1e3,
+                        q.p99 as f64 / 1e3,
+                        q.p999 as f64 / 1e3,
+                        q.max as f64 / 1e3,
+                        q.count
+                    )
+                };
+                p("round trip", &s.round_trip);
+                if let Some(d) = &s.from_due {
+                    p("from due", d);
+                }
+                if let Some(d) = &s.late {
+                    p("sent late", d);
+                }
+                p("solve", &s.solve);
+                println!(
+                    "{} ok, {} refused, {} mismatched, {} elements per response",
+                    s.ok, s.refused, s.mismatched, s.elements
+                );
+            }
+            Ok(if s.refused + s.mismatched > 0 { 1 } else { 0 })
+        }
+        Cmd::RawServer(a) => {
+            let wait = WaitMode::parse(&a.wait).map_err(usage)?;
+            if a.elements == 0 || a.elements > protocol::MAX_RESPONSE_ELEMENTS as usize {
+                return Err(usage(format!(
+                    "--elements {}: 1 to {}",
+                    a.elements,
+                    protocol::MAX_RESPONSE_ELEMENTS
+                )));
+            }
+            protocol::iceoryx_config(&a.prefix).map_err(usage)?;
+            pin(a.pin)?;
+            serve_raw(
+                &a.prefix,
+                a.elements,
+                wait,
+                Duration::from_micros(a.spin_us),
+                || {
+                    println!("latency raw-server ready: prefix {}", a.prefix);
+                    let _ = std::io::stdout().flush();
+                },
+            )?;
+            Ok(0)
+        }
+        Cmd::Bench(a) => {
+            let sizes = a
+                .sizes
+                .split(',')
+                .map(|s| match s.trim().parse::<u32>() {
+                    Ok(n) if (1..=protocol::MAX_LINKS).contains(&n) => Ok(n),
+                    _ => Err(usage(format!("--sizes: {s:?} is not 1 to {}", protocol::MAX_LINKS))),
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let modes = a
+                .modes
+                .split(',')
+                .map(|m| WaitMode::parse(m.trim()).map_err(usage))
+                .collect::<Result<Vec<_>>>()?;
+            if a.samples == 0 || !(a.loaded_seconds.is_finite() && a.loaded_seconds >= 0.0) {
+                return Err(usage("--samples ≥ 1 and --loaded-seconds ≥ 0"));
+            }
+            let exe = std::env::current_exe()?;
+            let cfg = BenchConfig {
+                bin_dir: exe.parent().map(PathBuf::from).unwrap_or_default(),
+                samples: a.samples,
+                warmup: a.warmup,
+                sizes,
+                modes,
+                loaded_seconds: a.loaded_seconds,
+            };
+            run_bench(&cfg, &mut std::io::stdout().lock())?;
+            Ok(0)
+        }
+    }
+}

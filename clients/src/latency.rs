@@ -1,0 +1,434 @@
+//! Round-trip latency of joint moves, and the two baselines the bench puts beside the service: a raw
+//! iceoryx2 request-response echo with the same payload sizes and no solving ([`serve_raw`]), and the
+//! same protocol over a Unix domain socket (`solver-service unix`).
+//!
+//! A run moves one joint of one chain around a small circle, one move per request, either back to back
+//! (closed loop) or at a fixed rate. At a fixed rate, request `i` is due at `start + i / rate` and its
+//! latency is counted from that due time, not from when it was sent: a stall delays the requests queued
+//! behind it and they are all charged for it (no coordinated omission). Histograms are HDR (3 significant
+//! digits), in nanoseconds.
+
+use crate::connection::{CallError, ClientWait, ConnectOptions, Connection, Svc, ipc};
+use hdrhistogram::Histogram;
+use iceoryx2::prelude::*;
+use protocol::{
+    Command, JOINT_HEAD, MAX_CLIENTS, RequestHeader, ResponseHeader, SERVICE_COMMAND,
+    SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER, Status, Vec3,
+};
+use serde::{Deserialize, Serialize};
+use std::os::unix::net::UnixStream;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Where the requests go.
+#[derive(Debug, Clone)]
+pub enum Target {
+    /// The solver service over iceoryx2.
+    Service(ConnectOptions),
+    /// The raw echo server ([`serve_raw`]) over iceoryx2: chain 0, no describe, any response accepted.
+    Raw(ConnectOptions),
+    /// The service's protocol over a Unix domain socket.
+    Unix(PathBuf),
+}
+
+/// What to measure.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// Chain name (ignored by the raw echo).
+    pub chain: String,
+    /// Joint to move ([`JOINT_HEAD`] for the head).
+    pub joint: u32,
+    /// Timed requests.
+    pub samples: usize,
+    /// Untimed requests first (page faults, caches, the spin budgets settling).
+    pub warmup: usize,
+    /// Requests per second; 0 sends each request as soon as the previous one is answered.
+    pub rate_hz: f64,
+    /// Radius of the joint's circle, in units of the chain's first link.
+    pub radius: f64,
+    /// Moves per turn of the circle.
+    pub points_per_turn: usize,
+}
+
+impl Default for Plan {
+    fn default() -> Self {
+        Plan {
+            chain: "rope".into(),
+            joint: JOINT_HEAD,
+            samples: 20_000,
+            warmup: 2_000,
+            rate_hz: 0.0,
+            radius: 0.5,
+            points_per_turn: 200,
+        }
+    }
+}
+
+/// Percentiles of one histogram, in nanoseconds.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq)]
+pub struct Percentiles {
+    pub count: u64,
+    pub p50: u64,
+    pub p90: u64,
+    pub p99: u64,
+    pub p999: u64,
+    pub max: u64,
+    pub mean: f64,
+}
+
+impl Percentiles {
+    pub fn of(h: &Histogram<u64>) -> Self {
+        Percentiles {
+            count: h.len(),
+            p50: h.value_at_quantile(0.5),
+            p90: h.value_at_quantile(0.9),
+            p99: h.value_at_quantile(0.99),
+            p999: h.value_at_quantile(0.999),
+            max: h.max(),
+            mean: h.mean(),
+        }
+    }
+}
+
+/// The outcome of one run (the `latency client --json` line).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Summary {
+    /// Requests answered `ok` (timed ones).
+    pub ok: u64,
+    /// Requests refused by the service (timed ones).
+    pub refused: u64,
+    /// Elements in each response.
+    pub elements: u32,
+    /// Send to answer.
+    pub round_trip: Percentiles,
+    /// Due time to answer (fixed rate only; equals `round_trip` plus the sender's own lateness).
+    pub from_due: Option<Percentiles>,
+    /// How late the sender itself sent each request after its due time (fixed rate only: the
+    /// client's sleep overshoot, not the service's doing).
+    pub late: Option<Percentiles>,
+    /// The service's own solve time (`solve_ns`; zero for the raw echo).
+    pub solve: Percentiles,
+    /// Responses whose `request_id` was not the one sent (must be 0).
+    pub mismatched: u64,
+}
+
+fn histogram() -> Histogram<u64> {
+    Histogram::new_with_bounds(1, 600_000_000_000, 3).expect("valid HDR bounds")
+}
+
+enum Link {
+    Iox(Connection),
+    Unix {
+        stream: UnixStream,
+        buf: Vec<u8>,
+        elements: Vec<Vec3>,
+    },
+}
+
+impl Link {
+    /// One request; returns the response header and a checksum of the payload (every element read).
+    fn call(&mut self, h: &RequestHeader, points: &[Vec3]) -> anyhow::Result<(ResponseHeader, f64)> {
+        match self {
+            Link::Iox(c) => Ok(c.call_with(*h, points, |r, p| {
+                (*r, p.iter().map(|v| v.x + v.y + v.z).sum::<f64>())
+            })?),
+            Link::Unix {
+                stream,
+                buf,
+                elements,
+            } => {
+                solver::unix_socket::write_request(stream, buf, h, points)?;
+                let r = solver::unix_socket::read_response(stream, elements)?;
+                Ok((r, elements.iter().map(|v| v.x + v.y + v.z).sum::<f64>()))
+            }
+        }
+    }
+}
+
+/// Runs `plan` against `target`. `progress` is called now and then with the share done.
+pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
+    if plan.samples == 0 || plan.points_per_turn == 0 {
+        anyhow::bail!("samples and points per turn must be ≥ 1");
+    }
+    if !(plan.rate_hz.is_finite() && plan.rate_hz >= 0.0 && plan.rate_hz <= 1e6) {
+        anyhow::bail!("rate {} Hz: expected 0 (closed loop) to 10^6", plan.rate_hz);
+    }
+    if !(plan.radius.is_finite() && plan.radius > 0.0 && plan.radius <= 1e3) {
+        anyhow::bail!("radius {}: expected (0, 1000] links", plan.radius);
+    }
+    let (mut link, raw) = match target {
+        Target::Service(o) => (Link::Iox(Connection::connect(o.clone())?), false),
+        Target::Raw(o) => (Link::Iox(Connection::connect(o.clone())?), true),
+        Target::Unix(p) => (
+            Link::Unix {
+                stream: UnixStream::connect(p)
+                    .map_err(|e| anyhow::anyhow!("connect to {}: {e}", p.display()))?,
+                buf: Vec::new(),
+                elements: Vec::new(),
+            },
+            false,
+        ),
+    };
+    // The chain and the joint's start, from describe (the raw echo knows no chains).
+    let (chain, centre, link_len) = if raw {
+        (0, Vec3::default(), 1.0)
+    } else {
+        find(&mut link, &plan.chain, plan.joint)?
+    };
+    let mut header = RequestHeader::new(Command::Move, chain);
+    header.joint = plan.joint;
+    let r = plan.radius * link_len;
+    let mut round_trip = histogram();
+    let mut from_due = histogram();
+    let mut solve = histogram();
+    let mut late = histogram();
+    let mut s = Summary::default();
+    let period = (plan.rate_hz > 0.0).then(|| Duration::from_secs_f64(1.0 / plan.rate_hz));
+    let start = Instant::now();
+    let mut checksum = 0.0;
+    for i in 0..plan.warmup + plan.samples {
+        let due = period.map(|p| start + p.mul_f64(i as f64));
+        if let Some(due) = due {
+            wait_until(due);
+        }
+        // Around the circle, starting and ending at the joint's own start.
+        let a = std::f64::consts::TAU * (i % plan.points_per_turn) as f64
+            / plan.points_per_turn as f64;
+        let target = [Vec3::new(
+            centre.x + r * (a.cos() - 1.0),
+            centre.y + r * a.sin(),
+            centre.z,
+        )];
+        header.request_id = i as u64 + 1;
+        let sent = Instant::now();
+        let (resp, sum) = link.call(&header, &target)?;
+        let done = Instant::now();
+        checksum += sum;
+        if i < plan.warmup {
+            continue;
+        }
+        if resp.request_id != header.request_id && !raw {
+            s.mismatched += 1;
+        }
+        if resp.status == Status::Ok as u32 {
+            s.ok += 1;
+        } else {
+            s.refused += 1;
+        }
+        s.elements = resp.n_joints + resp.n_angles;
+        let _ = round_trip.record((done - sent).as_nanos().max(1) as u64);
+        if let Some(due) = due {
+            let _ = from_due.record((done - due).as_nanos().max(1) as u64);
+            let _ = late.record(sent.saturating_duration_since(due).as_nanos().max(1) as u64);
+        }
+        let _ = solve.record(resp.solve_ns.max(1));
+    }
+    if !checksum.is_finite() {
+        anyhow::bail!("a response held a non-finite coordinate");
+    }
+    s.round_trip = Percentiles::of(&round_trip);
+    s.from_due = period.map(|_| Percentiles::of(&from_due));
+    s.late = period.map(|_| Percentiles::of(&late));
+    s.solve = Percentiles::of(&solve);
+    Ok(s)
+}
+
+/// How early a fixed-rate sender wakes from its sleep before a request is due: a sleep overshoots by
+/// 50-100 µs here (timer slack and wake-up), so it sleeps short and yields the rest of the way.
+pub const WAKE_EARLY: Duration = Duration::from_micros(250);
+
+/// Sleeps until `WAKE_EARLY` before `due`, then yields the processor until `due` (other threads on
+/// the core run meanwhile: this is not a busy spin).
+pub fn wait_until(due: Instant) {
+    let now = Instant::now();
+    if due > now + WAKE_EARLY {
+        std::thread::sleep(due - now - WAKE_EARLY);
+    }
+    while Instant::now() < due {
+        std::thread::yield_now();
+    }
+}
+
+/// The chain's handle, the joint's position and the chain's first link length.
+fn find(link: &mut Link, name: &str, joint: u32) -> anyhow::Result<(u32, Vec3, f64)> {
+    let mut c = 0;
+    loop {
+        let mut elements = Vec::new();
+        let (h, _) = match link {
+            Link::Iox(conn) => {
+                let r = conn.call(RequestHeader::new(Command::Describe, c), &[])?;
+                elements = r.joints().to_vec();
+                (r.header, 0.0)
+            }
+            Link::Unix { .. } => {
+                let r = link.call(&RequestHeader::new(Command::Describe, c), &[])?;
+                if let Link::Unix { elements: e, .. } = link {
+                    elements = e.clone();
+                }
+                r
+            }
+        };
+        if h.status != Status::Ok as u32 {
+            anyhow::bail!("no chain named {name:?} in the service's scene");
+        }
+        if h.name_str() == name {
+            let j = if joint == JOINT_HEAD {
+                h.n_links as usize
+            } else {
+                joint as usize
+            };
+            let p = *elements
+                .get(j)
+                .ok_or_else(|| anyhow::anyhow!("joint {joint} is past the head of {name:?}"))?;
+            let len = (elements[1].x - elements[0].x)
+                .hypot(elements[1].y - elements[0].y)
+                .hypot(elements[1].z - elements[0].z);
+            return Ok((c, p, len));
+        }
+        c += 1;
+        if c >= h.n_chains {
+            anyhow::bail!("no chain named {name:?} in the service's scene");
+        }
+    }
+}
+
+/// How the raw echo server waits.
+pub use solver::service::WaitMode;
+
+/// A raw iceoryx2 request-response echo: the service's ports and wait modes, no validation, no solving,
+/// no state stream. Every request gets a zeroed [`ResponseHeader`] (echoing `request_id`) and `elements`
+/// copies of one point. Serves until SIGINT/SIGTERM; `ready` is called once the ports are open.
+pub fn serve_raw(
+    prefix: &str,
+    elements: usize,
+    wait: WaitMode,
+    spin_budget: Duration,
+    ready: impl FnOnce(),
+) -> Result<(), CallError> {
+    let cfg = protocol::iceoryx_config(prefix).map_err(CallError::Ipc)?;
+    let node = NodeBuilder::new()
+        .config(&cfg)
+        .create::<Svc>()
+        .map_err(ipc("node"))?;
+    let name = |s: &str| -> Result<ServiceName, CallError> { s.try_into().map_err(ipc("name")) };
+    let server = node
+        .service_builder(&name(SERVICE_COMMAND)?)
+        .request_response::<[Vec3], [Vec3]>()
+        .request_user_header::<RequestHeader>()
+        .response_user_header::<ResponseHeader>()
+        .max_servers(1)
+        .max_clients(MAX_CLIENTS)
+        .max_nodes(MAX_CLIENTS + 4)
+        .max_active_requests_per_client(2)
+        .open_or_create()
+        .map_err(ipc("command service"))?
+        .server_builder()
+        .initial_max_slice_len(elements.max(1))
+        .create()
+        .map_err(ipc("server"))?;
+    let wake_listener = node
+        .service_builder(&name(SERVICE_WAKE_SERVER)?)
+        .event()
+        .max_notifiers(MAX_CLIENTS + 2)
+        .max_listeners(2)
+        .max_nodes(MAX_CLIENTS + 4)
+        .open_or_create()
+        .map_err(ipc("wake-server event"))?
+        .listener_builder()
+        .create()
+        .map_err(ipc("listener"))?;
+    let wake_notifier = node
+        .service_builder(&name(SERVICE_WAKE_CLIENT)?)
+        .event()
+        .max_notifiers(2)
+        .max_listeners(MAX_CLIENTS + 2)
+        .max_nodes(MAX_CLIENTS + 4)
+        .open_or_create()
+        .map_err(ipc("wake-client event"))?
+        .notifier_builder()
+        .create()
+        .map_err(ipc("notifier"))?;
+    ready();
+    let point = Vec3::new(1.0, 2.0, 3.0);
+    let serve = || -> Result<usize, CallError> {
+        let mut n = 0;
+        while let Some(req) = server.receive().map_err(ipc("receive"))? {
+            n += 1;
+            let header = *req.user_header();
+            let resp = req
+                .loan_slice_uninit(elements)
+                .map_err(ipc("loan"))?
+                .write_from_fn(|_| point);
+            let mut resp = resp;
+            *resp.user_header_mut() = ResponseHeader {
+                request_id: header.request_id,
+                n_joints: elements as u32,
+                ..ResponseHeader::default()
+            };
+            resp.send().map_err(ipc("send"))?;
+            let id = header.listener_id();
+            if id != 0 {
+                wake_notifier.for_each_listener(|m, d| {
+                    if d.listener_id.value() == id {
+                        let _ = m.notify();
+                        CallbackProgression::Stop
+                    } else {
+                        CallbackProgression::Continue
+                    }
+                });
+            }
+        }
+        Ok(n)
+    };
+    let mut polls: u32 = 0;
+    loop {
+        match wait {
+            WaitMode::Spin => {
+                serve()?;
+                std::hint::spin_loop();
+            }
+            WaitMode::Event | WaitMode::Hybrid => {
+                let _ = wake_listener.timed_wait(|_| {}, Duration::from_millis(50));
+                if serve()? > 0 && wait == WaitMode::Hybrid {
+                    let mut last = Instant::now();
+                    loop {
+                        while last.elapsed() < spin_budget {
+                            if serve()? > 0 {
+                                last = Instant::now();
+                            }
+                            std::hint::spin_loop();
+                        }
+                        // As the service: drop stale notifications, then serve once more.
+                        let _ = wake_listener.try_wait(|_| {});
+                        if serve()? == 0 {
+                            break;
+                        }
+                        last = Instant::now();
+                    }
+                }
+            }
+        }
+        polls = polls.wrapping_add(1);
+        if (wait != WaitMode::Spin || polls.is_multiple_of(4096))
+            && node.wait(Duration::ZERO).is_err()
+        {
+            return Ok(());
+        }
+    }
+}
+
+/// Client options for a wait mode: the client waits the way the server does (spin with spin, sleep
+/// with event, spin briefly then sleep with hybrid).
+pub fn connect_options(prefix: &str, wait: WaitMode) -> ConnectOptions {
+    ConnectOptions {
+        prefix: prefix.to_string(),
+        wait: match wait {
+            WaitMode::Spin => ClientWait::Spin,
+            WaitMode::Event => ClientWait::Event,
+            WaitMode::Hybrid => ClientWait::Hybrid(Duration::from_micros(50)),
+        },
+        connect_timeout: Duration::from_secs(10),
+        call_timeout: Duration::from_secs(5),
+        max_request_points: 1,
+    }
+}

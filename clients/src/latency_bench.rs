@@ -1,0 +1,469 @@
+//! The latency bench (`latency bench`): starts the service, the raw iceoryx2 echo and the Unix-socket
+//! server in turn, each pinned to core 0, and a `latency client` pinned to core 1 against each; then a
+//! loaded run (two hands at 1 kHz on one rope pinned to core 1, a viewer, the service in its default
+//! mode pinned to core 0). Prints Markdown tables.
+//!
+//! Every child is a separate process started from the directory of this executable (so `cargo build
+//! --release --bins` first), killed and reaped when the bench ends, and every wait has a deadline.
+
+use crate::latency::{Percentiles, Summary, WaitMode};
+use anyhow::{Context, Result, bail};
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// What the bench runs.
+#[derive(Debug, Clone)]
+pub struct BenchConfig {
+    /// Where `solver-service`, `latency` and `watch` are.
+    pub bin_dir: PathBuf,
+    /// Timed round trips per row.
+    pub samples: usize,
+    pub warmup: usize,
+    /// Chain sizes (links).
+    pub sizes: Vec<u32>,
+    pub modes: Vec<WaitMode>,
+    /// Length of the loaded run (0: skip it).
+    pub loaded_seconds: f64,
+}
+
+const TIMEOUT: Duration = Duration::from_secs(30);
+
+/// A child process, terminated (SIGTERM, then SIGKILL) and reaped on drop.
+struct Proc {
+    child: Child,
+    what: String,
+}
+
+impl Proc {
+    /// Spawns `cmd` and waits for a stdout line containing "ready".
+    fn ready(mut cmd: Command, what: &str) -> Result<Proc> {
+        let mut child = cmd
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .with_context(|| format!("start {what}"))?;
+        let out = child.stdout.take().expect("piped stdout");
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let p = Proc {
+            child,
+            what: what.to_string(),
+        };
+        match rx.recv_timeout(TIMEOUT) {
+            Ok(l) if l.contains("ready") => Ok(p),
+            Ok(l) => bail!("{what} said {l:?} instead of getting ready"),
+            Err(_) => bail!("{what} did not get ready within {TIMEOUT:?}"),
+        }
+    }
+
+    fn stop(&mut self) {
+        let _ = Command::new("kill")
+            .arg("-TERM")
+            .arg(self.child.id().to_string())
+            .status();
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        eprintln!("latency bench: {} ignored SIGTERM; killing it", self.what);
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            self.stop();
+        }
+    }
+}
+
+/// Runs a process to its end (deadline `timeout`) and returns its last stdout line.
+fn output_line(mut cmd: Command, what: &str, timeout: Duration) -> Result<String> {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .with_context(|| format!("start {what}"))?;
+    let out = child.stdout.take().expect("piped stdout");
+    let reader = std::thread::spawn(move || {
+        BufReader::new(out)
+            .lines()
+            .map_while(Result::ok)
+            .last()
+            .unwrap_or_default()
+    });
+    let deadline = Instant::now() + timeout;
+    let status = loop {
+        if let Some(s) = child.try_wait()? {
+            break s;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!("{what} did not finish within {timeout:?}");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let line = reader.join().unwrap_or_default();
+    if !status.success() {
+        bail!("{what} failed ({status})");
+    }
+    Ok(line)
+}
+
+fn client_summary(cfg: &BenchConfig, args: &[String], what: &str) -> Result<Summary> {
+    let mut cmd = Command::new(cfg.bin_dir.join("latency"));
+    cmd.arg("client").args(args).arg("--json");
+    let budget = Duration::from_secs(60) + Duration::from_millis(2 * cfg.samples as u64);
+    let line = output_line(cmd, what, budget)?;
+    serde_json::from_str(&line).with_context(|| format!("{what}: summary line {line:?}"))
+}
+
+/// The bench scene: one straight rope per size, named `rope<N>`.
+pub fn scene(sizes: &[u32]) -> String {
+    let mut s = String::from("# Written by `latency bench`.\n");
+    for n in sizes {
+        s += &format!(
+            "\n[[chain]]\nname = \"rope{n}\"\nkind = \"free\"\nspace = \"spatial\"\nlinks = {n}\n\
+             link_length = 1.0\nbase = [0.0, 0.0, 0.0]\nshape = \"straight\"\naxis = [1.0, 0.0, 0.0]\n\
+             thickness = 0.2\nmethod = \"tractrix\"\nsubsteps = 1\n"
+        );
+    }
+    s
+}
+
+fn mode_name(m: WaitMode) -> &'static str {
+    match m {
+        WaitMode::Spin => "spin",
+        WaitMode::Event => "event",
+        WaitMode::Hybrid => "hybrid",
+    }
+}
+
+fn us(ns: u64) -> String {
+    format!("{:.1}", ns as f64 / 1000.0)
+}
+
+fn row(p: &Percentiles) -> String {
+    format!(
+        "{} | {} | {} | {} | {}",
+        us(p.p50),
+        us(p.p90),
+        us(p.p99),
+        us(p.p999),
+        us(p.max)
+    )
+}
+
+struct Measured {
+    links: u32,
+    transport: &'static str,
+    mode: &'static str,
+    s: Summary,
+}
+
+/// Runs the bench, printing tables on `out` and progress on stderr.
+pub fn run(cfg: &BenchConfig, out: &mut impl Write) -> Result<()> {
+    for b in ["solver-service", "latency", "watch"] {
+        if !cfg.bin_dir.join(b).exists() {
+            bail!(
+                "{} is missing: build the binaries first (cargo build --release --bins)",
+                cfg.bin_dir.join(b).display()
+            );
+        }
+    }
+    let tmp = tempfile::tempdir()?;
+    let scene_path = tmp.path().join("latency.toml");
+    std::fs::write(&scene_path, scene(&cfg.sizes))?;
+    let scene_arg = scene_path.display().to_string();
+    let tag = format!("lat{}_", std::process::id());
+    let common = |chain: &str| -> Vec<String> {
+        vec![
+            "--chain".into(),
+            chain.into(),
+            "--samples".into(),
+            cfg.samples.to_string(),
+            "--warmup".into(),
+            cfg.warmup.to_string(),
+            "--pin".into(),
+            "1".into(),
+        ]
+    };
+    let total = cfg.sizes.len() * (2 * cfg.modes.len() + 1);
+    let mut step = 0;
+    let mut results: Vec<Measured> = Vec::new();
+    for &n in &cfg.sizes {
+        let chain = format!("rope{n}");
+        for &mode in &cfg.modes {
+            // Side by side: the raw echo, then the service, in the same wait mode.
+            step += 1;
+            eprintln!(
+                "[{step}/{total}] {n} links, raw iceoryx2 echo, {}",
+                mode_name(mode)
+            );
+            let prefix = format!("{tag}r{n}{}_", mode_name(mode));
+            let mut raw = Command::new(cfg.bin_dir.join("latency"));
+            raw.args(["raw-server", "--prefix", &prefix, "--wait", mode_name(mode)])
+                .args(["--elements", &(n + 1).to_string(), "--pin", "0"]);
+            let mut p = Proc::ready(raw, "the raw echo")?;
+            let mut args = common(&chain);
+            args.extend(["--raw".into(), "--prefix".into(), prefix.clone()]);
+            args.extend(["--wait".into(), mode_name(mode).into()]);
+            let s = client_summary(cfg, &args, "latency client (raw)")?;
+            p.stop();
+            results.push(Measured {
+                links: n,
+                transport: "raw iceoryx2",
+                mode: mode_name(mode),
+                s,
+            });
+
+            step += 1;
+            eprintln!(
+                "[{step}/{total}] {n} links, solver-service, {}",
+                mode_name(mode)
+            );
+            let prefix = format!("{tag}s{n}{}_", mode_name(mode));
+            let mut svc = Command::new(cfg.bin_dir.join("solver-service"));
+            svc.args(["--scene", &scene_arg, "--prefix", &prefix, "--no-persist"])
+                .args(["--wait", mode_name(mode), "--pin", "0"]);
+            let mut p = Proc::ready(svc, "solver-service")?;
+            let mut args = common(&chain);
+            args.extend(["--prefix".into(), prefix.clone()]);
+            args.extend(["--wait".into(), mode_name(mode).into()]);
+            let s = client_summary(cfg, &args, "latency client (service)")?;
+            p.stop();
+            results.push(Measured {
+                links: n,
+                transport: "service, iceoryx2",
+                mode: mode_name(mode),
+                s,
+            });
+        }
+        step += 1;
+        eprintln!("[{step}/{total}] {n} links, service protocol over a Unix socket");
+        let sock = tmp.path().join(format!("s{n}.sock"));
+        let sock_arg = sock.display().to_string();
+        let mut svc = Command::new(cfg.bin_dir.join("solver-service"));
+        svc.args(["--scene", &scene_arg, "unix", "--socket", &sock_arg])
+            .args(["--pin", "0", "--connections", "1"]);
+        let mut p = Proc::ready(svc, "solver-service unix")?;
+        let mut args = common(&chain);
+        args.extend(["--unix".into(), sock_arg.clone()]);
+        let s = client_summary(cfg, &args, "latency client (unix)")?;
+        p.stop();
+        results.push(Measured {
+            links: n,
+            transport: "service, Unix socket",
+            mode: "blocking read",
+            s,
+        });
+    }
+
+    writeln!(
+        out,
+        "Round trips of a head move, service pinned to core 0, client to core 1, {} timed after {} \
+         warm-up (µs):\n",
+        cfg.samples, cfg.warmup
+    )?;
+    writeln!(
+        out,
+        "| links | transport | wait | p50 | p90 | p99 | p99.9 | max | solve p50 | refused |"
+    )?;
+    writeln!(out, "|---:|---|---|---:|---:|---:|---:|---:|---:|---:|")?;
+    for m in &results {
+        writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} |",
+            m.links,
+            m.transport,
+            m.mode,
+            row(&m.s.round_trip),
+            if m.transport == "raw iceoryx2" {
+                "–".into()
+            } else {
+                us(m.s.solve.p50)
+            },
+            m.s.refused + m.s.mismatched
+        )?;
+    }
+    writeln!(
+        out,
+        "\nRatios of medians (aim: spin ≤ 1.2 × (raw + solve)):\n\n\
+         | links | wait | service ÷ raw | service ÷ (raw + solve) | Unix socket ÷ service |"
+    )?;
+    writeln!(out, "|---:|---|---:|---:|---:|")?;
+    for &n in &cfg.sizes {
+        let find = |t: &str, m: &str| {
+            results
+                .iter()
+                .find(|r| r.links == n && r.transport == t && r.mode == m)
+        };
+        let unix = find("service, Unix socket", "blocking read");
+        for &mode in &cfg.modes {
+            let (Some(raw), Some(svc)) = (
+                find("raw iceoryx2", mode_name(mode)),
+                find("service, iceoryx2", mode_name(mode)),
+            ) else {
+                continue;
+            };
+            let s = svc.s.round_trip.p50 as f64;
+            let r = raw.s.round_trip.p50 as f64;
+            let solve = svc.s.solve.p50 as f64;
+            writeln!(
+                out,
+                "| {n} | {} | {:.2} | {:.2} | {} |",
+                mode_name(mode),
+                s / r,
+                s / (r + solve),
+                unix.map(|u| format!("{:.2}", u.s.round_trip.p50 as f64 / s))
+                    .unwrap_or_else(|| "–".into())
+            )?;
+        }
+    }
+    if cfg.loaded_seconds > 0.0 {
+        loaded(cfg, &scene_arg, &tag, tmp.path(), out)?;
+    }
+    Ok(())
+}
+
+/// Two hands at 1 kHz (the two ends of one rope) on core 1 and a viewer, with the service in its
+/// default mode (hybrid, journal written) on core 0.
+fn loaded(
+    cfg: &BenchConfig,
+    scene_arg: &str,
+    tag: &str,
+    tmp: &Path,
+    out: &mut impl Write,
+) -> Result<()> {
+    let n = cfg.sizes[0];
+    let chain = format!("rope{n}");
+    let secs = cfg.loaded_seconds;
+    let samples = (1000.0 * secs).round() as usize;
+    eprintln!("[loaded] two hands at 1 kHz on {chain} + a viewer, {secs} s");
+    let prefix = format!("{tag}load_");
+    let state_dir = tmp.join("state");
+    let mut svc = Command::new(cfg.bin_dir.join("solver-service"));
+    svc.args(["--scene", scene_arg, "--prefix", &prefix, "--pin", "0"])
+        .args(["--state-dir", &state_dir.display().to_string()]);
+    let mut service = Proc::ready(svc, "solver-service (loaded)")?;
+    let mut viewer = Command::new(cfg.bin_dir.join("watch"));
+    viewer
+        .args(["--prefix", &prefix, "--chain", &chain])
+        .args(["--duration", &format!("{}", secs + 3.0)])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    let mut viewer = viewer.spawn().context("start the viewer (watch)")?;
+    let viewer_err = viewer.stderr.take().expect("piped stderr");
+    let (vtx, vrx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(viewer_err).lines().map_while(Result::ok) {
+            let _ = vtx.send(line);
+        }
+    });
+    // The viewer subscribes before the hands start.
+    let deadline = Instant::now() + TIMEOUT;
+    loop {
+        match vrx.recv_timeout(deadline.saturating_duration_since(Instant::now())) {
+            Ok(l) if l.contains("listening") => break,
+            Ok(_) => {}
+            Err(_) => bail!("the viewer did not subscribe within {TIMEOUT:?}"),
+        }
+    }
+    let hands: Vec<_> = ["head", "tail"]
+        .into_iter()
+        .map(|joint| {
+            let prefix = prefix.clone();
+            let chain = chain.clone();
+            let bin = cfg.bin_dir.join("latency");
+            std::thread::spawn(move || -> Result<Summary> {
+                let mut cmd = Command::new(bin);
+                cmd.args(["client", "--prefix", &prefix, "--chain", &chain])
+                    .args(["--joint", joint, "--rate", "1000", "--warmup", "500"])
+                    .args(["--pin", "1"])
+                    .args(["--samples", &samples.to_string(), "--json"]);
+                let line = output_line(
+                    cmd,
+                    "latency client (hand)",
+                    Duration::from_secs_f64(secs + 60.0),
+                )?;
+                Ok(serde_json::from_str(&line)?)
+            })
+        })
+        .collect();
+    let hands: Vec<Summary> = hands
+        .into_iter()
+        .map(|h| h.join().map_err(|_| anyhow::anyhow!("hand thread panicked"))?)
+        .collect::<Result<_>>()?;
+    let deadline = Instant::now() + Duration::from_secs_f64(secs + 30.0);
+    let mut viewer_summary = String::new();
+    while Instant::now() < deadline {
+        if let Ok(l) = vrx.recv_timeout(Duration::from_millis(100)) {
+            if l.contains("states") {
+                viewer_summary = l;
+            }
+        }
+        if let Some(_s) = viewer.try_wait()? {
+            while let Ok(l) = vrx.try_recv() {
+                if l.contains("states") {
+                    viewer_summary = l;
+                }
+            }
+            break;
+        }
+    }
+    let _ = viewer.kill();
+    let _ = viewer.wait();
+    service.stop();
+    writeln!(
+        out,
+        "\nLoaded run: two hands at 1 kHz ({secs} s each, the head and the tail of {chain}) pinned to \
+         core 1, a viewer on the state stream (not pinned), the service in its default mode (hybrid, \
+         journal written) pinned to core 0 (µs; \"from due\" counts from when the request was due, so \
+         a stall is charged to every request behind it; \"sent late\" is the hand's own lateness):\n"
+    )?;
+    writeln!(
+        out,
+        "| hand | requests | refused or mismatched | from due p50 | p90 | p99 | p99.9 | max | round trip p50 | p99.9 | max | sent late p99 | p99.9 |"
+    )?;
+    writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")?;
+    for (name, h) in ["head", "tail"].iter().zip(&hands) {
+        let due = h.from_due.unwrap_or_default();
+        let late = h.late.unwrap_or_default();
+        writeln!(
+            out,
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            h.round_trip.count,
+            h.refused + h.mismatched,
+            row(&due),
+            us(h.round_trip.p50),
+            us(h.round_trip.p999),
+            us(h.round_trip.max),
+            us(late.p99),
+            us(late.p999)
+        )?;
+    }
+    writeln!(
+        out,
+        "\nViewer: {}",
+        viewer_summary
+            .trim_start_matches("watch: ")
+            .trim()
+            .to_string()
+    )?;
+    Ok(())
+}
