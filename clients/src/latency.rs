@@ -425,7 +425,7 @@ pub fn connect_options(prefix: &str, wait: WaitMode) -> ConnectOptions {
         wait: match wait {
             WaitMode::Spin => ClientWait::Spin,
             WaitMode::Event => ClientWait::Event,
-            WaitMode::Hybrid => ClientWait::Hybrid(Duration::from_micros(50)),
+            WaitMode::Hybrid => ClientWait::Hybrid(Duration::from_micros(200)),
         },
         connect_timeout: Duration::from_secs(10),
         call_timeout: Duration::from_secs(5),
