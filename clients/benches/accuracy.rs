@@ -1,0 +1,315 @@
+//! Speed against accuracy: the largest joint error against the continuous ground truth (DOP853, see
+//! `solver::kernel::ground_truth`), in link lengths, against the time per move, over method × substeps ×
+//! precision, for a 40-link rope whose head follows a helix and for the knot scripts' hand paths (the
+//! overhand on 160 links, the square knot's two hands on 320; collision off, since the ground truth knows
+//! no contacts).
+//!
+//! `cargo bench -p clients --bench accuracy` prints, per scenario, a table with the Pareto front marked,
+//! the convergence order of each method, and the cost of each at equal accuracy (1 % and 0.1 % of a
+//! link); it writes `target/accuracy/pareto.svg` (log-log, one panel per scenario). Times are medians of
+//! repeated runs of the whole path; every configuration of a scenario runs interleaved with the others.
+
+use clients::render::{Panel, Series, write_plot_svg};
+use clients::script::Script;
+use nalgebra::Vector3;
+use solver::kernel::ground_truth::{GroundTruthOptions, follow_path};
+use solver::kernel::{Chain, Method, MoveOptions, Real, Substeps};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// One driven-joint leg: which joint, through which targets.
+struct Leg {
+    joint: usize,
+    targets: Vec<Vector3<f64>>,
+}
+
+struct Scenario {
+    name: &'static str,
+    links: usize,
+    link: f64,
+    legs: Vec<Leg>,
+    substeps: Vec<u32>,
+}
+
+fn helix(start: Vector3<f64>, r: f64, pitch: f64, turns: f64, n: usize) -> Vec<Vector3<f64>> {
+    (1..=n)
+        .map(|k| {
+            let a = std::f64::consts::TAU * turns * k as f64 / n as f64;
+            start
+                + Vector3::new(
+                    r * a.cos() - r,
+                    r * a.sin(),
+                    pitch * a / std::f64::consts::TAU,
+                )
+        })
+        .collect()
+}
+
+/// A script's turns as legs on a straight rope of `links` links of `link` along +x, played on a
+/// collision-free chain (each turn starts where the previous left its joint).
+fn script_legs(script: &Script, links: usize, link: f64) -> Vec<Leg> {
+    let mut rope = Chain::<f64, 3>::straight(links, link, Vector3::zeros(), Vector3::x()).unwrap();
+    let mut legs = Vec::new();
+    for turn in &script.turn {
+        let joint = match turn.joint.as_str() {
+            "head" => links,
+            "tail" => 0,
+            j => j.parse().unwrap(),
+        };
+        let s = rope.joint(joint);
+        let targets: Vec<Vector3<f64>> = turn
+            .targets([s.x, s.y, s.z], script.max_step)
+            .into_iter()
+            .map(Vector3::from)
+            .collect();
+        rope.move_along(joint, &targets, &MoveOptions::default())
+            .unwrap();
+        legs.push(Leg { joint, targets });
+    }
+    legs
+}
+
+fn scenarios() -> Vec<Scenario> {
+    let all: Vec<u32> = (0..=8).map(|e| 1 << e).collect();
+    let script = |name| Script::builtin(name).expect("a builtin script");
+    vec![
+        Scenario {
+            name: "helix, 40 links",
+            links: 40,
+            link: 1.0,
+            legs: vec![Leg {
+                joint: 40,
+                targets: helix(Vector3::new(40.0, 0.0, 0.0), 4.0, 3.0, 1.5, 30),
+            }],
+            substeps: all,
+        },
+        Scenario {
+            name: "overhand script, 160 links",
+            links: 160,
+            link: 0.25,
+            legs: script_legs(&script("overhand"), 160, 0.25),
+            substeps: vec![1, 2, 4, 8, 16],
+        },
+        Scenario {
+            name: "square-knot script, 320 links",
+            links: 320,
+            link: 0.25,
+            legs: script_legs(&script("square"), 320, 0.25),
+            substeps: vec![1, 2, 4, 8],
+        },
+    ]
+}
+
+fn truth(s: &Scenario) -> Vec<Vector3<f64>> {
+    let mut p = Chain::<f64, 3>::straight(s.links, s.link, Vector3::zeros(), Vector3::x())
+        .unwrap()
+        .positions();
+    for leg in &s.legs {
+        p = follow_path(&p, leg.joint, &leg.targets, &GroundTruthOptions::default())
+            .expect("ground truth");
+    }
+    p
+}
+
+/// Plays the scenario; returns (seconds, largest joint error in links).
+fn play<T: Real>(s: &Scenario, method: Method, k: u32, truth: &[Vector3<f64>]) -> (f64, f64) {
+    let cast = |v: &Vector3<f64>| Vector3::new(T::lit(v.x), T::lit(v.y), T::lit(v.z));
+    let legs: Vec<(usize, Vec<Vector3<T>>)> = s
+        .legs
+        .iter()
+        .map(|l| (l.joint, l.targets.iter().map(cast).collect()))
+        .collect();
+    let mut c = Chain::<T, 3>::straight(s.links, T::lit(s.link), Vector3::zeros(), Vector3::x())
+        .unwrap();
+    let opts = MoveOptions {
+        method,
+        substeps: Substeps::Fixed(k),
+        ..MoveOptions::default()
+    };
+    let t0 = Instant::now();
+    for (joint, targets) in &legs {
+        for t in targets {
+            black_box(c.move_joint(*joint, *t, &opts).expect("a move"));
+        }
+    }
+    let secs = t0.elapsed().as_secs_f64();
+    let err = c
+        .positions()
+        .iter()
+        .zip(truth)
+        .map(|(a, b)| (Vector3::new(a.x.to_f64(), a.y.to_f64(), a.z.to_f64()) - b).norm())
+        .fold(0.0, f64::max)
+        / s.link;
+    (secs, err)
+}
+
+#[derive(Clone)]
+struct Point {
+    method: Method,
+    f32: bool,
+    k: u32,
+    us_per_move: f64,
+    error: f64,
+    pareto: bool,
+}
+
+const METHODS: [Method; 3] = [
+    Method::Tractrix,
+    Method::TractrixPaper,
+    Method::FollowTheLeader,
+];
+
+fn label(method: Method, f32: bool) -> String {
+    format!("{} {}", method.name(), if f32 { "f32" } else { "f64" })
+}
+
+fn main() {
+    let reps: usize = std::env::var("ACCURACY_BENCH_REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(5)
+        .max(1);
+    let out_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/accuracy");
+    std::fs::create_dir_all(&out_dir).expect("create target/accuracy");
+    let mut panels = Vec::new();
+    for s in scenarios() {
+        let moves: usize = s.legs.iter().map(|l| l.targets.len()).sum();
+        eprintln!("{}: ground truth of {moves} moves ...", s.name);
+        let gt = truth(&s);
+        let configs: Vec<(Method, bool, u32)> = METHODS
+            .iter()
+            .flat_map(|&m| [false, true].map(|f| (m, f)))
+            .flat_map(|(m, f)| s.substeps.iter().map(move |&k| (m, f, k)))
+            .collect();
+        let mut times: Vec<Vec<f64>> = vec![Vec::new(); configs.len()];
+        let mut errors = vec![0.0; configs.len()];
+        for r in 0..reps {
+            eprintln!("{}: pass {}/{reps}", s.name, r + 1);
+            for (i, &(m, f, k)) in configs.iter().enumerate() {
+                let (t, e) = if f {
+                    play::<f32>(&s, m, k, &gt)
+                } else {
+                    play::<f64>(&s, m, k, &gt)
+                };
+                times[i].push(t);
+                errors[i] = e;
+            }
+        }
+        let mut pts: Vec<Point> = configs
+            .iter()
+            .zip(times.iter_mut())
+            .zip(&errors)
+            .map(|((&(method, f32, k), t), &error)| {
+                t.sort_by(f64::total_cmp);
+                Point {
+                    method,
+                    f32,
+                    k,
+                    us_per_move: t[t.len() / 2] / moves as f64 * 1e6,
+                    error,
+                    pareto: false,
+                }
+            })
+            .collect();
+        for i in 0..pts.len() {
+            let dominated = pts.iter().enumerate().any(|(j, q)| {
+                j != i
+                    && q.us_per_move <= pts[i].us_per_move
+                    && q.error <= pts[i].error
+                    && (q.us_per_move < pts[i].us_per_move || q.error < pts[i].error)
+            });
+            pts[i].pareto = !dominated;
+        }
+        report(&s, moves, &pts);
+        panels.push(Panel {
+            title: s.name.to_string(),
+            series: METHODS
+                .iter()
+                .flat_map(|&m| [false, true].map(|f| (m, f)))
+                .map(|(m, f)| Series {
+                    label: label(m, f),
+                    points: pts
+                        .iter()
+                        .filter(|p| p.method == m && p.f32 == f)
+                        .map(|p| (p.us_per_move.log10(), p.error.max(1e-17).log10()))
+                        .collect(),
+                    color: match m {
+                        Method::Tractrix => (0, 90, 200),
+                        Method::TractrixPaper => (0, 150, 80),
+                        Method::FollowTheLeader => (200, 60, 0),
+                    },
+                    dotted: f,
+                })
+                .collect(),
+        });
+    }
+    let svg = out_dir.join("pareto.svg");
+    write_plot_svg(
+        &svg,
+        "Largest joint error against time per move (dotted: f32)",
+        ("log10 µs per move", "log10 error (links)"),
+        &panels,
+        panels.len(),
+    )
+    .expect("write the plot");
+    println!("\nPlot: {}", svg.display());
+}
+
+fn report(s: &Scenario, moves: usize, pts: &[Point]) {
+    println!(
+        "\n### {} ({moves} moves; error: largest joint distance from the ground truth at the end, in links)\n",
+        s.name
+    );
+    println!("| method | precision | substeps | µs per move | error (links) | Pareto |");
+    println!("|---|---|---:|---:|---:|:---:|");
+    for p in pts {
+        println!(
+            "| {} | {} | {} | {:.2} | {:.2e} | {} |",
+            p.method.name(),
+            if p.f32 { "f32" } else { "f64" },
+            p.k,
+            p.us_per_move,
+            p.error,
+            if p.pareto { "★" } else { "" }
+        );
+    }
+    println!(
+        "\n| method | precision | order (last doublings above the rounding floor) | µs per move at ≤ 1 % | at ≤ 0.1 % |"
+    );
+    println!("|---|---|---:|---:|---:|");
+    for m in METHODS {
+        for f in [false, true] {
+            let mine: Vec<&Point> = pts.iter().filter(|p| p.method == m && p.f32 == f).collect();
+            // log2 of the error ratio per doubling, over doublings whose finer error is still well
+            // above the precision's rounding floor.
+            let floor = if f { 1e-5 } else { 1e-12 };
+            let orders: Vec<f64> = mine
+                .windows(2)
+                .filter(|w| w[1].k == 2 * w[0].k && w[1].error > 10.0 * floor)
+                .map(|w| (w[0].error / w[1].error).log2())
+                .collect();
+            let order = match orders.len() {
+                0 => "–".to_string(),
+                n => {
+                    let last = &orders[n.saturating_sub(3)..];
+                    format!("{:.2}", last.iter().sum::<f64>() / last.len() as f64)
+                }
+            };
+            let cost = |tol: f64| {
+                mine.iter()
+                    .filter(|p| p.error <= tol)
+                    .map(|p| p.us_per_move)
+                    .min_by(f64::total_cmp)
+                    .map(|t| format!("{t:.2}"))
+                    .unwrap_or_else(|| "not reached".into())
+            };
+            println!(
+                "| {} | {} | {order} | {} | {} |",
+                m.name(),
+                if f { "f32" } else { "f64" },
+                cost(1e-2),
+                cost(1e-3)
+            );
+        }
+    }
+}
