@@ -1,0 +1,155 @@
+//! What independent work in flight buys the closed-form tractrix step, which on one rope is a chain of
+//! dependent divisions, square roots and exponentials (each link waits for the shift of the one before).
+//!
+//! `cargo bench -p solver-service --bench throughput` prints two tables, ns per link-step (median and
+//! p90 over timed batches, variants interleaved batch by batch):
+//!
+//! 1. **Wavefront over substeps**, one rope of 1000 links: a move of `k` substeps done substep after
+//!    substep (as `Chain::move_joint` does), against a wavefront that runs substep `s` of link `i`
+//!    beside substep `s − 1` of link `i + 1` (they are independent), keeping up to `k` steps in flight.
+//!    Both orders do the same operations on the same inputs: the bench checks the results are identical
+//!    bit for bit.
+//! 2. **Many chains**: hair, 10⁴ strands of 20 links, every head moved each frame; strands one after
+//!    another, against groups of G strands advanced link by link together (G independent steps in
+//!    flight).
+
+use nalgebra::Vector3;
+use solver::kernel::link::tractrix_step;
+use std::hint::black_box;
+use std::time::Instant;
+
+type V = Vector3<f64>;
+
+/// Link vectors (tail − head, head end first) of a rope bent into a gentle helix, so no step is
+/// degenerate.
+fn rope(n: usize) -> Vec<V> {
+    (0..n)
+        .map(|i| {
+            let a = i as f64 * 0.05;
+            V::new(-1.0, 0.2 * a.sin(), 0.2 * a.cos()).normalize()
+        })
+        .collect()
+}
+
+/// `k` substeps of `delta / k`, one after another. Returns the tail's total shift.
+fn sequential(links: &mut [V], delta: V, k: usize) -> V {
+    let sub = delta / k as f64;
+    let mut tail = V::zeros();
+    for _ in 0..k {
+        let mut s = sub;
+        for l in links.iter_mut() {
+            let st = tractrix_step(l, &s, 1.0);
+            *l = st.link;
+            s = st.tail_shift;
+        }
+        tail += s;
+    }
+    tail
+}
+
+/// The same substeps as a wavefront: at diagonal `d`, lane `s` steps link `d − s`.
+fn wavefront(links: &mut [V], delta: V, k: usize, lanes: &mut Vec<V>) -> V {
+    let n = links.len();
+    lanes.clear();
+    lanes.resize(k, delta / k as f64);
+    let mut tail = V::zeros();
+    for d in 0..n + k - 1 {
+        let lo = d.saturating_sub(n - 1);
+        let hi = d.min(k - 1);
+        for s in lo..=hi {
+            let i = d - s;
+            let st = tractrix_step(&links[i], &lanes[s], 1.0);
+            links[i] = st.link;
+            lanes[s] = st.tail_shift;
+        }
+        // From d = n − 1 on, lane `lo` has just stepped the last link: its shift is the tail's.
+        if d + 1 >= n {
+            tail += lanes[lo];
+        }
+    }
+    tail
+}
+
+fn head_move(frame: usize) -> V {
+    let a = frame as f64 * 0.37;
+    V::new(0.3 * a.cos(), 0.3 * a.sin(), 0.1)
+}
+
+fn stats(v: &mut [f64]) -> (f64, f64) {
+    v.sort_by(f64::total_cmp);
+    (v[v.len() / 2], v[(v.len() - 1) * 9 / 10])
+}
+
+fn main() {
+    let batches = 30;
+    println!("### Wavefront over substeps: one rope of 1000 links, ns per link-step\n");
+    println!("| substeps k | substep after substep | wavefront | ÷ (speed-up) |");
+    println!("|---:|---:|---:|---:|");
+    for k in [1usize, 2, 4, 8, 16, 32] {
+        let mut a = rope(1000);
+        let mut b = a.clone();
+        let mut lanes = Vec::new();
+        // Same results, bit for bit.
+        for f in 0..5 {
+            let ta = sequential(&mut a, head_move(f), k);
+            let tb = wavefront(&mut b, head_move(f), k, &mut lanes);
+            assert_eq!(a, b, "k = {k}: the wavefront changed the result");
+            assert_eq!(ta, tb, "k = {k}: the tail shifts differ");
+        }
+        let moves = (400 / k).max(4);
+        let (mut ts, mut tw) = (Vec::new(), Vec::new());
+        for batch in 0..batches {
+            let t0 = Instant::now();
+            for f in 0..moves {
+                black_box(sequential(&mut a, head_move(batch * moves + f), k));
+            }
+            ts.push(t0.elapsed().as_nanos() as f64 / (moves * k * 1000) as f64);
+            let t0 = Instant::now();
+            for f in 0..moves {
+                black_box(wavefront(&mut b, head_move(batch * moves + f), k, &mut lanes));
+            }
+            tw.push(t0.elapsed().as_nanos() as f64 / (moves * k * 1000) as f64);
+        }
+        let (s50, _) = stats(&mut ts);
+        let (w50, _) = stats(&mut tw);
+        println!("| {k} | {s50:.1} | {w50:.1} | {:.2} |", s50 / w50);
+    }
+
+    println!("\n### Hair: 10⁴ strands of 20 links, every head moved, ns per link-step\n");
+    println!("| strands in flight G | median | p90 | ÷ (speed-up over G = 1) |");
+    println!("|---:|---:|---:|---:|");
+    let strands = 10_000;
+    let links = 20;
+    let base: Vec<V> = rope(links);
+    let mut hair: Vec<V> = (0..strands).flat_map(|_| base.iter().copied()).collect();
+    let groups = [1usize, 2, 4, 8, 16];
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
+    let mut shifts = vec![V::zeros(); 16];
+    for batch in 0..batches {
+        for (gi, &g) in groups.iter().enumerate() {
+            let t0 = Instant::now();
+            for frame in 0..4 {
+                let d = head_move(batch * 4 + frame) * 0.1;
+                for group in hair.chunks_mut(g * links) {
+                    let here = group.len() / links;
+                    shifts[..here].fill(d);
+                    for i in 0..links {
+                        for (j, s) in shifts[..here].iter_mut().enumerate() {
+                            let l = &mut group[j * links + i];
+                            let st = tractrix_step(l, s, 1.0);
+                            *l = st.link;
+                            *s = st.tail_shift;
+                        }
+                    }
+                }
+            }
+            black_box(&hair);
+            times[gi].push(t0.elapsed().as_nanos() as f64 / (4 * strands * links) as f64);
+        }
+    }
+    let base_median = stats(&mut times[0].clone()).0;
+    for (gi, &g) in groups.iter().enumerate() {
+        let (m, p90) = stats(&mut times[gi]);
+        println!("| {g} | {m:.1} | {p90:.1} | {:.2} |", base_median / m);
+    }
+}
