@@ -119,8 +119,8 @@ fn play<T: Real>(s: &Scenario, method: Method, k: u32, truth: &[Vector3<f64>]) -
         .iter()
         .map(|l| (l.joint, l.targets.iter().map(cast).collect()))
         .collect();
-    let mut c = Chain::<T, 3>::straight(s.links, T::lit(s.link), Vector3::zeros(), Vector3::x())
-        .unwrap();
+    let mut c =
+        Chain::<T, 3>::straight(s.links, T::lit(s.link), Vector3::zeros(), Vector3::x()).unwrap();
     let opts = MoveOptions {
         method,
         substeps: Substeps::Fixed(k),

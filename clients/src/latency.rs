@@ -127,7 +127,11 @@ enum Link {
 
 impl Link {
     /// One request; returns the response header and a checksum of the payload (every element read).
-    fn call(&mut self, h: &RequestHeader, points: &[Vec3]) -> anyhow::Result<(ResponseHeader, f64)> {
+    fn call(
+        &mut self,
+        h: &RequestHeader,
+        points: &[Vec3],
+    ) -> anyhow::Result<(ResponseHeader, f64)> {
         match self {
             Link::Iox(c) => Ok(c.call_with(*h, points, |r, p| {
                 (*r, p.iter().map(|v| v.x + v.y + v.z).sum::<f64>())
@@ -192,8 +196,8 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
             wait_until(due);
         }
         // Around the circle, starting and ending at the joint's own start.
-        let a = std::f64::consts::TAU * (i % plan.points_per_turn) as f64
-            / plan.points_per_turn as f64;
+        let a =
+            std::f64::consts::TAU * (i % plan.points_per_turn) as f64 / plan.points_per_turn as f64;
         let target = [Vec3::new(
             centre.x + r * (a.cos() - 1.0),
             centre.y + r * a.sin(),

@@ -407,7 +407,10 @@ fn loaded(
         .collect();
     let hands: Vec<Summary> = hands
         .into_iter()
-        .map(|h| h.join().map_err(|_| anyhow::anyhow!("hand thread panicked"))?)
+        .map(|h| {
+            h.join()
+                .map_err(|_| anyhow::anyhow!("hand thread panicked"))?
+        })
         .collect::<Result<_>>()?;
     let deadline = Instant::now() + Duration::from_secs_f64(secs + 30.0);
     let mut viewer_summary = String::new();
@@ -440,7 +443,10 @@ fn loaded(
         out,
         "| hand | requests | refused or mismatched | from due p50 | p90 | p99 | p99.9 | max | round trip p50 | p99.9 | max | sent late p99 | p99.9 |"
     )?;
-    writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")?;
+    writeln!(
+        out,
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    )?;
     for (name, h) in ["head", "tail"].iter().zip(&hands) {
         let due = h.from_due.unwrap_or_default();
         let late = h.late.unwrap_or_default();

@@ -130,7 +130,13 @@ fn extremes(method: Method) -> Vec<Extreme> {
             targets: (1..=20)
                 .map(|k| V::new(40.0 + sign * 0.5 * k as f64, 0.0, 0.0))
                 .collect(),
-            reference: Some(straight(40, 1.0).positions().iter().map(|p| p + shift).collect()),
+            reference: Some(
+                straight(40, 1.0)
+                    .positions()
+                    .iter()
+                    .map(|p| p + shift)
+                    .collect(),
+            ),
             compare_head_joints: None,
         });
     }
@@ -204,8 +210,8 @@ struct Row {
 fn run<T: Real>(e: &Extreme, method: Method) -> Row {
     let cast = |p: &V| Vector3::new(T::lit(p.x), T::lit(p.y), T::lit(p.z));
     let targets: Vec<Vector3<T>> = e.targets.iter().map(cast).collect();
-    let mut c = Chain::<T, 3>::straight(e.links, T::lit(e.link), Vector3::zeros(), Vector3::x())
-        .unwrap();
+    let mut c =
+        Chain::<T, 3>::straight(e.links, T::lit(e.link), Vector3::zeros(), Vector3::x()).unwrap();
     let opts = MoveOptions {
         method,
         substeps: Substeps::Fixed(1),
@@ -239,9 +245,7 @@ fn run<T: Real>(e: &Extreme, method: Method) -> Row {
         p[from..]
             .iter()
             .zip(r.iter().skip(r.len() - (p.len() - from)))
-            .map(|(a, b)| {
-                (V::new(a.x.to_f64(), a.y.to_f64(), a.z.to_f64()) - b).norm() / e.link
-            })
+            .map(|(a, b)| (V::new(a.x.to_f64(), a.y.to_f64(), a.z.to_f64()) - b).norm() / e.link)
             .fold(0.0, f64::max)
     });
     Row {

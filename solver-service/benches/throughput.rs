@@ -106,7 +106,12 @@ fn main() {
             ts.push(t0.elapsed().as_nanos() as f64 / (moves * k * 1000) as f64);
             let t0 = Instant::now();
             for f in 0..moves {
-                black_box(wavefront(&mut b, head_move(batch * moves + f), k, &mut lanes));
+                black_box(wavefront(
+                    &mut b,
+                    head_move(batch * moves + f),
+                    k,
+                    &mut lanes,
+                ));
             }
             tw.push(t0.elapsed().as_nanos() as f64 / (moves * k * 1000) as f64);
         }

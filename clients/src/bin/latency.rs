@@ -210,7 +210,10 @@ fn run(cli: Cli) -> Result<i32> {
                 .split(',')
                 .map(|s| match s.trim().parse::<u32>() {
                     Ok(n) if (1..=protocol::MAX_LINKS).contains(&n) => Ok(n),
-                    _ => Err(usage(format!("--sizes: {s:?} is not 1 to {}", protocol::MAX_LINKS))),
+                    _ => Err(usage(format!(
+                        "--sizes: {s:?} is not 1 to {}",
+                        protocol::MAX_LINKS
+                    ))),
                 })
                 .collect::<Result<Vec<_>>>()?;
             let modes = a

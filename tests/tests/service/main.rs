@@ -9,9 +9,12 @@
 //! * the event wait mode (`event_mode_serves_sleeping_clients`);
 //! * batch mode and chainctl from the shell (`batch_mode_writes_csv`, `chainctl_fails_fast_without_a_service`);
 //! * knots tied by hand processes, checked at every published state, replayed bit for bit (`knots`);
-//! * the snake, reach and watch tools, and a locked move on a collision scene (`tools`).
+//! * the snake, reach and watch tools, and a locked move on a collision scene (`tools`);
+//! * the latency client against the service, the raw echo and the Unix socket, and the bench driver
+//!   (`latency`).
 
 mod knots;
+mod latency;
 mod tools;
 
 use clients::{ClientWait, Connection};

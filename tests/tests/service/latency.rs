@@ -1,0 +1,187 @@
+//! The latency tools as a user runs them (issue 5): `latency client` against the service, the raw
+//! iceoryx2 echo and the Unix-socket server, every request answered and accounted for; `latency bench`
+//! runs its driver end to end (event mode only, no loaded run: the tests share two cores).
+
+use integration_tests::{Service, bin, unique_prefix};
+use protocol::{Command, RequestHeader};
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command as Process, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+const TIMEOUT: Duration = Duration::from_secs(120);
+
+/// Runs a binary to its end with a deadline; returns (success, stdout, stderr).
+fn run(args: &[&str]) -> (bool, String, String) {
+    let child = Process::new(bin("latency"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn latency");
+    let deadline = Instant::now() + TIMEOUT;
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    let out = rx
+        .recv_timeout(deadline.saturating_duration_since(Instant::now()))
+        .expect("latency finished in time")
+        .expect("latency output");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn summary(args: &[&str]) -> clients::latency::Summary {
+    let mut all = vec!["client", "--samples", "200", "--warmup", "20", "--json"];
+    all.extend_from_slice(args);
+    let (ok, out, err) = run(&all);
+    assert!(ok, "latency {all:?} failed:\n{out}\n{err}");
+    serde_json::from_str(out.lines().last().unwrap_or("")).expect("a JSON summary")
+}
+
+fn check(s: &clients::latency::Summary, what: &str) {
+    assert_eq!(
+        (s.ok, s.refused, s.mismatched),
+        (200, 0, 0),
+        "{what}: {s:?}"
+    );
+    assert_eq!(s.elements, 41, "{what}");
+    let p = s.round_trip;
+    assert_eq!(p.count, 200, "{what}");
+    assert!(
+        p.p50 > 0 && p.p50 <= p.p99 && p.p99 <= p.max,
+        "{what}: {p:?}"
+    );
+}
+
+/// A child that prints a ready line, killed and reaped on drop.
+struct Ready(Child);
+impl Ready {
+    fn start(program: &str, args: &[&str]) -> Ready {
+        let mut child = Process::new(bin(program))
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("spawn");
+        let out = child.stdout.take().unwrap();
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            for l in BufReader::new(out).lines().map_while(Result::ok) {
+                let _ = tx.send(l);
+            }
+        });
+        let line = rx
+            .recv_timeout(Duration::from_secs(30))
+            .expect("a ready line");
+        assert!(line.contains("ready"), "{line}");
+        Ready(child)
+    }
+    fn wait(&mut self) -> std::process::ExitStatus {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Some(s) = self.0.try_wait().unwrap() {
+                return s;
+            }
+            assert!(Instant::now() < deadline, "did not exit in time");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+impl Drop for Ready {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn latency_client_measures_the_service_the_raw_echo_and_the_unix_socket() {
+    // The service: every move applied (sequence 220 afterwards), solve times reported.
+    let svc = Service::start(&unique_prefix(), &["--wait", "event", "--no-persist"]);
+    let s = summary(&["--prefix", &svc.prefix, "--wait", "event"]);
+    check(&s, "service");
+    assert!(s.solve.p50 > 1, "the service reports its solve time");
+    let mut c = svc.connect();
+    let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    assert_eq!(
+        q.header.sequence, 220,
+        "every warm-up and timed move applied"
+    );
+
+    // The raw echo: same sizes, no solving.
+    let prefix = unique_prefix();
+    let mut raw = Ready::start(
+        "latency",
+        &[
+            "raw-server",
+            "--prefix",
+            &prefix,
+            "--wait",
+            "event",
+            "--elements",
+            "41",
+        ],
+    );
+    let s = summary(&["--prefix", &prefix, "--wait", "event", "--raw"]);
+    check(&s, "raw echo");
+    assert_eq!(s.solve.max, 1, "the echo solves nothing");
+    let _ = Process::new("kill")
+        .args(["-TERM", &raw.0.id().to_string()])
+        .status();
+    assert!(raw.wait().success(), "the echo stops cleanly on SIGTERM");
+
+    // The Unix socket: one connection, then the server exits and removes its socket.
+    let dir = tempfile::tempdir().unwrap();
+    let sock = dir.path().join("s.sock");
+    let sock = sock.to_str().unwrap();
+    let mut unix = Ready::start(
+        "solver-service",
+        &["unix", "--socket", sock, "--connections", "1"],
+    );
+    let s = summary(&["--unix", sock]);
+    check(&s, "unix socket");
+    assert!(unix.wait().success());
+    assert!(
+        !std::path::Path::new(sock).exists(),
+        "the socket is removed"
+    );
+}
+
+#[test]
+fn latency_bench_prints_its_tables() {
+    let (ok, out, err) = run(&[
+        "bench",
+        "--modes",
+        "event",
+        "--sizes",
+        "5",
+        "--samples",
+        "50",
+        "--warmup",
+        "5",
+        "--loaded-seconds",
+        "0",
+    ]);
+    assert!(ok, "{out}\n{err}");
+    for row in [
+        "| 5 | raw iceoryx2 | event |",
+        "| 5 | service, iceoryx2 | event |",
+        "| 5 | service, Unix socket | blocking read |",
+    ] {
+        let line = out
+            .lines()
+            .find(|l| l.starts_with(row))
+            .unwrap_or_else(|| panic!("no row {row:?} in\n{out}"));
+        assert!(line.ends_with("| 0 |"), "nothing refused: {line}");
+    }
+    assert!(
+        out.lines().any(|l| l.starts_with("| 5 | event | ")),
+        "{out}"
+    );
+    assert!(err.contains("[3/3]"), "progress on stderr: {err}");
+}
