@@ -117,7 +117,7 @@ fn histogram() -> Histogram<u64> {
 }
 
 enum Link {
-    Iox(Connection),
+    Iox(Box<Connection>),
     Unix {
         stream: UnixStream,
         buf: Vec<u8>,
@@ -161,8 +161,8 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
         anyhow::bail!("radius {}: expected (0, 1000] links", plan.radius);
     }
     let (mut link, raw) = match target {
-        Target::Service(o) => (Link::Iox(Connection::connect(o.clone())?), false),
-        Target::Raw(o) => (Link::Iox(Connection::connect(o.clone())?), true),
+        Target::Service(o) => (Link::Iox(Box::new(Connection::connect(o.clone())?)), false),
+        Target::Raw(o) => (Link::Iox(Box::new(Connection::connect(o.clone())?)), true),
         Target::Unix(p) => (
             Link::Unix {
                 stream: UnixStream::connect(p)

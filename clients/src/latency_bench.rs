@@ -415,10 +415,10 @@ fn loaded(
     let deadline = Instant::now() + Duration::from_secs_f64(secs + 30.0);
     let mut viewer_summary = String::new();
     while Instant::now() < deadline {
-        if let Ok(l) = vrx.recv_timeout(Duration::from_millis(100)) {
-            if l.contains("states") {
-                viewer_summary = l;
-            }
+        if let Ok(l) = vrx.recv_timeout(Duration::from_millis(100))
+            && l.contains("states")
+        {
+            viewer_summary = l;
         }
         if let Some(_s) = viewer.try_wait()? {
             while let Ok(l) = vrx.try_recv() {
@@ -466,10 +466,7 @@ fn loaded(
     writeln!(
         out,
         "\nViewer: {}",
-        viewer_summary
-            .trim_start_matches("watch: ")
-            .trim()
-            .to_string()
+        viewer_summary.trim_start_matches("watch: ").trim()
     )?;
     Ok(())
 }

@@ -56,11 +56,11 @@ fn wavefront(links: &mut [V], delta: V, k: usize, lanes: &mut Vec<V>) -> V {
     for d in 0..n + k - 1 {
         let lo = d.saturating_sub(n - 1);
         let hi = d.min(k - 1);
-        for s in lo..=hi {
+        for (s, lane) in lanes.iter_mut().enumerate().take(hi + 1).skip(lo) {
             let i = d - s;
-            let st = tractrix_step(&links[i], &lanes[s], 1.0);
+            let st = tractrix_step(&links[i], lane, 1.0);
             links[i] = st.link;
-            lanes[s] = st.tail_shift;
+            *lane = st.tail_shift;
         }
         // From d = n − 1 on, lane `lo` has just stepped the last link: its shift is the tail's.
         if d + 1 >= n {

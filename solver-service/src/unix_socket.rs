@@ -61,13 +61,11 @@ pub fn serve(
     set: &mut ChainSet,
     max_connections: Option<usize>,
 ) -> std::io::Result<()> {
-    let mut served = 0;
-    for stream in listener.incoming() {
+    for (served, stream) in listener.incoming().enumerate() {
         if let Err(e) = serve_connection(stream?, set) {
             eprintln!("solver-service: unix socket connection ended: {e}");
         }
-        served += 1;
-        if max_connections.is_some_and(|m| served >= m) {
+        if max_connections.is_some_and(|m| served + 1 >= m) {
             break;
         }
     }
