@@ -12,7 +12,7 @@
 use clients::render::{Panel, Series, write_plot_svg};
 use clients::script::Script;
 use nalgebra::Vector3;
-use solver::kernel::ground_truth::{GroundTruthOptions, follow_path};
+use solver::kernel::ground_truth::{GroundTruthOptions, follow_path, helix};
 use solver::kernel::{Chain, Method, MoveOptions, Real, Substeps};
 use std::hint::black_box;
 use std::time::Instant;
@@ -29,20 +29,6 @@ struct Scenario {
     link: f64,
     legs: Vec<Leg>,
     substeps: Vec<u32>,
-}
-
-fn helix(start: Vector3<f64>, r: f64, pitch: f64, turns: f64, n: usize) -> Vec<Vector3<f64>> {
-    (1..=n)
-        .map(|k| {
-            let a = std::f64::consts::TAU * turns * k as f64 / n as f64;
-            start
-                + Vector3::new(
-                    r * a.cos() - r,
-                    r * a.sin(),
-                    pitch * a / std::f64::consts::TAU,
-                )
-        })
-        .collect()
 }
 
 /// A script's turns as legs on a straight rope of `links` links of `link` along +x, played on a

@@ -14,6 +14,7 @@
 //! "–" means no exact reference. Long rows print progress on stderr.
 
 use nalgebra::Vector3;
+use solver::kernel::ground_truth::helix;
 use solver::kernel::{Chain, Method, MoveOptions, Real, Substeps};
 use std::time::Instant;
 
@@ -37,20 +38,6 @@ struct Extreme {
     reference: Option<Vec<V>>,
     /// Compare only the joints nearest the head, this many (for the 10⁶-link row).
     compare_head_joints: Option<usize>,
-}
-
-fn helix(start: V, r: f64, pitch: f64, turns: f64, n: usize) -> Vec<V> {
-    (1..=n)
-        .map(|k| {
-            let a = std::f64::consts::TAU * turns * k as f64 / n as f64;
-            start
-                + V::new(
-                    r * a.cos() - r,
-                    r * a.sin(),
-                    pitch * a / std::f64::consts::TAU,
-                )
-        })
-        .collect()
 }
 
 fn straight(n: usize, link: f64) -> Chain<f64, 3> {

@@ -14,6 +14,7 @@
 
 use super::chain::ChainError;
 use super::math::{Real, Vector, all_finite};
+use nalgebra::Vector3;
 use ode_solvers::dop_shared::{IntegrationError, OutputType};
 use ode_solvers::{DVector, Dop853, System};
 
@@ -161,4 +162,26 @@ pub fn follow_path<T: Real, const D: usize>(
         }
     }
     Ok((0..n).map(|i| TractrixOde::<D>::at(&y, i)).collect())
+}
+
+/// `samples` points of a helix of radius `r` and `pitch` per turn over `turns` turns, starting at `start`
+/// (excluded) with its axis along +z: the head path of the convergence tests and the accuracy benches.
+pub fn helix(
+    start: Vector3<f64>,
+    r: f64,
+    pitch: f64,
+    turns: f64,
+    samples: usize,
+) -> Vec<Vector3<f64>> {
+    (1..=samples)
+        .map(|k| {
+            let a = std::f64::consts::TAU * turns * k as f64 / samples as f64;
+            start
+                + Vector3::new(
+                    r * a.cos() - r,
+                    r * a.sin(),
+                    pitch * a / std::f64::consts::TAU,
+                )
+        })
+        .collect()
 }

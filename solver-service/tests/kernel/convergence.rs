@@ -2,9 +2,8 @@
 //! helix (sampled into straight moves). Each doubling of substeps should cut the largest joint error about
 //! 4× for the tractrix (second order) and 2× for follow-the-leader (first order).
 
-use crate::support::helix;
 use nalgebra::Vector3;
-use solver::kernel::ground_truth::{GroundTruthOptions, follow_path};
+use solver::kernel::ground_truth::{GroundTruthOptions, follow_path, helix};
 use solver::kernel::{Chain, Method, MoveOptions, Substeps};
 
 fn errors(method: Method, substeps: &[u32]) -> Vec<f64> {

@@ -65,24 +65,3 @@ impl Rng {
         }
     }
 }
-
-/// Points of a helix of radius `r`, pitch `pitch` per turn, starting at `start` and advancing along +z.
-pub fn helix(
-    start: Vector3<f64>,
-    r: f64,
-    pitch: f64,
-    turns: f64,
-    samples: usize,
-) -> Vec<Vector3<f64>> {
-    (1..=samples)
-        .map(|k| {
-            let a = std::f64::consts::TAU * turns * k as f64 / samples as f64;
-            start
-                + Vector3::new(
-                    r * a.cos() - r,
-                    r * a.sin(),
-                    pitch * a / std::f64::consts::TAU,
-                )
-        })
-        .collect()
-}
