@@ -11,10 +11,8 @@
 use crate::connection::{CallError, ClientWait, ConnectOptions, Connection, Svc, ipc};
 use hdrhistogram::Histogram;
 use iceoryx2::prelude::*;
-use protocol::{
-    Command, JOINT_HEAD, MAX_CLIENTS, RequestHeader, ResponseHeader, SERVICE_COMMAND,
-    SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER, Status, Vec3,
-};
+use protocol::ports::ServerPorts;
+use protocol::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Status, Vec3};
 use serde::{Deserialize, Serialize};
 use std::os::unix::net::UnixStream;
 use std::path::PathBuf;
@@ -314,49 +312,12 @@ pub fn serve_raw(
         .config(&cfg)
         .create::<Svc>()
         .map_err(ipc("node"))?;
-    let name = |s: &str| -> Result<ServiceName, CallError> { s.try_into().map_err(ipc("name")) };
-    let server = node
-        .service_builder(&name(SERVICE_COMMAND)?)
-        .request_response::<[Vec3], [Vec3]>()
-        .request_user_header::<RequestHeader>()
-        .response_user_header::<ResponseHeader>()
-        .max_servers(1)
-        .max_clients(MAX_CLIENTS)
-        .max_nodes(MAX_CLIENTS + 4)
-        .max_active_requests_per_client(2)
-        .open_or_create()
-        .map_err(ipc("command service"))?
-        .server_builder()
-        .initial_max_slice_len(elements.max(1))
-        .create()
-        .map_err(ipc("server"))?;
-    let wake_listener = node
-        .service_builder(&name(SERVICE_WAKE_SERVER)?)
-        .event()
-        .max_notifiers(MAX_CLIENTS + 2)
-        .max_listeners(2)
-        .max_nodes(MAX_CLIENTS + 4)
-        .open_or_create()
-        .map_err(ipc("wake-server event"))?
-        .listener_builder()
-        .create()
-        .map_err(ipc("listener"))?;
-    let wake_notifier = node
-        .service_builder(&name(SERVICE_WAKE_CLIENT)?)
-        .event()
-        .max_notifiers(2)
-        .max_listeners(MAX_CLIENTS + 2)
-        .max_nodes(MAX_CLIENTS + 4)
-        .open_or_create()
-        .map_err(ipc("wake-client event"))?
-        .notifier_builder()
-        .create()
-        .map_err(ipc("notifier"))?;
+    let ports = ServerPorts::open(&node, elements).map_err(CallError::Ipc)?;
     ready();
     let point = Vec3::new(1.0, 2.0, 3.0);
     let serve = || -> Result<usize, CallError> {
         let mut n = 0;
-        while let Some(req) = server.receive().map_err(ipc("receive"))? {
+        while let Some(req) = ports.server.receive().map_err(ipc("receive"))? {
             n += 1;
             let header = *req.user_header();
             let resp = req
@@ -370,17 +331,7 @@ pub fn serve_raw(
                 ..ResponseHeader::default()
             };
             resp.send().map_err(ipc("send"))?;
-            let id = header.listener_id();
-            if id != 0 {
-                wake_notifier.for_each_listener(|m, d| {
-                    if d.listener_id.value() == id {
-                        let _ = m.notify();
-                        CallbackProgression::Stop
-                    } else {
-                        CallbackProgression::Continue
-                    }
-                });
-            }
+            ports.wake_client(header.listener_id());
         }
         Ok(n)
     };
@@ -392,7 +343,9 @@ pub fn serve_raw(
                 std::hint::spin_loop();
             }
             WaitMode::Event | WaitMode::Hybrid => {
-                let _ = wake_listener.timed_wait(|_| {}, Duration::from_millis(50));
+                let _ = ports
+                    .wake_listener
+                    .timed_wait(|_| {}, Duration::from_millis(50));
                 if serve()? > 0 && wait == WaitMode::Hybrid {
                     let mut last = Instant::now();
                     loop {
@@ -403,7 +356,7 @@ pub fn serve_raw(
                             std::hint::spin_loop();
                         }
                         // As the service: drop stale notifications, then serve once more.
-                        let _ = wake_listener.try_wait(|_| {});
+                        let _ = ports.wake_listener.try_wait(|_| {});
                         if serve()? == 0 {
                             break;
                         }

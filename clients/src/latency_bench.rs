@@ -204,74 +204,61 @@ pub fn run(cfg: &BenchConfig, out: &mut impl Write) -> Result<()> {
         ]
     };
     let total = cfg.sizes.len() * (2 * cfg.modes.len() + 1);
-    let mut step = 0;
     let mut results: Vec<Measured> = Vec::new();
+    // Starts `server`, runs a client with `args` against it, stops the server.
+    let mut measure = |server: Command, args: Vec<String>, m: Measured| -> Result<()> {
+        eprintln!(
+            "[{}/{total}] {} links, {}, {}",
+            results.len() + 1,
+            m.links,
+            m.transport,
+            m.mode
+        );
+        let mut p = Proc::ready(server, m.transport)?;
+        let s = client_summary(cfg, &args, &format!("latency client ({})", m.transport))?;
+        p.stop();
+        results.push(Measured { s, ..m });
+        Ok(())
+    };
+    let planned = |links, transport, mode| Measured {
+        links,
+        transport,
+        mode,
+        s: Summary::default(),
+    };
     for &n in &cfg.sizes {
         let chain = format!("rope{n}");
         for &mode in &cfg.modes {
             // Side by side: the raw echo, then the service, in the same wait mode.
-            step += 1;
-            eprintln!(
-                "[{step}/{total}] {n} links, raw iceoryx2 echo, {}",
-                mode_name(mode)
-            );
-            let prefix = format!("{tag}r{n}{}_", mode_name(mode));
+            let wait = mode_name(mode);
+            let prefix = format!("{tag}r{n}{wait}_");
             let mut raw = Command::new(cfg.bin_dir.join("latency"));
-            raw.args(["raw-server", "--prefix", &prefix, "--wait", mode_name(mode)])
+            raw.args(["raw-server", "--prefix", &prefix, "--wait", wait])
                 .args(["--elements", &(n + 1).to_string(), "--pin", "0"]);
-            let mut p = Proc::ready(raw, "the raw echo")?;
             let mut args = common(&chain);
-            args.extend(["--raw".into(), "--prefix".into(), prefix.clone()]);
-            args.extend(["--wait".into(), mode_name(mode).into()]);
-            let s = client_summary(cfg, &args, "latency client (raw)")?;
-            p.stop();
-            results.push(Measured {
-                links: n,
-                transport: "raw iceoryx2",
-                mode: mode_name(mode),
-                s,
-            });
+            args.extend(["--raw", "--prefix", &prefix, "--wait", wait].map(String::from));
+            measure(raw, args, planned(n, "raw iceoryx2", wait))?;
 
-            step += 1;
-            eprintln!(
-                "[{step}/{total}] {n} links, solver-service, {}",
-                mode_name(mode)
-            );
-            let prefix = format!("{tag}s{n}{}_", mode_name(mode));
+            let prefix = format!("{tag}s{n}{wait}_");
             let mut svc = Command::new(cfg.bin_dir.join("solver-service"));
             svc.args(["--scene", &scene_arg, "--prefix", &prefix, "--no-persist"])
-                .args(["--wait", mode_name(mode), "--pin", "0"]);
-            let mut p = Proc::ready(svc, "solver-service")?;
+                .args(["--wait", wait, "--pin", "0"]);
             let mut args = common(&chain);
-            args.extend(["--prefix".into(), prefix.clone()]);
-            args.extend(["--wait".into(), mode_name(mode).into()]);
-            let s = client_summary(cfg, &args, "latency client (service)")?;
-            p.stop();
-            results.push(Measured {
-                links: n,
-                transport: "service, iceoryx2",
-                mode: mode_name(mode),
-                s,
-            });
+            args.extend(["--prefix", &prefix, "--wait", wait].map(String::from));
+            measure(svc, args, planned(n, "service, iceoryx2", wait))?;
         }
-        step += 1;
-        eprintln!("[{step}/{total}] {n} links, service protocol over a Unix socket");
         let sock = tmp.path().join(format!("s{n}.sock"));
         let sock_arg = sock.display().to_string();
         let mut svc = Command::new(cfg.bin_dir.join("solver-service"));
         svc.args(["--scene", &scene_arg, "unix", "--socket", &sock_arg])
             .args(["--pin", "0", "--connections", "1"]);
-        let mut p = Proc::ready(svc, "solver-service unix")?;
         let mut args = common(&chain);
-        args.extend(["--unix".into(), sock_arg.clone()]);
-        let s = client_summary(cfg, &args, "latency client (unix)")?;
-        p.stop();
-        results.push(Measured {
-            links: n,
-            transport: "service, Unix socket",
-            mode: "blocking read",
-            s,
-        });
+        args.extend(["--unix".to_string(), sock_arg.clone()]);
+        measure(
+            svc,
+            args,
+            planned(n, "service, Unix socket", "blocking read"),
+        )?;
     }
 
     writeln!(

@@ -115,6 +115,7 @@ use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
+pub mod ports;
 pub mod text;
 
 /// Protocol version; it is part of every type name.

@@ -17,15 +17,12 @@
 
 use crate::chain_set::ChainSet;
 use crate::persist::{JournalMode, Store};
-use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
-use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
+use protocol::ports::{ServerPorts, service_name};
 use protocol::{
-    Command, MAX_CLIENTS, RequestHeader, ResponseHeader, SERVICE_COMMAND, SERVICE_STATE,
-    SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER, StateHeader, Status, Vec3,
+    Command, MAX_CLIENTS, RequestHeader, ResponseHeader, SERVICE_STATE, StateHeader, Status, Vec3,
 };
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -76,10 +73,8 @@ type Svc = ipc::Service;
 
 struct Ports {
     node: Node<Svc>,
-    server: Server<Svc, [Vec3], RequestHeader, [Vec3], ResponseHeader>,
+    server_ports: ServerPorts,
     publisher: Publisher<Svc, [Vec3], StateHeader>,
-    wake_listener: Listener<Svc>,
-    wake_notifier: Notifier<Svc>,
 }
 
 fn err<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> String {
@@ -110,31 +105,9 @@ fn open_ports(
         .name(&"tractrix-solver".try_into().map_err(err("node name"))?)
         .create::<Svc>()
         .map_err(err("cannot create the iceoryx2 node"))?;
-    let name = |s: &str| -> Result<ServiceName, String> {
-        s.try_into().map_err(|e| format!("service name {s}: {e:?}"))
-    };
-    let command = node
-        .service_builder(&name(SERVICE_COMMAND)?)
-        .request_response::<[Vec3], [Vec3]>()
-        .request_user_header::<RequestHeader>()
-        .response_user_header::<ResponseHeader>()
-        .max_servers(1)
-        .max_clients(MAX_CLIENTS)
-        .max_nodes(MAX_CLIENTS + 4)
-        .max_active_requests_per_client(2)
-        .open_or_create()
-        .map_err(err(
-            "cannot open or create the command service (a peer of another protocol version?)",
-        ))?;
-    let server = command
-        .server_builder()
-        .initial_max_slice_len(max_elements)
-        .create()
-        .map_err(err(
-            "cannot create the server (is another solver-service running with this prefix?)",
-        ))?;
-    let state = node
-        .service_builder(&name(SERVICE_STATE)?)
+    let server_ports = ServerPorts::open(&node, max_elements)?;
+    let publisher = node
+        .service_builder(&service_name(SERVICE_STATE)?)
         .publish_subscribe::<[Vec3]>()
         .user_header::<StateHeader>()
         .max_publishers(1)
@@ -144,39 +117,14 @@ fn open_ports(
         .history_size(0)
         .enable_safe_overflow(true)
         .open_or_create()
-        .map_err(err("cannot open or create the state stream"))?;
-    let publisher = state
+        .map_err(err("cannot open or create the state stream"))?
         .publisher_builder()
         .initial_max_slice_len(max_joints)
         .create()
         .map_err(err("cannot create the state publisher"))?;
-    let wake_server = node
-        .service_builder(&name(SERVICE_WAKE_SERVER)?)
-        .event()
-        .max_notifiers(MAX_CLIENTS + 2)
-        .max_listeners(2)
-        .max_nodes(MAX_CLIENTS + 4)
-        .open_or_create()
-        .map_err(err("cannot open or create the wake-server event"))?;
-    let wake_client = node
-        .service_builder(&name(SERVICE_WAKE_CLIENT)?)
-        .event()
-        .max_notifiers(2)
-        .max_listeners(MAX_CLIENTS + 2)
-        .max_nodes(MAX_CLIENTS + 4)
-        .open_or_create()
-        .map_err(err("cannot open or create the wake-client event"))?;
     Ok(Ports {
-        wake_listener: wake_server
-            .listener_builder()
-            .create()
-            .map_err(err("wake listener"))?,
-        wake_notifier: wake_client
-            .notifier_builder()
-            .create()
-            .map_err(err("wake notifier"))?,
         node,
-        server,
+        server_ports,
         publisher,
     })
 }
@@ -200,7 +148,12 @@ impl std::fmt::Debug for Solver {
 impl Solver {
     fn serve_pending(&mut self, ports: &Ports) -> Result<usize, String> {
         let mut served = 0;
-        while let Some(req) = ports.server.receive().map_err(err("receive"))? {
+        while let Some(req) = ports
+            .server_ports
+            .server
+            .receive()
+            .map_err(err("receive"))?
+        {
             served += 1;
             let t0 = Instant::now();
             let header = *req.user_header();
@@ -224,17 +177,7 @@ impl Solver {
                     eprintln!("solver-service: cannot loan a response of {n} elements: {e:?}");
                 }
             }
-            let listener = header.listener_id();
-            if listener != 0 {
-                ports.wake_notifier.for_each_listener(|m, d| {
-                    if d.listener_id.value() == listener {
-                        let _ = m.notify();
-                        CallbackProgression::Stop
-                    } else {
-                        CallbackProgression::Continue
-                    }
-                });
-            }
+            ports.server_ports.wake_client(header.listener_id());
             drop(req);
             if changed {
                 self.publish(ports, &header, h.sequence);
@@ -438,14 +381,14 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
                 .create::<Svc>()
                 .map_err(err("cannot create the WaitSet"))?;
             let guard = ws
-                .attach_notification(&ports.wake_listener)
+                .attach_notification(&ports.server_ports.wake_listener)
                 .map_err(err("cannot attach the wake listener"))?;
             let mut failure: Option<String> = None;
             loop {
                 let r = ws.wait_and_process_once_with_timeout(
                     |id| {
                         if id.has_event_from(&guard) {
-                            let _ = ports.wake_listener.try_wait(|_| {});
+                            let _ = ports.server_ports.wake_listener.try_wait(|_| {});
                         }
                         CallbackProgression::Continue
                     },
@@ -487,7 +430,7 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
                         // serve once more. A request that landed after the last poll has its
                         // notification dropped here, and would otherwise wait for the next tick
                         // (50 ms; the loaded latency bench caught it).
-                        let _ = ports.wake_listener.try_wait(|_| {});
+                        let _ = ports.server_ports.wake_listener.try_wait(|_| {});
                         if solver.serve_pending(&ports)? == 0 {
                             break;
                         }
