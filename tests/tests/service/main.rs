@@ -390,6 +390,126 @@ fn every_error_leaves_the_state_unchanged() {
             "max_iterations",
         ),
         (
+            "+inf max step",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = f64::INFINITY
+            }),
+            p(1., 0., 0.),
+            Status::NonFinite,
+            "max_step",
+        ),
+        (
+            "zero max step",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = 0.0
+            }),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "max_step",
+        ),
+        (
+            "negative zero max step",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = -0.0
+            }),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "max_step",
+        ),
+        (
+            "subnormal max step",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::MaxStep as u32;
+                h.max_step = 1e-310
+            }),
+            p(31., 10., 0.),
+            Status::TooManySubsteps,
+            "substeps",
+        ),
+        (
+            "u32::MAX fixed substeps",
+            with(Move, 0, &|h| {
+                h.substep_mode = SubstepMode::Fixed as u32;
+                h.substeps = u32::MAX
+            }),
+            p(1., 0., 0.),
+            Status::TooManySubsteps,
+            "substeps",
+        ),
+        (
+            "unknown precision",
+            with(Move, 0, &|h| h.precision = 3),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "precision 3",
+        ),
+        (
+            "chain u32::MAX",
+            req(Move, u32::MAX),
+            p(1., 0., 0.),
+            Status::UnknownChain,
+            "chain 4294967295",
+        ),
+        (
+            "joint just below JOINT_HEAD",
+            with(Move, 0, &|h| h.joint = u32::MAX - 1),
+            p(1., 0., 0.),
+            Status::JointOutOfRange,
+            "joint 4294967294",
+        ),
+        (
+            "-1e308 in a path",
+            req(Path, 1),
+            vec![Vec3::new(0., -50., 0.), Vec3::new(-1e308, 0., 0.)],
+            Status::TooManySubsteps,
+            "substeps",
+        ),
+        (
+            "NaN reach target",
+            req(Reach, 2),
+            p(f64::NAN, 0., 0.),
+            Status::NonFinite,
+            "not finite",
+        ),
+        (
+            "1e308 reach target",
+            req(Reach, 2),
+            p(1e308, 0., 0.),
+            Status::Unreachable,
+            "nearest",
+        ),
+        (
+            "+inf tolerance",
+            with(Reach, 2, &|h| h.tolerance = f64::INFINITY),
+            p(1., 1., 0.),
+            Status::NonFinite,
+            "tolerance",
+        ),
+        (
+            "1e308 tolerance",
+            with(Reach, 2, &|h| h.tolerance = 1e308),
+            p(1., 1., 0.),
+            Status::BadOption,
+            "tolerance",
+        ),
+        (
+            "reach substeps above the limit",
+            with(Reach, 2, &|h| h.substeps = u32::MAX),
+            p(1., 1., 0.),
+            Status::BadOption,
+            "substeps",
+        ),
+        (
+            "snapshot with a point",
+            req(Snapshot, 0),
+            p(1., 0., 0.),
+            Status::BadPointCount,
+            "got 1",
+        ),
+        (
             "substep mode on reach",
             with(Reach, 2, &|h| h.substep_mode = 1),
             p(1., 1., 0.),
