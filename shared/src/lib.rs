@@ -141,6 +141,15 @@ pub const MAX_RESPONSE_ELEMENTS: u32 = 2 * MAX_LINKS + 1;
 pub const MAX_PATH_POINTS: u32 = 4096;
 /// Most chains in one scene.
 pub const MAX_CHAINS: u32 = 256;
+
+/// How far from the origin, in shortest links, a free chain's target may lie on any axis: 2³² links in
+/// f64 and 2¹² in f32. Beyond it the spacing of floating-point numbers exceeds 2⁻²⁰ of a link (f64) or
+/// 2⁻¹¹ (f32), and joint positions there can no longer carry the link lengths; such targets are
+/// refused with [`Status::TooFar`]. A 1-unit link in f64 may be moved 4.3·10⁹ units from the origin.
+pub fn max_coordinate(shortest_link: f64, f32_chain: bool) -> f64 {
+    shortest_link * if f32_chain { 4096.0 } else { 4_294_967_296.0 }
+}
+
 /// Most concurrent client ports (each running client binary takes one).
 pub const MAX_CLIENTS: usize = 16;
 /// Bytes of a chain name (UTF-8, NUL-padded; a name fills at most `NAME_LEN - 1` bytes).
@@ -289,6 +298,9 @@ pub enum Status {
     /// Collision handling could not keep the links apart (the chain is "locked", section 4.2): the
     /// move was refused. Pulling a knot tight ends this way.
     Locked = 14,
+    /// A free chain's target lies so far from the origin that joint positions there cannot hold the
+    /// link lengths: beyond [`max_coordinate`] shortest links from the origin on any axis.
+    TooFar = 15,
 }
 
 impl Status {
@@ -309,6 +321,7 @@ impl Status {
             Status::PersistenceFailed => "persistence-failed",
             Status::Internal => "internal",
             Status::Locked => "locked",
+            Status::TooFar => "too-far",
         }
     }
 }
@@ -378,7 +391,7 @@ wire_enum_from_u32! {
     Command { Move, Path, Reach, Query, Reset, Describe, Snapshot }
     Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
              Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
-             Internal, Locked }
+             Internal, Locked, TooFar }
     WireMethod { Default, Tractrix, Paper, FollowTheLeader }
     Precision { Default, F64, F32 }
     SubstepMode { Default, Fixed, MaxStep }
@@ -751,6 +764,7 @@ mod tests {
         assert_eq!(Command::from_u32(0), None);
         assert_eq!(Command::from_u32(8), None);
         assert_eq!(Status::from_u32(14), Some(Status::Locked));
+        assert_eq!(Status::from_u32(15), Some(Status::TooFar));
         assert_eq!(Status::from_u32(15), None);
         assert_eq!(WireMethod::from_u32(4), None);
         assert_eq!(Precision::from_u32(2), Some(Precision::F32));

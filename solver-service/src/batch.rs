@@ -161,7 +161,7 @@ mod tests {
     }
 
     /// An f32 planar chain is served in f32: moves land within f32 rounding, a target that overflows
-    /// f32 is refused, asking for f64 is refused.
+    /// f32 is refused (too far: beyond 2¹² links), asking for f64 is refused.
     #[test]
     fn an_f32_planar_chain_is_served_in_f32() {
         let scene = crate::scene::parse_scene(
@@ -190,9 +190,9 @@ mod tests {
         }
         assert_eq!(
             (lines[1].status.as_str(), lines[2].status.as_str()),
-            ("non-finite", "bad-option")
+            ("too-far", "bad-option")
         );
-        assert!(lines[1].reason.contains("f32"), "{}", lines[1].reason);
+        assert!(lines[1].reason.contains("4.096e1"), "{}", lines[1].reason);
     }
 
     #[test]

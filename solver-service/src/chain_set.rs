@@ -66,6 +66,8 @@ pub(crate) use each_form;
 pub struct Entry {
     pub def: ChainDef,
     pub geometry: Geometry,
+    /// Largest coordinate a target of this (free) chain may have: [`protocol::max_coordinate`].
+    pub max_coordinate: f64,
 }
 
 /// Every chain of a scene plus the state sequence number.
@@ -152,9 +154,11 @@ impl ChainSet {
                 _ => held(def).map(Geometry::Spatial64),
             }
             .map_err(|e| format!("chain {:?}: {e}", def.name))?;
+            let shortest = def.lengths.iter().copied().fold(f64::INFINITY, f64::min);
             entries.push(Entry {
                 def: def.clone(),
                 geometry: g,
+                max_coordinate: protocol::max_coordinate(shortest, def.precision == Precision::F32),
             });
         }
         Ok(ChainSet {
@@ -372,6 +376,16 @@ impl ChainSet {
                 return Err(fail(
                     Status::NonFinite,
                     format_args!("point {i} is not finite"),
+                ));
+            }
+            let far = p.x.abs().max(p.y.abs()).max(p.z.abs());
+            if def.kind == ChainKind::Free && far > entry.max_coordinate {
+                return Err(fail(
+                    Status::TooFar,
+                    format_args!(
+                        "point {i}: {far:.3e} is beyond {:.3e}: too far to keep link lengths",
+                        entry.max_coordinate
+                    ),
                 ));
             }
             if def.dims == 2 && p.z != 0.0 {
@@ -628,12 +642,24 @@ where
     };
     let last: Vector<T, D> = from_array(points[points.len() - 1].to_array());
     let outcome = if let Some((model, ws)) = &mut g.collision {
-        // Each target is a straight move with collision; a failure anywhere is rolled back by the
-        // caller (the whole request changes nothing).
+        // Each target is a straight move with collision. A failed move leaves the chain as it was
+        // before that move, so a path that fails after its first point is undone here from the
+        // spare copy (the whole request changes nothing).
         let mut total = MoveOutcome::default();
+        if points.len() > 1 {
+            g.spare.copy_from(&g.chain);
+        }
         for p in points {
             let t: Vector<T, D> = from_array(p.to_array());
-            let o = move_joint_colliding(&mut g.chain, joint, t, &opts, model, ws)?;
+            let o = match move_joint_colliding(&mut g.chain, joint, t, &opts, model, ws) {
+                Ok(o) => o,
+                Err(e) => {
+                    if points.len() > 1 {
+                        std::mem::swap(&mut g.chain, &mut g.spare);
+                    }
+                    return Err(e);
+                }
+            };
             total.substeps = total.substeps.saturating_add(o.substeps);
             total.paper_fallbacks = total.paper_fallbacks.saturating_add(o.paper_fallbacks);
             total.collision_iterations = total

@@ -159,6 +159,10 @@ struct RawObstacle {
     normal: Option<Spanned<Vec<f64>>>,
 }
 
+/// Most links all the chains of a scene may have together (about 100 MB of state and buffers): a
+/// short file cannot make the service allocate gigabytes.
+pub const MAX_SCENE_LINKS: usize = 1 << 20;
+
 /// Most obstacles a scene may declare (each is tested against every link of the chains that list it).
 pub const MAX_OBSTACLES: usize = 256;
 
@@ -294,8 +298,22 @@ pub fn parse_scene(text: &str, file: &str) -> Result<Scene, SceneError> {
         obstacles.push((o.name.get_ref().clone(), def));
     }
     let mut chains: Vec<ChainDef> = Vec::with_capacity(raw.chain.len());
+    let mut total_links = 0usize;
     for c in &raw.chain {
         let def = chain_def(c.get_ref(), &obstacles, &at)?;
+        total_links += def.lengths.len();
+        if total_links > MAX_SCENE_LINKS {
+            let c = c.get_ref();
+            let span = c.links.as_ref().map(|l| l.span()).unwrap_or(c.name.span());
+            return Err(at(
+                span,
+                format!(
+                    "chain {:?}: field `links`: the scene's chains have {total_links} links in \
+                     all; at most {MAX_SCENE_LINKS}",
+                    def.name
+                ),
+            ));
+        }
         if chains.iter().any(|d| d.name == def.name) {
             let c = c.get_ref();
             return Err(at(
@@ -627,6 +645,22 @@ fn chain_def(
             c.name.span(),
             "link_length",
             "the chain's joints overflow".into(),
+        ));
+    }
+    // Free chains must start where positions can hold their link lengths (requests beyond that are
+    // refused as too far; a chain that starts there could never be moved).
+    let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
+    let limit = protocol::max_coordinate(shortest, precision == Precision::F32);
+    let far = points.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    if kind == ChainKind::Free && far > limit {
+        let span = c.base.as_ref().map(|b| b.span()).unwrap_or(c.name.span());
+        return Err(err(
+            span,
+            "base",
+            format!(
+                "a joint lies {far:e} from the origin, beyond {limit:e} (2^32 shortest links in \
+                 f64, 2^12 in f32), where positions cannot hold the link lengths"
+            ),
         ));
     }
     let thickness = match &c.thickness {
@@ -976,6 +1010,42 @@ mod tests {
                 "overflow",
             ),
             (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nbase = [0, 5e9, 0]\n",
+                5,
+                "`base`: a joint lies 5e9",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nprecision = \"f32\"\nlinks = 8000\nlink_length = 1.0\n",
+                2,
+                "2^12 in f32",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 0.0\n",
+                4,
+                "`link_length`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 0\nlink_length = 1.0\n",
+                3,
+                "`links`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = -4\nlink_length = 1.0\n",
+                3,
+                "`links`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = \"thick\"\n",
+                5,
+                "thickness",
+            ),
+            ("[[chain]]\nlinks = 2\nlink_length = 1.0\n", 1, "name"),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nlink_length = 2.0\n",
+                5,
+                "duplicate",
+            ),
+            (
                 "[[chain]]\nname = \"a\"\nlinks = 3\nlink_lengths = [1.0, 2.0]\n",
                 4,
                 "2 lengths for 3 links",
@@ -990,5 +1060,26 @@ mod tests {
         }
         let empty = parse_scene("", "empty.toml").unwrap_err();
         assert!(empty.message.contains("no [[chain]]"));
+    }
+
+    /// Many chains at the per-chain maximum: the total is bounded, and the error names the chain that
+    /// crosses it (its `links` line), before its successors are built.
+    #[test]
+    fn the_scene_total_of_links_is_bounded() {
+        let text: String = (0..40)
+            .map(|i| format!("[[chain]]\nname = \"c{i}\"\nlinks = 65536\nlink_length = 1.0\n"))
+            .collect();
+        let e = parse_scene(&text, "big.toml").unwrap_err();
+        // Chain 16 (the 17th) crosses 2^20; each chain takes 4 lines, `links` is the third.
+        assert_eq!(e.line, 16 * 4 + 3, "{e}");
+        assert!(e.message.contains("chain \"c16\": field `links`"), "{e}");
+        assert!(e.message.contains("at most 1048576"), "{e}");
+        // 16 such chains are fine.
+        let ok: String = text
+            .lines()
+            .take(16 * 4)
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert_eq!(parse_scene(&ok, "ok.toml").unwrap().chains.len(), 16);
     }
 }

@@ -143,17 +143,60 @@ pub fn tractrix_step<T: Real, const D: usize>(
             tail_shift: *s,
         };
     }
-    let inv_d = one / d;
-    let link = (u * (e * m - p) + w * (two * q)) * (inv_d * len);
-    // 1 − E = e1 (1 + q)
-    let cu = b - p * m * e1 * (one + q) * inv_d;
     // 2c − e1 m; for c > 0 it cancels toward c − 1 + q m and is written q m − p (p = 1 − c, accurately).
-    let cw = if c > T::zero() {
+    let cw_num = if c > T::zero() {
         e1 * (q * m - p)
     } else {
         e1 * (two * c - e1 * m)
-    } * inv_d;
-    let tail_shift = (u * cu + w * cw) * len;
+    };
+    // 1 − E = e1 (1 + q)
+    let cu_num = p * m * e1 * (one + q);
+    if d > T::lit(1e-30) {
+        let inv_d = one / d;
+        let link = (u * ((e * m - p) * inv_d) + w * (two * q * inv_d)) * len;
+        let tail_shift = (u * (b - cu_num * inv_d) + w * (cw_num * inv_d)) * len;
+        return LinkStep { link, tail_shift };
+    }
+    // D tiny: a push nearly along the link (c > 0, |w|² and E = e^{−2b} near or below the smallest
+    // normal number: ~44+ links in one substep in f32, ~350+ in f64). 1/D overflows and E, |w|² lose
+    // their digits, so the step is written with |w| and q alone: with τ = |w| / (q m) the link turns
+    // from û toward ŵ by φ, tan(φ/2) = τ — unit length by construction — and the tail shift's terms
+    // are the same ratios. τ or 1/τ, whichever is at most 1, keeps every quantity in range.
+    // |w| scaled first: its square may be subnormal.
+    let a = w.amax();
+    if a == T::zero() {
+        return LinkStep {
+            link: *t,
+            tail_shift: *s,
+        };
+    }
+    let ws = w / a;
+    let wn = ws.norm();
+    let r = a * wn;
+    let wh = ws / wn;
+    let x = q * m;
+    // cos φ, sin φ, τ²/(1+τ²) and (τ m − τ² |w|)/(1+τ²), the coefficient of ŵ in the tail shift.
+    let (cos, sin, t2, cwc) = if r <= x {
+        let tau = r / x;
+        let den = one + tau * tau;
+        (
+            (one - tau * tau) / den,
+            two * tau / den,
+            tau * tau / den,
+            (tau * m - tau * tau * r) / den,
+        )
+    } else {
+        let sigma = x / r;
+        let den = sigma * sigma + one;
+        (
+            (sigma * sigma - one) / den,
+            two * sigma / den,
+            one / den,
+            (sigma * m - r) / den,
+        )
+    };
+    let link = (u * cos + wh * sin) * len;
+    let tail_shift = (u * (b - e1 * (one + q) * m * t2) + wh * (e1 * cwc)) * len;
     LinkStep { link, tail_shift }
 }
 

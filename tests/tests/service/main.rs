@@ -320,8 +320,15 @@ fn every_error_leaves_the_state_unchanged() {
                 h.max_step = 0.5
             }),
             p(1e308, 0., 0.),
-            Status::TooManySubsteps,
-            "substeps",
+            Status::TooFar,
+            "too far",
+        ),
+        (
+            "target 2^32 + 1 links out",
+            req(Move, 0),
+            p(0., 0., 4_294_967_297.0),
+            Status::TooFar,
+            "point 0",
         ),
         (
             "reach a free chain",
@@ -464,8 +471,8 @@ fn every_error_leaves_the_state_unchanged() {
             "-1e308 in a path",
             req(Path, 1),
             vec![Vec3::new(0., -50., 0.), Vec3::new(-1e308, 0., 0.)],
-            Status::TooManySubsteps,
-            "substeps",
+            Status::TooFar,
+            "point 1",
         ),
         (
             "NaN reach target",
@@ -755,4 +762,48 @@ fn chainctl_fails_fast_without_a_service() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("no solver-service runs"), "{err}");
     assert!(t0.elapsed() < Duration::from_secs(5));
+}
+
+#[test]
+fn a_bad_scene_file_is_named_and_nothing_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            "huge.toml",
+            "[[chain]]\nname = \"a\"\nlinks = 1000000000\nlink_length = 1.0\n",
+            ":3: chain \"a\": field `links`",
+        ),
+        ("malformed.toml", "[[chain]\nname = \"a\"\n", ":1: "),
+        (
+            "mistyped.toml",
+            "[[chain]]\nname = \"a\"\nlinks = 4\nlink_length = \"one\"\n",
+            ":4: ",
+        ),
+        (
+            "twice.toml",
+            "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\n",
+            ":6: field `name`: chain \"a\" is declared twice",
+        ),
+    ];
+    for (file, text, expected) in cases {
+        let path = dir.path().join(file);
+        std::fs::write(&path, text).unwrap();
+        let t0 = Instant::now();
+        let out = std::process::Command::new(bin("solver-service"))
+            .args(["--prefix", &unique_prefix(), "--no-persist", "--scene"])
+            .arg(&path)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{file}: {err}");
+        assert!(
+            err.contains(&format!("{}{expected}", path.display())),
+            "{file}: {err:?} should name the file, line and field ({expected:?})"
+        );
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "{file} took {:?}",
+            t0.elapsed()
+        );
+    }
 }
