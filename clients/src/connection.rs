@@ -142,9 +142,9 @@ pub fn count_refusal(refused: &mut Vec<(String, u64)>, name: &str) {
 #[derive(Debug, thiserror::Error)]
 pub enum CallError {
     #[error(
-        "no solver-service runs with prefix {prefix:?} (start one: cargo run --release -p solver-service)"
+        "no solver-service runs with prefix {prefix:?} (waited {waited:?}; start one: cargo run --release -p solver-service, or wait longer: --wait-for-service SECONDS)"
     )]
-    NoService { prefix: String },
+    NoService { prefix: String, waited: Duration },
     #[error(
         "the service with prefix {prefix:?} speaks another protocol version (this client: v{})",
         protocol::PROTOCOL_VERSION
@@ -226,6 +226,7 @@ impl Connection {
                 Err(RequestResponseOpenError::DoesNotExist) => {
                     return Err(CallError::NoService {
                         prefix: opts.prefix.clone(),
+                        waited: opts.connect_timeout,
                     });
                 }
                 Err(RequestResponseOpenError::IncompatibleRequestOrResponseType) => {
@@ -297,6 +298,7 @@ impl Connection {
         if pending.number_of_server_connections() == 0 {
             return Err(CallError::NoService {
                 prefix: self.opts.prefix.clone(),
+                waited: Duration::ZERO,
             });
         }
         if let Some(n) = &self.wake_server {

@@ -13,6 +13,7 @@
 //! * the latency client against the service, the raw echo and the Unix socket, and the bench driver
 //!   (`latency`).
 
+mod faults;
 mod knots;
 mod latency;
 mod tools;
