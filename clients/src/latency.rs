@@ -46,6 +46,11 @@ pub struct Plan {
     pub radius: f64,
     /// Moves per turn of the circle.
     pub points_per_turn: usize,
+    /// Stop sending after this long, even before `samples` (warmup included).
+    pub duration: Option<Duration>,
+    /// Write the sequence number of every `ok` response (warmup included), one per line: the load
+    /// test merges the files of all hands and checks that no change was lost or answered twice.
+    pub sequences: Option<PathBuf>,
 }
 
 impl Default for Plan {
@@ -58,6 +63,8 @@ impl Default for Plan {
             rate_hz: 0.0,
             radius: 0.5,
             points_per_turn: 200,
+            duration: None,
+            sequences: None,
         }
     }
 }
@@ -108,6 +115,14 @@ pub struct Summary {
     pub solve: Percentiles,
     /// Responses whose `request_id` was not the one sent (must be 0).
     pub mismatched: u64,
+    /// `ok` responses whose sequence number was not above the previous one's (a duplicated or stale
+    /// response; must be 0).
+    #[serde(default)]
+    pub out_of_order: u64,
+    /// Largest relative deviation of a link length read off any response's joints from the chain's
+    /// link lengths (the service's own published positions, f64 rounding included).
+    #[serde(default)]
+    pub max_length_error: f64,
 }
 
 fn histogram() -> Histogram<u64> {
@@ -124,16 +139,24 @@ enum Link {
 }
 
 impl Link {
-    /// One request; returns the response header and a checksum of the payload (every element read).
+    /// One request; returns the response header, a checksum of the payload (every element read) and
+    /// the largest relative link-length error of its joints against `lengths` (0 if `lengths` is empty).
     fn call(
         &mut self,
         h: &RequestHeader,
         points: &[Vec3],
-    ) -> anyhow::Result<(ResponseHeader, f64)> {
+        lengths: &[f64],
+    ) -> anyhow::Result<(ResponseHeader, f64, f64)> {
+        let read = |r: &ResponseHeader, p: &[Vec3]| {
+            let joints = &p[..(r.n_joints as usize).min(p.len())];
+            (
+                *r,
+                p.iter().map(|v| v.x + v.y + v.z).sum::<f64>(),
+                length_error(joints, lengths),
+            )
+        };
         match self {
-            Link::Iox(c) => Ok(c.call_with(*h, points, |r, p| {
-                (*r, p.iter().map(|v| v.x + v.y + v.z).sum::<f64>())
-            })?),
+            Link::Iox(c) => Ok(c.call_with(*h, points, read)?),
             Link::Unix {
                 stream,
                 buf,
@@ -141,10 +164,28 @@ impl Link {
             } => {
                 solver::unix_socket::write_request(stream, buf, h, points)?;
                 let r = solver::unix_socket::read_response(stream, elements)?;
-                Ok((r, elements.iter().map(|v| v.x + v.y + v.z).sum::<f64>()))
+                Ok(read(&r, elements))
             }
         }
     }
+}
+
+/// Largest relative deviation of the distances between consecutive joints from `lengths` (0 when the
+/// counts do not match: an error response, or no lengths to compare with).
+pub fn length_error(joints: &[Vec3], lengths: &[f64]) -> f64 {
+    if joints.len() != lengths.len() + 1 {
+        return 0.0;
+    }
+    joints
+        .windows(2)
+        .zip(lengths)
+        .map(|(w, l)| {
+            let d = (w[1].x - w[0].x)
+                .hypot(w[1].y - w[0].y)
+                .hypot(w[1].z - w[0].z);
+            ((d - l) / l).abs()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Runs `plan` against `target`. `progress` is called now and then with the share done.
@@ -172,11 +213,14 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
         ),
     };
     // The chain and the joint's start, from describe (the raw echo knows no chains).
-    let (chain, centre, link_len) = if raw {
-        (0, Vec3::default(), 1.0)
+    let (chain, centre, lengths) = if raw {
+        (0, Vec3::default(), Vec::new())
     } else {
         find(&mut link, &plan.chain, plan.joint)?
     };
+    let link_len = lengths.first().copied().unwrap_or(1.0);
+    let mut sequences = Vec::new();
+    let mut last_sequence = 0;
     let mut header = RequestHeader::new(Command::Move, chain);
     header.joint = plan.joint;
     let r = plan.radius * link_len;
@@ -189,6 +233,9 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
     let start = Instant::now();
     let mut checksum = 0.0;
     for i in 0..plan.warmup + plan.samples {
+        if plan.duration.is_some_and(|d| start.elapsed() >= d) {
+            break;
+        }
         let due = period.map(|p| start + p.mul_f64(i as f64));
         if let Some(due) = due {
             wait_until(due);
@@ -203,9 +250,19 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
         )];
         header.request_id = i as u64 + 1;
         let sent = Instant::now();
-        let (resp, sum) = link.call(&header, &target)?;
+        let (resp, sum, len_err) = link.call(&header, &target, &lengths)?;
         let done = Instant::now();
         checksum += sum;
+        s.max_length_error = s.max_length_error.max(len_err);
+        if resp.status == Status::Ok as u32 && !raw {
+            if resp.sequence <= last_sequence {
+                s.out_of_order += 1;
+            }
+            last_sequence = resp.sequence;
+            if plan.sequences.is_some() {
+                sequences.push(resp.sequence);
+            }
+        }
         if i < plan.warmup {
             continue;
         }
@@ -227,6 +284,10 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
     }
     if !checksum.is_finite() {
         anyhow::bail!("a response held a non-finite coordinate");
+    }
+    if let Some(path) = &plan.sequences {
+        let text: String = sequences.iter().map(|q| format!("{q}\n")).collect();
+        std::fs::write(path, text).map_err(|e| anyhow::anyhow!("write {}: {e}", path.display()))?;
     }
     s.round_trip = Percentiles::of(&round_trip);
     s.from_due = period.map(|_| Percentiles::of(&from_due));
@@ -251,8 +312,8 @@ pub fn wait_until(due: Instant) {
     }
 }
 
-/// The chain's handle, the joint's position and the chain's first link length.
-fn find(link: &mut Link, name: &str, joint: u32) -> anyhow::Result<(u32, Vec3, f64)> {
+/// The chain's handle, the joint's position and the chain's link lengths.
+fn find(link: &mut Link, name: &str, joint: u32) -> anyhow::Result<(u32, Vec3, Vec<f64>)> {
     let mut c = 0;
     loop {
         let mut elements = Vec::new();
@@ -263,11 +324,11 @@ fn find(link: &mut Link, name: &str, joint: u32) -> anyhow::Result<(u32, Vec3, f
                 (r.header, 0.0)
             }
             Link::Unix { .. } => {
-                let r = link.call(&RequestHeader::new(Command::Describe, c), &[])?;
+                let r = link.call(&RequestHeader::new(Command::Describe, c), &[], &[])?;
                 if let Link::Unix { elements: e, .. } = link {
                     elements = e.clone();
                 }
-                r
+                (r.0, r.1)
             }
         };
         if h.status != Status::Ok as u32 {
@@ -282,10 +343,15 @@ fn find(link: &mut Link, name: &str, joint: u32) -> anyhow::Result<(u32, Vec3, f
             let p = *elements
                 .get(j)
                 .ok_or_else(|| anyhow::anyhow!("joint {joint} is past the head of {name:?}"))?;
-            let len = (elements[1].x - elements[0].x)
-                .hypot(elements[1].y - elements[0].y)
-                .hypot(elements[1].z - elements[0].z);
-            return Ok((c, p, len));
+            let lengths = elements[..=h.n_links as usize]
+                .windows(2)
+                .map(|w| {
+                    (w[1].x - w[0].x)
+                        .hypot(w[1].y - w[0].y)
+                        .hypot(w[1].z - w[0].z)
+                })
+                .collect();
+            return Ok((c, p, lengths));
         }
         c += 1;
         if c >= h.n_chains {

@@ -14,7 +14,7 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 use clients::cli::usage;
 use clients::latency::{Plan, Target, WaitMode, connect_options, run as run_plan, serve_raw};
-use clients::latency_bench::{BenchConfig, run as run_bench};
+use clients::latency_bench::{BenchConfig, LoadConfig, load, run as run_bench};
 use protocol::JOINT_HEAD;
 use std::io::Write;
 use std::path::PathBuf;
@@ -38,6 +38,28 @@ enum Cmd {
     RawServer(RawArgs),
     /// Start everything in turn and print the tables of BENCHMARKS.md.
     Bench(BenchArgs),
+    /// The load run: a hand at full speed and one at 1 kHz on one rope plus a viewer; checks that no
+    /// change is lost or answered twice and that link lengths hold, and prints the tails. Exits 1 if a
+    /// check fails.
+    Load(LoadArgs),
+}
+
+#[derive(Args, Debug)]
+struct LoadArgs {
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f64,
+    /// Do not pin (the service to core 0, the hands to core 1).
+    #[arg(long)]
+    no_pin: bool,
+    /// The service's wait mode.
+    #[arg(long, default_value = "hybrid")]
+    service_wait: String,
+    /// The hands' wait mode.
+    #[arg(long, default_value = "hybrid")]
+    hand_wait: String,
+    /// Print the report as one JSON line after the table.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args, Debug)]
@@ -76,6 +98,12 @@ struct ClientArgs {
     /// Print one JSON line instead of a table.
     #[arg(long)]
     json: bool,
+    /// Stop after this many seconds even if samples remain (warmup included).
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// Write the sequence number of every ok response to this file, one per line.
+    #[arg(long)]
+    sequences: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -148,6 +176,14 @@ fn run(cli: Cli) -> Result<i32> {
                 warmup: a.warmup,
                 rate_hz: a.rate,
                 radius: a.radius,
+                duration: match a.seconds {
+                    None => None,
+                    Some(t) if t.is_finite() && t > 0.0 && t <= 1e6 => {
+                        Some(Duration::from_secs_f64(t))
+                    }
+                    Some(t) => return Err(usage(format!("--seconds {t}: expected (0, 10^6]"))),
+                },
+                sequences: a.sequences,
                 ..Plan::default()
             };
             pin(a.pin)?;
@@ -175,11 +211,16 @@ fn run(cli: Cli) -> Result<i32> {
                 }
                 p("solve", &s.solve);
                 println!(
-                    "{} ok, {} refused, {} mismatched, {} elements per response",
-                    s.ok, s.refused, s.mismatched, s.elements
+                    "{} ok, {} refused, {} mismatched, {} out of order, {} elements per response, \
+                     link length error {:.1e}",
+                    s.ok, s.refused, s.mismatched, s.out_of_order, s.elements, s.max_length_error
                 );
             }
-            Ok(if s.refused + s.mismatched > 0 { 1 } else { 0 })
+            Ok(if s.refused + s.mismatched + s.out_of_order > 0 {
+                1
+            } else {
+                0
+            })
         }
         Cmd::RawServer(a) => {
             let wait = WaitMode::parse(&a.wait).map_err(usage)?;
@@ -203,6 +244,27 @@ fn run(cli: Cli) -> Result<i32> {
                 },
             )?;
             Ok(0)
+        }
+        Cmd::Load(a) => {
+            WaitMode::parse(&a.service_wait).map_err(usage)?;
+            WaitMode::parse(&a.hand_wait).map_err(usage)?;
+            let exe = std::env::current_exe()?;
+            let cfg = LoadConfig {
+                bin_dir: exe.parent().map(PathBuf::from).unwrap_or_default(),
+                seconds: a.seconds,
+                pin: !a.no_pin,
+                service_wait: a.service_wait,
+                hand_wait: a.hand_wait,
+            };
+            let report = load(&cfg, &mut std::io::stdout().lock())?;
+            if a.json {
+                println!("{}", serde_json::to_string(&report)?);
+            }
+            let problems = report.problems();
+            for p in &problems {
+                eprintln!("latency load: FAILED: {p}");
+            }
+            Ok(if problems.is_empty() { 0 } else { 1 })
         }
         Cmd::Bench(a) => {
             let sizes = a

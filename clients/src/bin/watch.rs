@@ -111,7 +111,11 @@ fn run(a: Args) -> Result<i32> {
     let deadline = a
         .duration
         .map(|d| Instant::now() + Duration::from_secs_f64(d));
-    let (mut states, mut frames, mut missed) = (0u64, 0u64, 0u64);
+    let (mut states, mut frames, mut missed, mut duplicated) = (0u64, 0u64, 0u64, 0u64);
+    // Link lengths per chain, read off the first state seen (lengths never change), and the largest
+    // relative deviation from them in any later state.
+    let mut lengths: HashMap<u32, Vec<f64>> = HashMap::new();
+    let mut length_error = 0.0f64;
     let mut last_seq: Option<u64> = None;
     // Frames are drawn when the stream is idle (drawing takes about a millisecond; a subscriber's buffer
     // holds 64 states), at most one per idle turn, and all at the end.
@@ -130,12 +134,30 @@ fn run(a: Args) -> Result<i32> {
                 )
             })?;
             let Some((h, joints)) = got else { break };
-            if let Some(prev) = last_seq
-                && h.sequence > prev + 1
-            {
-                missed += h.sequence - prev - 1;
+            if let Some(prev) = last_seq {
+                if h.sequence > prev + 1 {
+                    missed += h.sequence - prev - 1;
+                } else if h.sequence <= prev {
+                    duplicated += 1;
+                }
             }
-            last_seq = Some(h.sequence);
+            last_seq = Some(h.sequence.max(last_seq.unwrap_or(0)));
+            let dist =
+                |a: &[f64; 3], b: &[f64; 3]| (b[0] - a[0]).hypot(b[1] - a[1]).hypot(b[2] - a[2]);
+            match lengths.get(&h.chain) {
+                Some(l) if l.len() + 1 == joints.len() => {
+                    for (w, l) in joints.windows(2).zip(l) {
+                        length_error = length_error.max(((dist(&w[0], &w[1]) - l) / l).abs());
+                    }
+                }
+                Some(_) => {}
+                None => {
+                    lengths.insert(
+                        h.chain,
+                        joints.windows(2).map(|w| dist(&w[0], &w[1])).collect(),
+                    );
+                }
+            }
             let Some(info) = chains.get_mut(&h.chain) else {
                 continue;
             };
@@ -186,7 +208,10 @@ fn run(a: Args) -> Result<i32> {
     if let Some(w) = &mut csv {
         w.flush()?;
     }
-    eprintln!("watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps)");
+    eprintln!(
+        "watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps), \
+         {duplicated} duplicated, link length error {length_error:.1e}"
+    );
     Ok(0)
 }
 

@@ -185,3 +185,46 @@ fn latency_bench_prints_its_tables() {
     );
     assert!(err.contains("[3/3]"), "progress on stderr: {err}");
 }
+
+/// The load run (issue 6) for two seconds, nothing spinning (the tests share two cores): a hand at
+/// full speed and one at 1 kHz on one rope plus a viewer. Every change is accounted for exactly once
+/// over both hands, every response answers its own request in order, link lengths hold in every
+/// response and every viewed state, and the tails are recorded.
+#[test]
+fn the_load_run_loses_and_duplicates_nothing() {
+    let (ok, out, err) = run(&[
+        "load",
+        "--seconds",
+        "2",
+        "--no-pin",
+        "--service-wait",
+        "event",
+        "--hand-wait",
+        "event",
+        "--json",
+    ]);
+    assert!(ok, "latency load failed:\n{out}\n{err}");
+    let r: clients::latency_bench::LoadReport =
+        serde_json::from_str(out.lines().last().unwrap_or("")).expect("a JSON report");
+    assert!(r.problems().is_empty(), "{:?}", r.problems());
+    assert_eq!((r.lost, r.duplicated), (0, 0));
+    let (a, b) = (&r.full_speed, &r.one_khz);
+    assert_eq!(r.changes, a.ok + b.ok + 1000, "warmup included: {r:?}");
+    assert!(a.ok > 1000, "the full-speed hand made {} moves", a.ok);
+    assert!(
+        b.ok >= 1000 && b.ok <= 2000,
+        "the 1 kHz hand made {} moves",
+        b.ok
+    );
+    for h in [a, b] {
+        assert_eq!((h.refused, h.mismatched, h.out_of_order), (0, 0, 0));
+        assert!(h.max_length_error < 1e-12, "{}", h.max_length_error);
+        assert!(h.round_trip.p999 >= h.round_trip.p50 && h.round_trip.max > 0);
+    }
+    assert!(
+        b.from_due.is_some(),
+        "the 1 kHz hand counts from the due time"
+    );
+    assert!(r.viewer.contains(" 0 duplicated"), "{}", r.viewer);
+    assert!(out.contains("| full speed (head) |"), "{out}");
+}
