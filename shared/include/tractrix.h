@@ -1,0 +1,221 @@
+/* tractrix.h — the wire types of the tractrix solver service, protocol v1, for C, C++ and C#.
+ *
+ * Mirrors shared/src/lib.rs (the Rust crate `tractrix-shared`, module `protocol`), which documents
+ * every field; the test `cargo test -p tractrix-shared --test c_header` compiles this header with the
+ * machine's C compiler (and C++ compiler, when there is one) together with size and offset assertions
+ * generated from the Rust types, so the two cannot drift apart.
+ *
+ * Little-endian, natural alignment, no implicit padding: every gap is a named `reserved` field that
+ * must be zero. Zero every field of a request you do not set: zero means "the chain's default".
+ *
+ * Services (names relative to the iceoryx2 prefix, default "tractrix_"):
+ *   "tractrix/command"      request-response: request user header tractrix_RequestHeader, payload a
+ *                           slice of tractrix_Vec3 (targets); response user header
+ *                           tractrix_ResponseHeader, payload a slice of tractrix_Vec3 (n_joints joints,
+ *                           then n_angles rotation vectors).
+ *   "tractrix/state"        publish-subscribe: user header tractrix_StateHeader, payload tractrix_Vec3[].
+ *   "tractrix/wake-server"  event: notify after sending unless the server spins.
+ *   "tractrix/wake-client"  event: the server notifies the listener whose id is in client_listener.
+ * iceoryx2 type names (C++: static constexpr const char* IOX2_TYPE_NAME) are the TRACTRIX_TYPE_NAME_*
+ * macros below; peers with other type names are refused at open (another protocol version).
+ */
+#ifndef TRACTRIX_H
+#define TRACTRIX_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define TRACTRIX_PROTOCOL_VERSION 1u
+#define TRACTRIX_SERVICE_COMMAND "tractrix/command"
+#define TRACTRIX_SERVICE_STATE "tractrix/state"
+#define TRACTRIX_SERVICE_WAKE_SERVER "tractrix/wake-server"
+#define TRACTRIX_SERVICE_WAKE_CLIENT "tractrix/wake-client"
+#define TRACTRIX_DEFAULT_PREFIX "tractrix_"
+#define TRACTRIX_MAX_LINKS 65536u
+#define TRACTRIX_MAX_RESPONSE_ELEMENTS (2u * TRACTRIX_MAX_LINKS + 1u)
+#define TRACTRIX_MAX_PATH_POINTS 4096u
+#define TRACTRIX_MAX_CHAINS 256u
+#define TRACTRIX_NAME_LEN 32u
+#define TRACTRIX_REASON_LEN 96u
+#define TRACTRIX_JOINT_HEAD 0xFFFFFFFFu
+#define TRACTRIX_FLAG_ANGLES 1u
+#define TRACTRIX_COLLISION_SELF 1u
+#define TRACTRIX_COLLISION_OBSTACLES 2u
+#define TRACTRIX_COLLISION_PAPER_SPHERES 4u
+
+#define TRACTRIX_TYPE_NAME_VEC3 "tractrix.v1.Vec3"
+#define TRACTRIX_TYPE_NAME_REQUESTHEADER "tractrix.v1.RequestHeader"
+#define TRACTRIX_TYPE_NAME_RESPONSEHEADER "tractrix.v1.ResponseHeader"
+#define TRACTRIX_TYPE_NAME_STATEHEADER "tractrix.v1.StateHeader"
+
+/* Commands (RequestHeader.command). */
+enum tractrix_command {
+    TRACTRIX_CMD_MOVE = 1,
+    TRACTRIX_CMD_PATH = 2,
+    TRACTRIX_CMD_REACH = 3,
+    TRACTRIX_CMD_QUERY = 4,
+    TRACTRIX_CMD_RESET = 5,
+    TRACTRIX_CMD_DESCRIBE = 6,
+    TRACTRIX_CMD_SNAPSHOT = 7
+};
+
+/* Statuses (ResponseHeader.status); on error, `reason` says why and the state is unchanged. */
+enum tractrix_status {
+    TRACTRIX_OK = 0,
+    TRACTRIX_UNKNOWN_COMMAND = 1,
+    TRACTRIX_UNKNOWN_CHAIN = 2,
+    TRACTRIX_JOINT_OUT_OF_RANGE = 3,
+    TRACTRIX_NON_FINITE = 4,
+    TRACTRIX_BAD_OPTION = 5,
+    TRACTRIX_BAD_POINT_COUNT = 6,
+    TRACTRIX_UNREACHABLE = 7,
+    TRACTRIX_NOT_CONVERGED = 8,
+    TRACTRIX_TOO_MANY_SUBSTEPS = 9,
+    TRACTRIX_WRONG_CHAIN_KIND = 10,
+    TRACTRIX_OFF_PLANE = 11,
+    TRACTRIX_PERSISTENCE_FAILED = 12,
+    TRACTRIX_INTERNAL = 13,
+    TRACTRIX_LOCKED = 14,
+    TRACTRIX_TOO_FAR = 15
+};
+
+/* RequestHeader.method, .precision, .substep_mode, .strategy; ResponseHeader.kind. */
+enum tractrix_method { TRACTRIX_METHOD_DEFAULT = 0, TRACTRIX_METHOD_TRACTRIX = 1, TRACTRIX_METHOD_PAPER = 2, TRACTRIX_METHOD_FTL = 3 };
+enum tractrix_precision { TRACTRIX_PRECISION_DEFAULT = 0, TRACTRIX_PRECISION_F64 = 1, TRACTRIX_PRECISION_F32 = 2 };
+enum tractrix_substep_mode { TRACTRIX_SUBSTEPS_DEFAULT = 0, TRACTRIX_SUBSTEPS_FIXED = 1, TRACTRIX_SUBSTEPS_MAX_STEP = 2 };
+enum tractrix_strategy { TRACTRIX_STRATEGY_DEFAULT = 0, TRACTRIX_STRATEGY_TRANSLATE_BACK = 1, TRACTRIX_STRATEGY_TWO_LINK = 2 };
+enum tractrix_chain_kind { TRACTRIX_KIND_FREE = 0, TRACTRIX_KIND_FIXED_BASE = 1 };
+
+/* 24 bytes, align 8. */
+typedef struct tractrix_Vec3 {
+    double x; /* offset 0 */
+    double y; /* offset 8 */
+    double z; /* offset 16 */
+} tractrix_Vec3;
+
+/* 96 bytes, align 8. */
+typedef struct tractrix_RequestHeader {
+    uint32_t command; /* offset 0 */
+    uint32_t chain; /* offset 4 */
+    uint32_t joint; /* offset 8 */
+    uint32_t method; /* offset 12 */
+    uint32_t precision; /* offset 16 */
+    uint32_t substep_mode; /* offset 20 */
+    uint32_t substeps; /* offset 24 */
+    uint32_t strategy; /* offset 28 */
+    uint32_t max_iterations; /* offset 32 */
+    uint32_t flags; /* offset 36 */
+    uint64_t client_listener[2]; /* offset 40 */
+    uint64_t request_id; /* offset 56 */
+    double max_step; /* offset 64 */
+    double tolerance; /* offset 72 */
+    uint64_t reserved[2]; /* offset 80 */
+} tractrix_RequestHeader;
+
+/* 256 bytes, align 8. */
+typedef struct tractrix_ResponseHeader {
+    uint32_t status; /* offset 0 */
+    uint32_t command; /* offset 4 */
+    uint32_t chain; /* offset 8 */
+    uint32_t n_joints; /* offset 12 */
+    uint32_t n_angles; /* offset 16 */
+    uint32_t iterations; /* offset 20 */
+    uint32_t substeps; /* offset 24 */
+    uint32_t paper_fallbacks; /* offset 28 */
+    uint64_t sequence; /* offset 32 */
+    uint64_t request_id; /* offset 40 */
+    uint64_t solve_ns; /* offset 48 */
+    double residual; /* offset 56 */
+    uint32_t n_chains; /* offset 64 */
+    uint32_t kind; /* offset 68 */
+    uint32_t dims; /* offset 72 */
+    uint32_t n_links; /* offset 76 */
+    uint32_t precision; /* offset 80 */
+    uint32_t method; /* offset 84 */
+    uint32_t collision; /* offset 88 */
+    uint32_t substep_mode; /* offset 92 */
+    uint32_t substeps_default; /* offset 96 */
+    uint32_t reserved; /* offset 100 */
+    double max_step; /* offset 104 */
+    double total_length; /* offset 112 */
+    double thickness; /* offset 120 */
+    uint8_t name[32]; /* offset 128 */
+    uint8_t reason[96]; /* offset 160 */
+} tractrix_ResponseHeader;
+
+/* 32 bytes, align 8. */
+typedef struct tractrix_StateHeader {
+    uint64_t sequence; /* offset 0 */
+    uint32_t chain; /* offset 8 */
+    uint32_t n_joints; /* offset 12 */
+    uint32_t command; /* offset 16 */
+    uint32_t reserved; /* offset 20 */
+    uint64_t request_id; /* offset 24 */
+} tractrix_StateHeader;
+
+#ifdef __cplusplus
+#define TRACTRIX_STATIC_ASSERT static_assert
+#else
+#define TRACTRIX_STATIC_ASSERT _Static_assert
+#endif
+
+TRACTRIX_STATIC_ASSERT(sizeof(tractrix_Vec3) == 24, "tractrix_Vec3 size");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_Vec3, x) == 0, "tractrix_Vec3 starts with x");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_Vec3, y) == 8, "tractrix_Vec3.y offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_Vec3, z) == 16, "tractrix_Vec3.z offset");
+
+TRACTRIX_STATIC_ASSERT(sizeof(tractrix_RequestHeader) == 96, "tractrix_RequestHeader size");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, command) == 0, "tractrix_RequestHeader starts with command");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, chain) == 4, "tractrix_RequestHeader.chain offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, joint) == 8, "tractrix_RequestHeader.joint offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, method) == 12, "tractrix_RequestHeader.method offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, precision) == 16, "tractrix_RequestHeader.precision offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, substep_mode) == 20, "tractrix_RequestHeader.substep_mode offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, substeps) == 24, "tractrix_RequestHeader.substeps offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, strategy) == 28, "tractrix_RequestHeader.strategy offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, max_iterations) == 32, "tractrix_RequestHeader.max_iterations offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, flags) == 36, "tractrix_RequestHeader.flags offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, client_listener) == 40, "tractrix_RequestHeader.client_listener offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, request_id) == 56, "tractrix_RequestHeader.request_id offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, max_step) == 64, "tractrix_RequestHeader.max_step offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, tolerance) == 72, "tractrix_RequestHeader.tolerance offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, reserved) == 80, "tractrix_RequestHeader.reserved offset");
+
+TRACTRIX_STATIC_ASSERT(sizeof(tractrix_ResponseHeader) == 256, "tractrix_ResponseHeader size");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, status) == 0, "tractrix_ResponseHeader starts with status");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, command) == 4, "tractrix_ResponseHeader.command offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, chain) == 8, "tractrix_ResponseHeader.chain offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_joints) == 12, "tractrix_ResponseHeader.n_joints offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_angles) == 16, "tractrix_ResponseHeader.n_angles offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, iterations) == 20, "tractrix_ResponseHeader.iterations offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, substeps) == 24, "tractrix_ResponseHeader.substeps offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, paper_fallbacks) == 28, "tractrix_ResponseHeader.paper_fallbacks offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, sequence) == 32, "tractrix_ResponseHeader.sequence offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, request_id) == 40, "tractrix_ResponseHeader.request_id offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, solve_ns) == 48, "tractrix_ResponseHeader.solve_ns offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, residual) == 56, "tractrix_ResponseHeader.residual offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_chains) == 64, "tractrix_ResponseHeader.n_chains offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, kind) == 68, "tractrix_ResponseHeader.kind offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, dims) == 72, "tractrix_ResponseHeader.dims offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_links) == 76, "tractrix_ResponseHeader.n_links offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, precision) == 80, "tractrix_ResponseHeader.precision offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, method) == 84, "tractrix_ResponseHeader.method offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, collision) == 88, "tractrix_ResponseHeader.collision offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, substep_mode) == 92, "tractrix_ResponseHeader.substep_mode offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, substeps_default) == 96, "tractrix_ResponseHeader.substeps_default offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 100, "tractrix_ResponseHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, max_step) == 104, "tractrix_ResponseHeader.max_step offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, total_length) == 112, "tractrix_ResponseHeader.total_length offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, thickness) == 120, "tractrix_ResponseHeader.thickness offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, name) == 128, "tractrix_ResponseHeader.name offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reason) == 160, "tractrix_ResponseHeader.reason offset");
+
+TRACTRIX_STATIC_ASSERT(sizeof(tractrix_StateHeader) == 32, "tractrix_StateHeader size");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, sequence) == 0, "tractrix_StateHeader starts with sequence");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, chain) == 8, "tractrix_StateHeader.chain offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_joints) == 12, "tractrix_StateHeader.n_joints offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, command) == 16, "tractrix_StateHeader.command offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, reserved) == 20, "tractrix_StateHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, request_id) == 24, "tractrix_StateHeader.request_id offset");
+
+#endif /* TRACTRIX_H */

@@ -1,0 +1,192 @@
+//! `shared/include/tractrix.h`, the C header other languages start from, checked against the Rust
+//! types with the machine's C compiler (and its C++ compiler when there is one):
+//!
+//! * a translation unit that includes the header and asserts, with `_Static_assert`, every size,
+//!   alignment, field offset and field size, every constant and every enumeration value, generated
+//!   here from the Rust definitions (`protocol::WIRE_TYPES`, `Status::ALL`, `Command::ALL`);
+//! * a C program that fills a request header field by field and prints its bytes, compared with the
+//!   bytes of the same Rust value.
+
+use protocol::{Command, RequestHeader, Status, WIRE_TYPES};
+use std::path::{Path, PathBuf};
+use std::process::Command as Process;
+
+fn header_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("include")
+}
+
+/// The size in bytes of a C type of the layout table (`uint32_t`, `double`, `uint8_t[32]` ...).
+fn c_size(c: &str) -> usize {
+    let (base, n) = match c.split_once('[') {
+        Some((b, n)) => (b, n.trim_end_matches(']').parse::<usize>().unwrap()),
+        None => (c, 1),
+    };
+    n * match base {
+        "uint8_t" => 1,
+        "uint32_t" => 4,
+        "uint64_t" | "double" => 8,
+        other => panic!("unknown C type {other}"),
+    }
+}
+
+fn assertions() -> String {
+    let mut s = String::from("#include \"tractrix.h\"\n");
+    let mut check =
+        |cond: String| s.push_str(&format!("TRACTRIX_STATIC_ASSERT({cond}, \"{cond}\");\n"));
+    for t in WIRE_TYPES {
+        let c = format!("tractrix_{}", t.name);
+        check(format!("sizeof({c}) == {}", t.size));
+        check(format!("alignof({c}) == {}", t.align));
+        for f in t.fields {
+            check(format!("offsetof({c}, {}) == {}", f.name, f.offset));
+            check(format!(
+                "sizeof((({c} *)0)->{}) == {}",
+                f.name,
+                c_size(f.c_type)
+            ));
+        }
+        check(format!(
+            "sizeof(TRACTRIX_TYPE_NAME_{}) == {}",
+            t.name.to_uppercase(),
+            t.type_name.len() + 1
+        ));
+    }
+    for st in Status::ALL {
+        let name = st.name().to_uppercase().replace('-', "_");
+        check(format!("TRACTRIX_{name} == {}", st as u32));
+    }
+    for cmd in Command::ALL {
+        check(format!(
+            "TRACTRIX_CMD_{} == {}",
+            cmd.name().to_uppercase(),
+            cmd as u32
+        ));
+    }
+    for (name, v) in [
+        ("PROTOCOL_VERSION", u64::from(protocol::PROTOCOL_VERSION)),
+        ("MAX_LINKS", u64::from(protocol::MAX_LINKS)),
+        (
+            "MAX_RESPONSE_ELEMENTS",
+            u64::from(protocol::MAX_RESPONSE_ELEMENTS),
+        ),
+        ("MAX_PATH_POINTS", u64::from(protocol::MAX_PATH_POINTS)),
+        ("MAX_CHAINS", u64::from(protocol::MAX_CHAINS)),
+        ("NAME_LEN", protocol::NAME_LEN as u64),
+        ("REASON_LEN", protocol::REASON_LEN as u64),
+        ("JOINT_HEAD", u64::from(protocol::JOINT_HEAD)),
+        ("FLAG_ANGLES", u64::from(protocol::FLAG_ANGLES)),
+        ("COLLISION_SELF", u64::from(protocol::COLLISION_SELF)),
+        (
+            "COLLISION_OBSTACLES",
+            u64::from(protocol::COLLISION_OBSTACLES),
+        ),
+        (
+            "COLLISION_PAPER_SPHERES",
+            u64::from(protocol::COLLISION_PAPER_SPHERES),
+        ),
+    ] {
+        check(format!("TRACTRIX_{name} == {v}u"));
+    }
+    s
+}
+
+fn compile(compiler: &str, args: &[&str], src: &Path, out: &Path) {
+    let o = Process::new(compiler)
+        .args(args)
+        .arg("-I")
+        .arg(header_dir())
+        .arg(src)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap_or_else(|e| panic!("run {compiler}: {e}"));
+    assert!(
+        o.status.success(),
+        "{compiler} {args:?} {}:\n{}",
+        src.display(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+#[test]
+fn the_c_header_matches_the_rust_types() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = dir.path().join("asserts.c");
+    std::fs::write(&c, format!("#include <stdalign.h>\n{}", assertions())).unwrap();
+    compile(
+        "cc",
+        &["-std=c11", "-Wall", "-Wextra", "-Werror", "-c"],
+        &c,
+        &dir.path().join("asserts.o"),
+    );
+    // C++ users include the same header.
+    if Process::new("c++").arg("--version").output().is_ok() {
+        let cpp = dir.path().join("asserts.cpp");
+        std::fs::write(&cpp, assertions()).unwrap();
+        compile(
+            "c++",
+            &["-std=c++17", "-Wall", "-Wextra", "-Werror", "-c"],
+            &cpp,
+            &dir.path().join("asserts_cpp.o"),
+        );
+    }
+}
+
+#[test]
+fn a_request_built_in_c_has_the_bytes_of_the_rust_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("bytes.c");
+    std::fs::write(
+        &src,
+        r#"#include <stdio.h>
+#include <string.h>
+#include "tractrix.h"
+int main(void) {
+    tractrix_RequestHeader h;
+    memset(&h, 0, sizeof h);
+    h.command = TRACTRIX_CMD_PATH;
+    h.chain = 7;
+    h.joint = TRACTRIX_JOINT_HEAD;
+    h.method = TRACTRIX_METHOD_PAPER;
+    h.precision = TRACTRIX_PRECISION_F64;
+    h.substep_mode = TRACTRIX_SUBSTEPS_MAX_STEP;
+    h.substeps = 12;
+    h.strategy = TRACTRIX_STRATEGY_TWO_LINK;
+    h.max_iterations = 345;
+    h.flags = TRACTRIX_FLAG_ANGLES;
+    h.client_listener[0] = 0x0123456789abcdefull;
+    h.client_listener[1] = 0xfedcba9876543210ull;
+    h.request_id = 99;
+    h.max_step = 0.25;
+    h.tolerance = 1e-9;
+    const unsigned char *p = (const unsigned char *)&h;
+    for (size_t i = 0; i < sizeof h; i++) printf("%02x", p[i]);
+    printf("\n");
+    return 0;
+}
+"#,
+    )
+    .unwrap();
+    let exe = dir.path().join("bytes");
+    compile("cc", &["-std=c11", "-Wall", "-Werror"], &src, &exe);
+    let out = Process::new(&exe).output().unwrap();
+    assert!(out.status.success());
+    let c_hex = String::from_utf8(out.stdout).unwrap();
+    let mut h = RequestHeader::new(Command::Path, 7);
+    h.method = protocol::WireMethod::Paper as u32;
+    h.precision = protocol::Precision::F64 as u32;
+    h.substep_mode = protocol::SubstepMode::MaxStep as u32;
+    h.substeps = 12;
+    h.strategy = protocol::WireStrategy::TractrixTwoLink as u32;
+    h.max_iterations = 345;
+    h.flags = protocol::FLAG_ANGLES;
+    h.client_listener = [0x0123456789abcdef, 0xfedcba9876543210];
+    h.request_id = 99;
+    h.max_step = 0.25;
+    h.tolerance = 1e-9;
+    let rust_hex: String = bytemuck::bytes_of(&h)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    assert_eq!(c_hex.trim(), rust_hex);
+}
