@@ -16,6 +16,7 @@
 mod faults;
 mod knots;
 mod latency;
+mod python;
 mod tools;
 
 use clients::{ClientWait, Connection};

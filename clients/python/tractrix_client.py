@@ -1,0 +1,259 @@
+"""A Python client of the tractrix solver service, on the PyPI wheel iceoryx2==0.10.0.
+
+The wire types are ctypes mirrors of shared/src/lib.rs (the byte layout table there, and the C header
+shared/include/tractrix.h); their iceoryx2 type names must be the Rust ones ("tractrix.v1.*") or the
+service refuses the connection. Run `scripts/python-venv.sh` once for the venv, then:
+
+    target/pyenv/bin/python clients/python/tractrix_client.py --prefix tractrix_ move rope 35 8 2
+
+Known bug of the 0.10.0 wheel (iceoryx2 issue #1533): a received slice of structs reports its length in
+bytes, so the number of Vec3 in a response is read from the response's own header (`n_joints +
+n_angles`), never from the slice.
+"""
+
+import argparse
+import ctypes
+import json
+import sys
+import time
+
+import iceoryx2 as iox2
+
+PROTOCOL_VERSION = 1
+SERVICE_COMMAND = "tractrix/command"
+SERVICE_WAKE_SERVER = "tractrix/wake-server"
+DEFAULT_PREFIX = "tractrix_"
+JOINT_HEAD = 0xFFFFFFFF
+MAX_PATH_POINTS = 4096
+
+CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7}
+STATUS = [
+    "ok", "unknown-command", "unknown-chain", "joint-out-of-range", "non-finite", "bad-option",
+    "bad-point-count", "unreachable", "not-converged", "too-many-substeps", "wrong-chain-kind",
+    "off-plane", "persistence-failed", "internal", "locked", "too-far",
+]
+
+
+class Vec3(ctypes.Structure):
+    _fields_ = [("x", ctypes.c_double), ("y", ctypes.c_double), ("z", ctypes.c_double)]
+
+    @staticmethod
+    def type_name():
+        return "tractrix.v1.Vec3"
+
+
+class RequestHeader(ctypes.Structure):
+    _fields_ = [
+        ("command", ctypes.c_uint32),
+        ("chain", ctypes.c_uint32),
+        ("joint", ctypes.c_uint32),
+        ("method", ctypes.c_uint32),
+        ("precision", ctypes.c_uint32),
+        ("substep_mode", ctypes.c_uint32),
+        ("substeps", ctypes.c_uint32),
+        ("strategy", ctypes.c_uint32),
+        ("max_iterations", ctypes.c_uint32),
+        ("flags", ctypes.c_uint32),
+        ("client_listener", ctypes.c_uint64 * 2),
+        ("request_id", ctypes.c_uint64),
+        ("max_step", ctypes.c_double),
+        ("tolerance", ctypes.c_double),
+        ("reserved", ctypes.c_uint64 * 2),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "tractrix.v1.RequestHeader"
+
+
+class ResponseHeader(ctypes.Structure):
+    _fields_ = [
+        ("status", ctypes.c_uint32),
+        ("command", ctypes.c_uint32),
+        ("chain", ctypes.c_uint32),
+        ("n_joints", ctypes.c_uint32),
+        ("n_angles", ctypes.c_uint32),
+        ("iterations", ctypes.c_uint32),
+        ("substeps", ctypes.c_uint32),
+        ("paper_fallbacks", ctypes.c_uint32),
+        ("sequence", ctypes.c_uint64),
+        ("request_id", ctypes.c_uint64),
+        ("solve_ns", ctypes.c_uint64),
+        ("residual", ctypes.c_double),
+        ("n_chains", ctypes.c_uint32),
+        ("kind", ctypes.c_uint32),
+        ("dims", ctypes.c_uint32),
+        ("n_links", ctypes.c_uint32),
+        ("precision", ctypes.c_uint32),
+        ("method", ctypes.c_uint32),
+        ("collision", ctypes.c_uint32),
+        ("substep_mode", ctypes.c_uint32),
+        ("substeps_default", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+        ("max_step", ctypes.c_double),
+        ("total_length", ctypes.c_double),
+        ("thickness", ctypes.c_double),
+        ("name", ctypes.c_uint8 * 32),
+        ("reason", ctypes.c_uint8 * 96),
+    ]
+
+    @staticmethod
+    def type_name():
+        return "tractrix.v1.ResponseHeader"
+
+
+# The layout table of shared/src/lib.rs, checked when the module loads.
+_LAYOUT = {
+    Vec3: (24, {"x": 0, "y": 8, "z": 16}),
+    RequestHeader: (96, {"command": 0, "joint": 8, "flags": 36, "client_listener": 40,
+                         "request_id": 56, "max_step": 64, "tolerance": 72, "reserved": 80}),
+    ResponseHeader: (256, {"status": 0, "n_joints": 12, "sequence": 32, "residual": 56,
+                           "n_chains": 64, "n_links": 76, "max_step": 104, "name": 128,
+                           "reason": 160}),
+}
+for _t, (_size, _offsets) in _LAYOUT.items():
+    assert ctypes.sizeof(_t) == _size, (_t, ctypes.sizeof(_t))
+    for _f, _o in _offsets.items():
+        assert getattr(_t, _f).offset == _o, (_t, _f)
+
+
+def _text(buf):
+    return bytes(buf).split(b"\0", 1)[0].decode("utf-8", "replace")
+
+
+class ServiceError(Exception):
+    """The service answered with an error status; the chain is unchanged."""
+
+    def __init__(self, status, reason):
+        super().__init__(f"{status}: {reason}")
+        self.status = status
+        self.reason = reason
+
+
+class Client:
+    """One client port on the command service. Waits by polling (spin, then short sleeps)."""
+
+    def __init__(self, prefix=DEFAULT_PREFIX, wait_for_service=0.0, timeout=5.0):
+        cfg = iox2.config.default()
+        cfg.global_cfg.prefix = iox2.FileName.new(prefix)
+        self.node = iox2.NodeBuilder.new().config(cfg).create(iox2.ServiceType.Ipc)
+        deadline = time.monotonic() + wait_for_service
+        name = iox2.ServiceName.new(SERVICE_COMMAND)
+        while True:
+            try:
+                service = (
+                    self.node.service_builder(name)
+                    .request_response(iox2.Slice[Vec3], iox2.Slice[Vec3])
+                    .request_header(RequestHeader)
+                    .response_header(ResponseHeader)
+                    .open()
+                )
+                break
+            except iox2.RequestResponseOpenError as e:
+                text = str(e)
+                if "Incompatible" in text or "incompatible" in text:
+                    raise RuntimeError(
+                        f"the service with prefix {prefix!r} speaks another protocol version "
+                        f"(this client: v{PROTOCOL_VERSION})"
+                    ) from e
+                if time.monotonic() >= deadline:
+                    raise RuntimeError(
+                        f"no solver-service runs with prefix {prefix!r} "
+                        f"(waited {wait_for_service} s)"
+                    ) from e
+                time.sleep(0.02)
+        self.client = (
+            service.client_builder()
+            .initial_max_slice_len(MAX_PATH_POINTS)
+            .create()
+        )
+        # Wakes a service that sleeps between requests (--wait event or hybrid).
+        self.wake_server = (
+            self.node.service_builder(iox2.ServiceName.new(SERVICE_WAKE_SERVER))
+            .event()
+            .open()
+            .notifier_builder()
+            .create()
+        )
+        self.timeout = timeout
+        self.next_id = 1
+
+    def call(self, command, chain=0, points=(), **fields):
+        """Sends one request; returns (header, list of (x, y, z)) or raises ServiceError."""
+        request = self.client.loan_slice_uninit(len(points))
+        for i, p in enumerate(points):
+            request.payload()[i] = Vec3(*p)
+        header = request.user_header().contents
+        ctypes.memset(ctypes.addressof(header), 0, ctypes.sizeof(RequestHeader))
+        header.command = CMD[command]
+        header.chain = chain
+        header.joint = fields.pop("joint", JOINT_HEAD)
+        header.request_id = self.next_id
+        for k, v in fields.items():
+            setattr(header, k, v)
+        self.next_id += 1
+        pending = request.assume_init().send()
+        self.wake_server.notify()
+        deadline = time.monotonic() + self.timeout
+        spins = 0
+        while True:
+            response = pending.receive()
+            if response is not None:
+                break
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"no response within {self.timeout} s")
+            spins += 1
+            if spins > 1000:
+                time.sleep(0.0001)
+        h = response.user_header().contents
+        # The wheel's Slice.len() is in bytes (issue #1533): count from our own header.
+        n = h.n_joints + h.n_angles
+        elements = (Vec3 * n).from_address(response.payload().as_ptr()) if n else []
+        out = [(v.x, v.y, v.z) for v in elements]
+        copy = ResponseHeader.from_buffer_copy(h)
+        response.delete()
+        if copy.request_id != header.request_id:
+            raise RuntimeError(f"response {copy.request_id} to request {header.request_id}")
+        if copy.status != 0:
+            raise ServiceError(STATUS[copy.status] if copy.status < len(STATUS) else copy.status,
+                               _text(copy.reason))
+        return copy, out
+
+    def find_chain(self, name):
+        h, _ = self.call("describe", 0)
+        for c in range(h.n_chains):
+            d, _ = self.call("describe", c)
+            if _text(d.name) == name:
+                return c
+        raise KeyError(f"no chain named {name!r}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--prefix", default=DEFAULT_PREFIX)
+    ap.add_argument("--wait-for-service", type=float, default=0.0)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    m = sub.add_parser("move", help="move a chain's head (or --joint) to x y z")
+    m.add_argument("chain")
+    m.add_argument("xyz", type=float, nargs=3)
+    m.add_argument("--joint", type=int, default=JOINT_HEAD)
+    q = sub.add_parser("query", help="print a chain's joints")
+    q.add_argument("chain")
+    a = ap.parse_args(argv)
+    try:
+        client = Client(a.prefix, a.wait_for_service)
+        chain = client.find_chain(a.chain)
+        if a.cmd == "move":
+            h, joints = client.call("move", chain, [tuple(a.xyz)], joint=a.joint)
+        else:
+            h, joints = client.call("query", chain)
+    except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:
+        print(f"tractrix_client: {e}", file=sys.stderr)
+        return 1
+    print(json.dumps({"status": STATUS[h.status], "sequence": h.sequence,
+                      "n_links": h.n_links, "joints": joints}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
