@@ -223,3 +223,34 @@ fn wait_output(mut child: std::process::Child, timeout: Duration) -> std::proces
     }
     child.wait_with_output().unwrap()
 }
+
+/// The service's shared memory (payload segments, port management, events) and iceoryx2's service
+/// descriptions are readable and writable by the owner only. The one exception is iceoryx2's own
+/// 16-byte `*.global_mgmt` file per iceoryx2 version, which holds no data of ours.
+#[test]
+fn shared_memory_is_the_owners_alone() {
+    use std::os::unix::fs::PermissionsExt;
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let mut c = svc.connect_with(ClientWait::Event);
+    assert!(
+        c.call(RequestHeader::new(Command::Query, 0), &[])
+            .unwrap()
+            .is_ok()
+    );
+    let mut checked = 0;
+    for dir in ["/dev/shm", "/tmp/iceoryx2/services", "/tmp/iceoryx2/nodes"] {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            continue;
+        };
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if !name.starts_with(&svc.prefix) || name.ends_with(".global_mgmt") {
+                continue;
+            }
+            let mode = e.metadata().unwrap().permissions().mode();
+            assert_eq!(mode & 0o077, 0, "{dir}/{name} is open to others: {mode:o}");
+            checked += 1;
+        }
+    }
+    assert!(checked >= 5, "only {checked} files of the instance found");
+}

@@ -642,6 +642,17 @@ fn kill_9_then_restore_is_bit_for_bit() {
     }
     let before = state(&mut c);
     assert_eq!(before.1, 300);
+    // The journal and the snapshot are the owner's alone.
+    {
+        use std::os::unix::fs::PermissionsExt;
+        for f in ["journal.bin", "snapshot.bin"] {
+            let mode = std::fs::metadata(dir.path().join(f))
+                .unwrap()
+                .permissions()
+                .mode();
+            assert_eq!(mode & 0o077, 0, "{f} is open to others: {mode:o}");
+        }
+    }
     drop(c);
     svc.kill9();
 
