@@ -139,7 +139,7 @@ fn structured_request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
         ),
         (
             0..=2u32,
-            0..=300u32,
+            prop_oneof![1 => 1..=3u32, 2 => 0..=300u32],
             0..=1u32,
             any::<u64>(),
             prop_oneof![Just(0.0), 1e-9..1e-2f64],
