@@ -765,7 +765,7 @@ mod tests {
         assert_eq!(Command::from_u32(8), None);
         assert_eq!(Status::from_u32(14), Some(Status::Locked));
         assert_eq!(Status::from_u32(15), Some(Status::TooFar));
-        assert_eq!(Status::from_u32(15), None);
+        assert_eq!(Status::from_u32(16), None);
         assert_eq!(WireMethod::from_u32(4), None);
         assert_eq!(Precision::from_u32(2), Some(Precision::F32));
     }
