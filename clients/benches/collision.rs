@@ -24,7 +24,7 @@ use clients::script::Script;
 use nalgebra::Vector3;
 use solver::kernel::chain::{Chain, MoveOptions};
 use solver::kernel::collision::{
-    CollisionModel, CollisionOptions, CollisionWorkspace, Scheme, closest_params_segment_segment,
+    CollisionModel, CollisionOptions, CollisionWorkspace, Scheme, closest_links_apart,
     move_joint_colliding, neighbour_span,
 };
 use solver::kernel::knot::identify;
@@ -65,23 +65,8 @@ struct Run {
 /// The worst penetration of a rope of [`THICKNESS`] through itself, as a fraction of the thickness,
 /// testing every pair of links with at least a thickness of rope between them.
 fn penetration(positions: &[V], len: f64) -> f64 {
-    let span = neighbour_span(len, THICKNESS);
-    let n = positions.len() - 1;
-    let mut worst = 0.0f64;
-    for i in 0..n {
-        for j in i + span + 1..n {
-            let (a0, a1, b0, b1) = (
-                positions[i],
-                positions[i + 1],
-                positions[j],
-                positions[j + 1],
-            );
-            let (s, t) = closest_params_segment_segment(&a0, &a1, &b0, &b1);
-            let d = (a0 + (a1 - a0) * s - (b0 + (b1 - b0) * t)).norm();
-            worst = worst.max((THICKNESS - d) / THICKNESS);
-        }
-    }
-    worst
+    closest_links_apart(positions, neighbour_span(len, THICKNESS))
+        .map_or(0.0, |(d, _, _)| ((THICKNESS - d) / THICKNESS).max(0.0))
 }
 
 fn run(

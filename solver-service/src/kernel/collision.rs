@@ -168,10 +168,22 @@ pub fn closest_nonadjacent_links<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    closest_links_apart(positions, 1)
+}
+
+/// Like [`closest_nonadjacent_links`], testing only links more than `span` links apart (`span` from
+/// [`neighbour_span`] leaves out the neighbours capsule collision never tests).
+pub fn closest_links_apart<T: Real, const D: usize>(
+    positions: &[Vector<T, D>],
+    span: usize,
+) -> Option<(T, usize, usize)>
+where
+    Vector<T, D>: Embed3<T>,
+{
     let n = positions.len().checked_sub(1)?;
     let mut best: Option<(T, usize, usize)> = None;
     for i in 0..n {
-        for j in i + 2..n {
+        for j in i + span + 1..n {
             let (a0, a1, b0, b1) = (
                 positions[i],
                 positions[i + 1],
