@@ -1,5 +1,5 @@
 //! Speed against accuracy: the largest joint error against the continuous ground truth (DOP853, see
-//! `solver::kernel::ground_truth`), in link lengths, against the time per move, over method × substeps ×
+//! `tractrix::ground_truth`), in link lengths, against the time per move, over method × substeps ×
 //! precision, for a 40-link rope whose head follows a helix and for the knot scripts' hand paths (the
 //! overhand on 160 links, the square knot's two hands on 320; collision off, since the ground truth knows
 //! no contacts).
@@ -12,10 +12,10 @@
 use clients::render::{Panel, Series, write_plot_svg};
 use clients::script::Script;
 use nalgebra::Vector3;
-use solver::kernel::ground_truth::{GroundTruthOptions, follow_path, helix};
-use solver::kernel::{Chain, Method, MoveOptions, Real, Substeps};
 use std::hint::black_box;
 use std::time::Instant;
+use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};
+use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
 
 /// One driven-joint leg: which joint, through which targets.
 struct Leg {

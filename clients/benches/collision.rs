@@ -22,13 +22,13 @@
 
 use clients::script::Script;
 use nalgebra::Vector3;
-use solver::kernel::chain::{Chain, MoveOptions};
-use solver::kernel::collision::{
+use std::time::Instant;
+use tractrix::chain::{Chain, MoveOptions};
+use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Scheme, closest_links_apart,
     move_joint_colliding, neighbour_span,
 };
-use solver::kernel::knot::identify;
-use std::time::Instant;
+use tractrix::knot::identify;
 
 type V = Vector3<f64>;
 

@@ -250,8 +250,10 @@ def main(argv=None):
     except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:
         print(f"tractrix_client: {e}", file=sys.stderr)
         return 1
+    # The description fields (n_links, name, ...) come with `describe` only; a chain of n links answers
+    # n + 1 joints.
     print(json.dumps({"status": STATUS[h.status], "sequence": h.sequence,
-                      "n_links": h.n_links, "joints": joints}))
+                      "n_links": h.n_joints - 1, "joints": joints}))
     return 0
 
 

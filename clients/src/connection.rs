@@ -7,7 +7,7 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::service::builder::request_response::RequestResponseOpenError;
-use protocol::{
+use shared::{
     Command, RequestHeader, ResponseHeader, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT,
     SERVICE_WAKE_SERVER, StateHeader, Vec3,
 };
@@ -47,18 +47,18 @@ pub struct ConnectOptions {
     /// How long to wait for each response.
     pub call_timeout: Duration,
     /// Largest request (points) this client can send; the service accepts up to
-    /// [`protocol::MAX_PATH_POINTS`]. Shared memory for it is reserved at connect time.
+    /// [`shared::MAX_PATH_POINTS`]. Shared memory for it is reserved at connect time.
     pub max_request_points: usize,
 }
 
 impl Default for ConnectOptions {
     fn default() -> Self {
         ConnectOptions {
-            prefix: protocol::prefix_from_env(),
+            prefix: shared::prefix_from_env(),
             wait: ClientWait::Hybrid(Duration::from_micros(50)),
             connect_timeout: Duration::ZERO,
             call_timeout: Duration::from_secs(5),
-            max_request_points: protocol::MAX_PATH_POINTS as usize,
+            max_request_points: shared::MAX_PATH_POINTS as usize,
         }
     }
 }
@@ -86,7 +86,7 @@ impl ConnectOptions {
 #[derive(Debug, Clone, clap::Args)]
 pub struct ToolArgs {
     /// iceoryx2 prefix of the service.
-    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    #[arg(long, env = shared::PREFIX_ENV, default_value = shared::DEFAULT_PREFIX)]
     pub prefix: String,
     /// Seconds to wait for the service to appear.
     #[arg(long, default_value_t = 5.0)]
@@ -147,7 +147,7 @@ pub enum CallError {
     NoService { prefix: String, waited: Duration },
     #[error(
         "the service with prefix {prefix:?} speaks another protocol version (this client: v{})",
-        protocol::PROTOCOL_VERSION
+        shared::PROTOCOL_VERSION
     )]
     VersionMismatch { prefix: String },
     #[error("no response within {0:?}")]
@@ -178,7 +178,7 @@ impl Reply {
         &self.payload[(self.header.n_joints as usize).min(self.payload.len())..]
     }
     pub fn is_ok(&self) -> bool {
-        self.header.status == protocol::Status::Ok as u32
+        self.header.status == shared::Status::Ok as u32
     }
 }
 
@@ -203,7 +203,7 @@ impl std::fmt::Debug for Connection {
 impl Connection {
     /// Connects, waiting up to `opts.connect_timeout` for the service to appear.
     pub fn connect(opts: ConnectOptions) -> Result<Self, CallError> {
-        let cfg = protocol::iceoryx_config(&opts.prefix).map_err(CallError::Ipc)?;
+        let cfg = shared::iceoryx_config(&opts.prefix).map_err(CallError::Ipc)?;
         let node = NodeBuilder::new()
             .config(&cfg)
             .create::<Svc>()

@@ -12,8 +12,8 @@ use crate::script::{Script, parse_joint};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::prelude::*;
-use protocol::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
 use serde::{Deserialize, Serialize};
+use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
 use std::io::Write;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -368,10 +368,7 @@ pub fn replay(
 }
 
 /// Queries chain `chain` and names the knot tied in it.
-pub fn knot_of(
-    conn: &mut Connection,
-    chain: u32,
-) -> anyhow::Result<solver::kernel::knot::KnotReport> {
+pub fn knot_of(conn: &mut Connection, chain: u32) -> anyhow::Result<tractrix::knot::KnotReport> {
     let r = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
     anyhow::ensure!(r.is_ok(), "query refused: {}", r.header.reason_str());
     let pts: Vec<_> = r
@@ -379,11 +376,11 @@ pub fn knot_of(
         .iter()
         .map(|p| nalgebra::Vector3::new(p.x, p.y, p.z))
         .collect();
-    Ok(solver::kernel::knot::identify(&pts))
+    Ok(tractrix::knot::identify(&pts))
 }
 
 /// One line describing a knot report, as the tools print it.
-pub fn knot_line(k: &solver::kernel::knot::KnotReport) -> String {
+pub fn knot_line(k: &tractrix::knot::KnotReport) -> String {
     format!(
         "knot: {} ({}/{} views; {} crossings, writhe {}, determinant {})",
         k.kind.name(),

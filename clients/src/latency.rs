@@ -1,5 +1,6 @@
 //! Round-trip latency of joint moves, and the two baselines the bench puts beside the service: a raw
-//! iceoryx2 request-response echo with the same payload sizes and no solving ([`serve_raw`]), and the
+//! iceoryx2 request-response echo with the same payload sizes and no solving (`solver-service echo`, served
+//! by the service's own serving loop), and the
 //! same protocol over a Unix domain socket (`solver-service unix`).
 //!
 //! A run moves one joint of one chain around a small circle, one move per request, either back to back
@@ -8,12 +9,10 @@
 //! behind it and they are all charged for it (no coordinated omission). Histograms are HDR (3 significant
 //! digits), in nanoseconds.
 
-use crate::connection::{CallError, ClientWait, ConnectOptions, Connection, Svc, ipc};
+use crate::connection::{ClientWait, ConnectOptions, Connection};
 use hdrhistogram::Histogram;
-use iceoryx2::prelude::*;
-use protocol::ports::ServerPorts;
-use protocol::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Status, Vec3};
 use serde::{Deserialize, Serialize};
+use shared::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Status, Vec3};
 use std::os::unix::net::UnixStream;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -23,7 +22,7 @@ use std::time::{Duration, Instant};
 pub enum Target {
     /// The solver service over iceoryx2.
     Service(ConnectOptions),
-    /// The raw echo server ([`serve_raw`]) over iceoryx2: chain 0, no describe, any response accepted.
+    /// The raw echo (`solver-service echo`) over iceoryx2: chain 0, no describe, any response accepted.
     Raw(ConnectOptions),
     /// The service's protocol over a Unix domain socket.
     Unix(PathBuf),
@@ -162,8 +161,8 @@ impl Link {
                 buf,
                 elements,
             } => {
-                solver::unix_socket::write_request(stream, buf, h, points)?;
-                let r = solver::unix_socket::read_response(stream, elements)?;
+                shared::unix_frame::write_request(stream, buf, h, points)?;
+                let r = shared::unix_frame::read_response(stream, elements)?;
                 Ok(read(&r, elements))
             }
         }
@@ -360,85 +359,8 @@ fn find(link: &mut Link, name: &str, joint: u32) -> anyhow::Result<(u32, Vec3, V
     }
 }
 
-/// How the raw echo server waits.
-pub use solver::service::WaitMode;
-
-/// A raw iceoryx2 request-response echo: the service's ports and wait modes, no validation, no solving,
-/// no state stream. Every request gets a zeroed [`ResponseHeader`] (echoing `request_id`) and `elements`
-/// copies of one point. Serves until SIGINT/SIGTERM; `ready` is called once the ports are open.
-pub fn serve_raw(
-    prefix: &str,
-    elements: usize,
-    wait: WaitMode,
-    spin_budget: Duration,
-    ready: impl FnOnce(),
-) -> Result<(), CallError> {
-    let cfg = protocol::iceoryx_config(prefix).map_err(CallError::Ipc)?;
-    let node = NodeBuilder::new()
-        .config(&cfg)
-        .create::<Svc>()
-        .map_err(ipc("node"))?;
-    let ports = ServerPorts::open(&node, elements).map_err(CallError::Ipc)?;
-    ready();
-    let point = Vec3::new(1.0, 2.0, 3.0);
-    let serve = || -> Result<usize, CallError> {
-        let mut n = 0;
-        while let Some(req) = ports.server.receive().map_err(ipc("receive"))? {
-            n += 1;
-            let header = *req.user_header();
-            let resp = req
-                .loan_slice_uninit(elements)
-                .map_err(ipc("loan"))?
-                .write_from_fn(|_| point);
-            let mut resp = resp;
-            *resp.user_header_mut() = ResponseHeader {
-                request_id: header.request_id,
-                n_joints: elements as u32,
-                ..ResponseHeader::default()
-            };
-            resp.send().map_err(ipc("send"))?;
-            ports.wake_client(header.listener_id());
-        }
-        Ok(n)
-    };
-    let mut polls: u32 = 0;
-    loop {
-        match wait {
-            WaitMode::Spin => {
-                serve()?;
-                std::hint::spin_loop();
-            }
-            WaitMode::Event | WaitMode::Hybrid => {
-                let _ = ports
-                    .wake_listener
-                    .timed_wait(|_| {}, Duration::from_millis(50));
-                if serve()? > 0 && wait == WaitMode::Hybrid {
-                    let mut last = Instant::now();
-                    loop {
-                        while last.elapsed() < spin_budget {
-                            if serve()? > 0 {
-                                last = Instant::now();
-                            }
-                            std::hint::spin_loop();
-                        }
-                        // As the service: drop stale notifications, then serve once more.
-                        let _ = ports.wake_listener.try_wait(|_| {});
-                        if serve()? == 0 {
-                            break;
-                        }
-                        last = Instant::now();
-                    }
-                }
-            }
-        }
-        polls = polls.wrapping_add(1);
-        if (wait != WaitMode::Spin || polls.is_multiple_of(4096))
-            && node.wait(Duration::ZERO).is_err()
-        {
-            return Ok(());
-        }
-    }
-}
+/// How the server (and the client, see [`connect_options`]) waits.
+pub use shared::WaitMode;
 
 /// Client options for a wait mode: the client waits the way the server does (spin with spin, sleep
 /// with event, spin briefly then sleep with hybrid).

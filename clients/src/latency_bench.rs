@@ -7,6 +7,7 @@
 //! --release --bins` first), killed and reaped when the bench ends, and every wait has a deadline.
 
 use crate::latency::{Percentiles, Summary, WaitMode};
+use crate::process::{Proc, output_line};
 use anyhow::{Context, Result, bail};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -31,100 +32,6 @@ pub struct BenchConfig {
 
 const TIMEOUT: Duration = Duration::from_secs(30);
 
-/// A child process, terminated (SIGTERM, then SIGKILL) and reaped on drop.
-struct Proc {
-    child: Child,
-    what: String,
-}
-
-impl Proc {
-    /// Spawns `cmd` and waits for a stdout line containing "ready".
-    fn ready(mut cmd: Command, what: &str) -> Result<Proc> {
-        let mut child = cmd
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .with_context(|| format!("start {what}"))?;
-        let out = child.stdout.take().expect("piped stdout");
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(out).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let p = Proc {
-            child,
-            what: what.to_string(),
-        };
-        match rx.recv_timeout(TIMEOUT) {
-            Ok(l) if l.contains("ready") => Ok(p),
-            Ok(l) => bail!("{what} said {l:?} instead of getting ready"),
-            Err(_) => bail!("{what} did not get ready within {TIMEOUT:?}"),
-        }
-    }
-
-    fn stop(&mut self) {
-        let _ = Command::new("kill")
-            .arg("-TERM")
-            .arg(self.child.id().to_string())
-            .status();
-        let deadline = Instant::now() + Duration::from_secs(5);
-        while Instant::now() < deadline {
-            if let Ok(Some(_)) = self.child.try_wait() {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        eprintln!("latency bench: {} ignored SIGTERM; killing it", self.what);
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Ok(None) = self.child.try_wait() {
-            self.stop();
-        }
-    }
-}
-
-/// Runs a process to its end (deadline `timeout`) and returns its last stdout line.
-fn output_line(mut cmd: Command, what: &str, timeout: Duration) -> Result<String> {
-    let mut child = cmd
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .with_context(|| format!("start {what}"))?;
-    let out = child.stdout.take().expect("piped stdout");
-    let reader = std::thread::spawn(move || {
-        BufReader::new(out)
-            .lines()
-            .map_while(Result::ok)
-            .last()
-            .unwrap_or_default()
-    });
-    let deadline = Instant::now() + timeout;
-    let status = loop {
-        if let Some(s) = child.try_wait()? {
-            break s;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            bail!("{what} did not finish within {timeout:?}");
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    let line = reader.join().unwrap_or_default();
-    if !status.success() {
-        bail!("{what} failed ({status})");
-    }
-    Ok(line)
-}
-
 fn client_summary(cfg: &BenchConfig, args: &[String], what: &str) -> Result<Summary> {
     let mut cmd = Command::new(cfg.bin_dir.join("latency"));
     cmd.arg("client").args(args).arg("--json");
@@ -147,11 +54,7 @@ pub fn scene(sizes: &[u32]) -> String {
 }
 
 fn mode_name(m: WaitMode) -> &'static str {
-    match m {
-        WaitMode::Spin => "spin",
-        WaitMode::Event => "event",
-        WaitMode::Hybrid => "hybrid",
-    }
+    m.name()
 }
 
 fn us(ns: u64) -> String {
@@ -232,8 +135,8 @@ pub fn run(cfg: &BenchConfig, out: &mut impl Write) -> Result<()> {
             // Side by side: the raw echo, then the service, in the same wait mode.
             let wait = mode_name(mode);
             let prefix = format!("{tag}r{n}{wait}_");
-            let mut raw = Command::new(cfg.bin_dir.join("latency"));
-            raw.args(["raw-server", "--prefix", &prefix, "--wait", wait])
+            let mut raw = Command::new(cfg.bin_dir.join("solver-service"));
+            raw.args(["echo", "--prefix", &prefix, "--wait", wait])
                 .args(["--elements", &(n + 1).to_string(), "--pin", "0"]);
             let mut args = common(&chain);
             args.extend(["--raw", "--prefix", &prefix, "--wait", wait].map(String::from));
@@ -491,9 +394,9 @@ pub struct LoadConfig {
     /// Pin the service to core 0 and both hands to core 1.
     pub pin: bool,
     /// The service's `--wait`.
-    pub service_wait: String,
+    pub service_wait: WaitMode,
     /// The hands' `--wait`.
-    pub hand_wait: String,
+    pub hand_wait: WaitMode,
 }
 
 /// What the load run found.
@@ -562,7 +465,7 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
     let tmp = tempfile::tempdir()?;
     let prefix = format!("load{}_", std::process::id());
     let mut svc = Command::new(cfg.bin_dir.join("solver-service"));
-    svc.args(["--prefix", &prefix, "--wait", &cfg.service_wait])
+    svc.args(["--prefix", &prefix, "--wait", cfg.service_wait.name()])
         .args([
             "--state-dir",
             &tmp.path().join("state").display().to_string(),
@@ -576,7 +479,7 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
     let hand = |joint: &str, rate: f64, seq: PathBuf| {
         let mut cmd = Command::new(cfg.bin_dir.join("latency"));
         cmd.args(["client", "--prefix", &prefix, "--chain", "rope"])
-            .args(["--joint", joint, "--wait", &cfg.hand_wait])
+            .args(["--joint", joint, "--wait", cfg.hand_wait.name()])
             .args(["--rate", &rate.to_string(), "--seconds", &secs.to_string()])
             .args(["--sequences", &seq.display().to_string(), "--json"])
             .args(if rate > 0.0 {
@@ -640,8 +543,8 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
     writeln!(
         out,
         "Load run ({secs} s; service --wait {}, hands --wait {}{}): {} changes, {} lost, {} answered twice\n",
-        cfg.service_wait,
-        cfg.hand_wait,
+        cfg.service_wait.name(),
+        cfg.hand_wait.name(),
         if cfg.pin {
             ", service on core 0, hands on core 1"
         } else {

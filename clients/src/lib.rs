@@ -7,6 +7,7 @@ pub mod connection;
 pub mod hand;
 pub mod latency;
 pub mod latency_bench;
+pub mod process;
 pub mod reach;
 pub mod render;
 pub mod script;

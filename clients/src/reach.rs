@@ -1,6 +1,6 @@
 //! The planar manipulator of figures 7 and 8: a fixed-base chain reaches a sequence of targets, by the
 //! service's tractrix reach and, side by side, by the pseudo-inverse baseline (damped least squares,
-//! [`solver::kernel::pseudo_inverse::reach_dls`]) run here on a copy of the same chain.
+//! [`tractrix::pseudo_inverse::reach_dls`]) run here on a copy of the same chain.
 //!
 //! Each target is approached in `steps` equal steps of the head along the straight line from where it is
 //! (the intermediate configurations of figure 7); both methods start from the same configuration and each
@@ -12,11 +12,11 @@
 use crate::connection::Connection;
 use anyhow::{Context, bail};
 use nalgebra::Vector2;
-use protocol::{ChainKind, Command, RequestHeader, Status, Vec3};
-use solver::kernel::angles::planar_joint_motion;
-use solver::kernel::chain::Chain;
-use solver::kernel::pseudo_inverse::{DlsOptions, reach_dls};
+use shared::{ChainKind, Command, RequestHeader, Status, Vec3};
 use std::time::Instant;
+use tractrix::angles::planar_joint_motion;
+use tractrix::chain::Chain;
+use tractrix::pseudo_inverse::{DlsOptions, reach_dls};
 
 /// Most targets per run.
 pub const MAX_TARGETS: usize = 64;

@@ -257,7 +257,7 @@ pub const BUILTINS: &[&str] = &["overhand", "square", "granny", "wave"];
 /// `"head"`, `"tail"` or an index, as the wire's joint field.
 pub fn parse_joint(s: &str) -> Result<u32, String> {
     match s {
-        "head" => Ok(protocol::JOINT_HEAD),
+        "head" => Ok(shared::JOINT_HEAD),
         "tail" => Ok(0),
         n => n
             .parse::<u32>()

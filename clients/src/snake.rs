@@ -11,7 +11,7 @@
 
 use crate::connection::{Connection, Pacer, count_refusal};
 use anyhow::{Context, bail};
-use protocol::{Command, RequestHeader, Status, Vec3};
+use shared::{Command, RequestHeader, Status, Vec3};
 use std::time::{Duration, Instant};
 
 /// Longest curve file, in points.

@@ -1,7 +1,7 @@
 /* tractrix.h — the wire types of the tractrix solver service, protocol v1, for C, C++ and C#.
  *
- * Mirrors shared/src/lib.rs (the Rust crate `tractrix-shared`, module `protocol`), which documents
- * every field; the test `cargo test -p tractrix-shared --test c_header` compiles this header with the
+ * Mirrors shared/src/lib.rs (the Rust crate `shared`, module `protocol`), which documents
+ * every field; the test `cargo test -p shared --test c_header` compiles this header with the
  * machine's C compiler (and C++ compiler, when there is one) together with size and offset assertions
  * generated from the Rust types, so the two cannot drift apart.
  *

@@ -26,9 +26,10 @@
 //! 2. Fill the [`RequestHeader`] (zero it first: zero means "the chain's default" for every option).
 //! 3. Send, notify, and receive one response. Its [`ResponseHeader::status`] is a [`Status`]; on error
 //!    [`ResponseHeader::reason`] says what was wrong and the chain is unchanged. The payload holds
-//!    `n_joints` joint positions (tail first, joint 0 = tail, joint `n_links` = head) followed by `n_angles`
-//!    joint rotations as rotation vectors (axis × angle in radians; for a planar chain `(0, 0, θ)`). An
-//!    error response carries no elements.
+//!    `n_joints` joint positions (tail first, joint 0 = tail, joint `n_joints - 1` = head) followed by
+//!    `n_angles` joint rotations as rotation vectors (axis × angle in radians; for a planar chain `(0, 0,
+//!    θ)`). An error response carries no elements. The chain's description (name, kind, sizes, defaults)
+//!    comes with [`Command::Describe`] only.
 //!
 //! # Byte layout
 //!
@@ -115,8 +116,8 @@ use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
-pub mod ports;
 pub mod text;
+pub mod unix_frame;
 
 /// Protocol version; it is part of every type name.
 pub const PROTOCOL_VERSION: u32 = 1;
@@ -191,6 +192,54 @@ pub fn iceoryx_config(prefix: &str) -> Result<iceoryx2::config::Config, String> 
     Ok(cfg)
 }
 
+/// A service name of this protocol (one of the `SERVICE_*` constants).
+pub fn service_name(s: &str) -> Result<iceoryx2::prelude::ServiceName, String> {
+    s.try_into().map_err(|e| format!("service name {s}: {e:?}"))
+}
+
+/// How a server of this protocol waits for requests, and how a client waits for its response.
+///
+/// `spin` polls without pause (one core at 100 %, the lowest latency); `event` sleeps until notified
+/// (no CPU while idle, one wake-up per message); `hybrid` sleeps like `event` but spins for a short
+/// budget after each message, so a burst (a 1 kHz haptic loop) is served at spin latency while an idle
+/// peer sleeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum WaitMode {
+    /// Busy-poll.
+    Spin,
+    /// Sleep until notified.
+    Event,
+    /// Sleep until notified, then spin for a budget after each message.
+    Hybrid,
+}
+
+impl WaitMode {
+    /// The mode's name on command lines.
+    pub fn name(self) -> &'static str {
+        match self {
+            WaitMode::Spin => "spin",
+            WaitMode::Event => "event",
+            WaitMode::Hybrid => "hybrid",
+        }
+    }
+}
+
+/// Pins the calling thread to CPU `core` (latency runs on two cores: the service on one, a client on
+/// the other).
+pub fn pin_current_thread(core: usize) -> Result<(), String> {
+    let id = core_affinity::get_core_ids()
+        .unwrap_or_default()
+        .into_iter()
+        .find(|c| c.id == core)
+        .ok_or_else(|| format!("--pin {core}: no such core"))?;
+    if core_affinity::set_for_current(id) {
+        Ok(())
+    } else {
+        Err(format!("--pin {core}: the scheduler refused"))
+    }
+}
+
 /// The prefix from the environment ([`PREFIX_ENV`]) or the default.
 pub fn prefix_from_env() -> String {
     std::env::var(PREFIX_ENV).unwrap_or_else(|_| DEFAULT_PREFIX.to_string())
@@ -220,6 +269,19 @@ impl Vec3 {
     }
     pub fn is_finite(&self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
+    }
+}
+
+/// The one place where wire points meet nalgebra (the kernel's and the scenes' vectors).
+impl From<Vec3> for nalgebra::Vector3<f64> {
+    fn from(v: Vec3) -> Self {
+        nalgebra::Vector3::new(v.x, v.y, v.z)
+    }
+}
+
+impl From<nalgebra::Vector3<f64>> for Vec3 {
+    fn from(v: nalgebra::Vector3<f64>) -> Self {
+        Vec3::new(v.x, v.y, v.z)
     }
 }
 
@@ -385,6 +447,13 @@ macro_rules! wire_enum_from_u32 {
                 Self::ALL.into_iter().find(|x| *x as u32 == v)
             }
         }
+        impl TryFrom<u32> for $t {
+            /// The unknown wire number.
+            type Error = u32;
+            fn try_from(v: u32) -> Result<Self, u32> {
+                Self::from_u32(v).ok_or(v)
+            }
+        }
     )*};
 }
 wire_enum_from_u32! {
@@ -459,7 +528,10 @@ impl RequestHeader {
     }
 }
 
-/// The response's user header.
+/// The response's user header. The description fields, from `n_chains`' neighbour `kind` through `name`
+/// (`kind`, `dims`, `n_links`, `precision`, `method`, `collision`, `substep_mode`, `substeps_default`,
+/// `max_step`, `total_length`, `thickness`, `name`), are filled by [`Command::Describe`] only; every
+/// other response leaves them zero (a chain of `n` links answers `n + 1` joints).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[repr(C)]
 #[type_name("tractrix.v1.ResponseHeader")]

@@ -3,11 +3,11 @@
 //!
 //! * a translation unit that includes the header and asserts, with `_Static_assert`, every size,
 //!   alignment, field offset and field size, every constant and every enumeration value, generated
-//!   here from the Rust definitions (`protocol::WIRE_TYPES`, `Status::ALL`, `Command::ALL`);
+//!   here from the Rust definitions (`shared::WIRE_TYPES`, `Status::ALL`, `Command::ALL`);
 //! * a C program that fills a request header field by field and prints its bytes, compared with the
 //!   bytes of the same Rust value.
 
-use protocol::{Command, RequestHeader, Status, WIRE_TYPES};
+use shared::{Command, RequestHeader, Status, WIRE_TYPES};
 use std::path::{Path, PathBuf};
 use std::process::Command as Process;
 
@@ -63,26 +63,26 @@ fn assertions() -> String {
         ));
     }
     for (name, v) in [
-        ("PROTOCOL_VERSION", u64::from(protocol::PROTOCOL_VERSION)),
-        ("MAX_LINKS", u64::from(protocol::MAX_LINKS)),
+        ("PROTOCOL_VERSION", u64::from(shared::PROTOCOL_VERSION)),
+        ("MAX_LINKS", u64::from(shared::MAX_LINKS)),
         (
             "MAX_RESPONSE_ELEMENTS",
-            u64::from(protocol::MAX_RESPONSE_ELEMENTS),
+            u64::from(shared::MAX_RESPONSE_ELEMENTS),
         ),
-        ("MAX_PATH_POINTS", u64::from(protocol::MAX_PATH_POINTS)),
-        ("MAX_CHAINS", u64::from(protocol::MAX_CHAINS)),
-        ("NAME_LEN", protocol::NAME_LEN as u64),
-        ("REASON_LEN", protocol::REASON_LEN as u64),
-        ("JOINT_HEAD", u64::from(protocol::JOINT_HEAD)),
-        ("FLAG_ANGLES", u64::from(protocol::FLAG_ANGLES)),
-        ("COLLISION_SELF", u64::from(protocol::COLLISION_SELF)),
+        ("MAX_PATH_POINTS", u64::from(shared::MAX_PATH_POINTS)),
+        ("MAX_CHAINS", u64::from(shared::MAX_CHAINS)),
+        ("NAME_LEN", shared::NAME_LEN as u64),
+        ("REASON_LEN", shared::REASON_LEN as u64),
+        ("JOINT_HEAD", u64::from(shared::JOINT_HEAD)),
+        ("FLAG_ANGLES", u64::from(shared::FLAG_ANGLES)),
+        ("COLLISION_SELF", u64::from(shared::COLLISION_SELF)),
         (
             "COLLISION_OBSTACLES",
-            u64::from(protocol::COLLISION_OBSTACLES),
+            u64::from(shared::COLLISION_OBSTACLES),
         ),
         (
             "COLLISION_PAPER_SPHERES",
-            u64::from(protocol::COLLISION_PAPER_SPHERES),
+            u64::from(shared::COLLISION_PAPER_SPHERES),
         ),
     ] {
         check(format!("TRACTRIX_{name} == {v}u"));
@@ -173,13 +173,13 @@ int main(void) {
     assert!(out.status.success());
     let c_hex = String::from_utf8(out.stdout).unwrap();
     let mut h = RequestHeader::new(Command::Path, 7);
-    h.method = protocol::WireMethod::Paper as u32;
-    h.precision = protocol::Precision::F64 as u32;
-    h.substep_mode = protocol::SubstepMode::MaxStep as u32;
+    h.method = shared::WireMethod::Paper as u32;
+    h.precision = shared::Precision::F64 as u32;
+    h.substep_mode = shared::SubstepMode::MaxStep as u32;
     h.substeps = 12;
-    h.strategy = protocol::WireStrategy::TractrixTwoLink as u32;
+    h.strategy = shared::WireStrategy::TractrixTwoLink as u32;
     h.max_iterations = 345;
-    h.flags = protocol::FLAG_ANGLES;
+    h.flags = shared::FLAG_ANGLES;
     h.client_listener = [0x0123456789abcdef, 0xfedcba9876543210];
     h.request_id = 99;
     h.max_step = 0.25;

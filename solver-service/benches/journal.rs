@@ -4,10 +4,10 @@
 //! 8 substeps: the solve time and the journal append time with the journal off, written (survives
 //! `kill -9`) and fsynced (survives power loss): median, p99 and max over interleaved rounds.
 
-use protocol::{Command, RequestHeader, ResponseHeader, SubstepMode, Vec3};
-use solver::chain_set::ChainSet;
-use solver::persist::{JournalMode, Store};
-use solver::scene::default_scene;
+use shared::{Command, RequestHeader, SubstepMode, Vec3};
+use solver_service::chain_set::ChainSet;
+use solver_service::persist::{JournalMode, Store};
+use solver_service::scene::default_scene;
 use std::time::Instant;
 
 fn pct(v: &mut [u64], p: f64) -> u64 {
@@ -25,7 +25,7 @@ fn main() {
     let mut solve: Vec<Vec<u64>> = vec![Vec::new(); 3];
     let mut append: Vec<Vec<u64>> = vec![Vec::new(); 3];
     let dir = tempfile::tempdir().expect("temp dir");
-    let mut h = ResponseHeader::default();
+    let mut out = Vec::new();
     let mut req = RequestHeader::new(Command::Move, 0);
     req.substep_mode = SubstepMode::Fixed as u32;
     req.substeps = 8;
@@ -44,7 +44,7 @@ fn main() {
                 let t = (round * n + i) as f64 * 0.01;
                 let p = [Vec3::new(40.0 + t.cos(), t.sin(), 0.1 * t)];
                 let t0 = Instant::now();
-                assert!(set.apply(&req, &p, &mut h));
+                assert!(set.respond(&req, &p, &mut out).1);
                 let t1 = Instant::now();
                 store.append(set.sequence(), &req, &p).expect("append");
                 let t2 = Instant::now();

@@ -1,16 +1,17 @@
-//! Batch mode: a file of requests (JSON lines, [`protocol::text`]) applied to a scene without IPC, through
+//! Batch mode: a file of requests (JSON lines, [`shared::text`]) applied to a scene without IPC, through
 //! the same handler as the service, with the resulting joints written as JSON lines or CSV. For scripts,
 //! regression files and debugging.
 
 use crate::chain_set::ChainSet;
-use protocol::text::{TextRequest, TextResponse};
-use protocol::{ResponseHeader, Status};
+use shared::text::{TextRequest, TextResponse};
+use shared::{Status, Vec3};
 use std::io::{BufRead, Write};
 
 /// Output format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Format {
     /// One [`TextResponse`] per line.
+    #[value(name = "jsonl")]
     JsonLines,
     /// `line,sequence,status,chain,kind,index,x,y,z`: one row per joint (`kind = joint`) and rotation
     /// (`kind = angle`); an error row has `kind = error` and no coordinates.
@@ -38,7 +39,7 @@ pub fn run_batch(
     source: &str,
 ) -> Result<Summary, String> {
     let mut summary = Summary::default();
-    let mut h = ResponseHeader::default();
+    let mut payload: Vec<Vec3> = Vec::new();
     let mut line = String::new();
     let mut number = 0usize;
     if format == Format::Csv {
@@ -67,19 +68,12 @@ pub fn run_batch(
         let (header, points) = req
             .to_wire(&|name| set.find(name))
             .map_err(|e| format!("{source}:{number}: {e}"))?;
-        set.apply(&header, &points, &mut h);
+        let (h, _) = set.respond(&header, &points, &mut payload);
         summary.requests += 1;
         let ok = h.status == Status::Ok as u32;
         if !ok {
             summary.failed += 1;
         }
-        let payload: Vec<_> = if ok && h.n_joints > 0 {
-            set.elements(h.chain, h.n_angles > 0)
-                .take((h.n_joints + h.n_angles) as usize)
-                .collect()
-        } else {
-            Vec::new()
-        };
         let w = |e: std::io::Error| e.to_string();
         match format {
             Format::JsonLines => {

@@ -1,50 +1,53 @@
-//! The chains of a running scene and the request handler over them.
+//! The chains of a running scene: one flat [`Chain`] per scene chain, addressed by its index (the wire's
+//! chain handle), in exactly the form the scene declared (planar or spatial, f64 or f32), with collision
+//! structures only where the scene declares collision.
 //!
-//! A [`ChainSet`] holds one flat [`Chain`] per scene chain, addressed by its index (the wire's chain
-//! handle), in exactly the form the scene declared: planar or spatial, f64 or f32. [`ChainSet::apply`]
-//! validates a wire request field by field, runs the kernel, and fills the response header; on any error
-//! the state is unchanged and the header says what was wrong. [`ChainSet::elements`] then streams the
-//! joints (and joint rotations) straight into the caller's buffer: the service writes them into the loaned
-//! shared-memory response, batch mode into its output.
+//! [`ChainSet::apply`] runs a decoded [`Request`] and is atomic: a refusal changes nothing, and the last
+//! accepted change can be undone ([`ChainSet::undo`], for a journal write that failed). The set owns that
+//! rollback, and nothing else does. [`ChainSet::elements`] streams the joints (and joint rotations)
+//! straight into the caller's buffer: the service writes them into the loaned shared-memory response,
+//! batch mode and the Unix socket into their output.
 //!
 //! No I/O and no clock here: the service measures time and does the persistence around it.
 
-use crate::kernel::angles::rotation_between;
-use crate::kernel::collision::{
+use crate::request::{self, Outcome, Refusal, Request, Residual};
+use crate::scene::{ChainSpec, Scene};
+use nalgebra::Vector3;
+use shared::{Precision, RequestHeader, ResponseHeader, Vec3};
+use tractrix::angles::rotation_between;
+use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, move_joint_colliding,
 };
-use crate::kernel::math::{CompensatedSum, Embed3, Real, Vector, all_finite};
-use crate::kernel::{
-    Chain, ChainError, Method, MoveOptions, MoveOutcome, ReachError, ReachOptions, ReachWorkspace,
-    Strategy, Substeps, reach,
-};
-use crate::scene::{ChainDef, ObstacleDef, Scene};
-use nalgebra::Vector3;
-use protocol::{
-    ChainKind, Command, FLAG_ANGLES, JOINT_HEAD, MAX_PATH_POINTS, Precision, REASON_LEN,
-    RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
-};
-use std::fmt::Write as _;
+use tractrix::math::{CompensatedSum, Embed3, Real, Vector};
+use tractrix::{Chain, ChainError, MoveOptions, MoveOutcome, ReachOptions, ReachWorkspace, reach};
 
 /// A chain in the precision and dimension its scene declared, with its scene state (for reset) and the
-/// reach workspace (allocated once).
+/// buffers its requests reuse (allocated once).
 #[derive(Debug, Clone)]
 pub struct Held<T: Real, const D: usize> {
+    /// The current state.
     pub chain: Chain<T, D>,
+    /// The scene's state (reset).
     pub initial: Chain<T, D>,
-    /// The state before the request being applied (for a rollback).
-    spare: Chain<T, D>,
+    /// The state before the last change ([`ChainSet::undo`]).
+    before: Chain<T, D>,
     ws: ReachWorkspace<T, D>,
     /// Collision model and buffers, only for chains whose scene declares collision.
     collision: Option<(CollisionModel<T, D>, CollisionWorkspace<T, D>)>,
+    /// A path's targets in the chain's type (bounded by `MAX_PATH_POINTS`, kept between requests).
+    targets: Vec<Vector<T, D>>,
 }
 
 /// One of the four chain forms.
 #[derive(Debug, Clone)]
 pub enum Geometry {
+    /// Planar, f64.
     Planar64(Held<f64, 2>),
+    /// Spatial, f64.
     Spatial64(Held<f64, 3>),
+    /// Planar, f32.
     Planar32(Held<f32, 2>),
+    /// Spatial, f32.
     Spatial32(Held<f32, 3>),
 }
 
@@ -61,77 +64,21 @@ macro_rules! each_form {
 }
 pub(crate) use each_form;
 
-/// A scene chain: its definition and its state.
-#[derive(Debug, Clone)]
-pub struct Entry {
-    pub def: ChainDef,
-    pub geometry: Geometry,
-    /// Largest coordinate a target of this (free) chain may have: [`protocol::max_coordinate`].
-    pub max_coordinate: f64,
-}
-
-/// Every chain of a scene plus the state sequence number.
+/// Every chain of a scene, the state sequence number, and the undo record of the last change.
 #[derive(Debug, Clone)]
 pub struct ChainSet {
-    entries: Vec<Entry>,
+    specs: Vec<ChainSpec>,
+    geometry: Vec<Geometry>,
     sequence: u64,
+    /// The chain and sequence before the last accepted change, while it can be undone.
+    undo: Option<(u32, u64)>,
 }
 
-fn held<T: Real, const D: usize>(def: &ChainDef) -> Result<Held<T, D>, ChainError>
+fn point<T: Real, const D: usize>(q: Vec3) -> Vector<T, D>
 where
     Vector<T, D>: Embed3<T>,
 {
-    let p: Vec<Vector<T, D>> = def.points.iter().map(|q| from_array(*q)).collect();
-    let links: Vec<_> = p.windows(2).map(|w| w[1] - w[0]).collect();
-    let lengths: Vec<T> = def.lengths.iter().map(|&l| T::lit(l)).collect();
-    let chain = Chain::from_parts(p[0], links, lengths)?;
-    let collision = def.collision_spec.as_ref().map(|spec| {
-        let v = |q: &[f64; 3]| from_array::<T, D>(*q);
-        let obstacles = spec
-            .obstacles
-            .iter()
-            .map(|o| match o {
-                ObstacleDef::Sphere { center, radius } => Obstacle::Sphere {
-                    center: v(center),
-                    radius: T::lit(*radius),
-                },
-                ObstacleDef::Capsule { a, b, radius } => Obstacle::Capsule {
-                    a: v(a),
-                    b: v(b),
-                    radius: T::lit(*radius),
-                },
-                ObstacleDef::Plane { point, normal } => Obstacle::HalfSpace {
-                    point: v(point),
-                    normal: v(normal),
-                },
-            })
-            .collect();
-        let model = CollisionModel {
-            options: CollisionOptions {
-                scheme: spec.scheme,
-                self_collision: spec.self_collision,
-                thickness: T::lit(def.thickness),
-                max_iterations: spec.iterations,
-                tolerance: T::lit(spec.tolerance),
-            },
-            obstacles,
-        };
-        (model, CollisionWorkspace::new())
-    });
-    Ok(Held {
-        initial: chain.clone(),
-        spare: chain.clone(),
-        chain,
-        ws: ReachWorkspace::default(),
-        collision,
-    })
-}
-
-fn from_array<T: Real, const D: usize>(q: [f64; 3]) -> Vector<T, D>
-where
-    Vector<T, D>: Embed3<T>,
-{
-    Embed3::from_3d(&Vector3::new(T::lit(q[0]), T::lit(q[1]), T::lit(q[2])))
+    Embed3::from_3d(&Vector3::new(T::lit(q.x), T::lit(q.y), T::lit(q.z)))
 }
 
 fn to_wire<T: Real, const D: usize>(v: &Vector<T, D>) -> Vec3
@@ -142,402 +89,268 @@ where
     Vec3::new(v.x.to_f64(), v.y.to_f64(), v.z.to_f64())
 }
 
+fn held<T: Real, const D: usize>(spec: &ChainSpec) -> Result<Held<T, D>, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let p: Vec<Vector<T, D>> = spec.points.iter().map(|q| point((*q).into())).collect();
+    let links: Vec<_> = p.windows(2).map(|w| w[1] - w[0]).collect();
+    let lengths: Vec<T> = spec.lengths.iter().map(|&l| T::lit(l)).collect();
+    let chain = Chain::from_parts(p[0], links, lengths)?;
+    let collision = spec.collision.as_ref().map(|c| {
+        let v = |q: &Vector3<f64>| point::<T, D>((*q).into());
+        let obstacles = c
+            .obstacles
+            .iter()
+            .map(|o| match o {
+                Obstacle::Sphere { center, radius } => Obstacle::Sphere {
+                    center: v(center),
+                    radius: T::lit(*radius),
+                },
+                Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
+                    a: v(a),
+                    b: v(b),
+                    radius: T::lit(*radius),
+                },
+                Obstacle::HalfSpace { point, normal } => Obstacle::HalfSpace {
+                    point: v(point),
+                    normal: v(normal),
+                },
+            })
+            .collect();
+        let o = &c.options;
+        let model = CollisionModel {
+            options: CollisionOptions {
+                scheme: o.scheme,
+                self_collision: o.self_collision,
+                thickness: T::lit(o.thickness),
+                max_iterations: o.max_iterations,
+                tolerance: T::lit(o.tolerance),
+            },
+            obstacles,
+        };
+        (model, CollisionWorkspace::new())
+    });
+    Ok(Held {
+        initial: chain.clone(),
+        before: chain.clone(),
+        chain,
+        ws: ReachWorkspace::default(),
+        collision,
+        targets: Vec::new(),
+    })
+}
+
 impl ChainSet {
     /// Builds the chains a scene declares (and nothing else).
     pub fn new(scene: &Scene) -> Result<Self, String> {
-        let mut entries = Vec::with_capacity(scene.chains.len());
-        for def in &scene.chains {
-            let g = match (def.dims, def.precision) {
-                (2, Precision::F32) => held(def).map(Geometry::Planar32),
-                (2, _) => held(def).map(Geometry::Planar64),
-                (_, Precision::F32) => held(def).map(Geometry::Spatial32),
-                _ => held(def).map(Geometry::Spatial64),
+        let mut geometry = Vec::with_capacity(scene.chains.len());
+        for spec in &scene.chains {
+            let g = match (spec.dims, spec.precision) {
+                (2, Precision::F32) => held(spec).map(Geometry::Planar32),
+                (2, _) => held(spec).map(Geometry::Planar64),
+                (_, Precision::F32) => held(spec).map(Geometry::Spatial32),
+                _ => held(spec).map(Geometry::Spatial64),
             }
-            .map_err(|e| format!("chain {:?}: {e}", def.name))?;
-            let shortest = def.lengths.iter().copied().fold(f64::INFINITY, f64::min);
-            entries.push(Entry {
-                def: def.clone(),
-                geometry: g,
-                max_coordinate: protocol::max_coordinate(shortest, def.precision == Precision::F32),
-            });
+            .map_err(|e| format!("chain {:?}: {e}", spec.name))?;
+            geometry.push(g);
         }
         Ok(ChainSet {
-            entries,
+            specs: scene.chains.clone(),
+            geometry,
             sequence: 0,
+            undo: None,
         })
     }
 
+    /// Number of chains.
     pub fn len(&self) -> usize {
-        self.entries.len()
+        self.specs.len()
     }
+    /// Whether the scene has no chain (never true for a validated scene).
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.specs.is_empty()
     }
-    pub fn entries(&self) -> &[Entry] {
-        &self.entries
+    /// The chains' specifications, by handle.
+    pub fn specs(&self) -> &[ChainSpec] {
+        &self.specs
     }
-    pub(crate) fn entries_mut(&mut self) -> &mut [Entry] {
-        &mut self.entries
+    /// The chains' states, by handle.
+    pub fn geometry(&self) -> &[Geometry] {
+        &self.geometry
+    }
+    /// Replaces every chain's state and the sequence (a restored snapshot, checked by the caller).
+    pub(crate) fn install(&mut self, geometry: Vec<Geometry>, sequence: u64) {
+        self.geometry = geometry;
+        self.sequence = sequence;
+        self.undo = None;
     }
     /// The sequence number of the last accepted change (0 before any).
     pub fn sequence(&self) -> u64 {
         self.sequence
     }
-    pub(crate) fn set_sequence(&mut self, s: u64) {
-        self.sequence = s;
-    }
     /// The handle of a chain by name.
     pub fn find(&self, name: &str) -> Option<u32> {
-        self.entries
+        self.specs
             .iter()
-            .position(|e| e.def.name == name)
+            .position(|s| s.name == name)
             .map(|i| i as u32)
     }
-    /// Remembers `chain`'s state (and the sequence) so that [`ChainSet::rollback`] can undo the next
-    /// request. `None` for an unknown chain. Copies into a kept buffer: no allocation.
-    pub fn backup(&mut self, chain: u32) -> Option<u64> {
-        let e = self.entries.get_mut(chain as usize)?;
-        each_form!(&mut e.geometry, g => g.spare.copy_from(&g.chain));
-        Some(self.sequence)
-    }
-
-    /// Undoes everything since [`ChainSet::backup`] returned `backup`.
-    pub fn rollback(&mut self, chain: u32, backup: Option<u64>) {
-        if let (Some(seq), Some(e)) = (backup, self.entries.get_mut(chain as usize)) {
-            each_form!(&mut e.geometry, g => std::mem::swap(&mut g.chain, &mut g.spare));
-            self.sequence = seq;
-        }
-    }
-
     /// Joints of a chain (`n_links + 1`).
     pub fn n_joints(&self, chain: u32) -> usize {
-        self.entries[chain as usize].def.lengths.len() + 1
+        self.specs[chain as usize].lengths.len() + 1
     }
 
-    /// Fills the chain-description fields of a response header.
-    pub fn describe_into(&self, chain: u32, h: &mut ResponseHeader) {
-        let e = &self.entries[chain as usize];
-        let d = &e.def;
-        h.kind = d.kind as u32;
-        h.dims = d.dims;
-        h.n_links = d.lengths.len() as u32;
-        h.precision = d.precision as u32;
-        h.method = match d.method {
-            Method::Tractrix => WireMethod::Tractrix,
-            Method::TractrixPaper => WireMethod::Paper,
-            Method::FollowTheLeader => WireMethod::FollowTheLeader,
-        } as u32;
-        h.collision = d.collision;
-        match d.substeps {
-            Substeps::Fixed(k) => {
-                h.substep_mode = SubstepMode::Fixed as u32;
-                h.substeps_default = k;
-                h.max_step = 0.0;
-            }
-            Substeps::MaxStep(s) => {
-                h.substep_mode = SubstepMode::MaxStep as u32;
-                h.substeps_default = 0;
-                h.max_step = s;
-            }
-        }
-        h.total_length = d.lengths.iter().sum();
-        h.thickness = d.thickness;
-        h.set_name(&d.name);
+    /// Checks a wire request against the scene ([`request::decode`]).
+    pub fn decode<'a>(
+        &self,
+        h: &RequestHeader,
+        points: &'a [Vec3],
+    ) -> Result<Request<'a>, Refusal> {
+        request::decode(h, points, &self.specs)
     }
 
-    /// Validates and applies one request, filling `h` (everything but `solve_ns`). Returns whether the
-    /// state changed; on any error status nothing changed. [`Command::Snapshot`] is the caller's business:
-    /// here it only passes validation.
-    pub fn apply(&mut self, req: &RequestHeader, points: &[Vec3], h: &mut ResponseHeader) -> bool {
-        *h = ResponseHeader {
-            command: req.command,
-            chain: req.chain,
-            request_id: req.request_id,
-            n_chains: self.entries.len() as u32,
-            sequence: self.sequence,
-            ..ResponseHeader::default()
+    /// Decodes and applies a wire request (the journal's replay, tests).
+    pub fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Outcome, Refusal> {
+        let req = self.decode(h, points)?;
+        self.apply(&req)
+    }
+
+    /// Applies a decoded request. A refusal changes nothing; an accepted change gets the next sequence
+    /// number and can be undone until the next request.
+    pub fn apply(&mut self, req: &Request<'_>) -> Result<Outcome, Refusal> {
+        self.undo = None;
+        let Some(chain) = req.chain() else {
+            return Ok(Outcome {
+                chain: None,
+                changed: false,
+                joints: 0,
+                angles: 0,
+                substeps: 0,
+                paper_fallbacks: 0,
+                iterations: 0,
+                residual: Residual::None,
+                describe: false,
+            });
         };
-        match self.try_apply(req, points, h) {
-            Ok(changed) => {
-                h.status = Status::Ok as u32;
-                if changed {
-                    self.sequence += 1;
-                    h.sequence = self.sequence;
-                }
-                changed
+        let n_links = self.specs[chain as usize].lengths.len() as u32;
+        let g = &mut self.geometry[chain as usize];
+        let mut outcome = Outcome {
+            chain: Some(chain),
+            changed: req.changes_state(),
+            joints: n_links + 1,
+            angles: 0,
+            substeps: 0,
+            paper_fallbacks: 0,
+            iterations: 0,
+            residual: Residual::None,
+            describe: false,
+        };
+        if outcome.changed {
+            // Armed before the kernel runs, so that a panic inside it can be undone too.
+            each_form!(&mut *g, h => h.before.copy_from(&h.chain));
+            self.undo = Some((chain, self.sequence));
+        }
+        let result = match *req {
+            Request::Move {
+                joint,
+                targets,
+                ref options,
+                ..
+            } => each_form!(&mut *g, h => move_held(h, joint, targets, options)).map(|m| {
+                outcome.substeps = m.substeps;
+                outcome.paper_fallbacks = m.paper_fallbacks;
+                outcome.iterations = m.collision_iterations;
+                outcome.residual = Residual::Landing {
+                    joint,
+                    target: targets[targets.len() - 1],
+                };
+            }),
+            Request::Reach {
+                target,
+                ref options,
+                angles,
+                ..
+            } => each_form!(&mut *g, h => reach_held(h, target, options)).map(|(it, res)| {
+                outcome.iterations = it;
+                outcome.residual = Residual::Known(res);
+                outcome.angles = if angles { n_links } else { 0 };
+            }),
+            Request::Query { angles, .. } => {
+                outcome.angles = if angles { n_links } else { 0 };
+                Ok(())
             }
-            Err((status, reason)) => {
-                h.status = status as u32;
-                h.n_joints = 0;
-                h.n_angles = 0;
-                reason.write_to(h);
-                false
+            Request::Describe { .. } => {
+                outcome.describe = true;
+                Ok(())
+            }
+            Request::Reset { .. } => {
+                each_form!(&mut *g, h => h.chain.copy_from(&h.initial));
+                Ok(())
+            }
+            Request::Snapshot => Ok(()),
+        };
+        match result {
+            Ok(()) => {
+                if outcome.changed {
+                    self.sequence += 1;
+                }
+                Ok(outcome)
+            }
+            Err(r) => {
+                if outcome.changed {
+                    each_form!(&mut *g, h => std::mem::swap(&mut h.chain, &mut h.before));
+                    self.undo = None;
+                }
+                Err(r)
             }
         }
     }
 
-    // The error carries its reason formatted in place (no allocation on a refused request); 136 bytes
-    // on the stack cost less than a box.
-    #[allow(clippy::result_large_err)]
-    fn try_apply(
+    /// Undoes the last accepted change (a journal write failed), or the change that was being applied
+    /// when the solver panicked. Only once; nothing happens if there is nothing to undo.
+    pub fn undo(&mut self) {
+        if let Some((chain, sequence)) = self.undo.take() {
+            each_form!(&mut self.geometry[chain as usize], h => std::mem::swap(&mut h.chain, &mut h.before));
+            self.sequence = sequence;
+        }
+    }
+
+    /// Decodes, applies and encodes one wire request, and writes the response's elements into `out`:
+    /// the path of batch mode, the Unix socket and the journal's replay (the service streams the
+    /// elements into shared memory instead). Returns the header and whether the state changed.
+    pub fn respond(
         &mut self,
         req: &RequestHeader,
         points: &[Vec3],
-        h: &mut ResponseHeader,
-    ) -> Result<bool, (Status, Reason)> {
-        let command = Command::from_u32(req.command).ok_or_else(|| {
-            fail(
-                Status::UnknownCommand,
-                format_args!("command {} is not one of 1..=7", req.command),
-            )
-        })?;
-        if req.reserved != [0, 0] {
-            return Err(fail(
-                Status::BadOption,
-                format_args!("reserved fields must be zero"),
-            ));
+        out: &mut Vec<Vec3>,
+    ) -> (ResponseHeader, bool) {
+        let result = self.decode(req, points).and_then(|r| self.apply(&r));
+        let mut h = request::encode(req, &result, self.sequence, &self.specs);
+        out.clear();
+        out.extend(self.elements(&h));
+        if let Ok(o) = &result {
+            request::finish(&mut h, o.residual, out);
         }
-        if req.flags & !FLAG_ANGLES != 0 {
-            return Err(fail(
-                Status::BadOption,
-                format_args!("unknown flag bits {:#x}", req.flags & !FLAG_ANGLES),
-            ));
-        }
-        let method = WireMethod::from_u32(req.method).ok_or_else(|| {
-            fail(
-                Status::BadOption,
-                format_args!("method {} is not one of 0..=3", req.method),
-            )
-        })?;
-        let precision = Precision::from_u32(req.precision).ok_or_else(|| {
-            fail(
-                Status::BadOption,
-                format_args!("precision {} is not one of 0..=2", req.precision),
-            )
-        })?;
-        let substep_mode = SubstepMode::from_u32(req.substep_mode).ok_or_else(|| {
-            fail(
-                Status::BadOption,
-                format_args!("substep_mode {} is not one of 0..=2", req.substep_mode),
-            )
-        })?;
-        let strategy = WireStrategy::from_u32(req.strategy).ok_or_else(|| {
-            fail(
-                Status::BadOption,
-                format_args!("strategy {} is not one of 0..=2", req.strategy),
-            )
-        })?;
-        let expected_points = match command {
-            Command::Move | Command::Reach => 1..=1,
-            Command::Path => 1..=MAX_PATH_POINTS as usize,
-            _ => 0..=0,
-        };
-        if !expected_points.contains(&points.len()) {
-            return Err(fail(
-                Status::BadPointCount,
-                format_args!(
-                    "{} takes {}..={} points, got {}",
-                    command.name(),
-                    expected_points.start(),
-                    expected_points.end(),
-                    points.len()
-                ),
-            ));
-        }
-        if command == Command::Snapshot {
-            return Ok(false);
-        }
-        let n_chains = self.entries.len();
-        if req.chain as usize >= n_chains {
-            return Err(fail(
-                Status::UnknownChain,
-                format_args!("chain {} (the scene has 0..{n_chains})", req.chain),
-            ));
-        }
-        self.describe_into(req.chain, h);
-        let entry = &mut self.entries[req.chain as usize];
-        let def = &entry.def;
-        if precision != Precision::Default && precision != def.precision {
-            return Err(fail(
-                Status::BadOption,
-                format_args!(
-                    "chain {:?} is stored in {}",
-                    def.name,
-                    if def.precision == Precision::F32 {
-                        "f32"
-                    } else {
-                        "f64"
-                    }
-                ),
-            ));
-        }
-        for (i, p) in points.iter().enumerate() {
-            if !p.is_finite() {
-                return Err(fail(
-                    Status::NonFinite,
-                    format_args!("point {i} is not finite"),
-                ));
-            }
-            let far = p.x.abs().max(p.y.abs()).max(p.z.abs());
-            if def.kind == ChainKind::Free && far > entry.max_coordinate {
-                return Err(fail(
-                    Status::TooFar,
-                    format_args!(
-                        "point {i}: {far:.3e} is beyond {:.3e}: too far to keep link lengths",
-                        entry.max_coordinate
-                    ),
-                ));
-            }
-            if def.dims == 2 && p.z != 0.0 {
-                return Err(fail(
-                    Status::OffPlane,
-                    format_args!("point {i}: chain {:?} is planar, z must be 0", def.name),
-                ));
-            }
-        }
-        let n_links = def.lengths.len();
-        let with_angles = req.flags & FLAG_ANGLES != 0;
-        let method = match method {
-            WireMethod::Default => def.method,
-            WireMethod::Tractrix => Method::Tractrix,
-            WireMethod::Paper => Method::TractrixPaper,
-            WireMethod::FollowTheLeader => Method::FollowTheLeader,
-        };
-        let changed = match command {
-            Command::Move | Command::Path => {
-                if def.kind == ChainKind::FixedBase {
-                    return Err(fail(
-                        Status::WrongChainKind,
-                        format_args!("chain {:?} has a fixed base: use reach", def.name),
-                    ));
-                }
-                let joint = if req.joint == JOINT_HEAD {
-                    n_links
-                } else if req.joint as usize <= n_links {
-                    req.joint as usize
-                } else {
-                    return Err(fail(
-                        Status::JointOutOfRange,
-                        format_args!("joint {} (the chain has 0..={n_links})", req.joint),
-                    ));
-                };
-                let substeps = match substep_mode {
-                    SubstepMode::Default => def.substeps,
-                    SubstepMode::Fixed if req.substeps == 0 => {
-                        return Err(fail(
-                            Status::BadOption,
-                            format_args!("substeps must be at least 1"),
-                        ));
-                    }
-                    SubstepMode::Fixed => Substeps::Fixed(req.substeps),
-                    SubstepMode::MaxStep if !req.max_step.is_finite() => {
-                        return Err(fail(
-                            Status::NonFinite,
-                            format_args!("max_step is not finite"),
-                        ));
-                    }
-                    SubstepMode::MaxStep if req.max_step <= 0.0 => {
-                        return Err(fail(
-                            Status::BadOption,
-                            format_args!("max_step {} must be positive", req.max_step),
-                        ));
-                    }
-                    SubstepMode::MaxStep => Substeps::MaxStep(req.max_step),
-                };
-                let opts = MoveOptions {
-                    method,
-                    substeps,
-                    max_substeps: def.max_substeps,
-                };
-                let r =
-                    each_form!(&mut entry.geometry, g => move_generic(g, joint, points, &opts, h));
-                r.map_err(|e| chain_error(e, def))?;
-                true
-            }
-            Command::Reach => {
-                if def.kind != ChainKind::FixedBase {
-                    return Err(fail(
-                        Status::WrongChainKind,
-                        format_args!("chain {:?} is free: use move", def.name),
-                    ));
-                }
-                if substep_mode != SubstepMode::Default {
-                    return Err(fail(
-                        Status::BadOption,
-                        format_args!("reach takes `substeps` per pass; substep_mode must be 0"),
-                    ));
-                }
-                if req.substeps > def.max_substeps {
-                    return Err(fail(
-                        Status::BadOption,
-                        format_args!(
-                            "substeps {} above the chain's limit {}",
-                            req.substeps, def.max_substeps
-                        ),
-                    ));
-                }
-                let tolerance = if req.tolerance == 0.0 {
-                    def.tolerance
-                } else if !req.tolerance.is_finite() {
-                    return Err(fail(
-                        Status::NonFinite,
-                        format_args!("tolerance is not finite"),
-                    ));
-                } else if !(req.tolerance > 0.0 && req.tolerance <= 0.1) {
-                    return Err(fail(
-                        Status::BadOption,
-                        format_args!("tolerance {} is outside (0, 0.1]", req.tolerance),
-                    ));
-                } else {
-                    req.tolerance
-                };
-                let max_iterations = match req.max_iterations {
-                    0 => def.max_iterations,
-                    m if m <= 100_000 => m,
-                    m => {
-                        return Err(fail(
-                            Status::BadOption,
-                            format_args!("max_iterations {m} is above 100000"),
-                        ));
-                    }
-                };
-                let strategy = match strategy {
-                    WireStrategy::Default => def.strategy,
-                    WireStrategy::TranslateBack => Strategy::TranslateBack,
-                    WireStrategy::TractrixTwoLink => Strategy::TractrixTwoLink,
-                };
-                let opts = ReachOptions::<f64> {
-                    strategy,
-                    method,
-                    substeps: req.substeps.max(1),
-                    tolerance,
-                    max_iterations,
-                    ..ReachOptions::default()
-                };
-                each_form!(&mut entry.geometry, g => reach_generic(g, &points[0], &opts, def, h))?;
-                true
-            }
-            Command::Query | Command::Describe => false,
-            Command::Reset => {
-                each_form!(&mut entry.geometry, g => g.chain = g.initial.clone());
-                true
-            }
-            Command::Snapshot => false,
-        };
-        h.n_joints = (n_links + 1) as u32;
-        h.n_angles = if with_angles { n_links as u32 } else { 0 };
-        Ok(changed)
+        (h, result.is_ok_and(|o| o.changed))
     }
 
-    /// The response payload of a chain: its joints (tail first), then, with `angles`, one rotation vector
-    /// per joint (joint 0: from +x to link 1; joint i: from link i to link i+1). Written in order, with no
-    /// intermediate buffer.
-    /// An unknown chain yields nothing (an error response has no elements).
-    pub fn elements(&self, chain: u32, angles: bool) -> Elements<'_> {
-        let Some(e) = self.entries.get(chain as usize) else {
+    /// The payload of a response: its chain's joints (tail first), then, with `n_angles`, one rotation
+    /// vector per joint (joint 0: from +x to link 1; joint i: from link i to link i+1). Written in order,
+    /// with no intermediate buffer. An error response (or an unknown chain) yields nothing.
+    pub fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
+        if h.n_joints + h.n_angles == 0 {
+            return Elements::Empty;
+        }
+        self.elements_of(h.chain, h.n_angles > 0)
+    }
+
+    /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).
+    pub fn elements_of(&self, chain: u32, angles: bool) -> Elements<'_> {
+        let Some(g) = self.geometry.get(chain as usize) else {
             return Elements::Empty;
         };
-        match &e.geometry {
+        match g {
             Geometry::Planar64(h) => Elements::Planar64(ChainElements::new(&h.chain, angles)),
             Geometry::Spatial64(h) => Elements::Spatial64(ChainElements::new(&h.chain, angles)),
             Geometry::Planar32(h) => Elements::Planar32(ChainElements::new(&h.chain, angles)),
@@ -546,120 +359,42 @@ impl ChainSet {
     }
 }
 
-/// An error's short reason, formatted into a fixed buffer (no allocation on the request path).
-#[derive(Debug, Clone)]
-pub struct Reason {
-    buf: [u8; REASON_LEN],
-    len: usize,
-}
-
-impl Reason {
-    fn write_to(&self, h: &mut ResponseHeader) {
-        h.reason = self.buf;
-    }
-}
-
-impl std::fmt::Write for Reason {
-    fn write_str(&mut self, s: &str) -> std::fmt::Result {
-        for ch in s.chars() {
-            let mut b = [0u8; 4];
-            let e = ch.encode_utf8(&mut b).as_bytes();
-            if self.len + e.len() >= REASON_LEN {
-                return Ok(());
-            }
-            self.buf[self.len..self.len + e.len()].copy_from_slice(e);
-            self.len += e.len();
-        }
-        Ok(())
-    }
-}
-
-fn fail(status: Status, args: std::fmt::Arguments<'_>) -> (Status, Reason) {
-    let mut r = Reason {
-        buf: [0; REASON_LEN],
-        len: 0,
-    };
-    let _ = r.write_fmt(args);
-    (status, r)
-}
-
-fn chain_error(e: ChainError, def: &ChainDef) -> (Status, Reason) {
-    match e {
-        ChainError::NonFinite => fail(
-            Status::NonFinite,
-            format_args!(
-                "target does not fit the chain's {}",
-                if def.precision == Precision::F32 {
-                    "f32"
-                } else {
-                    "f64"
-                }
-            ),
-        ),
-        ChainError::JointOutOfRange { joint, last } => fail(
-            Status::JointOutOfRange,
-            format_args!("joint {joint} (the chain has 0..={last})"),
-        ),
-        ChainError::TooManySubsteps { required, limit } => fail(
-            Status::TooManySubsteps,
-            format_args!("the move needs {required} substeps; the chain allows {limit}"),
-        ),
-        ChainError::BadOption(s) => fail(Status::BadOption, format_args!("{s}")),
-        ChainError::Locked {
-            substep,
-            iterations,
-            penetration,
-        } => fail(
-            Status::Locked,
-            format_args!(
-                "links still {penetration:.2e} too close after {iterations} passes at substep {substep}"
-            ),
-        ),
-        e @ (ChainError::Empty | ChainError::BadLength { .. }) => {
-            fail(Status::Internal, format_args!("{e}"))
-        }
-    }
-}
-
-fn move_generic<T: Real, const D: usize>(
+/// A move or a path on one chain. The chain may be left moved on a refusal: [`ChainSet::apply`]
+/// restores it.
+fn move_held<T: Real, const D: usize>(
     g: &mut Held<T, D>,
     joint: usize,
-    points: &[Vec3],
+    targets: &[Vec3],
     opts: &MoveOptions<f64>,
-    h: &mut ResponseHeader,
-) -> Result<(), ChainError>
+) -> Result<MoveOutcome, Refusal>
 where
     Vector<T, D>: Embed3<T>,
 {
-    let substeps = match opts.substeps {
-        Substeps::Fixed(k) => Substeps::Fixed(k),
-        Substeps::MaxStep(s) => Substeps::MaxStep(T::lit(s)),
-    };
     let opts = MoveOptions {
         method: opts.method,
-        substeps,
+        substeps: match opts.substeps {
+            tractrix::Substeps::Fixed(k) => tractrix::Substeps::Fixed(k),
+            tractrix::Substeps::MaxStep(s) => tractrix::Substeps::MaxStep(T::lit(s)),
+        },
         max_substeps: opts.max_substeps,
     };
-    let last: Vector<T, D> = from_array(points[points.len() - 1].to_array());
-    let outcome = if let Some((model, ws)) = &mut g.collision {
-        // Each target is a straight move with collision. A failed move leaves the chain as it was
-        // before that move, so a path that fails after its first point is undone here from the
-        // spare copy (the whole request changes nothing).
-        let mut total = MoveOutcome::default();
-        if points.len() > 1 {
-            g.spare.copy_from(&g.chain);
+    let converted = |g: &mut Held<T, D>| -> Result<(), Refusal> {
+        g.targets.clear();
+        for t in targets {
+            let p: Vector<T, D> = point(*t);
+            if !tractrix::math::all_finite(&p) {
+                return Err(ChainError::NonFinite.into());
+            }
+            g.targets.push(p);
         }
-        for p in points {
-            let t: Vector<T, D> = from_array(p.to_array());
-            let o = match move_joint_colliding(&mut g.chain, joint, t, &opts, model, ws) {
-                Ok(o) => o,
-                Err(e) => {
-                    if points.len() > 1 {
-                        std::mem::swap(&mut g.chain, &mut g.spare);
-                    }
-                    return Err(e);
-                }
-            };
+        Ok(())
+    };
+    if let Some((model, ws)) = &mut g.collision {
+        // Each target is a straight move with collision.
+        let mut total = MoveOutcome::default();
+        for t in targets {
+            let p: Vector<T, D> = point(*t);
+            let o = move_joint_colliding(&mut g.chain, joint, p, &opts, model, ws)?;
             total.substeps = total.substeps.saturating_add(o.substeps);
             total.paper_fallbacks = total.paper_fallbacks.saturating_add(o.paper_fallbacks);
             total.collision_iterations = total
@@ -667,37 +402,31 @@ where
                 .saturating_add(o.collision_iterations);
             total.contacts = total.contacts.saturating_add(o.contacts);
         }
-        total
-    } else if points.len() == 1 {
-        if !all_finite(&last) {
-            return Err(ChainError::NonFinite);
+        Ok(total)
+    } else if targets.len() == 1 {
+        let p: Vector<T, D> = point(targets[0]);
+        if !tractrix::math::all_finite(&p) {
+            return Err(ChainError::NonFinite.into());
         }
-        g.chain.move_joint(joint, last, &opts)?
+        Ok(g.chain.move_joint(joint, p, &opts)?)
     } else {
-        // Converting a path needs a buffer; paths are bounded by MAX_PATH_POINTS.
-        let targets: Vec<Vector<T, D>> = points.iter().map(|p| from_array(p.to_array())).collect();
-        g.chain.move_along(joint, &targets, &opts)?
-    };
-    h.substeps = outcome.substeps;
-    h.paper_fallbacks = outcome.paper_fallbacks;
-    h.iterations = outcome.collision_iterations;
-    h.residual = (g.chain.joint(joint) - last).norm().to_f64();
-    Ok(())
+        converted(g)?;
+        let Held { chain, targets, .. } = g;
+        Ok(chain.move_along(joint, targets, &opts)?)
+    }
 }
 
-#[allow(clippy::result_large_err)] // see try_apply
-fn reach_generic<T: Real, const D: usize>(
+/// A reach on one fixed-base chain: iterations and residual.
+fn reach_held<T: Real, const D: usize>(
     g: &mut Held<T, D>,
-    target: &Vec3,
+    target: Vec3,
     opts: &ReachOptions<f64>,
-    def: &ChainDef,
-    h: &mut ResponseHeader,
-) -> Result<(), (Status, Reason)>
+) -> Result<(u32, f64), Refusal>
 where
     Vector<T, D>: Embed3<T>,
 {
-    let t: Vector<T, D> = from_array(target.to_array());
-    let opts_t = ReachOptions::<T> {
+    let t: Vector<T, D> = point(target);
+    let opts = ReachOptions::<T> {
         strategy: opts.strategy,
         method: opts.method,
         substeps: opts.substeps,
@@ -705,51 +434,25 @@ where
         max_iterations: opts.max_iterations,
         hierarchy_after: opts.hierarchy_after,
     };
-    match reach(&mut g.chain, &t, &opts_t, &mut g.ws) {
-        Ok(o) => {
-            h.iterations = o.iterations;
-            h.residual = o.residual.to_f64();
-            Ok(())
-        }
-        Err(ReachError::Unreachable { nearest, residual }) => {
-            h.residual = residual.to_f64();
-            let n = to_wire(&nearest);
-            Err(fail(
-                Status::Unreachable,
-                format_args!(
-                    "{:.3e} outside the workspace; nearest ({:.6}, {:.6}, {:.6})",
-                    residual.to_f64(),
-                    n.x,
-                    n.y,
-                    n.z
-                ),
-            ))
-        }
-        Err(ReachError::NotConverged {
-            iterations,
-            residual,
-        }) => {
-            h.iterations = iterations;
-            h.residual = residual.to_f64();
-            Err(fail(
-                Status::NotConverged,
-                format_args!(
-                    "{iterations} iterations, residual {:.3e}",
-                    residual.to_f64()
-                ),
-            ))
-        }
-        Err(ReachError::Chain(e)) => Err(chain_error(e, def)),
+    if !tractrix::math::all_finite(&t) {
+        return Err(ChainError::NonFinite.into());
     }
+    let o = reach(&mut g.chain, &t, &opts, &mut g.ws)?;
+    Ok((o.iterations, o.residual.to_f64()))
 }
 
 /// The payload of a response, in any of the four chain forms.
 #[derive(Debug)]
 pub enum Elements<'a> {
+    /// No elements (an error response).
     Empty,
+    /// Planar, f64.
     Planar64(ChainElements<'a, f64, 2>),
+    /// Spatial, f64.
     Spatial64(ChainElements<'a, f64, 3>),
+    /// Planar, f32.
     Planar32(ChainElements<'a, f32, 2>),
+    /// Spatial, f32.
     Spatial32(ChainElements<'a, f32, 3>),
 }
 

@@ -1,24 +1,22 @@
-//! Tractrix redundancy resolution for flexible objects (sutures, ropes, snakes) and hyper-redundant
-//! manipulators, after Sreenivasan, Goel & Ghosal, with the goal-directed-motion baselines of Korein &
-//! Badler.
+//! The tractrix solver service: a long-running process that holds the chains of a scene and answers
+//! "move this point of the chain to P" over iceoryx2 shared memory. The numbers come from the I/O-free
+//! kernel crate [`tractrix`]; this crate is everything around it.
 //!
-//! The crate has one I/O-free numeric [`kernel`]; the service binary around it lives in `src/main.rs`.
-//!
-//! ```
-//! use solver::kernel::{Chain, MoveOptions};
-//! use nalgebra::Vector3;
-//!
-//! // A 40-link rope of unit links along +x, its head dragged sideways.
-//! let mut rope = Chain::<f64, 3>::straight(40, 1.0, Vector3::zeros(), Vector3::x()).unwrap();
-//! let head = rope.head_index();
-//! rope.move_joint(head, Vector3::new(40.0, 5.0, 0.0), &MoveOptions::default()).unwrap();
-//! assert!((rope.head() - Vector3::new(40.0, 5.0, 0.0)).norm() < 1e-12);
-//! ```
+//! * [`scene`]: scene files (read, validate, shapes) into [`scene::ChainSpec`]s of kernel types;
+//! * [`request`]: the typed request path (`decode` → [`chain_set::ChainSet::apply`] → `encode`);
+//! * [`chain_set`]: the chains of a scene, flat, addressed by handle, and the one owner of rollback;
+//! * [`serve`]: the one serving loop (generic over the iceoryx2 service variant) and its ports;
+//! * [`service`]: the solver as a [`serve::Handler`], with persistence and shutdown;
+//! * [`echo`]: the raw echo, the latency bench's baseline, served by the same loop;
+//! * [`persist`]: snapshots and the journal (the only bincode user);
+//! * [`batch`], [`unix_socket`]: the same requests from a file and over a Unix socket.
 
 pub mod batch;
 pub mod chain_set;
-pub mod kernel;
+pub mod echo;
 pub mod persist;
+pub mod request;
 pub mod scene;
+pub mod serve;
 pub mod service;
 pub mod unix_socket;

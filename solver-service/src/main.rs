@@ -4,13 +4,16 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
-use solver::batch::{Format, run_batch};
-use solver::chain_set::ChainSet;
-use solver::persist::JournalMode;
-use solver::scene::{Scene, default_scene, load_scene};
-use solver::service::{Persistence, ServiceConfig, WaitMode, run};
+use shared::WaitMode;
+use solver_service::batch::{Format, run_batch};
+use solver_service::chain_set::ChainSet;
+use solver_service::persist::JournalMode;
+use solver_service::scene::{Scene, default_scene, load_scene};
+use solver_service::serve::LoopOptions;
+use solver_service::service::{Persistence, ServiceConfig, run, run_echo};
 use std::io::Write;
 use std::path::PathBuf;
+use std::process::ExitCode;
 use std::time::Duration;
 
 #[derive(Parser, Debug)]
@@ -34,6 +37,16 @@ enum Cmd {
     /// Serve the same protocol over a Unix domain socket (the latency bench's comparison transport):
     /// no persistence, one connection at a time.
     Unix(UnixArgs),
+    /// Serve the raw echo (the latency bench's baseline): the service's ports, serving loop and waits
+    /// (--wait, --spin-us, --pin), no validation, no solving; every response carries --elements points.
+    Echo(EchoArgs),
+}
+
+#[derive(Args, Debug)]
+struct EchoArgs {
+    /// Elements in every response (a chain of n links answers n + 1 joints).
+    #[arg(long, default_value_t = 41, value_parser = clap::value_parser!(u32).range(1..=shared::MAX_RESPONSE_ELEMENTS as i64))]
+    elements: u32,
 }
 
 #[derive(Args, Debug)]
@@ -41,9 +54,6 @@ struct UnixArgs {
     /// Socket path (created; an existing file is an error).
     #[arg(long)]
     socket: PathBuf,
-    /// Pin the serving thread to this CPU core.
-    #[arg(long)]
-    pin: Option<usize>,
     /// Exit after this many connections (default: serve forever).
     #[arg(long)]
     connections: Option<usize>,
@@ -55,17 +65,17 @@ struct ServeArgs {
     #[arg(long, global = true)]
     scene: Option<PathBuf>,
     /// iceoryx2 prefix isolating this instance and its clients.
-    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    #[arg(long, global = true, env = shared::PREFIX_ENV, default_value = shared::DEFAULT_PREFIX)]
     prefix: String,
     /// How to wait for requests: spin (lowest latency, one core busy), event (sleeps), hybrid (sleeps,
     /// spins for --spin-us after each request).
-    #[arg(long, default_value = "hybrid")]
-    wait: String,
+    #[arg(long, global = true, value_enum, default_value_t = WaitMode::Hybrid)]
+    wait: WaitMode,
     /// Hybrid mode: microseconds of spinning after the last request.
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, global = true, default_value_t = 2000)]
     spin_us: u64,
     /// Pin the serving thread to this CPU core.
-    #[arg(long)]
+    #[arg(long, global = true)]
     pin: Option<usize>,
     /// Directory of snapshots and the journal (default: $XDG_STATE_HOME/tractrix-solver/<prefix>).
     #[arg(long)]
@@ -74,8 +84,8 @@ struct ServeArgs {
     #[arg(long)]
     no_persist: bool,
     /// Journal: write (survives kill -9), fsync (survives power loss), off (snapshots only).
-    #[arg(long, default_value = "write")]
-    journal: String,
+    #[arg(long, value_enum, default_value_t = JournalMode::Write)]
+    journal: JournalMode,
     /// Start from the saved state (snapshot + journal) instead of the scene.
     #[arg(long)]
     restore: bool,
@@ -92,9 +102,9 @@ struct BatchArgs {
     /// Output file ('-' for stdout).
     #[arg(long, default_value = "-")]
     out: PathBuf,
-    /// Output format: jsonl or csv.
-    #[arg(long, default_value = "jsonl")]
-    format: String,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::JsonLines)]
+    format: Format,
 }
 
 fn scene(path: &Option<PathBuf>) -> Result<Scene> {
@@ -113,60 +123,66 @@ fn state_dir(prefix: &str) -> PathBuf {
 }
 
 fn serve_config(a: &ServeArgs) -> Result<ServiceConfig> {
-    let wait = WaitMode::parse(&a.wait).map_err(anyhow::Error::msg)?;
-    let journal = match a.journal.as_str() {
-        "write" => JournalMode::Write,
-        "fsync" => JournalMode::Fsync,
-        "off" => JournalMode::Off,
-        j => bail!("--journal {j:?}: expected write, fsync or off"),
-    };
     if !(a.snapshot_every.is_finite() && a.snapshot_every >= 0.0) {
         bail!("--snapshot-every must be a number of seconds ≥ 0");
     }
     if a.restore && a.no_persist {
         bail!("--restore needs persistence; drop --no-persist");
     }
-    protocol::iceoryx_config(&a.prefix).map_err(anyhow::Error::msg)?;
+    shared::iceoryx_config(&a.prefix).map_err(anyhow::Error::msg)?;
     Ok(ServiceConfig {
         prefix: a.prefix.clone(),
-        wait,
+        wait: a.wait,
         spin_budget: Duration::from_micros(a.spin_us),
         pin: a.pin,
         persistence: (!a.no_persist).then(|| Persistence {
             dir: a.state_dir.clone().unwrap_or_else(|| state_dir(&a.prefix)),
-            journal,
+            journal: a.journal,
             restore: a.restore,
             snapshot_every: Duration::from_secs_f64(a.snapshot_every),
         }),
     })
 }
 
-fn main() {
+fn main() -> ExitCode {
     let cli = Cli::parse();
-    let code = match real_main(cli) {
-        Ok(code) => code,
+    match real_main(cli) {
+        Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("solver-service: {e:#}");
-            if e.downcast_ref::<solver::scene::SceneError>().is_some() {
-                2
+            if e.downcast_ref::<solver_service::scene::SceneError>()
+                .is_some()
+            {
+                ExitCode::from(2)
             } else {
-                1
+                ExitCode::FAILURE
             }
         }
-    };
-    std::process::exit(code);
+    }
 }
 
-fn real_main(cli: Cli) -> Result<i32> {
+/// Prints a line a script or a test waits for, flushed at once.
+fn ready(msg: &str) {
+    println!("{msg}");
+    let _ = std::io::stdout().flush();
+}
+
+fn real_main(cli: Cli) -> Result<u8> {
     match cli.command {
         None => {
             let cfg = serve_config(&cli.serve)?;
             let set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
-            run(&cfg, set, |msg| {
-                println!("{msg}");
-                let _ = std::io::stdout().flush();
-            })
-            .map_err(anyhow::Error::msg)?;
+            run(&cfg, set, ready).map_err(anyhow::Error::msg)?;
+            Ok(0)
+        }
+        Some(Cmd::Echo(e)) => {
+            let a = &cli.serve;
+            shared::iceoryx_config(&a.prefix).map_err(anyhow::Error::msg)?;
+            let opts = LoopOptions {
+                wait: a.wait,
+                spin_budget: Duration::from_micros(a.spin_us),
+            };
+            run_echo(&a.prefix, e.elements, &opts, a.pin, ready).map_err(anyhow::Error::msg)?;
             Ok(0)
         }
         Some(Cmd::Check) => {
@@ -178,7 +194,7 @@ fn real_main(cli: Cli) -> Result<i32> {
                     c.kind,
                     c.dims,
                     c.lengths.len(),
-                    c.lengths.iter().sum::<f64>(),
+                    c.total_length,
                     c.precision
                 );
             }
@@ -186,8 +202,8 @@ fn real_main(cli: Cli) -> Result<i32> {
         }
         Some(Cmd::Unix(u)) => {
             let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
-            if let Some(core) = u.pin {
-                solver::service::pin_current_thread(core).map_err(anyhow::Error::msg)?;
+            if let Some(core) = cli.serve.pin {
+                shared::pin_current_thread(core).map_err(anyhow::Error::msg)?;
             }
             let listener = std::os::unix::net::UnixListener::bind(&u.socket)
                 .with_context(|| format!("bind {}", u.socket.display()))?;
@@ -197,16 +213,12 @@ fn real_main(cli: Cli) -> Result<i32> {
                 u.socket.display()
             );
             let _ = std::io::stdout().flush();
-            solver::unix_socket::serve(&listener, &mut set, u.connections)?;
+            solver_service::unix_socket::serve(&listener, &mut set, u.connections)?;
             let _ = std::fs::remove_file(&u.socket);
             Ok(0)
         }
         Some(Cmd::Batch(b)) => {
-            let format = match b.format.as_str() {
-                "jsonl" => Format::JsonLines,
-                "csv" => Format::Csv,
-                f => bail!("--format {f:?}: expected jsonl or csv"),
-            };
+            let format = b.format;
             let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
             let source = b.requests.display().to_string();
             let mut input: Box<dyn std::io::BufRead> = if source == "-" {

@@ -13,14 +13,14 @@
 //! record by [`MAX_RECORD_BYTES`].
 
 use crate::chain_set::{ChainSet, each_form};
-use crate::kernel::Chain;
-use crate::kernel::math::{Embed3, Real, Vector};
-use protocol::{MAX_PATH_POINTS, RequestHeader, ResponseHeader, Status, Vec3};
 use serde::{Deserialize, Serialize};
+use shared::{MAX_PATH_POINTS, RequestHeader, Vec3};
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
 use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
+use tractrix::Chain;
+use tractrix::math::{Embed3, Real, Vector};
 
 const SNAPSHOT_MAGIC: u32 = 0x5452_5853; // "TRXS"
 const JOURNAL_MAGIC: [u8; 8] = *b"TRXJ\x01\0\0\0";
@@ -33,7 +33,7 @@ fn config() -> Config {
 }
 
 /// How the journal is written.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum JournalMode {
     /// No journal: state since the last snapshot is lost on a crash.
     Off,
@@ -129,15 +129,16 @@ impl Store {
             magic: SNAPSHOT_MAGIC,
             sequence: set.sequence(),
             chains: set
-                .entries()
+                .specs()
                 .iter()
-                .map(|e| {
-                    let (origin, links) = each_form!(&e.geometry, g => raw_parts(&g.chain));
+                .zip(set.geometry())
+                .map(|(spec, g)| {
+                    let (origin, links) = each_form!(g, g => raw_parts(&g.chain));
                     ChainSnapshot {
-                        name: e.def.name.clone(),
-                        dims: e.def.dims,
-                        precision: e.def.precision as u32,
-                        lengths: e.def.lengths.clone(),
+                        name: spec.name.clone(),
+                        dims: spec.dims,
+                        precision: spec.precision as u32,
+                        lengths: spec.lengths.clone(),
                         origin,
                         links,
                     }
@@ -239,7 +240,6 @@ impl Store {
                 return Err(io(&jpath, "not a journal", "wrong magic number"));
             }
             let mut at = 8;
-            let mut resp = ResponseHeader::default();
             while at < bytes.len() {
                 let Some(rec) = next_record(&bytes, at) else {
                     restored.dropped_tail_bytes = (bytes.len() - at) as u64;
@@ -257,13 +257,22 @@ impl Store {
                         format!("record {} follows state {}", rec.sequence, set.sequence()),
                     ));
                 }
-                let changed = set.apply(&rec.header, &rec.points, &mut resp);
-                if !changed || resp.status != Status::Ok as u32 {
-                    return Err(io(
-                        &jpath,
-                        "does not replay on this scene",
-                        format!("record {}: {}", rec.sequence, resp.reason_str()),
-                    ));
+                match set.apply_wire(&rec.header, &rec.points) {
+                    Ok(o) if o.changed => {}
+                    Ok(_) => {
+                        return Err(io(
+                            &jpath,
+                            "does not replay on this scene",
+                            format!("record {}: changes nothing", rec.sequence),
+                        ));
+                    }
+                    Err(r) => {
+                        return Err(io(
+                            &jpath,
+                            "does not replay on this scene",
+                            format!("record {}: {}", rec.sequence, r.reason()),
+                        ));
+                    }
                 }
                 restored.replayed += 1;
             }
@@ -299,9 +308,9 @@ fn read_bounded(path: &Path, bound: u64) -> Result<Vec<u8>, String> {
 /// The most bytes a snapshot of this scene can take (varint-encoded lengths are smaller).
 fn snapshot_bound(set: &ChainSet) -> u64 {
     64 + set
-        .entries()
+        .specs()
         .iter()
-        .map(|e| 128 + 9 * 8 * (e.def.lengths.len() as u64 + 1) + e.def.name.len() as u64)
+        .map(|s| 128 + 9 * 8 * (s.lengths.len() as u64 + 1) + s.name.len() as u64)
         .sum::<u64>()
 }
 
@@ -343,8 +352,7 @@ fn install(set: &mut ChainSet, snap: &Snapshot) -> Result<(), String> {
     }
     // Check everything before changing anything.
     let mut built = Vec::with_capacity(set.len());
-    for (e, s) in set.entries().iter().zip(&snap.chains) {
-        let d = &e.def;
+    for ((d, geometry), s) in set.specs().iter().zip(set.geometry()).zip(&snap.chains) {
         if s.name != d.name || s.dims != d.dims || s.precision != d.precision as u32 {
             return Err(format!(
                 "chain {:?} ({}D) in the snapshot, {:?} ({}D) in the scene",
@@ -362,16 +370,13 @@ fn install(set: &mut ChainSet, snap: &Snapshot) -> Result<(), String> {
                 d.name
             ));
         }
-        let mut g = e.geometry.clone();
+        let mut g = geometry.clone();
         each_form!(&mut g, h => {
             h.chain = rebuild(&h.initial, &s.origin, &s.links).map_err(|m| format!("chain {:?}: {m}", d.name))?;
         });
         built.push(g);
     }
-    for (e, g) in set.entries_mut().iter_mut().zip(built) {
-        e.geometry = g;
-    }
-    set.set_sequence(snap.sequence);
+    set.install(built, snap.sequence);
     Ok(())
 }
 
@@ -399,11 +404,11 @@ where
 mod tests {
     use super::*;
     use crate::scene::default_scene;
-    use protocol::{Command, JOINT_HEAD};
+    use shared::{Command, JOINT_HEAD};
 
     fn joints(set: &ChainSet) -> Vec<u64> {
         (0..set.len() as u32)
-            .flat_map(|c| set.elements(c, true).collect::<Vec<_>>())
+            .flat_map(|c| set.elements_of(c, true).collect::<Vec<_>>())
             .flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
             .collect()
     }
@@ -417,7 +422,6 @@ mod tests {
         let mut set = ChainSet::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.snapshot(&set).unwrap();
-        let mut resp = ResponseHeader::default();
         for i in 0..200u32 {
             let t = (i as f64) * 0.37;
             let (req, p) = match i % 3 {
@@ -441,7 +445,8 @@ mod tests {
                     vec![Vec3::new(1.2 * t.cos(), 1.2 * t.sin(), 0.0)],
                 ),
             };
-            assert!(set.apply(&req, &p, &mut resp), "{}", resp.reason_str());
+            let o = set.apply_wire(&req, &p).map_err(|r| r.reason().to_string());
+            assert!(o.unwrap().changed);
             store.append(set.sequence(), &req, &p).unwrap();
             if i == 90 {
                 store.snapshot(&set).unwrap();

@@ -1,55 +1,23 @@
-//! The iceoryx2 side of the service: ports, waiting, the serving loop, persistence around it. The only
-//! module that touches iceoryx2.
-//!
-//! One thread serves everything, in request order:
-//!
-//! 1. receive a request (header + target slice, read in place in shared memory);
-//! 2. back up the chain, validate and apply ([`ChainSet::apply`]); journal an accepted change before
-//!    anything is acknowledged (a failed journal write rolls the change back);
-//! 3. loan the response slice and stream the joints **directly into it**, set the header, send;
-//! 4. wake the client if it asked to be woken; publish the new state on the state stream.
-//!
-//! Waiting ([`WaitMode`]): `spin` polls without pause (one core at 100 %, the lowest latency), `event`
-//! sleeps on a WaitSet until a client's notification (no CPU when idle, one wake-up per request),
-//! `hybrid` sleeps like `event` but after each request spins for a short budget so a burst (a 1 kHz
-//! haptic loop) is served at spin latency while an idle service sleeps. Hybrid is the default: with two
-//! cores, two hand clients and a viewer, at most the service spins, and only while requests flow.
+//! The solver as a [`Handler`] of the one serving loop ([`crate::serve`]), with persistence around it:
+//! an accepted change is journaled before it is acknowledged (a failed journal write undoes it), a
+//! snapshot is written every `snapshot_every` while the state changes, on `snapshot` requests and on
+//! shutdown.
 
 use crate::chain_set::ChainSet;
 use crate::persist::{JournalMode, Store};
-use iceoryx2::port::publisher::Publisher;
-use iceoryx2::prelude::*;
-use iceoryx2::waitset::WaitSetRunResult;
-use protocol::ports::{ServerPorts, service_name};
-use protocol::{
-    Command, MAX_CLIENTS, RequestHeader, ResponseHeader, SERVICE_STATE, StateHeader, Status, Vec3,
-};
+use crate::request::{self, Outcome, Refusal, Request, Residual, refuse};
+use crate::serve::{Handled, Handler, LoopOptions, ServerPorts, serve};
+use iceoryx2::prelude::ipc;
+use shared::{RequestHeader, ResponseHeader, Vec3, WaitMode};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
-
-/// How the serving thread waits for requests.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum WaitMode {
-    Spin,
-    Event,
-    Hybrid,
-}
-
-impl WaitMode {
-    pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "spin" => Ok(WaitMode::Spin),
-            "event" => Ok(WaitMode::Event),
-            "hybrid" => Ok(WaitMode::Hybrid),
-            _ => Err(format!("wait mode {s:?}: expected spin, event or hybrid")),
-        }
-    }
-}
 
 /// Persistence settings.
 #[derive(Debug, Clone)]
 pub struct Persistence {
+    /// The state directory (snapshot and journal).
     pub dir: PathBuf,
+    /// How the journal is written.
     pub journal: JournalMode,
     /// Restore the state from `dir` instead of starting from the scene.
     pub restore: bool,
@@ -57,83 +25,30 @@ pub struct Persistence {
     pub snapshot_every: Duration,
 }
 
-/// Everything the serving loop needs, validated.
+/// Everything the service needs, validated.
 #[derive(Debug, Clone)]
 pub struct ServiceConfig {
+    /// iceoryx2 prefix of this instance.
     pub prefix: String,
+    /// How the serving thread waits.
     pub wait: WaitMode,
     /// Hybrid: how long to keep spinning after the last request.
     pub spin_budget: Duration,
     /// Pin the serving thread to this core.
     pub pin: Option<usize>,
+    /// Snapshots and journal, or none.
     pub persistence: Option<Persistence>,
 }
 
-type Svc = ipc::Service;
-
-struct Ports {
-    node: Node<Svc>,
-    server_ports: ServerPorts,
-    publisher: Publisher<Svc, [Vec3], StateHeader>,
-}
-
-fn err<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> String {
-    move |e| format!("{what}: {e:?}")
-}
-
-fn open_ports(
-    cfg: &ServiceConfig,
-    max_elements: usize,
-    max_joints: usize,
-) -> Result<Ports, String> {
-    let iox = protocol::iceoryx_config(&cfg.prefix)?;
-    // Resources of a predecessor that died without cleaning up (kill -9, power cut).
-    let mut stale = 0;
-    let _ = Node::<Svc>::list(&iox, |state| {
-        if let NodeState::Dead(view) = state
-            && view.try_remove_stale_resources().is_ok()
-        {
-            stale += 1;
-        }
-        CallbackProgression::Continue
-    });
-    if stale > 0 {
-        eprintln!("solver-service: cleaned the resources of {stale} dead process(es)");
-    }
-    let node = NodeBuilder::new()
-        .config(&iox)
-        .name(&"tractrix-solver".try_into().map_err(err("node name"))?)
-        .create::<Svc>()
-        .map_err(err("cannot create the iceoryx2 node"))?;
-    let server_ports = ServerPorts::open(&node, max_elements)?;
-    let publisher = node
-        .service_builder(&service_name(SERVICE_STATE)?)
-        .publish_subscribe::<[Vec3]>()
-        .user_header::<StateHeader>()
-        .max_publishers(1)
-        .max_subscribers(MAX_CLIENTS)
-        .max_nodes(MAX_CLIENTS + 4)
-        .subscriber_max_buffer_size(64)
-        .history_size(0)
-        .enable_safe_overflow(true)
-        .open_or_create()
-        .map_err(err("cannot open or create the state stream"))?
-        .publisher_builder()
-        .initial_max_slice_len(max_joints)
-        .create()
-        .map_err(err("cannot create the state publisher"))?;
-    Ok(Ports {
-        node,
-        server_ports,
-        publisher,
-    })
-}
-
-/// The serving loop's state.
+/// The solver: the chain set, the store, and the residual the next response completes.
 pub struct Solver {
     set: ChainSet,
     store: Option<Store>,
     dirty_since_snapshot: bool,
+    snapshot_every: Duration,
+    last_snapshot: Instant,
+    /// The landing of the request being answered, measured on the written response.
+    residual: Residual,
 }
 
 impl std::fmt::Debug for Solver {
@@ -146,131 +61,73 @@ impl std::fmt::Debug for Solver {
 }
 
 impl Solver {
-    fn serve_pending(&mut self, ports: &Ports) -> Result<usize, String> {
-        let mut served = 0;
-        while let Some(req) = ports
-            .server_ports
-            .server
-            .receive()
-            .map_err(err("receive"))?
-        {
-            served += 1;
-            let t0 = Instant::now();
-            let header = *req.user_header();
-            let points = req.payload();
-            let mut h = ResponseHeader::default();
-            let changed = self.handle(&header, points, &mut h);
-            h.solve_ns = t0.elapsed().as_nanos() as u64;
-            let n = (h.n_joints + h.n_angles) as usize;
-            match req.loan_slice_uninit(n) {
-                Ok(slot) => {
-                    let mut it = self.set.elements(h.chain, h.n_angles > 0).take(n);
-                    // n == 0 (an error) never touches the iterator's chain.
-                    let mut resp = slot.write_from_fn(|_| it.next().unwrap_or_default());
-                    *resp.user_header_mut() = h;
-                    if let Err(e) = resp.send() {
-                        eprintln!("solver-service: response not delivered: {e:?}");
-                    }
-                }
-                Err(e) => {
-                    // Only possible if the scene outgrew the port, which open_ports sizes for.
-                    eprintln!("solver-service: cannot loan a response of {n} elements: {e:?}");
-                }
-            }
-            ports.server_ports.wake_client(header.listener_id());
-            drop(req);
-            if changed {
-                self.publish(ports, &header, h.sequence);
-            }
+    /// A solver over `set`, persisting into `store` if given.
+    pub fn new(set: ChainSet, store: Option<Store>, snapshot_every: Duration) -> Self {
+        Solver {
+            set,
+            store,
+            dirty_since_snapshot: false,
+            snapshot_every,
+            last_snapshot: Instant::now(),
+            residual: Residual::None,
         }
-        Ok(served)
     }
 
-    fn handle(&mut self, header: &RequestHeader, points: &[Vec3], h: &mut ResponseHeader) -> bool {
-        if header.command == Command::Snapshot as u32 {
-            self.set.apply(header, points, h);
-            if h.status == Status::Ok as u32 {
-                match self.store.as_mut().map(|s| s.snapshot(&self.set)) {
-                    Some(Ok(())) => self.dirty_since_snapshot = false,
-                    Some(Err(e)) => {
-                        h.status = Status::PersistenceFailed as u32;
-                        h.set_reason(&e);
-                    }
-                    None => {
-                        h.status = Status::PersistenceFailed as u32;
-                        h.set_reason("persistence is off (--no-persist)");
-                    }
+    /// The chains.
+    pub fn set(&self) -> &ChainSet {
+        &self.set
+    }
+
+    /// Decodes and applies a request, with the snapshot command and the journal around the chain set.
+    fn run(&mut self, header: &RequestHeader, points: &[Vec3]) -> Result<Outcome, Refusal> {
+        let req = self.set.decode(header, points)?;
+        if matches!(req, Request::Snapshot) {
+            let outcome = self.set.apply(&req)?;
+            return match self.store.as_mut().map(|s| s.snapshot(&self.set)) {
+                Some(Ok(())) => {
+                    self.dirty_since_snapshot = false;
+                    Ok(outcome)
                 }
-            }
-            return false;
+                Some(Err(e)) => Err(refuse!(PersistenceFailed, "{e}")),
+                None => Err(refuse!(
+                    PersistenceFailed,
+                    "persistence is off (--no-persist)"
+                )),
+            };
         }
-        let chain = header.chain;
-        let changes = Command::from_u32(header.command).is_some_and(Command::changes_state);
-        let backup = if changes {
-            self.set.backup(chain)
-        } else {
-            None
-        };
-        let changed = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            self.set.apply(header, points, h)
-        })) {
-            Ok(c) => c,
-            Err(_) => {
-                self.set.rollback(chain, backup);
-                *h = ResponseHeader {
-                    status: Status::Internal as u32,
-                    command: header.command,
-                    chain,
-                    request_id: header.request_id,
-                    sequence: self.set.sequence(),
-                    ..ResponseHeader::default()
-                };
-                h.set_reason("internal error in the solver; state kept");
-                return false;
-            }
-        };
-        if changed {
+        let set = &mut self.set;
+        let outcome =
+            match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| set.apply(&req))) {
+                Ok(r) => r?,
+                Err(_) => {
+                    self.set.undo();
+                    return Err(refuse!(
+                        Internal,
+                        "internal error in the solver; state kept"
+                    ));
+                }
+            };
+        if outcome.changed {
             if let Some(store) = self.store.as_mut()
                 && let Err(e) = store.append(self.set.sequence(), header, points)
             {
-                self.set.rollback(chain, backup);
-                h.status = Status::PersistenceFailed as u32;
-                h.n_joints = 0;
-                h.n_angles = 0;
-                h.sequence = self.set.sequence();
-                h.set_reason(&e);
-                return false;
+                self.set.undo();
+                return Err(refuse!(PersistenceFailed, "{e}"));
             }
             self.dirty_since_snapshot = true;
         }
-        changed
+        Ok(outcome)
     }
 
-    fn publish(&self, ports: &Ports, header: &RequestHeader, sequence: u64) {
-        let n = self.set.n_joints(header.chain);
-        match ports.publisher.loan_slice_uninit(n) {
-            Ok(slot) => {
-                let mut it = self.set.elements(header.chain, false);
-                let mut s = slot.write_from_fn(|_| it.next().unwrap_or_default());
-                *s.user_header_mut() = StateHeader {
-                    sequence,
-                    chain: header.chain,
-                    n_joints: n as u32,
-                    command: header.command,
-                    reserved: 0,
-                    request_id: header.request_id,
-                };
-                if let Err(e) = s.send() {
-                    eprintln!("solver-service: state not published: {e:?}");
-                }
-            }
-            Err(e) => eprintln!("solver-service: cannot loan a state sample: {e:?}"),
+    /// A snapshot if one is due and the state changed since the last.
+    fn snapshot_if_due(&mut self, now: Instant) {
+        if self.snapshot_every.is_zero()
+            || now.duration_since(self.last_snapshot) < self.snapshot_every
+        {
+            return;
         }
-    }
-
-    fn snapshot_if_due(&mut self, due: bool) {
-        if due
-            && self.dirty_since_snapshot
+        self.last_snapshot = now;
+        if self.dirty_since_snapshot
             && let Some(store) = self.store.as_mut()
         {
             match store.snapshot(&self.set) {
@@ -281,17 +138,26 @@ impl Solver {
     }
 }
 
-/// Pins the calling thread to CPU `core`.
-pub fn pin_current_thread(core: usize) -> Result<(), String> {
-    let id = core_affinity::get_core_ids()
-        .unwrap_or_default()
-        .into_iter()
-        .find(|c| c.id == core)
-        .ok_or_else(|| format!("--pin {core}: no such core"))?;
-    if core_affinity::set_for_current(id) {
-        Ok(())
-    } else {
-        Err(format!("--pin {core}: the scheduler refused"))
+impl Handler for Solver {
+    fn handle(&mut self, req: &RequestHeader, points: &[Vec3]) -> Handled {
+        let result = self.run(req, points);
+        self.residual = result.as_ref().map_or(Residual::None, |o| o.residual);
+        Handled {
+            header: request::encode(req, &result, self.set.sequence(), self.set.specs()),
+            changed: result.is_ok_and(|o| o.changed),
+        }
+    }
+
+    fn elements(&self, h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_ {
+        self.set.elements(h)
+    }
+
+    fn finish(&mut self, h: &mut ResponseHeader, written: &[Vec3]) {
+        request::finish(h, self.residual, written);
+    }
+
+    fn housekeeping(&mut self, now: Instant) {
+        self.snapshot_if_due(now);
     }
 }
 
@@ -299,21 +165,18 @@ pub fn pin_current_thread(core: usize) -> Result<(), String> {
 /// are open (the binary prints a line that scripts and tests wait for).
 pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Result<(), String> {
     if let Some(core) = cfg.pin {
-        pin_current_thread(core)?;
+        shared::pin_current_thread(core)?;
     }
-    let mut solver = Solver {
-        set,
-        store: None,
-        dirty_since_snapshot: false,
-    };
+    let mut set = set;
+    let mut store = None;
     let mut restored_note = String::new();
     if let Some(p) = &cfg.persistence {
-        let mut store = Store::open(&p.dir, p.journal)?;
+        let mut s = Store::open(&p.dir, p.journal)?;
         if p.restore {
-            let r = store.restore(&mut solver.set)?;
+            let r = s.restore(&mut set)?;
             restored_note = format!(
                 "; restored state {} (snapshot {} + {} journal records{})",
-                solver.set.sequence(),
+                set.sequence(),
                 r.snapshot_sequence,
                 r.replayed,
                 if r.dropped_tail_bytes > 0 {
@@ -326,18 +189,32 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
                 }
             );
         } else {
-            store.snapshot(&solver.set)?;
+            s.snapshot(&set)?;
         }
-        solver.store = Some(store);
+        store = Some(s);
     }
-    let max_links = solver
-        .set
-        .entries()
+    let max_links = set
+        .specs()
         .iter()
-        .map(|e| e.def.lengths.len())
+        .map(|s| s.lengths.len())
         .max()
         .unwrap_or(1);
-    let ports = open_ports(cfg, 2 * max_links + 1, max_links + 1)?;
+    let iox = shared::iceoryx_config(&cfg.prefix)?;
+    let (ports, stale) = ServerPorts::<ipc::Service>::open(
+        &iox,
+        "tractrix-solver",
+        2 * max_links + 1,
+        Some(max_links + 1),
+    )?;
+    if stale > 0 {
+        eprintln!("solver-service: cleaned the resources of {stale} dead process(es)");
+    }
+    let snapshot_every = cfg
+        .persistence
+        .as_ref()
+        .map(|p| p.snapshot_every)
+        .unwrap_or(Duration::ZERO);
+    let mut solver = Solver::new(set, store, snapshot_every);
     ready(&format!(
         "solver-service ready: {} chains, prefix {}, wait {:?}{}",
         solver.set.len(),
@@ -345,112 +222,14 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
         cfg.wait,
         restored_note
     ));
-
-    let tick = Duration::from_millis(50);
-    let mut last_snapshot = Instant::now();
-    let snapshot_every = cfg
-        .persistence
-        .as_ref()
-        .map(|p| p.snapshot_every)
-        .unwrap_or(Duration::ZERO);
-    let due = |last: &Instant| !snapshot_every.is_zero() && last.elapsed() >= snapshot_every;
-
-    match cfg.wait {
-        WaitMode::Spin => {
-            let mut idle: u32 = 0;
-            loop {
-                if solver.serve_pending(&ports)? > 0 {
-                    idle = 0;
-                    continue;
-                }
-                idle = idle.wrapping_add(1);
-                if idle.is_multiple_of(4096) {
-                    if ports.node.wait(Duration::ZERO).is_err() {
-                        break;
-                    }
-                    if due(&last_snapshot) {
-                        solver.snapshot_if_due(true);
-                        last_snapshot = Instant::now();
-                    }
-                }
-                std::hint::spin_loop();
-            }
-        }
-        WaitMode::Event | WaitMode::Hybrid => {
-            let ws = WaitSetBuilder::new()
-                .create::<Svc>()
-                .map_err(err("cannot create the WaitSet"))?;
-            let guard = ws
-                .attach_notification(&ports.server_ports.wake_listener)
-                .map_err(err("cannot attach the wake listener"))?;
-            let mut failure: Option<String> = None;
-            loop {
-                let r = ws.wait_and_process_once_with_timeout(
-                    |id| {
-                        if id.has_event_from(&guard) {
-                            let _ = ports.server_ports.wake_listener.try_wait(|_| {});
-                        }
-                        CallbackProgression::Continue
-                    },
-                    tick,
-                );
-                match r {
-                    Ok(WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt) => {
-                        break;
-                    }
-                    Ok(_) => {}
-                    Err(e) => return Err(format!("WaitSet: {e:?}")),
-                }
-                // Serve even without a notification: a polling client may not notify.
-                let mut served = match solver.serve_pending(&ports) {
-                    Ok(n) => n,
-                    Err(e) => {
-                        failure = Some(e);
-                        break;
-                    }
-                };
-                if cfg.wait == WaitMode::Hybrid && served > 0 {
-                    let mut last = Instant::now();
-                    let mut polls: u32 = 0;
-                    loop {
-                        while last.elapsed() < cfg.spin_budget {
-                            served = solver.serve_pending(&ports)?;
-                            if served > 0 {
-                                last = Instant::now();
-                            }
-                            polls = polls.wrapping_add(1);
-                            if polls.is_multiple_of(4096)
-                                && ports.node.wait(Duration::ZERO).is_err()
-                            {
-                                break;
-                            }
-                            std::hint::spin_loop();
-                        }
-                        // Notifications that arrived while spinning are stale now: drop them, then
-                        // serve once more. A request that landed after the last poll has its
-                        // notification dropped here, and would otherwise wait for the next tick
-                        // (50 ms; the loaded latency bench caught it).
-                        let _ = ports.server_ports.wake_listener.try_wait(|_| {});
-                        if solver.serve_pending(&ports)? == 0 {
-                            break;
-                        }
-                        last = Instant::now();
-                    }
-                }
-                if due(&last_snapshot) {
-                    solver.snapshot_if_due(true);
-                    last_snapshot = Instant::now();
-                }
-                if ports.node.wait(Duration::ZERO).is_err() {
-                    break;
-                }
-            }
-            drop(guard);
-            if let Some(e) = failure {
-                return Err(e);
-            }
-        }
-    }
+    serve(
+        &ports,
+        &mut solver,
+        &LoopOptions {
+            wait: cfg.wait,
+            spin_budget: cfg.spin_budget,
+        },
+    )?;
     if let Some(store) = solver.store.as_mut() {
         store.snapshot(&solver.set)?;
     }
@@ -459,4 +238,25 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
         solver.set.sequence()
     );
     Ok(())
+}
+
+/// Serves the raw echo ([`crate::echo`]) through the same loop until SIGINT or SIGTERM.
+pub fn run_echo(
+    prefix: &str,
+    elements: u32,
+    opts: &LoopOptions,
+    pin: Option<usize>,
+    ready: impl FnOnce(&str),
+) -> Result<(), String> {
+    if let Some(core) = pin {
+        shared::pin_current_thread(core)?;
+    }
+    let iox = shared::iceoryx_config(prefix)?;
+    let (ports, _) =
+        ServerPorts::<ipc::Service>::open(&iox, "tractrix-echo", elements as usize, None)?;
+    ready(&format!(
+        "solver-service echo ready: {elements} elements, prefix {prefix}, wait {:?}",
+        opts.wait
+    ));
+    serve(&ports, &mut crate::echo::Echo { elements }, opts)
 }

@@ -14,9 +14,9 @@
 //! `PROPTEST_CASES=5000 cargo test --release -p solver-service --test fuzz_requests`.
 
 use proptest::prelude::*;
-use protocol::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Status, Vec3};
-use solver::chain_set::ChainSet;
-use solver::scene::parse_scene;
+use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
+use solver_service::chain_set::ChainSet;
+use solver_service::scene::parse_scene;
 
 /// Every chain form, with small substep and iteration limits so that no request can take long.
 const SCENE: &str = r#"
@@ -266,7 +266,7 @@ fn request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
 fn snapshot(set: &ChainSet) -> Vec<Vec<[u64; 3]>> {
     (0..set.len() as u32)
         .map(|c| {
-            set.elements(c, false)
+            set.elements_of(c, false)
                 .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
                 .collect()
         })
@@ -274,16 +274,16 @@ fn snapshot(set: &ChainSet) -> Vec<Vec<[u64; 3]>> {
 }
 
 fn check_invariants(set: &ChainSet) -> Result<(), TestCaseError> {
-    for (c, e) in set.entries().iter().enumerate() {
-        let joints: Vec<Vec3> = set.elements(c as u32, false).collect();
-        prop_assert_eq!(joints.len(), e.def.lengths.len() + 1);
+    for (c, spec) in set.specs().iter().enumerate() {
+        let joints: Vec<Vec3> = set.elements_of(c as u32, false).collect();
+        prop_assert_eq!(joints.len(), spec.lengths.len() + 1);
         prop_assert!(
             joints.iter().all(|j| j.is_finite()),
             "chain {} has a non-finite joint",
-            e.def.name
+            spec.name
         );
         // f32 chains keep lengths to f32 rounding; positions are prefix sums, so allow for that.
-        let rel = if e.def.precision == protocol::Precision::F32 {
+        let rel = if spec.precision == shared::Precision::F32 {
             1e-3
         } else {
             1e-9
@@ -292,22 +292,22 @@ fn check_invariants(set: &ChainSet) -> Result<(), TestCaseError> {
             let d =
                 ((w[1].x - w[0].x).powi(2) + (w[1].y - w[0].y).powi(2) + (w[1].z - w[0].z).powi(2))
                     .sqrt();
-            let l = e.def.lengths[k];
+            let l = spec.lengths[k];
             prop_assert!(
                 (d - l).abs()
                     <= rel * l.max(1.0) * (1.0 + joints[0].x.abs().max(joints[0].y.abs())),
                 "chain {} link {}: length {} instead of {}",
-                e.def.name,
+                spec.name,
                 k,
                 d,
                 l
             );
         }
-        if e.def.dims == 2 {
+        if spec.dims == 2 {
             prop_assert!(
                 joints.iter().all(|j| j.z == 0.0),
                 "{} left its plane",
-                e.def.name
+                spec.name
             );
         }
     }
@@ -328,11 +328,11 @@ fn run_case(
 ) -> Result<(), TestCaseError> {
     let scene = parse_scene(SCENE, "fuzz.toml").expect("fuzz scene");
     let mut set = ChainSet::new(&scene).expect("chain set");
-    let mut h = ResponseHeader::default();
+    let mut elements = Vec::new();
     for (req, points) in requests {
         let before = snapshot(&set);
         let seq = set.sequence();
-        let changed = set.apply(req, points, &mut h);
+        let (h, changed) = set.respond(req, points, &mut elements);
         let Some(status) = Status::from_u32(h.status) else {
             return Err(TestCaseError::fail(format!(
                 "status {} is not a Status",
@@ -345,8 +345,6 @@ fn run_case(
         if status == Status::Ok {
             prop_assert!(h.reason_str().is_empty());
             prop_assert_eq!(set.sequence(), seq + u64::from(changed));
-            let with_angles = req.flags & protocol::FLAG_ANGLES != 0;
-            let elements: Vec<Vec3> = set.elements(req.chain, with_angles).collect();
             if req.command != Command::Snapshot as u32 && req.command != Command::Describe as u32 {
                 prop_assert_eq!(elements.len(), (h.n_joints + h.n_angles) as usize);
             }

@@ -1,16 +1,15 @@
-//! Support for the end-to-end tests: the real binaries as processes, each test with its own iceoryx2
-//! prefix and state directory, every wait with a deadline, every child killed and reaped on drop.
+//! Support for the end-to-end tests: the real binaries as processes (through the clients' one process
+//! harness, [`clients::process`]), each test with its own iceoryx2 prefix and state directory, every
+//! wait with a deadline, every child killed and reaped on drop.
 
+use clients::process::Proc;
 use clients::{ClientWait, ConnectOptions, Connection};
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Command, ExitStatus};
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-/// How long a service may take to start (a loaded CI machine, a cold page cache).
-pub const START_TIMEOUT: Duration = Duration::from_secs(30);
+pub use clients::process::START_TIMEOUT;
 
 /// A prefix no other test (or test run) uses.
 pub fn unique_prefix() -> String {
@@ -58,45 +57,30 @@ pub fn bin(name: &str) -> PathBuf {
 /// A running solver-service, killed and reaped on drop.
 #[derive(Debug)]
 pub struct Service {
-    pub child: Child,
+    /// The process.
+    pub proc: Proc,
+    /// Its iceoryx2 prefix.
     pub prefix: String,
+    /// The line it printed when ready.
     pub ready_line: String,
 }
 
 impl Service {
     /// Starts the service with `args` (plus `--prefix`) and waits for its ready line.
     pub fn start(prefix: &str, args: &[&str]) -> Service {
-        let mut child = Command::new(bin("solver-service"))
-            .arg("--prefix")
-            .arg(prefix)
-            .args(args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("spawn solver-service");
-        let stdout = child.stdout.take().expect("stdout");
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let ready_line = match rx.recv_timeout(START_TIMEOUT) {
-            Ok(l) => l,
-            Err(e) => {
-                let _ = child.kill();
-                let _ = child.wait();
-                panic!("solver-service did not get ready within {START_TIMEOUT:?}: {e}");
-            }
-        };
-        assert!(ready_line.contains("ready"), "{ready_line}");
+        let mut cmd = Command::new(bin("solver-service"));
+        cmd.arg("--prefix").arg(prefix).args(args);
+        let proc = Proc::ready(cmd, "solver-service").unwrap_or_else(|e| panic!("{e:#}"));
         Service {
-            child,
+            ready_line: proc.ready_line.clone(),
+            proc,
             prefix: prefix.to_string(),
-            ready_line,
         }
+    }
+
+    /// The process id.
+    pub fn id(&self) -> u32 {
+        self.proc.child.id()
     }
 
     /// A connection that spins (tests run two at a time on two cores: at most one spinner each).
@@ -104,6 +88,7 @@ impl Service {
         self.connect_with(ClientWait::Hybrid(Duration::from_micros(50)))
     }
 
+    /// A connection that waits as told.
     pub fn connect_with(&self, wait: ClientWait) -> Connection {
         Connection::connect(ConnectOptions {
             prefix: self.prefix.clone(),
@@ -111,49 +96,25 @@ impl Service {
             connect_timeout: Duration::from_secs(5),
             call_timeout: Duration::from_secs(10),
             // Room for oversized requests, so the tests can see the service refuse them.
-            max_request_points: 2 * protocol::MAX_PATH_POINTS as usize,
+            max_request_points: 2 * shared::MAX_PATH_POINTS as usize,
         })
         .expect("connect to the service")
     }
 
-    /// Sends a signal with the system's `kill` (no unsafe code here).
+    /// Sends a signal with the system's `kill`.
     pub fn signal(&self, sig: &str) {
-        let ok = Command::new("kill")
-            .arg(format!("-{sig}"))
-            .arg(self.child.id().to_string())
-            .status()
-            .expect("run kill")
-            .success();
-        assert!(ok, "kill -{sig} failed");
+        self.proc.signal(sig).unwrap_or_else(|e| panic!("{e:#}"));
     }
 
     /// Waits for the process to exit, at most `timeout`.
     pub fn wait_exit(&mut self, timeout: Duration) -> ExitStatus {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some(s) = self.child.try_wait().expect("try_wait") {
-                return s;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "the service did not exit within {timeout:?}"
-            );
-            std::thread::sleep(Duration::from_millis(10));
-        }
+        self.proc
+            .wait_exit(timeout)
+            .unwrap_or_else(|e| panic!("{e:#}"))
     }
 
     /// `kill -9` and reap.
     pub fn kill9(mut self) {
-        let _ = self.child.kill();
-        let _ = self.wait_exit(Duration::from_secs(10));
-    }
-}
-
-impl Drop for Service {
-    fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
+        self.proc.kill9();
     }
 }

@@ -16,8 +16,8 @@
 use anyhow::{Result, bail};
 use clap::{Parser, ValueEnum};
 use clients::{ClientWait, ConnectOptions, Connection};
-use protocol::text::{ChainRef, JointRef, TextRequest, TextResponse};
-use protocol::{Command, RequestHeader};
+use shared::text::{ChainRef, JointRef, TextRequest, TextResponse};
+use shared::{Command, RequestHeader};
 use std::time::Duration;
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
@@ -77,7 +77,7 @@ struct Args {
     #[arg(long)]
     json: bool,
     /// iceoryx2 prefix of the service.
-    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    #[arg(long, env = shared::PREFIX_ENV, default_value = shared::DEFAULT_PREFIX)]
     prefix: String,
     /// Seconds to wait for a service to appear (default: fail at once).
     #[arg(long, default_value_t = 0.0)]
@@ -167,7 +167,7 @@ fn run(a: Args) -> Result<i32> {
                     h.total_length,
                     h.thickness,
                     if h.precision == 2 { "f32" } else { "f64" },
-                    protocol::text::method_name(h.method)
+                    shared::text::method_name(h.method)
                 );
             }
         }

@@ -30,7 +30,7 @@ struct Args {
     #[command(subcommand)]
     cmd: Cmd,
     /// iceoryx2 prefix of the service.
-    #[arg(long, global = true, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    #[arg(long, global = true, env = shared::PREFIX_ENV, default_value = shared::DEFAULT_PREFIX)]
     prefix: String,
     /// Seconds to wait for the service to appear.
     #[arg(long, global = true, default_value_t = 5.0)]

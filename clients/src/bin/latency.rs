@@ -4,7 +4,7 @@
 //! ```text
 //! latency client --chain rope --samples 20000 --pin 1          # back to back, percentiles in µs
 //! latency client --chain rope --joint tail --rate 1000         # a 1 kHz hand, latency from due time
-//! latency raw-server --prefix raw_ --elements 41 --wait spin   # the echo baseline
+//! solver-service echo --prefix raw_ --elements 41 --wait spin  # the echo baseline (same serving loop)
 //! latency bench                                                # everything, Markdown tables
 //! ```
 //!
@@ -13,10 +13,9 @@
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 use clients::cli::usage;
-use clients::latency::{Plan, Target, WaitMode, connect_options, run as run_plan, serve_raw};
+use clients::latency::{Plan, Target, WaitMode, connect_options, run as run_plan};
 use clients::latency_bench::{BenchConfig, LoadConfig, load, run as run_bench};
-use protocol::JOINT_HEAD;
-use std::io::Write;
+use shared::JOINT_HEAD;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -34,8 +33,6 @@ struct Cli {
 enum Cmd {
     /// Measure round trips of one joint's moves against a running service (or a baseline).
     Client(ClientArgs),
-    /// Serve a raw iceoryx2 echo: the service's ports and waits, no solving.
-    RawServer(RawArgs),
     /// Start everything in turn and print the tables of BENCHMARKS.md.
     Bench(BenchArgs),
     /// The load run: a hand at full speed and one at 1 kHz on one rope plus a viewer; checks that no
@@ -52,11 +49,11 @@ struct LoadArgs {
     #[arg(long)]
     no_pin: bool,
     /// The service's wait mode.
-    #[arg(long, default_value = "hybrid")]
-    service_wait: String,
+    #[arg(long, value_enum, default_value_t = WaitMode::Hybrid)]
+    service_wait: WaitMode,
     /// The hands' wait mode.
-    #[arg(long, default_value = "hybrid")]
-    hand_wait: String,
+    #[arg(long, value_enum, default_value_t = WaitMode::Hybrid)]
+    hand_wait: WaitMode,
     /// Print the report as one JSON line after the table.
     #[arg(long)]
     json: bool,
@@ -65,17 +62,17 @@ struct LoadArgs {
 #[derive(Args, Debug)]
 struct ClientArgs {
     /// iceoryx2 prefix of the service (or of the raw echo).
-    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
+    #[arg(long, env = shared::PREFIX_ENV, default_value = shared::DEFAULT_PREFIX)]
     prefix: String,
-    /// The target is the raw echo (`latency raw-server`), not the service.
+    /// The target is the raw echo (`solver-service echo`), not the service.
     #[arg(long)]
     raw: bool,
     /// Talk to `solver-service unix --socket PATH` instead of iceoryx2.
     #[arg(long)]
     unix: Option<PathBuf>,
-    /// How to wait for a response: spin, event or hybrid.
-    #[arg(long, default_value = "hybrid")]
-    wait: String,
+    /// How to wait for a response.
+    #[arg(long, value_enum, default_value_t = WaitMode::Hybrid)]
+    wait: WaitMode,
     /// Chain to move.
     #[arg(long, default_value = "rope")]
     chain: String,
@@ -107,23 +104,6 @@ struct ClientArgs {
 }
 
 #[derive(Args, Debug)]
-struct RawArgs {
-    #[arg(long, env = protocol::PREFIX_ENV, default_value = protocol::DEFAULT_PREFIX)]
-    prefix: String,
-    /// Elements in each response (the chain's joints: links + 1).
-    #[arg(long, default_value_t = 41)]
-    elements: usize,
-    /// spin, event or hybrid (as the service's --wait).
-    #[arg(long, default_value = "hybrid")]
-    wait: String,
-    /// Hybrid: microseconds of spinning after the last request.
-    #[arg(long, default_value_t = 2000)]
-    spin_us: u64,
-    #[arg(long)]
-    pin: Option<usize>,
-}
-
-#[derive(Args, Debug)]
 struct BenchArgs {
     #[arg(long, default_value_t = 20_000)]
     samples: usize,
@@ -146,7 +126,7 @@ fn main() {
 
 fn pin(core: Option<usize>) -> Result<()> {
     if let Some(c) = core {
-        solver::service::pin_current_thread(c).map_err(usage)?;
+        shared::pin_current_thread(c).map_err(usage)?;
     }
     Ok(())
 }
@@ -154,7 +134,7 @@ fn pin(core: Option<usize>) -> Result<()> {
 fn run(cli: Cli) -> Result<i32> {
     match cli.command {
         Cmd::Client(a) => {
-            let wait = WaitMode::parse(&a.wait).map_err(usage)?;
+            let wait = a.wait;
             let joint = match a.joint.as_str() {
                 "head" => JOINT_HEAD,
                 "tail" => 0,
@@ -162,7 +142,7 @@ fn run(cli: Cli) -> Result<i32> {
                     .parse()
                     .map_err(|_| usage(format!("--joint {j:?}: head, tail or an index")))?,
             };
-            protocol::iceoryx_config(&a.prefix).map_err(usage)?;
+            shared::iceoryx_config(&a.prefix).map_err(usage)?;
             let target = match (a.unix, a.raw) {
                 (Some(_), true) => return Err(usage("--unix and --raw exclude each other")),
                 (Some(p), false) => Target::Unix(p),
@@ -222,32 +202,7 @@ fn run(cli: Cli) -> Result<i32> {
                 0
             })
         }
-        Cmd::RawServer(a) => {
-            let wait = WaitMode::parse(&a.wait).map_err(usage)?;
-            if a.elements == 0 || a.elements > protocol::MAX_RESPONSE_ELEMENTS as usize {
-                return Err(usage(format!(
-                    "--elements {}: 1 to {}",
-                    a.elements,
-                    protocol::MAX_RESPONSE_ELEMENTS
-                )));
-            }
-            protocol::iceoryx_config(&a.prefix).map_err(usage)?;
-            pin(a.pin)?;
-            serve_raw(
-                &a.prefix,
-                a.elements,
-                wait,
-                Duration::from_micros(a.spin_us),
-                || {
-                    println!("latency raw-server ready: prefix {}", a.prefix);
-                    let _ = std::io::stdout().flush();
-                },
-            )?;
-            Ok(0)
-        }
         Cmd::Load(a) => {
-            WaitMode::parse(&a.service_wait).map_err(usage)?;
-            WaitMode::parse(&a.hand_wait).map_err(usage)?;
             let exe = std::env::current_exe()?;
             let cfg = LoadConfig {
                 bin_dir: exe.parent().map(PathBuf::from).unwrap_or_default(),
@@ -271,17 +226,20 @@ fn run(cli: Cli) -> Result<i32> {
                 .sizes
                 .split(',')
                 .map(|s| match s.trim().parse::<u32>() {
-                    Ok(n) if (1..=protocol::MAX_LINKS).contains(&n) => Ok(n),
+                    Ok(n) if (1..=shared::MAX_LINKS).contains(&n) => Ok(n),
                     _ => Err(usage(format!(
                         "--sizes: {s:?} is not 1 to {}",
-                        protocol::MAX_LINKS
+                        shared::MAX_LINKS
                     ))),
                 })
                 .collect::<Result<Vec<_>>>()?;
             let modes = a
                 .modes
                 .split(',')
-                .map(|m| WaitMode::parse(m.trim()).map_err(usage))
+                .map(|m| {
+                    <WaitMode as clap::ValueEnum>::from_str(m.trim(), false)
+                        .map_err(|e| usage(format!("--modes: {e}")))
+                })
                 .collect::<Result<Vec<_>>>()?;
             if a.samples == 0 || !(a.loaded_seconds.is_finite() && a.loaded_seconds >= 0.0) {
                 return Err(usage("--samples ≥ 1 and --loaded-seconds ≥ 0"));

@@ -16,7 +16,7 @@ use clap::Parser;
 use clients::ToolArgs;
 use clients::cli::usage;
 use clients::render::{Frame, Polyline, View, write_frames_svg};
-use protocol::{Command, RequestHeader};
+use shared::{Command, RequestHeader};
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::PathBuf;

@@ -2,12 +2,12 @@
 //! another protocol version.
 
 use clients::ClientWait;
-use integration_tests::{Service, bin, unique_prefix};
-use protocol::{Command, RequestHeader, SERVICE_COMMAND, Vec3};
+use shared::{Command, RequestHeader, SERVICE_COMMAND, Vec3};
 use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant};
+use tests::{Service, bin, unique_prefix};
 
-/// More clients than the service has ports for ([`protocol::MAX_CLIENTS`]) are started, each killed
+/// More clients than the service has ports for ([`shared::MAX_CLIENTS`]) are started, each killed
 /// with `kill -9` while it streams requests. The test's own client is served throughout, and a new
 /// client connects at the end: the dead clients' ports were reclaimed.
 #[test]
@@ -15,7 +15,7 @@ fn a_client_killed_mid_stream_leaves_the_others_served_and_its_port_is_reclaimed
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
     let mut me = svc.connect_with(ClientWait::Event);
     let mut seq = 0;
-    for round in 0..protocol::MAX_CLIENTS + 4 {
+    for round in 0..shared::MAX_CLIENTS + 4 {
         let mut child = Process::new(bin("latency"))
             .args(["client", "--prefix", &svc.prefix, "--wait", "event"])
             .args([
@@ -162,7 +162,7 @@ fn a_peer_of_another_protocol_version_is_refused_with_a_message() {
     use iceoryx2::prelude::*;
     use iceoryx2::service::builder::request_response::RequestResponseOpenError;
     let prefix = unique_prefix();
-    let cfg = protocol::iceoryx_config(&prefix).unwrap();
+    let cfg = shared::iceoryx_config(&prefix).unwrap();
     let node = NodeBuilder::new()
         .config(&cfg)
         .create::<ipc::Service>()
@@ -184,11 +184,11 @@ fn a_peer_of_another_protocol_version_is_refused_with_a_message() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(
             err.contains("speaks another protocol version")
-                && err.contains(&format!("v{}", protocol::PROTOCOL_VERSION)),
+                && err.contains(&format!("v{}", shared::PROTOCOL_VERSION)),
             "{err}"
         );
     }
-    let svc = integration_tests::Service::start(&prefix, &["--no-persist", "--wait", "event"]);
+    let svc = tests::Service::start(&prefix, &["--no-persist", "--wait", "event"]);
     let other = node
         .service_builder(&name)
         .request_response::<[v0::Vec3], [v0::Vec3]>()

@@ -2,14 +2,14 @@
 //! granny knots by two hands taking turns as two processes; every published state of the rope keeps
 //! non-adjacent links a thickness apart; a replay of the recordings reproduces every state bit for bit.
 
-use integration_tests::{Service, bin, unique_prefix};
-use protocol::{Command, RequestHeader};
-use solver::kernel::collision::closest_params_segment_segment;
-use solver::kernel::knot::KnotType;
+use shared::{Command, RequestHeader};
 use std::process::{Child, Command as Process, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
+use tests::{Service, bin, unique_prefix};
+use tractrix::collision::closest_params_segment_segment;
+use tractrix::knot::KnotType;
 
 type V = nalgebra::Vector3<f64>;
 
@@ -154,7 +154,7 @@ impl Watcher {
     }
 }
 
-fn knot_of(svc: &Service, chain: &str) -> solver::kernel::knot::KnotReport {
+fn knot_of(svc: &Service, chain: &str) -> tractrix::knot::KnotReport {
     let mut c = svc.connect();
     let id = c.find_chain(chain).unwrap().unwrap();
     clients::hand::knot_of(&mut c, id).unwrap()

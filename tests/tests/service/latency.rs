@@ -2,12 +2,12 @@
 //! iceoryx2 echo and the Unix-socket server, every request answered and accounted for; `latency bench`
 //! runs its driver end to end (event mode only, no loaded run: the tests share two cores).
 
-use integration_tests::{Service, bin, unique_prefix};
-use protocol::{Command, RequestHeader};
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command as Process, Stdio};
+use clients::process::Proc;
+use shared::{Command, RequestHeader};
+use std::process::{Command as Process, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
+use tests::{Service, bin, unique_prefix};
 
 const TIMEOUT: Duration = Duration::from_secs(120);
 
@@ -58,47 +58,6 @@ fn check(s: &clients::latency::Summary, what: &str) {
     );
 }
 
-/// A child that prints a ready line, killed and reaped on drop.
-struct Ready(Child);
-impl Ready {
-    fn start(program: &str, args: &[&str]) -> Ready {
-        let mut child = Process::new(bin(program))
-            .args(args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("spawn");
-        let out = child.stdout.take().unwrap();
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            for l in BufReader::new(out).lines().map_while(Result::ok) {
-                let _ = tx.send(l);
-            }
-        });
-        let line = rx
-            .recv_timeout(Duration::from_secs(30))
-            .expect("a ready line");
-        assert!(line.contains("ready"), "{line}");
-        Ready(child)
-    }
-    fn wait(&mut self) -> std::process::ExitStatus {
-        let deadline = Instant::now() + Duration::from_secs(10);
-        loop {
-            if let Some(s) = self.0.try_wait().unwrap() {
-                return s;
-            }
-            assert!(Instant::now() < deadline, "did not exit in time");
-            std::thread::sleep(Duration::from_millis(10));
-        }
-    }
-}
-impl Drop for Ready {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 #[test]
 fn latency_client_measures_the_service_the_raw_echo_and_the_unix_socket() {
     // The service: every move applied (sequence 220 afterwards), solve times reported.
@@ -115,37 +74,36 @@ fn latency_client_measures_the_service_the_raw_echo_and_the_unix_socket() {
 
     // The raw echo: same sizes, no solving.
     let prefix = unique_prefix();
-    let mut raw = Ready::start(
-        "latency",
-        &[
-            "raw-server",
-            "--prefix",
-            &prefix,
-            "--wait",
-            "event",
-            "--elements",
-            "41",
-        ],
-    );
+    let mut echo = Process::new(bin("solver-service"));
+    echo.args([
+        "echo",
+        "--prefix",
+        &prefix,
+        "--wait",
+        "event",
+        "--elements",
+        "41",
+    ]);
+    let mut raw = Proc::ready(echo, "solver-service echo").unwrap();
     let s = summary(&["--prefix", &prefix, "--wait", "event", "--raw"]);
     check(&s, "raw echo");
     assert_eq!(s.solve.max, 1, "the echo solves nothing");
-    let _ = Process::new("kill")
-        .args(["-TERM", &raw.0.id().to_string()])
-        .status();
-    assert!(raw.wait().success(), "the echo stops cleanly on SIGTERM");
+    raw.signal("TERM").unwrap();
+    assert!(
+        raw.wait_exit(Duration::from_secs(10)).unwrap().success(),
+        "the echo stops cleanly on SIGTERM"
+    );
 
     // The Unix socket: one connection, then the server exits and removes its socket.
     let dir = tempfile::tempdir().unwrap();
     let sock = dir.path().join("s.sock");
     let sock = sock.to_str().unwrap();
-    let mut unix = Ready::start(
-        "solver-service",
-        &["unix", "--socket", sock, "--connections", "1"],
-    );
+    let mut server = Process::new(bin("solver-service"));
+    server.args(["unix", "--socket", sock, "--connections", "1"]);
+    let mut unix = Proc::ready(server, "solver-service unix").unwrap();
     let s = summary(&["--unix", sock]);
     check(&s, "unix socket");
-    assert!(unix.wait().success());
+    assert!(unix.wait_exit(Duration::from_secs(10)).unwrap().success());
     assert!(
         !std::path::Path::new(sock).exists(),
         "the socket is removed"

@@ -20,12 +20,12 @@ mod python;
 mod tools;
 
 use clients::{ClientWait, Connection};
-use integration_tests::{Service, bin, unique_prefix};
-use protocol::{
+use shared::{
     Command, FLAG_ANGLES, JOINT_HEAD, Precision, RequestHeader, Status, SubstepMode, Vec3,
     WireMethod, WireStrategy,
 };
 use std::time::{Duration, Instant};
+use tests::{Service, bin, unique_prefix};
 
 fn req(cmd: Command, chain: u32) -> RequestHeader {
     RequestHeader::new(cmd, chain)

@@ -3,11 +3,11 @@
 //! from the response header, not from the wheel's byte-counting slice), bit for bit what a Rust client
 //! then reads; a bad target refused with its reason and the state unchanged.
 
-use integration_tests::{Service, unique_prefix};
-use protocol::{Command, RequestHeader};
+use shared::{Command, RequestHeader};
 use std::path::PathBuf;
 use std::process::Command as Process;
 use std::time::{Duration, Instant};
+use tests::{Service, unique_prefix};
 
 fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")

@@ -2,12 +2,12 @@
 //! runs both methods and plots them, `watch` writes every state as CSV and frames; and a hand driven into
 //! an obstacle of a collision scene is refused as locked with the state unchanged.
 
-use integration_tests::{Service, bin, unique_prefix};
-use protocol::{Command, RequestHeader, Status, Vec3};
+use shared::{Command, RequestHeader, Status, Vec3};
 use std::io::{BufRead, BufReader, Read};
 use std::process::{Child, Command as Process, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
+use tests::{Service, bin, unique_prefix};
 
 const TOOL_TIMEOUT: Duration = Duration::from_secs(60);
 

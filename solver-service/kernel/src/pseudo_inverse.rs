@@ -13,9 +13,9 @@
 //! joints below it. This minimises joint rates in the least-squares sense (remark 5 contrasts it with the
 //! tractrix, which moves the joints near the base least).
 
-use super::chain::{Chain, ChainError};
-use super::fixed_base::{ReachError, ReachOutcome, nearest_reachable};
-use super::math::{Embed3, Real, Vector, all_finite};
+use crate::chain::{Chain, ChainError};
+use crate::fixed_base::{ReachError, ReachOutcome, nearest_reachable};
+use crate::math::{Embed3, Real, Vector, all_finite};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 /// Options of the damped-least-squares baseline.

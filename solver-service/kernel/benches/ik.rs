@@ -2,7 +2,7 @@
 //! tractrix reach (both of the paper's strategies) against FABRIK and the damped-least-squares
 //! pseudo-inverse, on the same 500 random reachable targets, at several tolerances.
 //!
-//! `cargo bench -p solver-service --bench ik` prints, per tolerance (a fraction of the arm's length):
+//! `cargo bench -p tractrix --bench ik` prints, per tolerance (a fraction of the arm's length):
 //! time per solve (median and p99, µs), iterations (mean and max), success, and how the joint motion is
 //! spread (the share of the total joint rotation made by the five joints nearest the base). The targets
 //! are uniform over the workspace disk (seeded, so every run sees the same ones) and solved in sequence,
@@ -13,10 +13,13 @@
 //! `rebirth-ik` crate solves bone trees with effectors and would measure its tree bookkeeping, not the
 //! algorithm.
 
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
+#![allow(clippy::disallowed_types, clippy::disallowed_macros, clippy::disallowed_methods)]
+
 use nalgebra::Vector2;
-use solver::kernel::pseudo_inverse::{DlsOptions, reach_dls};
-use solver::kernel::{Chain, ReachOptions, ReachWorkspace, Strategy, reach};
 use std::time::Instant;
+use tractrix::pseudo_inverse::{DlsOptions, reach_dls};
+use tractrix::{Chain, ReachOptions, ReachWorkspace, Strategy, reach};
 
 type V = Vector2<f64>;
 

@@ -1,6 +1,6 @@
 //! The extremes report: what each method does, in f64 and f32, at the edges of its domain.
 //!
-//! `cargo bench -p solver-service --bench extremes` prints one row per extreme × method × precision:
+//! `cargo bench -p tractrix --bench extremes` prints one row per extreme × method × precision:
 //! whether every coordinate stayed finite, the drift of the link lengths (largest relative error of any
 //! link at the end), the landing error of the moved joint (relative to its link), the error against a
 //! reference where one is exact, in links, and the time. The references:
@@ -13,10 +13,13 @@
 //!
 //! "–" means no exact reference. Long rows print progress on stderr.
 
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
+#![allow(clippy::disallowed_types, clippy::disallowed_macros, clippy::disallowed_methods)]
+
 use nalgebra::Vector3;
-use solver::kernel::ground_truth::helix;
-use solver::kernel::{Chain, Method, MoveOptions, Real, Substeps};
 use std::time::Instant;
+use tractrix::ground_truth::helix;
+use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
 
 type V = Vector3<f64>;
 

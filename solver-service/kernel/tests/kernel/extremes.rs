@@ -2,8 +2,8 @@
 
 use crate::support::{Rng, max_length_error, max_position_length_error};
 use nalgebra::{SVector, Vector3};
-use solver::kernel::math::Embed3;
-use solver::kernel::{Chain, Method, MoveOptions, Real, Substeps};
+use tractrix::math::Embed3;
+use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
 
 /// The kinds of move mixed into the long random sequences.
 #[derive(Clone, Copy, Debug)]

@@ -9,7 +9,7 @@
 //!   unit quaternion, the shortest arc from the previous link's direction to the next (a line-segment link
 //!   has no twist, so the shortest arc is the rotation the joint has to make).
 
-use super::math::Real;
+use crate::math::Real;
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 
 /// Signed angle from `a` to `b` in the plane, in `(−π, π]`. `atan2` of cross and dot: accurate at every

@@ -1,12 +1,12 @@
 //! Helpers shared by the kernel tests.
 
 use nalgebra::{SVector, Vector3};
-use solver::kernel::{Chain, Real};
+use tractrix::{Chain, Real};
 
 /// Largest relative deviation of a link vector's length from its nominal length.
 pub fn max_length_error<T: Real, const D: usize>(chain: &Chain<T, D>) -> f64
 where
-    SVector<T, D>: solver::kernel::math::Embed3<T>,
+    SVector<T, D>: tractrix::math::Embed3<T>,
 {
     chain
         .links()
@@ -19,7 +19,7 @@ where
 /// Largest relative deviation of the distance between consecutive *published* positions.
 pub fn max_position_length_error<T: Real, const D: usize>(chain: &Chain<T, D>) -> f64
 where
-    SVector<T, D>: solver::kernel::math::Embed3<T>,
+    SVector<T, D>: tractrix::math::Embed3<T>,
 {
     let p = chain.positions();
     p.windows(2)

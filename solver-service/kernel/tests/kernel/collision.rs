@@ -2,12 +2,12 @@
 
 use crate::support::{Rng, max_length_error};
 use nalgebra::Vector3;
-use solver::kernel::collision::{
+use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, Scheme,
     closest_nonadjacent_links, move_joint_colliding, neighbour_span,
 };
-use solver::kernel::knot::{KnotType, identify};
-use solver::kernel::{Chain, ChainError, MoveOptions, Substeps};
+use tractrix::knot::{KnotType, identify};
+use tractrix::{Chain, ChainError, MoveOptions, Substeps};
 
 fn capsules(thickness: f64) -> CollisionModel<f64, 3> {
     CollisionModel {

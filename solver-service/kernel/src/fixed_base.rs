@@ -27,9 +27,9 @@
 //! hierarchy: the goal must lie in `W[1]`). An unreachable target is an error that names the nearest
 //! reachable point and the residual; nothing moves.
 
-use super::chain::{Chain, ChainError, MoveOptions, Substeps};
-use super::link::Method;
-use super::math::{Embed3, Real, Vector, all_finite, positive_finite};
+use crate::chain::{Chain, ChainError, MoveOptions, Substeps};
+use crate::link::Method;
+use crate::math::{Embed3, Real, Vector, all_finite, positive_finite};
 use nalgebra::Vector3;
 
 /// Which of the paper's two fixed-base strategies to use.
@@ -104,7 +104,12 @@ pub enum ReachError<T: Real, const D: usize> {
     },
     /// The iteration limit was reached first.
     #[error("not converged after {iterations} iterations, residual {residual:?}")]
-    NotConverged { iterations: u32, residual: T },
+    NotConverged {
+        /// Iterations spent.
+        iterations: u32,
+        /// Distance from the head to the target when they ran out.
+        residual: T,
+    },
     /// Bad input (non-finite target, bad options).
     #[error(transparent)]
     Chain(#[from] ChainError),

@@ -19,8 +19,8 @@
 //! parts that both follow outward (remark 2). A move can be split into substeps ([`Substeps`]); the moved
 //! joint lands exactly on its target. A move allocates nothing.
 
-use super::link::{Method, step};
-use super::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
+use crate::link::{Method, step};
+use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
 
 /// How a move is divided into straight substeps. Motion is path dependent: finer substeps follow a curved
 /// path more closely (error ∝ h² for the tractrix, ∝ h for follow-the-leader) and cost proportionally more.
@@ -76,16 +76,31 @@ pub enum ChainError {
     Empty,
     /// A link length is zero, negative or not finite.
     #[error("link {link}: length {length} is not a positive finite number")]
-    BadLength { link: usize, length: f64 },
+    BadLength {
+        /// Index of the link.
+        link: usize,
+        /// Its length as given.
+        length: f64,
+    },
     /// A coordinate is NaN or infinite.
     #[error("non-finite coordinate")]
     NonFinite,
     /// The joint index is past the head.
     #[error("joint {joint} out of range (the chain has joints 0..={last})")]
-    JointOutOfRange { joint: usize, last: usize },
+    JointOutOfRange {
+        /// The joint asked for.
+        joint: usize,
+        /// The head's index.
+        last: usize,
+    },
     /// The move needs more substeps than `max_substeps`.
     #[error("move needs {required} substeps, more than the limit {limit}")]
-    TooManySubsteps { required: u64, limit: u32 },
+    TooManySubsteps {
+        /// Substeps the move would need.
+        required: u64,
+        /// The limit it was given.
+        limit: u32,
+    },
     /// An option is out of range.
     #[error("invalid option: {0}")]
     BadOption(&'static str),

@@ -3,8 +3,8 @@
 use crate::support::Rng;
 use nalgebra::{Vector2, Vector3};
 use proptest::prelude::*;
-use solver::kernel::ground_truth::{GroundTruthOptions, follow_path};
-use solver::kernel::link::{
+use tractrix::ground_truth::{GroundTruthOptions, follow_path};
+use tractrix::link::{
     PaperFormDegenerate, follow_the_leader_step, tractrix_paper_step, tractrix_paper_step3,
     tractrix_step,
 };

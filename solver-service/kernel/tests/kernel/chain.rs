@@ -3,8 +3,8 @@
 use crate::support::{Rng, max_length_error, max_position_length_error};
 use nalgebra::{Vector2, Vector3};
 use proptest::prelude::*;
-use solver::kernel::link::step;
-use solver::kernel::{Chain, ChainError, Method, MoveOptions, Substeps};
+use tractrix::link::step;
+use tractrix::{Chain, ChainError, Method, MoveOptions, Substeps};
 
 fn curled_rope(n: usize, seed: u64) -> Chain<f64, 3> {
     let mut rng = Rng(seed);

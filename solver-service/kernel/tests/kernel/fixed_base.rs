@@ -2,11 +2,11 @@
 
 use crate::support::{Rng, max_length_error};
 use nalgebra::{SVector, UnitQuaternion, Vector2, Vector3};
-use solver::kernel::angles::{planar_joint_angles, planar_joint_motion, spatial_joint_rotations};
-use solver::kernel::fixed_base::workspace_radii;
-use solver::kernel::math::Embed3;
-use solver::kernel::pseudo_inverse::{DlsOptions, reach_dls};
-use solver::kernel::{Chain, ReachError, ReachOptions, ReachWorkspace, Strategy, reach};
+use tractrix::angles::{planar_joint_angles, planar_joint_motion, spatial_joint_rotations};
+use tractrix::fixed_base::workspace_radii;
+use tractrix::math::Embed3;
+use tractrix::pseudo_inverse::{DlsOptions, reach_dls};
+use tractrix::{Chain, ReachError, ReachOptions, ReachWorkspace, Strategy, reach};
 
 /// The paper's manipulator: 10 links of 0.2, base at the origin, in a gentle arc.
 fn manipulator() -> Chain<f64, 2> {

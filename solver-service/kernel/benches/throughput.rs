@@ -1,7 +1,7 @@
 //! What independent work in flight buys the closed-form tractrix step, which on one rope is a chain of
 //! dependent divisions, square roots and exponentials (each link waits for the shift of the one before).
 //!
-//! `cargo bench -p solver-service --bench throughput` prints two tables, ns per link-step (median and
+//! `cargo bench -p tractrix --bench throughput` prints two tables, ns per link-step (median and
 //! p90 over timed batches, variants interleaved batch by batch):
 //!
 //! 1. **Wavefront over substeps**, one rope of 1000 links: a move of `k` substeps done substep after
@@ -13,10 +13,13 @@
 //!    another, against groups of G strands advanced link by link together (G independent steps in
 //!    flight).
 
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
+#![allow(clippy::disallowed_types, clippy::disallowed_macros, clippy::disallowed_methods)]
+
 use nalgebra::Vector3;
-use solver::kernel::link::tractrix_step;
 use std::hint::black_box;
 use std::time::Instant;
+use tractrix::link::tractrix_step;
 
 type V = Vector3<f64>;
 

@@ -46,7 +46,7 @@
 //! The only guard is the zero move and `D = 0`, which happens only for an exactly collinear push so large
 //! that `E` underflows (`b ≳ 745` in f64); its limit, the tail staying ahead, is returned.
 
-use super::math::{Embed3, Real, Vector, positive_finite, robust_norm};
+use crate::math::{Embed3, Real, Vector, positive_finite, robust_norm};
 use nalgebra::Vector3;
 
 /// The outcome of moving one link's head.

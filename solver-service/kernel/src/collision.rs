@@ -35,8 +35,8 @@
 //! When nothing touches, a move with collision handling gives bit for bit the chain a move without it
 //! gives.
 
-use super::chain::{Chain, ChainError, MoveOptions, MoveOutcome};
-use super::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
+use crate::chain::{Chain, ChainError, MoveOptions, MoveOutcome};
+use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
 use nalgebra::Vector3;
 
 /// Which collision test and response a chain uses (see the module docs).

@@ -3,8 +3,8 @@
 //! 4× for the tractrix (second order) and 2× for follow-the-leader (first order).
 
 use nalgebra::Vector3;
-use solver::kernel::ground_truth::{GroundTruthOptions, follow_path, helix};
-use solver::kernel::{Chain, Method, MoveOptions, Substeps};
+use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};
+use tractrix::{Chain, Method, MoveOptions, Substeps};
 
 fn errors(method: Method, substeps: &[u32]) -> Vec<f64> {
     let rope = Chain::<f64, 3>::straight(40, 1.0, Vector3::zeros(), Vector3::x()).unwrap();

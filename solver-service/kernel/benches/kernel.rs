@@ -1,16 +1,19 @@
 //! The kernel's cost per link per substep: the closed-form tractrix, the paper's TRACTRIX3D and
 //! follow-the-leader, in f64 and f32, on chains of 10, 40, 1000 and 10⁶ links, measured side by side.
 //!
-//! `cargo bench -p solver-service --bench kernel` prints one row per (links, precision, method): the
+//! `cargo bench -p tractrix --bench kernel` prints one row per (links, precision, method): the
 //! median and p99 over batches of ns per link per substep, and the ratio of medians to follow-the-leader
 //! of the same size and precision. Each batch is a run of head moves (a third of a link each, one
 //! substep) along a wide helix, timed as a whole so the clock's own cost (~20 ns) does not count; methods
 //! are interleaved batch by batch. `KERNEL_BENCH_SCALE` (default 1.0) scales the work per row.
 
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
+#![allow(clippy::disallowed_types, clippy::disallowed_macros, clippy::disallowed_methods)]
+
 use nalgebra::Vector3;
-use solver::kernel::{Chain, Method, MoveOptions, Real, Substeps};
 use std::hint::black_box;
 use std::time::Instant;
+use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
 
 /// Link-steps per timed batch.
 const BATCH_WORK: usize = 200_000;
@@ -107,7 +110,7 @@ fn main() {
         .unwrap_or(1.0);
     println!(
         "ns per link per substep, head moves of 1/3 link along a helix \
-         (cargo bench -p solver-service --bench kernel)"
+         (cargo bench -p tractrix --bench kernel)"
     );
     println!(
         "{:>9} {:<6} {:<18} {:>9} {:>9} {:>7}",

@@ -12,8 +12,8 @@
 //! segment by Dormand–Prince 8(5,3) (`ode_solvers::Dop853`) at tight tolerances. Tests and the accuracy
 //! report measure every discrete method against this. It allocates and is slow; it is not for the service.
 
-use super::chain::ChainError;
-use super::math::{Real, Vector, all_finite};
+use crate::chain::ChainError;
+use crate::math::{Real, Vector, all_finite};
 use nalgebra::Vector3;
 use ode_solvers::dop_shared::{IntegrationError, OutputType};
 use ode_solvers::{DVector, Dop853, System};

@@ -1,0 +1,51 @@
+//! Tractrix redundancy resolution for flexible objects (sutures, ropes, snakes) and hyper-redundant
+//! manipulators, after Sreenivasan, Goel & Ghosal, with the goal-directed-motion baselines of Korein &
+//! Badler. An I/O-free library: no files, no clocks, no printing, no threads, no IPC, no allocation per
+//! move; state is taken by `&mut` and results are written into the caller's buffers, so a Rust simulator
+//! (a Bevy or rapier system, any game loop) can embed it in-process, without the solver service.
+//!
+//! ```
+//! use nalgebra::Vector3;
+//! use tractrix::{Chain, MoveOptions};
+//!
+//! // The paper's rope: 40 links of unit length along +x.
+//! let mut rope = Chain::<f64, 3>::straight(40, 1.0, Vector3::zeros(), Vector3::x()).unwrap();
+//! // Drag the head sideways; every link follows its tractrix, lengths are kept exactly.
+//! let head = rope.head_index();
+//! rope.move_joint(head, Vector3::new(40.0, 5.0, 0.0), &MoveOptions::default()).unwrap();
+//! assert!((rope.head() - Vector3::new(40.0, 5.0, 0.0)).norm() < 1e-12);
+//! ```
+//!
+//! * [`math`]: scalar trait, vector aliases, tolerances.
+//! * [`link`]: one link, three ways (closed-form tractrix, the paper's TRACTRIX3D, follow-the-leader).
+//! * [`chain`]: flat chain state and RESOLUTION-TRACTRIX (head, tail or interior joint moves, substeps).
+//! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a hash grid).
+//! * [`fixed_base`]: fixed-base manipulators, both of the paper's strategies, workspace checks.
+//! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
+//! * [`angles`]: joint angles (eq. 15, relative rotations).
+//! * `pseudo_inverse` (feature `reference`): the damped-least-squares resolved-rate baseline of Korein &
+//!   Badler.
+//! * `ground_truth` (feature `reference`): the continuous motion integrated by DOP853, for tests and
+//!   accuracy reports.
+//!
+//! Cargo keeps the crate pure: its only dependencies are `nalgebra` and `thiserror` (and `ode_solvers`
+//! with the `reference` feature).
+
+#![deny(missing_docs)]
+
+pub mod angles;
+pub mod chain;
+pub mod collision;
+pub mod fixed_base;
+#[cfg(feature = "reference")]
+pub mod ground_truth;
+pub mod knot;
+pub mod link;
+pub mod math;
+#[cfg(feature = "reference")]
+pub mod pseudo_inverse;
+
+pub use chain::{Chain, ChainError, MoveOptions, MoveOutcome, Substeps};
+pub use fixed_base::{ReachError, ReachOptions, ReachOutcome, ReachWorkspace, Strategy, reach};
+pub use link::{LinkStep, Method};
+pub use math::{Real, Vector};

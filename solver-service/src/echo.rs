@@ -1,0 +1,32 @@
+//! The raw echo: the latency bench's baseline. The service's ports, serving loop and waits, no
+//! validation, no solving, no state stream: every request gets a zeroed [`ResponseHeader`] (echoing
+//! `request_id`) and `elements` copies of one point. `solver-service echo` serves it.
+
+use crate::serve::{Handled, Handler};
+use shared::{RequestHeader, ResponseHeader, Vec3};
+
+/// Answers every request with `elements` copies of one point.
+#[derive(Debug, Clone, Copy)]
+pub struct Echo {
+    /// Elements per response.
+    pub elements: u32,
+}
+
+impl Handler for Echo {
+    const SOLVES: bool = false;
+
+    fn handle(&mut self, req: &RequestHeader, _points: &[Vec3]) -> Handled {
+        Handled {
+            header: ResponseHeader {
+                request_id: req.request_id,
+                n_joints: self.elements,
+                ..ResponseHeader::default()
+            },
+            changed: false,
+        }
+    }
+
+    fn elements(&self, _h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_ {
+        std::iter::repeat(Vec3::new(1.0, 2.0, 3.0))
+    }
+}

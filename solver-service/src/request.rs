@@ -1,0 +1,558 @@
+//! The typed request path: [`decode`] turns a wire request into a [`Request`] (every field checked, every
+//! wire enum through `TryFrom`, every default resolved against the chain's [`ChainSpec`]) or a
+//! [`Refusal`]; [`ChainSet::apply`](crate::chain_set::ChainSet::apply) turns a `Request` into an
+//! [`Outcome`] or a `Refusal`; [`encode`] is the one place that turns either into a response header.
+//! Kernel errors become refusals by `From`.
+//!
+//! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
+
+use crate::scene::ChainSpec;
+use shared::{
+    ChainKind, Command, FLAG_ANGLES, JOINT_HEAD, MAX_PATH_POINTS, Precision, REASON_LEN,
+    RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+};
+use std::fmt::Write as _;
+use tractrix::math::Embed3;
+use tractrix::{
+    ChainError, Method, MoveOptions, ReachError, ReachOptions, Real, Strategy, Substeps, Vector,
+};
+
+/// Highest `max_iterations` a reach request may ask for.
+pub const MAX_REACH_ITERATIONS: u32 = 100_000;
+
+/// A decoded request: everything checked and resolved, ready for the kernel.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Request<'a> {
+    /// Move `joint` through `targets` (one for a move, several for a path).
+    Move {
+        /// Chain handle.
+        chain: u32,
+        /// Joint index, resolved (the head is `n_links`).
+        joint: usize,
+        /// Target points, all finite, in range and in the chain's plane.
+        targets: &'a [Vec3],
+        /// Method and substeps, defaults resolved.
+        options: MoveOptions<f64>,
+    },
+    /// Bring a fixed-base chain's head to `target`.
+    Reach {
+        /// Chain handle.
+        chain: u32,
+        /// The target.
+        target: Vec3,
+        /// Strategy, method, tolerance and limits, defaults resolved.
+        options: ReachOptions<f64>,
+        /// Append joint rotations to the response.
+        angles: bool,
+    },
+    /// The current joints.
+    Query {
+        /// Chain handle.
+        chain: u32,
+        /// Append joint rotations to the response.
+        angles: bool,
+    },
+    /// The chain's description and joints.
+    Describe {
+        /// Chain handle.
+        chain: u32,
+    },
+    /// Back to the scene's initial state.
+    Reset {
+        /// Chain handle.
+        chain: u32,
+    },
+    /// Write a snapshot now (the service's business; the chain set only validates it).
+    Snapshot,
+}
+
+impl Request<'_> {
+    /// The chain the request addresses (`None` for a snapshot).
+    pub fn chain(&self) -> Option<u32> {
+        match *self {
+            Request::Move { chain, .. }
+            | Request::Reach { chain, .. }
+            | Request::Query { chain, .. }
+            | Request::Describe { chain }
+            | Request::Reset { chain } => Some(chain),
+            Request::Snapshot => None,
+        }
+    }
+
+    /// Whether an accepted request of this kind changes the state.
+    pub fn changes_state(&self) -> bool {
+        matches!(
+            self,
+            Request::Move { .. } | Request::Reach { .. } | Request::Reset { .. }
+        )
+    }
+}
+
+/// What an accepted request did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Outcome {
+    /// The chain (`None` for a snapshot).
+    pub chain: Option<u32>,
+    /// Whether the state changed (a new sequence number; journaled and published).
+    pub changed: bool,
+    /// Joints in the response.
+    pub joints: u32,
+    /// Joint rotations in the response.
+    pub angles: u32,
+    /// Substeps taken (moves).
+    pub substeps: u32,
+    /// Paper-form substeps that fell back to the closed form.
+    pub paper_fallbacks: u32,
+    /// Reach iterations, or collision passes of a move.
+    pub iterations: u32,
+    /// How the residual is known.
+    pub residual: Residual,
+    /// Whether the response carries the chain's description.
+    pub describe: bool,
+}
+
+/// The distance between where a joint should be and where it is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Residual {
+    /// Not applicable (zero on the wire).
+    None,
+    /// Known from the kernel (a reach).
+    Known(f64),
+    /// `joint` should be at `target`: measured on the joints as written into the response, so no extra
+    /// pass over the chain ([`finish`]).
+    Landing {
+        /// Joint index.
+        joint: usize,
+        /// Where it was sent.
+        target: Vec3,
+    },
+}
+
+/// A refused request: the status, what was wrong, and how far a reach got.
+#[derive(Debug, Clone)]
+pub struct Refusal {
+    /// Never [`Status::Ok`].
+    pub status: Status,
+    reason: [u8; REASON_LEN],
+    len: usize,
+    /// Reach: the residual reached (unreachable: the distance to the workspace).
+    pub residual: f64,
+    /// Reach: the iterations spent.
+    pub iterations: u32,
+}
+
+impl Refusal {
+    /// A refusal with a reason formatted into the fixed buffer (cut at [`REASON_LEN`] − 1 bytes).
+    pub fn new(status: Status, args: std::fmt::Arguments<'_>) -> Self {
+        let mut r = Refusal {
+            status,
+            reason: [0; REASON_LEN],
+            len: 0,
+            residual: 0.0,
+            iterations: 0,
+        };
+        let _ = r.write_fmt(args);
+        r
+    }
+
+    /// The reason as text.
+    pub fn reason(&self) -> &str {
+        std::str::from_utf8(&self.reason[..self.len]).unwrap_or("")
+    }
+}
+
+impl std::fmt::Write for Refusal {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        for ch in s.chars() {
+            let mut b = [0u8; 4];
+            let e = ch.encode_utf8(&mut b).as_bytes();
+            if self.len + e.len() >= REASON_LEN {
+                return Ok(());
+            }
+            self.reason[self.len..self.len + e.len()].copy_from_slice(e);
+            self.len += e.len();
+        }
+        Ok(())
+    }
+}
+
+macro_rules! refuse {
+    ($status:ident, $($fmt:tt)*) => {
+        $crate::request::Refusal::new(shared::Status::$status, format_args!($($fmt)*))
+    };
+}
+pub(crate) use refuse;
+
+impl From<ChainError> for Refusal {
+    fn from(e: ChainError) -> Self {
+        match e {
+            ChainError::NonFinite => {
+                refuse!(NonFinite, "target does not fit the chain's precision")
+            }
+            ChainError::JointOutOfRange { joint, last } => {
+                refuse!(JointOutOfRange, "joint {joint} (the chain has 0..={last})")
+            }
+            ChainError::TooManySubsteps { required, limit } => refuse!(
+                TooManySubsteps,
+                "the move needs {required} substeps; the chain allows {limit}"
+            ),
+            ChainError::BadOption(s) => refuse!(BadOption, "{s}"),
+            ChainError::Locked {
+                substep,
+                iterations,
+                penetration,
+            } => refuse!(
+                Locked,
+                "links still {penetration:.2e} too close after {iterations} passes at substep {substep}"
+            ),
+            e @ (ChainError::Empty | ChainError::BadLength { .. }) => refuse!(Internal, "{e}"),
+        }
+    }
+}
+
+impl<T: Real, const D: usize> From<ReachError<T, D>> for Refusal
+where
+    Vector<T, D>: Embed3<T>,
+{
+    fn from(e: ReachError<T, D>) -> Self {
+        match e {
+            ReachError::Unreachable { nearest, residual } => {
+                let n = nearest.to_3d();
+                let mut r = refuse!(
+                    Unreachable,
+                    "{:.3e} outside the workspace; nearest ({:.6}, {:.6}, {:.6})",
+                    residual.to_f64(),
+                    n.x.to_f64(),
+                    n.y.to_f64(),
+                    n.z.to_f64()
+                );
+                r.residual = residual.to_f64();
+                r
+            }
+            ReachError::NotConverged {
+                iterations,
+                residual,
+            } => {
+                let mut r = refuse!(
+                    NotConverged,
+                    "{iterations} iterations, residual {:.3e}",
+                    residual.to_f64()
+                );
+                r.iterations = iterations;
+                r.residual = residual.to_f64();
+                r
+            }
+            ReachError::Chain(e) => e.into(),
+        }
+    }
+}
+
+/// The kernel method a wire method asks for (`None`: the chain's default).
+pub fn method_from_wire(m: WireMethod) -> Option<Method> {
+    match m {
+        WireMethod::Default => None,
+        WireMethod::Tractrix => Some(Method::Tractrix),
+        WireMethod::Paper => Some(Method::TractrixPaper),
+        WireMethod::FollowTheLeader => Some(Method::FollowTheLeader),
+    }
+}
+
+/// The wire number of a kernel method.
+pub fn method_to_wire(m: Method) -> WireMethod {
+    match m {
+        Method::Tractrix => WireMethod::Tractrix,
+        Method::TractrixPaper => WireMethod::Paper,
+        Method::FollowTheLeader => WireMethod::FollowTheLeader,
+    }
+}
+
+/// The kernel strategy a wire strategy asks for (`None`: the chain's default).
+pub fn strategy_from_wire(s: WireStrategy) -> Option<Strategy> {
+    match s {
+        WireStrategy::Default => None,
+        WireStrategy::TranslateBack => Some(Strategy::TranslateBack),
+        WireStrategy::TractrixTwoLink => Some(Strategy::TractrixTwoLink),
+    }
+}
+
+fn wire_enum<E: TryFrom<u32, Error = u32>>(v: u32, field: &str, range: &str) -> Result<E, Refusal> {
+    E::try_from(v).map_err(|v| refuse!(BadOption, "{field} {v} is not one of {range}"))
+}
+
+/// Checks a request against the scene's chains and resolves its defaults. Nothing is changed.
+pub fn decode<'a>(
+    h: &RequestHeader,
+    points: &'a [Vec3],
+    chains: &[ChainSpec],
+) -> Result<Request<'a>, Refusal> {
+    let command = Command::try_from(h.command)
+        .map_err(|c| refuse!(UnknownCommand, "command {c} is not one of 1..=7"))?;
+    if h.reserved != [0, 0] {
+        return Err(refuse!(BadOption, "reserved fields must be zero"));
+    }
+    if h.flags & !FLAG_ANGLES != 0 {
+        return Err(refuse!(
+            BadOption,
+            "unknown flag bits {:#x}",
+            h.flags & !FLAG_ANGLES
+        ));
+    }
+    let method: WireMethod = wire_enum(h.method, "method", "0..=3")?;
+    let precision: Precision = wire_enum(h.precision, "precision", "0..=2")?;
+    let substep_mode: SubstepMode = wire_enum(h.substep_mode, "substep_mode", "0..=2")?;
+    let strategy: WireStrategy = wire_enum(h.strategy, "strategy", "0..=2")?;
+    let expected = match command {
+        Command::Move | Command::Reach => 1..=1,
+        Command::Path => 1..=MAX_PATH_POINTS as usize,
+        _ => 0..=0,
+    };
+    if !expected.contains(&points.len()) {
+        return Err(refuse!(
+            BadPointCount,
+            "{} takes {}..={} points, got {}",
+            command.name(),
+            expected.start(),
+            expected.end(),
+            points.len()
+        ));
+    }
+    if command == Command::Snapshot {
+        return Ok(Request::Snapshot);
+    }
+    let chain = h.chain;
+    let spec = chains.get(chain as usize).ok_or_else(|| {
+        refuse!(
+            UnknownChain,
+            "chain {chain} (the scene has 0..{})",
+            chains.len()
+        )
+    })?;
+    if precision != Precision::Default && precision != spec.precision {
+        return Err(refuse!(
+            BadOption,
+            "chain {:?} is stored in {}",
+            spec.name,
+            if spec.precision == Precision::F32 {
+                "f32"
+            } else {
+                "f64"
+            }
+        ));
+    }
+    for (i, p) in points.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(refuse!(NonFinite, "point {i} is not finite"));
+        }
+        let far = p.x.abs().max(p.y.abs()).max(p.z.abs());
+        if spec.kind == ChainKind::Free && far > spec.max_coordinate {
+            return Err(refuse!(
+                TooFar,
+                "point {i}: {far:.3e} is beyond {:.3e}: too far to keep link lengths",
+                spec.max_coordinate
+            ));
+        }
+        if spec.dims == 2 && p.z != 0.0 {
+            return Err(refuse!(
+                OffPlane,
+                "point {i}: chain {:?} is planar, z must be 0",
+                spec.name
+            ));
+        }
+    }
+    let n_links = spec.lengths.len();
+    let angles = h.flags & FLAG_ANGLES != 0;
+    let method = method_from_wire(method);
+    match command {
+        Command::Move | Command::Path => {
+            if spec.kind == ChainKind::FixedBase {
+                return Err(refuse!(
+                    WrongChainKind,
+                    "chain {:?} has a fixed base: use reach",
+                    spec.name
+                ));
+            }
+            let joint = if h.joint == JOINT_HEAD {
+                n_links
+            } else if h.joint as usize <= n_links {
+                h.joint as usize
+            } else {
+                return Err(refuse!(
+                    JointOutOfRange,
+                    "joint {} (the chain has 0..={n_links})",
+                    h.joint
+                ));
+            };
+            let substeps = match substep_mode {
+                SubstepMode::Default => spec.moves.substeps,
+                SubstepMode::Fixed if h.substeps == 0 => {
+                    return Err(refuse!(BadOption, "substeps must be at least 1"));
+                }
+                SubstepMode::Fixed => Substeps::Fixed(h.substeps),
+                SubstepMode::MaxStep if !h.max_step.is_finite() => {
+                    return Err(refuse!(NonFinite, "max_step is not finite"));
+                }
+                SubstepMode::MaxStep if h.max_step <= 0.0 => {
+                    return Err(refuse!(
+                        BadOption,
+                        "max_step {} must be positive",
+                        h.max_step
+                    ));
+                }
+                SubstepMode::MaxStep => Substeps::MaxStep(h.max_step),
+            };
+            Ok(Request::Move {
+                chain,
+                joint,
+                targets: points,
+                options: MoveOptions {
+                    method: method.unwrap_or(spec.moves.method),
+                    substeps,
+                    max_substeps: spec.moves.max_substeps,
+                },
+            })
+        }
+        Command::Reach => {
+            if spec.kind != ChainKind::FixedBase {
+                return Err(refuse!(
+                    WrongChainKind,
+                    "chain {:?} is free: use move",
+                    spec.name
+                ));
+            }
+            if substep_mode != SubstepMode::Default {
+                return Err(refuse!(
+                    BadOption,
+                    "reach takes `substeps` per pass; substep_mode must be 0"
+                ));
+            }
+            if h.substeps > spec.moves.max_substeps {
+                return Err(refuse!(
+                    BadOption,
+                    "substeps {} above the chain's limit {}",
+                    h.substeps,
+                    spec.moves.max_substeps
+                ));
+            }
+            let tolerance = if h.tolerance == 0.0 {
+                spec.reach.tolerance
+            } else if !h.tolerance.is_finite() {
+                return Err(refuse!(NonFinite, "tolerance is not finite"));
+            } else if !(h.tolerance > 0.0 && h.tolerance <= 0.1) {
+                return Err(refuse!(
+                    BadOption,
+                    "tolerance {} is outside (0, 0.1]",
+                    h.tolerance
+                ));
+            } else {
+                h.tolerance
+            };
+            let max_iterations = match h.max_iterations {
+                0 => spec.reach.max_iterations,
+                m if m <= MAX_REACH_ITERATIONS => m,
+                m => {
+                    return Err(refuse!(
+                        BadOption,
+                        "max_iterations {m} is above {MAX_REACH_ITERATIONS}"
+                    ));
+                }
+            };
+            Ok(Request::Reach {
+                chain,
+                target: points[0],
+                options: ReachOptions {
+                    strategy: strategy_from_wire(strategy).unwrap_or(spec.reach.strategy),
+                    method: method.unwrap_or(spec.reach.method),
+                    substeps: h.substeps.max(1),
+                    tolerance,
+                    max_iterations,
+                    hierarchy_after: spec.reach.hierarchy_after,
+                },
+                angles,
+            })
+        }
+        Command::Query => Ok(Request::Query { chain, angles }),
+        Command::Describe => Ok(Request::Describe { chain }),
+        Command::Reset => Ok(Request::Reset { chain }),
+        Command::Snapshot => Ok(Request::Snapshot),
+    }
+}
+
+/// The response header of a request: from its outcome or its refusal. `sequence` is the state after it;
+/// `chains` is the scene's (for the description). The residual of a landing is completed by [`finish`]
+/// once the joints are written.
+pub fn encode(
+    req: &RequestHeader,
+    result: &Result<Outcome, Refusal>,
+    sequence: u64,
+    chains: &[ChainSpec],
+) -> ResponseHeader {
+    let mut h = ResponseHeader {
+        command: req.command,
+        chain: req.chain,
+        request_id: req.request_id,
+        n_chains: chains.len() as u32,
+        sequence,
+        ..ResponseHeader::default()
+    };
+    match result {
+        Ok(o) => {
+            h.status = Status::Ok as u32;
+            h.n_joints = o.joints;
+            h.n_angles = o.angles;
+            h.substeps = o.substeps;
+            h.paper_fallbacks = o.paper_fallbacks;
+            h.iterations = o.iterations;
+            if let Residual::Known(r) = o.residual {
+                h.residual = r;
+            }
+            if o.describe
+                && let Some(spec) = o.chain.and_then(|c| chains.get(c as usize))
+            {
+                describe(spec, &mut h);
+            }
+        }
+        Err(r) => {
+            h.status = r.status as u32;
+            h.reason = r.reason;
+            h.residual = r.residual;
+            h.iterations = r.iterations;
+        }
+    }
+    h
+}
+
+/// Completes a header from the joints written into the response: the landing residual, measured on
+/// the response itself.
+pub fn finish(h: &mut ResponseHeader, residual: Residual, written: &[Vec3]) {
+    if let Residual::Landing { joint, target } = residual
+        && let Some(p) = written.get(joint)
+    {
+        h.residual =
+            ((p.x - target.x).powi(2) + (p.y - target.y).powi(2) + (p.z - target.z).powi(2)).sqrt();
+    }
+}
+
+/// The description fields of a chain.
+fn describe(spec: &ChainSpec, h: &mut ResponseHeader) {
+    h.kind = spec.kind as u32;
+    h.dims = spec.dims;
+    h.n_links = spec.lengths.len() as u32;
+    h.precision = spec.precision as u32;
+    h.method = method_to_wire(spec.moves.method) as u32;
+    h.collision = spec.collision_bits();
+    match spec.moves.substeps {
+        Substeps::Fixed(k) => {
+            h.substep_mode = SubstepMode::Fixed as u32;
+            h.substeps_default = k;
+            h.max_step = 0.0;
+        }
+        Substeps::MaxStep(s) => {
+            h.substep_mode = SubstepMode::MaxStep as u32;
+            h.substeps_default = 0;
+            h.max_step = s;
+        }
+    }
+    h.total_length = spec.total_length;
+    h.thickness = spec.thickness;
+    h.set_name(&spec.name);
+}

@@ -1,0 +1,383 @@
+//! Scenes: the chains a service instance holds, read from TOML and validated before anything is built.
+//!
+//! A scene is a list of `[[chain]]` tables. Each chain declares what it needs, and the service builds
+//! nothing more: planar chains get planar (2D) state and math, f32 chains f32 state, and collision
+//! structures exist only for chains that declare collision.
+//!
+//! | field | type | default | meaning |
+//! |---|---|---|---|
+//! | `name` | string, 1..=31 bytes | required | unique handle for clients |
+//! | `kind` | `"free"` \| `"fixed-base"` | `"free"` | a rope or snake, or a manipulator whose joint 0 never moves |
+//! | `space` | `"planar"` \| `"spatial"` | `"spatial"` | planar chains live in the z = 0 plane |
+//! | `links` | integer, 1..=65536 | required unless `shape = "points"` | number of links |
+//! | `link_length` / `link_lengths` | positive number / list of `links` numbers | required unless `shape = "points"` | link lengths |
+//! | `base` | `[x, y]` or `[x, y, z]` | origin | position of joint 0 (the tail; the base of a manipulator) |
+//! | `shape` | `"straight"` \| `"arc"` \| `"points"` | `"straight"` | initial shape |
+//! | `axis` | vector | `[1, 0, 0]` | direction of a straight chain; start tangent of an arc |
+//! | `radius`, `bend` | number, vector | –, `[0, 1, 0]` | arc radius (≥ half the longest link) and the side it bends to |
+//! | `points` | list of `links + 1` points | – | explicit joints (`shape = "points"`); lengths come from them |
+//! | `thickness` | number ≥ 0 | 0 | diameter, for collision and pictures |
+//! | `collision` | `"none"` \| `"capsules"` \| `"paper-spheres"` | `"none"` | collision scheme (free chains only; see `tractrix::collision`) |
+//! | `self_collision` | bool | `true` with a scheme | whether links collide with each other |
+//! | `obstacles` | list of obstacle names | `[]` | the `[[obstacle]]`s this chain avoids (needs a scheme) |
+//! | `collision_iterations` | integer 1..=10000 | 64 | passes per substep before the chain is "locked" |
+//! | `collision_tolerance` | number in (0, 1) | 0.01 | accepted penetration, fraction of the clearance |
+//! | `precision` | `"f64"` \| `"f32"` | `"f64"` | arithmetic and storage of the chain |
+//! | `method` | `"tractrix"` \| `"paper"` \| `"ftl"` | `"tractrix"` | default single-link method |
+//! | `substeps` / `max_step` | integer ≥ 1 / fraction of the shortest link | `substeps = 1` | default substep policy |
+//! | `max_substeps` | integer ≥ 1 | 65536 | a move needing more substeps is refused |
+//! | `strategy` | `"translate-back"` \| `"two-link"` | `"translate-back"` | fixed-base strategy |
+//! | `tolerance` | number in (0, 0.1] | 1e-9 | fixed-base tolerance, fraction of the total length |
+//! | `max_iterations` | integer 1..=100000 | 1000 | fixed-base iteration limit |
+//!
+//! Static obstacles are `[[obstacle]]` tables: `name`, `shape = "sphere"` (`center`, `radius`),
+//! `"capsule"` (`a`, `b`, `radius`) or `"plane"` (`point`, `normal`: the free side). A chain lists the
+//! ones it avoids; a planar chain's obstacles must lie in its plane.
+//!
+//! Errors name the file, the line and the field; sizes are checked before anything is allocated.
+//!
+//! Three steps: [`read`] (TOML into raw tables that remember their spans), [`validate`] (raw tables into
+//! [`ChainSpec`]s of kernel types) and [`shapes`] (initial joints).
+
+mod read;
+mod shapes;
+mod validate;
+
+use nalgebra::Vector3;
+use shared::{COLLISION_OBSTACLES, COLLISION_PAPER_SPHERES, COLLISION_SELF, ChainKind, Precision};
+use std::fmt;
+use tractrix::collision::{CollisionOptions, Obstacle, Scheme};
+use tractrix::{MoveOptions, ReachOptions};
+
+/// The scene served when no file is given: the paper's rope, snake and planar manipulator.
+pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
+/// Name under which the default scene is reported in errors.
+pub const DEFAULT_SCENE_NAME: &str = "<default scene>";
+/// Largest scene file read (bytes).
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+/// Largest `max_substeps` a scene may allow.
+pub const MAX_SUBSTEPS_LIMIT: u32 = 1 << 20;
+/// Most links all the chains of a scene may have together (about 100 MB of state and buffers): a
+/// short file cannot make the service allocate gigabytes.
+pub const MAX_SCENE_LINKS: usize = 1 << 20;
+/// Most obstacles a scene may declare (each is tested against every link of the chains that list it).
+pub const MAX_OBSTACLES: usize = 256;
+
+/// A scene error: where and what.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError {
+    /// The file (or [`DEFAULT_SCENE_NAME`]).
+    pub file: String,
+    /// 1-based line (0 when the error concerns the whole file).
+    pub line: usize,
+    /// What is wrong, naming the chain and the field.
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.line > 0 {
+            write!(f, "{}:{}: {}", self.file, self.line, self.message)
+        } else {
+            write!(f, "{}: {}", self.file, self.message)
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// One chain of a validated scene, everything resolved into the kernel's types.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChainSpec {
+    /// Unique handle for clients (1..=31 bytes).
+    pub name: String,
+    /// Free (rope, snake) or fixed base (manipulator).
+    pub kind: ChainKind,
+    /// 2 (planar, z = 0) or 3.
+    pub dims: u32,
+    /// `F64` or `F32`: the chain's arithmetic and storage.
+    pub precision: Precision,
+    /// Initial joint positions, tail first (z = 0 for planar chains).
+    pub points: Vec<Vector3<f64>>,
+    /// Link lengths, positive.
+    pub lengths: Vec<f64>,
+    /// Sum of the link lengths.
+    pub total_length: f64,
+    /// Largest coordinate a target of this chain may have ([`shared::max_coordinate`]).
+    pub max_coordinate: f64,
+    /// Diameter, for collision and pictures.
+    pub thickness: f64,
+    /// Collision handling, only when the chain declares a scheme.
+    pub collision: Option<CollisionSpec>,
+    /// Default method and substeps of a move, and the substep limit.
+    pub moves: MoveOptions<f64>,
+    /// Default strategy, tolerance (fraction of the total length) and iteration limit of a reach.
+    pub reach: ReachOptions<f64>,
+}
+
+impl ChainSpec {
+    /// The wire's collision bits (`shared::COLLISION_*`).
+    pub fn collision_bits(&self) -> u32 {
+        self.collision.as_ref().map_or(0, |s| {
+            (if s.options.self_collision {
+                COLLISION_SELF
+            } else {
+                0
+            }) | (if s.obstacles.is_empty() {
+                0
+            } else {
+                COLLISION_OBSTACLES
+            }) | (if s.options.scheme == Scheme::PaperSpheres {
+                COLLISION_PAPER_SPHERES
+            } else {
+                0
+            })
+        })
+    }
+}
+
+/// A chain's collision handling as its scene declares it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CollisionSpec {
+    /// Scheme, self-collision, thickness, passes and tolerance.
+    pub options: CollisionOptions<f64>,
+    /// The static obstacles this chain avoids.
+    pub obstacles: Vec<Obstacle<f64, 3>>,
+}
+
+/// A validated scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// The chains, in declaration order (their index is the wire's chain handle).
+    pub chains: Vec<ChainSpec>,
+}
+
+/// Reads and validates a scene file.
+pub fn load_scene(path: &std::path::Path) -> Result<Scene, SceneError> {
+    let file = path.display().to_string();
+    let whole = |message: String| SceneError {
+        file: file.clone(),
+        line: 0,
+        message,
+    };
+    let meta = std::fs::metadata(path).map_err(|e| whole(format!("cannot read: {e}")))?;
+    if meta.len() > MAX_SCENE_BYTES {
+        return Err(whole(format!(
+            "{} bytes; a scene file may have at most {MAX_SCENE_BYTES}",
+            meta.len()
+        )));
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| whole(format!("cannot read: {e}")))?;
+    parse_scene(&text, &file)
+}
+
+/// The embedded default scene.
+pub fn default_scene() -> Scene {
+    parse_scene(DEFAULT_SCENE, DEFAULT_SCENE_NAME).expect("the embedded default scene is valid")
+}
+
+/// Parses and validates scene text; `file` names it in errors.
+pub fn parse_scene(text: &str, file: &str) -> Result<Scene, SceneError> {
+    validate::scene(read::read(text, file)?, text, file)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_scene_is_the_papers() {
+        let s = default_scene();
+        let names: Vec<_> = s.chains.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["rope", "snake", "arm"]);
+        assert_eq!(s.chains[0].lengths, vec![1.0; 40]);
+        assert_eq!(s.chains[2].kind, ChainKind::FixedBase);
+        assert_eq!(s.chains[2].dims, 2);
+        assert_eq!(s.chains[2].lengths, vec![0.2; 10]);
+    }
+
+    #[test]
+    fn an_arc_has_chords_of_the_link_lengths() {
+        let s = parse_scene(
+            "[[chain]]\nname = \"a\"\nlinks = 12\nlink_length = 0.5\nshape = \"arc\"\nradius = 2.0\n",
+            "t.toml",
+        )
+        .unwrap();
+        let p = &s.chains[0].points;
+        for w in p.windows(2) {
+            assert!(((w[1] - w[0]).norm() - 0.5).abs() < 1e-12);
+        }
+        for q in p {
+            assert!(((q - Vector3::new(0.0, 2.0, 0.0)).norm() - 2.0).abs() < 1e-12);
+        }
+    }
+
+    /// Each bad scene names the line and the field, and huge sizes are refused before allocation.
+    #[test]
+    fn errors_name_file_line_and_field() {
+        let cases: &[(&str, usize, &str)] = &[
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 1000000000\nlink_length = 1.0\n",
+                3,
+                "`links`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 4\nlink_length = -1.0\n",
+                4,
+                "`link_length`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 4\nlink_length = nan\n",
+                4,
+                "`link_length`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = \"four\"\nlink_length = 1.0\n",
+                3,
+                "links",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 4\nlinkk_length = 1.0\n",
+                4,
+                "linkk_length",
+            ),
+            ("[[chain]]\nname = \"a\"\nlink_length = 1.0\n", 2, "`links`"),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 4\nlink_length = 1.0\n\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\n",
+                7,
+                "twice",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nspace = \"planar\"\nlinks = 2\nlink_length = 1.0\nbase = [0, 0, 1]\n",
+                6,
+                "`base`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nmethod = \"magic\"\n",
+                5,
+                "`method`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\ncollision = \"self\"\n",
+                5,
+                "`collision`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\ncollision = \"capsules\"\n",
+                5,
+                "`thickness`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nobstacles = [\"post\"]\n",
+                5,
+                "`obstacles`: needs `collision",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\nobstacles = [\"post\"]\n",
+                7,
+                "no [[obstacle]] is named \"post\"",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nkind = \"fixed-base\"\nlinks = 2\nlink_length = 1.0\ncollision = \"paper-spheres\"\n",
+                6,
+                "free chains",
+            ),
+            (
+                "[[obstacle]]\nname = \"b\"\nshape = \"sphere\"\ncenter = [0, 0]\nradius = -1\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\n",
+                5,
+                "obstacle \"b\": field `radius`",
+            ),
+            (
+                "[[obstacle]]\nname = \"t\"\nshape = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n[[chain]]\nname = \"a\"\nspace = \"planar\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\nobstacles = [\"t\"]\n",
+                13,
+                "not in the planar chain's plane",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ncollision_tolerance = 1.5\n",
+                7,
+                "`collision_tolerance`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nsubsteps = 0\n",
+                5,
+                "`substeps`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1e308\nbase = [1e308, 0, 0]\n",
+                2,
+                "overflow",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nbase = [0, 5e9, 0]\n",
+                5,
+                "`base`: a joint lies 5e9",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nprecision = \"f32\"\nlinks = 8000\nlink_length = 1.0\n",
+                2,
+                "2^12 in f32",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 0.0\n",
+                4,
+                "`link_length`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 0\nlink_length = 1.0\n",
+                3,
+                "`links`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = -4\nlink_length = 1.0\n",
+                3,
+                "`links`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = \"thick\"\n",
+                5,
+                "thickness",
+            ),
+            ("[[chain]]\nlinks = 2\nlink_length = 1.0\n", 1, "name"),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nlink_length = 2.0\n",
+                5,
+                "duplicate",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 3\nlink_lengths = [1.0, 2.0]\n",
+                4,
+                "2 lengths for 3 links",
+            ),
+            ("[[chain]]\nname = \"a\"\nlinks = 2\n[[chain\n", 4, ""),
+        ];
+        for (text, line, field) in cases {
+            let e = parse_scene(text, "bad.toml").expect_err(text);
+            assert_eq!(e.file, "bad.toml");
+            assert_eq!(e.line, *line, "{e}");
+            assert!(e.message.contains(field), "{e} should mention {field}");
+        }
+        let empty = parse_scene("", "empty.toml").unwrap_err();
+        assert!(empty.message.contains("no [[chain]]"));
+    }
+
+    /// Many chains at the per-chain maximum: the total is bounded, and the error names the chain that
+    /// crosses it (its `links` line), before its successors are built.
+    #[test]
+    fn the_scene_total_of_links_is_bounded() {
+        let text: String = (0..40)
+            .map(|i| format!("[[chain]]\nname = \"c{i}\"\nlinks = 65536\nlink_length = 1.0\n"))
+            .collect();
+        let e = parse_scene(&text, "big.toml").unwrap_err();
+        // Chain 16 (the 17th) crosses 2^20; each chain takes 4 lines, `links` is the third.
+        assert_eq!(e.line, 16 * 4 + 3, "{e}");
+        assert!(e.message.contains("chain \"c16\": field `links`"), "{e}");
+        assert!(e.message.contains("at most 1048576"), "{e}");
+        // 16 such chains are fine.
+        let ok: String = text
+            .lines()
+            .take(16 * 4)
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert_eq!(parse_scene(&ok, "ok.toml").unwrap().chains.len(), 16);
+    }
+}

@@ -1,0 +1,677 @@
+//! Validating a scene: raw tables into [`ChainSpec`]s of kernel types, every error with the file, the
+//! line and the field. Sizes are checked before anything is allocated.
+
+use super::read::{Field, RawChain, RawObstacle, RawScene, line_of};
+use super::{
+    ChainSpec, CollisionSpec, MAX_OBSTACLES, MAX_SCENE_LINKS, MAX_SUBSTEPS_LIMIT, Scene,
+    SceneError, shapes,
+};
+use nalgebra::Vector3;
+use shared::{ChainKind, MAX_CHAINS, MAX_LINKS, NAME_LEN, Precision};
+use std::ops::Range;
+use toml::Spanned;
+use tractrix::collision::{CollisionOptions, Obstacle, Scheme};
+use tractrix::{Method, MoveOptions, ReachOptions, Strategy, Substeps};
+
+/// Turns a span and a message into a located error.
+type At<'a> = dyn Fn(Range<usize>, String) -> SceneError + 'a;
+
+/// Validates a read scene; `text` and `file` locate errors.
+pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, SceneError> {
+    let at = |span: Range<usize>, message: String| SceneError {
+        file: file.to_string(),
+        line: line_of(text, span.start),
+        message,
+    };
+    let whole = |message: &str| SceneError {
+        file: file.into(),
+        line: 0,
+        message: message.into(),
+    };
+    if raw.chain.is_empty() {
+        return Err(whole("the scene declares no [[chain]]"));
+    }
+    if raw.chain.len() > MAX_CHAINS as usize {
+        return Err(at(
+            raw.chain[MAX_CHAINS as usize].span(),
+            format!(
+                "{} chains; a scene may have at most {MAX_CHAINS}",
+                raw.chain.len()
+            ),
+        ));
+    }
+    if raw.obstacle.len() > MAX_OBSTACLES {
+        return Err(at(
+            raw.obstacle[MAX_OBSTACLES].span(),
+            format!(
+                "{} obstacles; a scene may have at most {MAX_OBSTACLES}",
+                raw.obstacle.len()
+            ),
+        ));
+    }
+    let mut obstacles: Vec<(String, Obstacle<f64, 3>)> = Vec::with_capacity(raw.obstacle.len());
+    for o in &raw.obstacle {
+        let o = o.get_ref();
+        let ob = obstacle(o, &at)?;
+        if obstacles.iter().any(|(n, _)| n == o.name.get_ref()) {
+            return Err(at(
+                o.name.span(),
+                format!(
+                    "obstacle {:?}: field `name`: declared twice",
+                    o.name.get_ref()
+                ),
+            ));
+        }
+        obstacles.push((o.name.get_ref().clone(), ob));
+    }
+    let mut chains: Vec<ChainSpec> = Vec::with_capacity(raw.chain.len());
+    let mut total_links = 0usize;
+    for c in &raw.chain {
+        let spec = chain(c.get_ref(), &obstacles, &at)?;
+        total_links += spec.lengths.len();
+        let c = c.get_ref();
+        if total_links > MAX_SCENE_LINKS {
+            let span = c.links.as_ref().map(|l| l.span()).unwrap_or(c.name.span());
+            return Err(at(
+                span,
+                format!(
+                    "chain {:?}: field `links`: the scene's chains have {total_links} links in \
+                     all; at most {MAX_SCENE_LINKS}",
+                    spec.name
+                ),
+            ));
+        }
+        if chains.iter().any(|d| d.name == spec.name) {
+            return Err(at(
+                c.name.span(),
+                format!("field `name`: chain {:?} is declared twice", spec.name),
+            ));
+        }
+        chains.push(spec);
+    }
+    Ok(Scene { chains })
+}
+
+/// A 2- or 3-vector of finite numbers (`z = 0` when two are given).
+fn vector3(f: &Spanned<Vec<f64>>) -> Result<Vector3<f64>, String> {
+    let v = f.get_ref();
+    let p = match v.as_slice() {
+        [x, y] => Vector3::new(*x, *y, 0.0),
+        [x, y, z] => Vector3::new(*x, *y, *z),
+        _ => return Err(format!("a point has 2 or 3 numbers, not {}", v.len())),
+    };
+    if p.iter().all(|x| x.is_finite()) {
+        Ok(p)
+    } else {
+        Err(format!("{v:?} is not finite"))
+    }
+}
+
+fn obstacle(o: &RawObstacle, at: &At<'_>) -> Result<Obstacle<f64, 3>, SceneError> {
+    let name = o.name.get_ref();
+    let err = |span: Range<usize>, field: &str, what: String| {
+        at(span, format!("obstacle {name:?}: field `{field}`: {what}"))
+    };
+    let need_vec = |f: &Field<Vec<f64>>, field: &str| -> Result<Vector3<f64>, SceneError> {
+        match f {
+            Some(v) => vector3(v).map_err(|m| err(v.span(), field, m)),
+            None => Err(err(o.shape.span(), field, "missing".into())),
+        }
+    };
+    let radius = || -> Result<f64, SceneError> {
+        match &o.radius {
+            Some(r) if r.get_ref().is_finite() && *r.get_ref() > 0.0 => Ok(*r.get_ref()),
+            Some(r) => Err(err(
+                r.span(),
+                "radius",
+                format!("{} is not a positive finite number", r.get_ref()),
+            )),
+            None => Err(err(o.shape.span(), "radius", "missing".into())),
+        }
+    };
+    match o.shape.get_ref().as_str() {
+        "sphere" => Ok(Obstacle::Sphere {
+            center: need_vec(&o.center, "center")?,
+            radius: radius()?,
+        }),
+        "capsule" => Ok(Obstacle::Capsule {
+            a: need_vec(&o.a, "a")?,
+            b: need_vec(&o.b, "b")?,
+            radius: radius()?,
+        }),
+        "plane" => {
+            let n = need_vec(&o.normal, "normal")?;
+            let len = n.norm();
+            if !(len > 0.0 && len.is_finite()) {
+                let span = o.normal.as_ref().map(|s| s.span()).unwrap_or(0..0);
+                return Err(err(span, "normal", "must be a non-zero vector".into()));
+            }
+            Ok(Obstacle::HalfSpace {
+                point: need_vec(&o.point, "point")?,
+                normal: n / len,
+            })
+        }
+        other => Err(err(
+            o.shape.span(),
+            "shape",
+            format!("{other:?} is not one of [\"sphere\", \"capsule\", \"plane\"]"),
+        )),
+    }
+}
+
+/// The fields of one chain table, with errors that name the chain, the line and the field.
+struct Fields<'a> {
+    c: &'a RawChain,
+    name: &'a str,
+    at: &'a At<'a>,
+    /// 2 (planar: every vector must have z = 0) or 3.
+    dims: u32,
+}
+
+impl Fields<'_> {
+    fn err(&self, span: Range<usize>, field: &str, what: String) -> SceneError {
+        (self.at)(
+            span,
+            format!("chain {:?}: field `{field}`: {what}", self.name),
+        )
+    }
+
+    /// The value among `options` (by name) or `default`.
+    fn choice<T: Copy>(
+        &self,
+        f: &Field<String>,
+        field: &str,
+        options: &[(&str, T)],
+        default: T,
+    ) -> Result<T, SceneError> {
+        let Some(s) = f else { return Ok(default) };
+        options
+            .iter()
+            .find(|(n, _)| n == s.get_ref())
+            .map(|(_, v)| *v)
+            .ok_or_else(|| {
+                let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
+                self.err(
+                    s.span(),
+                    field,
+                    format!("{:?} is not one of {names:?}", s.get_ref()),
+                )
+            })
+    }
+
+    /// 2 or 3 finite numbers; a planar chain's must have z = 0.
+    fn vector(&self, f: &Spanned<Vec<f64>>, field: &str) -> Result<Vector3<f64>, SceneError> {
+        let v = f.get_ref();
+        let p = match v.as_slice() {
+            [x, y] => Vector3::new(*x, *y, 0.0),
+            [x, y, z] => Vector3::new(*x, *y, *z),
+            _ => {
+                return Err(self.err(
+                    f.span(),
+                    field,
+                    format!("a point has 2 or 3 numbers, not {}", v.len()),
+                ));
+            }
+        };
+        if !p.iter().all(|x| x.is_finite()) {
+            return Err(self.err(f.span(), field, "numbers must be finite".into()));
+        }
+        if self.dims == 2 && p.z != 0.0 {
+            return Err(self.err(
+                f.span(),
+                field,
+                "a planar chain lies in z = 0; z must be 0".into(),
+            ));
+        }
+        Ok(p)
+    }
+
+    fn positive(&self, f: &Spanned<f64>, field: &str) -> Result<f64, SceneError> {
+        let v = *f.get_ref();
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err(
+                f.span(),
+                field,
+                format!("{v} is not a positive finite number"),
+            ))
+        }
+    }
+
+    fn count(&self, f: &Spanned<i64>, field: &str, lo: i64, hi: i64) -> Result<u32, SceneError> {
+        let v = *f.get_ref();
+        if (lo..=hi).contains(&v) {
+            Ok(v as u32)
+        } else {
+            Err(self.err(f.span(), field, format!("{v} is outside {lo}..={hi}")))
+        }
+    }
+
+    fn count_or(
+        &self,
+        f: &Field<i64>,
+        field: &str,
+        lo: i64,
+        hi: i64,
+        default: u32,
+    ) -> Result<u32, SceneError> {
+        f.as_ref()
+            .map_or(Ok(default), |f| self.count(f, field, lo, hi))
+    }
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Shape {
+    Straight,
+    Arc,
+    Points,
+}
+
+fn chain(
+    c: &RawChain,
+    obstacles: &[(String, Obstacle<f64, 3>)],
+    at: &At<'_>,
+) -> Result<ChainSpec, SceneError> {
+    let name = c.name.get_ref().clone();
+    let mut f = Fields {
+        c,
+        name: &name,
+        at,
+        dims: 3,
+    };
+    if name.is_empty() || name.len() >= NAME_LEN || name.chars().any(|ch| ch.is_control()) {
+        return Err(f.err(
+            c.name.span(),
+            "name",
+            format!(
+                "{name:?} must have 1..={} bytes and no control characters",
+                NAME_LEN - 1
+            ),
+        ));
+    }
+    let kind = f.choice(
+        &c.kind,
+        "kind",
+        &[
+            ("free", ChainKind::Free),
+            ("fixed-base", ChainKind::FixedBase),
+        ],
+        ChainKind::Free,
+    )?;
+    f.dims = f.choice(&c.space, "space", &[("planar", 2), ("spatial", 3)], 3)?;
+    let precision = f.choice(
+        &c.precision,
+        "precision",
+        &[("f64", Precision::F64), ("f32", Precision::F32)],
+        Precision::F64,
+    )?;
+    let method = f.choice(
+        &c.method,
+        "method",
+        &[
+            ("tractrix", Method::Tractrix),
+            ("paper", Method::TractrixPaper),
+            ("ftl", Method::FollowTheLeader),
+        ],
+        Method::Tractrix,
+    )?;
+    let strategy = f.choice(
+        &c.strategy,
+        "strategy",
+        &[
+            ("translate-back", Strategy::TranslateBack),
+            ("two-link", Strategy::TractrixTwoLink),
+        ],
+        Strategy::TranslateBack,
+    )?;
+    let shape = f.choice(
+        &c.shape,
+        "shape",
+        &[
+            ("straight", Shape::Straight),
+            ("arc", Shape::Arc),
+            ("points", Shape::Points),
+        ],
+        Shape::Straight,
+    )?;
+    let scheme = f.choice(
+        &c.collision,
+        "collision",
+        &[
+            ("none", None),
+            ("capsules", Some(Scheme::Capsules)),
+            ("paper-spheres", Some(Scheme::PaperSpheres)),
+        ],
+        None,
+    )?;
+    let (points, lengths) = geometry(&f, shape)?;
+    // Free chains must start where positions can hold their link lengths (requests beyond that are
+    // refused as too far; a chain that starts there could never be moved).
+    let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
+    let max_coordinate = shared::max_coordinate(shortest, precision == Precision::F32);
+    let far = points.iter().fold(0.0f64, |m, p| m.max(p.amax()));
+    if kind == ChainKind::Free && far > max_coordinate {
+        let span = c.base.as_ref().map(|b| b.span()).unwrap_or(c.name.span());
+        return Err(f.err(
+            span,
+            "base",
+            format!(
+                "a joint lies {far:e} from the origin, beyond {max_coordinate:e} (2^32 shortest \
+                 links in f64, 2^12 in f32), where positions cannot hold the link lengths"
+            ),
+        ));
+    }
+    let thickness = match &c.thickness {
+        None => 0.0,
+        Some(t) if t.get_ref().is_finite() && *t.get_ref() >= 0.0 => *t.get_ref(),
+        Some(t) => {
+            return Err(f.err(
+                t.span(),
+                "thickness",
+                format!("{} is not a finite number ≥ 0", t.get_ref()),
+            ));
+        }
+    };
+    let max_substeps = f.count_or(
+        &c.max_substeps,
+        "max_substeps",
+        1,
+        MAX_SUBSTEPS_LIMIT as i64,
+        1 << 16,
+    )?;
+    let substeps = match (&c.substeps, &c.max_step) {
+        (Some(_), Some(m)) => {
+            return Err(f.err(
+                m.span(),
+                "max_step",
+                "give `substeps` or `max_step`, not both".into(),
+            ));
+        }
+        (Some(k), None) => Substeps::Fixed(f.count(k, "substeps", 1, max_substeps as i64)?),
+        (None, Some(m)) => Substeps::MaxStep(f.positive(m, "max_step")?),
+        (None, None) => Substeps::Fixed(1),
+    };
+    let tolerance = match &c.tolerance {
+        Some(t) => {
+            let v = f.positive(t, "tolerance")?;
+            if v > 0.1 {
+                return Err(f.err(t.span(), "tolerance", format!("{v} is above 0.1")));
+            }
+            v
+        }
+        None => 1e-9,
+    };
+    let max_iterations = f.count_or(&c.max_iterations, "max_iterations", 1, 100_000, 1000)?;
+    let collision = collision(&f, scheme, kind, thickness, obstacles)?;
+    Ok(ChainSpec {
+        name: name.clone(),
+        kind,
+        dims: f.dims,
+        precision,
+        total_length: lengths.iter().sum(),
+        max_coordinate,
+        points,
+        lengths,
+        thickness,
+        collision,
+        moves: MoveOptions {
+            method,
+            substeps,
+            max_substeps,
+        },
+        reach: ReachOptions {
+            strategy,
+            method,
+            substeps: 1,
+            tolerance,
+            max_iterations,
+            ..ReachOptions::default()
+        },
+    })
+}
+
+/// The initial joints and the link lengths.
+fn geometry(f: &Fields<'_>, shape: Shape) -> Result<(Vec<Vector3<f64>>, Vec<f64>), SceneError> {
+    let c = f.c;
+    if shape == Shape::Points {
+        let pts = c.points.as_ref().ok_or_else(|| {
+            f.err(
+                c.name.span(),
+                "points",
+                "missing (shape = \"points\" needs it)".into(),
+            )
+        })?;
+        for (field, present) in [
+            ("links", c.links.is_some()),
+            ("link_length", c.link_length.is_some()),
+            ("link_lengths", c.link_lengths.is_some()),
+            ("base", c.base.is_some()),
+        ] {
+            if present {
+                return Err(f.err(
+                    pts.span(),
+                    field,
+                    "not allowed with shape = \"points\" (the points define the chain)".into(),
+                ));
+            }
+        }
+        let n = pts.get_ref().len();
+        if !(2..=MAX_LINKS as usize + 1).contains(&n) {
+            return Err(f.err(
+                pts.span(),
+                "points",
+                format!("{n} points; a chain has 2..={} joints", MAX_LINKS + 1),
+            ));
+        }
+        let mut p = Vec::with_capacity(n);
+        for (i, q) in pts.get_ref().iter().enumerate() {
+            let s = Spanned::new(pts.span(), q.clone());
+            p.push(f.vector(&s, &format!("points[{i}]"))?);
+        }
+        let lengths = shapes::lengths_of(&p).map_err(|i| {
+            f.err(
+                pts.span(),
+                "points",
+                format!("points {i} and {} coincide or are too far apart", i + 1),
+            )
+        })?;
+        return Ok((p, lengths));
+    }
+    let links = c
+        .links
+        .as_ref()
+        .ok_or_else(|| f.err(c.name.span(), "links", "missing".into()))?;
+    let n = f.count(links, "links", 1, MAX_LINKS as i64)? as usize;
+    let lengths = match (&c.link_length, &c.link_lengths) {
+        (Some(_), Some(l)) => {
+            return Err(f.err(
+                l.span(),
+                "link_lengths",
+                "give `link_length` or `link_lengths`, not both".into(),
+            ));
+        }
+        (Some(l), None) => vec![f.positive(l, "link_length")?; n],
+        (None, Some(l)) => {
+            if l.get_ref().len() != n {
+                return Err(f.err(
+                    l.span(),
+                    "link_lengths",
+                    format!("{} lengths for {n} links", l.get_ref().len()),
+                ));
+            }
+            let mut v = Vec::with_capacity(n);
+            for (i, &x) in l.get_ref().iter().enumerate() {
+                v.push(f.positive(&Spanned::new(l.span(), x), &format!("link_lengths[{i}]"))?);
+            }
+            v
+        }
+        (None, None) => {
+            return Err(f.err(
+                links.span(),
+                "link_length",
+                "missing (or `link_lengths`)".into(),
+            ));
+        }
+    };
+    let base = match &c.base {
+        Some(b) => f.vector(b, "base")?,
+        None => Vector3::zeros(),
+    };
+    let axis = match &c.axis {
+        Some(a) => f.vector(a, "axis")?,
+        None => Vector3::x(),
+    };
+    let an = axis.norm();
+    if an == 0.0 {
+        let span = c.axis.as_ref().map(|a| a.span()).unwrap_or(0..0);
+        return Err(f.err(span, "axis", "must not be zero".into()));
+    }
+    let axis = axis * (1.0 / an);
+    let p = if shape == Shape::Straight {
+        shapes::straight(base, axis, &lengths)
+    } else {
+        let r = c.radius.as_ref().ok_or_else(|| {
+            f.err(
+                c.name.span(),
+                "radius",
+                "missing (shape = \"arc\" needs it)".into(),
+            )
+        })?;
+        let radius = f.positive(r, "radius")?;
+        let longest = lengths.iter().copied().fold(0.0, f64::max);
+        if radius * 2.0 < longest {
+            return Err(f.err(
+                r.span(),
+                "radius",
+                format!("{radius} is less than half the longest link ({longest})"),
+            ));
+        }
+        let bend = match &c.bend {
+            Some(b) => f.vector(b, "bend")?,
+            None => Vector3::y(),
+        };
+        // The bend direction, made perpendicular to the axis.
+        let b = bend - axis * bend.dot(&axis);
+        let bn = b.norm();
+        if bn < 1e-12 * bend.norm().max(1.0) {
+            let span = c.bend.as_ref().map(|b| b.span()).unwrap_or(c.name.span());
+            return Err(f.err(span, "bend", "must not be parallel to `axis`".into()));
+        }
+        shapes::arc(base, axis, b * (1.0 / bn), radius, &lengths)
+    };
+    if !p.iter().all(|q| q.iter().all(|x| x.is_finite())) {
+        return Err(f.err(
+            c.name.span(),
+            "link_length",
+            "the chain's joints overflow".into(),
+        ));
+    }
+    Ok((p, lengths))
+}
+
+/// Collision handling, if the chain declares a scheme; stray collision knobs without one are refused.
+fn collision(
+    f: &Fields<'_>,
+    scheme: Option<Scheme>,
+    kind: ChainKind,
+    thickness: f64,
+    obstacles: &[(String, Obstacle<f64, 3>)],
+) -> Result<Option<CollisionSpec>, SceneError> {
+    let c = f.c;
+    let Some(scheme) = scheme else {
+        // Collision knobs without a scheme would silently do nothing: refuse them.
+        let stray = [
+            c.self_collision
+                .as_ref()
+                .map(|s| ("self_collision", s.span())),
+            c.obstacles.as_ref().map(|s| ("obstacles", s.span())),
+            c.collision_iterations
+                .as_ref()
+                .map(|s| ("collision_iterations", s.span())),
+            c.collision_tolerance
+                .as_ref()
+                .map(|s| ("collision_tolerance", s.span())),
+        ];
+        if let Some((field, span)) = stray.into_iter().flatten().next() {
+            return Err(f.err(
+                span,
+                field,
+                "needs `collision = \"capsules\"` or `\"paper-spheres\"`".into(),
+            ));
+        }
+        return Ok(None);
+    };
+    let span = c.collision.as_ref().map(|s| s.span()).unwrap_or(0..0);
+    if kind == ChainKind::FixedBase {
+        return Err(f.err(
+            span,
+            "collision",
+            "collision is handled for free chains; a fixed-base reach does not check it".into(),
+        ));
+    }
+    if scheme == Scheme::Capsules && thickness <= 0.0 {
+        return Err(f.err(
+            span,
+            "thickness",
+            "capsule collision needs a positive `thickness` (the rope's diameter)".into(),
+        ));
+    }
+    let max_iterations = f.count_or(
+        &c.collision_iterations,
+        "collision_iterations",
+        1,
+        10_000,
+        64,
+    )?;
+    let tolerance = match &c.collision_tolerance {
+        Some(t) if *t.get_ref() > 0.0 && *t.get_ref() < 1.0 => *t.get_ref(),
+        Some(t) => {
+            return Err(f.err(
+                t.span(),
+                "collision_tolerance",
+                format!("{} is not strictly between 0 and 1", t.get_ref()),
+            ));
+        }
+        None => 0.01,
+    };
+    let mut list = Vec::new();
+    if let Some(names) = &c.obstacles {
+        for n in names.get_ref() {
+            let Some((_, o)) = obstacles.iter().find(|(m, _)| m == n) else {
+                return Err(f.err(
+                    names.span(),
+                    "obstacles",
+                    format!("no [[obstacle]] is named {n:?}"),
+                ));
+            };
+            if f.dims == 2 && !in_plane(o) {
+                return Err(f.err(
+                    names.span(),
+                    "obstacles",
+                    format!("obstacle {n:?} is not in the planar chain's plane z = 0"),
+                ));
+            }
+            list.push(*o);
+        }
+    }
+    Ok(Some(CollisionSpec {
+        options: CollisionOptions {
+            scheme,
+            self_collision: c.self_collision.as_ref().is_none_or(|s| *s.get_ref()),
+            thickness,
+            max_iterations,
+            tolerance,
+        },
+        obstacles: list,
+    }))
+}
+
+/// Whether a planar chain (z = 0) can use the obstacle: its geometry lies in the plane.
+fn in_plane(o: &Obstacle<f64, 3>) -> bool {
+    match o {
+        Obstacle::Sphere { center, .. } => center.z == 0.0,
+        Obstacle::Capsule { a, b, .. } => a.z == 0.0 && b.z == 0.0,
+        Obstacle::HalfSpace { point, normal } => point.z == 0.0 && normal.z == 0.0,
+    }
+}

@@ -1,0 +1,389 @@
+//! The one serving loop: the service and the latency bench's raw echo both serve through [`serve`], so the
+//! echo baseline waits exactly as the service does. Generic over the iceoryx2 service variant (`ipc` for
+//! processes, `local` for a test inside one process).
+//!
+//! One thread serves everything, in request order. For each request:
+//!
+//! 1. receive it (header + target slice, read in place in shared memory);
+//! 2. [`Handler::handle`] answers it: a response header, and whether the state changed;
+//! 3. loan the response slice and stream [`Handler::elements`] **directly into it**; [`Handler::finish`]
+//!    reads what was written (the moved joint, for the residual) and completes the header;
+//! 4. for a change, copy the joints just written into a state-stream sample (no second pass over the
+//!    chain), send the response, wake the client if it asked, publish the state.
+//!
+//! Waiting ([`WaitMode`]): `spin` polls without pause (one core at 100 %, the lowest latency), `event`
+//! sleeps on a WaitSet until a client's notification (no CPU when idle, one wake-up per request),
+//! `hybrid` sleeps like `event` but after each request spins for a short budget so a burst (a 1 kHz
+//! haptic loop) is served at spin latency while an idle service sleeps. In every mode the loop looks
+//! for SIGINT/SIGTERM and runs [`Handler::housekeeping`] (periodic snapshots) at least every
+//! [`CHECK_EVERY`], whatever the traffic.
+
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::server::Server;
+use iceoryx2::prelude::*;
+use iceoryx2::service::Service;
+use iceoryx2::waitset::WaitSetRunResult;
+use shared::{
+    MAX_CLIENTS, RequestHeader, ResponseHeader, SERVICE_COMMAND, SERVICE_STATE,
+    SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER, StateHeader, Vec3, WaitMode, service_name,
+};
+use std::time::{Duration, Instant};
+
+/// How often the loop looks for a termination request and runs housekeeping, under any traffic.
+pub const CHECK_EVERY: Duration = Duration::from_millis(1);
+/// Longest sleep of the event and hybrid modes without a notification (a polling client may not
+/// notify; its request is served at the next tick).
+pub const TICK: Duration = Duration::from_millis(50);
+
+fn err<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> String {
+    move |e| format!("{what}: {e:?}")
+}
+
+/// The ports of a server of this protocol: the request server, the two wake-up events and, for the
+/// service, the state stream. Opened with the settings every server of the protocol uses (one server,
+/// [`MAX_CLIENTS`] clients, two requests in flight per client).
+pub struct ServerPorts<S: Service> {
+    /// The process's node (termination requests arrive here).
+    pub node: Node<S>,
+    /// Requests in, responses out.
+    pub server: Server<S, [Vec3], RequestHeader, [Vec3], ResponseHeader>,
+    /// Woken by clients after they send.
+    pub wake_listener: Listener<S>,
+    /// Wakes the client whose listener id a request carries.
+    pub wake_notifier: Notifier<S>,
+    /// Every accepted change, in order (the service has one, the raw echo none).
+    pub state: Option<Publisher<S, [Vec3], StateHeader>>,
+}
+
+impl<S: Service> std::fmt::Debug for ServerPorts<S> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ServerPorts")
+            .field("state", &self.state.is_some())
+            .finish()
+    }
+}
+
+impl<S: Service> ServerPorts<S> {
+    /// Creates the node `name` with `iox` and opens (or creates) the services: responses of up to
+    /// `max_elements` elements, and a state stream of up to `state_joints` joints if given. Resources
+    /// of a dead predecessor (kill -9, power cut) are cleaned first; the count is returned.
+    pub fn open(
+        iox: &iceoryx2::config::Config,
+        name: &str,
+        max_elements: usize,
+        state_joints: Option<usize>,
+    ) -> Result<(Self, usize), String> {
+        let mut stale = 0;
+        let _ = Node::<S>::list(iox, |state| {
+            if let NodeState::Dead(view) = state
+                && view.try_remove_stale_resources().is_ok()
+            {
+                stale += 1;
+            }
+            CallbackProgression::Continue
+        });
+        let node = NodeBuilder::new()
+            .config(iox)
+            .name(&name.try_into().map_err(err("node name"))?)
+            .create::<S>()
+            .map_err(err("cannot create the iceoryx2 node"))?;
+        let server = node
+            .service_builder(&service_name(SERVICE_COMMAND)?)
+            .request_response::<[Vec3], [Vec3]>()
+            .request_user_header::<RequestHeader>()
+            .response_user_header::<ResponseHeader>()
+            .max_servers(1)
+            .max_clients(MAX_CLIENTS)
+            .max_nodes(MAX_CLIENTS + 4)
+            .max_active_requests_per_client(2)
+            .open_or_create()
+            .map_err(err(
+                "cannot open or create the command service (a peer of another protocol version?)",
+            ))?
+            .server_builder()
+            .initial_max_slice_len(max_elements.max(1))
+            .create()
+            .map_err(err(
+                "cannot create the server (is another solver-service running with this prefix?)",
+            ))?;
+        let wake_listener = node
+            .service_builder(&service_name(SERVICE_WAKE_SERVER)?)
+            .event()
+            .max_notifiers(MAX_CLIENTS + 2)
+            .max_listeners(2)
+            .max_nodes(MAX_CLIENTS + 4)
+            .open_or_create()
+            .map_err(err("cannot open or create the wake-server event"))?
+            .listener_builder()
+            .create()
+            .map_err(err("wake listener"))?;
+        let wake_notifier = node
+            .service_builder(&service_name(SERVICE_WAKE_CLIENT)?)
+            .event()
+            .max_notifiers(2)
+            .max_listeners(MAX_CLIENTS + 2)
+            .max_nodes(MAX_CLIENTS + 4)
+            .open_or_create()
+            .map_err(err("cannot open or create the wake-client event"))?
+            .notifier_builder()
+            .create()
+            .map_err(err("wake notifier"))?;
+        let state = match state_joints {
+            None => None,
+            Some(joints) => Some(
+                node.service_builder(&service_name(SERVICE_STATE)?)
+                    .publish_subscribe::<[Vec3]>()
+                    .user_header::<StateHeader>()
+                    .max_publishers(1)
+                    .max_subscribers(MAX_CLIENTS)
+                    .max_nodes(MAX_CLIENTS + 4)
+                    .subscriber_max_buffer_size(64)
+                    .history_size(0)
+                    .enable_safe_overflow(true)
+                    .open_or_create()
+                    .map_err(err("cannot open or create the state stream"))?
+                    .publisher_builder()
+                    .initial_max_slice_len(joints.max(1))
+                    .create()
+                    .map_err(err("cannot create the state publisher"))?,
+            ),
+        };
+        Ok((
+            ServerPorts {
+                node,
+                server,
+                wake_listener,
+                wake_notifier,
+                state,
+            },
+            stale,
+        ))
+    }
+
+    /// Wakes the client listener `id` (from [`RequestHeader::listener_id`]); zero wakes nobody.
+    pub fn wake_client(&self, id: u128) {
+        if id == 0 {
+            return;
+        }
+        self.wake_notifier.for_each_listener(|m, d| {
+            if d.listener_id.value() == id {
+                let _ = m.notify();
+                CallbackProgression::Stop
+            } else {
+                CallbackProgression::Continue
+            }
+        });
+    }
+}
+
+/// A handled request: the response header (`n_joints + n_angles` elements follow) and whether the state
+/// changed (then the first `n_joints` elements are the new state, published on the state stream).
+#[derive(Debug, Clone, Copy)]
+pub struct Handled {
+    /// The response header, everything but `solve_ns` (the loop measures it).
+    pub header: ResponseHeader,
+    /// Whether an accepted change was made.
+    pub changed: bool,
+}
+
+/// Whoever answers the requests: the solver, or the raw echo.
+pub trait Handler {
+    /// Whether the response's `solve_ns` is the time [`Handler::handle`] took (the raw echo solves
+    /// nothing and reports zero).
+    const SOLVES: bool = true;
+    /// Answers one request.
+    fn handle(&mut self, req: &RequestHeader, points: &[Vec3]) -> Handled;
+    /// The response's elements, in order (at least `n_joints + n_angles` of them).
+    fn elements(&self, h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_;
+    /// Completes the header from the elements just written (default: nothing to complete).
+    fn finish(&mut self, _h: &mut ResponseHeader, _written: &[Vec3]) {}
+    /// Runs at least every [`CHECK_EVERY`] (periodic snapshots); an error is reported, not fatal.
+    fn housekeeping(&mut self, _now: Instant) {}
+}
+
+/// How the loop waits.
+#[derive(Debug, Clone, Copy)]
+pub struct LoopOptions {
+    /// Spin, sleep, or sleep and spin after each request.
+    pub wait: WaitMode,
+    /// Hybrid: how long to keep spinning after the last request.
+    pub spin_budget: Duration,
+}
+
+/// Serves requests until SIGINT or SIGTERM (or a broken port).
+pub fn serve<S: Service, H: Handler>(
+    ports: &ServerPorts<S>,
+    handler: &mut H,
+    opts: &LoopOptions,
+) -> Result<(), String>
+where
+    Listener<S>: SynchronousMultiplexing,
+{
+    let mut checks = Checks {
+        next: Instant::now() + CHECK_EVERY,
+        stop: false,
+    };
+    match opts.wait {
+        WaitMode::Spin => {
+            while !checks.stop {
+                if serve_pending(ports, handler)? == 0 {
+                    std::hint::spin_loop();
+                }
+                checks.run(ports, handler);
+            }
+        }
+        WaitMode::Event | WaitMode::Hybrid => {
+            let ws = WaitSetBuilder::new()
+                .create::<S>()
+                .map_err(err("cannot create the WaitSet"))?;
+            let guard = ws
+                .attach_notification(&ports.wake_listener)
+                .map_err(err("cannot attach the wake listener"))?;
+            while !checks.stop {
+                let r = ws.wait_and_process_once_with_timeout(
+                    |id| {
+                        if id.has_event_from(&guard) {
+                            let _ = ports.wake_listener.try_wait(|_| {});
+                        }
+                        CallbackProgression::Continue
+                    },
+                    TICK,
+                );
+                match r {
+                    Ok(WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt) => break,
+                    Ok(_) => {}
+                    Err(e) => return Err(format!("WaitSet: {e:?}")),
+                }
+                // Serve even without a notification: a polling client may not notify.
+                let served = serve_pending(ports, handler)?;
+                if opts.wait == WaitMode::Hybrid && served > 0 {
+                    spin_while_busy(ports, handler, opts.spin_budget, &mut checks)?;
+                }
+                checks.next = Instant::now();
+                checks.run(ports, handler);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Termination and housekeeping, at least every [`CHECK_EVERY`].
+struct Checks {
+    next: Instant,
+    stop: bool,
+}
+
+impl Checks {
+    fn run<S: Service, H: Handler>(&mut self, ports: &ServerPorts<S>, handler: &mut H) {
+        let now = Instant::now();
+        if now < self.next {
+            return;
+        }
+        self.next = now + CHECK_EVERY;
+        // `wait` reports a pending SIGINT/SIGTERM once: remember it.
+        if ports.node.wait(Duration::ZERO).is_err() {
+            self.stop = true;
+        }
+        handler.housekeeping(now);
+    }
+}
+
+/// Hybrid mode after a request: spin for `budget` past the last one, then sleep again.
+fn spin_while_busy<S: Service, H: Handler>(
+    ports: &ServerPorts<S>,
+    handler: &mut H,
+    budget: Duration,
+    checks: &mut Checks,
+) -> Result<(), String> {
+    let mut last = Instant::now();
+    loop {
+        while last.elapsed() < budget {
+            if serve_pending(ports, handler)? > 0 {
+                last = Instant::now();
+            } else {
+                std::hint::spin_loop();
+            }
+            checks.run(ports, handler);
+            if checks.stop {
+                return Ok(());
+            }
+        }
+        // Notifications that arrived while spinning are stale now: drop them, then serve once more. A
+        // request that landed after the last poll has its notification dropped here, and would otherwise
+        // wait for the next tick (the loaded latency bench caught it).
+        let _ = ports.wake_listener.try_wait(|_| {});
+        if serve_pending(ports, handler)? == 0 {
+            return Ok(());
+        }
+        last = Instant::now();
+    }
+}
+
+/// Serves every request waiting; returns how many.
+fn serve_pending<S: Service, H: Handler>(
+    ports: &ServerPorts<S>,
+    handler: &mut H,
+) -> Result<usize, String> {
+    let mut served = 0;
+    while let Some(req) = ports.server.receive().map_err(err("receive"))? {
+        served += 1;
+        let t0 = Instant::now();
+        let request = *req.user_header();
+        let Handled {
+            mut header,
+            changed,
+        } = handler.handle(&request, req.payload());
+        if H::SOLVES {
+            header.solve_ns = t0.elapsed().as_nanos() as u64;
+        }
+        let n = (header.n_joints + header.n_angles) as usize;
+        let slot = match req.loan_slice_uninit(n) {
+            Ok(slot) => slot,
+            Err(e) => {
+                // Only possible if the scene outgrew the port, which `open` sizes for.
+                eprintln!("solver-service: cannot loan a response of {n} elements: {e:?}");
+                continue;
+            }
+        };
+        let mut it = handler.elements(&header);
+        let mut resp = slot.write_from_fn(|_| it.next().unwrap_or_default());
+        drop(it);
+        handler.finish(&mut header, resp.payload());
+        *resp.user_header_mut() = header;
+        let joints = (header.n_joints as usize).min(n);
+        let state = match &ports.state {
+            Some(publisher) if changed => match publisher.loan_slice_uninit(joints) {
+                Ok(s) => {
+                    let mut s = s.write_from_slice(&resp.payload()[..joints]);
+                    *s.user_header_mut() = StateHeader {
+                        sequence: header.sequence,
+                        chain: header.chain,
+                        n_joints: joints as u32,
+                        command: request.command,
+                        reserved: 0,
+                        request_id: request.request_id,
+                    };
+                    Some(s)
+                }
+                Err(e) => {
+                    eprintln!("solver-service: cannot loan a state sample: {e:?}");
+                    None
+                }
+            },
+            _ => None,
+        };
+        if let Err(e) = resp.send() {
+            eprintln!("solver-service: response not delivered: {e:?}");
+        }
+        ports.wake_client(request.listener_id());
+        drop(req);
+        if let Some(s) = state
+            && let Err(e) = s.send()
+        {
+            eprintln!("solver-service: state not published: {e:?}");
+        }
+    }
+    Ok(served)
+}
