@@ -388,20 +388,26 @@ impl Status {
     }
 }
 
-/// Single-link method on the wire (0 = the chain's default).
+/// Single-link method on the wire (0 = the chain's default). On command lines: `tractrix`, `paper`,
+/// `ftl`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[repr(u32)]
 pub enum WireMethod {
+    #[cfg_attr(feature = "clap", value(skip))]
     Default = 0,
     Tractrix = 1,
     Paper = 2,
+    #[cfg_attr(feature = "clap", value(name = "ftl"))]
     FollowTheLeader = 3,
 }
 
 /// Arithmetic of a chain on the wire (0 = the chain's).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[repr(u32)]
 pub enum Precision {
+    #[cfg_attr(feature = "clap", value(skip))]
     Default = 0,
     F64 = 1,
     F32 = 2,
@@ -420,10 +426,13 @@ pub enum SubstepMode {
 
 /// Fixed-base strategy on the wire (0 = translate back).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[repr(u32)]
 pub enum WireStrategy {
+    #[cfg_attr(feature = "clap", value(skip))]
     Default = 0,
     TranslateBack = 1,
+    #[cfg_attr(feature = "clap", value(name = "two-link"))]
     TractrixTwoLink = 2,
 }
 

@@ -17,7 +17,7 @@ use anyhow::{Result, bail};
 use clap::{Parser, ValueEnum};
 use clients::{ClientWait, ConnectOptions, Connection};
 use shared::text::{ChainRef, JointRef, TextRequest, TextResponse};
-use shared::{Command, RequestHeader};
+use shared::{Command, Precision, RequestHeader, WireMethod, WireStrategy};
 use std::time::Duration;
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
@@ -49,21 +49,21 @@ struct Args {
     /// Path points, space-separated x,y[,z] groups.
     #[arg(long)]
     path: Option<String>,
-    /// Method: tractrix, paper or ftl (default: the chain's).
-    #[arg(long)]
-    method: Option<String>,
-    /// Precision: f64 or f32 (must match the chain's).
-    #[arg(long)]
-    precision: Option<String>,
+    /// Method (default: the chain's).
+    #[arg(long, value_enum)]
+    method: Option<WireMethod>,
+    /// Precision (must match the chain's).
+    #[arg(long, value_enum)]
+    precision: Option<Precision>,
     /// Equal substeps per move (reach: per tractrix pass).
     #[arg(long)]
     substeps: Option<u32>,
     /// Longest substep as a fraction of the shortest link.
     #[arg(long)]
     max_step: Option<f64>,
-    /// Reach strategy: translate-back or two-link.
-    #[arg(long)]
-    strategy: Option<String>,
+    /// Reach strategy (default: the chain's).
+    #[arg(long, value_enum)]
+    strategy: Option<WireStrategy>,
     /// Reach tolerance (fraction of the chain's length).
     #[arg(long)]
     tolerance: Option<f64>,
@@ -87,6 +87,13 @@ struct Args {
     timeout: f64,
 }
 
+/// The command-line name of an option value (the text form takes the same names).
+fn name(v: impl ValueEnum) -> String {
+    v.to_possible_value()
+        .map(|p| p.get_name().to_string())
+        .unwrap_or_default()
+}
+
 fn point(s: &str) -> Result<Vec<f64>> {
     let v: Result<Vec<f64>, _> = s.split(',').map(|x| x.trim().parse::<f64>()).collect();
     match v {
@@ -95,8 +102,8 @@ fn point(s: &str) -> Result<Vec<f64>> {
     }
 }
 
-fn main() {
-    clients::cli::exit_with("chainctl", run(Args::parse()));
+fn main() -> std::process::ExitCode {
+    clients::cli::main("chainctl", || run(Args::parse()))
 }
 
 fn print(r: &TextResponse, json: bool) -> Result<()> {
@@ -112,9 +119,15 @@ fn print(r: &TextResponse, json: bool) -> Result<()> {
         println!("snapshot written at state {}", r.sequence);
         return Ok(());
     }
+    // The name comes with `describe` only.
+    let name = if r.name.is_empty() {
+        String::new()
+    } else {
+        format!(" {:?}", r.name)
+    };
     println!(
-        "{} chain {} {:?}: ok, state {}, {} substeps, {} iterations, residual {:.3e}, solved in {} ns",
-        r.command, r.chain, r.name, r.sequence, r.substeps, r.iterations, r.residual, r.solve_ns
+        "{} chain {}{name}: ok, state {}, {} substeps, {} iterations, residual {:.3e}, solved in {} ns",
+        r.command, r.chain, r.sequence, r.substeps, r.iterations, r.residual, r.solve_ns
     );
     for (i, j) in r.joints.iter().enumerate() {
         println!(
@@ -131,7 +144,7 @@ fn print(r: &TextResponse, json: bool) -> Result<()> {
     Ok(())
 }
 
-fn run(a: Args) -> Result<i32> {
+fn run(a: Args) -> Result<u8> {
     if !(a.timeout.is_finite()
         && a.timeout > 0.0
         && a.wait_for_service.is_finite()
@@ -217,11 +230,11 @@ fn run(a: Args) -> Result<i32> {
             .as_deref()
             .map(|p| p.split_whitespace().map(point).collect::<Result<Vec<_>>>())
             .transpose()?,
-        method: a.method,
-        precision: a.precision,
+        method: a.method.map(name),
+        precision: a.precision.map(name),
         substeps: a.substeps,
         max_step: a.max_step,
-        strategy: a.strategy,
+        strategy: a.strategy.map(name),
         tolerance: a.tolerance,
         max_iterations: a.max_iterations,
         angles: a.angles,

@@ -46,8 +46,8 @@ enum Cmd {
         /// Script file (TOML).
         #[arg(long, conflicts_with = "builtin")]
         script: Option<PathBuf>,
-        /// Built-in script: overhand, square, granny, wave.
-        #[arg(long)]
+        /// Built-in script.
+        #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(BUILTINS))]
         builtin: Option<String>,
         /// Which hand of the script this process is.
         #[arg(long, default_value = "A")]
@@ -93,11 +93,15 @@ enum Cmd {
         no_reset: bool,
     },
     /// Print a built-in script as TOML.
-    Print { name: String },
+    Print {
+        /// The script.
+        #[arg(value_parser = clap::builder::PossibleValuesParser::new(BUILTINS))]
+        name: String,
+    },
 }
 
-fn main() {
-    clients::cli::exit_with("hand", run(Args::parse()));
+fn main() -> std::process::ExitCode {
+    clients::cli::main("hand", || run(Args::parse()))
 }
 
 fn connect(prefix: &str, wait: f64) -> Result<Connection> {
@@ -110,7 +114,7 @@ fn builtin(name: &str) -> Result<Script> {
         .with_context(|| format!("no built-in script {name:?} (there are {BUILTINS:?})"))
 }
 
-fn run(a: Args) -> Result<i32> {
+fn run(a: Args) -> Result<u8> {
     match a.cmd {
         Cmd::Print { name } => {
             print!("{}", toml::to_string(&builtin(&name)?)?);

@@ -120,8 +120,8 @@ struct BenchArgs {
     loaded_seconds: f64,
 }
 
-fn main() {
-    clients::cli::exit_with("latency", run(Cli::parse()));
+fn main() -> std::process::ExitCode {
+    clients::cli::main("latency", || run(Cli::parse()))
 }
 
 fn pin(core: Option<usize>) -> Result<()> {
@@ -131,7 +131,7 @@ fn pin(core: Option<usize>) -> Result<()> {
     Ok(())
 }
 
-fn run(cli: Cli) -> Result<i32> {
+fn run(cli: Cli) -> Result<u8> {
     match cli.command {
         Cmd::Client(a) => {
             let wait = a.wait;

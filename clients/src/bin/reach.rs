@@ -45,14 +45,14 @@ struct Args {
     service: ToolArgs,
 }
 
-fn main() {
-    clients::cli::exit_with("reach", run(Args::parse()));
+fn main() -> std::process::ExitCode {
+    clients::cli::main("reach", || run(Args::parse()))
 }
 
 const BLUE: (u8, u8, u8) = (30, 70, 220);
 const BLACK: (u8, u8, u8) = (0, 0, 0);
 
-fn run(a: Args) -> Result<i32> {
+fn run(a: Args) -> Result<u8> {
     let targets = parse_targets(&a.targets).map_err(|e| usage(format!("--targets: {e}")))?;
     let mut conn = a.service.connect()?;
     let cfg = ReachConfig {

@@ -51,11 +51,11 @@ struct Args {
     service: ToolArgs,
 }
 
-fn main() {
-    clients::cli::exit_with("snake", run(Args::parse()));
+fn main() -> std::process::ExitCode {
+    clients::cli::main("snake", || run(Args::parse()))
 }
 
-fn run(a: Args) -> Result<i32> {
+fn run(a: Args) -> Result<u8> {
     if !(a.rate.is_finite() && a.rate >= 0.0 && (1..=64).contains(&a.frames)) {
         return Err(usage("--rate must be ≥ 0 and --frames 1 to 64"));
     }

@@ -54,8 +54,8 @@ struct Args {
     service: ToolArgs,
 }
 
-fn main() {
-    clients::cli::exit_with("watch", run(Args::parse()));
+fn main() -> std::process::ExitCode {
+    clients::cli::main("watch", || run(Args::parse()))
 }
 
 struct ChainInfo {
@@ -64,7 +64,7 @@ struct ChainInfo {
     seen: u64,
 }
 
-fn run(a: Args) -> Result<i32> {
+fn run(a: Args) -> Result<u8> {
     let view = a
         .view
         .as_deref()

@@ -14,7 +14,11 @@
 //! "–" means no exact reference. Long rows print progress on stderr.
 
 // The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
-#![allow(clippy::disallowed_types, clippy::disallowed_macros, clippy::disallowed_methods)]
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
 
 use nalgebra::Vector3;
 use std::time::Instant;

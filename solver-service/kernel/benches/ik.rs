@@ -14,7 +14,11 @@
 //! algorithm.
 
 // The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
-#![allow(clippy::disallowed_types, clippy::disallowed_macros, clippy::disallowed_methods)]
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
 
 use nalgebra::Vector2;
 use std::time::Instant;

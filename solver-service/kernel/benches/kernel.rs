@@ -8,7 +8,11 @@
 //! are interleaved batch by batch. `KERNEL_BENCH_SCALE` (default 1.0) scales the work per row.
 
 // The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
-#![allow(clippy::disallowed_types, clippy::disallowed_macros, clippy::disallowed_methods)]
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
 
 use nalgebra::Vector3;
 use std::hint::black_box;

@@ -14,7 +14,11 @@
 //!   the DLS baseline; joint angles.
 
 // The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
-#![allow(clippy::disallowed_types, clippy::disallowed_macros, clippy::disallowed_methods)]
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
 
 mod chain;
 mod collision;
