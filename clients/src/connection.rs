@@ -6,6 +6,7 @@ use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
+use iceoryx2::service::Service;
 use iceoryx2::service::builder::request_response::RequestResponseOpenError;
 use shared::{
     Command, RequestHeader, ResponseHeader, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT,
@@ -13,6 +14,7 @@ use shared::{
 };
 use std::time::{Duration, Instant};
 
+/// The iceoryx2 service variant between processes.
 pub type Svc = ipc::Service;
 
 /// How a client waits for its response.
@@ -183,16 +185,19 @@ impl Reply {
 }
 
 /// A connected client.
-pub struct Connection {
-    node: Node<Svc>,
-    client: Client<Svc, [Vec3], RequestHeader, [Vec3], ResponseHeader>,
-    wake_server: Option<Notifier<Svc>>,
-    listener: Option<Listener<Svc>>,
+///
+/// Generic over the iceoryx2 service variant: `ipc` (the default) between processes, `local` for a test
+/// that serves and calls inside one process.
+pub struct Connection<S: Service = Svc> {
+    node: Node<S>,
+    client: Client<S, [Vec3], RequestHeader, [Vec3], ResponseHeader>,
+    wake_server: Option<Notifier<S>>,
+    listener: Option<Listener<S>>,
     opts: ConnectOptions,
     next_id: u64,
 }
 
-impl std::fmt::Debug for Connection {
+impl<S: Service> std::fmt::Debug for Connection<S> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Connection")
             .field("prefix", &self.opts.prefix)
@@ -200,13 +205,21 @@ impl std::fmt::Debug for Connection {
     }
 }
 
-impl Connection {
-    /// Connects, waiting up to `opts.connect_timeout` for the service to appear.
+impl Connection<Svc> {
+    /// Connects to a service in another process, waiting up to `opts.connect_timeout` for it to appear.
     pub fn connect(opts: ConnectOptions) -> Result<Self, CallError> {
+        Self::open(opts)
+    }
+}
+
+impl<S: Service> Connection<S> {
+    /// Connects over the service variant `S`, waiting up to `opts.connect_timeout` for the service to
+    /// appear.
+    pub fn open(opts: ConnectOptions) -> Result<Self, CallError> {
         let cfg = shared::iceoryx_config(&opts.prefix).map_err(CallError::Ipc)?;
         let node = NodeBuilder::new()
             .config(&cfg)
-            .create::<Svc>()
+            .create::<S>()
             .map_err(ipc("node"))?;
         let deadline = Instant::now() + opts.connect_timeout;
         let name =
@@ -357,7 +370,7 @@ impl Connection {
     }
 
     /// Subscribes to the state stream.
-    pub fn subscribe(&self) -> Result<StateStream, CallError> {
+    pub fn subscribe(&self) -> Result<StateStream<S>, CallError> {
         let svc = self
             .node
             .service_builder(&SERVICE_STATE.try_into().map_err(ipc("name"))?)
@@ -374,23 +387,23 @@ impl Connection {
     }
 
     /// The node, for callers that wait on it (signals).
-    pub fn node(&self) -> &Node<Svc> {
+    pub fn node(&self) -> &Node<S> {
         &self.node
     }
 }
 
 /// The state stream: every accepted change, in order.
-pub struct StateStream {
-    subscriber: Subscriber<Svc, [Vec3], StateHeader>,
+pub struct StateStream<S: Service = Svc> {
+    subscriber: Subscriber<S, [Vec3], StateHeader>,
 }
 
-impl std::fmt::Debug for StateStream {
+impl<S: Service> std::fmt::Debug for StateStream<S> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("StateStream")
     }
 }
 
-impl StateStream {
+impl<S: Service> StateStream<S> {
     /// The next sample, if one is waiting, handed to `read` in place.
     pub fn try_next<R>(
         &self,

@@ -203,14 +203,15 @@ pub fn service_name(s: &str) -> Result<iceoryx2::prelude::ServiceName, String> {
 /// (no CPU while idle, one wake-up per message); `hybrid` sleeps like `event` but spins for a short
 /// budget after each message, so a burst (a 1 kHz haptic loop) is served at spin latency while an idle
 /// peer sleeps.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum WaitMode {
     /// Busy-poll.
     Spin,
     /// Sleep until notified.
     Event,
-    /// Sleep until notified, then spin for a budget after each message.
+    /// Sleep until notified, then spin for a budget after each message (the default).
+    #[default]
     Hybrid,
 }
 

@@ -181,6 +181,7 @@ fn real_main(cli: Cli) -> Result<u8> {
             let opts = LoopOptions {
                 wait: a.wait,
                 spin_budget: Duration::from_micros(a.spin_us),
+                stop: None,
             };
             run_echo(&a.prefix, e.elements, &opts, a.pin, ready).map_err(anyhow::Error::msg)?;
             Ok(0)

@@ -29,6 +29,8 @@ use shared::{
     MAX_CLIENTS, RequestHeader, ResponseHeader, SERVICE_COMMAND, SERVICE_STATE,
     SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER, StateHeader, Vec3, WaitMode, service_name,
 };
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// How often the loop looks for a termination request and runs housekeeping, under any traffic.
@@ -203,13 +205,16 @@ pub trait Handler {
     fn housekeeping(&mut self, _now: Instant) {}
 }
 
-/// How the loop waits.
-#[derive(Debug, Clone, Copy)]
+/// How the loop waits, and when it stops.
+#[derive(Debug, Clone, Default)]
 pub struct LoopOptions {
     /// Spin, sleep, or sleep and spin after each request.
     pub wait: WaitMode,
     /// Hybrid: how long to keep spinning after the last request.
     pub spin_budget: Duration,
+    /// Besides SIGINT and SIGTERM, the loop ends within [`CHECK_EVERY`] (event mode: [`TICK`]) of this
+    /// flag being set: a service embedded in a thread, a test serving inside its own process.
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 /// Serves requests until SIGINT or SIGTERM (or a broken port).
@@ -224,6 +229,7 @@ where
     let mut checks = Checks {
         next: Instant::now() + CHECK_EVERY,
         stop: false,
+        flag: opts.stop.clone(),
     };
     match opts.wait {
         WaitMode::Spin => {
@@ -273,6 +279,7 @@ where
 struct Checks {
     next: Instant,
     stop: bool,
+    flag: Option<Arc<AtomicBool>>,
 }
 
 impl Checks {
@@ -283,7 +290,12 @@ impl Checks {
         }
         self.next = now + CHECK_EVERY;
         // `wait` reports a pending SIGINT/SIGTERM once: remember it.
-        if ports.node.wait(Duration::ZERO).is_err() {
+        if ports.node.wait(Duration::ZERO).is_err()
+            || self
+                .flag
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::Relaxed))
+        {
             self.stop = true;
         }
         handler.housekeeping(now);

@@ -228,6 +228,7 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
         &LoopOptions {
             wait: cfg.wait,
             spin_budget: cfg.spin_budget,
+            stop: None,
         },
     )?;
     if let Some(store) = solver.store.as_mut() {

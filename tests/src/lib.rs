@@ -4,9 +4,17 @@
 
 use clients::process::Proc;
 use clients::{ClientWait, ConnectOptions, Connection};
+use iceoryx2::prelude::local;
+use solver_service::chain_set::ChainSet;
+use solver_service::scene::default_scene;
+use solver_service::serve::{LoopOptions, ServerPorts, serve};
+use solver_service::service::Solver;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::sync::atomic::{AtomicU32, Ordering};
+use std::thread::JoinHandle;
 use std::time::Duration;
 
 pub use clients::process::START_TIMEOUT;
@@ -116,5 +124,85 @@ impl Service {
     /// `kill -9` and reap.
     pub fn kill9(mut self) {
         self.proc.kill9();
+    }
+}
+
+/// The service's serving loop and solver on the default scene (no persistence) in a thread of the test
+/// process, over iceoryx2's `local` service: for the tests of what a request does (errors, the state
+/// stream), which need no process of their own. Stopped and joined on drop.
+#[derive(Debug)]
+pub struct InProcess {
+    /// Its iceoryx2 prefix.
+    pub prefix: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<Result<(), String>>>,
+}
+
+impl InProcess {
+    /// Serves the default scene in event mode until dropped.
+    pub fn start() -> InProcess {
+        let prefix = unique_prefix();
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = std::sync::mpsc::channel();
+        let thread = {
+            let (prefix, stop) = (prefix.clone(), stop.clone());
+            std::thread::spawn(move || -> Result<(), String> {
+                let set = ChainSet::new(&default_scene())?;
+                let iox = shared::iceoryx_config(&prefix)?;
+                let links = set
+                    .specs()
+                    .iter()
+                    .map(|s| s.lengths.len())
+                    .max()
+                    .unwrap_or(1);
+                let (ports, _) = ServerPorts::<local::Service>::open(
+                    &iox,
+                    "tractrix-solver-in-process",
+                    2 * links + 1,
+                    Some(links + 1),
+                )?;
+                let mut solver = Solver::new(set, None, Duration::ZERO);
+                let _ = tx.send(());
+                let opts = LoopOptions {
+                    stop: Some(stop),
+                    ..LoopOptions::default()
+                };
+                serve(&ports, &mut solver, &opts)
+            })
+        };
+        rx.recv_timeout(START_TIMEOUT)
+            .expect("the in-process service got ready");
+        InProcess {
+            prefix,
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    /// A connection from this process (at most one spinning thread per core: it sleeps after 50 µs).
+    pub fn connect(&self) -> Connection<local::Service> {
+        Connection::open(ConnectOptions {
+            prefix: self.prefix.clone(),
+            wait: ClientWait::Hybrid(Duration::from_micros(50)),
+            connect_timeout: Duration::from_secs(5),
+            call_timeout: Duration::from_secs(10),
+            max_request_points: 2 * shared::MAX_PATH_POINTS as usize,
+        })
+        .expect("connect to the in-process service")
+    }
+}
+
+impl Drop for InProcess {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let r = t.join();
+            if !std::thread::panicking() {
+                assert!(
+                    matches!(r, Ok(Ok(()))),
+                    "the in-process service ended badly: {r:?}"
+                );
+            }
+        }
     }
 }

@@ -1,5 +1,6 @@
 //! End-to-end tests of the solver service: the real binary as a process with its own iceoryx2 prefix,
-//! spoken to through the protocol.
+//! spoken to through the protocol; what needs no process (the error table, the state stream's order)
+//! runs the same serving loop and solver in a thread over iceoryx2's `local` service ([`InProcess`]).
 //!
 //! * every command answers (`every_command_answers`);
 //! * every error status, with the state unchanged afterwards (`every_error_leaves_the_state_unchanged`);
@@ -25,14 +26,14 @@ use shared::{
     WireMethod, WireStrategy,
 };
 use std::time::{Duration, Instant};
-use tests::{Service, bin, unique_prefix};
+use tests::{InProcess, Service, bin, unique_prefix};
 
 fn req(cmd: Command, chain: u32) -> RequestHeader {
     RequestHeader::new(cmd, chain)
 }
 
 /// Every chain's joints as bits, and the sequence number.
-fn state(c: &mut Connection) -> (Vec<u64>, u64) {
+fn state<S: iceoryx2::service::Service>(c: &mut Connection<S>) -> (Vec<u64>, u64) {
     let mut bits = Vec::new();
     let mut seq = 0;
     for chain in 0..3 {
@@ -145,9 +146,11 @@ fn every_command_answers() {
     assert!(r.header.reason_str().contains("persistence is off"));
 }
 
+/// In one process (the serving loop over iceoryx2's `local` service): what a request does needs no
+/// process of its own.
 #[test]
 fn every_error_leaves_the_state_unchanged() {
-    let svc = Service::start(&unique_prefix(), &no_persist());
+    let svc = InProcess::start();
     let mut c = svc.connect();
     // Move something first so "unchanged" is not the scene state.
     let r = c
@@ -558,9 +561,10 @@ fn every_error_leaves_the_state_unchanged() {
     }
 }
 
+/// In one process, like the error table.
 #[test]
 fn the_state_stream_has_every_change_in_order() {
-    let svc = Service::start(&unique_prefix(), &no_persist());
+    let svc = InProcess::start();
     let mut c = svc.connect();
     let stream = c.subscribe().unwrap();
     let mut acked = Vec::new();
