@@ -19,7 +19,8 @@
 //! * [`math`]: scalar trait, vector aliases, tolerances.
 //! * [`link`]: one link, three ways (closed-form tractrix, the paper's TRACTRIX3D, follow-the-leader).
 //! * [`chain`]: flat chain state and RESOLUTION-TRACTRIX (head, tail or interior joint moves, substeps).
-//! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a hash grid).
+//! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a hash grid), in query,
+//!   grid and resolve modules.
 //! * [`fixed_base`]: fixed-base manipulators, both of the paper's strategies, workspace checks.
 //! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
 //! * [`angles`]: joint angles (eq. 15, relative rotations).

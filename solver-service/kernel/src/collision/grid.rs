@@ -1,0 +1,100 @@
+//! The spatial hash grid that finds candidate link pairs in O(n).
+
+use crate::math::{Real, Vector};
+
+/// A spatial hash grid over links (counting-sort layout, after Müller's "ten minute physics"): cells
+/// one link plus one thickness wide, so a link's inflated box covers at most two cells per axis. The
+/// table has twice as many slots as entries; a stamp per link de-duplicates candidates found through
+/// several cells.
+#[derive(Clone, Debug, Default)]
+pub(super) struct HashGrid {
+    pub(super) cell: f64,
+    pub(super) starts: Vec<u32>,
+    pub(super) entries: Vec<u32>,
+    pub(super) stamp: Vec<u32>,
+    pub(super) lo: Vec<[i64; 3]>,
+    pub(super) hi: Vec<[i64; 3]>,
+    pub(super) mask: usize,
+}
+
+impl HashGrid {
+    pub(super) fn build<T: Real, const D: usize>(&mut self, pos: &[Vector<T, D>], radius: T) {
+        let n = pos.len() - 1;
+        let longest = pos
+            .windows(2)
+            .map(|w| (w[1] - w[0]).amax().to_f64())
+            .fold(0.0, f64::max);
+        let r = radius.to_f64();
+        self.cell = (longest + 2.0 * r).max(f64::MIN_POSITIVE);
+        self.lo.resize(n, [0; 3]);
+        self.hi.resize(n, [0; 3]);
+        let mut inserts = 0usize;
+        for i in 0..n {
+            let (mut lo, mut hi) = ([0i64; 3], [0i64; 3]);
+            for k in 0..D.min(3) {
+                let (a, b) = (pos[i][k].to_f64(), pos[i + 1][k].to_f64());
+                lo[k] = ((a.min(b) - r) / self.cell).floor() as i64;
+                hi[k] = ((a.max(b) + r) / self.cell).floor() as i64;
+            }
+            inserts += cells_in(&lo, &hi);
+            self.lo[i] = lo;
+            self.hi[i] = hi;
+        }
+        let slots = (2 * inserts).next_power_of_two().max(16);
+        self.mask = slots - 1;
+        self.starts.clear();
+        self.starts.resize(slots + 1, 0);
+        for i in 0..n {
+            self.for_each_cell(i, |g, h| g.starts[h] += 1);
+        }
+        let mut acc = 0u32;
+        for s in self.starts.iter_mut() {
+            acc += *s;
+            *s = acc;
+        }
+        self.entries.clear();
+        self.entries.resize(inserts, 0);
+        for i in 0..n {
+            self.for_each_cell(i, |g, h| {
+                g.starts[h] -= 1;
+                g.entries[g.starts[h] as usize] = i as u32;
+            });
+        }
+        self.stamp.clear();
+        self.stamp.resize(n, u32::MAX);
+    }
+
+    fn for_each_cell(&mut self, i: usize, mut f: impl FnMut(&mut Self, usize)) {
+        let (lo, hi) = (self.lo[i], self.hi[i]);
+        for cx in lo[0]..=hi[0] {
+            for cy in lo[1]..=hi[1] {
+                for cz in lo[2]..=hi[2] {
+                    let h = self.slot([cx, cy, cz]);
+                    f(self, h);
+                }
+            }
+        }
+    }
+
+    #[inline]
+    pub(super) fn slot(&self, c: [i64; 3]) -> usize {
+        let h = (c[0].wrapping_mul(92_837_111))
+            ^ (c[1].wrapping_mul(689_287_499))
+            ^ (c[2].wrapping_mul(283_923_481));
+        (h as u64 as usize) & self.mask
+    }
+
+    /// `true` the first time link `j` is seen while querying link `i`.
+    #[inline]
+    pub(super) fn first_visit(&mut self, j: usize, i: usize) -> bool {
+        if self.stamp[j] == i as u32 {
+            return false;
+        }
+        self.stamp[j] = i as u32;
+        true
+    }
+}
+
+fn cells_in(lo: &[i64; 3], hi: &[i64; 3]) -> usize {
+    (0..3).map(|k| (hi[k] - lo[k] + 1) as usize).product()
+}

@@ -1,0 +1,353 @@
+//! Collision handling for free chains: self-collision and static obstacles, two schemes.
+//!
+//! A knot survives in a tractrix rope only if the rope cannot pass through itself: tractrix trailing cuts
+//! corners, so without collision handling a loop shrinks until the strand through it slips out. A move
+//! with collision runs substep by substep; after each substep's tractrix sweep the links are checked and,
+//! where two of them (or a link and an obstacle) are closer than their clearance, pushed apart; the chain
+//! is then re-straightened to its exact link lengths by a follow-the-leader pass *outward from the grasped
+//! joint* (which never moves: the hand holds it on its path). This repeats until no contact is deeper than
+//! [`CollisionOptions::tolerance`] of its clearance, or up to [`CollisionOptions::max_iterations`]; a chain
+//! still in contact then is *locked* (the paper's word) and the whole move is refused, the chain unchanged.
+//!
+//! # Schemes
+//!
+//! * [`Scheme::PaperSpheres`], section 4.2 as printed: a bounding sphere per link (centre at the link's
+//!   middle, diameter the link's length); two non-adjacent links collide when their centres are closer
+//!   than `(lᵢ + lⱼ)/2`, and the colliding link (the one farther from the hand) is moved along the common
+//!   normal until they are just apart. All pairs are tested, O(n²), as in the paper. The spheres are as
+//!   thick as a link is long: a rope of unit links behaves as a rope one unit thick.
+//! * [`Scheme::Capsules`]: each link is a capsule of diameter [`CollisionOptions::thickness`] (the rope's
+//!   real thickness); two links collide when their axes are closer than one thickness, unless there is
+//!   less than a thickness of rope between them ([`neighbour_span`]: only adjacent links when the links
+//!   are longer than the rope is thick). The
+//!   contact pushes the four joints along the common normal in proportion to where the closest points
+//!   lie on each link (the grasped joint does not move). Candidate pairs come from a spatial hash grid
+//!   with cells one link plus one thickness wide, so detection costs O(n) for a rope that is not piled
+//!   into one cell.
+//!
+//! # Guarantees
+//!
+//! After every substep of a successful move, every contact is within `tolerance × clearance` (the
+//! clearance of a capsule pair is the thickness; of a link and an obstacle, the sum of their radii). With
+//! collision on, a move is also split so that the grasped joint moves at most half a clearance per
+//! substep: tractrix links trail their heads by less than the head moves, so two links approach each
+//! other by at most one clearance per substep and cannot tunnel through each other between checks.
+//! When nothing touches, a move with collision handling gives bit for bit the chain a move without it
+//! gives.
+
+//! # Modules
+//!
+//! [`query`]: distances and closest points (point–segment, segment–segment, link pairs, obstacles);
+//! `grid`: the spatial hash grid that finds candidate pairs; `resolve`: one resolution pass over the
+//! contacts; this module: the options, the model and the driver that moves a joint with collision.
+
+mod grid;
+pub mod query;
+mod resolve;
+
+use crate::chain::{Chain, ChainError, MoveOptions, MoveOutcome};
+use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
+use grid::HashGrid;
+pub use query::{
+    closest_links_apart, closest_nonadjacent_links, closest_param_point_segment,
+    closest_params_segment_segment,
+};
+use resolve::resolve;
+
+/// Which collision test and response a chain uses (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scheme {
+    /// Section 4.2 as printed: one bounding sphere per link, all pairs, the colliding link moved.
+    PaperSpheres,
+    /// Capsules of the rope's thickness, spatial hash grid, contact pushes weighted along the links.
+    Capsules,
+}
+
+/// A static obstacle, in the chain's coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Obstacle<T: Real, const D: usize> {
+    /// A ball (a disc in a planar scene).
+    Sphere {
+        /// Centre.
+        center: Vector<T, D>,
+        /// Radius, positive.
+        radius: T,
+    },
+    /// The set of points within `radius` of the segment `a`–`b` (a post, a tool shaft).
+    Capsule {
+        /// One end of the axis.
+        a: Vector<T, D>,
+        /// The other end of the axis.
+        b: Vector<T, D>,
+        /// Radius, positive.
+        radius: T,
+    },
+    /// The half-space behind a plane (a table): the chain stays on the side `normal` points to.
+    HalfSpace {
+        /// A point of the plane.
+        point: Vector<T, D>,
+        /// Unit normal, pointing to the free side.
+        normal: Vector<T, D>,
+    },
+}
+
+/// Knobs of collision handling. Each trades speed for how strictly links are kept apart.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CollisionOptions<T> {
+    /// Test and response.
+    pub scheme: Scheme,
+    /// Whether links collide with each other (obstacles are tested whenever any are given).
+    pub self_collision: bool,
+    /// Rope diameter for [`Scheme::Capsules`], in length units; must be positive. Ignored by
+    /// [`Scheme::PaperSpheres`] (a link's sphere is as wide as the link is long). Thicker ropes need
+    /// more substeps (a substep moves the grasped joint at most half a clearance).
+    pub thickness: T,
+    /// Resolution passes allowed per substep before the chain is declared locked. Too few locks a rope
+    /// that would have come apart; more passes cost one detection each, and a jammed knot spends all
+    /// of them before it is refused.
+    pub max_iterations: u32,
+    /// Penetration accepted, as a fraction of each pair's clearance, in `(0, 1)`. Smaller is stricter
+    /// and costs more passes; the default keeps links within 1 % of a thickness.
+    pub tolerance: T,
+}
+
+impl<T: Real> Default for CollisionOptions<T> {
+    fn default() -> Self {
+        CollisionOptions {
+            scheme: Scheme::Capsules,
+            self_collision: true,
+            thickness: T::lit(0.2),
+            max_iterations: 64,
+            tolerance: T::lit(0.01),
+        }
+    }
+}
+
+impl<T: Real> CollisionOptions<T> {
+    /// Checks the options (positive thickness for capsules, tolerance in `(0, 1)`, at least one pass).
+    pub fn validate(&self) -> Result<(), ChainError> {
+        if self.scheme == Scheme::Capsules && !positive_finite(self.thickness) {
+            return Err(ChainError::BadOption(
+                "collision thickness must be a positive finite length",
+            ));
+        }
+        if !(self.tolerance > T::zero() && self.tolerance < T::one()) {
+            return Err(ChainError::BadOption(
+                "collision tolerance must lie strictly between 0 and 1",
+            ));
+        }
+        if self.max_iterations == 0 {
+            return Err(ChainError::BadOption(
+                "collision needs at least one iteration",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What a chain collides with: options plus obstacles, built once per chain from its scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CollisionModel<T: Real, const D: usize> {
+    /// Scheme and knobs.
+    pub options: CollisionOptions<T>,
+    /// Static obstacles this chain avoids.
+    pub obstacles: Vec<Obstacle<T, D>>,
+}
+
+/// Caller-owned buffers reused across moves: after the first move of a chain, a move with collision
+/// allocates nothing.
+#[derive(Clone, Debug, Default)]
+pub struct CollisionWorkspace<T: Real, const D: usize> {
+    pos: Vec<Vector<T, D>>,
+    backup_links: Vec<Vector<T, D>>,
+    grid: HashGrid,
+}
+
+impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
+    /// An empty workspace (buffers grow on first use).
+    pub fn new() -> Self {
+        CollisionWorkspace {
+            pos: Vec::new(),
+            backup_links: Vec::new(),
+            grid: HashGrid::default(),
+        }
+    }
+}
+
+/// Moves joint `joint` along the straight segment to `target` like [`Chain::move_joint`], keeping links
+/// apart from each other and from the model's obstacles after every substep (see the module docs). On
+/// any error, [`ChainError::Locked`] included, the chain is unchanged.
+pub fn move_joint_colliding<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    target: Vector<T, D>,
+    opts: &MoveOptions<T>,
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    chain.check_joint(joint)?;
+    model.options.validate()?;
+    if !all_finite(&target) {
+        return Err(ChainError::NonFinite);
+    }
+    let start = chain.joint(joint);
+    let delta = target - start;
+    let requested = chain.substep_count(&delta, opts)?;
+    // No substep may move the hand more than half the smallest clearance (no tunnelling).
+    let half = smallest_clearance(chain, model) * T::lit(0.5);
+    let needed = (delta.norm() / half).to_f64();
+    let needed = if needed.is_finite() {
+        needed.ceil().max(1.0)
+    } else {
+        f64::INFINITY
+    };
+    let k = if needed > requested as f64 {
+        if needed > opts.max_substeps as f64 {
+            return Err(ChainError::TooManySubsteps {
+                required: if needed.is_finite() {
+                    needed as u64
+                } else {
+                    u64::MAX
+                },
+                limit: opts.max_substeps,
+            });
+        }
+        needed as u32
+    } else {
+        requested
+    };
+    if delta.iter().all(|c| *c == T::zero()) {
+        return Ok(MoveOutcome::default());
+    }
+    ws.backup_links.clear();
+    ws.backup_links.extend_from_slice(chain.links());
+    let backup_origin = chain.origin();
+    ws.pos.resize(chain.n_links() + 1, Vector::zeros());
+
+    let sd = delta / T::lit(k as f64);
+    let mut outcome = MoveOutcome {
+        substeps: k,
+        ..MoveOutcome::default()
+    };
+    for s in 1..=k {
+        outcome.paper_fallbacks =
+            outcome
+                .paper_fallbacks
+                .saturating_add(chain.sweep(joint, &sd, opts.method));
+        let hand = if s == k {
+            target
+        } else {
+            start + sd * T::lit(s as f64)
+        };
+        positions_from(chain, joint, hand, &mut ws.pos);
+        match resolve(chain, joint, model, ws) {
+            Ok((iterations, contacts)) => {
+                outcome.collision_iterations =
+                    outcome.collision_iterations.saturating_add(iterations);
+                outcome.contacts = outcome.contacts.saturating_add(contacts);
+            }
+            Err((iterations, penetration)) => {
+                chain.links_mut().copy_from_slice(&ws.backup_links);
+                chain.translate_to(backup_origin);
+                return Err(ChainError::Locked {
+                    substep: s,
+                    iterations,
+                    penetration: penetration.to_f64(),
+                });
+            }
+        }
+        chain.translate_to(ws.pos[0]);
+    }
+    Ok(outcome)
+}
+
+/// The smallest clearance any contact of this chain can have: half of what a substep may move.
+fn smallest_clearance<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    model: &CollisionModel<T, D>,
+) -> T
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let link = match model.options.scheme {
+        Scheme::Capsules => model.options.thickness,
+        Scheme::PaperSpheres => chain.min_length(),
+    };
+    // A link against an obstacle has at least half a link's clearance.
+    if model.obstacles.is_empty() {
+        link
+    } else {
+        link * T::lit(0.5)
+    }
+}
+
+/// Joint positions from the hand's position outward, along the current link vectors.
+fn positions_from<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    m: usize,
+    hand: Vector<T, D>,
+    pos: &mut [Vector<T, D>],
+) where
+    Vector<T, D>: Embed3<T>,
+{
+    let links = chain.links();
+    pos[m] = hand;
+    let mut acc = CompensatedSum::new(hand);
+    for i in (0..m).rev() {
+        acc.add(&-links[i]);
+        pos[i] = acc.value();
+    }
+    let mut acc = CompensatedSum::new(hand);
+    for i in m..links.len() {
+        acc.add(&links[i]);
+        pos[i + 1] = acc.value();
+    }
+}
+
+/// Re-straightens the chain to its exact lengths, follow-the-leader outward from the hand (joint `m`,
+/// which stays put): each link keeps the direction from its already placed inner joint to its pushed
+/// outer joint. Writes the link vectors and the exact positions.
+fn restraighten<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    m: usize,
+    pos: &mut [Vector<T, D>],
+) where
+    Vector<T, D>: Embed3<T>,
+{
+    let (links, lengths) = chain.links_and_lengths_mut();
+    for i in m..links.len() {
+        let d = pos[i + 1] - pos[i];
+        let n = d.norm();
+        if positive_finite(n) {
+            links[i] = d * (lengths[i] / n);
+        }
+        pos[i + 1] = pos[i] + links[i];
+    }
+    for i in (0..m).rev() {
+        let d = pos[i + 1] - pos[i];
+        let n = d.norm();
+        if positive_finite(n) {
+            links[i] = d * (lengths[i] / n);
+        }
+        pos[i] = pos[i + 1] - links[i];
+    }
+}
+
+/// How many links on each side of a link are its neighbours, never tested against it: those closer along
+/// the rope than one thickness (`m` links of length `min_len` with `m·min_len ≥ thickness`). Two links
+/// with fewer than a thickness of rope between them touch even when the rope is straight; testing them
+/// would lock every move of a rope whose links are shorter than it is thick.
+pub fn neighbour_span<T: Real>(min_len: T, thickness: T) -> usize {
+    if !(positive_finite(min_len) && thickness.is_finite() && thickness > T::zero()) {
+        return 1;
+    }
+    let m = (thickness / min_len).ceil().to_f64();
+    if m.is_finite() {
+        (m as usize).max(1)
+    } else {
+        1
+    }
+}

@@ -1,0 +1,288 @@
+//! One resolution pass over the contacts of a chain (capsules on the grid, or the paper's spheres) and
+//! its obstacles: each contact found is pushed apart at once (Gauss–Seidel).
+
+use super::grid::HashGrid;
+use super::query::{
+    any_perpendicular, away_from, closest_param_point_segment, closest_params_segment_segment,
+    lerp, unit_or_perpendicular,
+};
+use super::{
+    CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, Scheme, neighbour_span,
+    restraighten,
+};
+use crate::chain::Chain;
+use crate::math::{Embed3, Real, Vector, positive_finite};
+
+/// Resolution passes on `ws.pos` (positions of the chain after the sweep). Returns the passes that
+/// pushed something and the contacts pushed, or, when locked, the passes and the worst penetration.
+pub(super) fn resolve<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    m: usize,
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<(u32, u32), (u32, T)>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let opts = &model.options;
+    let mut contacts = 0u32;
+    let mut iterations = 0u32;
+    let use_grid = opts.self_collision && opts.scheme == Scheme::Capsules;
+    let span = neighbour_span(chain.min_length(), opts.thickness);
+    loop {
+        if use_grid {
+            ws.grid.build(&ws.pos, opts.thickness * T::lit(0.5));
+        }
+        let mut pass = Pass {
+            m,
+            tol: opts.tolerance,
+            pushed: 0,
+            worst: T::zero(),
+        };
+        if opts.self_collision {
+            match opts.scheme {
+                Scheme::Capsules => pass.capsules(&mut ws.pos, &mut ws.grid, opts.thickness, span),
+                Scheme::PaperSpheres => pass.spheres(&mut ws.pos),
+            }
+        }
+        for ob in &model.obstacles {
+            pass.obstacle(&mut ws.pos, ob, opts);
+        }
+        if pass.pushed == 0 {
+            return Ok((iterations, contacts));
+        }
+        if iterations == opts.max_iterations {
+            return Err((iterations, pass.worst));
+        }
+        iterations += 1;
+        contacts = contacts.saturating_add(pass.pushed);
+        restraighten(chain, m, &mut ws.pos);
+    }
+}
+
+/// One resolution pass: contacts are pushed as they are found (Gauss–Seidel), each to its clearance
+/// plus half the tolerance so that re-straightening does not bring it straight back.
+struct Pass<T> {
+    m: usize,
+    tol: T,
+    pushed: u32,
+    worst: T,
+}
+
+impl<T: Real> Pass<T> {
+    /// Inverse mass of joint `i`: the hand's joint does not move.
+    #[inline]
+    fn w(&self, i: usize) -> T {
+        if i == self.m { T::zero() } else { T::one() }
+    }
+
+    /// Records a contact of depth `depth` against clearance `clearance`; `true` when it must be pushed.
+    #[inline]
+    fn violates(&mut self, depth: T, clearance: T) -> bool {
+        if depth <= T::zero() {
+            return false;
+        }
+        if depth > self.worst {
+            self.worst = depth;
+        }
+        depth > self.tol * clearance
+    }
+
+    /// The push that brings a contact of depth `depth` to its clearance plus half the tolerance.
+    #[inline]
+    fn push_depth(&self, depth: T, clearance: T) -> T {
+        depth + self.tol * T::lit(0.5) * clearance
+    }
+
+    fn capsules<const D: usize>(
+        &mut self,
+        pos: &mut [Vector<T, D>],
+        grid: &mut HashGrid,
+        thickness: T,
+        span: usize,
+    ) where
+        Vector<T, D>: Embed3<T>,
+    {
+        let n = pos.len() - 1;
+        for i in 0..n {
+            let (lo, hi) = (grid.lo[i], grid.hi[i]);
+            for cx in lo[0]..=hi[0] {
+                for cy in lo[1]..=hi[1] {
+                    for cz in lo[2]..=hi[2] {
+                        let h = grid.slot([cx, cy, cz]);
+                        for e in grid.starts[h]..grid.starts[h + 1] {
+                            let j = grid.entries[e as usize] as usize;
+                            if j <= i + span || !grid.first_visit(j, i) {
+                                continue;
+                            }
+                            self.capsule_pair(pos, i, j, thickness);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn capsule_pair<const D: usize>(&mut self, pos: &mut [Vector<T, D>], i: usize, j: usize, c: T)
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        let (a0, a1, b0, b1) = (pos[i], pos[i + 1], pos[j], pos[j + 1]);
+        let (s, t) = closest_params_segment_segment(&a0, &a1, &b0, &b1);
+        let d = lerp(&a0, &a1, s) - lerp(&b0, &b1, t);
+        let dist = d.norm();
+        if !self.violates(c - dist, c) {
+            return;
+        }
+        let n = unit_or_perpendicular(&d, dist, &(a1 - a0), &(b1 - b0));
+        let (w0, w1, w2, w3) = (self.w(i), self.w(i + 1), self.w(j), self.w(j + 1));
+        let (s1, t1) = (T::one() - s, T::one() - t);
+        let den = w0 * s1 * s1 + w1 * s * s + w2 * t1 * t1 + w3 * t * t;
+        if den <= T::zero() {
+            return;
+        }
+        let lambda = self.push_depth(c - dist, c) / den;
+        pos[i] += n * (w0 * s1 * lambda);
+        pos[i + 1] += n * (w1 * s * lambda);
+        pos[j] -= n * (w2 * t1 * lambda);
+        pos[j + 1] -= n * (w3 * t * lambda);
+        self.pushed += 1;
+    }
+
+    fn spheres<const D: usize>(&mut self, pos: &mut [Vector<T, D>])
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        let n = pos.len() - 1;
+        let half = T::lit(0.5);
+        for i in 0..n {
+            for j in i + 2..n {
+                let ci = (pos[i] + pos[i + 1]) * half;
+                let cj = (pos[j] + pos[j + 1]) * half;
+                let (ri, rj) = (
+                    (pos[i + 1] - pos[i]).norm() * half,
+                    (pos[j + 1] - pos[j]).norm() * half,
+                );
+                let clearance = ri + rj;
+                let d = ci - cj;
+                let dist = d.norm();
+                if !self.violates(clearance - dist, clearance) {
+                    continue;
+                }
+                let dir = if positive_finite(dist) {
+                    d / dist
+                } else {
+                    any_perpendicular(&(pos[i + 1] - pos[i]))
+                };
+                // The colliding link is the one farther from the hand; it is moved, not the other.
+                let far_i = self.distance_from_hand(i) >= self.distance_from_hand(j);
+                let (k, sign) = if far_i { (i, T::one()) } else { (j, -T::one()) };
+                self.translate_link(
+                    pos,
+                    k,
+                    dir * (sign * self.push_depth(clearance - dist, clearance)),
+                );
+            }
+        }
+    }
+
+    /// How many links lie between link `i` and the hand's joint.
+    fn distance_from_hand(&self, i: usize) -> usize {
+        if i >= self.m {
+            i - self.m
+        } else {
+            self.m - 1 - i
+        }
+    }
+
+    /// Moves link `k`'s centre by `delta`: both joints, or the free one twice as far when the other is
+    /// the hand's.
+    fn translate_link<const D: usize>(
+        &mut self,
+        pos: &mut [Vector<T, D>],
+        k: usize,
+        delta: Vector<T, D>,
+    ) {
+        let two = T::lit(2.0);
+        if k == self.m {
+            pos[k + 1] += delta * two;
+        } else if k + 1 == self.m {
+            pos[k] += delta * two;
+        } else {
+            pos[k] += delta;
+            pos[k + 1] += delta;
+        }
+        self.pushed += 1;
+    }
+
+    fn obstacle<const D: usize>(
+        &mut self,
+        pos: &mut [Vector<T, D>],
+        ob: &Obstacle<T, D>,
+        opts: &CollisionOptions<T>,
+    ) where
+        Vector<T, D>: Embed3<T>,
+    {
+        let half = T::lit(0.5);
+        for i in 0..pos.len() - 1 {
+            let (a, b) = (pos[i], pos[i + 1]);
+            let link_r = match opts.scheme {
+                Scheme::Capsules => opts.thickness * half,
+                Scheme::PaperSpheres => (b - a).norm() * half,
+            };
+            // The point of the link that meets the obstacle: its centre for a sphere, the closest
+            // point of its axis for a capsule.
+            let (s, normal, depth, clearance) = match (opts.scheme, ob) {
+                (Scheme::PaperSpheres, _) => {
+                    let c = (a + b) * half;
+                    let (n, dist, r) = away_from(ob, &c, &(b - a));
+                    (half, n, link_r + r - dist, link_r + r)
+                }
+                (Scheme::Capsules, Obstacle::HalfSpace { point, normal }) => {
+                    let (da, db) = ((a - point).dot(normal), (b - point).dot(normal));
+                    let s = if da <= db { T::zero() } else { T::one() };
+                    (s, *normal, link_r - da.min(db), link_r)
+                }
+                (Scheme::Capsules, Obstacle::Sphere { center, radius }) => {
+                    let s = closest_param_point_segment(center, &a, &b);
+                    let p = lerp(&a, &b, s);
+                    let (n, dist, r) = away_from(ob, &p, &(b - a));
+                    debug_assert_eq!(r, *radius);
+                    (s, n, link_r + r - dist, link_r + r)
+                }
+                (
+                    Scheme::Capsules,
+                    Obstacle::Capsule {
+                        a: oa,
+                        b: ob_b,
+                        radius,
+                    },
+                ) => {
+                    let (s, t) = closest_params_segment_segment(&a, &b, oa, ob_b);
+                    let d = lerp(&a, &b, s) - lerp(oa, ob_b, t);
+                    let dist = d.norm();
+                    let n = unit_or_perpendicular(&d, dist, &(b - a), &(*ob_b - *oa));
+                    (s, n, link_r + *radius - dist, link_r + *radius)
+                }
+            };
+            if !self.violates(depth, clearance) {
+                continue;
+            }
+            let push = self.push_depth(depth, clearance);
+            if opts.scheme == Scheme::PaperSpheres {
+                self.translate_link(pos, i, normal * push);
+                continue;
+            }
+            let (w0, w1) = (self.w(i), self.w(i + 1));
+            let s1 = T::one() - s;
+            let den = w0 * s1 * s1 + w1 * s * s;
+            if den <= T::zero() {
+                continue;
+            }
+            let lambda = push / den;
+            pos[i] += normal * (w0 * s1 * lambda);
+            pos[i + 1] += normal * (w1 * s * lambda);
+            self.pushed += 1;
+        }
+    }
+}
