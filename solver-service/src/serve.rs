@@ -91,6 +91,13 @@ impl<S: Service> ServerPorts<S> {
             .name(&name.try_into().map_err(err("node name"))?)
             .create::<S>()
             .map_err(err("cannot create the iceoryx2 node"))?;
+        // iceoryx2 installs its SIGINT/SIGTERM handlers the first time a termination request is looked
+        // for. Look now, before the caller says it is ready: a signal sent right after the ready line
+        // would otherwise kill the process the default way, without its final snapshot (the signal
+        // test found it).
+        if node.wait(Duration::ZERO).is_err() {
+            return Err("terminated while starting".into());
+        }
         let server = node
             .service_builder(&service_name(SERVICE_COMMAND)?)
             .request_response::<[Vec3], [Vec3]>()

@@ -12,12 +12,14 @@
 //! * knots tied by hand processes, checked at every published state, replayed bit for bit (`knots`);
 //! * the snake, reach and watch tools, and a locked move on a collision scene (`tools`);
 //! * the latency client against the service, the raw echo and the Unix socket, and the bench driver
-//!   (`latency`).
+//!   (`latency`);
+//! * SIGTERM and SIGINT in every wait mode, idle and under load, 20 times each (`signals`).
 
 mod faults;
 mod knots;
 mod latency;
 mod python;
+mod signals;
 mod tools;
 
 use clients::{ClientWait, Connection};
