@@ -18,7 +18,7 @@ where
 }
 
 /// Like [`closest_nonadjacent_links`], testing only links more than `span` links apart (`span` from
-/// [`neighbour_span`] leaves out the neighbours capsule collision never tests).
+/// [`neighbour_span`](super::neighbour_span) leaves out the neighbours capsule collision never tests).
 pub fn closest_links_apart<T: Real, const D: usize>(
     positions: &[Vector<T, D>],
     span: usize,
