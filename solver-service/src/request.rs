@@ -301,6 +301,14 @@ pub fn decode<'a>(
     let precision: Precision = wire_enum(h.precision, "precision", "0..=2")?;
     let substep_mode: SubstepMode = wire_enum(h.substep_mode, "substep_mode", "0..=2")?;
     let strategy: WireStrategy = wire_enum(h.strategy, "strategy", "0..=2")?;
+    // Every float option is checked, whether or not the command uses it: NonFinite means what it says
+    // for any field.
+    if !h.max_step.is_finite() {
+        return Err(refuse!(NonFinite, "max_step is not finite"));
+    }
+    if !h.tolerance.is_finite() {
+        return Err(refuse!(NonFinite, "tolerance is not finite"));
+    }
     let expected = match command {
         Command::Move | Command::Reach => 1..=1,
         Command::Path => 1..=MAX_PATH_POINTS as usize,
@@ -388,13 +396,10 @@ pub fn decode<'a>(
                     return Err(refuse!(BadOption, "substeps must be at least 1"));
                 }
                 SubstepMode::Fixed => Substeps::Fixed(h.substeps),
-                SubstepMode::MaxStep if !h.max_step.is_finite() => {
-                    return Err(refuse!(NonFinite, "max_step is not finite"));
-                }
                 SubstepMode::MaxStep if h.max_step <= 0.0 => {
                     return Err(refuse!(
                         BadOption,
-                        "max_step {} must be positive",
+                        "max_step {:e} must be positive",
                         h.max_step
                     ));
                 }
@@ -435,12 +440,10 @@ pub fn decode<'a>(
             }
             let tolerance = if h.tolerance == 0.0 {
                 spec.reach.tolerance
-            } else if !h.tolerance.is_finite() {
-                return Err(refuse!(NonFinite, "tolerance is not finite"));
             } else if !(h.tolerance > 0.0 && h.tolerance <= 0.1) {
                 return Err(refuse!(
                     BadOption,
-                    "tolerance {} is outside (0, 0.1]",
+                    "tolerance {:e} is outside (0, 0.1]",
                     h.tolerance
                 ));
             } else {

@@ -29,7 +29,7 @@
 
 use crate::chain::{Chain, ChainError, MoveOptions, Substeps};
 use crate::link::Method;
-use crate::math::{Embed3, Real, Vector, all_finite, positive_finite};
+use crate::math::{Embed3, Real, Vector, all_finite, positive_finite, robust_norm};
 use nalgebra::Vector3;
 
 /// Which of the paper's two fixed-base strategies to use.
@@ -132,7 +132,9 @@ pub fn nearest_reachable<T: Real, const D: usize>(
 ) -> (Vector<T, D>, T) {
     let (inner, outer) = workspace_radii(lengths);
     let v = target - base;
-    let r = v.norm();
+    // Scaled: |v|² overflows beyond ~1.3e154 (f64), and the nearest point and residual came out as the
+    // base and infinity there.
+    let r = robust_norm(&v);
     if r > outer {
         (base + v * (outer / r), r - outer)
     } else if r < inner {

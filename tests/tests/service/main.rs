@@ -530,6 +530,46 @@ fn every_error_leaves_the_state_unchanged() {
             Status::BadOption,
             "substep_mode",
         ),
+        // Issue 15: options a command does not use are checked all the same, and a reason with an
+        // extreme number still says what is wrong.
+        (
+            "NaN max_step on a query",
+            with(Query, 0, &|h| h.max_step = f64::NAN),
+            vec![],
+            Status::NonFinite,
+            "max_step is not finite",
+        ),
+        (
+            "NaN max_step with the default substep mode",
+            with(Move, 0, &|h| h.max_step = f64::NAN),
+            p(1., 0., 0.),
+            Status::NonFinite,
+            "max_step is not finite",
+        ),
+        (
+            "+inf tolerance on a move",
+            with(Move, 0, &|h| h.tolerance = f64::INFINITY),
+            p(1., 0., 0.),
+            Status::NonFinite,
+            "tolerance is not finite",
+        ),
+        (
+            "-1e-300 max_step",
+            with(Move, 0, &|h| {
+                h.substep_mode = 2;
+                h.max_step = -1e-300
+            }),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "must be positive",
+        ),
+        (
+            "-1e-300 tolerance",
+            with(Reach, 2, &|h| h.tolerance = -1e-300),
+            p(1., 1., 0.),
+            Status::BadOption,
+            "is outside (0, 0.1]",
+        ),
     ];
     let mut seen = std::collections::HashSet::new();
     for (what, h, points, status, fragment) in cases {

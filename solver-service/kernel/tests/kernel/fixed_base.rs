@@ -143,6 +143,40 @@ fn unreachable_targets_are_reported() {
     assert_eq!(c, c0);
 }
 
+/// Regression (issue 15): beyond ~1.3e154 the squared distance overflowed, and an unreachable target was
+/// reported with residual `inf` and the base as the nearest point. At any finite distance the residual
+/// is finite and the nearest point lies on the outer rim, toward the target (3-4-5 directions, so the
+/// expected values are exact here: `|t| = 5k`, nearest `= (3, 4)·2/5`).
+#[test]
+fn unreachable_targets_at_any_finite_distance_are_reported_finitely() {
+    let mut c = manipulator();
+    let c0 = c.clone();
+    for k in [1e10, 1e150, 1e154, 1e155, 1e200, 1e300, 3e307] {
+        let far = Vector2::new(3.0 * k, 4.0 * k);
+        match reach(
+            &mut c,
+            &far,
+            &ReachOptions::default(),
+            &mut ReachWorkspace::default(),
+        ) {
+            Err(ReachError::Unreachable { nearest, residual }) => {
+                assert!(residual.is_finite(), "k = {k:e}: residual {residual}");
+                let want = 5.0 * k - 2.0;
+                assert!(
+                    ((residual - want) / want).abs() < 1e-12,
+                    "k = {k:e}: residual {residual:e}, want {want:e}"
+                );
+                assert!(
+                    (nearest - Vector2::new(1.2, 1.6)).norm() < 1e-12,
+                    "k = {k:e}: nearest {nearest:?}"
+                );
+            }
+            other => panic!("k = {k:e}: expected Unreachable, got {other:?}"),
+        }
+        assert_eq!(c, c0);
+    }
+}
+
 /// The singular cases: a stretched-out chain pushed straight back along its axis (an exact collinear push
 /// moves the base as far as the head, so strategy (i) would stall without its detour), and targets on
 /// the edge of the two-link annulus for strategy (ii).
