@@ -31,6 +31,7 @@ STATUS = [
     "ok", "unknown-command", "unknown-chain", "joint-out-of-range", "non-finite", "bad-option",
     "bad-point-count", "unreachable", "not-converged", "too-many-substeps", "wrong-chain-kind",
     "off-plane", "persistence-failed", "internal", "locked", "too-far",
+    "over-budget",
 ]
 
 

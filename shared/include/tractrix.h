@@ -76,7 +76,8 @@ enum tractrix_status {
     TRACTRIX_PERSISTENCE_FAILED = 12,
     TRACTRIX_INTERNAL = 13,
     TRACTRIX_LOCKED = 14,
-    TRACTRIX_TOO_FAR = 15
+    TRACTRIX_TOO_FAR = 15,
+    TRACTRIX_OVER_BUDGET = 16
 };
 
 /* RequestHeader.method, .precision, .substep_mode, .strategy; ResponseHeader.kind. */

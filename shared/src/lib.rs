@@ -364,6 +364,10 @@ pub enum Status {
     /// A free chain's target lies so far from the origin that joint positions there cannot hold the
     /// link lengths: beyond [`max_coordinate`] shortest links from the origin on any axis.
     TooFar = 15,
+    /// The request would take more work than the service's budget per request (links × substeps ×
+    /// points, or links × substeps × iterations for a reach; `solver-service --budget`): refused before
+    /// anything runs, the estimate in the reason, so that one client cannot hold the serving thread.
+    OverBudget = 16,
 }
 
 impl Status {
@@ -385,6 +389,7 @@ impl Status {
             Status::Internal => "internal",
             Status::Locked => "locked",
             Status::TooFar => "too-far",
+            Status::OverBudget => "over-budget",
         }
     }
 }
@@ -470,7 +475,7 @@ wire_enum_from_u32! {
     Command { Move, Path, Reach, Query, Reset, Describe, Snapshot }
     Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
              Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
-             Internal, Locked, TooFar }
+             Internal, Locked, TooFar, OverBudget }
     WireMethod { Default, Tractrix, Paper, FollowTheLeader }
     Precision { Default, F64, F32 }
     SubstepMode { Default, Fixed, MaxStep }
@@ -847,7 +852,8 @@ mod tests {
         assert_eq!(Command::from_u32(8), None);
         assert_eq!(Status::from_u32(14), Some(Status::Locked));
         assert_eq!(Status::from_u32(15), Some(Status::TooFar));
-        assert_eq!(Status::from_u32(16), None);
+        assert_eq!(Status::from_u32(16), Some(Status::OverBudget));
+        assert_eq!(Status::from_u32(17), None);
         assert_eq!(WireMethod::from_u32(4), None);
         assert_eq!(Precision::from_u32(2), Some(Precision::F32));
     }

@@ -10,7 +10,7 @@
 //!
 //! No I/O and no clock here: the service measures time and does the persistence around it.
 
-use crate::request::{self, Outcome, Refusal, Request, Residual};
+use crate::request::{self, Outcome, Refusal, Request, Residual, refuse};
 use crate::scene::{ChainSpec, Scene};
 use nalgebra::Vector3;
 use shared::{Precision, RequestHeader, ResponseHeader, Vec3};
@@ -64,12 +64,18 @@ macro_rules! each_form {
 }
 pub(crate) use each_form;
 
+/// The work a request may cost by default, in link-steps (one link following its tractrix once, about
+/// 80 ns here): about 4 ms. See [`ChainSet::set_budget`].
+pub const DEFAULT_BUDGET: u64 = 50_000;
+
 /// Every chain of a scene, the state sequence number, and the undo record of the last change.
 #[derive(Debug, Clone)]
 pub struct ChainSet {
     specs: Vec<ChainSpec>,
     geometry: Vec<Geometry>,
     sequence: u64,
+    /// Most link-steps one request may cost.
+    budget: u64,
     /// The chain and sequence before the last accepted change, while it can be undone.
     undo: Option<(u32, u64)>,
 }
@@ -159,8 +165,89 @@ impl ChainSet {
             specs: scene.chains.clone(),
             geometry,
             sequence: 0,
+            budget: DEFAULT_BUDGET,
             undo: None,
         })
+    }
+
+    /// Sets the most work one request may cost, in link-steps (links × substeps × points for a move or
+    /// a path, links × substeps × iterations for a reach). A request estimated above it is refused with
+    /// `over-budget` before anything runs, so that one client cannot hold the serving thread. Collision
+    /// passes are bounded by the scene (`collision_iterations`), not by the request, and are not counted.
+    pub fn set_budget(&mut self, link_steps: u64) {
+        self.budget = link_steps.max(1);
+    }
+
+    /// The budget per request, in link-steps.
+    pub fn budget(&self) -> u64 {
+        self.budget
+    }
+
+    /// The work a request will cost at most, in link-steps, collision passes aside: the substeps of a
+    /// move are counted from where the joint is now, as the kernel will count them. A move needing more
+    /// substeps than its chain allows is refused here as the kernel would refuse it (`too-many-substeps`).
+    pub fn estimate(&self, req: &Request<'_>) -> Result<u64, Refusal> {
+        let Some(chain) = req.chain() else {
+            return Ok(0);
+        };
+        let spec = &self.specs[chain as usize];
+        let n = spec.lengths.len() as u64;
+        match *req {
+            Request::Move {
+                joint,
+                targets,
+                ref options,
+                ..
+            } => {
+                let start: Vec3 =
+                    each_form!(&self.geometry[chain as usize], h => to_wire(&h.chain.joint(joint)));
+                // Collision splits a move so that the hand moves at most half a clearance per substep.
+                let half_clearance = spec.collision.as_ref().map(|c| {
+                    let link = match c.options.scheme {
+                        tractrix::collision::Scheme::Capsules => c.options.thickness,
+                        tractrix::collision::Scheme::PaperSpheres => spec.shortest,
+                    };
+                    0.5 * if c.obstacles.is_empty() {
+                        link
+                    } else {
+                        0.5 * link
+                    }
+                });
+                let mut substeps = 0u64;
+                let mut from = start;
+                for t in targets {
+                    let d =
+                        ((t.x - from.x).powi(2) + (t.y - from.y).powi(2) + (t.z - from.z).powi(2))
+                            .sqrt();
+                    let asked = match options.substeps {
+                        tractrix::Substeps::Fixed(k) => f64::from(k),
+                        tractrix::Substeps::MaxStep(s) => (d / (s * spec.shortest)).ceil(),
+                    };
+                    let needed = half_clearance.map_or(0.0, |h| (d / h).ceil());
+                    let k = asked.max(needed).max(1.0);
+                    let k = if k.is_finite() && k < 1e18 {
+                        k as u64
+                    } else {
+                        u64::MAX
+                    };
+                    if k > u64::from(options.max_substeps) {
+                        return Err(ChainError::TooManySubsteps {
+                            required: k,
+                            limit: options.max_substeps,
+                        }
+                        .into());
+                    }
+                    substeps = substeps.saturating_add(k);
+                    from = *t;
+                }
+                Ok(n.saturating_mul(substeps))
+            }
+            Request::Reach { ref options, .. } => Ok(n
+                .saturating_mul(u64::from(options.substeps.max(1)))
+                .saturating_mul(u64::from(options.max_iterations.max(1)))),
+            Request::Query { .. } | Request::Describe { .. } | Request::Reset { .. } => Ok(n),
+            Request::Snapshot => Ok(0),
+        }
     }
 
     /// Number of chains.
@@ -220,6 +307,14 @@ impl ChainSet {
     /// number and can be undone until the next request.
     pub fn apply(&mut self, req: &Request<'_>) -> Result<Outcome, Refusal> {
         self.undo = None;
+        let work = self.estimate(req)?;
+        if work > self.budget {
+            return Err(refuse!(
+                OverBudget,
+                "about {work:.2e} link-steps, over the budget of {:.2e} (--budget)",
+                self.budget as f64
+            ));
+        }
         let Some(chain) = req.chain() else {
             return Ok(Outcome {
                 chain: None,

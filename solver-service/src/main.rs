@@ -89,6 +89,11 @@ struct ServeArgs {
     /// Start from the saved state (snapshot + journal) instead of the scene.
     #[arg(long)]
     restore: bool,
+    /// Most work one request may cost, in link-steps (links × substeps × points; links × substeps ×
+    /// iterations for a reach; about 80 ns each). Requests above it are refused as over-budget.
+    #[arg(long, global = true, default_value_t = solver_service::chain_set::DEFAULT_BUDGET,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    budget: u64,
     /// Seconds between snapshots while the state changes (0: only on shutdown and on command).
     #[arg(long, default_value_t = 10.0)]
     snapshot_every: f64,
@@ -171,7 +176,8 @@ fn real_main(cli: Cli) -> Result<u8> {
     match cli.command {
         None => {
             let cfg = serve_config(&cli.serve)?;
-            let set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
+            let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
+            set.set_budget(cli.serve.budget);
             run(&cfg, set, ready).map_err(anyhow::Error::msg)?;
             Ok(0)
         }
@@ -203,6 +209,7 @@ fn real_main(cli: Cli) -> Result<u8> {
         }
         Some(Cmd::Unix(u)) => {
             let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
+            set.set_budget(cli.serve.budget);
             if let Some(core) = cli.serve.pin {
                 shared::pin_current_thread(core).map_err(anyhow::Error::msg)?;
             }
@@ -221,6 +228,7 @@ fn real_main(cli: Cli) -> Result<u8> {
         Some(Cmd::Batch(b)) => {
             let format = b.format;
             let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
+            set.set_budget(cli.serve.budget);
             let source = b.requests.display().to_string();
             let mut input: Box<dyn std::io::BufRead> = if source == "-" {
                 Box::new(std::io::stdin().lock())

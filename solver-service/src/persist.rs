@@ -240,6 +240,9 @@ impl Store {
                 return Err(io(&jpath, "not a journal", "wrong magic number"));
             }
             let mut at = 8;
+            // Records were accepted under the budget of their time: replay them whatever today's is.
+            let budget = set.budget();
+            set.set_budget(u64::MAX);
             while at < bytes.len() {
                 let Some(rec) = next_record(&bytes, at) else {
                     restored.dropped_tail_bytes = (bytes.len() - at) as u64;
@@ -276,6 +279,8 @@ impl Store {
                 }
                 restored.replayed += 1;
             }
+            // (A failed replay ends the start-up, so the error paths above need not restore it.)
+            set.set_budget(budget);
         }
         self.snapshot(set)?;
         Ok(restored)

@@ -328,6 +328,9 @@ fn run_case(
 ) -> Result<(), TestCaseError> {
     let scene = parse_scene(SCENE, "fuzz.toml").expect("fuzz scene");
     let mut set = ChainSet::new(&scene).expect("chain set");
+    // A budget the fuzzer's own requests reach (long paths, many reach iterations), so the over-budget
+    // refusal is exercised like every other; the scene's substep caps keep the rest under it.
+    set.set_budget(5_000);
     let mut elements = Vec::new();
     for (req, points) in requests {
         let before = snapshot(&set);

@@ -103,6 +103,8 @@ pub struct ChainSpec {
     pub lengths: Vec<f64>,
     /// Sum of the link lengths.
     pub total_length: f64,
+    /// The shortest link (the unit of `max_step`).
+    pub shortest: f64,
     /// Largest coordinate a target of this chain may have ([`shared::max_coordinate`]).
     pub max_coordinate: f64,
     /// Diameter, for collision and pictures.

@@ -410,6 +410,7 @@ fn chain(
         dims: f.dims,
         precision,
         total_length: lengths.iter().sum(),
+        shortest,
         max_coordinate,
         points,
         lengths,

@@ -563,6 +563,37 @@ fn every_error_leaves_the_state_unchanged() {
             Status::BadOption,
             "must be positive",
         ),
+        // Issue 15: bounded work per request (the default budget, 50 000 link-steps).
+        (
+            "a reach of 60000 substeps and 100000 iterations",
+            with(Reach, 2, &|h| {
+                h.substeps = 60_000;
+                h.max_iterations = 100_000;
+                h.tolerance = 1e-3
+            }),
+            p(-1.2, 1.5, 0.),
+            Status::OverBudget,
+            "over the budget",
+        ),
+        (
+            "a move of 65536 substeps",
+            with(Move, 0, &|h| {
+                h.substep_mode = 1;
+                h.substeps = 65_536
+            }),
+            p(39., 1., 0.),
+            Status::OverBudget,
+            "link-steps",
+        ),
+        (
+            "a path of 4096 points on 40 links",
+            req(Path, 0),
+            (0..4096)
+                .map(|i| Vec3::new(39.0 + 0.001 * f64::from(i), 0.0, 0.0))
+                .collect(),
+            Status::OverBudget,
+            "budget",
+        ),
         (
             "-1e-300 tolerance",
             with(Reach, 2, &|h| h.tolerance = -1e-300),
