@@ -7,6 +7,11 @@
 //!   record `[u32 length][u32 crc32][bincode record]`, appended *before* the response is sent. Replaying
 //!   it through the same handler reproduces the state bit for bit (the kernel is deterministic).
 //!
+//! A failed or short append never hides a later acknowledged change: the journal is cut back to its last
+//! whole record (the change is refused and undone), so the next record follows it directly; if even the
+//! cut fails, the journal is *unsound* and every change is refused until a snapshot (which starts a new
+//! journal) succeeds. Tested with injected faults (`Fault`).
+//!
 //! With [`JournalMode::Write`] a record reaches the kernel's page cache before the response: it survives
 //! `kill -9` of the service but not a power cut; [`JournalMode::Fsync`] also survives the latter at the
 //! cost of one `fdatasync` per request. Sizes read back are bounded: a snapshot by the scene's size, a
@@ -16,7 +21,7 @@ use crate::chain_set::{ChainSet, each_form};
 use serde::{Deserialize, Serialize};
 use shared::{MAX_PATH_POINTS, RequestHeader, Vec3};
 use std::fs::{File, OpenOptions};
-use std::io::{Read, Write};
+use std::io::{Read, Seek, SeekFrom, Write};
 use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use tractrix::Chain;
@@ -74,6 +79,16 @@ struct Record {
     points: Vec<Vec3>,
 }
 
+/// A fault injected into the next journal append (tests).
+#[cfg(test)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Fault {
+    /// Half the record is written, then the write fails.
+    ShortWrite,
+    /// As `ShortWrite`, and the cut back fails too.
+    ShortWriteThenCutFails,
+}
+
 /// The state directory of one instance.
 #[derive(Debug)]
 pub struct Store {
@@ -81,6 +96,13 @@ pub struct Store {
     mode: JournalMode,
     journal: Option<File>,
     buf: Vec<u8>,
+    /// Bytes of the journal up to its last whole record.
+    journal_len: u64,
+    /// Why the journal cannot be trusted (a cut-back failed); changes are refused until a snapshot.
+    unsound: Option<String>,
+    /// A fault to inject into the next append (tests).
+    #[cfg(test)]
+    fault: Option<Fault>,
 }
 
 /// What a restore found.
@@ -110,6 +132,10 @@ impl Store {
             mode,
             journal: None,
             buf: vec![0; MAX_RECORD_BYTES + 8],
+            journal_len: 0,
+            unsound: None,
+            #[cfg(test)]
+            fault: None,
         })
     }
 
@@ -181,6 +207,8 @@ impl Store {
         f.write_all(&JOURNAL_MAGIC)
             .and_then(|_| f.sync_all())
             .map_err(|e| io(&path, "cannot write", e))?;
+        self.journal_len = JOURNAL_MAGIC.len() as u64;
+        self.unsound = None;
         self.journal = Some(f);
         Ok(())
     }
@@ -193,9 +221,14 @@ impl Store {
         header: &RequestHeader,
         points: &[Vec3],
     ) -> Result<(), String> {
-        let Some(f) = self.journal.as_mut() else {
+        if self.journal.is_none() {
             return Ok(());
-        };
+        }
+        if let Some(why) = &self.unsound {
+            return Err(format!(
+                "the journal is unsound ({why}): changes are refused until a snapshot succeeds"
+            ));
+        }
         let rec = RecordRef {
             sequence,
             header,
@@ -206,13 +239,62 @@ impl Store {
         let crc = crc32fast::hash(&self.buf[8..8 + n]);
         self.buf[0..4].copy_from_slice(&(n as u32).to_le_bytes());
         self.buf[4..8].copy_from_slice(&crc.to_le_bytes());
-        f.write_all(&self.buf[..8 + n])
-            .map_err(|e| format!("journal write failed: {e}"))?;
+        let len = 8 + n;
+        match self.write_record(len) {
+            Ok(()) => {
+                self.journal_len += len as u64;
+                Ok(())
+            }
+            Err(e) => match self.cut_back() {
+                Ok(()) => Err(format!(
+                    "journal write failed ({e}); cut back to its last whole record"
+                )),
+                Err(c) => {
+                    let why = format!("a write failed ({e}) and the cut back failed too ({c})");
+                    let msg = format!("journal write failed: {why}");
+                    self.unsound = Some(why);
+                    Err(msg)
+                }
+            },
+        }
+    }
+
+    /// Writes (and with `Fsync` syncs) the record in `buf[..len]`.
+    fn write_record(&mut self, len: usize) -> std::io::Result<()> {
+        let f = self.journal.as_mut().ok_or(std::io::ErrorKind::NotFound)?;
+        #[cfg(test)]
+        if let Some(Fault::ShortWrite | Fault::ShortWriteThenCutFails) = self.fault {
+            f.write_all(&self.buf[..len / 2])?;
+            return Err(std::io::Error::other("injected short write"));
+        }
+        f.write_all(&self.buf[..len])?;
         if self.mode == JournalMode::Fsync {
-            f.sync_data()
-                .map_err(|e| format!("journal sync failed: {e}"))?;
+            f.sync_data()?;
         }
         Ok(())
+    }
+
+    /// Truncates the journal to its last whole record and puts the write position there.
+    fn cut_back(&mut self) -> std::io::Result<()> {
+        #[cfg(test)]
+        if let Some(fault) = self.fault.take()
+            && fault == Fault::ShortWriteThenCutFails
+        {
+            return Err(std::io::Error::other("injected failure to truncate"));
+        }
+        let f = self.journal.as_mut().ok_or(std::io::ErrorKind::NotFound)?;
+        f.set_len(self.journal_len)?;
+        f.seek(SeekFrom::Start(self.journal_len))?;
+        if self.mode == JournalMode::Fsync {
+            f.sync_data()?;
+        }
+        Ok(())
+    }
+
+    /// Injects a fault into the next append.
+    #[cfg(test)]
+    pub(crate) fn inject(&mut self, fault: Fault) {
+        self.fault = Some(fault);
     }
 
     /// Restores `set` (built from the same scene) from the snapshot and the journal, then compacts: a
@@ -476,6 +558,73 @@ mod tests {
         assert_eq!(r.dropped_tail_bytes, 6);
         assert_eq!(fresh.sequence(), expected_seq);
         assert_eq!(joints(&fresh), expected);
+    }
+
+    /// Regression (issue 15): a failed append used to leave its partial bytes; later appends landed after
+    /// them and a restore stopped at the bad checksum, dropping every later acknowledged change. Now the
+    /// journal is cut back to its last whole record; if the cut fails too, changes are refused until a
+    /// snapshot. Every acknowledged change is restored, nothing unacknowledged is.
+    #[test]
+    fn a_failed_append_never_hides_later_acknowledged_changes() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = default_scene();
+        let mut set = ChainSet::new(&scene).unwrap();
+        let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+        store.snapshot(&set).unwrap();
+        let (mut acknowledged, mut refused) = (0, 0);
+        for i in 0..90u32 {
+            let t = f64::from(i) * 0.3;
+            let req = RequestHeader::new(Command::Move, 0);
+            let p = [Vec3::new(38.0 + t.cos(), t.sin(), 0.2 * t.sin())];
+            assert!(set.apply_wire(&req, &p).unwrap().changed);
+            match i {
+                20 | 21 => store.inject(Fault::ShortWrite),
+                50 => store.inject(Fault::ShortWriteThenCutFails),
+                // The service snapshots when it can; the journal is sound again after it.
+                60 => store
+                    .snapshot(&{
+                        let mut s = set.clone();
+                        s.undo();
+                        s
+                    })
+                    .unwrap(),
+                _ => {}
+            }
+            // The service: append, and undo the change if the append fails (never acknowledged).
+            match store.append(set.sequence(), &req, &p) {
+                Ok(()) => acknowledged += 1,
+                Err(e) => {
+                    assert!(
+                        (20..=21).contains(&i) && e.contains("cut back")
+                            || (50..60).contains(&i)
+                                && (e.contains("unsound") || e.contains("cut back failed")),
+                        "append {i}: {e}"
+                    );
+                    set.undo();
+                    refused += 1;
+                }
+            }
+        }
+        assert_eq!(
+            refused,
+            2 + 10,
+            "two torn appends, then refusals until the snapshot at 60"
+        );
+        assert_eq!(set.sequence(), acknowledged);
+        let expected = joints(&set);
+        drop(store);
+        let mut fresh = ChainSet::new(&scene).unwrap();
+        let r = Store::open(dir.path(), JournalMode::Write)
+            .unwrap()
+            .restore(&mut fresh)
+            .unwrap();
+        assert_eq!(r.dropped_tail_bytes, 0, "no torn bytes left behind");
+        assert_eq!(fresh.sequence(), acknowledged);
+        assert_eq!(
+            joints(&fresh),
+            expected,
+            "every acknowledged change, nothing else"
+        );
     }
 
     #[test]
