@@ -816,6 +816,36 @@ fn event_mode_serves_sleeping_clients() {
         assert!(ra.is_ok() && rb.is_ok());
         assert_eq!(rb.header.sequence, ra.header.sequence + 1);
     }
+    // Issue 15: the test passed as well against a spinning service. An event-mode service sleeps: over
+    // one idle second it uses a few milliseconds of CPU (its 50 ms tick), a spinning one the whole
+    // second (the contrast is checked on a spin-mode service below).
+    let idle_cpu = |pid: u32| {
+        let before = cpu_time(pid);
+        std::thread::sleep(Duration::from_secs(1));
+        cpu_time(pid) - before
+    };
+    let slept = idle_cpu(svc.id());
+    assert!(
+        slept < Duration::from_millis(100),
+        "an idle event-mode service used {slept:?} of CPU in 1 s"
+    );
+    let spinner = Service::start(&unique_prefix(), &["--no-persist", "--wait", "spin"]);
+    let spun = idle_cpu(spinner.id());
+    assert!(
+        spun > Duration::from_millis(300),
+        "a spinning service used only {spun:?} in 1 s: the measurement cannot tell them apart"
+    );
+}
+
+/// User + system CPU time of a process, from `/proc/PID/stat` (fields 14 and 15, in clock ticks of
+/// 1/100 s on Linux).
+fn cpu_time(pid: u32) -> Duration {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).expect("/proc/PID/stat");
+    // The command name (field 2) is in parentheses and may hold spaces: count after the last ')'.
+    let rest = &stat[stat.rfind(')').expect("comm field") + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: u64 = f[11].parse::<u64>().unwrap() + f[12].parse::<u64>().unwrap();
+    Duration::from_millis(ticks * 10)
 }
 
 #[test]
