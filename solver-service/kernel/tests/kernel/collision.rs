@@ -114,6 +114,7 @@ fn random_crumpled_ropes_are_separated_by_the_grid_as_by_brute_force() {
     // Ropes driven hard in random directions pile up; whatever the grid finds, the O(n²) check agrees
     // that no contact is deeper than the tolerance after any accepted move.
     let mut rng = Rng(42);
+    let (mut accepted, mut locked, mut contacts) = (0u32, 0u32, 0u64);
     for trial in 0..6 {
         let mut c = Chain::<f64, 3>::straight(60, 0.5, Vector3::zeros(), Vector3::x()).unwrap();
         let model = capsules(0.25);
@@ -123,8 +124,14 @@ fn random_crumpled_ropes_are_separated_by_the_grid_as_by_brute_force() {
             let joint = if step % 2 == 0 { n } else { 0 };
             let t =
                 c.joint(joint) + rng.dir3() * 0.4 + (c.joint(n - joint) - c.joint(joint)) * 0.02;
-            let _ =
-                move_joint_colliding(&mut c, joint, t, &MoveOptions::default(), &model, &mut ws);
+            match move_joint_colliding(&mut c, joint, t, &MoveOptions::default(), &model, &mut ws) {
+                Ok(o) => {
+                    accepted += 1;
+                    contacts += u64::from(o.contacts);
+                }
+                Err(ChainError::Locked { .. }) => locked += 1,
+                Err(e) => panic!("trial {trial} step {step}: {e}"),
+            }
             let d = clearance(&c);
             assert!(
                 d >= 0.25 * (1.0 - model.options.tolerance) - 1e-12,
@@ -132,6 +139,13 @@ fn random_crumpled_ropes_are_separated_by_the_grid_as_by_brute_force() {
             );
         }
     }
+    // The check above is only worth something if moves were accepted and contacts resolved.
+    eprintln!("crumpled ropes: {accepted} accepted, {locked} locked, {contacts} contacts");
+    assert!(
+        accepted >= 9 * (accepted + locked) / 10,
+        "{accepted} accepted, {locked} locked"
+    );
+    assert!(contacts > 0, "no contact was ever resolved");
 }
 
 #[test]
@@ -147,9 +161,12 @@ fn paper_spheres_keep_link_centres_apart() {
     let mut ws = CollisionWorkspace::new();
     let head = c.head_index();
     let start = c.head();
+    let mut contacts = 0u64;
     for k in 1..=40 {
         let t = start + Vector3::new(0.2, -0.1 * k as f64, 0.0);
-        let _ = move_joint_colliding(&mut c, head, t, &MoveOptions::default(), &model, &mut ws);
+        let o = move_joint_colliding(&mut c, head, t, &MoveOptions::default(), &model, &mut ws)
+            .unwrap_or_else(|e| panic!("step {k}: {e}"));
+        contacts += u64::from(o.contacts);
         let p = c.positions();
         let l = c.lengths();
         for i in 0..l.len() {
@@ -163,6 +180,8 @@ fn paper_spheres_keep_link_centres_apart() {
             }
         }
     }
+    // Every move was accepted (above); the spheres must actually have met.
+    assert!(contacts > 0, "the hairpin's arms never touched");
 }
 
 #[test]
@@ -188,22 +207,44 @@ fn obstacles_are_avoided_and_a_hand_inside_one_is_locked() {
         obstacles: vec![table, post, ball],
     };
     let mut ws = CollisionWorkspace::new();
-    // A rope dragged by its head around the post and down toward the table, then across the ball.
+    // A rope dragged by its head once around the post (the trailing rope cuts the corner into it), down
+    // toward the table, then once around the ball (which the rope presses against likewise).
     let mut c =
         Chain::<f64, 3>::straight(20, 0.5, Vector3::new(0.0, 0.0, 0.0), Vector3::x()).unwrap();
-    let waypoints = [
-        Vector3::new(10.0, 6.0, 0.0),
-        Vector3::new(5.0, 8.0, 0.0),
-        Vector3::new(0.0, 5.0, -0.5),
-        Vector3::new(5.0, 1.0, -0.85),
-        Vector3::new(12.0, -3.0, -0.5),
-        Vector3::new(16.0, -3.0, 0.0),
-    ];
+    let around = |centre: Vector3<f64>, r: f64, from: f64, z: f64| {
+        (0..=24).map(move |k| {
+            let a = from + std::f64::consts::TAU * f64::from(k) / 24.0;
+            centre + Vector3::new(r * a.cos(), r * a.sin(), z)
+        })
+    };
+    let waypoints: Vec<Vector3<f64>> = std::iter::once(Vector3::new(5.8, 3.0, 0.0))
+        .chain(around(Vector3::new(5.0, 3.0, 0.0), 0.8, 0.0, 0.0))
+        .chain([
+            Vector3::new(5.0, 1.0, -0.85),
+            Vector3::new(10.0, -1.7, -0.3),
+        ])
+        .chain(around(
+            Vector3::new(10.0, -3.0, 0.0),
+            1.3,
+            std::f64::consts::FRAC_PI_2,
+            0.0,
+        ))
+        .chain([Vector3::new(16.0, -3.0, 0.0)])
+        .collect();
+    let (mut accepted, mut locked, mut contacts) = (0u32, 0u32, 0u64);
     for w in waypoints {
         let from = c.head();
-        for k in 1..=50 {
-            let t = from + (w - from) * (k as f64 / 50.0);
-            let _ = move_joint_colliding(&mut c, 20, t, &MoveOptions::default(), &model, &mut ws);
+        let steps = ((w - from).norm() / 0.1).ceil().max(1.0) as u32;
+        for k in 1..=steps {
+            let t = from + (w - from) * (f64::from(k) / f64::from(steps));
+            match move_joint_colliding(&mut c, 20, t, &MoveOptions::default(), &model, &mut ws) {
+                Ok(o) => {
+                    accepted += 1;
+                    contacts += u64::from(o.contacts);
+                }
+                Err(ChainError::Locked { .. }) => locked += 1,
+                Err(e) => panic!("{e}"),
+            }
             for p in c.positions() {
                 assert!(p.z >= -1.0 + 0.1 * 0.99 - 1e-12, "below the table: {p:?}");
             }
@@ -218,6 +259,13 @@ fn obstacles_are_avoided_and_a_hand_inside_one_is_locked() {
             }
         }
     }
+    // The sweep was carried out (moves accepted) and the obstacles were met (contacts resolved).
+    eprintln!("obstacle sweep: {accepted} accepted, {locked} locked, {contacts} contacts");
+    assert!(
+        accepted >= 9 * (accepted + locked) / 10,
+        "{accepted} accepted, {locked} locked"
+    );
+    assert!(contacts > 0, "the rope never met an obstacle");
     // The hand itself driven into the ball cannot be satisfied: locked, nothing changes.
     let before = c.clone();
     let e = move_joint_colliding(
