@@ -283,6 +283,18 @@ impl ChainSet {
             .position(|s| s.name == name)
             .map(|i| i as u32)
     }
+    /// The sizes the ports must hold: the most elements in a response (joints and rotations of the
+    /// longest chain) and the most joints in a state sample.
+    pub fn response_sizes(&self) -> (usize, usize) {
+        let links = self
+            .specs
+            .iter()
+            .map(|s| s.lengths.len())
+            .max()
+            .unwrap_or(1);
+        (2 * links + 1, links + 1)
+    }
+
     /// Joints of a chain (`n_links + 1`).
     pub fn n_joints(&self, chain: u32) -> usize {
         self.specs[chain as usize].lengths.len() + 1
@@ -316,17 +328,7 @@ impl ChainSet {
             ));
         }
         let Some(chain) = req.chain() else {
-            return Ok(Outcome {
-                chain: None,
-                changed: false,
-                joints: 0,
-                angles: 0,
-                substeps: 0,
-                paper_fallbacks: 0,
-                iterations: 0,
-                residual: Residual::None,
-                describe: false,
-            });
+            return Ok(Outcome::default());
         };
         let n_links = self.specs[chain as usize].lengths.len() as u32;
         let g = &mut self.geometry[chain as usize];
@@ -334,12 +336,7 @@ impl ChainSet {
             chain: Some(chain),
             changed: req.changes_state(),
             joints: n_links + 1,
-            angles: 0,
-            substeps: 0,
-            paper_fallbacks: 0,
-            iterations: 0,
-            residual: Residual::None,
-            describe: false,
+            ..Outcome::default()
         };
         if outcome.changed {
             // Armed before the kernel runs, so that a panic inside it can be undone too.

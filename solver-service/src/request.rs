@@ -89,7 +89,7 @@ impl Request<'_> {
 }
 
 /// What an accepted request did.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Outcome {
     /// The chain (`None` for a snapshot).
     pub chain: Option<u32>,
@@ -112,9 +112,10 @@ pub struct Outcome {
 }
 
 /// The distance between where a joint should be and where it is.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum Residual {
     /// Not applicable (zero on the wire).
+    #[default]
     None,
     /// Known from the kernel (a reach).
     Known(f64),

@@ -193,19 +193,10 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
         }
         store = Some(s);
     }
-    let max_links = set
-        .specs()
-        .iter()
-        .map(|s| s.lengths.len())
-        .max()
-        .unwrap_or(1);
+    let (elements, joints) = set.response_sizes();
     let iox = shared::iceoryx_config(&cfg.prefix)?;
-    let (ports, stale) = ServerPorts::<ipc::Service>::open(
-        &iox,
-        "tractrix-solver",
-        2 * max_links + 1,
-        Some(max_links + 1),
-    )?;
+    let (ports, stale) =
+        ServerPorts::<ipc::Service>::open(&iox, "tractrix-solver", elements, Some(joints))?;
     if stale > 0 {
         eprintln!("solver-service: cleaned the resources of {stale} dead process(es)");
     }

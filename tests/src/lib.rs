@@ -149,17 +149,12 @@ impl InProcess {
             std::thread::spawn(move || -> Result<(), String> {
                 let set = ChainSet::new(&default_scene())?;
                 let iox = shared::iceoryx_config(&prefix)?;
-                let links = set
-                    .specs()
-                    .iter()
-                    .map(|s| s.lengths.len())
-                    .max()
-                    .unwrap_or(1);
+                let (elements, joints) = set.response_sizes();
                 let (ports, _) = ServerPorts::<local::Service>::open(
                     &iox,
                     "tractrix-solver-in-process",
-                    2 * links + 1,
-                    Some(links + 1),
+                    elements,
+                    Some(joints),
                 )?;
                 let mut solver = Solver::new(set, None, Duration::ZERO);
                 let _ = tx.send(());
