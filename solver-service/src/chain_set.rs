@@ -199,8 +199,6 @@ impl ChainSet {
                 ref options,
                 ..
             } => {
-                let start: Vec3 =
-                    each_form!(&self.geometry[chain as usize], h => to_wire(&h.chain.joint(joint)));
                 // Collision splits a move so that the hand moves at most half a clearance per substep.
                 let half_clearance = spec.collision.as_ref().map(|c| {
                     let link = match c.options.scheme {
@@ -213,8 +211,22 @@ impl ChainSet {
                         0.5 * link
                     }
                 });
+                if let (tractrix::Substeps::Fixed(k), None) = (options.substeps, half_clearance) {
+                    // Fixed substeps, no collision: the distances do not matter (no walk to the joint).
+                    if k > options.max_substeps {
+                        return Err(ChainError::TooManySubsteps {
+                            required: u64::from(k),
+                            limit: options.max_substeps,
+                        }
+                        .into());
+                    }
+                    let substeps = u64::from(k).saturating_mul(targets.len() as u64);
+                    return Ok(n.saturating_mul(substeps));
+                }
                 let mut substeps = 0u64;
-                let mut from = start;
+                // Where the joint is now: one walk along the chain, for the substeps that depend on it.
+                let mut from: Vec3 =
+                    each_form!(&self.geometry[chain as usize], h => to_wire(&h.chain.joint(joint)));
                 for t in targets {
                     let d =
                         ((t.x - from.x).powi(2) + (t.y - from.y).powi(2) + (t.z - from.z).powi(2))
