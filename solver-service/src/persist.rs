@@ -316,21 +316,27 @@ impl Store {
         };
         let jpath = self.journal_path();
         if jpath.exists() {
-            let bound = 16 + (MAX_RECORD_BYTES as u64 + 8) * (1 << 24);
-            let bytes = read_bounded(&jpath, bound)?;
-            if bytes.len() < 8 || bytes[..8] != JOURNAL_MAGIC {
+            // Streamed record by record: memory is bounded by one record, whatever the journal's size.
+            let file = File::open(&jpath).map_err(|e| io(&jpath, "cannot open", e))?;
+            let file_len = file
+                .metadata()
+                .map_err(|e| io(&jpath, "cannot stat", e))?
+                .len();
+            let mut input = std::io::BufReader::new(file);
+            let mut magic = [0u8; 8];
+            if input.read_exact(&mut magic).is_err() || magic != JOURNAL_MAGIC {
                 return Err(io(&jpath, "not a journal", "wrong magic number"));
             }
-            let mut at = 8;
+            let mut at = 8u64;
             // Records were accepted under the budget of their time: replay them whatever today's is.
             let budget = set.budget();
             set.set_budget(u64::MAX);
-            while at < bytes.len() {
-                let Some(rec) = next_record(&bytes, at) else {
-                    restored.dropped_tail_bytes = (bytes.len() - at) as u64;
+            let mut body = Vec::new();
+            while at < file_len {
+                let Some((rec, len)) = next_record(&mut input, &mut body) else {
+                    restored.dropped_tail_bytes = file_len - at;
                     break;
                 };
-                let (rec, len) = rec;
                 at += len;
                 if rec.sequence <= set.sequence() {
                     continue;
@@ -401,19 +407,24 @@ fn snapshot_bound(set: &ChainSet) -> u64 {
         .sum::<u64>()
 }
 
-fn next_record(bytes: &[u8], at: usize) -> Option<(Record, usize)> {
-    let head = bytes.get(at..at + 8)?;
-    let n = u32::from_le_bytes(head[0..4].try_into().ok()?) as usize;
-    let crc = u32::from_le_bytes(head[4..8].try_into().ok()?);
+/// The next whole record of a journal stream and its length in bytes; `None` at a torn or corrupt
+/// record (or the end). `buf` holds the record's body (at most [`MAX_RECORD_BYTES`]).
+fn next_record(input: &mut impl Read, buf: &mut Vec<u8>) -> Option<(Record, u64)> {
+    let mut head = [0u8; 8];
+    input.read_exact(&mut head).ok()?;
+    let n = u32::from_le_bytes([head[0], head[1], head[2], head[3]]) as usize;
+    let crc = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
     if n > MAX_RECORD_BYTES {
         return None;
     }
-    let body = bytes.get(at + 8..at + 8 + n)?;
-    if crc32fast::hash(body) != crc {
+    buf.resize(n, 0);
+    input.read_exact(&mut buf[..n]).ok()?;
+    if crc32fast::hash(&buf[..n]) != crc {
         return None;
     }
-    let (rec, used): (Record, usize) = bincode::serde::decode_from_slice(body, config()).ok()?;
-    (used == n && rec.points.len() <= MAX_PATH_POINTS as usize).then_some((rec, 8 + n))
+    let (rec, used): (Record, usize) =
+        bincode::serde::decode_from_slice(&buf[..n], config()).ok()?;
+    (used == n && rec.points.len() <= MAX_PATH_POINTS as usize).then_some((rec, 8 + n as u64))
 }
 
 fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>)
