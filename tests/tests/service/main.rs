@@ -13,9 +13,11 @@
 //! * the snake, reach and watch tools, and a locked move on a collision scene (`tools`);
 //! * the latency client against the service, the raw echo and the Unix socket, and the bench driver
 //!   (`latency`);
-//! * SIGTERM and SIGINT in every wait mode, idle and under load, 20 times each (`signals`).
+//! * SIGTERM and SIGINT in every wait mode, idle and under load, 20 times each (`signals`);
+//! * a hostile client beside a 1 kHz client (`hostile`).
 
 mod faults;
+mod hostile;
 mod knots;
 mod latency;
 mod python;
