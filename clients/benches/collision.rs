@@ -25,8 +25,7 @@ use nalgebra::Vector3;
 use std::time::Instant;
 use tractrix::chain::{Chain, MoveOptions};
 use tractrix::collision::{
-    CollisionModel, CollisionOptions, CollisionWorkspace, Scheme, closest_links_apart,
-    move_joint_colliding, neighbour_span,
+    CollisionModel, CollisionOptions, CollisionWorkspace, Scheme, move_joint_colliding,
 };
 use tractrix::knot::identify;
 
@@ -63,10 +62,11 @@ struct Run {
 }
 
 /// The worst penetration of a rope of [`THICKNESS`] through itself, as a fraction of the thickness,
-/// testing every pair of links with at least a thickness of rope between them.
-fn penetration(positions: &[V], len: f64) -> f64 {
-    closest_links_apart(positions, neighbour_span(len, THICKNESS))
-        .map_or(0.0, |(d, _, _)| ((THICKNESS - d) / THICKNESS).max(0.0))
+/// testing every pair of links with at least a thickness of rope between them. Computed by
+/// `clients::check`, which shares no code with the kernel's collision handling it checks.
+fn penetration(positions: &[V]) -> f64 {
+    clients::check::closest_links_with_rope_between(positions, THICKNESS)
+        .map_or(0.0, |d| ((THICKNESS - d) / THICKNESS).max(0.0))
 }
 
 fn run(
@@ -114,7 +114,7 @@ fn run(
             Err(_) => out.locked += 1,
         }
         if check {
-            out.worst = out.worst.max(penetration(&chain.positions(), len));
+            out.worst = out.worst.max(penetration(&chain.positions()));
         }
     }
     out.knot = format!("{:?}", identify(&chain.positions()).kind).to_lowercase();

@@ -67,45 +67,15 @@ fn clearance(p: &[V], link: f64) -> f64 {
             if (p[i] - p[j]).norm_squared() > reach {
                 continue;
             }
-            best = best.min(segment_distance(p[i], p[i + 1], p[j], p[j + 1]));
+            best = best.min(clients::check::segment_distance(
+                p[i],
+                p[i + 1],
+                p[j],
+                p[j + 1],
+            ));
         }
     }
     best
-}
-
-/// Distance between the segments `p1 q1` and `p2 q2` (Ericson, *Real-Time Collision Detection*, 5.1.9),
-/// written here so that the check shares no code with the kernel's collision queries (issue 15).
-fn segment_distance(p1: V, q1: V, p2: V, q2: V) -> f64 {
-    const EPS: f64 = 1e-300;
-    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
-    let (a, e, f) = (d1.dot(&d1), d2.dot(&d2), d2.dot(&r));
-    let (s, t) = if a <= EPS && e <= EPS {
-        (0.0, 0.0)
-    } else if a <= EPS {
-        (0.0, (f / e).clamp(0.0, 1.0))
-    } else {
-        let c = d1.dot(&r);
-        if e <= EPS {
-            ((-c / a).clamp(0.0, 1.0), 0.0)
-        } else {
-            let b = d1.dot(&d2);
-            let denom = a * e - b * b;
-            let s = if denom > 0.0 {
-                ((b * f - c * e) / denom).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let t = (b * s + f) / e;
-            if t < 0.0 {
-                ((-c / a).clamp(0.0, 1.0), 0.0)
-            } else if t > 1.0 {
-                (((b - c) / a).clamp(0.0, 1.0), 1.0)
-            } else {
-                (s, t)
-            }
-        }
-    };
-    ((p1 + d1 * s) - (p2 + d2 * t)).norm()
 }
 
 /// Watches the state stream on its own thread: checks every published state of `chain` and that no
@@ -292,37 +262,5 @@ fn both_throws_the_same_way_tie_a_granny_knot() {
     assert!(
         k.writhe.abs() >= 4,
         "a granny's writhe is far from 0: {k:?}"
-    );
-}
-
-/// The test's own segment distance on cases whose answer is known by hand.
-#[test]
-fn the_tests_segment_distance_is_right_on_known_cases() {
-    let v = V::new;
-    // Crossing at right angles, one above the other.
-    assert!(
-        (segment_distance(v(-1., 0., 0.), v(1., 0., 0.), v(0., -1., 2.), v(0., 1., 2.)) - 2.0)
-            .abs()
-            < 1e-15
-    );
-    // Parallel, overlapping.
-    assert!(
-        (segment_distance(v(0., 0., 0.), v(2., 0., 0.), v(1., 3., 0.), v(3., 3., 0.)) - 3.0).abs()
-            < 1e-15
-    );
-    // Collinear with a gap: end to end.
-    assert!(
-        (segment_distance(v(0., 0., 0.), v(1., 0., 0.), v(3., 0., 0.), v(5., 0., 0.)) - 2.0).abs()
-            < 1e-15
-    );
-    // A point against a segment, beyond its end: 3-4-5.
-    assert!(
-        (segment_distance(v(4., 3., 0.), v(4., 3., 0.), v(-1., 0., 0.), v(0., 0., 0.)) - 5.0).abs()
-            < 1e-15
-    );
-    // Skew lines whose closest points are interior.
-    assert!(
-        (segment_distance(v(0., 0., 0.), v(2., 2., 0.), v(2., 0., 1.), v(0., 2., 1.)) - 1.0).abs()
-            < 1e-15
     );
 }
