@@ -28,17 +28,6 @@ pub enum ClientWait {
     Hybrid(Duration),
 }
 
-impl ClientWait {
-    pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "spin" => Ok(ClientWait::Spin),
-            "event" => Ok(ClientWait::Event),
-            "hybrid" => Ok(ClientWait::Hybrid(Duration::from_micros(50))),
-            _ => Err(format!("wait mode {s:?}: expected spin, event or hybrid")),
-        }
-    }
-}
-
 /// Connection options.
 #[derive(Debug, Clone)]
 pub struct ConnectOptions {

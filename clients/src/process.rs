@@ -4,7 +4,7 @@
 
 use anyhow::{Context, Result, bail};
 use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, ChildStdout, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -27,13 +27,8 @@ pub struct Proc {
 impl Proc {
     /// Spawns `cmd` with a piped stdout and waits at most [`START_TIMEOUT`] for a line containing
     /// "ready".
-    pub fn ready(mut cmd: Command, what: &str) -> Result<Proc> {
-        let mut child = cmd
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .with_context(|| format!("start {what}"))?;
-        let out = child.stdout.take().context("piped stdout")?;
+    pub fn ready(cmd: Command, what: &str) -> Result<Proc> {
+        let (child, out) = spawn_piped(cmd, what)?;
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || {
             for line in BufReader::new(out).lines().map_while(Result::ok) {
@@ -112,14 +107,20 @@ impl Drop for Proc {
     }
 }
 
-/// Runs a process to its end (deadline `timeout`) and returns its last stdout line.
-pub fn output_line(mut cmd: Command, what: &str, timeout: Duration) -> Result<String> {
+/// Spawns `cmd` with its stdout piped to this process (stderr inherited).
+fn spawn_piped(mut cmd: Command, what: &str) -> Result<(Child, ChildStdout)> {
     let mut child = cmd
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
         .with_context(|| format!("start {what}"))?;
     let out = child.stdout.take().context("piped stdout")?;
+    Ok((child, out))
+}
+
+/// Runs a process to its end (deadline `timeout`) and returns its last stdout line.
+pub fn output_line(cmd: Command, what: &str, timeout: Duration) -> Result<String> {
+    let (mut child, out) = spawn_piped(cmd, what)?;
     let reader = std::thread::spawn(move || {
         BufReader::new(out)
             .lines()

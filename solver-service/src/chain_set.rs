@@ -307,11 +307,6 @@ impl ChainSet {
         (2 * links + 1, links + 1)
     }
 
-    /// Joints of a chain (`n_links + 1`).
-    pub fn n_joints(&self, chain: u32) -> usize {
-        self.specs[chain as usize].lengths.len() + 1
-    }
-
     /// Checks a wire request against the scene ([`request::decode`]).
     pub fn decode<'a>(
         &self,

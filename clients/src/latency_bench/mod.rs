@@ -61,10 +61,6 @@ pub fn scene(sizes: &[u32]) -> String {
     s
 }
 
-fn mode_name(m: WaitMode) -> &'static str {
-    m.name()
-}
-
 fn us(ns: u64) -> String {
     format!("{:.1}", ns as f64 / 1000.0)
 }
@@ -141,7 +137,7 @@ pub fn run(cfg: &BenchConfig, out: &mut impl Write) -> Result<()> {
         let chain = format!("rope{n}");
         for &mode in &cfg.modes {
             // Side by side: the raw echo, then the service, in the same wait mode.
-            let wait = mode_name(mode);
+            let wait = mode.name();
             let prefix = format!("{tag}r{n}{wait}_");
             let mut raw = Command::new(cfg.bin_dir.join("solver-service"));
             raw.args(["echo", "--prefix", &prefix, "--wait", wait])
@@ -214,8 +210,8 @@ pub fn run(cfg: &BenchConfig, out: &mut impl Write) -> Result<()> {
         let unix = find("service, Unix socket", "blocking read");
         for &mode in &cfg.modes {
             let (Some(raw), Some(svc)) = (
-                find("raw iceoryx2", mode_name(mode)),
-                find("service, iceoryx2", mode_name(mode)),
+                find("raw iceoryx2", mode.name()),
+                find("service, iceoryx2", mode.name()),
             ) else {
                 continue;
             };
@@ -225,7 +221,7 @@ pub fn run(cfg: &BenchConfig, out: &mut impl Write) -> Result<()> {
             writeln!(
                 out,
                 "| {n} | {} | {:.2} | {:.2} | {} |",
-                mode_name(mode),
+                mode.name(),
                 s / r,
                 s / (r + solve),
                 unix.map(|u| format!("{:.2}", u.s.round_trip.p50 as f64 / s))
