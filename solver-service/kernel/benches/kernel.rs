@@ -1,9 +1,9 @@
 //! The kernel's cost per link per substep: the closed-form tractrix, the paper's TRACTRIX3D and
 //! follow-the-leader, in f64 and f32, on chains of 10, 40, 1000 and 10⁶ links, measured side by side.
 //!
-//! `cargo bench -p tractrix --bench kernel` prints one row per (links, precision, method): the
-//! median and p99 over batches of ns per link per substep, and the ratio of medians to follow-the-leader
-//! of the same size and precision. Each batch is a run of head moves (a third of a link each, one
+//! `cargo bench -p tractrix --bench kernel` prints a Markdown table (as BENCHMARKS.md shows it), one
+//! row per (links, precision, method): the median and the slowest of the batches' mean ns per link per
+//! substep, and the ratio of medians to follow-the-leader of the same size and precision. Each batch is a run of head moves (a third of a link each, one
 //! substep) along a wide helix, timed as a whole so the clock's own cost (~20 ns) does not count; methods
 //! are interleaved batch by batch. `KERNEL_BENCH_SCALE` (default 1.0) scales the work per row.
 
@@ -92,17 +92,27 @@ fn row<T: Real>(n: usize, precision: &str, scale: f64) {
         }
     }
     let ftl = pct(&mut ns[2].clone(), 0.5);
+    let size = if n == 1_000_000 {
+        "10⁶".to_string()
+    } else {
+        n.to_string()
+    };
     for (i, m) in methods.iter().enumerate() {
         let med = pct(&mut ns[i], 0.5);
         println!(
-            "{:>9} {:<6} {:<18} {:>9.2} {:>9.2} {:>7.2}",
-            n,
-            precision,
-            format!("{m:?}"),
-            med,
-            pct(&mut ns[i], 0.99),
+            "| {size} | {precision} | {} | {batches} | {med:.1} | {:.1} | {:.2} |",
+            describe(*m),
+            pct(&mut ns[i], 1.0),
             med / ftl
         );
+    }
+}
+
+fn describe(m: Method) -> &'static str {
+    match m {
+        Method::Tractrix => "closed-form tractrix",
+        Method::TractrixPaper => "paper's TRACTRIX3D",
+        Method::FollowTheLeader => "follow-the-leader",
     }
 }
 
@@ -113,13 +123,14 @@ fn main() {
         .filter(|s: &f64| s.is_finite() && *s > 0.0)
         .unwrap_or(1.0);
     println!(
-        "ns per link per substep, head moves of 1/3 link along a helix \
-         (cargo bench -p tractrix --bench kernel)"
+        "Head moves of a third of a link along a helix, one substep each; each batch (~{BATCH_WORK} \
+         link-steps) timed as a whole, methods interleaved batch by batch; ns per link per substep:\n"
     );
     println!(
-        "{:>9} {:<6} {:<18} {:>9} {:>9} {:>7}",
-        "links", "prec", "method", "median", "p99", "÷ FTL"
+        "| links | precision | method | batches | median of batch means (ns) | slowest batch mean (ns) \
+         | median ÷ follow-the-leader's |"
     );
+    println!("|---:|---|---|---:|---:|---:|---:|");
     for n in [10usize, 40, 1000, 1_000_000] {
         row::<f64>(n, "f64", scale);
         row::<f32>(n, "f32", scale);

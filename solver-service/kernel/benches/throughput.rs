@@ -89,8 +89,14 @@ fn stats(v: &mut [f64]) -> (f64, f64) {
 
 fn main() {
     let batches = 30;
-    println!("### Wavefront over substeps: one rope of 1000 links, ns per link-step\n");
-    println!("| substeps k | substep after substep | wavefront | ÷ (speed-up) |");
+    println!(
+        "### Wavefront over substeps: one rope of 1000 links, ns per link-step \
+         (medians of {batches} batches)\n"
+    );
+    println!(
+        "| substeps k | substep after substep, median ns | wavefront, median ns \
+         | speed-up (after ÷ wavefront) |"
+    );
     println!("|---:|---:|---:|---:|");
     for k in [1usize, 2, 4, 8, 16, 32] {
         let mut a = rope(1000);
@@ -127,8 +133,13 @@ fn main() {
         println!("| {k} | {s50:.1} | {w50:.1} | {:.2} |", s50 / w50);
     }
 
-    println!("\n### Hair: 10⁴ strands of 20 links, every head moved, ns per link-step\n");
-    println!("| strands in flight G | median | p90 | ÷ (speed-up over G = 1) |");
+    println!(
+        "\n### Hair: 10⁴ strands of 20 links, every head moved, ns per link-step \
+         ({batches} batches)\n"
+    );
+    println!(
+        "| strands in flight G | median ns | p90 of batches, ns | speed-up over G = 1 (medians) |"
+    );
     println!("|---:|---:|---:|---:|");
     let strands = 10_000;
     let links = 20;

@@ -18,7 +18,18 @@
 //! head to the tail; a tail move from the tail to the head; an interior joint splits the chain into two
 //! parts that both follow outward (remark 2). A move can be split into substeps ([`Substeps`]); the moved
 //! joint lands exactly on its target. A move allocates nothing.
+//!
+//! # Holds
+//!
+//! Joints can be *held* ([`Chain::hold`]): an anchor in tissue, a grasp of a hand. A held joint stores
+//! its position as the state of the prefix sum at that joint, so it and every joint beyond it up to
+//! the next moved link are bit for bit unchanged by moves elsewhere, and positions are summed from the
+//! nearest held joint before them. A move of joint `m` with holds splits the chain at `m`; on each side
+//! the links up to the nearest held joint form a fixed-base chain whose base is that joint, solved by
+//! the paper's fixed-base method ([`crate::fixed_base::reach`]); a side with no held joint follows
+//! freely, exactly as without holds ([`crate::hold`]).
 
+use crate::fixed_base::ReachOptions;
 use crate::link::{Method, step};
 use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
 
@@ -43,14 +54,19 @@ pub struct MoveOptions<T> {
     /// Upper bound on substeps per move; a move that would need more is refused (`TooManySubsteps`)
     /// rather than spinning. Each substep costs one pass over the chain.
     pub max_substeps: u32,
+    /// How the sides of a move that end at a held joint are solved ([`crate::hold`]): strategy,
+    /// tolerance, iteration limit and when the reach hierarchy finishes. Its `method` and `substeps` are
+    /// the move's own. Unused without held joints.
+    pub held: ReachOptions<T>,
 }
 
-impl<T> Default for MoveOptions<T> {
+impl<T: Real> Default for MoveOptions<T> {
     fn default() -> Self {
         MoveOptions {
             method: Method::Tractrix,
             substeps: Substeps::Fixed(1),
             max_substeps: 1 << 16,
+            held: ReachOptions::default(),
         }
     }
 }
@@ -66,6 +82,8 @@ pub struct MoveOutcome {
     pub collision_iterations: u32,
     /// Contacts pushed apart, summed over passes and substeps.
     pub contacts: u32,
+    /// Fixed-base iterations spent on the sides that end at a held joint (0 without holds).
+    pub held_iterations: u32,
 }
 
 /// Why a chain could not be built or moved. A failed move leaves the chain unchanged.
@@ -104,6 +122,27 @@ pub enum ChainError {
     /// An option is out of range.
     #[error("invalid option: {0}")]
     BadOption(&'static str),
+    /// The target is farther from a held joint than the rope between them (or nearer than the rope can
+    /// fold): nothing moved; `nearest` is the nearest point the moved joint can reach.
+    #[error(
+        "target unreachable from held joint {held}: {residual:e} outside; nearest reachable point {nearest:?}"
+    )]
+    HeldUnreachable {
+        /// The held joint that limits the move.
+        held: usize,
+        /// The nearest reachable point (x, y, z; z = 0 for a planar chain).
+        nearest: [f64; 3],
+        /// Distance from the target to it.
+        residual: f64,
+    },
+    /// The fixed-base solution of a held side did not converge within its iteration limit.
+    #[error("held side not converged after {iterations} iterations, residual {residual:e}")]
+    HeldNotConverged {
+        /// Iterations spent.
+        iterations: u32,
+        /// Distance from the target when they ran out.
+        residual: f64,
+    },
     /// Collision handling could not separate the links within its iteration limit: the chain is
     /// "locked" (section 4.2) and the move is refused.
     #[error(
@@ -126,6 +165,8 @@ pub struct Chain<T: Real, const D: usize> {
     links: Vec<Vector<T, D>>,
     lengths: Vec<T>,
     min_length: T,
+    /// Held joints, ascending, each with the prefix sum's state at it (positions restart there).
+    pins: Vec<(usize, CompensatedSum<T, D>)>,
 }
 
 impl<T: Real, const D: usize> Chain<T, D>
@@ -216,6 +257,7 @@ where
             links,
             lengths,
             min_length,
+            pins: Vec::new(),
         }
     }
 
@@ -227,6 +269,7 @@ where
             self.links.copy_from_slice(&other.links);
             self.lengths.copy_from_slice(&other.lengths);
             self.min_length = other.min_length;
+            self.pins.clone_from(&other.pins);
         } else {
             *self = other.clone();
         }
@@ -267,13 +310,111 @@ where
         self.lengths.iter().fold(T::zero(), |a, &b| a + b)
     }
 
-    /// Position of joint `i` (O(i), compensated sum).
+    /// Position of joint `i` (O(i), compensated sum from the nearest held joint at or before it).
     pub fn joint(&self, i: usize) -> Vector<T, D> {
-        let mut acc = CompensatedSum::new(self.origin);
-        for l in &self.links[..i] {
+        self.sum_at(i).value()
+    }
+
+    /// The prefix sum's state at joint `i`: from the nearest held joint at or before `i` (or joint 0).
+    pub(crate) fn sum_at(&self, i: usize) -> CompensatedSum<T, D> {
+        let (mut acc, from) = match self.pins.iter().rev().find(|p| p.0 <= i) {
+            Some(&(j, s)) => (s, j),
+            None => (CompensatedSum::new(self.origin), 0),
+        };
+        for l in &self.links[from..i] {
             acc.add(l);
         }
-        acc.value()
+        acc
+    }
+
+    /// Holds joint `joint` where it is (an anchor, a grasp): moves elsewhere leave it, and every joint
+    /// beyond it toward the next moved part, bit for bit where they are. Holding changes no position.
+    /// Holding a held joint again changes nothing.
+    pub fn hold(&mut self, joint: usize) -> Result<(), ChainError> {
+        self.check_joint(joint)?;
+        match self.pins.binary_search_by_key(&joint, |p| p.0) {
+            Ok(_) => {}
+            Err(at) => {
+                let state = self.sum_at(joint);
+                self.pins.insert(at, (joint, state));
+            }
+        }
+        Ok(())
+    }
+
+    /// Lets joint `joint` go; returns whether it was held. Positions beyond it are summed from the joint
+    /// held before it again, which moves them by rounding only (ulps).
+    pub fn release(&mut self, joint: usize) -> Result<bool, ChainError> {
+        self.check_joint(joint)?;
+        match self.pins.binary_search_by_key(&joint, |p| p.0) {
+            Ok(at) => {
+                self.pins.remove(at);
+                Ok(true)
+            }
+            Err(_) => Ok(false),
+        }
+    }
+
+    /// Lets every held joint go.
+    pub fn release_all(&mut self) {
+        self.pins.clear();
+    }
+
+    /// Whether joint `joint` is held.
+    pub fn is_held(&self, joint: usize) -> bool {
+        self.pins.binary_search_by_key(&joint, |p| p.0).is_ok()
+    }
+
+    /// The held joints, ascending.
+    pub fn held(&self) -> impl ExactSizeIterator<Item = usize> + '_ {
+        self.pins.iter().map(|p| p.0)
+    }
+
+    /// The `k`-th held joint (ascending) and the prefix sum's state there, from which positions restart
+    /// (for callers that sum positions themselves, like the service's response writer).
+    pub fn held_state(&self, k: usize) -> Option<(usize, CompensatedSum<T, D>)> {
+        self.pins.get(k).copied()
+    }
+
+    /// The held joints with the prefix sum's state at each (sum, carry): what a snapshot stores.
+    pub fn held_raw(&self) -> impl Iterator<Item = (usize, Vector<T, D>, Vector<T, D>)> + '_ {
+        self.pins.iter().map(|(j, s)| {
+            let (sum, carry) = s.parts();
+            (*j, sum, carry)
+        })
+    }
+
+    /// Restores held joints stored by [`Chain::held_raw`], bit for bit. Fails, changing nothing, unless
+    /// the joints ascend, are in range, and each is finite and where the links put it (within `√ε` of
+    /// the chain's extent: the parts came from this chain).
+    pub fn set_held_raw(
+        &mut self,
+        held: &[(usize, Vector<T, D>, Vector<T, D>)],
+    ) -> Result<(), ChainError> {
+        let extent = self.total_length() + self.origin.norm();
+        let tol = T::EPSILON.sqrt() * (T::one() + extent);
+        let mut pins = Vec::with_capacity(held.len());
+        for (k, &(j, sum, carry)) in held.iter().enumerate() {
+            self.check_joint(j)?;
+            if k > 0 && held[k - 1].0 >= j {
+                return Err(ChainError::BadOption("held joints must ascend"));
+            }
+            if !all_finite(&sum) || !all_finite(&carry) {
+                return Err(ChainError::NonFinite);
+            }
+            let state = CompensatedSum::from_parts(sum, carry);
+            // Where the links before it put the joint (from the pins restored so far).
+            let mut probe = self.clone();
+            probe.pins.clone_from(&pins);
+            if (probe.joint(j) - state.value()).norm() > tol {
+                return Err(ChainError::BadOption(
+                    "a held joint is not where its links put it",
+                ));
+            }
+            pins.push((j, state));
+        }
+        self.pins = pins;
+        Ok(())
     }
 
     /// Position of the head joint.
@@ -287,8 +428,20 @@ where
     pub fn write_positions(&self, out: &mut [Vector<T, D>]) {
         let mut acc = CompensatedSum::new(self.origin);
         out[0] = self.origin;
-        for (o, l) in out[1..=self.links.len()].iter_mut().zip(&self.links) {
+        let mut pins = self.pins.iter().peekable();
+        if let Some(&(_, s)) = pins.next_if(|p| p.0 == 0) {
+            acc = s;
+            out[0] = s.value();
+        }
+        for (i, (o, l)) in out[1..=self.links.len()]
+            .iter_mut()
+            .zip(&self.links)
+            .enumerate()
+        {
             acc.add(l);
+            if let Some(&(_, s)) = pins.next_if(|p| p.0 == i + 1) {
+                acc = s;
+            }
             *o = acc.value();
         }
     }
@@ -333,7 +486,8 @@ where
         Ok(())
     }
 
-    /// Moves the origin (joint 0) to `p` without rotating any link: a rigid translation.
+    /// Moves the origin (joint 0) to `p` without rotating any link: a rigid translation (of the part
+    /// before the first held joint: held joints stay).
     pub fn translate_to(&mut self, p: Vector<T, D>) {
         self.origin = p;
     }
@@ -393,9 +547,45 @@ where
         if !all_finite(&target) {
             return Err(ChainError::NonFinite);
         }
+        if self.held_elsewhere(joint) {
+            return crate::hold::move_held(self, joint, target, opts);
+        }
         let delta = target - self.joint(joint);
         let k = self.substep_count(&delta, opts)?;
-        Ok(self.apply_move(joint, target, delta, k, opts.method))
+        let outcome = self.apply_move(joint, target, delta, k, opts.method);
+        self.repin(joint);
+        Ok(outcome)
+    }
+
+    /// Whether a joint other than `joint` is held (a move of `joint` then needs the held solution).
+    pub(crate) fn held_elsewhere(&self, joint: usize) -> bool {
+        self.pins.iter().any(|p| p.0 != joint)
+    }
+
+    /// If `joint` is held, re-records its pin where the links now put it (after a move of it).
+    pub(crate) fn repin(&mut self, joint: usize) {
+        if let Ok(at) = self.pins.binary_search_by_key(&joint, |p| p.0) {
+            self.pins.remove(at);
+            let state = self.sum_at(joint);
+            self.pins.insert(at, (joint, state));
+        }
+    }
+
+    /// The held joints nearest to `m` below and above it (not `m` itself).
+    pub(crate) fn held_around(&self, m: usize) -> (Option<usize>, Option<usize>) {
+        let lo = self.pins.iter().rev().map(|p| p.0).find(|&j| j < m);
+        let hi = self.pins.iter().map(|p| p.0).find(|&j| j > m);
+        (lo, hi)
+    }
+
+    /// Sets the origin (joint 0) so that the compensated sum of the links before `joint` puts `joint` at
+    /// `at` (for a chain with no held joint before `joint`).
+    pub(crate) fn place_origin_from(&mut self, joint: usize, at: Vector<T, D>) {
+        let mut acc = CompensatedSum::new(at);
+        for l in &self.links[..joint] {
+            acc.add(&-l);
+        }
+        self.origin = acc.value();
     }
 
     /// Moves joint `joint` through `targets` in order, one straight move per target. Every target and
@@ -416,6 +606,24 @@ where
             from = *t;
         }
         let mut total = MoveOutcome::default();
+        if self.held_elsewhere(joint) {
+            // Each target may be refused (out of the held rope's reach): all or nothing.
+            let before = self.clone();
+            for t in targets {
+                match crate::hold::move_held(self, joint, *t, opts) {
+                    Ok(o) => {
+                        total.substeps = total.substeps.saturating_add(o.substeps);
+                        total.paper_fallbacks =
+                            total.paper_fallbacks.saturating_add(o.paper_fallbacks);
+                    }
+                    Err(e) => {
+                        *self = before;
+                        return Err(e);
+                    }
+                }
+            }
+            return Ok(total);
+        }
         for t in targets {
             let delta = t - self.joint(joint);
             let k = self.substep_count(&delta, opts)?;
@@ -423,6 +631,7 @@ where
             total.substeps = total.substeps.saturating_add(o.substeps);
             total.paper_fallbacks = total.paper_fallbacks.saturating_add(o.paper_fallbacks);
         }
+        self.repin(joint);
         Ok(total)
     }
 
@@ -469,10 +678,21 @@ where
     /// Returns the number of paper-form fallbacks. The origin is not updated (callers place it).
     pub(crate) fn sweep(&mut self, m: usize, s: &Vector<T, D>, method: Method) -> u32 {
         let (fallbacks, _) = self.sweep_tail_side(m, s, method, 0);
-        // Toward the head: the moving end of link index i is joint i, its trailing end joint i+1.
-        let mut fallbacks = fallbacks;
+        fallbacks + self.sweep_head_side(m, s, method, self.links.len())
+    }
+
+    /// Joint `m` moves by `s`; links with 0-based index `m..hi` follow toward the head (the moving end of
+    /// link index `i` is joint `i`, its trailing end joint `i+1`). Returns the fallbacks.
+    pub(crate) fn sweep_head_side(
+        &mut self,
+        m: usize,
+        s: &Vector<T, D>,
+        method: Method,
+        hi: usize,
+    ) -> u32 {
+        let mut fallbacks = 0;
         let mut shift = *s;
-        for i in m..self.links.len() {
+        for i in m..hi {
             let (st, fb) = step(method, &self.links[i], &shift, self.lengths[i]);
             self.links[i] = st.link;
             shift = st.tail_shift;

@@ -235,6 +235,7 @@ where
         method: opts.method,
         substeps: Substeps::Fixed(opts.substeps),
         max_substeps: opts.substeps,
+        held: *opts,
     };
     let mut residual = (chain.head() - target).norm();
     let mut last = residual;
@@ -352,7 +353,7 @@ fn verdict<T: Real, const D: usize>(
 /// `[|a1 − a2|, a1 + a2]`, else on the annulus's nearest point). The elbow stays on the side of the
 /// current first link `cur` (continuity; in space, the nearest point of the elbow circle). The cosine is
 /// clamped so the stretched-out and folded singular poses give a straight or folded pair, never NaN.
-fn two_link<T: Real, const D: usize>(
+pub(crate) fn two_link<T: Real, const D: usize>(
     base: &Vector<T, D>,
     goal: &Vector<T, D>,
     a1: T,

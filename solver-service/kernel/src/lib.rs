@@ -22,6 +22,8 @@
 //! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a hash grid), in query,
 //!   grid and resolve modules.
 //! * [`fixed_base`]: fixed-base manipulators, both of the paper's strategies, workspace checks.
+//! * [`hold`]: moves with held joints (anchors, grasps): each side up to a held joint solved as a
+//!   fixed-base chain.
 //! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
 //! * [`angles`]: joint angles (eq. 15, relative rotations).
 //! * `pseudo_inverse` (feature `reference`): the damped-least-squares resolved-rate baseline of Korein &
@@ -40,6 +42,7 @@ pub mod collision;
 pub mod fixed_base;
 #[cfg(feature = "reference")]
 pub mod ground_truth;
+pub mod hold;
 pub mod knot;
 pub mod link;
 pub mod math;

@@ -109,7 +109,7 @@ pub fn all_finite<T: Real, const D: usize>(v: &Vector<T, D>) -> bool {
 /// Compensated (Neumaier) summation of vectors: the sum of `n` terms is accurate to a few ulps of the
 /// result instead of `n` ulps. Turning a million link vectors into positions needs it; for 40 links it
 /// costs a few flops per joint.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CompensatedSum<T: Real, const D: usize> {
     sum: Vector<T, D>,
     carry: Vector<T, D>,
@@ -143,5 +143,13 @@ impl<T: Real, const D: usize> CompensatedSum<T, D> {
     #[inline]
     pub fn value(&self) -> Vector<T, D> {
         self.sum + self.carry
+    }
+    /// The running sum and its carry (what a snapshot stores to resume the sum bit for bit).
+    pub fn parts(&self) -> (Vector<T, D>, Vector<T, D>) {
+        (self.sum, self.carry)
+    }
+    /// Resumes a sum from its [`CompensatedSum::parts`].
+    pub fn from_parts(sum: Vector<T, D>, carry: Vector<T, D>) -> Self {
+        CompensatedSum { sum, carry }
     }
 }

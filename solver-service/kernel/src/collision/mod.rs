@@ -222,6 +222,9 @@ where
     if delta.iter().all(|c| *c == T::zero()) {
         return Ok(MoveOutcome::default());
     }
+    if chain.held_elsewhere(joint) {
+        return move_held_colliding(chain, joint, start, target, k, opts, model, ws);
+    }
     ws.backup_links.clear();
     ws.backup_links.extend_from_slice(chain.links());
     let backup_origin = chain.origin();
@@ -243,7 +246,7 @@ where
             start + sd * T::lit(s as f64)
         };
         positions_from(chain, joint, hand, &mut ws.pos);
-        match resolve(chain, joint, model, ws) {
+        match resolve(chain, joint, &[], model, ws) {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
                     outcome.collision_iterations.saturating_add(iterations);
@@ -260,6 +263,78 @@ where
             }
         }
         chain.translate_to(ws.pos[0]);
+    }
+    // The hand may hold the joint it moves: its pin follows it.
+    chain.repin(joint);
+    Ok(outcome)
+}
+
+/// [`move_joint_colliding`] for a chain with held joints: each substep is a move with holds
+/// ([`crate::hold`]), then contacts are resolved with the hand and the held joints fixed; a contact only
+/// they could resolve locks the move.
+#[allow(clippy::too_many_arguments)]
+fn move_held_colliding<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    start: Vector<T, D>,
+    target: Vector<T, D>,
+    k: u32,
+    opts: &MoveOptions<T>,
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let held: Vec<usize> = chain.held().filter(|&j| j != joint).collect();
+    let backup = chain.clone();
+    let one = MoveOptions {
+        substeps: crate::chain::Substeps::Fixed(1),
+        max_substeps: 1,
+        ..*opts
+    };
+    let sd = (target - start) / T::lit(k as f64);
+    let mut outcome = MoveOutcome {
+        substeps: k,
+        ..MoveOutcome::default()
+    };
+    ws.pos.resize(chain.n_links() + 1, Vector::zeros());
+    for s in 1..=k {
+        let hand = if s == k {
+            target
+        } else {
+            start + sd * T::lit(s as f64)
+        };
+        match crate::hold::move_held(chain, joint, hand, &one) {
+            Ok(o) => {
+                outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(o.paper_fallbacks);
+                outcome.held_iterations = outcome.held_iterations.saturating_add(o.held_iterations);
+            }
+            Err(e) => {
+                *chain = backup;
+                return Err(e);
+            }
+        }
+        chain.write_positions(&mut ws.pos);
+        match resolve(chain, joint, &held, model, ws) {
+            Ok((iterations, contacts)) => {
+                outcome.collision_iterations =
+                    outcome.collision_iterations.saturating_add(iterations);
+                outcome.contacts = outcome.contacts.saturating_add(contacts);
+            }
+            Err((iterations, penetration)) => {
+                *chain = backup;
+                return Err(ChainError::Locked {
+                    substep: s,
+                    iterations,
+                    penetration: penetration.to_f64(),
+                });
+            }
+        }
+        if !chain.is_held(0) {
+            chain.translate_to(ws.pos[0]);
+        }
+        chain.repin(joint);
     }
     Ok(outcome)
 }

@@ -11,13 +11,17 @@ use super::{
     restraighten,
 };
 use crate::chain::Chain;
+use crate::fixed_base::{ReachOptions, ReachWorkspace, reach};
 use crate::math::{Embed3, Real, Vector, positive_finite};
 
-/// Resolution passes on `ws.pos` (positions of the chain after the sweep). Returns the passes that
-/// pushed something and the contacts pushed, or, when locked, the passes and the worst penetration.
+/// Resolution passes on `ws.pos` (positions of the chain after the sweep). The hand's joint `m` and the
+/// `held` joints (ascending, without `m`) never move; a contact that only they could resolve locks.
+/// Returns the passes that pushed something and the contacts pushed, or, when locked, the passes and
+/// the worst penetration.
 pub(super) fn resolve<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     m: usize,
+    held: &[usize],
     model: &CollisionModel<T, D>,
     ws: &mut CollisionWorkspace<T, D>,
 ) -> Result<(u32, u32), (u32, T)>
@@ -35,9 +39,11 @@ where
         }
         let mut pass = Pass {
             m,
+            held,
             tol: opts.tolerance,
             pushed: 0,
             worst: T::zero(),
+            blocked: false,
         };
         if opts.self_collision {
             match opts.scheme {
@@ -48,6 +54,10 @@ where
         for ob in &model.obstacles {
             pass.obstacle(&mut ws.pos, ob, opts);
         }
+        if pass.blocked {
+            // Only a held joint (or the hand) could give way: locked at once.
+            return Err((iterations, pass.worst));
+        }
         if pass.pushed == 0 {
             return Ok((iterations, contacts));
         }
@@ -56,24 +66,115 @@ where
         }
         iterations += 1;
         contacts = contacts.saturating_add(pass.pushed);
-        restraighten(chain, m, &mut ws.pos);
+        if held.is_empty() {
+            restraighten(chain, m, &mut ws.pos);
+        } else if !restraighten_held(chain, m, held, &mut ws.pos) {
+            return Err((iterations, pass.worst));
+        }
     }
+}
+
+/// Re-straightens a chain with held joints after pushes: the parts beyond the outermost fixed joints
+/// (the hand and the held joints) follow the leader outward as without holds; each part between two
+/// fixed joints is solved as a fixed-base chain from the pushed pose (the reach, finished by the
+/// hierarchy) so that it keeps its lengths and meets both fixed joints. `false` if a part cannot.
+fn restraighten_held<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    m: usize,
+    held: &[usize],
+    pos: &mut [Vector<T, D>],
+) -> bool
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = chain.n_links();
+    let mut fixed: Vec<usize> = held.to_vec();
+    if let Err(at) = fixed.binary_search(&m) {
+        fixed.insert(at, m);
+    }
+    let (first, last) = (fixed[0], fixed[fixed.len() - 1]);
+    {
+        let (links, lengths) = chain.links_and_lengths_mut();
+        for i in last..n {
+            let d = pos[i + 1] - pos[i];
+            let len = d.norm();
+            if positive_finite(len) {
+                links[i] = d * (lengths[i] / len);
+            }
+            pos[i + 1] = pos[i] + links[i];
+        }
+        for i in (0..first).rev() {
+            let d = pos[i + 1] - pos[i];
+            let len = d.norm();
+            if positive_finite(len) {
+                links[i] = d * (lengths[i] / len);
+            }
+            pos[i] = pos[i + 1] - links[i];
+        }
+    }
+    let tight = ReachOptions {
+        tolerance: T::EPSILON * T::lit(64.0),
+        ..ReachOptions::default()
+    };
+    let mut ws = ReachWorkspace::default();
+    for w in fixed.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if b == a + 1 {
+            // One link between two fixed joints: nothing can move.
+            continue;
+        }
+        let links: Vec<Vector<T, D>> = (a..b).map(|i| pos[i + 1] - pos[i]).collect();
+        let lengths = chain.lengths()[a..b].to_vec();
+        let Ok(mut part) = Chain::from_parts(pos[a], links, lengths) else {
+            return false;
+        };
+        let goal = pos[b];
+        if reach(&mut part, &goal, &tight, &mut ws).is_err() {
+            return false;
+        }
+        chain.links_mut()[a..b].copy_from_slice(part.links());
+        let links = chain.links_mut();
+        for i in a..b - 2 {
+            pos[i + 1] = pos[i] + links[i];
+        }
+        // The part closes on the fixed joint exactly (the last two links in closed form).
+        let (l1, l2) = crate::fixed_base::two_link(
+            &pos[b - 2],
+            &goal,
+            chain.lengths()[b - 2],
+            chain.lengths()[b - 1],
+            &chain.links()[b - 2],
+        );
+        let links = chain.links_mut();
+        links[b - 2] = l1;
+        links[b - 1] = l2;
+        pos[b - 1] = pos[b - 2] + l1;
+    }
+    true
 }
 
 /// One resolution pass: contacts are pushed as they are found (Gauss–Seidel), each to its clearance
 /// plus half the tolerance so that re-straightening does not bring it straight back.
-struct Pass<T> {
+struct Pass<'a, T> {
     m: usize,
+    /// Held joints (ascending): they do not move either.
+    held: &'a [usize],
     tol: T,
     pushed: u32,
     worst: T,
+    /// A contact only fixed joints could resolve.
+    blocked: bool,
 }
 
-impl<T: Real> Pass<T> {
-    /// Inverse mass of joint `i`: the hand's joint does not move.
+impl<T: Real> Pass<'_, T> {
+    /// Inverse mass of joint `i`: the hand's joint and held joints do not move.
     #[inline]
     fn w(&self, i: usize) -> T {
-        if i == self.m { T::zero() } else { T::one() }
+        if i == self.m || self.held.binary_search(&i).is_ok() {
+            T::zero()
+        } else {
+            T::one()
+        }
     }
 
     /// Records a contact of depth `depth` against clearance `clearance`; `true` when it must be pushed.
@@ -139,6 +240,7 @@ impl<T: Real> Pass<T> {
         let (s1, t1) = (T::one() - s, T::one() - t);
         let den = w0 * s1 * s1 + w1 * s * s + w2 * t1 * t1 + w3 * t * t;
         if den <= T::zero() {
+            self.blocked = true;
             return;
         }
         let lambda = self.push_depth(c - dist, c) / den;
@@ -204,13 +306,18 @@ impl<T: Real> Pass<T> {
         delta: Vector<T, D>,
     ) {
         let two = T::lit(2.0);
-        if k == self.m {
-            pos[k + 1] += delta * two;
-        } else if k + 1 == self.m {
-            pos[k] += delta * two;
-        } else {
-            pos[k] += delta;
-            pos[k + 1] += delta;
+        let (fixed_k, fixed_next) = (self.w(k) == T::zero(), self.w(k + 1) == T::zero());
+        match (fixed_k, fixed_next) {
+            (true, true) => {
+                self.blocked = true;
+                return;
+            }
+            (true, false) => pos[k + 1] += delta * two,
+            (false, true) => pos[k] += delta * two,
+            (false, false) => {
+                pos[k] += delta;
+                pos[k + 1] += delta;
+            }
         }
         self.pushed += 1;
     }
@@ -277,6 +384,7 @@ impl<T: Real> Pass<T> {
             let s1 = T::one() - s;
             let den = w0 * s1 * s1 + w1 * s * s;
             if den <= T::zero() {
+                self.blocked = true;
                 continue;
             }
             let lambda = push / den;

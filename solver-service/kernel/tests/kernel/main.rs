@@ -25,5 +25,6 @@ mod collision;
 mod convergence;
 mod extremes;
 mod fixed_base;
+mod hold;
 mod link;
 mod support;
