@@ -238,7 +238,7 @@ fn main() {
         panels.len(),
     )
     .expect("write the plot");
-    println!("\nPlot: {}", svg.display());
+    println!("\nPlot: `{}`", svg.display());
 }
 
 fn report(s: &Scenario, moves: usize, pts: &[Point]) {
@@ -246,7 +246,9 @@ fn report(s: &Scenario, moves: usize, pts: &[Point]) {
         "\n### {} ({moves} moves; error: largest joint distance from the ground truth at the end, in links)\n",
         s.name
     );
-    println!("| method | precision | substeps | µs per move | error (links) | Pareto |");
+    println!(
+        "| method | precision | substeps | µs per move (median of passes) | error (links) | Pareto front |"
+    );
     println!("|---|---|---:|---:|---:|:---:|");
     for p in pts {
         println!(
@@ -260,7 +262,8 @@ fn report(s: &Scenario, moves: usize, pts: &[Point]) {
         );
     }
     println!(
-        "\n| method | precision | order (last doublings above the rounding floor) | µs per move at ≤ 1 % | at ≤ 0.1 % |"
+        "\n| method | precision | order (last doublings above the rounding floor) \
+         | fastest µs per move with error ≤ 1 % of a link | with error ≤ 0.1 % |"
     );
     println!("|---|---|---:|---:|---:|");
     for m in METHODS {

@@ -149,22 +149,17 @@ fn main() {
         .collect();
     let schemes = [Handling::None, Handling::Paper, Handling::Capsules];
     println!(
-        "collision cost per move, 40-unit rope, thickness 0.2, {} moves per run, {rounds} rounds \
-         (cargo bench -p clients --bench collision)",
+        "### Collision cost per move\n\n40-unit rope of thickness 0.2, {} moves per run, {rounds} rounds \
+         with the schemes interleaved (µs per move; `tying` is the built-in overhand's head moves, \
+         `free` as many moves leading the rope along a wide circle where nothing touches; `knot` is \
+         what the rope holds at the end of the last round):\n",
         tying.len()
     );
     println!(
-        "{:<8} {:>5} {:<14} {:>10} {:>10} {:>10} {:>8} {:>7}  {:<8}",
-        "scenario",
-        "links",
-        "collision",
-        "median µs",
-        "p99 µs",
-        "max µs",
-        "× none",
-        "locked",
-        "knot"
+        "| scenario | links | collision | median µs | p99 µs | max µs | median ÷ no collision's \
+         | locked moves | knot |"
     );
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---|");
     for (scenario, targets) in [("tying", &tying), ("free", &free)] {
         for n in [40usize, 160, 320] {
             let mut all: Vec<Vec<u64>> = vec![Vec::new(); schemes.len()];
@@ -181,7 +176,7 @@ fn main() {
             for (i, h) in schemes.iter().enumerate() {
                 let med = pct(&mut all[i], 0.5);
                 println!(
-                    "{:<8} {:>5} {:<14} {:>10.2} {:>10.2} {:>10.2} {:>8.1} {:>7}  {:<8}",
+                    "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {} | {} |",
                     scenario,
                     n,
                     h.name(),
@@ -200,26 +195,19 @@ fn main() {
 
 /// The speed/accuracy trade of collision handling: passes allowed and tolerance, per scheme.
 fn trade(tying: &[V]) {
-    println!();
     println!(
-        "collision speed against accuracy, tying path ({} moves), rope thickness {THICKNESS}; \
-         worst penetration of the real rope after any accepted move, as a fraction of its thickness",
+        "\n### Collision handling: speed against accuracy\n\nThe tying path ({} moves), rope \
+         thickness {THICKNESS}, for each scheme over the resolution passes allowed per substep and the \
+         tolerance; after every accepted move the rope is checked independently of the solver \
+         (`clients::check`: every pair of links with at least a thickness of rope between them) and \
+         `worst penetration` is the deepest overlap found, as a fraction of the thickness:\n",
         tying.len()
     );
     println!(
-        "{:>5} {:<14} {:>6} {:>7} {:>9} {:>10} {:>10} {:>8} {:>7} {:>10}  {:<8}",
-        "links",
-        "collision",
-        "passes",
-        "tol",
-        "mean µs",
-        "median µs",
-        "p99 µs",
-        "passes/mv",
-        "locked",
-        "worst pen",
-        "knot"
+        "| links | collision | passes allowed | tolerance | mean µs | median µs | p99 µs \
+         | passes per accepted move | locked moves | worst penetration | knot |"
     );
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     let mut grid: Vec<(u32, f64)> = [1u32, 2, 4, 8, 16, 64, 256]
         .iter()
         .map(|&m| (m, 0.01))
@@ -231,7 +219,7 @@ fn trade(tying: &[V]) {
                 let mut r = run(n, h, tying, m, tol, true);
                 let accepted = (r.ns.len() - r.locked).max(1);
                 println!(
-                    "{:>5} {:<14} {:>6} {:>7} {:>9.2} {:>10.2} {:>10.2} {:>8.2} {:>7} {:>10.4}  {:<8}",
+                    "| {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.4} | {} |",
                     n,
                     h.name(),
                     m,

@@ -6,11 +6,19 @@
 //! * The **journal** `journal.bin` holds every accepted state-changing request since that snapshot, each
 //!   record `[u32 length][u32 crc32][bincode record]`, appended *before* the response is sent. Replaying
 //!   it through the same handler reproduces the state bit for bit (the kernel is deterministic).
+//! * **Periodic snapshots leave the serving thread at once** ([`Store::snapshot_in_background`]): it
+//!   encodes the state and moves the journal aside as a *segment* `journal-<state>.bin` (every record in
+//!   it at most `<state>`) behind a new `journal.bin`; a writer thread writes, syncs and renames the
+//!   snapshot, then deletes the segments it covers. A crash at any point leaves a snapshot and the
+//!   journals after it: restore replays the segments, oldest first, then `journal.bin`, skipping what
+//!   the snapshot already holds. Start-up, the `snapshot` command and shutdown snapshot on the calling
+//!   thread ([`Store::snapshot`]).
 //!
 //! A failed or short append never hides a later acknowledged change: the journal is cut back to its last
 //! whole record (the change is refused and undone), so the next record follows it directly; if even the
-//! cut fails, the journal is *unsound* and every change is refused until a snapshot (which starts a new
-//! journal) succeeds. Tested with injected faults (`Fault`).
+//! cut fails, the journal is *unsound* and every change is refused until the next snapshot starts a new
+//! journal file. Tested with injected faults (`Fault`), a full file system and `kill -9` at random
+//! points (the `tests` crate).
 //!
 //! With [`JournalMode::Write`] a record reaches the kernel's page cache before the response: it survives
 //! `kill -9` of the service but not a power cut; [`JournalMode::Fsync`] also survives the latter at the
@@ -27,7 +35,9 @@ use std::path::{Path, PathBuf};
 use tractrix::Chain;
 use tractrix::math::{Embed3, Real, Vector};
 
-const SNAPSHOT_MAGIC: u32 = 0x5452_5853; // "TRXS"
+const SNAPSHOT_MAGIC: u32 = 0x5452_5832; // "TRX2": with held joints
+/// The first format, without held joints: refused with a message.
+const SNAPSHOT_MAGIC_V1: u32 = 0x5452_5853; // "TRXS"
 const JOURNAL_MAGIC: [u8; 8] = *b"TRXJ\x01\0\0\0";
 /// Largest journal record (a full path request with its header).
 pub const MAX_RECORD_BYTES: usize = 256 + 32 * MAX_PATH_POINTS as usize;
@@ -56,6 +66,8 @@ struct ChainSnapshot {
     lengths: Vec<f64>,
     origin: Vec<f64>,
     links: Vec<f64>,
+    /// Held joints: index, and the prefix sum's state there (sum, then carry).
+    held: Vec<(u32, Vec<f64>, Vec<f64>)>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -87,6 +99,9 @@ pub(crate) enum Fault {
     ShortWrite,
     /// As `ShortWrite`, and the cut back fails too.
     ShortWriteThenCutFails,
+    /// The next background snapshot rotates the journal, then the process "crashes" before the writer
+    /// thread has written anything (the job is never sent).
+    WriterNeverRuns,
 }
 
 /// The state directory of one instance.
@@ -98,8 +113,15 @@ pub struct Store {
     buf: Vec<u8>,
     /// Bytes of the journal up to its last whole record.
     journal_len: u64,
-    /// Why the journal cannot be trusted (a cut-back failed); changes are refused until a snapshot.
+    /// Why the journal cannot be trusted (a cut-back failed); changes are refused until a new journal
+    /// is started (at the next snapshot).
     unsound: Option<String>,
+    /// Journal segments on disk (by the sequence they end at or before), waiting for a snapshot.
+    pending: Vec<u64>,
+    /// The thread that writes snapshots started by [`Store::snapshot_in_background`].
+    writer: Option<Writer>,
+    /// Snapshots written since the store was opened.
+    written: u64,
     /// A fault to inject into the next append (tests).
     #[cfg(test)]
     fault: Option<Fault>,
@@ -134,6 +156,9 @@ impl Store {
             buf: vec![0; MAX_RECORD_BYTES + 8],
             journal_len: 0,
             unsound: None,
+            pending: list_segments(dir)?,
+            writer: None,
+            written: 0,
             #[cfg(test)]
             fault: None,
         })
@@ -149,64 +174,188 @@ impl Store {
         self.mode
     }
 
-    /// Writes a snapshot of `set` atomically, then starts an empty journal after it.
+    /// Writes a snapshot of `set` on this thread (after any snapshot the writer thread has in hand),
+    /// then drops the journal it covers. Used at start-up, on the `snapshot` command and at shutdown.
     pub fn snapshot(&mut self, set: &ChainSet) -> Result<(), String> {
-        let snap = Snapshot {
-            magic: SNAPSHOT_MAGIC,
-            sequence: set.sequence(),
-            chains: set
-                .specs()
-                .iter()
-                .zip(set.geometry())
-                .map(|(spec, g)| {
-                    let (origin, links) = each_form!(g, g => raw_parts(&g.chain));
-                    ChainSnapshot {
-                        name: spec.name.clone(),
-                        dims: spec.dims,
-                        precision: spec.precision as u32,
-                        lengths: spec.lengths.clone(),
-                        origin,
-                        links,
-                    }
-                })
-                .collect(),
-        };
-        let bytes = bincode::serde::encode_to_vec(&snap, config())
-            .map_err(|e| format!("cannot encode the snapshot: {e}"))?;
-        let path = self.snapshot_path();
-        let tmp = self.dir.join("snapshot.bin.tmp");
-        let mut f = owner_only()
-            .write(true)
-            .create(true)
-            .truncate(true)
-            .open(&tmp)
-            .map_err(|e| io(&tmp, "cannot create", e))?;
-        f.write_all(&bytes)
-            .and_then(|_| f.sync_all())
-            .map_err(|e| io(&tmp, "cannot write", e))?;
-        std::fs::rename(&tmp, &path).map_err(|e| io(&path, "cannot rename into place", e))?;
-        File::open(&self.dir)
-            .and_then(|d| d.sync_all())
-            .map_err(|e| io(&self.dir, "cannot sync", e))?;
-        self.start_journal()
+        if let Some(Err(e)) = self.wait_for_writer() {
+            // Reported to the caller of this snapshot; this one may still succeed.
+            eprintln!("solver-service: a background snapshot failed: {e}");
+        }
+        let (bytes, sequence) = encode_snapshot(set)?;
+        self.rotate(sequence)?;
+        write_snapshot_file(&self.dir, &bytes)?;
+        self.written += 1;
+        self.covered(sequence)
     }
 
-    fn start_journal(&mut self) -> Result<(), String> {
+    /// Snapshots written since the store was opened (on every path).
+    pub fn written(&self) -> u64 {
+        self.written
+    }
+
+    /// Starts from `set` and forgets the saved state: the old journals go first, then a snapshot, so a
+    /// crash in between leaves the old snapshot alone (never a new snapshot beside old records).
+    pub fn begin(&mut self, set: &ChainSet) -> Result<(), String> {
+        if let Some(Err(e)) = self.wait_for_writer() {
+            eprintln!("solver-service: a background snapshot failed: {e}");
+        }
         self.journal = None;
+        let path = self.journal_path();
+        if path.exists() {
+            std::fs::remove_file(&path).map_err(|e| io(&path, "cannot remove", e))?;
+        }
+        remove_journals(&self.dir, u64::MAX)?;
+        self.pending.clear();
+        let (bytes, _) = encode_snapshot(set)?;
+        write_snapshot_file(&self.dir, &bytes)?;
+        self.written += 1;
+        self.start_journal(&self.journal_path())
+    }
+
+    /// Starts a snapshot of `set` without waiting for the disk: the state is encoded and the journal
+    /// rotated here (microseconds); the writer thread writes, syncs and renames the snapshot, then deletes
+    /// the journal segments it covers. `Ok(false)`: the previous one is still being written (try later).
+    /// Its outcome comes back through [`Store::finished`].
+    pub fn snapshot_in_background(&mut self, set: &ChainSet) -> Result<bool, String> {
+        if self.writer.as_ref().is_some_and(|w| w.in_flight) {
+            return Ok(false);
+        }
+        let (bytes, sequence) = encode_snapshot(set)?;
+        // After a failed snapshot the last segment is still pending; the journal goes on in one file
+        // until a snapshot succeeds (at most one segment waits), unless it must be replaced (unsound).
+        if self.pending.is_empty() || self.unsound.is_some() {
+            self.rotate(sequence)?;
+        }
+        #[cfg(test)]
+        if self
+            .fault
+            .take_if(|f| *f == Fault::WriterNeverRuns)
+            .is_some()
+        {
+            return Ok(true);
+        }
+        let w = match &mut self.writer {
+            Some(w) => w,
+            None => self.writer.insert(Writer::start(self.dir.clone())?),
+        };
+        w.jobs
+            .as_ref()
+            .and_then(|j| j.send(Job { bytes, sequence }).ok())
+            .ok_or("the snapshot writer thread has ended")?;
+        w.in_flight = true;
+        Ok(true)
+    }
+
+    /// The outcome of the background snapshot, once it is done (`Ok(sequence)` it holds).
+    pub fn finished(&mut self) -> Option<Result<u64, String>> {
+        let w = self.writer.as_mut().filter(|w| w.in_flight)?;
+        let r = match w.done.try_recv() {
+            Ok(r) => r,
+            Err(std::sync::mpsc::TryRecvError::Empty) => return None,
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                Err("the snapshot writer thread has ended".to_string())
+            }
+        };
+        w.in_flight = false;
+        Some(self.settle(r))
+    }
+
+    /// Waits for the background snapshot, if one is being written, and returns its outcome.
+    fn wait_for_writer(&mut self) -> Option<Result<u64, String>> {
+        let w = self.writer.as_mut().filter(|w| w.in_flight)?;
+        let r = w
+            .done
+            .recv()
+            .unwrap_or_else(|_| Err("the snapshot writer thread has ended".to_string()));
+        w.in_flight = false;
+        Some(self.settle(r))
+    }
+
+    fn settle(&mut self, r: Result<u64, String>) -> Result<u64, String> {
+        if let Ok(sequence) = r {
+            self.written += 1;
+            self.pending.retain(|&n| n > sequence);
+        }
+        r
+    }
+
+    /// A snapshot of state `sequence` is on disk: the journal segments it covers go.
+    fn covered(&mut self, sequence: u64) -> Result<(), String> {
+        remove_journals(&self.dir, sequence)?;
+        self.pending.retain(|&n| n > sequence);
+        Ok(())
+    }
+
+    /// Moves the journal aside as segment `sequence` (every record in it is at most `sequence`) and
+    /// starts a new one: a fresh file, so an unsound journal is sound again. On the calling thread, no
+    /// sync (with [`JournalMode::Fsync`], the new file and the directory are synced).
+    fn rotate(&mut self, sequence: u64) -> Result<(), String> {
+        let path = self.journal_path();
         if self.mode == JournalMode::Off {
-            let _ = std::fs::remove_file(self.journal_path());
+            self.journal = None;
+            let _ = std::fs::remove_file(&path);
             return Ok(());
         }
-        let path = self.journal_path();
+        if self.pending.len() >= MAX_SEGMENTS {
+            return Err(format!(
+                "{}: {} journal segments wait for a snapshot; no more are started",
+                self.dir.display(),
+                self.pending.len()
+            ));
+        }
+        // The new journal is made first: if that fails, nothing has changed.
+        let fresh = self.dir.join("journal.bin.new");
+        let mut f = self.create_journal(&fresh)?;
+        let segment = segment_path(&self.dir, sequence);
+        if path.exists() {
+            if let Err(e) = std::fs::rename(&path, &segment) {
+                let _ = std::fs::remove_file(&fresh);
+                return Err(io(&path, "cannot move the journal aside", e));
+            }
+            self.pending.push(sequence);
+        }
+        if let Err(e) = std::fs::rename(&fresh, &path) {
+            // The old journal is a segment now and the new one has no name: nothing may be
+            // acknowledged until a snapshot succeeds.
+            let why = io(&path, "cannot name the new journal", e);
+            self.unsound = Some(why.clone());
+            self.journal = Some(f);
+            self.journal_len = JOURNAL_MAGIC.len() as u64;
+            return Err(why);
+        }
+        if self.mode == JournalMode::Fsync {
+            f.sync_all()
+                .and_then(|_| File::open(&self.dir)?.sync_all())
+                .map_err(|e| io(&self.dir, "cannot sync", e))?;
+        }
+        f.seek(SeekFrom::End(0))
+            .map_err(|e| io(&path, "cannot seek", e))?;
+        self.journal_len = JOURNAL_MAGIC.len() as u64;
+        self.unsound = None;
+        self.journal = Some(f);
+        Ok(())
+    }
+
+    /// A new journal file holding only the magic number.
+    fn create_journal(&self, path: &Path) -> Result<File, String> {
         let mut f = owner_only()
             .write(true)
             .create(true)
             .truncate(true)
-            .open(&path)
-            .map_err(|e| io(&path, "cannot create", e))?;
+            .open(path)
+            .map_err(|e| io(path, "cannot create", e))?;
         f.write_all(&JOURNAL_MAGIC)
-            .and_then(|_| f.sync_all())
-            .map_err(|e| io(&path, "cannot write", e))?;
+            .map_err(|e| io(path, "cannot write", e))?;
+        Ok(f)
+    }
+
+    fn start_journal(&mut self, path: &Path) -> Result<(), String> {
+        self.journal = None;
+        if self.mode == JournalMode::Off {
+            return Ok(());
+        }
+        let f = self.create_journal(path)?;
+        f.sync_all().map_err(|e| io(path, "cannot sync", e))?;
         self.journal_len = JOURNAL_MAGIC.len() as u64;
         self.unsound = None;
         self.journal = Some(f);
@@ -306,7 +455,15 @@ impl Store {
         let (snap, _): (Snapshot, usize) = bincode::serde::decode_from_slice(&bytes, config())
             .map_err(|e| io(&path, "not a snapshot", e))?;
         if snap.magic != SNAPSHOT_MAGIC {
-            return Err(io(&path, "not a snapshot", "wrong magic number"));
+            return Err(io(
+                &path,
+                "not a snapshot of this version",
+                if snap.magic == SNAPSHOT_MAGIC_V1 {
+                    "written by a version without held joints; start without --restore"
+                } else {
+                    "wrong magic number"
+                },
+            ));
         }
         install(set, &snap).map_err(|e| io(&path, "does not fit the scene", e))?;
         let mut restored = Restored {
@@ -314,65 +471,235 @@ impl Store {
             replayed: 0,
             dropped_tail_bytes: 0,
         };
-        let jpath = self.journal_path();
-        if jpath.exists() {
-            // Streamed record by record: memory is bounded by one record, whatever the journal's size.
-            let file = File::open(&jpath).map_err(|e| io(&jpath, "cannot open", e))?;
-            let file_len = file
-                .metadata()
-                .map_err(|e| io(&jpath, "cannot stat", e))?
-                .len();
-            let mut input = std::io::BufReader::new(file);
-            let mut magic = [0u8; 8];
-            if input.read_exact(&mut magic).is_err() || magic != JOURNAL_MAGIC {
-                return Err(io(&jpath, "not a journal", "wrong magic number"));
-            }
-            let mut at = 8u64;
-            // Records were accepted under the budget of their time: replay them whatever today's is.
-            let budget = set.budget();
-            set.set_budget(u64::MAX);
-            let mut body = Vec::new();
-            while at < file_len {
-                let Some((rec, len)) = next_record(&mut input, &mut body) else {
-                    restored.dropped_tail_bytes = file_len - at;
-                    break;
-                };
-                at += len;
-                if rec.sequence <= set.sequence() {
-                    continue;
-                }
-                if rec.sequence != set.sequence() + 1 {
-                    return Err(io(
-                        &jpath,
-                        "gap",
-                        format!("record {} follows state {}", rec.sequence, set.sequence()),
-                    ));
-                }
-                match set.apply_wire(&rec.header, &rec.points) {
-                    Ok(o) if o.changed => {}
-                    Ok(_) => {
-                        return Err(io(
-                            &jpath,
-                            "does not replay on this scene",
-                            format!("record {}: changes nothing", rec.sequence),
-                        ));
-                    }
-                    Err(r) => {
-                        return Err(io(
-                            &jpath,
-                            "does not replay on this scene",
-                            format!("record {}: {}", rec.sequence, r.reason()),
-                        ));
-                    }
-                }
-                restored.replayed += 1;
-            }
-            // (A failed replay ends the start-up, so the error paths above need not restore it.)
-            set.set_budget(budget);
+        // Records were accepted under the budget of their time: replay them whatever today's is.
+        let budget = set.budget();
+        set.set_budget(u64::MAX);
+        let mut files: Vec<PathBuf> = self
+            .pending
+            .iter()
+            .map(|&n| segment_path(&self.dir, n))
+            .collect();
+        files.push(self.journal_path());
+        for jpath in files.iter().filter(|p| p.exists()) {
+            // (A failed replay ends the start-up, so the error path need not restore the budget.)
+            replay(jpath, set, &mut restored)?;
         }
+        set.set_budget(budget);
         self.snapshot(set)?;
         Ok(restored)
     }
+}
+
+/// At most this many journal segments wait for a snapshot (one normally; more only after a journal
+/// became unsound while a snapshot failed).
+const MAX_SEGMENTS: usize = 64;
+
+/// A snapshot for the writer thread: the encoded state and its sequence number.
+struct Job {
+    bytes: Vec<u8>,
+    sequence: u64,
+}
+
+/// The snapshot writer thread and the channels to it (one job at a time).
+#[derive(Debug)]
+struct Writer {
+    jobs: Option<std::sync::mpsc::SyncSender<Job>>,
+    done: std::sync::mpsc::Receiver<Result<u64, String>>,
+    in_flight: bool,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for Job {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "Job({} bytes, state {})",
+            self.bytes.len(),
+            self.sequence
+        )
+    }
+}
+
+impl Writer {
+    fn start(dir: PathBuf) -> Result<Self, String> {
+        let (jobs, rx) = std::sync::mpsc::sync_channel::<Job>(1);
+        let (tx, done) = std::sync::mpsc::sync_channel(1);
+        let thread = std::thread::Builder::new()
+            .name("snapshot-writer".into())
+            .spawn(move || {
+                while let Ok(job) = rx.recv() {
+                    let r = write_snapshot_file(&dir, &job.bytes)
+                        .and_then(|()| remove_journals(&dir, job.sequence))
+                        .map(|()| job.sequence);
+                    if tx.send(r).is_err() {
+                        break;
+                    }
+                }
+            })
+            .map_err(|e| format!("cannot start the snapshot writer thread: {e}"))?;
+        Ok(Writer {
+            jobs: Some(jobs),
+            done,
+            in_flight: false,
+            thread: Some(thread),
+        })
+    }
+}
+
+impl Drop for Writer {
+    fn drop(&mut self) {
+        // Closing the job channel ends the thread after the snapshot it is writing.
+        self.jobs = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The state of `set` as snapshot bytes, and its sequence number.
+fn encode_snapshot(set: &ChainSet) -> Result<(Vec<u8>, u64), String> {
+    let snap = Snapshot {
+        magic: SNAPSHOT_MAGIC,
+        sequence: set.sequence(),
+        chains: set
+            .specs()
+            .iter()
+            .zip(set.geometry())
+            .map(|(spec, g)| {
+                let (origin, links, held) = each_form!(g, g => raw_parts(&g.chain));
+                ChainSnapshot {
+                    name: spec.name.clone(),
+                    dims: spec.dims,
+                    precision: spec.precision as u32,
+                    lengths: spec.lengths.clone(),
+                    origin,
+                    links,
+                    held,
+                }
+            })
+            .collect(),
+    };
+    let bytes = bincode::serde::encode_to_vec(&snap, config())
+        .map_err(|e| format!("cannot encode the snapshot: {e}"))?;
+    Ok((bytes, set.sequence()))
+}
+
+/// Writes `bytes` to a temporary file, syncs it, renames it over `snapshot.bin` and syncs the directory:
+/// a crash leaves the old snapshot or the new one. A failed write removes its temporary file (on a full
+/// file system it would hold the space).
+fn write_snapshot_file(dir: &Path, bytes: &[u8]) -> Result<(), String> {
+    let path = dir.join("snapshot.bin");
+    let tmp = dir.join("snapshot.bin.tmp");
+    let mut f = owner_only()
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(&tmp)
+        .map_err(|e| io(&tmp, "cannot create", e))?;
+    if let Err(e) = f.write_all(bytes).and_then(|_| f.sync_all()) {
+        drop(f);
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(&tmp, "cannot write", e));
+    }
+    std::fs::rename(&tmp, &path).map_err(|e| io(&path, "cannot rename into place", e))?;
+    File::open(dir)
+        .and_then(|d| d.sync_all())
+        .map_err(|e| io(dir, "cannot sync", e))
+}
+
+/// The path of the journal segment that ends at or before state `sequence`.
+fn segment_path(dir: &Path, sequence: u64) -> PathBuf {
+    dir.join(format!("journal-{sequence:020}.bin"))
+}
+
+/// The journal segments in `dir`, oldest first (at most [`MAX_SEGMENTS`]).
+fn list_segments(dir: &Path) -> Result<Vec<u64>, String> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(|e| io(dir, "cannot list", e))? {
+        let name = entry.map_err(|e| io(dir, "cannot list", e))?.file_name();
+        let Some(n) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix("journal-")?.strip_suffix(".bin"))
+            .and_then(|n| n.parse::<u64>().ok())
+        else {
+            continue;
+        };
+        if found.len() == MAX_SEGMENTS {
+            return Err(io(
+                dir,
+                "too many journal segments",
+                format!("more than {MAX_SEGMENTS}"),
+            ));
+        }
+        found.push(n);
+    }
+    found.sort_unstable();
+    Ok(found)
+}
+
+/// Removes the journal segments that end at or before `sequence`.
+fn remove_journals(dir: &Path, sequence: u64) -> Result<(), String> {
+    for n in list_segments(dir)? {
+        if n <= sequence {
+            let p = segment_path(dir, n);
+            std::fs::remove_file(&p).map_err(|e| io(&p, "cannot remove", e))?;
+        }
+    }
+    Ok(())
+}
+
+/// Replays the journal file `jpath` onto `set`, streamed record by record (memory is bounded by one
+/// record, whatever the journal's size). Records the state already holds are skipped; a gap is an
+/// error; a torn record ends the file (a write cut by a crash or a failed append, never acknowledged).
+fn replay(jpath: &Path, set: &mut ChainSet, restored: &mut Restored) -> Result<(), String> {
+    let file = File::open(jpath).map_err(|e| io(jpath, "cannot open", e))?;
+    let file_len = file
+        .metadata()
+        .map_err(|e| io(jpath, "cannot stat", e))?
+        .len();
+    let mut input = std::io::BufReader::new(file);
+    let mut magic = [0u8; 8];
+    if input.read_exact(&mut magic).is_err() || magic != JOURNAL_MAGIC {
+        return Err(io(jpath, "not a journal", "wrong magic number"));
+    }
+    let mut at = 8u64;
+    let mut body = Vec::new();
+    while at < file_len {
+        let Some((rec, len)) = next_record(&mut input, &mut body) else {
+            restored.dropped_tail_bytes += file_len - at;
+            break;
+        };
+        at += len;
+        if rec.sequence <= set.sequence() {
+            continue;
+        }
+        if rec.sequence != set.sequence() + 1 {
+            return Err(io(
+                jpath,
+                "gap",
+                format!("record {} follows state {}", rec.sequence, set.sequence()),
+            ));
+        }
+        match set.apply_wire(&rec.header, &rec.points) {
+            Ok(o) if o.changed => {}
+            Ok(_) => {
+                return Err(io(
+                    jpath,
+                    "does not replay on this scene",
+                    format!("record {}: changes nothing", rec.sequence),
+                ));
+            }
+            Err(r) => {
+                return Err(io(
+                    jpath,
+                    "does not replay on this scene",
+                    format!("record {}: {}", rec.sequence, r.reason()),
+                ));
+            }
+        }
+        restored.replayed += 1;
+    }
+    Ok(())
 }
 
 fn owner_only() -> OpenOptions {
@@ -403,7 +730,11 @@ fn snapshot_bound(set: &ChainSet) -> u64 {
     64 + set
         .specs()
         .iter()
-        .map(|s| 128 + 9 * 8 * (s.lengths.len() as u64 + 1) + s.name.len() as u64)
+        .map(|s| {
+            128 + 9 * 8 * (s.lengths.len() as u64 + 1)
+                + s.name.len() as u64
+                + 16 * 8 * u64::from(shared::MAX_HELD)
+        })
         .sum::<u64>()
 }
 
@@ -427,17 +758,20 @@ fn next_record(input: &mut impl Read, buf: &mut Vec<u8>) -> Option<(Record, u64)
     (used == n && rec.points.len() <= MAX_PATH_POINTS as usize).then_some((rec, 8 + n as u64))
 }
 
-fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>)
+type HeldParts = Vec<(u32, Vec<f64>, Vec<f64>)>;
+
+fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>, HeldParts)
 where
     Vector<T, D>: Embed3<T>,
 {
-    let origin = c.origin().iter().map(|x| x.to_f64()).collect();
-    let links = c
-        .links()
-        .iter()
-        .flat_map(|l| l.iter().map(|x| x.to_f64()))
+    let f = |v: &Vector<T, D>| v.iter().map(|x| x.to_f64()).collect::<Vec<f64>>();
+    let origin = f(&c.origin());
+    let links = c.links().iter().flat_map(f).collect();
+    let held = c
+        .held_raw()
+        .map(|(j, sum, carry)| (j as u32, f(&sum), f(&carry)))
         .collect();
-    (origin, links)
+    (origin, links, held)
 }
 
 fn install(set: &mut ChainSet, snap: &Snapshot) -> Result<(), String> {
@@ -468,9 +802,19 @@ fn install(set: &mut ChainSet, snap: &Snapshot) -> Result<(), String> {
                 d.name
             ));
         }
+        if let Some(a) = d
+            .anchors
+            .iter()
+            .find(|&&a| !s.held.iter().any(|h| h.0 == a))
+        {
+            return Err(format!(
+                "chain {:?}: the scene anchors joint {a}, the snapshot does not hold it",
+                d.name
+            ));
+        }
         let mut g = geometry.clone();
         each_form!(&mut g, h => {
-            h.chain = rebuild(&h.initial, &s.origin, &s.links).map_err(|m| format!("chain {:?}: {m}", d.name))?;
+            h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held).map_err(|m| format!("chain {:?}: {m}", d.name))?;
         });
         built.push(g);
     }
@@ -482,6 +826,7 @@ fn rebuild<T: Real, const D: usize>(
     like: &Chain<T, D>,
     origin: &[f64],
     links: &[f64],
+    held: &HeldParts,
 ) -> Result<Chain<T, D>, String>
 where
     Vector<T, D>: Embed3<T>,
@@ -490,12 +835,29 @@ where
     if origin.len() != D || links.len() != n * D {
         return Err(format!("{} link numbers, expected {}", links.len(), n * D));
     }
-    let o = Vector::<T, D>::from_iterator(origin.iter().map(|&x| T::lit(x)));
-    let l: Vec<Vector<T, D>> = links
-        .chunks_exact(D)
-        .map(|c| Vector::<T, D>::from_iterator(c.iter().map(|&x| T::lit(x))))
-        .collect();
-    Chain::from_raw_parts(o, l, like.lengths().to_vec()).map_err(|e| e.to_string())
+    if held.len() > shared::MAX_HELD as usize {
+        return Err(format!(
+            "{} held joints, at most {}",
+            held.len(),
+            shared::MAX_HELD
+        ));
+    }
+    let v = |c: &[f64]| Vector::<T, D>::from_iterator(c.iter().map(|&x| T::lit(x)));
+    let o = v(origin);
+    let l: Vec<Vector<T, D>> = links.chunks_exact(D).map(v).collect();
+    let mut chain =
+        Chain::from_raw_parts(o, l, like.lengths().to_vec()).map_err(|e| e.to_string())?;
+    let mut pins = Vec::with_capacity(held.len());
+    for (j, sum, carry) in held {
+        if sum.len() != D || carry.len() != D {
+            return Err(format!("held joint {j}: {} coordinates", sum.len()));
+        }
+        pins.push((*j as usize, v(sum), v(carry)));
+    }
+    chain
+        .set_held_raw(&pins)
+        .map_err(|e| format!("held joints: {e}"))?;
+    Ok(chain)
 }
 
 #[cfg(test)]
@@ -636,6 +998,79 @@ mod tests {
             expected,
             "every acknowledged change, nothing else"
         );
+    }
+
+    /// A background snapshot leaves a restorable state at every step: journal rotated but no snapshot
+    /// yet, snapshot renamed but the segment not yet deleted, and done. Changes keep arriving meanwhile.
+    #[test]
+    fn a_background_snapshot_is_restorable_at_every_step() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = default_scene();
+        let mut set = ChainSet::new(&scene).unwrap();
+        let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+        store.begin(&set).unwrap();
+        let change = |set: &mut ChainSet, store: &mut Store, i: u32| {
+            let t = f64::from(i) * 0.21;
+            let req = RequestHeader::new(Command::Move, 0);
+            let p = [Vec3::new(38.0 + t.cos(), t.sin(), 0.1 * t)];
+            assert!(set.apply_wire(&req, &p).unwrap().changed);
+            store.append(set.sequence(), &req, &p).unwrap();
+        };
+        let restores_to = |from: &Path, set: &ChainSet, what: &str| {
+            let copy = tempfile::tempdir().unwrap();
+            for e in std::fs::read_dir(from).unwrap() {
+                let e = e.unwrap();
+                std::fs::copy(e.path(), copy.path().join(e.file_name())).unwrap();
+            }
+            let mut fresh = ChainSet::new(&scene).unwrap();
+            Store::open(copy.path(), JournalMode::Write)
+                .unwrap()
+                .restore(&mut fresh)
+                .unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_eq!(fresh.sequence(), set.sequence(), "{what}");
+            assert_eq!(joints(&fresh), joints(set), "{what}");
+        };
+        for i in 0..30 {
+            change(&mut set, &mut store, i);
+        }
+        // Step 1: the journal moved aside, the snapshot never written.
+        store.inject(Fault::WriterNeverRuns);
+        let at_rotation = set.clone();
+        assert!(store.snapshot_in_background(&set).unwrap());
+        assert!(segment_path(dir.path(), 30).exists());
+        for i in 30..60 {
+            change(&mut set, &mut store, i);
+        }
+        restores_to(dir.path(), &set, "rotated, no snapshot");
+        // Step 2: the snapshot in place, its segment not yet deleted.
+        let (bytes, _) = encode_snapshot(&at_rotation).unwrap();
+        write_snapshot_file(dir.path(), &bytes).unwrap();
+        restores_to(dir.path(), &set, "snapshot written, segment kept");
+        // The real thing, with changes while the writer works; at most one segment waits.
+        for round in 0..3 {
+            assert!(store.snapshot_in_background(&set).unwrap());
+            for i in 0..20 {
+                change(&mut set, &mut store, 100 * round + i);
+            }
+            restores_to(dir.path(), &set, "snapshot being written");
+            let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+            let done = loop {
+                if let Some(r) = store.finished() {
+                    break r;
+                }
+                assert!(std::time::Instant::now() < deadline, "no snapshot in 20 s");
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            };
+            assert!(done.is_ok(), "{done:?}");
+            restores_to(dir.path(), &set, "snapshot done");
+        }
+        assert!(
+            list_segments(dir.path()).unwrap().len() <= 1,
+            "{:?}",
+            list_segments(dir.path())
+        );
+        drop(store);
+        restores_to(dir.path(), &set, "after the store closed");
     }
 
     #[test]

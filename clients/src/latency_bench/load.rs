@@ -41,6 +41,76 @@ pub struct LoadReport {
     pub duplicated: u64,
     /// The viewer's summary line.
     pub viewer: String,
+    /// The service's resources over the run (sampled every 20 ms).
+    pub resources: Resources,
+}
+
+/// What the service held over the run, sampled from outside: its resident memory (`/proc/PID/status`),
+/// the journal's size on disk (`journal.bin` and any segments waiting for a snapshot), and how many
+/// snapshots were written (each replaces `snapshot.bin` by a rename: a new inode).
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+pub struct Resources {
+    pub samples: u64,
+    pub rss_start_kib: u64,
+    pub rss_end_kib: u64,
+    pub rss_max_kib: u64,
+    pub journal_max_bytes: u64,
+    pub journal_end_bytes: u64,
+    pub snapshots: u64,
+}
+
+/// Samples the service `pid` and its state directory every 20 ms until `stop` is set.
+fn monitor(
+    pid: u32,
+    state: PathBuf,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> std::thread::JoinHandle<Resources> {
+    use std::os::unix::fs::MetadataExt;
+    std::thread::spawn(move || {
+        let rss = || -> Option<u64> {
+            let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+            let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+            line.split_whitespace().nth(1)?.parse().ok()
+        };
+        let journal = || -> u64 {
+            std::fs::read_dir(&state)
+                .map(|d| {
+                    d.filter_map(|e| e.ok())
+                        .filter(|e| e.file_name().to_string_lossy().starts_with("journal"))
+                        .filter_map(|e| e.metadata().ok())
+                        .map(|m| m.len())
+                        .sum()
+                })
+                .unwrap_or(0)
+        };
+        let snapshot = || {
+            std::fs::metadata(state.join("snapshot.bin"))
+                .ok()
+                .map(|m| m.ino())
+        };
+        let mut r = Resources::default();
+        let mut last_snapshot = snapshot();
+        while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+            if let Some(kib) = rss() {
+                if r.samples == 0 {
+                    r.rss_start_kib = kib;
+                }
+                r.rss_end_kib = kib;
+                r.rss_max_kib = r.rss_max_kib.max(kib);
+                r.samples += 1;
+            }
+            let j = journal();
+            r.journal_end_bytes = j;
+            r.journal_max_bytes = r.journal_max_bytes.max(j);
+            let s = snapshot();
+            if s.is_some() && s != last_snapshot {
+                r.snapshots += 1;
+                last_snapshot = s;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        r
+    })
 }
 
 impl LoadReport {
@@ -103,6 +173,12 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
         svc.args(["--pin", "0"]);
     }
     let mut service = Proc::ready(svc, "solver-service (load)")?;
+    let stop_monitor = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let monitor = monitor(
+        service.child.id(),
+        tmp.path().join("state"),
+        stop_monitor.clone(),
+    );
     let viewer = Viewer::start(&cfg.bin_dir, &prefix, "rope", secs + 2.0)?;
     eprintln!("[load] a hand at full speed and one at 1 kHz on the rope + a viewer, {secs} s");
     let hand = |joint: &str, rate: f64, seq: PathBuf| {
@@ -144,6 +220,10 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
     let full_speed = join(a)?;
     let one_khz = join(b)?;
     let viewer = viewer.finish(Duration::from_secs_f64(secs + 30.0))?;
+    stop_monitor.store(true, std::sync::atomic::Ordering::Relaxed);
+    let resources = monitor
+        .join()
+        .map_err(|_| anyhow::anyhow!("monitor thread panicked"))?;
     service.stop();
     let mut all = Vec::new();
     for path in [&seq_a, &seq_b] {
@@ -168,6 +248,7 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
         lost: max - all.len() as u64,
         duplicated,
         viewer: viewer.trim_start_matches("watch: ").trim().to_string(),
+        resources,
     };
     writeln!(
         out,
@@ -185,7 +266,7 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
     )?;
     writeln!(
         out,
-        "| hand | requests | ok | refused | mismatched | out of order | length error | round trip p50 µs | p90 | p99 | p99.9 | max | from due p99.9 | max |"
+        "| hand | requests | ok | refused | mismatched | out of order | largest link length error | round trip p50 (µs) | round trip p90 | round trip p99 | round trip p99.9 | round trip max | from due p99.9 | from due max |"
     )?;
     writeln!(
         out,
@@ -219,5 +300,19 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
         )?;
     }
     writeln!(out, "\nViewer: {}", report.viewer)?;
+    let r = &report.resources;
+    writeln!(
+        out,
+        "\nThe service, sampled every 20 ms ({} samples): resident memory {} KiB at the start, {} KiB at \
+         the end, {} KiB at most; journal on disk {} bytes at the end, {} at most; {} snapshots written \
+         (one every 10 s while the state changes, the default).",
+        r.samples,
+        r.rss_start_kib,
+        r.rss_end_kib,
+        r.rss_max_kib,
+        r.journal_end_bytes,
+        r.journal_max_bytes,
+        r.snapshots
+    )?;
     Ok(report)
 }

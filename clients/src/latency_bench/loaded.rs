@@ -69,7 +69,7 @@ pub(super) fn loaded(
     )?;
     writeln!(
         out,
-        "| hand | requests | refused or mismatched | from due p50 | p90 | p99 | p99.9 | max | round trip p50 | p99.9 | max | sent late p99 | p99.9 |"
+        "| hand | requests | refused or mismatched | from due p50 | from due p90 | from due p99 | from due p99.9 | from due max | round trip p50 | round trip p99.9 | round trip max | sent late p99 | sent late p99.9 |"
     )?;
     writeln!(
         out,

@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 
 mod load;
 mod loaded;
+mod noise;
 
 pub use load::{LoadConfig, LoadReport, load};
 use loaded::loaded;
@@ -93,6 +94,8 @@ pub fn run(cfg: &BenchConfig, out: &mut impl Write) -> Result<()> {
             );
         }
     }
+    eprintln!("[noise] the machine's own noise on cores 0 and 1");
+    noise::noise(out, 2000, 1.0)?;
     let tmp = tempfile::tempdir()?;
     let scene_path = tmp.path().join("latency.toml");
     std::fs::write(&scene_path, scene(&cfg.sizes))?;
