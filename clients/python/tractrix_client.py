@@ -26,7 +26,8 @@ DEFAULT_PREFIX = "tractrix_"
 JOINT_HEAD = 0xFFFFFFFF
 MAX_PATH_POINTS = 4096
 
-CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7}
+CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
+       "grasp": 8, "release": 9}
 STATUS = [
     "ok", "unknown-command", "unknown-chain", "joint-out-of-range", "non-finite", "bad-option",
     "bad-point-count", "unreachable", "not-converged", "too-many-substeps", "wrong-chain-kind",
@@ -90,7 +91,7 @@ class ResponseHeader(ctypes.Structure):
         ("collision", ctypes.c_uint32),
         ("substep_mode", ctypes.c_uint32),
         ("substeps_default", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
+        ("n_held", ctypes.c_uint32),
         ("max_step", ctypes.c_double),
         ("total_length", ctypes.c_double),
         ("thickness", ctypes.c_double),
@@ -109,7 +110,7 @@ _LAYOUT = {
     RequestHeader: (96, {"command": 0, "joint": 8, "flags": 36, "client_listener": 40,
                          "request_id": 56, "max_step": 64, "tolerance": 72, "reserved": 80}),
     ResponseHeader: (256, {"status": 0, "n_joints": 12, "sequence": 32, "residual": 56,
-                           "n_chains": 64, "n_links": 76, "max_step": 104, "name": 128,
+                           "n_chains": 64, "n_links": 76, "n_held": 100, "max_step": 104, "name": 128,
                            "reason": 160}),
 }
 for _t, (_size, _offsets) in _LAYOUT.items():
@@ -180,7 +181,8 @@ class Client:
         self.next_id = 1
 
     def call(self, command, chain=0, points=(), **fields):
-        """Sends one request; returns (header, list of (x, y, z)) or raises ServiceError."""
+        """Sends one request; returns (header, list of (x, y, z): n_joints joints, n_angles rotations,
+        n_held held joints as (index, 1 for an anchor else 0, 0)) or raises ServiceError."""
         request = self.client.loan_slice_uninit(len(points))
         for i, p in enumerate(points):
             request.payload()[i] = Vec3(*p)
@@ -208,7 +210,7 @@ class Client:
                 time.sleep(0.0001)
         h = response.user_header().contents
         # The wheel's Slice.len() is in bytes (issue #1533): count from our own header.
-        n = h.n_joints + h.n_angles
+        n = h.n_joints + h.n_angles + h.n_held
         elements = (Vec3 * n).from_address(response.payload().as_ptr()) if n else []
         out = [(v.x, v.y, v.z) for v in elements]
         copy = ResponseHeader.from_buffer_copy(h)
@@ -240,21 +242,30 @@ def main(argv=None):
     m.add_argument("--joint", type=int, default=JOINT_HEAD)
     q = sub.add_parser("query", help="print a chain's joints")
     q.add_argument("chain")
+    for name, what in (("grasp", "hold a joint where it is"), ("release", "let a grasped joint go")):
+        g = sub.add_parser(name, help=what)
+        g.add_argument("chain")
+        g.add_argument("--joint", type=int, default=JOINT_HEAD)
     a = ap.parse_args(argv)
     try:
         client = Client(a.prefix, a.wait_for_service)
         chain = client.find_chain(a.chain)
         if a.cmd == "move":
-            h, joints = client.call("move", chain, [tuple(a.xyz)], joint=a.joint)
+            h, elements = client.call("move", chain, [tuple(a.xyz)], joint=a.joint)
+        elif a.cmd in ("grasp", "release"):
+            h, elements = client.call(a.cmd, chain, joint=a.joint)
         else:
-            h, joints = client.call("query", chain)
+            h, elements = client.call("query", chain)
     except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:
         print(f"tractrix_client: {e}", file=sys.stderr)
         return 1
     # The description fields (n_links, name, ...) come with `describe` only; a chain of n links answers
     # n + 1 joints.
+    joints = elements[:h.n_joints]
+    held = [{"joint": int(x), "anchor": y != 0.0}
+            for x, y, _ in elements[h.n_joints + h.n_angles:]]
     print(json.dumps({"status": STATUS[h.status], "sequence": h.sequence,
-                      "n_links": h.n_joints - 1, "joints": joints}))
+                      "n_links": h.n_joints - 1, "joints": joints, "held": held}))
     return 0
 
 

@@ -157,16 +157,31 @@ pub(crate) fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> C
 #[derive(Debug, Clone)]
 pub struct Reply {
     pub header: ResponseHeader,
-    /// `n_joints` joints, then `n_angles` rotations.
+    /// `n_joints` joints, then `n_angles` rotations, then `n_held` held joints.
     pub payload: Vec<Vec3>,
 }
 
 impl Reply {
+    fn part(&self, skip: u32, take: u32) -> &[Vec3] {
+        let from = (skip as usize).min(self.payload.len());
+        let to = (from + take as usize).min(self.payload.len());
+        &self.payload[from..to]
+    }
     pub fn joints(&self) -> &[Vec3] {
-        &self.payload[..(self.header.n_joints as usize).min(self.payload.len())]
+        self.part(0, self.header.n_joints)
     }
     pub fn angles(&self) -> &[Vec3] {
-        &self.payload[(self.header.n_joints as usize).min(self.payload.len())..]
+        self.part(self.header.n_joints, self.header.n_angles)
+    }
+    /// The held joints: `(index, anchor of the scene)`.
+    pub fn held(&self) -> Vec<(u32, bool)> {
+        self.part(
+            self.header.n_joints + self.header.n_angles,
+            self.header.n_held,
+        )
+        .iter()
+        .map(|v| (v.x as u32, v.y != 0.0))
+        .collect()
     }
     pub fn is_ok(&self) -> bool {
         self.header.status == shared::Status::Ok as u32

@@ -39,6 +39,17 @@ pub struct Record {
     pub sequence: u64,
     /// CRC-32 of the returned joint positions (little-endian f64 x, y, z per joint): bit-for-bit check.
     pub digest: u32,
+    /// The command: `move` (the default, and what older recordings hold), `grasp` or `release`.
+    #[serde(default = "move_command", skip_serializing_if = "is_move")]
+    pub command: String,
+}
+
+fn move_command() -> String {
+    "move".into()
+}
+
+fn is_move(c: &str) -> bool {
+    c == "move"
 }
 
 /// What a hand did.
@@ -68,6 +79,9 @@ pub struct HandConfig {
     pub progress: bool,
     /// Key frames to keep per turn of this hand, evenly spaced, the last at the turn's end (0: none).
     pub frames_per_turn: usize,
+    /// Grasp the joints this hand drives before its first turn and release them after its last (also
+    /// when interrupted by SIGINT or SIGTERM; a hand killed with `kill -9` leaves its grasps).
+    pub grasp: bool,
 }
 
 /// CRC-32 of joint positions, as recorded.
@@ -156,7 +170,7 @@ impl Baton {
 
 /// Runs hand `cfg.hand` of `cfg.script` against a connected service.
 pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandReport> {
-    use anyhow::{Context, bail};
+    use anyhow::Context;
     let hands = cfg.script.hands();
     let me = hands.iter().position(|h| *h == cfg.hand).with_context(|| {
         format!(
@@ -172,6 +186,107 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
         None => None,
     };
     let mut report = HandReport::default();
+    // SIGINT and SIGTERM reach the node from here on (iceoryx2 installs its handler on the first wait).
+    let _ = conn.node().wait(Duration::ZERO);
+    let mut grips: Vec<(String, u32, u32)> = Vec::new();
+    if cfg.grasp {
+        for turn in cfg.script.turn.iter().filter(|t| t.hand == cfg.hand) {
+            let chain = conn
+                .find_chain(&turn.chain)?
+                .with_context(|| format!("the service has no chain {:?}", turn.chain))?;
+            let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
+            if !grips.iter().any(|g| g.1 == chain && g.2 == joint) {
+                grips.push((turn.chain.clone(), chain, joint));
+            }
+        }
+        for (name, chain, joint) in &grips {
+            hold(
+                conn,
+                Command::Grasp,
+                name,
+                *chain,
+                *joint,
+                &cfg.hand,
+                &mut record,
+            )?;
+        }
+    }
+    let result = drive(conn, cfg, me, &hands, &mut baton, &mut record, &mut report);
+    // Let go whatever happened (a refused release is reported, the first error wins).
+    let mut released = Ok(());
+    for (name, chain, joint) in &grips {
+        if let Err(e) = hold(
+            conn,
+            Command::Release,
+            name,
+            *chain,
+            *joint,
+            &cfg.hand,
+            &mut record,
+        ) {
+            released = released.and(Err(e));
+        }
+    }
+    result?;
+    released?;
+    if let Some(w) = &mut record {
+        w.flush()?;
+    }
+    Ok(report)
+}
+
+/// Sends a grasp or a release and records it.
+fn hold(
+    conn: &mut Connection,
+    command: Command,
+    name: &str,
+    chain: u32,
+    joint: u32,
+    hand: &str,
+    record: &mut Option<std::io::BufWriter<std::fs::File>>,
+) -> anyhow::Result<()> {
+    let mut h = RequestHeader::new(command, chain);
+    h.joint = joint;
+    let sent = now_ns();
+    let r = conn.call(h, &[])?;
+    if !r.is_ok() {
+        anyhow::bail!(
+            "{} of joint {joint} of {name:?} refused: {}",
+            command.name(),
+            r.header.reason_str()
+        );
+    }
+    if let Some(w) = record {
+        let rec = Record {
+            t_ns: sent,
+            hand: hand.to_string(),
+            turn: 0,
+            chain: name.to_string(),
+            joint,
+            target: [0.0; 3],
+            request_id: r.header.request_id,
+            status: "ok".into(),
+            sequence: r.header.sequence,
+            digest: digest(r.joints()),
+            command: command.name().into(),
+        };
+        serde_json::to_writer(&mut *w, &rec)?;
+        w.write_all(b"\n")?;
+    }
+    Ok(())
+}
+
+/// The turns of hand `me`, in order with the other hands'.
+fn drive(
+    conn: &mut Connection,
+    cfg: &HandConfig,
+    me: usize,
+    hands: &[String],
+    baton: &mut Baton,
+    record: &mut Option<std::io::BufWriter<std::fs::File>>,
+    report: &mut HandReport,
+) -> anyhow::Result<()> {
+    use anyhow::{Context, bail};
     let mut mine: Vec<usize> = Vec::new();
     for (k, turn) in cfg.script.turn.iter().enumerate() {
         if turn.hand != cfg.hand {
@@ -212,6 +327,9 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
         let pacer = Pacer::new(cfg.rate_hz);
         for (i, t) in targets.iter().enumerate() {
             pacer.wait(i);
+            if conn.node().wait(Duration::ZERO).is_err() {
+                bail!("interrupted (SIGINT or SIGTERM)");
+            }
             let mut h = RequestHeader::new(Command::Move, chain);
             h.joint = joint;
             let sent = now_ns();
@@ -242,7 +360,7 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
                 Some(Status::Locked) => report.locked += 1,
                 _ => count_refusal(&mut report.refused, name),
             }
-            if let Some(w) = &mut record {
+            if let Some(w) = record.as_mut() {
                 let r = Record {
                     t_ns: sent,
                     hand: cfg.hand.clone(),
@@ -254,6 +372,7 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
                     status: name.to_string(),
                     sequence: seq,
                     digest: dg,
+                    command: move_command(),
                 };
                 serde_json::to_writer(&mut *w, &r)?;
                 w.write_all(b"\n")?;
@@ -270,7 +389,7 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
                 );
             }
         }
-        if let Some(w) = &mut record {
+        if let Some(w) = record.as_mut() {
             w.flush()?;
         }
         mine.push(k);
@@ -281,7 +400,7 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
     baton
         .wait_all(&everyone, &mine, cfg.turn_timeout)
         .map_err(anyhow::Error::msg)?;
-    Ok(report)
+    Ok(())
 }
 
 /// Reads recordings (JSON lines), each line checked.
@@ -342,16 +461,19 @@ pub fn replay(
             .find(|c| c.0 == r.chain)
             .map(|c| c.1)
             .unwrap_or(0);
-        let mut h = RequestHeader::new(Command::Move, id);
+        let command = shared::text::parse_command(&r.command).map_err(anyhow::Error::msg)?;
+        let mut h = RequestHeader::new(command, id);
         h.joint = r.joint;
-        let (status, dg) = conn.call_with(
-            h,
-            &[Vec3::new(r.target[0], r.target[1], r.target[2])],
-            |rh, pts| {
-                let n = (rh.n_joints as usize).min(pts.len());
-                (rh.status, digest(&pts[..n]))
-            },
-        )?;
+        let target = [Vec3::new(r.target[0], r.target[1], r.target[2])];
+        let points: &[Vec3] = if command == Command::Move {
+            &target
+        } else {
+            &[]
+        };
+        let (status, dg) = conn.call_with(h, points, |rh, pts| {
+            let n = (rh.n_joints as usize).min(pts.len());
+            (rh.status, digest(&pts[..n]))
+        })?;
         out.sent += 1;
         let name = Status::from_u32(status).map_or("unknown", |s| s.name());
         if name != r.status {

@@ -12,7 +12,8 @@
  *   "tractrix/command"      request-response: request user header tractrix_RequestHeader, payload a
  *                           slice of tractrix_Vec3 (targets); response user header
  *                           tractrix_ResponseHeader, payload a slice of tractrix_Vec3 (n_joints joints,
- *                           then n_angles rotation vectors).
+ *                           then n_angles rotation vectors, then n_held held joints: x the index,
+ *                           y 1 for an anchor of the scene and 0 for a grasp, z 0).
  *   "tractrix/state"        publish-subscribe: user header tractrix_StateHeader, payload tractrix_Vec3[].
  *   "tractrix/wake-server"  event: notify after sending unless the server spins.
  *   "tractrix/wake-client"  event: the server notifies the listener whose id is in client_listener.
@@ -32,7 +33,8 @@
 #define TRACTRIX_SERVICE_WAKE_CLIENT "tractrix/wake-client"
 #define TRACTRIX_DEFAULT_PREFIX "tractrix_"
 #define TRACTRIX_MAX_LINKS 65536u
-#define TRACTRIX_MAX_RESPONSE_ELEMENTS (2u * TRACTRIX_MAX_LINKS + 1u)
+#define TRACTRIX_MAX_HELD 64u
+#define TRACTRIX_MAX_RESPONSE_ELEMENTS (2u * TRACTRIX_MAX_LINKS + 1u + TRACTRIX_MAX_HELD)
 #define TRACTRIX_MAX_PATH_POINTS 4096u
 #define TRACTRIX_MAX_CHAINS 256u
 #define TRACTRIX_NAME_LEN 32u
@@ -56,7 +58,9 @@ enum tractrix_command {
     TRACTRIX_CMD_QUERY = 4,
     TRACTRIX_CMD_RESET = 5,
     TRACTRIX_CMD_DESCRIBE = 6,
-    TRACTRIX_CMD_SNAPSHOT = 7
+    TRACTRIX_CMD_SNAPSHOT = 7,
+    TRACTRIX_CMD_GRASP = 8,
+    TRACTRIX_CMD_RELEASE = 9
 };
 
 /* Statuses (ResponseHeader.status); on error, `reason` says why and the state is unchanged. */
@@ -136,7 +140,7 @@ typedef struct tractrix_ResponseHeader {
     uint32_t collision; /* offset 88 */
     uint32_t substep_mode; /* offset 92 */
     uint32_t substeps_default; /* offset 96 */
-    uint32_t reserved; /* offset 100 */
+    uint32_t n_held; /* offset 100 */
     double max_step; /* offset 104 */
     double total_length; /* offset 112 */
     double thickness; /* offset 120 */
@@ -150,7 +154,7 @@ typedef struct tractrix_StateHeader {
     uint32_t chain; /* offset 8 */
     uint32_t n_joints; /* offset 12 */
     uint32_t command; /* offset 16 */
-    uint32_t reserved; /* offset 20 */
+    uint32_t n_held; /* offset 20 */
     uint64_t request_id; /* offset 24 */
 } tractrix_StateHeader;
 
@@ -204,7 +208,7 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, method) == 84, "tractri
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, collision) == 88, "tractrix_ResponseHeader.collision offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, substep_mode) == 92, "tractrix_ResponseHeader.substep_mode offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, substeps_default) == 96, "tractrix_ResponseHeader.substeps_default offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 100, "tractrix_ResponseHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_held) == 100, "tractrix_ResponseHeader.n_held offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, max_step) == 104, "tractrix_ResponseHeader.max_step offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, total_length) == 112, "tractrix_ResponseHeader.total_length offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, thickness) == 120, "tractrix_ResponseHeader.thickness offset");
@@ -216,7 +220,7 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, sequence) == 0, "tractrix_
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, chain) == 8, "tractrix_StateHeader.chain offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_joints) == 12, "tractrix_StateHeader.n_joints offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, command) == 16, "tractrix_StateHeader.command offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, reserved) == 20, "tractrix_StateHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_held) == 20, "tractrix_StateHeader.n_held offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, request_id) == 24, "tractrix_StateHeader.request_id offset");
 
 #endif /* TRACTRIX_H */

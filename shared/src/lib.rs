@@ -28,8 +28,10 @@
 //!    [`ResponseHeader::reason`] says what was wrong and the chain is unchanged. The payload holds
 //!    `n_joints` joint positions (tail first, joint 0 = tail, joint `n_joints - 1` = head) followed by
 //!    `n_angles` joint rotations as rotation vectors (axis × angle in radians; for a planar chain `(0, 0,
-//!    θ)`). An error response carries no elements. The chain's description (name, kind, sizes, defaults)
-//!    comes with [`Command::Describe`] only.
+//!    θ)`), then `n_held` held joints (anchors of the scene and grasps of clients), one element each:
+//!    `x` the joint's index, `y` 1 for an anchor and 0 for a grasp, `z` 0. An error response carries no
+//!    elements. The chain's description (name, kind, sizes, defaults) comes with [`Command::Describe`]
+//!    only.
 //!
 //! # Byte layout
 //!
@@ -79,7 +81,7 @@
 //! | | collision | 88 | uint32_t |
 //! | | substep_mode | 92 | uint32_t |
 //! | | substeps_default | 96 | uint32_t |
-//! | | reserved | 100 | uint32_t |
+//! | | n_held | 100 | uint32_t |
 //! | | max_step | 104 | double |
 //! | | total_length | 112 | double |
 //! | | thickness | 120 | double |
@@ -89,7 +91,7 @@
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
 //! | | command | 16 | uint32_t |
-//! | | reserved | 20 | uint32_t |
+//! | | n_held | 20 | uint32_t |
 //! | | request_id | 24 | uint64_t |
 //! <!-- layout-table-end -->
 //!
@@ -100,7 +102,8 @@
 //!
 //! # Enumerations (all `uint32_t`)
 //!
-//! * [`Command`]: 1 move, 2 path, 3 reach, 4 query, 5 reset, 6 describe, 7 snapshot.
+//! * [`Command`]: 1 move, 2 path, 3 reach, 4 query, 5 reset, 6 describe, 7 snapshot, 8 grasp, 9
+//!   release.
 //! * [`Status`]: 0 ok, then one value per error (see the type).
 //! * `joint`: the joint index, 0 = tail; [`JOINT_HEAD`] (`0xFFFFFFFF`) = the head whatever the length.
 //! * `method` ([`WireMethod`]): 0 chain default, 1 closed-form tractrix, 2 the paper's form, 3
@@ -118,6 +121,9 @@ use serde::{Deserialize, Serialize};
 
 pub mod text;
 pub mod unix_frame;
+
+/// Most held joints (anchors and grasps) one chain may have; a grasp beyond is refused.
+pub const MAX_HELD: u32 = 64;
 
 /// Protocol version; it is part of every type name.
 pub const PROTOCOL_VERSION: u32 = 1;
@@ -137,7 +143,7 @@ pub const DEFAULT_PREFIX: &str = "tractrix_";
 /// Most links in one chain. Bounds scenes, snapshots and the response memory (24 B per joint).
 pub const MAX_LINKS: u32 = 65_536;
 /// Most joints in a response: joints plus one rotation per link.
-pub const MAX_RESPONSE_ELEMENTS: u32 = 2 * MAX_LINKS + 1;
+pub const MAX_RESPONSE_ELEMENTS: u32 = 2 * MAX_LINKS + 1 + MAX_HELD;
 /// Most points in one [`Command::Path`] request.
 pub const MAX_PATH_POINTS: u32 = 4096;
 /// Most chains in one scene.
@@ -304,6 +310,11 @@ pub enum Command {
     Describe = 6,
     /// Write a snapshot now (chain ignored; no joints returned).
     Snapshot = 7,
+    /// Hold `joint` where it is (a hand's grasp): moves of other joints leave it in place, and the rope
+    /// between it and a moved joint is solved as a fixed-base chain. Free chains only.
+    Grasp = 8,
+    /// Let `joint` go (a grasp; the scene's anchors are not released).
+    Release = 9,
 }
 
 impl Command {
@@ -316,13 +327,20 @@ impl Command {
             Command::Reset => "reset",
             Command::Describe => "describe",
             Command::Snapshot => "snapshot",
+            Command::Grasp => "grasp",
+            Command::Release => "release",
         }
     }
     /// Whether an accepted command of this kind changes the state (and is journaled and published).
     pub fn changes_state(self) -> bool {
         matches!(
             self,
-            Command::Move | Command::Path | Command::Reach | Command::Reset
+            Command::Move
+                | Command::Path
+                | Command::Reach
+                | Command::Reset
+                | Command::Grasp
+                | Command::Release
         )
     }
 }
@@ -472,7 +490,7 @@ macro_rules! wire_enum_from_u32 {
     )*};
 }
 wire_enum_from_u32! {
-    Command { Move, Path, Reach, Query, Reset, Describe, Snapshot }
+    Command { Move, Path, Reach, Query, Reset, Describe, Snapshot, Grasp, Release }
     Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
              Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
              Internal, Locked, TooFar, OverBudget }
@@ -595,8 +613,8 @@ pub struct ResponseHeader {
     pub substep_mode: u32,
     /// The chain's default substep count (mode 1).
     pub substeps_default: u32,
-    /// Zero.
-    pub reserved: u32,
+    /// Held joints after the joints and rotations (every response that carries joints).
+    pub n_held: u32,
     /// The chain's default max step (mode 2).
     pub max_step: f64,
     /// Sum of the link lengths.
@@ -633,7 +651,7 @@ impl Default for ResponseHeader {
             collision: 0,
             substep_mode: 0,
             substeps_default: 0,
-            reserved: 0,
+            n_held: 0,
             max_step: 0.0,
             total_length: 0.0,
             thickness: 0.0,
@@ -666,7 +684,8 @@ impl ResponseHeader {
     }
 }
 
-/// The state stream's user header; the payload is the chain's `n_joints` joints.
+/// The state stream's user header; the payload is the chain's `n_joints` joints, then its `n_held` held
+/// joints (as in a response).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[repr(C)]
 #[type_name("tractrix.v1.StateHeader")]
@@ -679,8 +698,8 @@ pub struct StateHeader {
     pub n_joints: u32,
     /// The [`Command`] that changed it.
     pub command: u32,
-    /// Zero.
-    pub reserved: u32,
+    /// Held joints after the joints in the payload (as in a response).
+    pub n_held: u32,
     /// The `request_id` of that command.
     pub request_id: u64,
 }
@@ -758,12 +777,12 @@ wire_layout!(ResponseHeader, "tractrix.v1.ResponseHeader", size = 256, align = 8
     solve_ns: "uint64_t" @ 48, residual: "double" @ 56, n_chains: "uint32_t" @ 64, kind: "uint32_t" @ 68,
     dims: "uint32_t" @ 72, n_links: "uint32_t" @ 76, precision: "uint32_t" @ 80, method: "uint32_t" @ 84,
     collision: "uint32_t" @ 88, substep_mode: "uint32_t" @ 92, substeps_default: "uint32_t" @ 96,
-    reserved: "uint32_t" @ 100, max_step: "double" @ 104, total_length: "double" @ 112,
+    n_held: "uint32_t" @ 100, max_step: "double" @ 104, total_length: "double" @ 112,
     thickness: "double" @ 120, name: "uint8_t[32]" @ 128, reason: "uint8_t[96]" @ 160,
 ]);
 wire_layout!(StateHeader, "tractrix.v1.StateHeader", size = 32, align = 8, [
     sequence: "uint64_t" @ 0, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12, command: "uint32_t" @ 16,
-    reserved: "uint32_t" @ 20, request_id: "uint64_t" @ 24,
+    n_held: "uint32_t" @ 20, request_id: "uint64_t" @ 24,
 ]);
 
 /// Every wire type's layout, in the order of the crate docs' table.
@@ -849,7 +868,9 @@ mod tests {
             assert_eq!(Status::from_u32(s as u32), Some(s));
         }
         assert_eq!(Command::from_u32(0), None);
-        assert_eq!(Command::from_u32(8), None);
+        assert_eq!(Command::from_u32(8), Some(Command::Grasp));
+        assert_eq!(Command::from_u32(9), Some(Command::Release));
+        assert_eq!(Command::from_u32(10), None);
         assert_eq!(Status::from_u32(14), Some(Status::Locked));
         assert_eq!(Status::from_u32(15), Some(Status::TooFar));
         assert_eq!(Status::from_u32(16), Some(Status::OverBudget));

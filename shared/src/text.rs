@@ -75,7 +75,10 @@ pub fn parse_command(s: &str) -> Result<Command, String> {
         .into_iter()
         .find(|c| c.name() == s)
         .ok_or_else(|| {
-            format!("unknown command {s:?} (expected move, path, reach, query, reset, describe or snapshot)")
+            format!(
+                "unknown command {s:?} (expected move, path, reach, query, reset, describe, snapshot, \
+                 grasp or release)"
+            )
         })
 }
 
@@ -235,14 +238,26 @@ pub struct TextResponse {
     pub joints: Vec<[f64; 3]>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub angles: Vec<[f64; 3]>,
+    /// Held joints (anchors of the scene and grasps).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub held: Vec<HeldJoint>,
+}
+
+/// A held joint in a text response.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HeldJoint {
+    pub joint: u32,
+    /// Declared by the scene (never released), not grasped by a client.
+    pub anchor: bool,
 }
 
 impl TextResponse {
-    /// From a header and its payload (`n_joints` positions then `n_angles` rotations; a payload shorter
-    /// than the header claims is cut to what is there).
+    /// From a header and its payload (`n_joints` positions, `n_angles` rotations, then `n_held` held
+    /// joints; a payload shorter than the header claims is cut to what is there).
     pub fn from_wire(h: &ResponseHeader, payload: &[Vec3]) -> Self {
         let nj = (h.n_joints as usize).min(payload.len());
         let na = (h.n_angles as usize).min(payload.len() - nj);
+        let nh = (h.n_held as usize).min(payload.len() - nj - na);
         TextResponse {
             status: Status::from_u32(h.status)
                 .map(|s| s.name().to_string())
@@ -261,6 +276,13 @@ impl TextResponse {
             residual: h.residual,
             joints: payload[..nj].iter().map(|v| v.to_array()).collect(),
             angles: payload[nj..nj + na].iter().map(|v| v.to_array()).collect(),
+            held: payload[nj + na..nj + na + nh]
+                .iter()
+                .map(|v| HeldJoint {
+                    joint: v.x as u32,
+                    anchor: v.y != 0.0,
+                })
+                .collect(),
         }
     }
 }

@@ -102,7 +102,10 @@ where
     let p: Vec<Vector<T, D>> = spec.points.iter().map(|q| point((*q).into())).collect();
     let links: Vec<_> = p.windows(2).map(|w| w[1] - w[0]).collect();
     let lengths: Vec<T> = spec.lengths.iter().map(|&l| T::lit(l)).collect();
-    let chain = Chain::from_parts(p[0], links, lengths)?;
+    let mut chain = Chain::from_parts(p[0], links, lengths)?;
+    for &a in &spec.anchors {
+        chain.hold(a as usize)?;
+    }
     let collision = spec.collision.as_ref().map(|c| {
         let v = |q: &Vector3<f64>| point::<T, D>((*q).into());
         let obstacles = c
@@ -199,6 +202,21 @@ impl ChainSet {
                 ref options,
                 ..
             } => {
+                // With held joints, each side up to a held joint iterates the fixed-base method: at
+                // most `hierarchy_after` tractrix passes, then the hierarchy's one pass.
+                let held = each_form!(&self.geometry[chain as usize], h => h.chain.held().any(|j| j != joint));
+                let passes = if held {
+                    let h = &options.held;
+                    let limit = if h.hierarchy_after == 0 {
+                        h.max_iterations
+                    } else {
+                        h.max_iterations.min(h.hierarchy_after.saturating_add(1))
+                    };
+                    u64::from(limit.max(1))
+                } else {
+                    1
+                };
+                let n = n.saturating_mul(passes);
                 // Collision splits a move so that the hand moves at most half a clearance per substep.
                 let half_clearance = spec.collision.as_ref().map(|c| {
                     let link = match c.options.scheme {
@@ -257,7 +275,11 @@ impl ChainSet {
             Request::Reach { ref options, .. } => Ok(n
                 .saturating_mul(u64::from(options.substeps.max(1)))
                 .saturating_mul(u64::from(options.max_iterations.max(1)))),
-            Request::Query { .. } | Request::Describe { .. } | Request::Reset { .. } => Ok(n),
+            Request::Query { .. }
+            | Request::Describe { .. }
+            | Request::Reset { .. }
+            | Request::Grasp { .. }
+            | Request::Release { .. } => Ok(n),
             Request::Snapshot => Ok(0),
         }
     }
@@ -304,7 +326,8 @@ impl ChainSet {
             .map(|s| s.lengths.len())
             .max()
             .unwrap_or(1);
-        (2 * links + 1, links + 1)
+        let held = shared::MAX_HELD as usize;
+        (2 * links + 1 + held, links + 1 + held)
     }
 
     /// Checks a wire request against the scene ([`request::decode`]).
@@ -339,9 +362,26 @@ impl ChainSet {
         };
         let n_links = self.specs[chain as usize].lengths.len() as u32;
         let g = &mut self.geometry[chain as usize];
+        let held_now = each_form!(&*g, h => h.chain.held().len());
+        // A grasp of a held joint and a release of a free one are accepted and change nothing.
+        let changes = match *req {
+            Request::Grasp { joint, .. } => {
+                let held = each_form!(&*g, h => h.chain.is_held(joint));
+                if !held && held_now >= shared::MAX_HELD as usize {
+                    return Err(refuse!(
+                        BadOption,
+                        "chain {:?} already holds {held_now} joints, the most there may be",
+                        self.specs[chain as usize].name
+                    ));
+                }
+                !held
+            }
+            Request::Release { joint, .. } => each_form!(&*g, h => h.chain.is_held(joint)),
+            _ => req.changes_state(),
+        };
         let mut outcome = Outcome {
             chain: Some(chain),
-            changed: req.changes_state(),
+            changed: changes,
             joints: n_links + 1,
             ..Outcome::default()
         };
@@ -387,8 +427,15 @@ impl ChainSet {
                 each_form!(&mut *g, h => h.chain.copy_from(&h.initial));
                 Ok(())
             }
+            Request::Grasp { joint, .. } => {
+                each_form!(&mut *g, h => h.chain.hold(joint)).map_err(Refusal::from)
+            }
+            Request::Release { joint, .. } => each_form!(&mut *g, h => h.chain.release(joint))
+                .map(|_| ())
+                .map_err(Refusal::from),
             Request::Snapshot => Ok(()),
         };
+        outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         match result {
             Ok(()) => {
                 if outcome.changed {
@@ -438,22 +485,40 @@ impl ChainSet {
     /// vector per joint (joint 0: from +x to link 1; joint i: from link i to link i+1). Written in order,
     /// with no intermediate buffer. An error response (or an unknown chain) yields nothing.
     pub fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
-        if h.n_joints + h.n_angles == 0 {
+        if h.n_joints + h.n_angles + h.n_held == 0 {
             return Elements::Empty;
         }
-        self.elements_of(h.chain, h.n_angles > 0)
+        self.elements_with(h.chain, h.n_angles > 0, h.n_held > 0)
     }
 
     /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).
     pub fn elements_of(&self, chain: u32, angles: bool) -> Elements<'_> {
-        let Some(g) = self.geometry.get(chain as usize) else {
+        self.elements_with(chain, angles, false)
+    }
+
+    /// A chain's joints, its rotations with `angles`, its held joints with `held` (index, 1 for an
+    /// anchor and 0 for a grasp, 0).
+    pub fn elements_with(&self, chain: u32, angles: bool, held: bool) -> Elements<'_> {
+        let (Some(g), Some(spec)) = (
+            self.geometry.get(chain as usize),
+            self.specs.get(chain as usize),
+        ) else {
             return Elements::Empty;
         };
+        let a = &spec.anchors[..];
         match g {
-            Geometry::Planar64(h) => Elements::Planar64(ChainElements::new(&h.chain, angles)),
-            Geometry::Spatial64(h) => Elements::Spatial64(ChainElements::new(&h.chain, angles)),
-            Geometry::Planar32(h) => Elements::Planar32(ChainElements::new(&h.chain, angles)),
-            Geometry::Spatial32(h) => Elements::Spatial32(ChainElements::new(&h.chain, angles)),
+            Geometry::Planar64(h) => {
+                Elements::Planar64(ChainElements::new(&h.chain, angles, held, a))
+            }
+            Geometry::Spatial64(h) => {
+                Elements::Spatial64(ChainElements::new(&h.chain, angles, held, a))
+            }
+            Geometry::Planar32(h) => {
+                Elements::Planar32(ChainElements::new(&h.chain, angles, held, a))
+            }
+            Geometry::Spatial32(h) => {
+                Elements::Spatial32(ChainElements::new(&h.chain, angles, held, a))
+            }
         }
     }
 }
@@ -476,6 +541,14 @@ where
             tractrix::Substeps::MaxStep(s) => tractrix::Substeps::MaxStep(T::lit(s)),
         },
         max_substeps: opts.max_substeps,
+        held: tractrix::ReachOptions {
+            strategy: opts.held.strategy,
+            method: opts.held.method,
+            substeps: opts.held.substeps,
+            tolerance: T::lit(opts.held.tolerance).max(T::EPSILON * T::lit(64.0)),
+            max_iterations: opts.held.max_iterations,
+            hierarchy_after: opts.held.hierarchy_after,
+        },
     };
     let converted = |g: &mut Held<T, D>| -> Result<(), Refusal> {
         g.targets.clear();
@@ -569,26 +642,47 @@ impl Iterator for Elements<'_> {
     }
 }
 
-/// Joints by a compensated prefix sum, then joint rotations, one at a time.
+/// Joints by a compensated prefix sum (restarted at every held joint, as the kernel sums them), then
+/// joint rotations, then held joints, one at a time.
 #[derive(Debug)]
 pub struct ChainElements<'a, T: Real, const D: usize> {
     chain: &'a Chain<T, D>,
     acc: CompensatedSum<T, D>,
-    /// Next joint (0..=n), then n+1+k for rotation k.
+    /// Next joint (0..=n), then n+1+k for rotation k, then held joint k.
     at: usize,
     angles: bool,
+    held: bool,
+    /// The next held joint whose state restarts the sum.
+    pin: usize,
+    anchors: &'a [u32],
 }
 
 impl<'a, T: Real, const D: usize> ChainElements<'a, T, D>
 where
     Vector<T, D>: Embed3<T>,
 {
-    fn new(chain: &'a Chain<T, D>, angles: bool) -> Self {
+    fn new(chain: &'a Chain<T, D>, angles: bool, held: bool, anchors: &'a [u32]) -> Self {
         ChainElements {
             chain,
             acc: CompensatedSum::new(chain.origin()),
             at: 0,
             angles,
+            held,
+            pin: 0,
+            anchors,
+        }
+    }
+
+    /// Restarts the sum at joint `i` if it is held.
+    #[inline]
+    fn restart_at(&mut self, i: usize) -> bool {
+        match self.chain.held_state(self.pin) {
+            Some((j, s)) if j == i => {
+                self.acc = s;
+                self.pin += 1;
+                true
+            }
+            _ => false,
         }
     }
 }
@@ -605,29 +699,43 @@ where
         let i = self.at;
         self.at += 1;
         if i == 0 {
+            if self.restart_at(0) {
+                return Some(to_wire(&self.acc.value()));
+            }
             return Some(to_wire(&self.chain.origin()));
         }
         if i <= n {
             self.acc.add(&links[i - 1]);
+            self.restart_at(i);
             return Some(to_wire(&self.acc.value()));
         }
+        let rotations = if self.angles { n } else { 0 };
         let k = i - n - 1;
-        if !self.angles || k >= n {
-            self.at = i;
-            return None;
+        if k < rotations {
+            let b = links[k].to_3d();
+            let a = if k == 0 {
+                Vector3::x()
+            } else {
+                links[k - 1].to_3d()
+            };
+            return Some(if D == 2 {
+                let theta = (a.x * b.y - a.y * b.x).atan2(a.dot(&b));
+                Vec3::new(0.0, 0.0, theta.to_f64())
+            } else {
+                let r = rotation_between(&a, &b).scaled_axis();
+                Vec3::new(r.x.to_f64(), r.y.to_f64(), r.z.to_f64())
+            });
         }
-        let b = links[k].to_3d();
-        let a = if k == 0 {
-            Vector3::x()
-        } else {
-            links[k - 1].to_3d()
-        };
-        if D == 2 {
-            let theta = (a.x * b.y - a.y * b.x).atan2(a.dot(&b));
-            Some(Vec3::new(0.0, 0.0, theta.to_f64()))
-        } else {
-            let r = rotation_between(&a, &b).scaled_axis();
-            Some(Vec3::new(r.x.to_f64(), r.y.to_f64(), r.z.to_f64()))
+        let k = k - rotations;
+        match self.chain.held_state(k).filter(|_| self.held) {
+            Some((j, _)) => {
+                let anchor = self.anchors.contains(&(j as u32));
+                Some(Vec3::new(j as f64, if anchor { 1.0 } else { 0.0 }, 0.0))
+            }
+            None => {
+                self.at = i;
+                None
+            }
         }
     }
 }

@@ -64,6 +64,20 @@ pub enum Request<'a> {
     },
     /// Write a snapshot now (the service's business; the chain set only validates it).
     Snapshot,
+    /// Hold `joint` where it is (a hand's grasp).
+    Grasp {
+        /// Chain handle (a free chain).
+        chain: u32,
+        /// Joint index, resolved.
+        joint: usize,
+    },
+    /// Let a grasped joint go.
+    Release {
+        /// Chain handle (a free chain).
+        chain: u32,
+        /// Joint index, resolved.
+        joint: usize,
+    },
 }
 
 impl Request<'_> {
@@ -74,7 +88,9 @@ impl Request<'_> {
             | Request::Reach { chain, .. }
             | Request::Query { chain, .. }
             | Request::Describe { chain }
-            | Request::Reset { chain } => Some(chain),
+            | Request::Reset { chain }
+            | Request::Grasp { chain, .. }
+            | Request::Release { chain, .. } => Some(chain),
             Request::Snapshot => None,
         }
     }
@@ -83,7 +99,11 @@ impl Request<'_> {
     pub fn changes_state(&self) -> bool {
         matches!(
             self,
-            Request::Move { .. } | Request::Reach { .. } | Request::Reset { .. }
+            Request::Move { .. }
+                | Request::Reach { .. }
+                | Request::Reset { .. }
+                | Request::Grasp { .. }
+                | Request::Release { .. }
         )
     }
 }
@@ -99,6 +119,8 @@ pub struct Outcome {
     pub joints: u32,
     /// Joint rotations in the response.
     pub angles: u32,
+    /// Held joints in the response (after the joints and rotations).
+    pub held: u32,
     /// Substeps taken (moves).
     pub substeps: u32,
     /// Paper-form substeps that fell back to the closed form.
@@ -206,6 +228,33 @@ impl From<ChainError> for Refusal {
                 Locked,
                 "links still {penetration:.2e} too close after {iterations} passes at substep {substep}"
             ),
+            ChainError::HeldUnreachable {
+                held,
+                nearest,
+                residual,
+            } => {
+                let mut r = refuse!(
+                    Unreachable,
+                    "{residual:.3e} out of reach of held joint {held}; nearest ({:.6}, {:.6}, {:.6})",
+                    nearest[0],
+                    nearest[1],
+                    nearest[2]
+                );
+                r.residual = residual;
+                r
+            }
+            ChainError::HeldNotConverged {
+                iterations,
+                residual,
+            } => {
+                let mut r = refuse!(
+                    NotConverged,
+                    "held side: {iterations} iterations, residual {residual:.3e}"
+                );
+                r.iterations = iterations;
+                r.residual = residual;
+                r
+            }
             e @ (ChainError::Empty | ChainError::BadLength { .. }) => refuse!(Internal, "{e}"),
         }
     }
@@ -287,7 +336,7 @@ pub fn decode<'a>(
     chains: &[ChainSpec],
 ) -> Result<Request<'a>, Refusal> {
     let command = Command::try_from(h.command)
-        .map_err(|c| refuse!(UnknownCommand, "command {c} is not one of 1..=7"))?;
+        .map_err(|c| refuse!(UnknownCommand, "command {c} is not one of 1..=9"))?;
     if h.reserved != [0, 0] {
         return Err(refuse!(BadOption, "reserved fields must be zero"));
     }
@@ -371,7 +420,42 @@ pub fn decode<'a>(
     let n_links = spec.lengths.len();
     let angles = h.flags & FLAG_ANGLES != 0;
     let method = method_from_wire(method);
+    let resolve_joint = || {
+        if h.joint == JOINT_HEAD {
+            Ok(n_links)
+        } else if h.joint as usize <= n_links {
+            Ok(h.joint as usize)
+        } else {
+            Err(refuse!(
+                JointOutOfRange,
+                "joint {} (the chain has 0..={n_links})",
+                h.joint
+            ))
+        }
+    };
     match command {
+        Command::Grasp | Command::Release => {
+            if spec.kind == ChainKind::FixedBase {
+                return Err(refuse!(
+                    WrongChainKind,
+                    "chain {:?} has a fixed base: grasps are for free chains",
+                    spec.name
+                ));
+            }
+            let joint = resolve_joint()?;
+            if command == Command::Release && spec.anchors.contains(&(joint as u32)) {
+                return Err(refuse!(
+                    BadOption,
+                    "joint {joint} of {:?} is an anchor of the scene, never released",
+                    spec.name
+                ));
+            }
+            Ok(if command == Command::Grasp {
+                Request::Grasp { chain, joint }
+            } else {
+                Request::Release { chain, joint }
+            })
+        }
         Command::Move | Command::Path => {
             if spec.kind == ChainKind::FixedBase {
                 return Err(refuse!(
@@ -380,17 +464,7 @@ pub fn decode<'a>(
                     spec.name
                 ));
             }
-            let joint = if h.joint == JOINT_HEAD {
-                n_links
-            } else if h.joint as usize <= n_links {
-                h.joint as usize
-            } else {
-                return Err(refuse!(
-                    JointOutOfRange,
-                    "joint {} (the chain has 0..={n_links})",
-                    h.joint
-                ));
-            };
+            let joint = resolve_joint()?;
             let substeps = match substep_mode {
                 SubstepMode::Default => spec.moves.substeps,
                 SubstepMode::Fixed if h.substeps == 0 => {
@@ -413,7 +487,7 @@ pub fn decode<'a>(
                 options: MoveOptions {
                     method: method.unwrap_or(spec.moves.method),
                     substeps,
-                    max_substeps: spec.moves.max_substeps,
+                    ..spec.moves
                 },
             })
         }
@@ -503,6 +577,7 @@ pub fn encode(
             h.status = Status::Ok as u32;
             h.n_joints = o.joints;
             h.n_angles = o.angles;
+            h.n_held = o.held;
             h.substeps = o.substeps;
             h.paper_fallbacks = o.paper_fallbacks;
             h.iterations = o.iterations;

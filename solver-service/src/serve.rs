@@ -357,7 +357,7 @@ fn serve_pending<S: Service, H: Handler>(
         if H::SOLVES {
             header.solve_ns = t0.elapsed().as_nanos() as u64;
         }
-        let n = (header.n_joints + header.n_angles) as usize;
+        let n = (header.n_joints + header.n_angles + header.n_held) as usize;
         let slot = match req.loan_slice_uninit(n) {
             Ok(slot) => slot,
             Err(e) => {
@@ -371,17 +371,24 @@ fn serve_pending<S: Service, H: Handler>(
         drop(it);
         handler.finish(&mut header, resp.payload());
         *resp.user_header_mut() = header;
+        // The sample: the response's joints and held joints (not its rotations).
         let joints = (header.n_joints as usize).min(n);
+        let held_from = (joints + header.n_angles as usize).min(n);
+        let held = (header.n_held as usize).min(n - held_from);
         let state = match &ports.state {
-            Some(publisher) if changed => match publisher.loan_slice_uninit(joints) {
+            Some(publisher) if changed => match publisher.loan_slice_uninit(joints + held) {
                 Ok(s) => {
-                    let mut s = s.write_from_slice(&resp.payload()[..joints]);
+                    let payload = resp.payload();
+                    let mut from = payload[..joints]
+                        .iter()
+                        .chain(&payload[held_from..held_from + held]);
+                    let mut s = s.write_from_fn(|_| from.next().copied().unwrap_or_default());
                     *s.user_header_mut() = StateHeader {
                         sequence: header.sequence,
                         chain: header.chain,
                         n_joints: joints as u32,
                         command: request.command,
-                        reserved: 0,
+                        n_held: held as u32,
                         request_id: request.request_id,
                     };
                     Some(s)

@@ -46,6 +46,7 @@ pub struct Solver {
     store: Option<Store>,
     dirty_since_snapshot: bool,
     snapshot_every: Duration,
+
     last_snapshot: Instant,
     /// The landing of the request being answered, measured on the written response.
     residual: Residual,
@@ -68,6 +69,7 @@ impl Solver {
             store,
             dirty_since_snapshot: false,
             snapshot_every,
+
             last_snapshot: Instant::now(),
             residual: Residual::None,
         }
@@ -119,20 +121,36 @@ impl Solver {
         Ok(outcome)
     }
 
-    /// A snapshot if one is due and the state changed since the last.
+    /// Starts a background snapshot if one is due and the state changed since the last; collects the
+    /// outcome of the one before.
     fn snapshot_if_due(&mut self, now: Instant) {
+        let Some(store) = self.store.as_mut() else {
+            return;
+        };
+        match store.finished() {
+            Some(Ok(_)) => {}
+            Some(Err(e)) => {
+                eprintln!("solver-service: periodic snapshot failed: {e}");
+                // Its changes are not on disk yet: the next period tries again.
+                self.dirty_since_snapshot = true;
+            }
+            None => {}
+        }
         if self.snapshot_every.is_zero()
             || now.duration_since(self.last_snapshot) < self.snapshot_every
+            || !self.dirty_since_snapshot
         {
             return;
         }
-        self.last_snapshot = now;
-        if self.dirty_since_snapshot
-            && let Some(store) = self.store.as_mut()
-        {
-            match store.snapshot(&self.set) {
-                Ok(()) => self.dirty_since_snapshot = false,
-                Err(e) => eprintln!("solver-service: periodic snapshot failed: {e}"),
+        match store.snapshot_in_background(&self.set) {
+            Ok(true) => {
+                self.last_snapshot = now;
+                self.dirty_since_snapshot = false;
+            }
+            Ok(false) => {} // the previous one is still being written
+            Err(e) => {
+                self.last_snapshot = now;
+                eprintln!("solver-service: periodic snapshot failed: {e}");
             }
         }
     }
@@ -189,7 +207,7 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
                 }
             );
         } else {
-            s.snapshot(&set)?;
+            s.begin(&set)?;
         }
         store = Some(s);
     }
@@ -226,8 +244,9 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
         store.snapshot(&solver.set)?;
     }
     eprintln!(
-        "solver-service: shut down cleanly at state {}",
-        solver.set.sequence()
+        "solver-service: shut down cleanly at state {} ({} snapshots written since the start)",
+        solver.set.sequence(),
+        solver.store.as_ref().map_or(0, |s| s.written())
     );
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! request it receives): sequences of requests whose header bytes are arbitrary or mutated from a valid
 //! request field by field (NaN, ±inf, ±0, subnormals, 1e308, `u32::MAX`, random bits), with arbitrary
 //! target points, against a scene holding every chain form (planar and spatial, f64 and f32, free and
-//! fixed base, with and without collision).
+//! fixed base, with and without collision, with anchors), grasps and releases among the requests.
 //!
 //! After every request: no panic; the response is well formed (an error carries no elements and says
 //! why, a success as many elements as it announces); a refused request left every chain bit for bit as
@@ -12,6 +12,9 @@
 //! CI runs 64 cases from a fixed seed (`cargo test -p solver-service --test fuzz_requests`); a longer run
 //! from a random seed:
 //! `PROPTEST_CASES=5000 cargo test --release -p solver-service --test fuzz_requests`.
+//! With `FUZZ_LIMITS=max` the scene's limits are at the largest a scene may declare (substeps 2²⁰,
+//! reach iterations 100 000, collision passes 10 000) and the service's default budget bounds the work
+//! instead: the long run of the README.
 
 use proptest::prelude::*;
 use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
@@ -30,6 +33,7 @@ max_substeps = 64
 name = "rope32"
 links = 12
 link_length = 0.5
+anchors = [6]
 precision = "f32"
 method = "paper"
 max_substeps = 64
@@ -58,6 +62,7 @@ max_substeps = 64
 name = "knotted"
 links = 16
 link_length = 0.25
+anchors = [0]
 thickness = 0.2
 collision = "capsules"
 collision_iterations = 8
@@ -94,6 +99,31 @@ max_iterations = 200
 
 const N_CHAINS: u32 = 8;
 
+/// The scene, with every limit at the largest a scene may declare if `max_limits`.
+fn scene_text(max_limits: bool) -> String {
+    if !max_limits {
+        return SCENE.to_string();
+    }
+    SCENE
+        .lines()
+        .map(|l| {
+            if l.starts_with("max_substeps") {
+                format!(
+                    "max_substeps = {}",
+                    solver_service::scene::MAX_SUBSTEPS_LIMIT
+                )
+            } else if l.starts_with("max_iterations") {
+                "max_iterations = 100000".to_string()
+            } else if l.starts_with("collision_iterations") {
+                "collision_iterations = 10000".to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// Floats a careless or hostile client sends, and arbitrary bit patterns.
 fn float() -> impl Strategy<Value = f64> {
     prop_oneof![
@@ -129,7 +159,7 @@ fn point() -> impl Strategy<Value = Vec3> {
 fn structured_request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
     let header = (
         (
-            prop::sample::select(vec![1u32, 1, 1, 2, 2, 3, 3, 3, 4, 5, 6, 7]),
+            prop::sample::select(vec![1u32, 1, 1, 2, 2, 3, 3, 3, 4, 5, 6, 7, 8, 8, 9]),
             0..N_CHAINS,
             prop_oneof![3 => Just(JOINT_HEAD), 2 => 0..=16u32],
             0..=3u32,
@@ -266,7 +296,7 @@ fn request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
 fn snapshot(set: &ChainSet) -> Vec<Vec<[u64; 3]>> {
     (0..set.len() as u32)
         .map(|c| {
-            set.elements_of(c, false)
+            set.elements_with(c, false, true)
                 .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
                 .collect()
         })
@@ -332,11 +362,15 @@ fn run_case(
     requests: &[(RequestHeader, Vec<Vec3>)],
     cov: &mut Coverage,
 ) -> Result<(), TestCaseError> {
-    let scene = parse_scene(SCENE, "fuzz.toml").expect("fuzz scene");
+    let max_limits = std::env::var("FUZZ_LIMITS").is_ok_and(|v| v == "max");
+    let scene = parse_scene(&scene_text(max_limits), "fuzz.toml").expect("fuzz scene");
     let mut set = ChainSet::new(&scene).expect("chain set");
     // A budget the fuzzer's own requests reach (long paths, many reach iterations), so the over-budget
-    // refusal is exercised like every other; the scene's substep caps keep the rest under it.
-    set.set_budget(5_000);
+    // refusal is exercised like every other; the scene's substep caps keep the rest under it. With the
+    // limits at their maximum, the service's own default budget is what bounds the work.
+    if !max_limits {
+        set.set_budget(5_000);
+    }
     let mut elements = Vec::new();
     for (req, points) in requests {
         let before = snapshot(&set);
@@ -355,7 +389,10 @@ fn run_case(
             prop_assert!(h.reason_str().is_empty());
             prop_assert_eq!(set.sequence(), seq + u64::from(changed));
             if req.command != Command::Snapshot as u32 && req.command != Command::Describe as u32 {
-                prop_assert_eq!(elements.len(), (h.n_joints + h.n_angles) as usize);
+                prop_assert_eq!(
+                    elements.len(),
+                    (h.n_joints + h.n_angles + h.n_held) as usize
+                );
             }
             prop_assert!(
                 elements.iter().all(|v| v.is_finite()),

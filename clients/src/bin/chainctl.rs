@@ -8,6 +8,8 @@
 //! chainctl query rope --json
 //! chainctl reset rope
 //! chainctl snapshot
+//! chainctl grasp rope --joint tail      # held: moves elsewhere leave it where it is
+//! chainctl release rope --joint tail
 //! chainctl knot reef
 //! ```
 //!
@@ -29,6 +31,10 @@ enum Cmd {
     Reset,
     Describe,
     Snapshot,
+    /// Hold the joint where it is (a hand's grasp).
+    Grasp,
+    /// Let a grasped joint go.
+    Release,
     /// Query the chain and name the knot tied in it (unknot, trefoil, square, granny, other).
     Knot,
 }
@@ -140,6 +146,14 @@ fn print(r: &TextResponse, json: bool) -> Result<()> {
             "  rot   {i:>5}: {:>14.9} {:>14.9} {:>14.9}",
             a[0], a[1], a[2]
         );
+    }
+    if !r.held.is_empty() {
+        let held: Vec<String> = r
+            .held
+            .iter()
+            .map(|h| format!("{}{}", h.joint, if h.anchor { " (anchor)" } else { "" }))
+            .collect();
+        println!("  held: {}", held.join(", "));
     }
     Ok(())
 }

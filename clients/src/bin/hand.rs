@@ -82,6 +82,10 @@ enum Cmd {
         /// View of the pictures, azimuth,elevation in degrees (default: from above, tilted 20°).
         #[arg(long, default_value = "-90,70")]
         view: String,
+        /// Grasp the joints this hand drives for the whole script (released at the end and on Ctrl-C;
+        /// `kill -9` leaves them held until `chainctl release`).
+        #[arg(long)]
+        grasp: bool,
     },
     /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
     Replay {
@@ -134,6 +138,7 @@ fn run(a: Args) -> Result<u8> {
             svg,
             frames,
             view,
+            grasp,
         } => {
             let view = View::parse(&view).map_err(anyhow::Error::msg)?;
             if !(1..=32).contains(&frames) {
@@ -170,6 +175,7 @@ fn run(a: Args) -> Result<u8> {
                 record,
                 progress: !quiet,
                 frames_per_turn: if svg.is_some() { frames } else { 0 },
+                grasp,
             };
             let r = run_hand(&mut conn, &cfg)?;
             let refused: Vec<String> = r.refused.iter().map(|(n, c)| format!("{c} {n}")).collect();

@@ -115,6 +115,9 @@ pub struct ChainSpec {
     pub moves: MoveOptions<f64>,
     /// Default strategy, tolerance (fraction of the total length) and iteration limit of a reach.
     pub reach: ReachOptions<f64>,
+    /// Joints held from the start and never released (`anchors`: a suture's end in tissue, a rope tied
+    /// to a ring), ascending; free chains only.
+    pub anchors: Vec<u32>,
 }
 
 impl ChainSpec {

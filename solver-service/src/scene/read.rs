@@ -62,6 +62,7 @@ pub(super) struct RawChain {
     pub strategy: Field<String>,
     pub tolerance: Field<f64>,
     pub max_iterations: Field<i64>,
+    pub anchors: Field<Vec<i64>>,
 }
 
 /// 1-based line of a byte offset.

@@ -346,6 +346,43 @@ fn chain(
         None,
     )?;
     let (points, lengths) = geometry(&f, shape)?;
+    let anchors = match &c.anchors {
+        None => Vec::new(),
+        Some(a) => {
+            if kind != ChainKind::Free {
+                return Err(f.err(
+                    a.span(),
+                    "anchors",
+                    "anchors are for free chains (a fixed-base chain is held at its base)".into(),
+                ));
+            }
+            let n = lengths.len() as i64;
+            let mut v: Vec<u32> = Vec::with_capacity(a.get_ref().len());
+            for &j in a.get_ref() {
+                if !(0..=n).contains(&j) {
+                    return Err(f.err(
+                        a.span(),
+                        "anchors",
+                        format!("joint {j} is outside 0..={n}"),
+                    ));
+                }
+                v.push(j as u32);
+            }
+            v.sort_unstable();
+            v.dedup();
+            if v.len() != a.get_ref().len() || v.len() > shared::MAX_HELD as usize {
+                return Err(f.err(
+                    a.span(),
+                    "anchors",
+                    format!(
+                        "anchors must be distinct joints, at most {}",
+                        shared::MAX_HELD
+                    ),
+                ));
+            }
+            v
+        }
+    };
     // Free chains must start where positions can hold their link lengths (requests beyond that are
     // refused as too far; a chain that starts there could never be moved).
     let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
@@ -416,10 +453,12 @@ fn chain(
         lengths,
         thickness,
         collision,
+        anchors,
         moves: MoveOptions {
             method,
             substeps,
             max_substeps,
+            ..MoveOptions::default()
         },
         reach: ReachOptions {
             strategy,

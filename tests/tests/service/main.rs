@@ -16,7 +16,9 @@
 //! * SIGTERM and SIGINT in every wait mode, idle and under load, 20 times each (`signals`);
 //! * a hostile client beside a 1 kHz client (`hostile`).
 
+mod crash;
 mod faults;
+mod holds;
 mod hostile;
 mod knots;
 mod latency;

@@ -1,0 +1,242 @@
+//! Holds through the service (issue 16): grasp and release on the wire, held joints in responses and on
+//! the state stream, a held joint bit for bit unchanged by moves elsewhere, a target out of the held
+//! rope's reach refused with the nearest point, anchors of a scene never released, and a held state
+//! restored bit for bit after `kill -9`.
+
+use shared::{Command, RequestHeader, Status, Vec3};
+use std::time::{Duration, Instant};
+use tests::{InProcess, Service, unique_prefix};
+
+fn req(cmd: Command, chain: u32, joint: u32) -> RequestHeader {
+    let mut h = RequestHeader::new(cmd, chain);
+    h.joint = joint;
+    h
+}
+
+fn bits(v: &Vec3) -> [u64; 3] {
+    [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]
+}
+
+fn dist(a: &Vec3, b: &Vec3) -> f64 {
+    ((a.x - b.x).powi(2) + (a.y - b.y).powi(2) + (a.z - b.z).powi(2)).sqrt()
+}
+
+#[test]
+fn a_grasped_joint_stays_while_the_rope_is_moved_and_goes_when_released() {
+    let svc = InProcess::start();
+    let mut c = svc.connect();
+    let stream = c.subscribe().unwrap();
+    let head = shared::JOINT_HEAD;
+    let q = c.call(req(Command::Query, 0, head), &[]).unwrap();
+    assert_eq!(q.header.n_held, 0);
+    let tail = q.joints()[0];
+
+    let g = c.call(req(Command::Grasp, 0, 0), &[]).unwrap();
+    assert!(g.is_ok(), "{}", g.header.reason_str());
+    assert_eq!(g.header.sequence, q.header.sequence + 1);
+    assert_eq!(g.held(), vec![(0, false)]);
+    assert_eq!(bits(&g.joints()[0]), bits(&tail), "a grasp moves nothing");
+    // Grasping it again changes nothing (no new state).
+    let again = c.call(req(Command::Grasp, 0, 0), &[]).unwrap();
+    assert!(again.is_ok());
+    assert_eq!(again.header.sequence, g.header.sequence);
+
+    // Moves of the head: the tail stays, bit for bit; the head lands; lengths kept (unit links).
+    let mut seq = g.header.sequence;
+    for i in 0..30 {
+        let t = f64::from(i) * 0.2;
+        let target = Vec3::new(30.0 + 3.0 * t.cos(), 8.0 * t.sin(), t);
+        let r = c.call(req(Command::Move, 0, head), &[target]).unwrap();
+        assert!(r.is_ok(), "move {i}: {}", r.header.reason_str());
+        seq = r.header.sequence;
+        let j = r.joints();
+        assert_eq!(bits(&j[0]), bits(&tail), "move {i}: the held tail moved");
+        assert!(dist(&j[40], &target) < 1e-6, "move {i}: head off target");
+        for (k, w) in j.windows(2).enumerate() {
+            let l = dist(&w[0], &w[1]);
+            assert!((l - 1.0).abs() < 1e-12, "move {i}: link {k} is {l}");
+        }
+        assert_eq!(
+            r.held(),
+            vec![(0, false)],
+            "every response carries the holds"
+        );
+    }
+    // Out of reach of the held tail: refused with the nearest point, nothing changes.
+    let before = c.call(req(Command::Query, 0, head), &[]).unwrap();
+    let far = Vec3::new(tail.x + 100.0, tail.y, tail.z);
+    let r = c.call(req(Command::Move, 0, head), &[far]).unwrap();
+    assert_eq!(Status::from_u32(r.header.status), Some(Status::Unreachable));
+    assert!(
+        r.header.reason_str().contains("held joint 0"),
+        "{}",
+        r.header.reason_str()
+    );
+    assert!(
+        (r.header.residual - 60.0).abs() < 1e-6,
+        "{}",
+        r.header.residual
+    );
+    let after = c.call(req(Command::Query, 0, head), &[]).unwrap();
+    assert_eq!(
+        after.payload, before.payload,
+        "a refused move changed the rope"
+    );
+    // Taut instead: just inside the rope's length from the tail.
+    let taut = Vec3::new(tail.x + 40.0 * (1.0 - 1e-9), tail.y, tail.z);
+    let r = c.call(req(Command::Move, 0, head), &[taut]).unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    assert_eq!(bits(&r.joints()[0]), bits(&tail));
+    seq = r.header.sequence.max(seq);
+
+    let rel = c.call(req(Command::Release, 0, 0), &[]).unwrap();
+    assert!(rel.is_ok());
+    assert_eq!(rel.header.n_held, 0);
+    assert_eq!(rel.header.sequence, seq + 1);
+    let again = c.call(req(Command::Release, 0, 0), &[]).unwrap();
+    assert!(again.is_ok());
+    assert_eq!(
+        again.header.sequence, rel.header.sequence,
+        "nothing to release"
+    );
+    // Free again: the tail follows a head move.
+    let r = c
+        .call(req(Command::Move, 0, head), &[Vec3::new(0.0, 60.0, 0.0)])
+        .unwrap();
+    assert!(r.is_ok());
+    assert!(
+        dist(&r.joints()[0], &tail) > 1.0,
+        "the released tail did not follow"
+    );
+
+    // The state stream carried the holds: the grasp's sample has one, the release's none.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut held_by_seq = std::collections::HashMap::new();
+    while Instant::now() < deadline && !held_by_seq.contains_key(&rel.header.sequence) {
+        match stream
+            .try_next(|h, payload| {
+                let held: Vec<u32> = payload[h.n_joints as usize..]
+                    .iter()
+                    .take(h.n_held as usize)
+                    .map(|v| v.x as u32)
+                    .collect();
+                (h.sequence, held)
+            })
+            .unwrap()
+        {
+            Some((s, held)) => {
+                held_by_seq.insert(s, held);
+            }
+            None => std::thread::sleep(Duration::from_millis(1)),
+        }
+    }
+    assert_eq!(held_by_seq.get(&g.header.sequence), Some(&vec![0]));
+    assert_eq!(held_by_seq.get(&rel.header.sequence), Some(&vec![]));
+}
+
+#[test]
+fn grasps_are_refused_where_they_make_no_sense() {
+    let svc = InProcess::start();
+    let mut c = svc.connect();
+    let cases = [
+        (
+            req(Command::Grasp, 2, 3),
+            vec![],
+            Status::WrongChainKind,
+            "free chains",
+        ),
+        (
+            req(Command::Grasp, 0, 41),
+            vec![],
+            Status::JointOutOfRange,
+            "joint 41",
+        ),
+        (
+            req(Command::Release, 0, 41),
+            vec![],
+            Status::JointOutOfRange,
+            "joint 41",
+        ),
+        (
+            req(Command::Grasp, 0, 3),
+            vec![Vec3::new(0.0, 0.0, 0.0)],
+            Status::BadPointCount,
+            "grasp takes",
+        ),
+    ];
+    for (h, points, status, fragment) in cases {
+        let r = c.call(h, &points).unwrap();
+        assert_eq!(Status::from_u32(r.header.status), Some(status));
+        assert!(
+            r.header.reason_str().contains(fragment),
+            "{}",
+            r.header.reason_str()
+        );
+    }
+}
+
+/// A scene's anchors are held from the start, reported as anchors, and never released; a held state
+/// (anchors and a grasp) comes back bit for bit after `kill -9` and `--restore`.
+#[test]
+fn anchors_hold_from_the_start_and_holds_survive_kill_9() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("suture.toml");
+    std::fs::write(
+        &scene,
+        "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\nanchors = [0]\n",
+    )
+    .unwrap();
+    let state = dir.path().join("state");
+    let args = [
+        "--scene",
+        scene.to_str().unwrap(),
+        "--state-dir",
+        state.to_str().unwrap(),
+    ];
+    let prefix = unique_prefix();
+    let svc = Service::start(&prefix, &args);
+    let mut c = svc.connect();
+    let q = c.call(req(Command::Query, 0, 0), &[]).unwrap();
+    assert_eq!(q.held(), vec![(0, true)]);
+    let r = c.call(req(Command::Release, 0, 0), &[]).unwrap();
+    assert_eq!(Status::from_u32(r.header.status), Some(Status::BadOption));
+    assert!(
+        r.header.reason_str().contains("anchor"),
+        "{}",
+        r.header.reason_str()
+    );
+    // A hand grasps the middle and moves the free end around it.
+    assert!(c.call(req(Command::Grasp, 0, 20), &[]).unwrap().is_ok());
+    for i in 0..20 {
+        let t = f64::from(i) * 0.3;
+        let r = c
+            .call(
+                req(Command::Move, 0, 40),
+                &[Vec3::new(20.0 + 10.0 * t.cos(), 10.0 * t.sin(), 2.0)],
+            )
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+    }
+    let before = c.call(req(Command::Query, 0, 0), &[]).unwrap();
+    assert_eq!(before.held(), vec![(0, true), (20, false)]);
+    drop(c);
+    svc.kill9();
+    let svc = Service::start(&unique_prefix(), &[&args[..], &["--restore"]].concat());
+    let mut c = svc.connect();
+    let after = c.call(req(Command::Query, 0, 0), &[]).unwrap();
+    assert_eq!(after.header.sequence, before.header.sequence);
+    assert_eq!(after.held(), before.held());
+    let (a, b): (Vec<_>, Vec<_>) = (
+        after.joints().iter().map(bits).collect(),
+        before.joints().iter().map(bits).collect(),
+    );
+    assert_eq!(a, b, "the held rope is not restored bit for bit");
+    // And it goes on holding: a move of the end leaves joints 0..=20 where they are.
+    let r = c
+        .call(req(Command::Move, 0, 40), &[Vec3::new(25.0, 5.0, -3.0)])
+        .unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    for j in 0..=20 {
+        assert_eq!(bits(&r.joints()[j]), bits(&after.joints()[j]), "joint {j}");
+    }
+}
