@@ -504,10 +504,10 @@ pub fn knot_of(conn: &mut Connection, chain: u32) -> anyhow::Result<tractrix::kn
 /// One line describing a knot report, as the tools print it.
 pub fn knot_line(k: &tractrix::knot::KnotReport) -> String {
     format!(
-        "knot: {} ({}/{} views; {} crossings, writhe {}, determinant {})",
+        "knot: {} ({} of {} closures agree; {} crossings, writhe {}, determinant {})",
         k.kind.name(),
-        k.votes,
-        k.views,
+        k.agreeing,
+        k.closures,
         k.crossings,
         k.writhe,
         k.determinant

@@ -218,10 +218,10 @@ fn run(a: Args) -> Result<u8> {
         let k = clients::hand::knot_of(&mut conn, id)?;
         if a.json {
             println!(
-                "{{\"knot\":\"{}\",\"votes\":{},\"views\":{},\"crossings\":{},\"writhe\":{},\"determinant\":{}}}",
+                "{{\"knot\":\"{}\",\"closures_agreeing\":{},\"closures\":{},\"crossings\":{},\"writhe\":{},\"determinant\":{}}}",
                 k.kind.name(),
-                k.votes,
-                k.views,
+                k.agreeing,
+                k.closures,
                 k.crossings,
                 k.writhe,
                 k.determinant

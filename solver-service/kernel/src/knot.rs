@@ -18,9 +18,13 @@
 //! The determinant `|V(−1)|` alone cannot tell square from granny; the polynomial (or the writhe of a
 //! reduced diagram) can. Any other polynomial is "other".
 //!
-//! One closure and one projection can mislead (a closing arc through the knot, a near-degenerate view),
-//! so [`identify`] tries six closure directions and three projections each and takes the majority;
-//! views where three strands nearly meet or a crossing sits on a joint are skipped as degenerate.
+//! What is checked, exactly: the open rope is closed in six ways (six closure directions spread over the
+//! sphere), and each closed curve is named from one projection. A closed curve has one knot type, so
+//! every generic view of one closure gives the same name; views only differ in whether they are
+//! degenerate (three strands nearly meeting, a crossing on a joint), and [`identify`] tries up to three
+//! views per closure to find a generic one. What can differ is the closures: an open rope's knot
+//! depends on how it is closed when the ends are inside the tangle (a closing arc through the knot). The
+//! report gives the majority name and how many of the six closures agree with it.
 //! This is a tool (it allocates); it is not on the per-move path.
 
 use nalgebra::Vector3;
@@ -58,10 +62,10 @@ impl KnotType {
 pub struct KnotReport {
     /// The majority name.
     pub kind: KnotType,
-    /// How many views gave that name.
-    pub votes: u32,
-    /// How many views were evaluated (degenerate ones are not counted).
-    pub views: u32,
+    /// How many closures gave that name.
+    pub agreeing: u32,
+    /// How many closures were named (of six; a closure none of whose three views is generic is not).
+    pub closures: u32,
     /// Crossings of the simplest winning view after reduction.
     pub crossings: u32,
     /// Writhe (sum of crossing signs) of that reduced diagram.
@@ -85,43 +89,45 @@ pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
         .fold(0.0, f64::max)
         .max(f64::MIN_POSITIVE);
     let mut tallies: Vec<(KnotType, u32, Option<Diagram>)> = Vec::new();
-    let mut views = 0;
+    let mut closures = 0;
     let mut closed: Vec<Vector3<f64>> = Vec::with_capacity(points.len() + 1);
     for u in closure_directions() {
         closed.clear();
         closed.extend_from_slice(points);
         closed.push(centroid + u * (3.0 * radius));
-        for v in projection_directions(&u) {
-            let Some(d) = Diagram::project(&closed, &v) else {
-                continue;
-            };
-            let d = d.reduced();
-            let kind = d.name();
-            views += 1;
-            match tallies.iter_mut().find(|t| t.0 == kind) {
-                Some(t) => {
-                    t.1 += 1;
-                    // Report the simplest diagram seen of this knot.
-                    if t.2
-                        .as_ref()
-                        .is_some_and(|best| d.crossings() < best.crossings())
-                    {
-                        t.2 = Some(d);
-                    }
+        // The first generic view names this closure; the others would say the same.
+        let Some(d) = projection_directions(&u)
+            .iter()
+            .find_map(|v| Diagram::project(&closed, v))
+        else {
+            continue;
+        };
+        let d = d.reduced();
+        let kind = d.name();
+        closures += 1;
+        match tallies.iter_mut().find(|t| t.0 == kind) {
+            Some(t) => {
+                t.1 += 1;
+                // Report the simplest diagram seen of this knot.
+                if t.2
+                    .as_ref()
+                    .is_some_and(|best| d.crossings() < best.crossings())
+                {
+                    t.2 = Some(d);
                 }
-                None => tallies.push((kind, 1, Some(d))),
             }
+            None => tallies.push((kind, 1, Some(d))),
         }
     }
     // Majority; ties go to the simpler knot (the enum's order).
     tallies.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
     match tallies.into_iter().next() {
-        Some((kind, votes, Some(d))) => {
+        Some((kind, agreeing, Some(d))) => {
             let jones = d.jones().unwrap_or_default();
             KnotReport {
                 kind,
-                votes,
-                views,
+                agreeing,
+                closures,
                 crossings: d.crossings() as u32,
                 writhe: d.writhe(),
                 determinant: jones.determinant(),
@@ -130,8 +136,8 @@ pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
         }
         _ => KnotReport {
             kind: KnotType::Other,
-            votes: 0,
-            views,
+            agreeing: 0,
+            closures,
             crossings: 0,
             writhe: 0,
             determinant: 0,
@@ -693,8 +699,8 @@ mod tests {
         for (points, want) in test_knots() {
             let r = identify(&long_knot(&points));
             assert_eq!(r.kind, want, "{r:?}");
-            assert_eq!(r.votes, r.views, "{r:?}");
-            assert!(r.views >= 12, "{r:?}");
+            assert_eq!(r.agreeing, r.closures, "{r:?}");
+            assert!(r.closures >= 5, "{r:?}");
         }
     }
 

@@ -198,8 +198,8 @@ fn one_hand_ties_an_overhand_knot_a_trefoil() {
     let k = knot_of(&svc, "overhand");
     assert_eq!(k.kind, KnotType::Trefoil, "{k:?}");
     assert!(
-        k.votes * 3 >= k.views * 2,
-        "a clear majority of views: {k:?}"
+        k.agreeing * 3 >= k.closures * 2,
+        "a clear majority of closures: {k:?}"
     );
 }
 

@@ -12,6 +12,10 @@
 //!   locked moves change nothing, the overhand knot holds with collision on a fine enough rope.
 //! * `fixed_base`: both strategies converge with the base unmoved; unreachable targets are reported;
 //!   the DLS baseline; joint angles.
+//! * `hold`: held joints bit for bit unchanged, moves landing or refused with the nearest point,
+//!   lengths kept, no holds = the free move bit for bit.
+//! * `knot`: the identification on ropes built by hand (trefoil, mirror, square, granny, a spiral
+//!   that is no knot), perturbed.
 
 // The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
 #![allow(
@@ -26,5 +30,6 @@ mod convergence;
 mod extremes;
 mod fixed_base;
 mod hold;
+mod knot;
 mod link;
 mod support;

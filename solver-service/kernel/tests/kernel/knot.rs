@@ -1,0 +1,165 @@
+//! Knot identification on ropes built here, by hand, independently of the knot scripts and of the
+//! identification's own test shapes: a long trefoil drawn as a pulled-out overhand knot (a helix-like
+//! curl with the ends run out straight), its mirror, the square and granny knots composed from two of
+//! them along one rope, and randomly perturbed versions of each. The identification must name each
+//! with all named closures agreeing, and must not name a knot in an unknotted rope of the same picture
+//! (the same curl climbing steadily, so the later strand passes over at every crossing).
+
+use nalgebra::Vector3;
+use tractrix::knot::{KnotType, identify};
+
+type V = Vector3<f64>;
+
+/// SplitMix64, for reproducible perturbations.
+struct Rng(u64);
+impl Rng {
+    fn unit(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn sym(&mut self, a: f64) -> f64 {
+        a * (2.0 * self.unit() - 1.0)
+    }
+}
+
+/// An overhand knot as a rope would lie, loosely tied and pulled out along x, centred at `x0`.
+///
+/// Drawn from the torus-knot picture of the trefoil: the (2,3) torus knot `r = 2 + cos 3t`,
+/// `θ = 2t`, `z = ± sin 3t` is cut open at its left-most point and both cut ends are run straight out
+/// along −x and +x. `hand` = +1 or −1 picks the chirality (the mirror flips z).
+fn overhand(x0: f64, hand: f64, samples: usize) -> Vec<V> {
+    // The closed (2,3) torus knot, sampled.
+    let closed: Vec<V> = (0..samples)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / samples as f64;
+            let r = 2.0 + (3.0 * t).cos();
+            V::new(r * (2.0 * t).cos(), r * (2.0 * t).sin(), hand * (3.0 * t).sin())
+        })
+        .collect();
+    open_out(&closed, x0)
+}
+
+/// Cuts a closed curve open at its left-most point and runs both ends out along x, 15 units beyond
+/// the knot, the first end leaving to the left and the last to the right (as the two ends of a knot
+/// in the middle of a rope); shifted by `x0`.
+fn open_out(closed: &[V], x0: f64) -> Vec<V> {
+    let n = closed.len();
+    let c = (0..n)
+        .min_by(|&i, &j| closed[i].x.total_cmp(&closed[j].x))
+        .expect("points");
+    let max_x = closed.iter().map(|p| p.x).fold(f64::MIN, f64::max);
+    let min_x = closed[c].x;
+    let mut out = Vec::new();
+    // The first end comes in from far left at the cut's height.
+    let first = closed[(c + 1) % n];
+    out.push(V::new(min_x - 15.0, first.y, first.z));
+    for k in 1..n {
+        out.push(closed[(c + k) % n]);
+    }
+    // The last end goes up and over (clear of the knot, z = 4) and out to the far right.
+    let last = closed[(c + n - 1) % n];
+    out.push(V::new(min_x - 1.0, last.y, 4.0));
+    out.push(V::new(max_x + 15.0, last.y, 4.0));
+    for p in &mut out {
+        p.x += x0;
+    }
+    out
+}
+
+/// Two overhand knots along one rope: the first's right end leads into the second's left end.
+fn two_knots(first: f64, second: f64) -> Vec<V> {
+    let a = overhand(0.0, first, 150);
+    let b = overhand(0.0, second, 150);
+    // Place b to the right of a's right end, joined by a straight run.
+    let a_end = *a.last().expect("a");
+    let b_start = b[0];
+    let shift = a_end - b_start + V::new(5.0, 0.0, 0.0);
+    let mut rope = a;
+    rope.extend(b.iter().map(|p| p + shift));
+    rope
+}
+
+/// The curl of [`overhand`] seen from above (the same three crossings in the picture) but with its
+/// height climbing steadily along the rope, so at every crossing the later strand passes over: a
+/// spiral, not a knot.
+fn unknotted_curl(samples: usize) -> Vec<V> {
+    let closed: Vec<V> = (0..samples)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / samples as f64;
+            let r = 2.0 + (3.0 * t).cos();
+            V::new(r * (2.0 * t).cos(), r * (2.0 * t).sin(), t)
+        })
+        .collect();
+    open_out(&closed, 0.0)
+}
+
+/// Moves every point by up to `amp` in each coordinate.
+fn perturbed(points: &[V], amp: f64, rng: &mut Rng) -> Vec<V> {
+    points
+        .iter()
+        .map(|p| p + V::new(rng.sym(amp), rng.sym(amp), rng.sym(amp)))
+        .collect()
+}
+
+/// The rope is named `want`, by every closure that could be named, and at least five of six were.
+fn check(points: &[V], want: KnotType, what: &str) {
+    let r = identify(points);
+    assert_eq!(r.kind, want, "{what}: {r:?}");
+    assert!(r.closures >= 5, "{what}: most closures named: {r:?}");
+    assert_eq!(r.agreeing, r.closures, "{what}: every closure agrees: {r:?}");
+}
+
+#[test]
+fn hand_built_trefoil_and_its_mirror() {
+    let left = overhand(0.0, 1.0, 150);
+    let right = overhand(0.0, -1.0, 150);
+    check(&left, KnotType::Trefoil, "trefoil");
+    check(&right, KnotType::Trefoil, "mirror trefoil");
+    let (a, b) = (identify(&left), identify(&right));
+    assert_eq!((a.crossings, b.crossings), (3, 3));
+    assert_eq!(a.writhe, -b.writhe, "mirrors have opposite writhe");
+    assert_eq!(a.writhe.abs(), 3);
+    assert_eq!((a.determinant, b.determinant), (3, 3));
+}
+
+#[test]
+fn square_and_granny_composed_from_hand_built_trefoils() {
+    check(&two_knots(1.0, -1.0), KnotType::Square, "trefoil then mirror");
+    check(&two_knots(-1.0, 1.0), KnotType::Square, "mirror then trefoil");
+    check(&two_knots(1.0, 1.0), KnotType::Granny, "two trefoils");
+    check(&two_knots(-1.0, -1.0), KnotType::Granny, "two mirrors");
+    let sq = identify(&two_knots(1.0, -1.0));
+    let gr = identify(&two_knots(1.0, 1.0));
+    assert_eq!((sq.writhe, sq.determinant), (0, 9));
+    assert_eq!((gr.writhe.abs(), gr.determinant), (6, 9));
+}
+
+#[test]
+fn unknotted_curls_are_not_knots() {
+    check(&unknotted_curl(150), KnotType::Unknot, "climbing curl");
+    let straight: Vec<V> = (0..=40).map(|k| V::new(k as f64, 0.0, 0.0)).collect();
+    check(&straight, KnotType::Unknot, "straight rope");
+}
+
+#[test]
+fn perturbed_knots_keep_their_names() {
+    // Each point moved by up to 0.1 in each coordinate: a tenth of the knot's strand separation
+    // (the torus curve's strands are about 1 apart at the crossings), 20 draws per knot.
+    let mut rng = Rng(0xC0FFEE);
+    let cases: Vec<(Vec<V>, KnotType, &str)> = vec![
+        (overhand(0.0, 1.0, 150), KnotType::Trefoil, "trefoil"),
+        (overhand(0.0, -1.0, 150), KnotType::Trefoil, "mirror"),
+        (two_knots(1.0, -1.0), KnotType::Square, "square"),
+        (two_knots(1.0, 1.0), KnotType::Granny, "granny"),
+        (unknotted_curl(150), KnotType::Unknot, "curl"),
+    ];
+    for (rope, want, what) in cases {
+        for draw in 0..20 {
+            let p = perturbed(&rope, 0.1, &mut rng);
+            check(&p, want, &format!("{what}, draw {draw}"));
+        }
+    }
+}
