@@ -1,14 +1,23 @@
 //! Knot success over rope resolution × holds × knot (issue 16): the evidence for choosing a rope.
 //!
 //! `cargo bench -p clients --bench knots` ties each knot on a rope 40 units long and 0.2 thick (capsule
-//! collision) in 40, 80 and 160 links, with free ends or with the ends held (the tail anchored while the
-//! head ties the overhand; for the two-handed knots each hand holds its end for the whole script, so
-//! the rope between is a fixed-base chain from the other hand), over several runs whose throws are
-//! perturbed (size ±3 %, direction ±0.05 per component, exit ±1 unit). A run succeeds when the rope's
-//! knot, named by the kernel's identification, is the one the script ties. `KNOT_BENCH_RUNS` (default
-//! 6) sets the runs per cell. The scripts are the built-in throws (`clients::script`), scaled to the
-//! 40-unit rope; moves refused (locked by collision, or out of the held rope's reach) are counted and
-//! skipped, as a hand would skip them.
+//! collision) in 40, 80 and 160 links, over several runs whose throws are perturbed (size ±3 %,
+//! direction ±0.05 per component, exit ±1 unit). Three ways to start and hold the rope:
+//!
+//! * *free, straight*: the built-in scripts (`clients::script`) scaled to 40 units, nothing held: the
+//!   overhand is thrown at the head, which walks on 12 units; the two-handed knots are one throw at
+//!   each end.
+//! * *free, U*: the rope hangs in a U (a circular arc between ends 12 apart, both ends pointing up),
+//!   nothing held. Overhand: the head throws upward and walks on 6, then 4 sideways. Two hands: six
+//!   alternating turns (A throws, B pulls out, A pulls out, B throws, A pulls, B pulls).
+//! * *held, U*: the same start and scripts with both ends held, so each move of a hand's end is
+//!   solved by the paper's fixed-base method from the other end (translate back; the reach hierarchy
+//!   after 16 iterations), as the service does for grasps and anchors.
+//!
+//! A run succeeds when the rope's knot, named by the identification, is the one the script ties.
+//! `KNOT_BENCH_RUNS` (default 6) sets the runs per cell, `KNOT_BENCH_LINKS` keeps one resolution and
+//! `KNOT_BENCH_DEBUG` prints the knot after every turn. Refused moves are counted and skipped, as a
+//! hand would skip them.
 
 use clients::script::{Handedness, Throw, Turn};
 use nalgebra::Vector3;
@@ -22,6 +31,8 @@ type V = Vector3<f64>;
 
 const LENGTH: f64 = 40.0;
 const THICKNESS: f64 = 0.2;
+/// Distance between the held ends at the start.
+const CHORD: f64 = 12.0;
 
 /// A small deterministic generator (SplitMix64).
 struct Rng(u64);
@@ -45,6 +56,35 @@ enum Knot {
     Granny,
 }
 
+/// How the rope starts and what holds it.
+#[derive(Clone, Copy, PartialEq)]
+enum Ends {
+    /// Straight along x, nothing held: the built-in scripts.
+    Free,
+    /// Hanging in a U between ends 12 apart, the U scripts, nothing held: the control for `Held`.
+    UFree,
+    /// The same U and scripts with both ends held (the tail anchored or held by hand A, the head by
+    /// the moving hand B): the move of a hand's end is solved by the paper's fixed-base method.
+    Held,
+}
+
+impl Ends {
+    fn name(self) -> &'static str {
+        match self {
+            Ends::Free => "free, straight",
+            Ends::UFree => "free, U",
+            Ends::Held => "held, U",
+        }
+    }
+}
+
+/// One hand's turn: which end it moves (the head, else the tail), and how.
+struct Phase {
+    head: bool,
+    throw: Option<Throw>,
+    waypoints: Vec<[f64; 3]>,
+}
+
 impl Knot {
     fn name(self) -> &'static str {
         match self {
@@ -60,8 +100,8 @@ impl Knot {
             Knot::Granny => KnotType::Granny,
         }
     }
-    /// The turns: (joint moved, throw). Joint 0 is the tail, `usize::MAX` the head.
-    fn turns(self, rng: &mut Rng) -> Vec<(bool, Throw)> {
+    /// The script's phases, perturbed by `rng`, for the straight rope or the U.
+    fn phases(self, u: bool, rng: &mut Rng) -> Vec<Phase> {
         let mut throw = |handedness, outward: [f64; 3], scale: f64, exit: f64| Throw {
             handedness,
             outward: [
@@ -72,20 +112,51 @@ impl Knot {
             scale: scale * rng.range(0.97, 1.03),
             exit: (exit + rng.range(-1.0, 1.0)).max(0.0),
         };
-        match self {
-            // (head?, throw): the built-in overhand; the two-handed throws scaled to 40 units.
-            Knot::Overhand => vec![(true, throw(Handedness::Left, [1.0, 0.0, 0.0], 0.9, 12.0))],
-            Knot::Square | Knot::Granny => {
-                let second = if self == Knot::Square {
-                    Handedness::Right
-                } else {
-                    Handedness::Left
-                };
-                vec![
-                    (false, throw(Handedness::Left, [-1.0, 0.0, 0.0], 0.45, 8.0)),
-                    (true, throw(second, [1.0, 0.0, 0.0], 0.45, 2.0)),
-                ]
-            }
+        let throw_at = |head, t| Phase {
+            head,
+            throw: Some(t),
+            waypoints: vec![],
+        };
+        let pull = |head, by: [f64; 3]| Phase {
+            head,
+            throw: None,
+            waypoints: vec![by],
+        };
+        let second = if self == Knot::Square {
+            Handedness::Right
+        } else {
+            Handedness::Left
+        };
+        match (self, u) {
+            // The built-in overhand: the head throws away from the tail and walks on 12 units, the
+            // free rope sliding through the knot after it.
+            (Knot::Overhand, false) => vec![throw_at(
+                true,
+                throw(Handedness::Left, [1.0, 0.0, 0.0], 0.9, 12.0),
+            )],
+            // The tail anchored, the rope hanging in a U from the anchor to the hand, both ends
+            // pointing up (+y): the head throws upward, away from the rope, and walks on.
+            (Knot::Overhand, true) => vec![
+                throw_at(true, throw(Handedness::Left, [0.0, 1.0, 0.0], 0.9, 6.0)),
+                pull(true, [4.0, 0.0, 0.0]),
+            ],
+            // The built-in two-handed script on free ends, scaled to 40 units: each hand throws
+            // at its own end, one turn each.
+            (_, false) => vec![
+                throw_at(false, throw(Handedness::Left, [-1.0, 0.0, 0.0], 0.45, 8.0)),
+                throw_at(true, throw(second, [1.0, 0.0, 0.0], 0.45, 2.0)),
+            ],
+            // Each hand holds its end throughout, the rope hanging between them in a U; six
+            // alternating turns: A throws (upward, away from the rope), B pulls its side out, A
+            // pulls back, B throws (mirrored for the square), A pulls, B pulls.
+            (_, true) => vec![
+                throw_at(false, throw(Handedness::Left, [0.0, 1.0, 0.0], 0.45, 3.0)),
+                pull(true, [3.0, 0.0, 0.0]),
+                pull(false, [-3.0, 0.0, 0.0]),
+                throw_at(true, throw(second, [0.0, 1.0, 0.0], 0.45, 3.0)),
+                pull(false, [-2.0, 0.0, 0.0]),
+                pull(true, [2.0, 0.0, 0.0]),
+            ],
         }
     }
 }
@@ -95,11 +166,45 @@ struct Outcome {
     knot: KnotType,
     refused: usize,
     moves: usize,
+    /// Fixed-base iterations summed over the accepted moves.
+    iterations: u64,
 }
 
-fn tie(n: usize, held: bool, knot: Knot, rng: &mut Rng) -> Outcome {
-    let mut chain =
-        Chain::<f64, 3>::straight(n, LENGTH / n as f64, V::zeros(), V::x()).expect("rope");
+/// The starting rope: straight along x, or a U: a circular arc hanging between the ends, CHORD apart,
+/// both of which point up (+y).
+fn start_rope(n: usize, arc: bool) -> Chain<f64, 3> {
+    if !arc {
+        return Chain::straight(n, LENGTH / n as f64, V::zeros(), V::x()).expect("rope");
+    }
+    // A circular arc of length LENGTH through both ends, CHORD apart: half angle `a` solves
+    // `sin a / a = CHORD / LENGTH` (bisection; above π/2 the arc bulges below its ends).
+    let chord = CHORD;
+    let (mut lo, mut hi) = (1e-6, std::f64::consts::PI - 1e-9);
+    for _ in 0..200 {
+        let a = 0.5 * (lo + hi);
+        if a.sin() / a > chord / LENGTH {
+            lo = a;
+        } else {
+            hi = a;
+        }
+    }
+    let a = 0.5 * (lo + hi);
+    let r = LENGTH / (2.0 * a);
+    // The arc runs from the tail at the origin to the head at
+    // (CHORD, 0, 0) through its lowest point.
+    let centre = V::new(chord / 2.0, r * a.cos(), 0.0);
+    let points: Vec<V> = (0..=n)
+        .map(|k| {
+            let t = -a + 2.0 * a * k as f64 / n as f64 - std::f64::consts::FRAC_PI_2;
+            centre + V::new(r * t.cos(), r * t.sin(), 0.0)
+        })
+        .collect();
+    Chain::from_points(&points).expect("rope")
+}
+
+fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
+    let u = ends != Ends::Free;
+    let mut chain = start_rope(n, u);
     let model = CollisionModel {
         options: CollisionOptions {
             thickness: THICKNESS,
@@ -109,34 +214,51 @@ fn tie(n: usize, held: bool, knot: Knot, rng: &mut Rng) -> Outcome {
     };
     let mut ws = CollisionWorkspace::new();
     let opts = MoveOptions::default();
-    if held {
-        // Overhand: the tail anchored, the hand holds the head. Two hands: each holds its end.
+    if ends == Ends::Held {
         chain.hold(0).expect("tail");
         chain.hold(n).expect("head");
     }
     let (mut refused, mut moves) = (0, 0);
-    for (head, throw) in knot.turns(rng) {
-        let joint = if head { n } else { 0 };
+    let (mut iters, mut max_iters) = (0u64, 0u32);
+    for phase in knot.phases(u, rng) {
+        let joint = if phase.head { n } else { 0 };
         let start = chain.joint(joint);
         let turn = Turn {
-            hand: "A".into(),
+            hand: if phase.head { "B" } else { "A" }.into(),
             chain: "rope".into(),
-            joint: if head { "head" } else { "tail" }.into(),
-            throw: Some(throw),
-            waypoints: vec![],
+            joint: if phase.head { "head" } else { "tail" }.into(),
+            throw: phase.throw,
+            waypoints: phase.waypoints,
         };
         for t in turn.targets([start.x, start.y, start.z], 0.05) {
             moves += 1;
             let t = V::new(t[0], t[1], t[2]);
-            if move_joint_colliding(&mut chain, joint, t, &opts, &model, &mut ws).is_err() {
-                refused += 1;
+            match move_joint_colliding(&mut chain, joint, t, &opts, &model, &mut ws) {
+                Ok(o) => {
+                    iters += o.held_iterations as u64;
+                    max_iters = max_iters.max(o.held_iterations);
+                }
+                Err(_) => refused += 1,
             }
+        }
+        if std::env::var_os("KNOT_BENCH_DEBUG").is_some() {
+            let r = identify(&chain.positions());
+            eprintln!(
+                "  after {} phase: {} ({}/{}), head {:?}, tail {:?}, refused {refused}/{moves}, held iterations {iters} (max {max_iters})",
+                if phase.head { "head" } else { "tail" },
+                r.kind.name(),
+                r.agreeing,
+                r.closures,
+                chain.joint(n),
+                chain.joint(0)
+            );
         }
     }
     Outcome {
         knot: identify(&chain.positions()).kind,
         refused,
         moves,
+        iterations: iters,
     }
 }
 
@@ -146,44 +268,51 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .filter(|&r| r > 0)
         .unwrap_or(6);
+    let only: Option<usize> = std::env::var("KNOT_BENCH_LINKS")
+        .ok()
+        .and_then(|s| s.parse().ok());
     println!(
         "Knots tied on a rope {LENGTH} units long and {THICKNESS} thick (capsule collision), {runs} \
-         perturbed runs per cell; a cell is the runs whose rope holds the knot the script ties, then \
-         the share of moves refused (locked, or out of the held rope's reach):\n"
+         perturbed runs per cell. *tied*: runs whose rope the identification names as the script's \
+         knot; *refused*: share of moves refused (locked, or beyond the held rope's reach); \
+         *iter/move*: fixed-base iterations per accepted move (0 when nothing is held; the reach \
+         hierarchy finishes after 16).\n"
     );
     let knots = [Knot::Overhand, Knot::Square, Knot::Granny];
-    print!("| links | link length | ends |");
+    print!("| links | link length | ends, start |");
     for k in knots {
-        print!(" {} tied | {} moves refused |", k.name(), k.name());
+        let k = k.name();
+        print!(" {k} tied | {k} refused | {k} iter/move |");
     }
-    println!("\n|---:|---:|---|{}", "---:|---:|".repeat(knots.len()));
+    println!("\n|---:|---:|---|{}", "---:|---:|---:|".repeat(knots.len()));
     for n in [40usize, 80, 160] {
-        for held in [false, true] {
-            print!(
-                "| {n} | {} | {} |",
-                LENGTH / n as f64,
-                if held { "held" } else { "free" }
-            );
+        if only.is_some_and(|o| o != n) {
+            continue;
+        }
+        for ends in [Ends::Free, Ends::UFree, Ends::Held] {
+            print!("| {n} | {} | {} |", LENGTH / n as f64, ends.name());
             for knot in knots {
                 let mut rng = Rng(0x5EED ^ (n as u64) << 8 ^ knot as u64);
-                let (mut ok, mut refused, mut moves) = (0, 0, 0);
+                let (mut ok, mut refused, mut moves, mut iterations) = (0, 0, 0, 0u64);
                 let mut found = Vec::new();
                 for _ in 0..runs {
-                    let o = tie(n, held, knot, &mut rng);
+                    let o = tie(n, ends, knot, &mut rng);
                     ok += usize::from(o.knot == knot.expected());
                     refused += o.refused;
                     moves += o.moves;
-                    found.push(format!("{:?}", o.knot).to_lowercase());
+                    iterations += o.iterations;
+                    found.push(o.knot.name());
                 }
                 eprintln!(
                     "{n} links, {}, {}: {}",
-                    if held { "held" } else { "free" },
+                    ends.name(),
                     knot.name(),
                     found.join(" ")
                 );
                 print!(
-                    " {ok}/{runs} | {:.1} % |",
-                    100.0 * refused as f64 / moves.max(1) as f64
+                    " {ok}/{runs} | {:.1} % | {:.1} |",
+                    100.0 * refused as f64 / moves.max(1) as f64,
+                    iterations as f64 / (moves - refused).max(1) as f64
                 );
             }
             println!();

@@ -36,7 +36,11 @@ fn overhand(x0: f64, hand: f64, samples: usize) -> Vec<V> {
         .map(|k| {
             let t = std::f64::consts::TAU * k as f64 / samples as f64;
             let r = 2.0 + (3.0 * t).cos();
-            V::new(r * (2.0 * t).cos(), r * (2.0 * t).sin(), hand * (3.0 * t).sin())
+            V::new(
+                r * (2.0 * t).cos(),
+                r * (2.0 * t).sin(),
+                hand * (3.0 * t).sin(),
+            )
         })
         .collect();
     open_out(&closed, x0)
@@ -109,7 +113,10 @@ fn check(points: &[V], want: KnotType, what: &str) {
     let r = identify(points);
     assert_eq!(r.kind, want, "{what}: {r:?}");
     assert!(r.closures >= 5, "{what}: most closures named: {r:?}");
-    assert_eq!(r.agreeing, r.closures, "{what}: every closure agrees: {r:?}");
+    assert_eq!(
+        r.agreeing, r.closures,
+        "{what}: every closure agrees: {r:?}"
+    );
 }
 
 #[test]
@@ -127,8 +134,16 @@ fn hand_built_trefoil_and_its_mirror() {
 
 #[test]
 fn square_and_granny_composed_from_hand_built_trefoils() {
-    check(&two_knots(1.0, -1.0), KnotType::Square, "trefoil then mirror");
-    check(&two_knots(-1.0, 1.0), KnotType::Square, "mirror then trefoil");
+    check(
+        &two_knots(1.0, -1.0),
+        KnotType::Square,
+        "trefoil then mirror",
+    );
+    check(
+        &two_knots(-1.0, 1.0),
+        KnotType::Square,
+        "mirror then trefoil",
+    );
     check(&two_knots(1.0, 1.0), KnotType::Granny, "two trefoils");
     check(&two_knots(-1.0, -1.0), KnotType::Granny, "two mirrors");
     let sq = identify(&two_knots(1.0, -1.0));
