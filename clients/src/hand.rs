@@ -79,9 +79,6 @@ pub struct HandConfig {
     pub progress: bool,
     /// Key frames to keep per turn of this hand, evenly spaced, the last at the turn's end (0: none).
     pub frames_per_turn: usize,
-    /// Grasp the joints this hand drives before its first turn and release them after its last (also
-    /// when interrupted by SIGINT or SIGTERM; a hand killed with `kill -9` leaves its grasps).
-    pub grasp: bool,
 }
 
 /// CRC-32 of joint positions, as recorded.
@@ -189,7 +186,10 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
     // SIGINT and SIGTERM reach the node from here on (iceoryx2 installs its handler on the first wait).
     let _ = conn.node().wait(Duration::ZERO);
     let mut grips: Vec<(String, u32, u32)> = Vec::new();
-    if cfg.grasp {
+    // The script says whether hands hold their joints: grasped before the first turn, released after
+    // the last (also when interrupted by SIGINT or SIGTERM; a hand killed with `kill -9` leaves its
+    // grasps, a clamp until `release`).
+    if cfg.script.grasp {
         for turn in cfg.script.turn.iter().filter(|t| t.hand == cfg.hand) {
             let chain = conn
                 .find_chain(&turn.chain)?
@@ -211,7 +211,14 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
             )?;
         }
     }
-    let result = drive(conn, cfg, me, &hands, &mut baton, &mut record, &mut report);
+    // Every hand's grip is in place before anyone moves: a hand that started late would otherwise
+    // find its end dragged by the first turns.
+    let result = if cfg.script.grasp {
+        wait_for_grips(conn, cfg)
+    } else {
+        Ok(())
+    }
+    .and_then(|()| drive(conn, cfg, me, &hands, &mut baton, &mut record, &mut report));
     // Let go whatever happened (a refused release is reported, the first error wins).
     let mut released = Ok(());
     for (name, chain, joint) in &grips {
@@ -233,6 +240,51 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
         w.flush()?;
     }
     Ok(report)
+}
+
+/// Waits (up to the turn timeout) until every joint the script's hands drive is held.
+fn wait_for_grips(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<()> {
+    use anyhow::Context;
+    let mut wanted: Vec<(u32, u32)> = Vec::new();
+    for turn in &cfg.script.turn {
+        let chain = conn
+            .find_chain(&turn.chain)?
+            .with_context(|| format!("the service has no chain {:?}", turn.chain))?;
+        let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
+        if !wanted.contains(&(chain, joint)) {
+            wanted.push((chain, joint));
+        }
+    }
+    let deadline = std::time::Instant::now() + cfg.turn_timeout;
+    loop {
+        let mut missing = None;
+        for &(chain, joint) in &wanted {
+            let q = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
+            let index = if joint == shared::JOINT_HEAD {
+                q.header.n_joints.saturating_sub(1)
+            } else {
+                joint
+            };
+            if !q.held().iter().any(|&(j, _)| j == index) {
+                missing = Some((chain, index));
+                break;
+            }
+        }
+        let Some((chain, joint)) = missing else {
+            return Ok(());
+        };
+        if std::time::Instant::now() > deadline {
+            anyhow::bail!(
+                "joint {joint} of chain {chain} was not grasped by its hand within {:?} (is every hand of \
+                 script {:?} running?)",
+                cfg.turn_timeout,
+                cfg.script.name
+            );
+        }
+        if conn.node().wait(Duration::from_millis(5)).is_err() {
+            anyhow::bail!("interrupted (SIGINT or SIGTERM)");
+        }
+    }
 }
 
 /// Sends a grasp or a release and records it.

@@ -8,6 +8,7 @@
 //! ```toml
 //! name = "square"          # names the turn-taking channel between the hands
 //! max_step = 0.1           # longest hand motion per request (length units)
+//! grasp = true             # hands hold their joints for the whole script (the default)
 //!
 //! [[turn]]
 //! hand = "A"
@@ -41,12 +42,23 @@ pub struct Script {
     /// Longest motion of the grasped joint per request.
     #[serde(default = "default_max_step")]
     pub max_step: f64,
+    /// Whether each hand holds the joints it drives for the whole script (a `grasp` before its first
+    /// turn, a `release` after its last), so that while one hand moves, the joints the other hands
+    /// hold stay where they are. `false`: hands only push their joint along, the rest of the rope
+    /// follows freely (the two-handed built-ins, whose throws need the rope to slide: see
+    /// BENCHMARKS.md, knots).
+    #[serde(default = "default_grasp")]
+    pub grasp: bool,
     /// The turns, in order.
     pub turn: Vec<Turn>,
 }
 
 fn default_max_step() -> f64 {
     0.1
+}
+
+fn default_grasp() -> bool {
+    true
 }
 
 /// One hand's turn.
@@ -190,6 +202,9 @@ impl Script {
         let two_hands = |second| Script {
             name: name.into(),
             max_step: 0.05,
+            // The throws need the rope to slide through the other end's hand: with both ends
+            // held, none of them ties (BENCHMARKS.md, knots).
+            grasp: false,
             turn: vec![
                 // A throws at the tail end and walks on far enough that B's pull, which drags the
                 // rope toward B, does not bring the tail back through A's knot.
@@ -213,6 +228,7 @@ impl Script {
             "overhand" => Some(Script {
                 name: name.into(),
                 max_step: 0.1,
+                grasp: true,
                 turn: vec![turn(
                     "A",
                     "overhand",
@@ -233,6 +249,7 @@ impl Script {
             "wave" => Some(Script {
                 name: name.into(),
                 max_step: 0.1,
+                grasp: true,
                 turn: vec![turn(
                     "A",
                     "rope",

@@ -82,10 +82,13 @@ enum Cmd {
         /// View of the pictures, azimuth,elevation in degrees (default: from above, tilted 20°).
         #[arg(long, default_value = "-90,70")]
         view: String,
-        /// Grasp the joints this hand drives for the whole script (released at the end and on Ctrl-C;
-        /// `kill -9` leaves them held until `chainctl release`).
-        #[arg(long)]
+        /// Hold the joints this hand drives for the whole script, whatever the script says (released
+        /// at the end and on Ctrl-C; `kill -9` leaves them held until `chainctl release`).
+        #[arg(long, conflicts_with = "no_grasp")]
         grasp: bool,
+        /// Do not hold them, whatever the script says: the hand only pushes its joint along.
+        #[arg(long)]
+        no_grasp: bool,
     },
     /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
     Replay {
@@ -139,6 +142,7 @@ fn run(a: Args) -> Result<u8> {
             frames,
             view,
             grasp,
+            no_grasp,
         } => {
             let view = View::parse(&view).map_err(anyhow::Error::msg)?;
             if !(1..=32).contains(&frames) {
@@ -155,6 +159,9 @@ fn run(a: Args) -> Result<u8> {
             };
             if let Some(m) = max_step {
                 script.max_step = m;
+            }
+            if grasp || no_grasp {
+                script.grasp = grasp;
             }
             if let Some(c) = chain {
                 for t in &mut script.turn {
@@ -175,7 +182,6 @@ fn run(a: Args) -> Result<u8> {
                 record,
                 progress: !quiet,
                 frames_per_turn: if svg.is_some() { frames } else { 0 },
-                grasp,
             };
             let r = run_hand(&mut conn, &cfg)?;
             let refused: Vec<String> = r.refused.iter().map(|(n, c)| format!("{c} {n}")).collect();

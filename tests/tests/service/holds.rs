@@ -240,3 +240,160 @@ fn anchors_hold_from_the_start_and_holds_survive_kill_9() {
         assert_eq!(bits(&r.joints()[j]), bits(&after.joints()[j]), "joint {j}");
     }
 }
+
+/// Two hand processes holding their ends for the whole script (a script's default) take six
+/// alternating turns on the 40-unit rope. Every state on the stream is checked: while one hand's end
+/// moves, the other hand's end is bit for bit where it was; both ends are held during the moves; the
+/// grips are taken before the first move and let go after the last.
+#[test]
+fn two_holding_hands_alternate_and_the_idle_hand_never_moves() {
+    let svc = Service::start(&unique_prefix(), &["--wait", "event", "--no-persist"]);
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("alternate.toml");
+    let mut text = String::from("name = \"alternate\"\nmax_step = 0.1\n");
+    let turns = [
+        ("A", "tail", "[[3, 2, 0], [4, 4, 1]]"),
+        ("B", "head", "[[-3, 2, 0], [-4, 4, -1]]"),
+        ("A", "tail", "[[-1, -2, 0]]"),
+        ("B", "head", "[[1, -2, 0]]"),
+        ("A", "tail", "[[0, 1, 1]]"),
+        ("B", "head", "[[0, 1, -1]]"),
+    ];
+    for (hand, joint, waypoints) in turns {
+        text += &format!(
+            "[[turn]]\nhand = \"{hand}\"\nchain = \"rope\"\njoint = \"{joint}\"\nwaypoints = {waypoints}\n"
+        );
+    }
+    std::fs::write(&script, text).unwrap();
+
+    let mut c = svc.connect();
+    let q0 = c.call(req(Command::Query, 0, 0), &[]).unwrap();
+    let n = q0.joints().len();
+    // Every state of the rope from here on: (sequence, command, held joints, tail, head).
+    type Seen = (u64, u32, u32, [u64; 3], [u64; 3]);
+    let prefix = svc.prefix.clone();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = stop.clone();
+    let (ready_tx, ready) = std::sync::mpsc::channel();
+    let watcher = std::thread::spawn(move || {
+        let conn = clients::Connection::connect(clients::ConnectOptions {
+            prefix,
+            ..clients::ConnectOptions::default()
+        })
+        .unwrap();
+        let stream = conn.subscribe().unwrap();
+        ready_tx.send(()).unwrap();
+        let mut seen: Vec<Seen> = Vec::new();
+        let mut idle = None;
+        loop {
+            let got = stream
+                .try_next(|h, p| {
+                    let j = h.n_joints as usize;
+                    (
+                        h.sequence,
+                        h.chain,
+                        h.command,
+                        h.n_held,
+                        bits(&p[0]),
+                        bits(&p[j - 1]),
+                    )
+                })
+                .unwrap();
+            match got {
+                Some((seq, 0, cmd, held, tail, head)) => {
+                    idle = None;
+                    seen.push((seq, cmd, held, tail, head));
+                }
+                Some(_) => idle = None,
+                None => {
+                    if flag.load(std::sync::atomic::Ordering::Relaxed) {
+                        let t = *idle.get_or_insert_with(Instant::now);
+                        if t.elapsed() > Duration::from_millis(300) {
+                            return seen;
+                        }
+                    }
+                    std::thread::sleep(Duration::from_micros(200));
+                }
+            }
+        }
+    });
+    ready.recv_timeout(Duration::from_secs(20)).unwrap();
+
+    let spawn = |hand: &str| {
+        std::process::Command::new(tests::bin("hand"))
+            .arg("--prefix")
+            .arg(&svc.prefix)
+            .arg("run")
+            .args(["--quiet", "--turn-timeout", "60", "--hand", hand])
+            .arg("--script")
+            .arg(&script)
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    // B first, A a moment later: the first move must still wait for B's grip.
+    let b = spawn("B");
+    std::thread::sleep(Duration::from_millis(50));
+    let a = spawn("A");
+    for mut h in [a, b] {
+        let deadline = Instant::now() + Duration::from_secs(120);
+        let status = loop {
+            if let Some(st) = h.try_wait().unwrap() {
+                break st;
+            }
+            assert!(Instant::now() < deadline, "a hand did not finish in 120 s");
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let mut out = String::new();
+        std::io::Read::read_to_string(h.stdout.as_mut().unwrap(), &mut out).unwrap();
+        assert!(status.success(), "{out}");
+        assert!(out.contains("0 locked"), "{out}");
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let seen = watcher.join().unwrap();
+
+    let moves: Vec<&Seen> = seen
+        .iter()
+        .filter(|s| s.1 == Command::Move as u32)
+        .collect();
+    assert!(moves.len() > 100, "{} moves seen", moves.len());
+    assert!(
+        moves.iter().all(|s| s.2 == 2),
+        "both ends held in every moved state"
+    );
+    // Grips before the first move, releases after the last.
+    let first_move = seen
+        .iter()
+        .position(|s| s.1 == Command::Move as u32)
+        .unwrap();
+    let last_move = seen
+        .iter()
+        .rposition(|s| s.1 == Command::Move as u32)
+        .unwrap();
+    let grasps: Vec<usize> = (0..seen.len())
+        .filter(|&i| seen[i].1 == Command::Grasp as u32)
+        .collect();
+    let releases: Vec<usize> = (0..seen.len())
+        .filter(|&i| seen[i].1 == Command::Release as u32)
+        .collect();
+    assert_eq!(grasps.len(), 2);
+    assert_eq!(releases.len(), 2);
+    assert!(grasps.iter().all(|&i| i < first_move));
+    assert!(releases.iter().all(|&i| i > last_move));
+    // Consecutive states: never both ends changed; each end moved in some state.
+    let (mut tail_moved, mut head_moved) = (0, 0);
+    let mut prev = (bits(&q0.joints()[0]), bits(&q0.joints()[n - 1]));
+    for s in &seen {
+        let (t, h) = (s.3 != prev.0, s.4 != prev.1);
+        assert!(!(t && h), "both held ends changed in state {}", s.0);
+        tail_moved += usize::from(t);
+        head_moved += usize::from(h);
+        prev = (s.3, s.4);
+    }
+    assert!(
+        tail_moved > 50 && head_moved > 50,
+        "{tail_moved} {head_moved}"
+    );
+    let end = c.call(req(Command::Query, 0, 0), &[]).unwrap();
+    assert_eq!(end.held(), vec![], "both hands let go");
+}

@@ -114,7 +114,10 @@ impl Watcher {
                         (
                             h.sequence,
                             h.chain,
-                            p.iter().map(|q| V::new(q.x, q.y, q.z)).collect::<Vec<_>>(),
+                            p[..h.n_joints as usize]
+                                .iter()
+                                .map(|q| V::new(q.x, q.y, q.z))
+                                .collect::<Vec<_>>(),
                         )
                     })
                     .unwrap();
