@@ -14,6 +14,8 @@
 //!   the DLS baseline; joint angles.
 //! * `hold`: held joints bit for bit unchanged, moves landing or refused with the nearest point,
 //!   lengths kept, no holds = the free move bit for bit.
+//! * `instrument`: instruments moved by pose push the rope without penetration, keep held joints, and
+//!   lock when the rope would pass through them.
 //! * `knot`: the identification on ropes built by hand (trefoil, mirror, square, granny, a spiral
 //!   that is no knot), perturbed.
 
@@ -30,6 +32,7 @@ mod convergence;
 mod extremes;
 mod fixed_base;
 mod hold;
+mod instrument;
 mod knot;
 mod link;
 mod support;
