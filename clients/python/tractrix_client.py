@@ -27,7 +27,7 @@ JOINT_HEAD = 0xFFFFFFFF
 MAX_PATH_POINTS = 4096
 
 CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
-       "grasp": 8, "release": 9}
+       "grasp": 8, "release": 9, "instrument": 10}
 STATUS = [
     "ok", "unknown-command", "unknown-chain", "joint-out-of-range", "non-finite", "bad-option",
     "bad-point-count", "unreachable", "not-converged", "too-many-substeps", "wrong-chain-kind",
@@ -246,6 +246,12 @@ def main(argv=None):
         g = sub.add_parser(name, help=what)
         g.add_argument("chain")
         g.add_argument("--joint", type=int, default=JOINT_HEAD)
+    i = sub.add_parser("instrument", help="move an instrument of a chain to centre x y z (capsules: "
+                                          "--axis x y z), pushing the chain")
+    i.add_argument("chain")
+    i.add_argument("xyz", type=float, nargs=3)
+    i.add_argument("--axis", type=float, nargs=3)
+    i.add_argument("--index", type=int, default=0, help="the instrument's index in the chain's list")
     a = ap.parse_args(argv)
     try:
         client = Client(a.prefix, a.wait_for_service)
@@ -254,6 +260,9 @@ def main(argv=None):
             h, elements = client.call("move", chain, [tuple(a.xyz)], joint=a.joint)
         elif a.cmd in ("grasp", "release"):
             h, elements = client.call(a.cmd, chain, joint=a.joint)
+        elif a.cmd == "instrument":
+            points = [tuple(a.xyz)] + ([tuple(a.axis)] if a.axis else [])
+            h, elements = client.call("instrument", chain, points, joint=a.index)
         else:
             h, elements = client.call("query", chain)
     except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:

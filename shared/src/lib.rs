@@ -103,7 +103,7 @@
 //! # Enumerations (all `uint32_t`)
 //!
 //! * [`Command`]: 1 move, 2 path, 3 reach, 4 query, 5 reset, 6 describe, 7 snapshot, 8 grasp, 9
-//!   release.
+//!   release, 10 instrument.
 //! * [`Status`]: 0 ok, then one value per error (see the type).
 //! * `joint`: the joint index, 0 = tail; [`JOINT_HEAD`] (`0xFFFFFFFF`) = the head whatever the length.
 //! * `method` ([`WireMethod`]): 0 chain default, 1 closed-form tractrix, 2 the paper's form, 3
@@ -315,6 +315,10 @@ pub enum Command {
     Grasp = 8,
     /// Let `joint` go (a grasp; the scene's anchors are not released).
     Release = 9,
+    /// Move instrument `joint` of the chain (its index in the chain's `instruments` list) to a new pose,
+    /// pushing the chain out of its way: payload `[centre]` for a sphere, `[centre, axis direction]`
+    /// for a capsule. A push the rope cannot give way to is `Locked` and changes nothing.
+    Instrument = 10,
 }
 
 impl Command {
@@ -329,6 +333,7 @@ impl Command {
             Command::Snapshot => "snapshot",
             Command::Grasp => "grasp",
             Command::Release => "release",
+            Command::Instrument => "instrument",
         }
     }
     /// Whether an accepted command of this kind changes the state (and is journaled and published).
@@ -341,6 +346,7 @@ impl Command {
                 | Command::Reset
                 | Command::Grasp
                 | Command::Release
+                | Command::Instrument
         )
     }
 }
@@ -490,7 +496,7 @@ macro_rules! wire_enum_from_u32 {
     )*};
 }
 wire_enum_from_u32! {
-    Command { Move, Path, Reach, Query, Reset, Describe, Snapshot, Grasp, Release }
+    Command { Move, Path, Reach, Query, Reset, Describe, Snapshot, Grasp, Release, Instrument }
     Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
              Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
              Internal, Locked, TooFar, OverBudget }
@@ -870,7 +876,8 @@ mod tests {
         assert_eq!(Command::from_u32(0), None);
         assert_eq!(Command::from_u32(8), Some(Command::Grasp));
         assert_eq!(Command::from_u32(9), Some(Command::Release));
-        assert_eq!(Command::from_u32(10), None);
+        assert_eq!(Command::from_u32(10), Some(Command::Instrument));
+        assert_eq!(Command::from_u32(11), None);
         assert_eq!(Status::from_u32(14), Some(Status::Locked));
         assert_eq!(Status::from_u32(15), Some(Status::TooFar));
         assert_eq!(Status::from_u32(16), Some(Status::OverBudget));

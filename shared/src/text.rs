@@ -7,12 +7,14 @@
 //! {"cmd":"path","chain":0,"joint":"tail","path":[[0,1,0],[0,2,0]],"max_step":0.1}
 //! {"cmd":"reach","chain":"arm","target":[1.2,0.8],"tolerance":1e-9,"angles":true}
 //! {"cmd":"query","chain":"snake"}
+//! {"cmd":"instrument","chain":"suture","joint":0,"target":[3,1,0],"axis":[0,0,1]}
 //! ```
 //!
 //! Field names are those of [`RequestHeader`]; `chain` is a name or an index, `joint` is `"head"`,
 //! `"tail"` or an index, points have 2 or 3 coordinates (a missing `z` is 0), `method` is `tractrix`,
-//! `paper` or `ftl`, `precision` is `f64` or `f32`, `strategy` is `translate-back` or `two-link`. Unknown
-//! fields are an error.
+//! `paper` or `ftl`, `precision` is `f64` or `f32`, `strategy` is `translate-back` or `two-link`. For
+//! `instrument`, `joint` is the instrument's index in the chain's `instruments` list, `target` its new
+//! centre and `axis` (capsules only) its new axis direction. Unknown fields are an error.
 
 use crate::{
     Command, FLAG_ANGLES, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader,
@@ -49,6 +51,9 @@ pub struct TextRequest {
     pub target: Option<Vec<f64>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub path: Option<Vec<Vec<f64>>>,
+    /// An instrument's axis direction (capsules).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<Vec<f64>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -77,7 +82,7 @@ pub fn parse_command(s: &str) -> Result<Command, String> {
         .ok_or_else(|| {
             format!(
                 "unknown command {s:?} (expected move, path, reach, query, reset, describe, snapshot, \
-                 grasp or release)"
+                 grasp, release or instrument)"
             )
         })
 }
@@ -212,6 +217,16 @@ impl TextRequest {
                     ));
                 }
                 p.iter().map(|q| parse_point(q)).collect::<Result<_, _>>()?
+            }
+            Command::Instrument => {
+                let t = self.target.as_ref().ok_or_else(|| {
+                    "instrument: field `target` (its centre) is missing".to_string()
+                })?;
+                let mut p = vec![parse_point(t)?];
+                if let Some(a) = &self.axis {
+                    p.push(parse_point(a)?);
+                }
+                p
             }
             _ => Vec::new(),
         };

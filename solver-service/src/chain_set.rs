@@ -36,6 +36,92 @@ pub struct Held<T: Real, const D: usize> {
     collision: Option<(CollisionModel<T, D>, CollisionWorkspace<T, D>)>,
     /// A path's targets in the chain's type (bounded by `MAX_PATH_POINTS`, kept between requests).
     targets: Vec<Vector<T, D>>,
+    /// The chain's instruments: where they start in the collision model's obstacles (after the static
+    /// ones), their scene poses (reset) and their poses before the last change (undo).
+    instruments_at: usize,
+    instruments_initial: Vec<Obstacle<T, D>>,
+    instruments_before: Vec<Obstacle<T, D>>,
+}
+
+impl<T: Real, const D: usize> Held<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    /// The instruments' current poses.
+    pub fn instruments(&self) -> &[Obstacle<T, D>] {
+        self.collision
+            .as_ref()
+            .map_or(&[][..], |(m, _)| &m.obstacles[self.instruments_at..])
+    }
+    fn instruments_mut(&mut self) -> &mut [Obstacle<T, D>] {
+        let at = self.instruments_at;
+        self.collision
+            .as_mut()
+            .map_or(&mut [][..], |(m, _)| &mut m.obstacles[at..])
+    }
+    /// Remembers the state for [`ChainSet::undo`] (no allocation once warm).
+    fn arm_undo(&mut self) {
+        self.before.copy_from(&self.chain);
+        let now: Vec<Obstacle<T, D>> = self.instruments().to_vec();
+        self.instruments_before.clear();
+        self.instruments_before.extend_from_slice(&now);
+    }
+    /// Puts back the state [`Held::arm_undo`] remembered.
+    fn swap_undo(&mut self) {
+        std::mem::swap(&mut self.chain, &mut self.before);
+        let before = std::mem::take(&mut self.instruments_before);
+        let now = self.instruments_mut();
+        if now.len() == before.len() {
+            now.copy_from_slice(&before);
+        }
+        self.instruments_before = before;
+    }
+    /// The instruments' poses as numbers (a sphere: its centre; a capsule: `a` then `b`), for a snapshot.
+    pub fn instrument_numbers(&self) -> Vec<Vec<f64>> {
+        self.instruments()
+            .iter()
+            .map(|o| {
+                let pts: Vec<Vector<T, D>> = match o {
+                    Obstacle::Sphere { center, .. } => vec![*center],
+                    Obstacle::Capsule { a, b, .. } => vec![*a, *b],
+                    Obstacle::HalfSpace { .. } => vec![],
+                };
+                pts.iter()
+                    .flat_map(|p| p.iter().map(|x| x.to_f64()).collect::<Vec<_>>())
+                    .collect()
+            })
+            .collect()
+    }
+    /// Sets the instruments' poses from [`Held::instrument_numbers`] (a restored snapshot).
+    pub fn set_instrument_numbers(&mut self, poses: &[Vec<f64>]) -> Result<(), String> {
+        if poses.len() != self.instruments().len() {
+            return Err(format!(
+                "{} instrument poses for {} instruments",
+                poses.len(),
+                self.instruments().len()
+            ));
+        }
+        for (o, nums) in self.instruments_mut().iter_mut().zip(poses) {
+            let pt = |k: usize| -> Result<Vector<T, D>, String> {
+                let v = nums.get(k * D..(k + 1) * D).ok_or("a pose is too short")?;
+                let p = Vector::<T, D>::from_iterator(v.iter().map(|&x| T::lit(x)));
+                if tractrix::math::all_finite(&p) {
+                    Ok(p)
+                } else {
+                    Err("a pose is not finite".into())
+                }
+            };
+            match o {
+                Obstacle::Sphere { center, .. } if nums.len() == D => *center = pt(0)?,
+                Obstacle::Capsule { a, b, .. } if nums.len() == 2 * D => {
+                    *a = pt(0)?;
+                    *b = pt(1)?;
+                }
+                _ => return Err("an instrument's pose does not fit its shape".into()),
+            }
+        }
+        Ok(())
+    }
 }
 
 /// One of the four chain forms.
@@ -126,7 +212,23 @@ where
                     normal: v(normal),
                 },
             })
-            .collect();
+            .collect::<Vec<_>>();
+        let instruments = c.instruments.iter().map(|(_, o)| match o {
+            Obstacle::Sphere { center, radius } => Obstacle::Sphere {
+                center: v(center),
+                radius: T::lit(*radius),
+            },
+            Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
+                a: v(a),
+                b: v(b),
+                radius: T::lit(*radius),
+            },
+            Obstacle::HalfSpace { point, normal } => Obstacle::HalfSpace {
+                point: v(point),
+                normal: v(normal),
+            },
+        });
+        let obstacles: Vec<Obstacle<T, D>> = obstacles.into_iter().chain(instruments).collect();
         let o = &c.options;
         let model = CollisionModel {
             options: CollisionOptions {
@@ -140,14 +242,21 @@ where
         };
         (model, CollisionWorkspace::new())
     });
-    Ok(Held {
+    let instruments_at = spec.collision.as_ref().map_or(0, |c| c.obstacles.len());
+    let mut h = Held {
         initial: chain.clone(),
         before: chain.clone(),
         chain,
         ws: ReachWorkspace::default(),
         collision,
         targets: Vec::new(),
-    })
+        instruments_at,
+        instruments_initial: Vec::new(),
+        instruments_before: Vec::new(),
+    };
+    h.instruments_initial = h.instruments().to_vec();
+    h.instruments_before = h.instruments_initial.clone();
+    Ok(h)
 }
 
 impl ChainSet {
@@ -275,6 +384,35 @@ impl ChainSet {
             Request::Reach { ref options, .. } => Ok(n
                 .saturating_mul(u64::from(options.substeps.max(1)))
                 .saturating_mul(u64::from(options.max_iterations.max(1)))),
+            Request::Instrument {
+                index,
+                centre,
+                axis,
+                max_substeps,
+                ..
+            } => {
+                // Substeps of half a clearance (a link against an obstacle has half a link's), over
+                // the farthest any point of the instrument travels.
+                let travel = each_form!(&self.geometry[chain as usize], h => {
+                    instrument_travel(&h.instruments()[index], centre, axis)
+                });
+                let link =
+                    spec.collision
+                        .as_ref()
+                        .map_or(spec.thickness, |c| match c.options.scheme {
+                            tractrix::collision::Scheme::Capsules => c.options.thickness,
+                            tractrix::collision::Scheme::PaperSpheres => spec.shortest,
+                        });
+                let k = (travel / (0.25 * link)).ceil().max(1.0);
+                if !(k.is_finite() && k <= f64::from(max_substeps)) {
+                    return Err(ChainError::TooManySubsteps {
+                        required: if k.is_finite() { k as u64 } else { u64::MAX },
+                        limit: max_substeps,
+                    }
+                    .into());
+                }
+                Ok(n.saturating_mul(k as u64))
+            }
             Request::Query { .. }
             | Request::Describe { .. }
             | Request::Reset { .. }
@@ -387,7 +525,7 @@ impl ChainSet {
         };
         if outcome.changed {
             // Armed before the kernel runs, so that a panic inside it can be undone too.
-            each_form!(&mut *g, h => h.before.copy_from(&h.chain));
+            each_form!(&mut *g, h => h.arm_undo());
             self.undo = Some((chain, self.sequence));
         }
         let result = match *req {
@@ -424,9 +562,25 @@ impl ChainSet {
                 Ok(())
             }
             Request::Reset { .. } => {
-                each_form!(&mut *g, h => h.chain.copy_from(&h.initial));
+                each_form!(&mut *g, h => {
+                    h.chain.copy_from(&h.initial);
+                    let initial = std::mem::take(&mut h.instruments_initial);
+                    h.instruments_mut().copy_from_slice(&initial);
+                    h.instruments_initial = initial;
+                });
                 Ok(())
             }
+            Request::Instrument {
+                index,
+                centre,
+                axis,
+                max_substeps,
+                ..
+            } => each_form!(&mut *g, h => push_instrument(h, index, centre, axis, max_substeps))
+                .map(|m| {
+                    outcome.substeps = m.substeps;
+                    outcome.iterations = m.collision_iterations;
+                }),
             Request::Grasp { joint, .. } => {
                 each_form!(&mut *g, h => h.chain.hold(joint)).map_err(Refusal::from)
             }
@@ -445,7 +599,7 @@ impl ChainSet {
             }
             Err(r) => {
                 if outcome.changed {
-                    each_form!(&mut *g, h => std::mem::swap(&mut h.chain, &mut h.before));
+                    each_form!(&mut *g, h => h.swap_undo());
                     self.undo = None;
                 }
                 Err(r)
@@ -457,7 +611,7 @@ impl ChainSet {
     /// when the solver panicked. Only once; nothing happens if there is nothing to undo.
     pub fn undo(&mut self) {
         if let Some((chain, sequence)) = self.undo.take() {
-            each_form!(&mut self.geometry[chain as usize], h => std::mem::swap(&mut h.chain, &mut h.before));
+            each_form!(&mut self.geometry[chain as usize], h => h.swap_undo());
             self.sequence = sequence;
         }
     }
@@ -525,6 +679,80 @@ impl ChainSet {
 
 /// A move or a path on one chain. The chain may be left moved on a refusal: [`ChainSet::apply`]
 /// restores it.
+/// The instrument `from` moved to `centre` (and, for a capsule, turned to `axis`), its size kept.
+fn instrument_pose<T: Real, const D: usize>(
+    from: &Obstacle<T, D>,
+    centre: Vec3,
+    axis: Option<Vec3>,
+) -> Obstacle<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let c: Vector<T, D> = point(centre);
+    match (*from, axis) {
+        (Obstacle::Capsule { a, b, radius }, Some(axis)) => {
+            let half = (b - a).norm() * T::lit(0.5);
+            let d: Vector<T, D> = point(axis);
+            let d = d / d.norm();
+            Obstacle::Capsule {
+                a: c - d * half,
+                b: c + d * half,
+                radius,
+            }
+        }
+        (Obstacle::Sphere { radius, .. }, _) => Obstacle::Sphere { center: c, radius },
+        (other, _) => other,
+    }
+}
+
+/// How far any point of the instrument travels from its pose to the new one (the centre's distance
+/// plus the arc its axis's end sweeps), in f64.
+fn instrument_travel<T: Real, const D: usize>(
+    from: &Obstacle<T, D>,
+    centre: Vec3,
+    axis: Option<Vec3>,
+) -> f64
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let v = |p: &Vector<T, D>| {
+        let q = p.to_3d();
+        Vector3::new(q.x.to_f64(), q.y.to_f64(), q.z.to_f64())
+    };
+    let to = Vector3::new(centre.x, centre.y, centre.z);
+    match (from, axis) {
+        (Obstacle::Capsule { a, b, .. }, Some(ax)) => {
+            let (a, b) = (v(a), v(b));
+            let h0 = (b - a) * 0.5;
+            let d = Vector3::new(ax.x, ax.y, ax.z);
+            let angle = h0.angle(&d);
+            ((a + b) * 0.5 - to).norm() + h0.norm() * angle
+        }
+        (Obstacle::Sphere { center, .. }, _) => (v(center) - to).norm(),
+        _ => 0.0,
+    }
+}
+
+fn push_instrument<T: Real, const D: usize>(
+    g: &mut Held<T, D>,
+    index: usize,
+    centre: Vec3,
+    axis: Option<Vec3>,
+    max_substeps: u32,
+) -> Result<MoveOutcome, Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let at = g.instruments_at + index;
+    let Some((model, ws)) = g.collision.as_mut() else {
+        return Err(ChainError::BadOption("the chain has no instruments").into());
+    };
+    let to = instrument_pose(&model.obstacles[at], centre, axis);
+    let m = tractrix::collision::push_by_obstacle(&mut g.chain, model, at, &to, max_substeps, ws)?;
+    model.obstacles[at] = to;
+    Ok(m)
+}
+
 fn move_held<T: Real, const D: usize>(
     g: &mut Held<T, D>,
     joint: usize,

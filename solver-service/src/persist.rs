@@ -35,7 +35,9 @@ use std::path::{Path, PathBuf};
 use tractrix::Chain;
 use tractrix::math::{Embed3, Real, Vector};
 
-const SNAPSHOT_MAGIC: u32 = 0x5452_5832; // "TRX2": with held joints
+const SNAPSHOT_MAGIC: u32 = 0x5452_5833; // "TRX3": with held joints and instrument poses
+/// The second format: held joints, no instruments (read; instruments start at the scene's poses).
+const SNAPSHOT_MAGIC_V2: u32 = 0x5452_5832; // "TRX2"
 /// The first format, without held joints: refused with a message.
 const SNAPSHOT_MAGIC_V1: u32 = 0x5452_5853; // "TRXS"
 const JOURNAL_MAGIC: [u8; 8] = *b"TRXJ\x01\0\0\0";
@@ -68,6 +70,8 @@ struct ChainSnapshot {
     links: Vec<f64>,
     /// Held joints: index, and the prefix sum's state there (sum, then carry).
     held: Vec<(u32, Vec<f64>, Vec<f64>)>,
+    /// The chain's instruments' poses (a sphere's centre; a capsule's `a` then `b`).
+    instruments: Vec<Vec<f64>>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -75,6 +79,75 @@ struct Snapshot {
     magic: u32,
     sequence: u64,
     chains: Vec<ChainSnapshot>,
+}
+
+/// [`ChainSnapshot`] of the "TRX2" format (no instruments).
+#[derive(Debug, Deserialize)]
+struct ChainSnapshotV2 {
+    name: String,
+    dims: u32,
+    precision: u32,
+    lengths: Vec<f64>,
+    origin: Vec<f64>,
+    links: Vec<f64>,
+    held: Vec<(u32, Vec<f64>, Vec<f64>)>,
+}
+
+#[derive(Debug, Deserialize)]
+struct SnapshotV2 {
+    magic: u32,
+    sequence: u64,
+    chains: Vec<ChainSnapshotV2>,
+}
+
+/// Decodes a snapshot of this format or of "TRX2" (whose instruments are then `None`).
+fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String> {
+    // The magic number comes first in every format.
+    let (magic, _): (u32, usize) = bincode::serde::decode_from_slice(bytes, config())
+        .map_err(|e| io(path, "not a snapshot", e))?;
+    match magic {
+        SNAPSHOT_MAGIC => {
+            let (snap, _): (Snapshot, usize) = bincode::serde::decode_from_slice(bytes, config())
+                .map_err(|e| io(path, "not a snapshot", e))?;
+            Ok((snap, true))
+        }
+        SNAPSHOT_MAGIC_V2 => {
+            let (old, _): (SnapshotV2, usize) = bincode::serde::decode_from_slice(bytes, config())
+                .map_err(|e| io(path, "not a snapshot", e))?;
+            let chains = old
+                .chains
+                .into_iter()
+                .map(|c| ChainSnapshot {
+                    name: c.name,
+                    dims: c.dims,
+                    precision: c.precision,
+                    lengths: c.lengths,
+                    origin: c.origin,
+                    links: c.links,
+                    held: c.held,
+                    instruments: Vec::new(),
+                })
+                .collect();
+            Ok((
+                Snapshot {
+                    magic: old.magic,
+                    sequence: old.sequence,
+                    chains,
+                },
+                false,
+            ))
+        }
+        SNAPSHOT_MAGIC_V1 => Err(io(
+            path,
+            "not a snapshot of this version",
+            "written by a version without held joints; start without --restore",
+        )),
+        _ => Err(io(
+            path,
+            "not a snapshot of this version",
+            "wrong magic number",
+        )),
+    }
 }
 
 #[derive(Debug, Serialize)]
@@ -452,20 +525,9 @@ impl Store {
         let path = self.snapshot_path();
         let bound = snapshot_bound(set);
         let bytes = read_bounded(&path, bound)?;
-        let (snap, _): (Snapshot, usize) = bincode::serde::decode_from_slice(&bytes, config())
-            .map_err(|e| io(&path, "not a snapshot", e))?;
-        if snap.magic != SNAPSHOT_MAGIC {
-            return Err(io(
-                &path,
-                "not a snapshot of this version",
-                if snap.magic == SNAPSHOT_MAGIC_V1 {
-                    "written by a version without held joints; start without --restore"
-                } else {
-                    "wrong magic number"
-                },
-            ));
-        }
-        install(set, &snap).map_err(|e| io(&path, "does not fit the scene", e))?;
+        let (snap, with_instruments) = decode_snapshot(&bytes, &path)?;
+        install(set, &snap, with_instruments)
+            .map_err(|e| io(&path, "does not fit the scene", e))?;
         let mut restored = Restored {
             snapshot_sequence: snap.sequence,
             replayed: 0,
@@ -575,6 +637,7 @@ fn encode_snapshot(set: &ChainSet) -> Result<(Vec<u8>, u64), String> {
                     origin,
                     links,
                     held,
+                    instruments: each_form!(g, g => g.instrument_numbers()),
                 }
             })
             .collect(),
@@ -734,6 +797,9 @@ fn snapshot_bound(set: &ChainSet) -> u64 {
             128 + 9 * 8 * (s.lengths.len() as u64 + 1)
                 + s.name.len() as u64
                 + 16 * 8 * u64::from(shared::MAX_HELD)
+                + s.collision
+                    .as_ref()
+                    .map_or(0, |c| 16 + 64 * c.instruments.len() as u64)
         })
         .sum::<u64>()
 }
@@ -774,7 +840,7 @@ where
     (origin, links, held)
 }
 
-fn install(set: &mut ChainSet, snap: &Snapshot) -> Result<(), String> {
+fn install(set: &mut ChainSet, snap: &Snapshot, with_instruments: bool) -> Result<(), String> {
     if snap.chains.len() != set.len() {
         return Err(format!(
             "{} chains, the scene has {}",
@@ -815,6 +881,9 @@ fn install(set: &mut ChainSet, snap: &Snapshot) -> Result<(), String> {
         let mut g = geometry.clone();
         each_form!(&mut g, h => {
             h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held).map_err(|m| format!("chain {:?}: {m}", d.name))?;
+            if with_instruments {
+                h.set_instrument_numbers(&s.instruments).map_err(|m| format!("chain {:?}: {m}", d.name))?;
+            }
         });
         built.push(g);
     }

@@ -78,6 +78,19 @@ pub enum Request<'a> {
         /// Joint index, resolved.
         joint: usize,
     },
+    /// Move an instrument of the chain to a new pose, pushing the chain.
+    Instrument {
+        /// Chain handle (a chain that lists the instrument).
+        chain: u32,
+        /// The instrument's index in the chain's `instruments` list.
+        index: usize,
+        /// New centre.
+        centre: Vec3,
+        /// New axis direction (capsules; not normalised).
+        axis: Option<Vec3>,
+        /// Substep limit (the chain's).
+        max_substeps: u32,
+    },
 }
 
 impl Request<'_> {
@@ -90,7 +103,8 @@ impl Request<'_> {
             | Request::Describe { chain }
             | Request::Reset { chain }
             | Request::Grasp { chain, .. }
-            | Request::Release { chain, .. } => Some(chain),
+            | Request::Release { chain, .. }
+            | Request::Instrument { chain, .. } => Some(chain),
             Request::Snapshot => None,
         }
     }
@@ -104,6 +118,7 @@ impl Request<'_> {
                 | Request::Reset { .. }
                 | Request::Grasp { .. }
                 | Request::Release { .. }
+                | Request::Instrument { .. }
         )
     }
 }
@@ -336,7 +351,7 @@ pub fn decode<'a>(
     chains: &[ChainSpec],
 ) -> Result<Request<'a>, Refusal> {
     let command = Command::try_from(h.command)
-        .map_err(|c| refuse!(UnknownCommand, "command {c} is not one of 1..=9"))?;
+        .map_err(|c| refuse!(UnknownCommand, "command {c} is not one of 1..=10"))?;
     if h.reserved != [0, 0] {
         return Err(refuse!(BadOption, "reserved fields must be zero"));
     }
@@ -362,6 +377,7 @@ pub fn decode<'a>(
     let expected = match command {
         Command::Move | Command::Reach => 1..=1,
         Command::Path => 1..=MAX_PATH_POINTS as usize,
+        Command::Instrument => 1..=2,
         _ => 0..=0,
     };
     if !expected.contains(&points.len()) {
@@ -434,6 +450,50 @@ pub fn decode<'a>(
         }
     };
     match command {
+        Command::Instrument => {
+            let list = spec
+                .collision
+                .as_ref()
+                .map_or(&[][..], |c| c.instruments.as_slice());
+            let Some((name, shape)) = list.get(h.joint as usize) else {
+                return Err(refuse!(
+                    BadOption,
+                    "instrument {} (chain {:?} has {} instruments)",
+                    h.joint,
+                    spec.name,
+                    list.len()
+                ));
+            };
+            let capsule = matches!(shape, tractrix::collision::Obstacle::Capsule { .. });
+            let want = if capsule { 2 } else { 1 };
+            if points.len() != want {
+                return Err(refuse!(
+                    BadPointCount,
+                    "instrument {name:?} is a {}: {want} point{} ({}), got {}",
+                    if capsule { "capsule" } else { "sphere" },
+                    if want == 1 { "" } else { "s" },
+                    if capsule { "centre, axis" } else { "centre" },
+                    points.len()
+                ));
+            }
+            let axis = capsule.then(|| points[1]);
+            if let Some(a) = axis {
+                let n = (a.x * a.x + a.y * a.y + a.z * a.z).sqrt();
+                if !(n > 0.0 && n.is_finite()) {
+                    return Err(refuse!(
+                        BadOption,
+                        "instrument {name:?}: the axis must be a non-zero vector"
+                    ));
+                }
+            }
+            Ok(Request::Instrument {
+                chain,
+                index: h.joint as usize,
+                centre: points[0],
+                axis,
+                max_substeps: spec.moves.max_substeps,
+            })
+        }
         Command::Grasp | Command::Release => {
             if spec.kind == ChainKind::FixedBase {
                 return Err(refuse!(

@@ -35,6 +35,9 @@ enum Cmd {
     Grasp,
     /// Let a grasped joint go.
     Release,
+    /// Move an instrument of the chain (`--joint` = its index in the chain's `instruments` list) to
+    /// `--target` (its centre), turned to `--axis` (capsules), pushing the chain.
+    Instrument,
     /// Query the chain and name the knot tied in it (unknot, trefoil, square, granny, other).
     Knot,
 }
@@ -46,12 +49,15 @@ struct Args {
     command: Cmd,
     /// Chain name or index (describe without it lists every chain).
     chain: Option<String>,
-    /// Joint: head, tail or an index.
+    /// Joint: head, tail or an index (instrument: its index, default 0).
     #[arg(long, default_value = "head")]
     joint: String,
     /// Target point x,y[,z].
     #[arg(long)]
     target: Option<String>,
+    /// An instrument's axis direction x,y[,z] (capsules).
+    #[arg(long)]
+    axis: Option<String>,
     /// Path points, space-separated x,y[,z] groups.
     #[arg(long)]
     path: Option<String>,
@@ -236,9 +242,12 @@ fn run(a: Args) -> Result<u8> {
         chain,
         joint: Some(match a.joint.parse::<u32>() {
             Ok(i) => JointRef::Index(i),
+            // An instrument by default: the chain's first.
+            Err(_) if a.command == Cmd::Instrument && a.joint == "head" => JointRef::Index(0),
             Err(_) => JointRef::Named(a.joint.clone()),
         }),
         target: a.target.as_deref().map(point).transpose()?,
+        axis: a.axis.as_deref().map(point).transpose()?,
         path: a
             .path
             .as_deref()

@@ -20,6 +20,7 @@
 //! | `collision` | `"none"` \| `"capsules"` \| `"paper-spheres"` | `"none"` | collision scheme (free chains only; see `tractrix::collision`) |
 //! | `self_collision` | bool | `true` with a scheme | whether links collide with each other |
 //! | `obstacles` | list of obstacle names | `[]` | the `[[obstacle]]`s this chain avoids (needs a scheme) |
+//! | `instruments` | list of instrument names | `[]` | the `[[instrument]]`s that push this chain (needs a scheme) |
 //! | `collision_iterations` | integer 1..=10000 | 64 | passes per substep before the chain is "locked" |
 //! | `collision_tolerance` | number in (0, 1) | 0.01 | accepted penetration, fraction of the clearance |
 //! | `precision` | `"f64"` \| `"f32"` | `"f64"` | arithmetic and storage of the chain |
@@ -33,6 +34,12 @@
 //! Static obstacles are `[[obstacle]]` tables: `name`, `shape = "sphere"` (`center`, `radius`),
 //! `"capsule"` (`a`, `b`, `radius`) or `"plane"` (`point`, `normal`: the free side). A chain lists the
 //! ones it avoids; a planar chain's obstacles must lie in its plane.
+//!
+//! Instruments are `[[instrument]]` tables of the same form (spheres and capsules only): a needle
+//! driver's jaws, a forceps tip, a post a hand carries. They start where the table puts them and move
+//! when a client sends the `instrument` command with a new pose, pushing the chain that lists them. An
+//! instrument belongs to one chain (its pose is part of that chain's state: journaled, snapshotted, put
+//! back by `reset`); the chain's `instruments` list gives each its index on the wire.
 //!
 //! Errors name the file, the line and the field; sizes are checked before anything is allocated.
 //!
@@ -62,6 +69,8 @@ pub const MAX_SUBSTEPS_LIMIT: u32 = 1 << 20;
 pub const MAX_SCENE_LINKS: usize = 1 << 20;
 /// Most obstacles a scene may declare (each is tested against every link of the chains that list it).
 pub const MAX_OBSTACLES: usize = 256;
+/// Most instruments a scene may declare.
+pub const MAX_INSTRUMENTS: usize = 64;
 
 /// A scene error: where and what.
 #[derive(Debug, Clone, PartialEq)]
@@ -128,7 +137,7 @@ impl ChainSpec {
                 COLLISION_SELF
             } else {
                 0
-            }) | (if s.obstacles.is_empty() {
+            }) | (if s.obstacles.is_empty() && s.instruments.is_empty() {
                 0
             } else {
                 COLLISION_OBSTACLES
@@ -148,6 +157,8 @@ pub struct CollisionSpec {
     pub options: CollisionOptions<f64>,
     /// The static obstacles this chain avoids.
     pub obstacles: Vec<Obstacle<f64, 3>>,
+    /// The instruments that push this chain, by name, at their starting poses (wire index = position).
+    pub instruments: Vec<(String, Obstacle<f64, 3>)>,
 }
 
 /// A validated scene.
@@ -291,6 +302,26 @@ mod tests {
                 "[[obstacle]]\nname = \"b\"\nshape = \"sphere\"\ncenter = [0, 0]\nradius = -1\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\n",
                 5,
                 "obstacle \"b\": field `radius`",
+            ),
+            (
+                "[[instrument]]\nname = \"t\"\nshape = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\n",
+                3,
+                "instrument \"t\": field `shape`: an instrument is a sphere or a capsule",
+            ),
+            (
+                "[[instrument]]\nname = \"d\"\nshape = \"sphere\"\ncenter = [0, 1, 0]\nradius = 0.5\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ninstruments = [\"d\"]\n[[chain]]\nname = \"b\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ninstruments = [\"d\"]\n",
+                19,
+                "already pushes chain \"a\"",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ninstruments = [\"x\"]\n",
+                7,
+                "no [[instrument]] is named \"x\"",
+            ),
+            (
+                "[[instrument]]\nname = \"d\"\nshape = \"sphere\"\ncenter = [0, 1, 0]\nradius = 0.5\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\ninstruments = [\"d\"]\n",
+                10,
+                "`instruments`: needs `collision",
             ),
             (
                 "[[obstacle]]\nname = \"t\"\nshape = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n[[chain]]\nname = \"a\"\nspace = \"planar\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\nobstacles = [\"t\"]\n",

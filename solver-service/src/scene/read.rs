@@ -16,9 +16,12 @@ pub(super) struct RawScene {
     pub chain: Vec<Spanned<RawChain>>,
     #[serde(default)]
     pub obstacle: Vec<Spanned<RawObstacle>>,
+    /// `[[instrument]]` tables: obstacles that clients move (spheres and capsules).
+    #[serde(default)]
+    pub instrument: Vec<Spanned<RawObstacle>>,
 }
 
-/// An `[[obstacle]]` table as written.
+/// An `[[obstacle]]` or `[[instrument]]` table as written.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawObstacle {
@@ -52,6 +55,7 @@ pub(super) struct RawChain {
     pub collision: Field<String>,
     pub self_collision: Field<bool>,
     pub obstacles: Field<Vec<String>>,
+    pub instruments: Field<Vec<String>>,
     pub collision_iterations: Field<i64>,
     pub collision_tolerance: Field<f64>,
     pub precision: Field<String>,

@@ -3,8 +3,8 @@
 
 use super::read::{Field, RawChain, RawObstacle, RawScene, line_of};
 use super::{
-    ChainSpec, CollisionSpec, MAX_OBSTACLES, MAX_SCENE_LINKS, MAX_SUBSTEPS_LIMIT, Scene,
-    SceneError, shapes,
+    ChainSpec, CollisionSpec, MAX_INSTRUMENTS, MAX_OBSTACLES, MAX_SCENE_LINKS, MAX_SUBSTEPS_LIMIT,
+    Scene, SceneError, shapes,
 };
 use nalgebra::Vector3;
 use shared::{ChainKind, MAX_CHAINS, MAX_LINKS, NAME_LEN, Precision};
@@ -64,10 +64,70 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         }
         obstacles.push((o.name.get_ref().clone(), ob));
     }
+    if raw.instrument.len() > MAX_INSTRUMENTS {
+        return Err(at(
+            raw.instrument[MAX_INSTRUMENTS].span(),
+            format!(
+                "{} instruments; a scene may have at most {MAX_INSTRUMENTS}",
+                raw.instrument.len()
+            ),
+        ));
+    }
+    let mut instruments: Vec<(String, Obstacle<f64, 3>)> = Vec::with_capacity(raw.instrument.len());
+    for o in &raw.instrument {
+        let o = o.get_ref();
+        let name = o.name.get_ref();
+        let ob = obstacle(o, &at).map_err(|e| SceneError {
+            message: e.message.replacen("obstacle", "instrument", 1),
+            ..e
+        })?;
+        if matches!(ob, Obstacle::HalfSpace { .. }) {
+            return Err(at(
+                o.shape.span(),
+                format!(
+                    "instrument {name:?}: field `shape`: an instrument is a sphere or a capsule"
+                ),
+            ));
+        }
+        if instruments.iter().any(|(n, _)| n == name) {
+            return Err(at(
+                o.name.span(),
+                format!("instrument {name:?}: field `name`: declared twice"),
+            ));
+        }
+        instruments.push((name.clone(), ob));
+    }
+    // Which chain lists each instrument: one at most (its pose is that chain's state).
+    let mut owner: Vec<Option<String>> = vec![None; instruments.len()];
     let mut chains: Vec<ChainSpec> = Vec::with_capacity(raw.chain.len());
     let mut total_links = 0usize;
     for c in &raw.chain {
-        let spec = chain(c.get_ref(), &obstacles, &at)?;
+        let spec = chain(c.get_ref(), &obstacles, &instruments, &at)?;
+        if let Some(col) = &spec.collision {
+            for (n, _) in &col.instruments {
+                let i = instruments
+                    .iter()
+                    .position(|(m, _)| m == n)
+                    .expect("validated");
+                if let Some(first) = &owner[i] {
+                    let span = c
+                        .get_ref()
+                        .instruments
+                        .as_ref()
+                        .map(|s| s.span())
+                        .unwrap_or(c.span());
+                    return Err(at(
+                        span,
+                        format!(
+                            "chain {:?}: field `instruments`: instrument {n:?} already pushes chain \
+                             {first:?}; an instrument belongs to one chain",
+                            spec.name
+                        ),
+                    ));
+                }
+                owner[i] = Some(spec.name.clone());
+            }
+        }
         total_links += spec.lengths.len();
         let c = c.get_ref();
         if total_links > MAX_SCENE_LINKS {
@@ -271,6 +331,7 @@ enum Shape {
 fn chain(
     c: &RawChain,
     obstacles: &[(String, Obstacle<f64, 3>)],
+    instruments: &[(String, Obstacle<f64, 3>)],
     at: &At<'_>,
 ) -> Result<ChainSpec, SceneError> {
     let name = c.name.get_ref().clone();
@@ -440,7 +501,7 @@ fn chain(
         None => 1e-9,
     };
     let max_iterations = f.count_or(&c.max_iterations, "max_iterations", 1, 100_000, 1000)?;
-    let collision = collision(&f, scheme, kind, thickness, obstacles)?;
+    let collision = collision(&f, scheme, kind, thickness, obstacles, instruments)?;
     Ok(ChainSpec {
         name: name.clone(),
         kind,
@@ -617,6 +678,7 @@ fn collision(
     kind: ChainKind,
     thickness: f64,
     obstacles: &[(String, Obstacle<f64, 3>)],
+    instruments: &[(String, Obstacle<f64, 3>)],
 ) -> Result<Option<CollisionSpec>, SceneError> {
     let c = f.c;
     let Some(scheme) = scheme else {
@@ -626,6 +688,7 @@ fn collision(
                 .as_ref()
                 .map(|s| ("self_collision", s.span())),
             c.obstacles.as_ref().map(|s| ("obstacles", s.span())),
+            c.instruments.as_ref().map(|s| ("instruments", s.span())),
             c.collision_iterations
                 .as_ref()
                 .map(|s| ("collision_iterations", s.span())),
@@ -695,6 +758,33 @@ fn collision(
             list.push(*o);
         }
     }
+    let mut mine: Vec<(String, Obstacle<f64, 3>)> = Vec::new();
+    if let Some(names) = &c.instruments {
+        for n in names.get_ref() {
+            let Some((_, o)) = instruments.iter().find(|(m, _)| m == n) else {
+                return Err(f.err(
+                    names.span(),
+                    "instruments",
+                    format!("no [[instrument]] is named {n:?}"),
+                ));
+            };
+            if mine.iter().any(|(m, _)| m == n) {
+                return Err(f.err(
+                    names.span(),
+                    "instruments",
+                    format!("instrument {n:?} is listed twice"),
+                ));
+            }
+            if f.dims == 2 && !in_plane(o) {
+                return Err(f.err(
+                    names.span(),
+                    "instruments",
+                    format!("instrument {n:?} is not in the planar chain's plane z = 0"),
+                ));
+            }
+            mine.push((n.clone(), *o));
+        }
+    }
     Ok(Some(CollisionSpec {
         options: CollisionOptions {
             scheme,
@@ -704,6 +794,7 @@ fn collision(
             tolerance,
         },
         obstacles: list,
+        instruments: mine,
     }))
 }
 

@@ -20,6 +20,7 @@ mod crash;
 mod faults;
 mod holds;
 mod hostile;
+mod instruments;
 mod knots;
 mod latency;
 mod python;

@@ -483,10 +483,9 @@ where
                 let half = T::lit(0.5);
                 let (h0, h1) = ((*b - *a) * half, (*b1 - *a1) * half);
                 let (l0, l1) = (h0.norm(), h1.norm());
-                if !finite(a1)
-                    || !finite(b1)
-                    || (l0 - l1).abs() > (l0 * T::lit(1e-9)).max(T::EPSILON)
-                {
+                // The same length to rounding (a pose rebuilt from a centre and a direction).
+                let tol = l0 * T::lit(1e-9).max(T::EPSILON * T::lit(16.0)) + T::EPSILON;
+                if !finite(a1) || !finite(b1) || (l0 - l1).abs() > tol {
                     return bad("an instrument keeps its length");
                 }
                 ((*a + *b) * half, (*a1 + *b1) * half, h0, h1)
@@ -555,7 +554,7 @@ where
 }
 
 /// The smallest clearance any contact of this chain can have: half of what a substep may move.
-fn smallest_clearance<T: Real, const D: usize>(
+pub(super) fn smallest_clearance<T: Real, const D: usize>(
     chain: &Chain<T, D>,
     model: &CollisionModel<T, D>,
 ) -> T

@@ -68,8 +68,24 @@ where
         contacts = contacts.saturating_add(pass.pushed);
         if held.is_empty() {
             restraighten(chain, m, &mut ws.pos);
-        } else if !restraighten_held(chain, m, held, &mut ws.pos) {
-            return Err((iterations, pass.worst));
+        } else {
+            // Between held joints the rope is re-solved as a whole; where it is nearly taut that can
+            // pull a pushed strand back across what pushed it. No joint may move farther than a
+            // substep may move the hand (half the smallest clearance): a rope that cannot give way
+            // locks instead of tunnelling.
+            let pushed = ws.pos.clone();
+            if !restraighten_held(chain, m, held, &mut ws.pos) {
+                return Err((iterations, pass.worst));
+            }
+            let limit = super::smallest_clearance(chain, model) * T::lit(0.5);
+            let limit2 = limit * limit;
+            if pushed
+                .iter()
+                .zip(ws.pos.iter())
+                .any(|(a, b)| (a - b).norm_squared() > limit2)
+            {
+                return Err((iterations, pass.worst.max(limit)));
+            }
         }
     }
 }
