@@ -444,6 +444,12 @@ impl ChainSet {
         self.sequence = sequence;
         self.undo = None;
     }
+    /// The poses of a chain's instruments (a sphere's centre; a capsule's `a` then `b`).
+    pub fn instrument_poses(&self, chain: u32) -> Vec<Vec<f64>> {
+        self.geometry
+            .get(chain as usize)
+            .map_or_else(Vec::new, |g| each_form!(g, h => h.instrument_numbers()))
+    }
     /// The sequence number of the last accepted change (0 before any).
     pub fn sequence(&self) -> u64 {
         self.sequence

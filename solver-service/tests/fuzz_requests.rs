@@ -23,6 +23,19 @@ use solver_service::scene::parse_scene;
 
 /// Every chain form, with small substep and iteration limits so that no request can take long.
 const SCENE: &str = r#"
+[[instrument]]
+name = "probe"
+shape = "sphere"
+center = [1.0, 1.0, 0.0]
+radius = 0.3
+
+[[instrument]]
+name = "rod"
+shape = "capsule"
+a = [2.0, -1.0, -1.0]
+b = [2.0, -1.0, 1.0]
+radius = 0.2
+
 [[chain]]
 name = "rope64"
 links = 12
@@ -65,6 +78,7 @@ link_length = 0.25
 anchors = [0]
 thickness = 0.2
 collision = "capsules"
+instruments = ["probe", "rod"]
 collision_iterations = 8
 max_substeps = 64
 
@@ -159,7 +173,7 @@ fn point() -> impl Strategy<Value = Vec3> {
 fn structured_request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
     let header = (
         (
-            prop::sample::select(vec![1u32, 1, 1, 2, 2, 3, 3, 3, 4, 5, 6, 7, 8, 8, 9]),
+            prop::sample::select(vec![1u32, 1, 1, 2, 2, 3, 3, 3, 4, 5, 6, 7, 8, 8, 9, 10, 10]),
             0..N_CHAINS,
             prop_oneof![3 => Just(JOINT_HEAD), 2 => 0..=16u32],
             0..=3u32,
@@ -232,6 +246,7 @@ fn structured_request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
         match Command::from_u32(h.command) {
             Some(Command::Path) => {}
             Some(Command::Move | Command::Reach) => points.truncate(1),
+            Some(Command::Instrument) => points.truncate(2),
             _ => points.clear(),
         }
         for (field, word, small, x, p, bits) in mutations {
@@ -293,12 +308,17 @@ fn request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
 }
 
 /// Every chain's joints as bits.
+/// Every chain's joints and held joints, and its instruments' poses, as bits.
 fn snapshot(set: &ChainSet) -> Vec<Vec<[u64; 3]>> {
     (0..set.len() as u32)
         .map(|c| {
-            set.elements_with(c, false, true)
+            let mut v: Vec<[u64; 3]> = set
+                .elements_with(c, false, true)
                 .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
-                .collect()
+                .collect();
+            let poses = set.instrument_poses(c);
+            v.extend(poses.iter().flatten().map(|x| [x.to_bits(), 0, 0]));
+            v
         })
         .collect()
 }
