@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# The project's test command (README): builds the binaries the end-to-end tests start and the Python
-# client's venv, then runs every test of the workspace.
+# The project's test command (README): builds the binaries the end-to-end tests start, the C library
+# and the Python client's venv, then runs every test of the workspace.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --workspace --bins --profile test
+# The C library (libtractrix_client.so and .a) that the C and C++ examples link against.
+cargo build -p tractrix-client --lib --profile test
 # The Python client's venv (PyPI wheel iceoryx2==0.10.0) for the end-to-end test of the Python client.
 scripts/python-venv.sh
 cargo test --workspace "$@"

@@ -1,0 +1,180 @@
+//! The C library (issue 17): a C program and a C++ program, compiled here against
+//! `tractrix_client.h` and linked with `libtractrix_client` (shared for C, static for C++), move the
+//! rope of a running service and read its joints; the joints they print are bit for bit those a Rust
+//! client reads. Refusals come back as the service's status with its reason; a buffer too small says
+//! how many joints are needed.
+
+use shared::{Command, RequestHeader};
+use std::path::{Path, PathBuf};
+use std::process::Command as Process;
+use tests::{Service, bin, unique_prefix};
+
+/// The directory of the binaries (and of the C library, built there if missing).
+fn lib_dir() -> PathBuf {
+    let dir = bin("solver-service")
+        .parent()
+        .expect("target dir")
+        .to_path_buf();
+    if !dir.join("libtractrix_client.so").exists() {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let status = Process::new(cargo)
+            .args([
+                "build",
+                "-p",
+                "tractrix-client",
+                "--lib",
+                "--profile",
+                "test",
+            ])
+            .status()
+            .expect("run cargo build");
+        assert!(status.success(), "building the C library failed");
+    }
+    assert!(dir.join("libtractrix_client.so").exists());
+    dir
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn compile(compiler: &str, args: &[&str]) {
+    let out = Process::new(compiler)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("run {compiler}: {e}"));
+    assert!(
+        out.status.success(),
+        "{compiler} {args:?}:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The joints a program printed as `joint I XBITS YBITS ZBITS`.
+fn printed_joints(text: &str) -> Vec<[u64; 3]> {
+    text.lines()
+        .filter_map(|l| l.strip_prefix("joint "))
+        .map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            assert_eq!(w.len(), 4, "{l}");
+            let b = |s: &str| u64::from_str_radix(s, 16).unwrap();
+            [b(w[1]), b(w[2]), b(w[3])]
+        })
+        .collect()
+}
+
+fn rust_joints(svc: &Service) -> Vec<[u64; 3]> {
+    let mut c = svc.connect();
+    let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    q.joints()
+        .iter()
+        .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+        .collect()
+}
+
+#[test]
+fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
+    let lib = lib_dir();
+    let lib_s = lib.display().to_string();
+    let include = root().join("shared/include").display().to_string();
+    let examples = root().join("clients/c/examples");
+    let dir = tempfile::tempdir().unwrap();
+    let c_exe = dir.path().join("move").display().to_string();
+    compile(
+        "cc",
+        &[
+            "-std=c11",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-I",
+            &include,
+            examples.join("move.c").to_str().unwrap(),
+            "-L",
+            &lib_s,
+            "-ltractrix_client",
+            &format!("-Wl,-rpath,{lib_s}"),
+            "-lm",
+            "-o",
+            &c_exe,
+        ],
+    );
+    let cpp_exe = dir.path().join("loop").display().to_string();
+    compile(
+        "c++",
+        &[
+            "-std=c++17",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-I",
+            &include,
+            "-I",
+            examples.to_str().unwrap(),
+            examples.join("loop.cpp").to_str().unwrap(),
+            &format!("{lib_s}/libtractrix_client.a"),
+            "-lpthread",
+            "-ldl",
+            "-lm",
+            "-o",
+            &cpp_exe,
+        ],
+    );
+
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let out = Process::new(&c_exe).arg(&svc.prefix).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("described: rope, 40 links, length 40.0"),
+        "{text}"
+    );
+    assert!(text.contains("held path: tail 0.0 0.0 0.0"), "{text}");
+    assert!(
+        text.contains("moved: 41 joints, head 38.000000 5.000000 1.000000"),
+        "{text}"
+    );
+    // grasp, path, release, move: four states, all on the stream, in order.
+    assert!(text.contains("query: state 4, 0 held"), "{text}");
+    assert!(text.contains("streamed 4 states, the last 4"), "{text}");
+    // A NaN target: the service's status (non-finite = 4) and its reason.
+    assert!(text.contains("refused: 4 non-finite:"), "{text}");
+    assert!(text.contains("small buffer: -7, needs 41"), "{text}");
+    let c_joints = printed_joints(&text);
+    assert_eq!(c_joints.len(), 41);
+    assert_eq!(c_joints, rust_joints(&svc), "C read other joints than Rust");
+
+    let out = Process::new(&cpp_exe)
+        .args([svc.prefix.as_str(), "300", "1000"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{}", text.lines().next().unwrap_or(""));
+    assert!(
+        text.contains("300 moves at 1000 Hz: round trip p50"),
+        "{text}"
+    );
+    assert_eq!(
+        printed_joints(&text),
+        rust_joints(&svc),
+        "C++ read other joints than Rust"
+    );
+
+    // No service: a clear error, not a hang or a crash.
+    let out = Process::new(&c_exe).arg(unique_prefix()).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("open: no solver-service runs with prefix"),
+        "{err}"
+    );
+}
