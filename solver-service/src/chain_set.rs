@@ -62,9 +62,12 @@ where
     /// Remembers the state for [`ChainSet::undo`] (no allocation once warm).
     fn arm_undo(&mut self) {
         self.before.copy_from(&self.chain);
-        let now: Vec<Obstacle<T, D>> = self.instruments().to_vec();
-        self.instruments_before.clear();
-        self.instruments_before.extend_from_slice(&now);
+        if let Some((m, _)) = &self.collision {
+            // Same length every time: no allocation once warm.
+            self.instruments_before.clear();
+            self.instruments_before
+                .extend_from_slice(&m.obstacles[self.instruments_at..]);
+        }
     }
     /// Puts back the state [`Held::arm_undo`] remembered.
     fn swap_undo(&mut self) {

@@ -178,3 +178,52 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
         "{err}"
     );
 }
+
+/// A C# program (P/Invoke, as a Unity script would call the library), compiled with Mono's `mcs` and
+/// run with `mono` (`scripts/mono.sh` installs both), moves the rope and reads the same joints as Rust.
+#[test]
+fn a_csharp_program_moves_the_rope_through_p_invoke() {
+    let lib = lib_dir();
+    for tool in ["mcs", "mono"] {
+        let found = Process::new("sh")
+            .args(["-c", &format!("command -v {tool}")])
+            .output()
+            .is_ok_and(|o| o.status.success());
+        assert!(
+            found,
+            "{tool} is missing: run scripts/mono.sh (scripts/test.sh does)"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exe = dir.path().join("move.exe").display().to_string();
+    compile(
+        "mcs",
+        &[
+            &format!("-out:{exe}"),
+            root().join("clients/c/examples/Move.cs").to_str().unwrap(),
+        ],
+    );
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let out = Process::new("mono")
+        .arg(&exe)
+        .arg(&svc.prefix)
+        .env("LD_LIBRARY_PATH", &lib)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("moved: 41 joints, head 37.000000 6.000000 0.500000"),
+        "{text}"
+    );
+    assert!(text.contains("refused: 4 non-finite:"), "{text}");
+    assert_eq!(
+        printed_joints(&text),
+        rust_joints(&svc),
+        "C# read other joints than Rust"
+    );
+}
