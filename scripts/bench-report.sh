@@ -37,6 +37,7 @@ cargo build -q --release --bins
 if [ "$QUICK" = 1 ]; then
   export KERNEL_BENCH_SCALE=0.02 COLLISION_BENCH_ROUNDS=1 JOURNAL_BENCH_N=50 ACCURACY_BENCH_REPS=1
   export HOLDS_BENCH_ROUNDS=1 KNOT_BENCH_RUNS=1 KNOT_BENCH_LINKS=40
+  LANG_ARGS="500 1"
   LATENCY_ARGS="--samples 500 --warmup 100 --loaded-seconds 1"
   LOAD_SECONDS=1
   AB_ROUNDS=1
@@ -44,6 +45,7 @@ else
   LATENCY_ARGS=""
   LOAD_SECONDS=10
   AB_ROUNDS=3
+  LANG_ARGS=""
 fi
 
 COMMIT=$(git rev-parse --short HEAD)
@@ -84,6 +86,8 @@ block collision "cargo bench -p clients --bench collision" \
   cargo bench -q -p clients --bench collision
 block journal "cargo bench -p solver-service --bench journal" \
   cargo bench -q -p solver-service --bench journal
+block languages "scripts/lang-latency.sh $LANG_ARGS" \
+  scripts/lang-latency.sh $LANG_ARGS
 block holds "cargo bench -p tractrix --bench holds" \
   cargo bench -q -p tractrix --bench holds
 block knots "KNOT_BENCH_RUNS=4 cargo bench -p clients --bench knots" \

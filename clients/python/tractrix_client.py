@@ -14,6 +14,7 @@ n_angles`), never from the slice.
 import argparse
 import ctypes
 import json
+import math
 import sys
 import time
 
@@ -231,6 +232,25 @@ class Client:
         raise KeyError(f"no chain named {name!r}")
 
 
+def _bench(client, chain, n):
+    """N head moves around a circle of radius 0.5 (200 per turn), after n / 10 uncounted ones."""
+    h, elements = client.call("query", chain)
+    x, y, z = elements[h.n_joints - 1]
+    warmup, times = n // 10, []
+    for i in range(warmup + n):
+        a = 2.0 * math.pi * (i % 200) / 200.0
+        target = (x + 0.5 * (math.cos(a) - 1.0), y + 0.5 * math.sin(a), z)
+        t0 = time.perf_counter_ns()
+        client.call("move", chain, [target])
+        if i >= warmup:
+            times.append(time.perf_counter_ns() - t0)
+    times.sort()
+    pct = lambda p: times[int(p * (len(times) - 1))] / 1000.0
+    print(f"{n} moves at 0 Hz: round trip p50 {pct(0.5):.1f} us, p99 {pct(0.99):.1f} us, "
+          f"max {times[-1] / 1000.0:.1f} us")
+    return 0
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--prefix", default=DEFAULT_PREFIX)
@@ -252,6 +272,10 @@ def main(argv=None):
     i.add_argument("xyz", type=float, nargs=3)
     i.add_argument("--axis", type=float, nargs=3)
     i.add_argument("--index", type=int, default=0, help="the instrument's index in the chain's list")
+    b = sub.add_parser("bench", help="N moves of a chain's head around a small circle, back to back: "
+                                     "round-trip percentiles (the motion of `latency client`)")
+    b.add_argument("chain")
+    b.add_argument("n", type=int)
     a = ap.parse_args(argv)
     try:
         client = Client(a.prefix, a.wait_for_service)
@@ -260,6 +284,8 @@ def main(argv=None):
             h, elements = client.call("move", chain, [tuple(a.xyz)], joint=a.joint)
         elif a.cmd in ("grasp", "release"):
             h, elements = client.call(a.cmd, chain, joint=a.joint)
+        elif a.cmd == "bench":
+            return _bench(client, chain, a.n)
         elif a.cmd == "instrument":
             points = [tuple(a.xyz)] + ([tuple(a.axis)] if a.axis else [])
             h, elements = client.call("instrument", chain, points, joint=a.index)

@@ -1,6 +1,8 @@
 // Moves the rope's head from C# through the C library (P/Invoke), as a Unity script would.
 // Build and run: mcs -out:move.exe Move.cs && LD_LIBRARY_PATH=target/release mono move.exe PREFIX
-// Prints the joints' bits after a query, for the test to compare with a Rust client.
+// Prints the joints' bits after a query, for the test to compare with a Rust client. With `loop N` it
+// moves the head around a small circle N times back to back instead and prints the round trip's
+// percentiles (the motion of `latency client`).
 using System;
 using System.Runtime.InteropServices;
 
@@ -90,6 +92,28 @@ static class Program
 {
     static string Bits(double x) { return BitConverter.DoubleToInt64Bits(x).ToString("x16"); }
 
+    static int Loop(TractrixClient client, uint rope, int n)
+    {
+        var joints = client.Query(rope);
+        Vec3 head = joints[joints.Length - 1];
+        int warmup = n / 10;
+        var us = new double[n];
+        var clock = new System.Diagnostics.Stopwatch();
+        for (int i = 0; i < warmup + n; i++)
+        {
+            double a = 2.0 * Math.PI * (i % 200) / 200.0;
+            var target = new Vec3(head.X + 0.5 * (Math.Cos(a) - 1.0), head.Y + 0.5 * Math.Sin(a), head.Z);
+            clock.Restart();
+            client.Move(rope, Native.JointHead, target, joints);
+            clock.Stop();
+            if (i >= warmup) us[i - warmup] = clock.Elapsed.TotalMilliseconds * 1000.0;
+        }
+        Array.Sort(us);
+        Func<double, double> pct = p => us[(int)(p * (n - 1))];
+        Console.WriteLine("{0} moves at 0 Hz: round trip p50 {1:F1} us, p99 {2:F1} us, max {3:F1} us", n, pct(0.5), pct(0.99), us[n - 1]);
+        return 0;
+    }
+
     static int Main(string[] args)
     {
         try
@@ -97,6 +121,7 @@ static class Program
             using (var client = new TractrixClient(args.Length > 0 ? args[0] : null))
             {
                 uint rope = client.Chain("rope");
+                if (args.Length > 2 && args[1] == "loop") return Loop(client, rope, int.Parse(args[2]));
                 var joints = new Vec3[64];
                 int n = client.Move(rope, Native.JointHead, new Vec3(37.0, 6.0, 0.5), joints);
                 Console.WriteLine("moved: {0} joints, head {1:F6} {2:F6} {3:F6}", n, joints[n - 1].X, joints[n - 1].Y, joints[n - 1].Z);

@@ -1,5 +1,6 @@
-// A haptic loop in C++: moves the rope's head around a circle at RATE Hz for N steps and reports the
-// round trip's percentiles. Usage: loop PREFIX [N] [RATE]. Prints the last joints' bits for checking.
+// A haptic loop in C++: moves the rope's head around a circle at RATE Hz (0: back to back) for N moves
+// and reports the round trip's percentiles. Usage: loop PREFIX [N] [RATE]. Prints the last joints' bits
+// for checking.
 #include <algorithm>
 #include <chrono>
 #include <cinttypes>
@@ -21,19 +22,25 @@ int main(int argc, char **argv) {
     try {
         tractrix::Client client(prefix);
         const uint32_t rope = client.chain("rope");
-        std::vector<tractrix_Vec3> joints;
+        std::vector<tractrix_Vec3> joints = client.query(rope);
+        // The same motion as `latency client`: the head around a circle of radius 0.5 through where it
+        // starts, 200 moves per turn; the first tenth of the moves warms up and is not counted.
+        const tractrix_Vec3 start_head = joints.back();
+        const int warmup = n / 10;
         std::vector<double> rtt_us;
         rtt_us.reserve(n);
         using clock = std::chrono::steady_clock;
         const auto start = clock::now();
         const auto period = std::chrono::duration<double>(rate > 0 ? 1.0 / rate : 0.0);
-        for (int i = 0; i < n; i++) {
+        for (int i = 0; i < warmup + n; i++) {
             if (rate > 0) std::this_thread::sleep_until(start + std::chrono::duration_cast<clock::duration>(period * i));
-            const double a = 0.01 * i;
-            const tractrix_Vec3 target = {40.0 + std::cos(a) - 1.0, std::sin(a), 0.0};
+            const double a = 2.0 * M_PI * (i % 200) / 200.0;
+            const tractrix_Vec3 target = {start_head.x + 0.5 * (std::cos(a) - 1.0), start_head.y + 0.5 * std::sin(a),
+                                          start_head.z};
             const auto t0 = clock::now();
             client.move(rope, TRACTRIX_JOINT_HEAD, target, joints);
-            rtt_us.push_back(std::chrono::duration<double, std::micro>(clock::now() - t0).count());
+            const double us = std::chrono::duration<double, std::micro>(clock::now() - t0).count();
+            if (i >= warmup) rtt_us.push_back(us);
         }
         std::sort(rtt_us.begin(), rtt_us.end());
         auto pct = [&](double p) { return rtt_us[static_cast<size_t>(p * (rtt_us.size() - 1))]; };

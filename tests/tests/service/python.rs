@@ -71,6 +71,17 @@ fn the_python_client_moves_a_chain_and_reads_the_joints() {
     assert_eq!(code, Some(0), "{err}");
     let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
     assert_eq!(v["n_links"], 10);
+
+    // Its bench (scripts/lang-latency.sh times it): every move answered, percentiles printed.
+    let (code, out, err) = client(&svc.prefix, &["bench", "rope", "50"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("50 moves at 0 Hz: round trip p50"), "{out}");
+    let q3 = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    assert_eq!(
+        q3.header.sequence,
+        1 + 55,
+        "50 counted moves and 5 warming up"
+    );
 }
 
 #[test]
