@@ -227,3 +227,109 @@ fn a_csharp_program_moves_the_rope_through_p_invoke() {
         "C# read other joints than Rust"
     );
 }
+
+/// The README's smallest program in each language (C, C++, C#, Python, Rust; each under 40 lines) moves
+/// the rope's head to the same point and prints it.
+#[test]
+fn every_language_s_smallest_program_moves_the_rope() {
+    let lib = lib_dir();
+    let lib_s = lib.display().to_string();
+    let include = root().join("shared/include").display().to_string();
+    let examples = root().join("clients/c/examples");
+    let dir = tempfile::tempdir().unwrap();
+    let exe = |n: &str| dir.path().join(n).display().to_string();
+    compile(
+        "cc",
+        &[
+            "-std=c11",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-I",
+            &include,
+            examples.join("hello.c").to_str().unwrap(),
+            "-L",
+            &lib_s,
+            "-ltractrix_client",
+            &format!("-Wl,-rpath,{lib_s}"),
+            "-o",
+            &exe("hello_c"),
+        ],
+    );
+    compile(
+        "c++",
+        &[
+            "-std=c++17",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-I",
+            &include,
+            "-I",
+            examples.to_str().unwrap(),
+            examples.join("hello.cpp").to_str().unwrap(),
+            "-L",
+            &lib_s,
+            "-ltractrix_client",
+            &format!("-Wl,-rpath,{lib_s}"),
+            "-o",
+            &exe("hello_cpp"),
+        ],
+    );
+    compile(
+        "mcs",
+        &[
+            &format!("-out:{}", exe("hello.exe")),
+            examples.join("Hello.cs").to_str().unwrap(),
+        ],
+    );
+    let rust = {
+        let p = lib.join("examples/hello");
+        if !p.exists() {
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let ok = Process::new(cargo)
+                .args([
+                    "build",
+                    "-p",
+                    "clients",
+                    "--example",
+                    "hello",
+                    "--profile",
+                    "test",
+                ])
+                .status()
+                .is_ok_and(|s| s.success());
+            assert!(ok, "building the Rust example failed");
+        }
+        p.display().to_string()
+    };
+    let python = root().join("target/pyenv/bin/python").display().to_string();
+    let hello_py = root()
+        .join("clients/python/examples/hello.py")
+        .display()
+        .to_string();
+
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let runs: Vec<(&str, Vec<String>)> = vec![
+        ("C", vec![exe("hello_c")]),
+        ("C++", vec![exe("hello_cpp")]),
+        ("C#", vec!["mono".into(), exe("hello.exe")]),
+        ("Python", vec![python, hello_py]),
+        ("Rust", vec![rust]),
+    ];
+    for (lang, cmd) in runs {
+        let out = Process::new(&cmd[0])
+            .args(&cmd[1..])
+            .arg(&svc.prefix)
+            .env("LD_LIBRARY_PATH", &lib)
+            .output()
+            .unwrap_or_else(|e| panic!("{lang}: {e}"));
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{lang}: {text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(text.trim(), "head at 38 5 1, 41 joints", "{lang}");
+    }
+}
