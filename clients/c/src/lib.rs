@@ -482,20 +482,14 @@ pub unsafe extern "C" fn tractrix_client_path(
     capacity: usize,
     n_joints: *mut usize,
 ) -> c_int {
-    let pts = match points_arg(points, n_points) {
-        Ok(p) => p,
-        Err(_) => return TRACTRIX_E_ARGUMENT,
-    };
-    joint_request(
-        client,
-        Command::Path,
-        chain,
-        joint,
-        pts,
-        joints,
-        capacity,
-        n_joints,
-    )
+    with_client(client, |conn| {
+        let pts = points_arg(points, n_points)?;
+        let mut h = RequestHeader::new(Command::Path, chain);
+        h.joint = joint;
+        request(conn, h, pts, |rh, p| {
+            copy_joints(rh, p, joints, capacity, n_joints)
+        })
+    })
 }
 
 /// A fixed-base chain's head to `target` (the chain's strategy and tolerance); the distance left is
