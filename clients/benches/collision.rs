@@ -92,6 +92,7 @@ fn run(
             ..CollisionOptions::default()
         },
         obstacles: vec![],
+        holding: Vec::new(),
     };
     let mut ws = CollisionWorkspace::new();
     let opts = MoveOptions::default();

@@ -211,6 +211,7 @@ fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
             ..CollisionOptions::default()
         },
         obstacles: vec![],
+        holding: Vec::new(),
     };
     let mut ws = CollisionWorkspace::new();
     let opts = MoveOptions::default();

@@ -242,6 +242,7 @@ where
                 tolerance: T::lit(o.tolerance),
             },
             obstacles,
+            holding: Vec::new(),
         };
         (model, CollisionWorkspace::new())
     });

@@ -152,6 +152,18 @@ pub struct CollisionModel<T: Real, const D: usize> {
     pub options: CollisionOptions<T>,
     /// Static obstacles this chain avoids.
     pub obstacles: Vec<Obstacle<T, D>>,
+    /// Links an obstacle holds (an instrument's jaws around a grasped joint): never tested against it.
+    pub holding: Vec<Holding>,
+}
+
+/// Links `links` (link `i` joins joints `i` and `i + 1`) that obstacle `obstacle` holds: they touch it
+/// by design and are not tested against it; every other link is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Holding {
+    /// Index into [`CollisionModel::obstacles`].
+    pub obstacle: usize,
+    /// The links it holds.
+    pub links: core::ops::Range<usize>,
 }
 
 /// Caller-owned buffers reused across moves: after the first move of a chain, a move with collision

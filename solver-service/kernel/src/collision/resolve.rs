@@ -51,8 +51,13 @@ where
                 Scheme::PaperSpheres => pass.spheres(&mut ws.pos),
             }
         }
-        for ob in &model.obstacles {
-            pass.obstacle(&mut ws.pos, ob, opts);
+        for (k, ob) in model.obstacles.iter().enumerate() {
+            let held_links = model
+                .holding
+                .iter()
+                .find(|h| h.obstacle == k)
+                .map_or(0..0, |h| h.links.clone());
+            pass.obstacle(&mut ws.pos, ob, opts, held_links);
         }
         if pass.blocked {
             // Only a held joint (or the hand) could give way: locked at once.
@@ -343,11 +348,15 @@ impl<T: Real> Pass<'_, T> {
         pos: &mut [Vector<T, D>],
         ob: &Obstacle<T, D>,
         opts: &CollisionOptions<T>,
+        held_links: core::ops::Range<usize>,
     ) where
         Vector<T, D>: Embed3<T>,
     {
         let half = T::lit(0.5);
         for i in 0..pos.len() - 1 {
+            if held_links.contains(&i) {
+                continue;
+            }
             let (a, b) = (pos[i], pos[i + 1]);
             let link_r = match opts.scheme {
                 Scheme::Capsules => opts.thickness * half,

@@ -16,6 +16,7 @@ fn capsules(thickness: f64) -> CollisionModel<f64, 3> {
             ..CollisionOptions::default()
         },
         obstacles: vec![],
+        holding: Vec::new(),
     }
 }
 
@@ -157,6 +158,7 @@ fn paper_spheres_keep_link_centres_apart() {
             ..CollisionOptions::default()
         },
         obstacles: vec![],
+        holding: Vec::new(),
     };
     let mut ws = CollisionWorkspace::new();
     let head = c.head_index();
@@ -205,6 +207,7 @@ fn obstacles_are_avoided_and_a_hand_inside_one_is_locked() {
             ..CollisionOptions::default()
         },
         obstacles: vec![table, post, ball],
+        holding: Vec::new(),
     };
     let mut ws = CollisionWorkspace::new();
     // A rope dragged by its head once around the post (the trailing rope cuts the corner into it), down
@@ -354,6 +357,7 @@ fn a_rope_thicker_than_its_links_is_not_locked_by_its_own_neighbours() {
             ..CollisionOptions::default()
         },
         obstacles: vec![],
+        holding: Vec::new(),
     };
     let mut ws = CollisionWorkspace::new();
     let mut c = Chain::<f64, 3>::straight(320, 0.125, Vector3::zeros(), Vector3::x()).unwrap();

@@ -199,6 +199,7 @@ mod with_collision {
                 ..CollisionOptions::default()
             },
             obstacles: vec![],
+            holding: Vec::new(),
         };
         let mut ws = CollisionWorkspace::new();
         let mut c = Chain::<f64, 3>::straight(40, 0.5, Vector3::zeros(), Vector3::x()).unwrap();
@@ -263,6 +264,7 @@ mod with_collision {
                 ..CollisionOptions::default()
             },
             obstacles: vec![],
+            holding: Vec::new(),
         };
         let mut ws = CollisionWorkspace::new();
         let mut c = Chain::<f64, 3>::straight(12, 0.5, Vector3::zeros(), Vector3::x()).unwrap();
@@ -286,6 +288,7 @@ mod with_collision {
                 center: Vector3::new(9.5, 0.1, 0.0),
                 radius: 0.3,
             }],
+            holding: Vec::new(),
         };
         let mut ws = CollisionWorkspace::new();
         let mut c = Chain::<f64, 3>::straight(20, 1.0, Vector3::zeros(), Vector3::x()).unwrap();

@@ -20,6 +20,7 @@ fn model(obstacles: Vec<Obstacle<f64, 3>>) -> CollisionModel<f64, 3> {
             ..CollisionOptions::default()
         },
         obstacles,
+        holding: Vec::new(),
     }
 }
 
@@ -251,4 +252,55 @@ fn a_capsule_turned_about_its_centre_sweeps_the_rope_and_bad_poses_are_refused()
     let e = push_by_obstacle(&mut rope, &m3, 0, &far, 100, &mut ws).unwrap_err();
     assert!(matches!(e, ChainError::TooManySubsteps { .. }), "{e:?}");
     assert_eq!(bits(&rope), before);
+}
+
+#[test]
+fn an_instrument_holding_the_end_moves_with_it_and_pushes_only_the_rest() {
+    use tractrix::MoveOptions;
+    use tractrix::collision::{Holding, move_joint_colliding};
+    let run = |holding: Vec<Holding>| -> Result<Chain<f64, 3>, ChainError> {
+        let mut rope = Chain::<f64, 3>::straight(20, 1.0, V::zeros(), V::x()).unwrap();
+        rope.hold(20).unwrap();
+        let r = 0.3;
+        // Jaws around the end: a ball on the grasped joint, holding the last two links.
+        let mut m = model(vec![Obstacle::Sphere {
+            center: V::new(20.0, 0.0, 0.0),
+            radius: r,
+        }]);
+        m.holding = holding;
+        let mut ws = CollisionWorkspace::new();
+        for k in 1..=10 {
+            let step = V::new(-0.3, 0.25, 0.0);
+            let head = rope.joint(20) + step;
+            move_joint_colliding(&mut rope, 20, head, &MoveOptions::default(), &m, &mut ws)?;
+            let Obstacle::Sphere { center, .. } = m.obstacles[0] else {
+                unreachable!()
+            };
+            let to = Obstacle::Sphere {
+                center: center + step,
+                radius: r,
+            };
+            push_by_obstacle(&mut rope, &m, 0, &to, 1000, &mut ws)?;
+            m.obstacles[0] = to;
+            let p = rope.positions();
+            assert_eq!(p[20], head, "step {k}: the hand's joint stays on its path");
+            // Every link but the two held ones clear of the jaws (distance computed here).
+            let c = head;
+            let gap = p[..19]
+                .windows(2)
+                .map(|w| point_segment(c, w[0], w[1]) - r - THICKNESS / 2.0)
+                .fold(f64::INFINITY, f64::min);
+            assert!(gap >= -TOLERANCE * (r + THICKNESS / 2.0), "step {k}: {gap}");
+            assert!(max_length_error(&rope) < 1e-12);
+        }
+        Ok(rope)
+    };
+    run(vec![Holding {
+        obstacle: 0,
+        links: 18..20,
+    }])
+    .expect("the held links do not count against the jaws");
+    // Without it, the jaws sit on links the held joint cannot let go of: the first move locks.
+    let e = run(vec![]).unwrap_err();
+    assert!(matches!(e, ChainError::Locked { .. }), "{e:?}");
 }
