@@ -41,6 +41,8 @@ pub struct Held<T: Real, const D: usize> {
     instruments_at: usize,
     instruments_initial: Vec<Obstacle<T, D>>,
     instruments_before: Vec<Obstacle<T, D>>,
+    /// For each instrument, the joint it rides with (scene `follows`).
+    follows: Vec<Option<usize>>,
 }
 
 impl<T: Real, const D: usize> Held<T, D>
@@ -184,6 +186,35 @@ where
     Vec3::new(v.x.to_f64(), v.y.to_f64(), v.z.to_f64())
 }
 
+/// The links each following instrument holds: those within its reach of the joint it follows (its
+/// radius, plus half its length for a capsule, in shortest links, and one more on each side).
+fn holding(spec: &ChainSpec, c: &crate::scene::CollisionSpec) -> Vec<tractrix::collision::Holding> {
+    let n = spec.lengths.len();
+    c.instruments
+        .iter()
+        .zip(&c.follows)
+        .enumerate()
+        .filter_map(|(k, ((_, o), f))| {
+            let j = (*f)? as usize;
+            let extent = match o {
+                Obstacle::Sphere { radius, .. } => *radius,
+                Obstacle::Capsule { a, b, radius } => radius + 0.5 * (b - a).norm(),
+                Obstacle::HalfSpace { .. } => 0.0,
+            };
+            let reach = ((extent + 0.5 * c.options.thickness) / spec.shortest).ceil();
+            let reach = if reach.is_finite() {
+                reach as usize + 1
+            } else {
+                n
+            };
+            Some(tractrix::collision::Holding {
+                obstacle: c.obstacles.len() + k,
+                links: j.saturating_sub(reach)..(j + reach).min(n),
+            })
+        })
+        .collect()
+}
+
 fn held<T: Real, const D: usize>(spec: &ChainSpec) -> Result<Held<T, D>, ChainError>
 where
     Vector<T, D>: Embed3<T>,
@@ -242,7 +273,7 @@ where
                 tolerance: T::lit(o.tolerance),
             },
             obstacles,
-            holding: Vec::new(),
+            holding: holding(spec, c),
         };
         (model, CollisionWorkspace::new())
     });
@@ -257,6 +288,9 @@ where
         instruments_at,
         instruments_initial: Vec::new(),
         instruments_before: Vec::new(),
+        follows: spec.collision.as_ref().map_or_else(Vec::new, |c| {
+            c.follows.iter().map(|f| f.map(|j| j as usize)).collect()
+        }),
     };
     h.instruments_initial = h.instruments().to_vec();
     h.instruments_before = h.instruments_initial.clone();
@@ -383,7 +417,15 @@ impl ChainSet {
                     substeps = substeps.saturating_add(k);
                     from = *t;
                 }
-                Ok(n.saturating_mul(substeps))
+                // Instruments riding with the joint are carried after the move: as many substeps again.
+                let carried = spec.collision.as_ref().map_or(0, |c| {
+                    c.follows
+                        .iter()
+                        .filter(|f| f.map(|j| j as usize) == Some(joint))
+                        .count()
+                });
+                Ok(n.saturating_mul(substeps)
+                    .saturating_mul(1 + carried as u64))
             }
             Request::Reach { ref options, .. } => Ok(n
                 .saturating_mul(u64::from(options.substeps.max(1)))
@@ -544,7 +586,7 @@ impl ChainSet {
                 targets,
                 ref options,
                 ..
-            } => each_form!(&mut *g, h => move_held(h, joint, targets, options)).map(|m| {
+            } => each_form!(&mut *g, h => move_and_carry(h, joint, targets, options)).map(|m| {
                 outcome.substeps = m.substeps;
                 outcome.paper_fallbacks = m.paper_fallbacks;
                 outcome.iterations = m.collision_iterations;
@@ -741,6 +783,70 @@ where
         (Obstacle::Sphere { center, .. }, _) => (v(center) - to).norm(),
         _ => 0.0,
     }
+}
+
+/// A move of `joint`; the instruments that follow it are then carried by the joint's displacement,
+/// pushing the rest of the rope (locked: the whole move is refused).
+fn move_and_carry<T: Real, const D: usize>(
+    g: &mut Held<T, D>,
+    joint: usize,
+    targets: &[Vec3],
+    opts: &MoveOptions<f64>,
+) -> Result<MoveOutcome, Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if !g.follows.contains(&Some(joint)) {
+        return move_held(g, joint, targets, opts);
+    }
+    // Point by point, so that the instruments follow the path, not its chord (a refusal anywhere
+    // refuses the whole request: the caller undoes it).
+    let mut outcome = MoveOutcome::default();
+    for t in targets {
+        let from = g.chain.joint(joint);
+        let m = move_held(g, joint, std::slice::from_ref(t), opts)?;
+        outcome.substeps = outcome.substeps.saturating_add(m.substeps);
+        outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(m.paper_fallbacks);
+        outcome.collision_iterations = outcome
+            .collision_iterations
+            .saturating_add(m.collision_iterations);
+        let delta = g.chain.joint(joint) - from;
+        for k in 0..g.follows.len() {
+            if g.follows[k] != Some(joint) {
+                continue;
+            }
+            let at = g.instruments_at + k;
+            let Some((model, ws)) = g.collision.as_mut() else {
+                continue;
+            };
+            let to = match model.obstacles[at] {
+                Obstacle::Sphere { center, radius } => Obstacle::Sphere {
+                    center: center + delta,
+                    radius,
+                },
+                Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
+                    a: a + delta,
+                    b: b + delta,
+                    radius,
+                },
+                other => other,
+            };
+            let m = tractrix::collision::push_by_obstacle(
+                &mut g.chain,
+                model,
+                at,
+                &to,
+                opts.max_substeps,
+                ws,
+            )?;
+            model.obstacles[at] = to;
+            outcome.substeps = outcome.substeps.saturating_add(m.substeps);
+            outcome.collision_iterations = outcome
+                .collision_iterations
+                .saturating_add(m.collision_iterations);
+        }
+    }
+    Ok(outcome)
 }
 
 fn push_instrument<T: Real, const D: usize>(

@@ -39,7 +39,11 @@
 //! driver's jaws, a forceps tip, a post a hand carries. They start where the table puts them and move
 //! when a client sends the `instrument` command with a new pose, pushing the chain that lists them. An
 //! instrument belongs to one chain (its pose is part of that chain's state: journaled, snapshotted, put
-//! back by `reset`); the chain's `instruments` list gives each its index on the wire.
+//! back by `reset`); the chain's `instruments` list gives each its index on the wire. `follows = "head"`
+//! (or `"tail"`, or a joint index) makes an instrument ride with that joint, as a needle driver rides
+//! with the hand that holds the suture: a move of the joint carries the instrument along, pushing the
+//! rest of the rope; the links within the instrument's reach of the joint are held by it and not tested
+//! against it.
 //!
 //! Errors name the file, the line and the field; sizes are checked before anything is allocated.
 //!
@@ -159,6 +163,8 @@ pub struct CollisionSpec {
     pub obstacles: Vec<Obstacle<f64, 3>>,
     /// The instruments that push this chain, by name, at their starting poses (wire index = position).
     pub instruments: Vec<(String, Obstacle<f64, 3>)>,
+    /// For each instrument, the joint it follows, if any (a hand's grasp).
+    pub follows: Vec<Option<u32>>,
 }
 
 /// A validated scene.
@@ -312,6 +318,16 @@ mod tests {
                 "[[instrument]]\nname = \"d\"\nshape = \"sphere\"\ncenter = [0, 1, 0]\nradius = 0.5\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ninstruments = [\"d\"]\n[[chain]]\nname = \"b\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ninstruments = [\"d\"]\n",
                 19,
                 "already pushes chain \"a\"",
+            ),
+            (
+                "[[instrument]]\nname = \"d\"\nshape = \"sphere\"\ncenter = [0, 1, 0]\nradius = 0.5\nfollows = \"7\"\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ninstruments = [\"d\"]\n",
+                6,
+                "field `follows`: \"7\" is not",
+            ),
+            (
+                "[[obstacle]]\nname = \"p\"\nshape = \"sphere\"\ncenter = [0, 1, 0]\nradius = 0.5\nfollows = \"head\"\n[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\n",
+                6,
+                "obstacles stay where they are",
             ),
             (
                 "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ninstruments = [\"x\"]\n",

@@ -33,6 +33,8 @@ pub(super) struct RawObstacle {
     pub b: Field<Vec<f64>>,
     pub point: Field<Vec<f64>>,
     pub normal: Field<Vec<f64>>,
+    /// Instruments only: the joint of its chain it follows (`"head"`, `"tail"` or an index).
+    pub follows: Field<String>,
 }
 
 /// A `[[chain]]` table as written.

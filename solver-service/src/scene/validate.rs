@@ -53,6 +53,16 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
     for o in &raw.obstacle {
         let o = o.get_ref();
         let ob = obstacle(o, &at)?;
+        if let Some(f) = &o.follows {
+            return Err(at(
+                f.span(),
+                format!(
+                    "obstacle {:?}: field `follows`: obstacles stay where they are; an \
+                     [[instrument]] can follow a joint",
+                    o.name.get_ref()
+                ),
+            ));
+        }
         if obstacles.iter().any(|(n, _)| n == o.name.get_ref()) {
             return Err(at(
                 o.name.span(),
@@ -102,7 +112,38 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
     let mut chains: Vec<ChainSpec> = Vec::with_capacity(raw.chain.len());
     let mut total_links = 0usize;
     for c in &raw.chain {
-        let spec = chain(c.get_ref(), &obstacles, &instruments, &at)?;
+        let mut spec = chain(c.get_ref(), &obstacles, &instruments, &at)?;
+        let n_links = spec.lengths.len();
+        if let Some(col) = &mut spec.collision {
+            // The joints its instruments follow, resolved against this chain.
+            for (n, _) in &col.instruments {
+                let i = instruments
+                    .iter()
+                    .position(|(m, _)| m == n)
+                    .expect("validated");
+                let follows = match &raw.instrument[i].get_ref().follows {
+                    None => None,
+                    Some(f) => Some(match f.get_ref().as_str() {
+                        "head" => n_links as u32,
+                        "tail" => 0,
+                        s => match s.parse::<u32>() {
+                            Ok(j) if (j as usize) <= n_links => j,
+                            _ => {
+                                return Err(at(
+                                    f.span(),
+                                    format!(
+                                        "instrument {n:?}: field `follows`: {s:?} is not \
+                                         \"head\", \"tail\" or a joint 0..={n_links} of chain {:?}",
+                                        spec.name
+                                    ),
+                                ));
+                            }
+                        },
+                    }),
+                };
+                col.follows.push(follows);
+            }
+        }
         if let Some(col) = &spec.collision {
             for (n, _) in &col.instruments {
                 let i = instruments
@@ -795,6 +836,7 @@ fn collision(
         },
         obstacles: list,
         instruments: mine,
+        follows: Vec::new(),
     }))
 }
 

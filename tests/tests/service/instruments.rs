@@ -241,3 +241,81 @@ fn an_instrument_pushes_the_rope_locks_when_it_must_and_survives_kill_9() {
     assert!(mine.is_ok() && theirs.is_ok());
     assert_eq!(bits(mine.joints()), bits(theirs.joints()));
 }
+
+/// A needle driver that rides with the hand: an instrument that `follows = "head"` is carried with
+/// every move of the head, and the strand the hand crosses is pushed out of the jaws' way (its distance
+/// from the head, computed here, never below the jaws' clearance), while the links the jaws hold near
+/// the head do not count.
+#[test]
+fn an_instrument_that_follows_the_hand_pushes_the_strand_it_crosses() {
+    let scene = r#"
+[[instrument]]
+name = "jaws"
+shape = "sphere"
+center = [30.0, 0.0, 0.0]
+radius = 0.5
+follows = "head"
+
+[[chain]]
+name = "suture"
+links = 30
+link_length = 1.0
+thickness = 0.2
+collision = "capsules"
+instruments = ["jaws"]
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.toml");
+    std::fs::write(&file, scene).unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &["--scene", file.to_str().unwrap(), "--no-persist"],
+    );
+    let mut c = svc.connect();
+    let mut grasp = RequestHeader::new(Command::Grasp, 0);
+    grasp.joint = shared::JOINT_HEAD;
+    assert!(c.call(grasp, &[]).unwrap().is_ok());
+    // The hand loops back and crosses its own strand near x = 15, in steps of 0.1.
+    let corners = [
+        Vec3::new(30.0, 3.0, 0.0),
+        Vec3::new(15.0, 3.0, 0.0),
+        Vec3::new(15.0, -3.0, 0.0),
+    ];
+    let mut from = Vec3::new(30.0, 0.0, 0.0);
+    let mut crossed = 0;
+    for to in corners {
+        let d = ((to.x - from.x).powi(2) + (to.y - from.y).powi(2)).sqrt();
+        let k = (d / 0.1).ceil() as usize;
+        for i in 1..=k {
+            let t = i as f64 / k as f64;
+            let target = Vec3::new(
+                from.x + (to.x - from.x) * t,
+                from.y + (to.y - from.y) * t,
+                0.0,
+            );
+            let mut h = RequestHeader::new(Command::Move, 0);
+            h.joint = shared::JOINT_HEAD;
+            let r = c.call(h, &[target]).unwrap();
+            assert!(r.is_ok(), "{}", r.header.reason_str());
+            let p = r.joints();
+            let head = [p[30].x, p[30].y, p[30].z];
+            // On target to rounding (the moved joint's position is a sum of the links).
+            let off = ((head[0] - target.x).powi(2) + (head[1] - target.y).powi(2)).sqrt();
+            assert!(off < 1e-12, "the head is {off} off its target");
+            // Links far along the rope from the head (the jaws hold the last few).
+            let gap = p[..24]
+                .windows(2)
+                .map(|w| point_segment(head, [w[0].x, w[0].y, w[0].z], [w[1].x, w[1].y, w[1].z]))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                gap >= 0.6 * (1.0 - TOLERANCE),
+                "the jaws entered the strand: {gap}"
+            );
+            if (target.x - 15.0).abs() < 1e-9 && target.y.abs() < 1.0 {
+                crossed += 1;
+            }
+        }
+        from = to;
+    }
+    assert!(crossed > 0, "the hand crossed the strand's line");
+}
