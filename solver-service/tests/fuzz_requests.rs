@@ -30,6 +30,13 @@ center = [1.0, 1.0, 0.0]
 radius = 0.3
 
 [[instrument]]
+name = "jaws"
+shape = "sphere"
+center = [4.0, 0.0, 0.0]
+radius = 0.2
+follows = "head"
+
+[[instrument]]
 name = "rod"
 shape = "capsule"
 a = [2.0, -1.0, -1.0]
@@ -78,7 +85,7 @@ link_length = 0.25
 anchors = [0]
 thickness = 0.2
 collision = "capsules"
-instruments = ["probe", "rod"]
+instruments = ["probe", "rod", "jaws"]
 collision_iterations = 8
 max_substeps = 64
 
