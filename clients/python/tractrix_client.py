@@ -2,14 +2,20 @@
 
 The wire types are ctypes mirrors of shared/src/lib.rs (the byte layout table there, and the C header
 shared/include/tractrix.h); their iceoryx2 type names must be the Rust ones ("tractrix.v1.*") or the
-service refuses the connection. Run `scripts/python-venv.sh` once for the venv, then:
+service refuses the connection. Install it (`pip install clients/python`, which brings
+iceoryx2==0.10.0; `scripts/python-venv.sh` does it in target/pyenv), then:
 
-    target/pyenv/bin/python clients/python/tractrix_client.py --prefix tractrix_ move rope 35 8 2
+    tractrix-client --prefix tractrix_ move rope 35 8 2      # or: python -m tractrix_client ...
+
+The commands are chainctl's (move, path, reach, query, reset, describe, snapshot, grasp, release,
+instrument) and bench; each prints one JSON object.
 
 Known bug of the 0.10.0 wheel (iceoryx2 issue #1533): a received slice of structs reports its length in
 bytes, so the number of Vec3 in a response is read from the response's own header (`n_joints +
 n_angles`), never from the slice.
 """
+
+from __future__ import annotations
 
 import argparse
 import ctypes
@@ -17,6 +23,9 @@ import json
 import math
 import sys
 import time
+from typing import Iterable, Sequence
+
+Point = Sequence[float]
 
 import iceoryx2 as iox2
 
@@ -136,7 +145,8 @@ class ServiceError(Exception):
 class Client:
     """One client port on the command service. Waits by polling (spin, then short sleeps)."""
 
-    def __init__(self, prefix=DEFAULT_PREFIX, wait_for_service=0.0, timeout=5.0):
+    def __init__(self, prefix: str = DEFAULT_PREFIX, wait_for_service: float = 0.0,
+                 timeout: float = 5.0) -> None:
         cfg = iox2.config.default()
         cfg.global_cfg.prefix = iox2.FileName.new(prefix)
         self.node = iox2.NodeBuilder.new().config(cfg).create(iox2.ServiceType.Ipc)
@@ -181,9 +191,11 @@ class Client:
         self.timeout = timeout
         self.next_id = 1
 
-    def call(self, command, chain=0, points=(), **fields):
+    def call(self, command: str, chain: int = 0, points: Iterable[Point] = (),
+             **fields) -> tuple[ResponseHeader, list[tuple[float, float, float]]]:
         """Sends one request; returns (header, list of (x, y, z): n_joints joints, n_angles rotations,
         n_held held joints as (index, 1 for an anchor else 0, 0)) or raises ServiceError."""
+        points = list(points)
         request = self.client.loan_slice_uninit(len(points))
         for i, p in enumerate(points):
             request.payload()[i] = Vec3(*p)
@@ -223,7 +235,7 @@ class Client:
                                _text(copy.reason))
         return copy, out
 
-    def find_chain(self, name):
+    def find_chain(self, name: str) -> int:
         h, _ = self.call("describe", 0)
         for c in range(h.n_chains):
             d, _ = self.call("describe", c)
@@ -232,7 +244,7 @@ class Client:
         raise KeyError(f"no chain named {name!r}")
 
 
-def _bench(client, chain, n):
+def _bench(client: Client, chain: int, n: int) -> int:
     """N head moves around a circle of radius 0.5 (200 per turn), after n / 10 uncounted ones."""
     h, elements = client.call("query", chain)
     x, y, z = elements[h.n_joints - 1]
@@ -251,8 +263,8 @@ def _bench(client, chain, n):
     return 0
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="tractrix-client", description=__doc__.splitlines()[0])
     ap.add_argument("--prefix", default=DEFAULT_PREFIX)
     ap.add_argument("--wait-for-service", type=float, default=0.0)
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -260,8 +272,18 @@ def main(argv=None):
     m.add_argument("chain")
     m.add_argument("xyz", type=float, nargs=3)
     m.add_argument("--joint", type=int, default=JOINT_HEAD)
-    q = sub.add_parser("query", help="print a chain's joints")
-    q.add_argument("chain")
+    p = sub.add_parser("path", help="move a chain's head (or --joint) through points x,y,z ...")
+    p.add_argument("chain")
+    p.add_argument("points", nargs="+", help="x,y,z")
+    p.add_argument("--joint", type=int, default=JOINT_HEAD)
+    r = sub.add_parser("reach", help="bring a fixed-base chain's head to x y z")
+    r.add_argument("chain")
+    r.add_argument("xyz", type=float, nargs=3)
+    for name, what in (("query", "print a chain's joints"), ("reset", "back to the scene's state"),
+                       ("describe", "the chain's description and joints")):
+        q = sub.add_parser(name, help=what)
+        q.add_argument("chain")
+    sub.add_parser("snapshot", help="write a snapshot now")
     for name, what in (("grasp", "hold a joint where it is"), ("release", "let a grasped joint go")):
         g = sub.add_parser(name, help=what)
         g.add_argument("chain")
@@ -279,9 +301,18 @@ def main(argv=None):
     a = ap.parse_args(argv)
     try:
         client = Client(a.prefix, a.wait_for_service)
+        if a.cmd == "snapshot":
+            h, elements = client.call("snapshot")
+            print(json.dumps({"status": STATUS[h.status], "sequence": h.sequence}))
+            return 0
         chain = client.find_chain(a.chain)
         if a.cmd == "move":
             h, elements = client.call("move", chain, [tuple(a.xyz)], joint=a.joint)
+        elif a.cmd == "path":
+            pts = [tuple(float(x) for x in s.split(",")) for s in a.points]
+            h, elements = client.call("path", chain, pts, joint=a.joint)
+        elif a.cmd == "reach":
+            h, elements = client.call("reach", chain, [tuple(a.xyz)])
         elif a.cmd in ("grasp", "release"):
             h, elements = client.call(a.cmd, chain, joint=a.joint)
         elif a.cmd == "bench":
@@ -290,18 +321,29 @@ def main(argv=None):
             points = [tuple(a.xyz)] + ([tuple(a.axis)] if a.axis else [])
             h, elements = client.call("instrument", chain, points, joint=a.index)
         else:
-            h, elements = client.call("query", chain)
-    except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:
-        print(f"tractrix_client: {e}", file=sys.stderr)
+            h, elements = client.call(a.cmd, chain)
+    except (RuntimeError, ServiceError, KeyError, TimeoutError, ValueError) as e:
+        print(f"tractrix-client: {e}", file=sys.stderr)
         return 1
     # The description fields (n_links, name, ...) come with `describe` only; a chain of n links answers
     # n + 1 joints.
     joints = elements[:h.n_joints]
     held = [{"joint": int(x), "anchor": y != 0.0}
             for x, y, _ in elements[h.n_joints + h.n_angles:]]
-    print(json.dumps({"status": STATUS[h.status], "sequence": h.sequence,
-                      "n_links": h.n_joints - 1, "joints": joints, "held": held}))
+    out = {"status": STATUS[h.status], "sequence": h.sequence, "n_links": h.n_joints - 1,
+           "joints": joints, "held": held}
+    if a.cmd == "describe":
+        out["name"] = _text(h.name)
+        out["total_length"] = h.total_length
+    if a.cmd == "reach":
+        out["residual"] = h.residual
+    print(json.dumps(out))
     return 0
+
+
+def main_exit() -> None:
+    """The `tractrix-client` console script."""
+    sys.exit(main())
 
 
 if __name__ == "__main__":

@@ -93,3 +93,50 @@ fn the_python_client_without_a_service_says_so() {
     assert_eq!(code, Some(1));
     assert!(err.contains("no solver-service runs"), "{err}");
 }
+
+/// The client installed as a package (`pip install clients/python`, done by scripts/python-venv.sh):
+/// its `tractrix-client` command has chainctl's commands, and the module imports from anywhere.
+#[test]
+fn the_installed_python_package_has_chainctl_s_commands() {
+    let py = python();
+    let script = py.with_file_name("tractrix-client");
+    assert!(script.exists(), "{} (scripts/python-venv.sh installs it)", script.display());
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let run = |args: &[&str]| -> serde_json::Value {
+        let out = Process::new(&script)
+            .args(["--prefix", svc.prefix.as_str()])
+            .args(args)
+            .current_dir("/")
+            .output()
+            .expect("run tractrix-client");
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{args:?}: {text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_str(text.trim()).expect("one JSON object")
+    };
+    let d = run(&["describe", "rope"]);
+    assert_eq!((d["name"].as_str(), d["n_links"].as_u64()), (Some("rope"), Some(40)));
+    assert_eq!(d["total_length"], 40.0);
+    assert_eq!(run(&["grasp", "rope", "--joint", "0"])["held"][0]["joint"], 0);
+    let p = run(&["path", "rope", "39,1,0", "38,2,0.5"]);
+    // With the tail held the head lands within the fixed-base tolerance (1e-9 of the rope's length).
+    let head: Vec<f64> = serde_json::from_value(p["joints"][40].clone()).unwrap();
+    let off = ((head[0] - 38.0).powi(2) + (head[1] - 2.0).powi(2) + (head[2] - 0.5).powi(2)).sqrt();
+    assert!(off <= 40.0 * 1e-9, "{head:?}");
+    assert_eq!(p["joints"][0], serde_json::json!([0.0, 0.0, 0.0]), "the grasped tail stayed");
+    assert_eq!(run(&["release", "rope", "--joint", "0"])["held"], serde_json::json!([]));
+    let r = run(&["reach", "arm", "1.0", "0.9", "0"]);
+    assert!(r["residual"].as_f64().unwrap() < 1e-6, "{r}");
+    assert_eq!(run(&["reset", "rope"])["joints"][40], serde_json::json!([40.0, 0.0, 0.0]));
+    assert_eq!(run(&["query", "rope"])["sequence"], 5);
+    let out = Process::new(&py)
+        .args(["-c", "import tractrix_client; print(tractrix_client.__file__)"])
+        .current_dir("/")
+        .output()
+        .unwrap();
+    let at = String::from_utf8_lossy(&out.stdout);
+    assert!(at.contains("site-packages"), "imported from {at}");
+}
