@@ -2,7 +2,7 @@
 # Makes target/pyenv: a Python venv with the PyPI wheel iceoryx2==0.10.0 (peers only connect when their
 # iceoryx2 versions match exactly; the service is built on 0.10.0) and the project's Python client
 # installed as a package (`pip install clients/python`: the module tractrix_client and the command
-# tractrix-client). Idempotent; scripts/test.sh runs it.
+# tractrix-client), and MuJoCo for the simulator-loop example. Idempotent; scripts/test.sh runs it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=target/pyenv
@@ -16,11 +16,14 @@ if [ -x "$VENV/bin/python" ] && "$VENV/bin/python" -c \
     # `wheel` builds the client package without build isolation (no download per run).
     "$VENV/bin/python" -c 'import wheel' 2>/dev/null ||
         "$VENV/bin/pip" install --quiet --disable-pip-version-check wheel
+    "$VENV/bin/python" -c 'import mujoco' 2>/dev/null ||
+        "$VENV/bin/pip" install --quiet --disable-pip-version-check mujoco
     install_client
     exit 0
 fi
 command -v python3 >/dev/null || { echo "python-venv: python3 is needed (apt install python3 python3-venv)" >&2; exit 1; }
 python3 -m venv "$VENV" || { echo "python-venv: python3 -m venv failed (apt install python3-venv)" >&2; exit 1; }
-"$VENV/bin/pip" install --quiet --disable-pip-version-check iceoryx2==0.10.0 wheel
+# MuJoCo for the simulator-loop example (clients/python/examples/mujoco_loop.py).
+"$VENV/bin/pip" install --quiet --disable-pip-version-check iceoryx2==0.10.0 wheel mujoco
 install_client
 "$VENV/bin/python" -c 'import iceoryx2, tractrix_client' && echo "python-venv: $VENV ready (iceoryx2 0.10.0, tractrix-client)" >&2

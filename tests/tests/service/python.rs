@@ -100,7 +100,11 @@ fn the_python_client_without_a_service_says_so() {
 fn the_installed_python_package_has_chainctl_s_commands() {
     let py = python();
     let script = py.with_file_name("tractrix-client");
-    assert!(script.exists(), "{} (scripts/python-venv.sh installs it)", script.display());
+    assert!(
+        script.exists(),
+        "{} (scripts/python-venv.sh installs it)",
+        script.display()
+    );
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
     let run = |args: &[&str]| -> serde_json::Value {
         let out = Process::new(&script)
@@ -118,25 +122,85 @@ fn the_installed_python_package_has_chainctl_s_commands() {
         serde_json::from_str(text.trim()).expect("one JSON object")
     };
     let d = run(&["describe", "rope"]);
-    assert_eq!((d["name"].as_str(), d["n_links"].as_u64()), (Some("rope"), Some(40)));
+    assert_eq!(
+        (d["name"].as_str(), d["n_links"].as_u64()),
+        (Some("rope"), Some(40))
+    );
     assert_eq!(d["total_length"], 40.0);
-    assert_eq!(run(&["grasp", "rope", "--joint", "0"])["held"][0]["joint"], 0);
+    assert_eq!(
+        run(&["grasp", "rope", "--joint", "0"])["held"][0]["joint"],
+        0
+    );
     let p = run(&["path", "rope", "39,1,0", "38,2,0.5"]);
     // With the tail held the head lands within the fixed-base tolerance (1e-9 of the rope's length).
     let head: Vec<f64> = serde_json::from_value(p["joints"][40].clone()).unwrap();
     let off = ((head[0] - 38.0).powi(2) + (head[1] - 2.0).powi(2) + (head[2] - 0.5).powi(2)).sqrt();
     assert!(off <= 40.0 * 1e-9, "{head:?}");
-    assert_eq!(p["joints"][0], serde_json::json!([0.0, 0.0, 0.0]), "the grasped tail stayed");
-    assert_eq!(run(&["release", "rope", "--joint", "0"])["held"], serde_json::json!([]));
+    assert_eq!(
+        p["joints"][0],
+        serde_json::json!([0.0, 0.0, 0.0]),
+        "the grasped tail stayed"
+    );
+    assert_eq!(
+        run(&["release", "rope", "--joint", "0"])["held"],
+        serde_json::json!([])
+    );
     let r = run(&["reach", "arm", "1.0", "0.9", "0"]);
     assert!(r["residual"].as_f64().unwrap() < 1e-6, "{r}");
-    assert_eq!(run(&["reset", "rope"])["joints"][40], serde_json::json!([40.0, 0.0, 0.0]));
+    assert_eq!(
+        run(&["reset", "rope"])["joints"][40],
+        serde_json::json!([40.0, 0.0, 0.0])
+    );
     assert_eq!(run(&["query", "rope"])["sequence"], 5);
     let out = Process::new(&py)
-        .args(["-c", "import tractrix_client; print(tractrix_client.__file__)"])
+        .args([
+            "-c",
+            "import tractrix_client; print(tractrix_client.__file__)",
+        ])
         .current_dir("/")
         .output()
         .unwrap();
     let at = String::from_utf8_lossy(&out.stdout);
     assert!(at.contains("site-packages"), "imported from {at}");
+}
+
+/// The MuJoCo loop (clients/python/examples/mujoco_loop.py): MuJoCo steps with the suture's capsules
+/// posed from the service every step; at the end every capsule sits between the two joints the service
+/// holds (midpoints computed here from a Rust client's query).
+#[test]
+fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let out = Process::new(python())
+        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
+        .args(["--prefix", svc.prefix.as_str(), "--steps", "300", "--json"])
+        .output()
+        .expect("run the MuJoCo loop");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    assert_eq!(v["steps"], 300);
+    assert!(v["mujoco_and_service"]["p50_us"].as_f64().unwrap() > 0.0);
+    let centres: Vec<[f64; 3]> = serde_json::from_value(v["capsule_centres"].clone()).unwrap();
+    let mut c = svc.connect();
+    let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    assert_eq!(q.header.sequence, 300, "one move per step");
+    let j = q.joints();
+    assert_eq!(centres.len(), j.len() - 1);
+    for (i, m) in centres.iter().enumerate() {
+        let want = [
+            (j[i].x + j[i + 1].x) / 2.0,
+            (j[i].y + j[i + 1].y) / 2.0,
+            (j[i].z + j[i + 1].z) / 2.0,
+        ];
+        let off =
+            ((m[0] - want[0]).powi(2) + (m[1] - want[1]).powi(2) + (m[2] - want[2]).powi(2)).sqrt();
+        assert!(
+            off < 1e-12,
+            "capsule {i} is {off} from its joints' midpoint"
+        );
+    }
 }

@@ -1,0 +1,144 @@
+"""A surgical-simulator loop in MuJoCo, with the solver service as the suture (issue 17).
+
+MuJoCo steps at 1 kHz. The suture is a chain of kinematic capsules (mocap bodies, one per link) whose
+poses come from the service every step; a needle driver (a mocap body: the hand) moves the suture's
+end along a small circle; the rest of the scene (a ball rolling on a table) is MuJoCo's physics. The
+loop runs twice, with and without the service, and prints the step time's percentiles of each, so the
+service's share of a 1 kHz step is measured, not guessed.
+
+    cargo run --release -p solver-service &          # a service on the default scene
+    target/pyenv/bin/python clients/python/examples/mujoco_loop.py --prefix tractrix_ --steps 2000
+
+`--json` prints one JSON object instead, with the capsule centres MuJoCo holds at the end (for a test
+to compare with the service's joints). Needs `pip install mujoco` (scripts/python-venv.sh installs it).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import mujoco
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from tractrix_client import JOINT_HEAD, Client, ServiceError  # noqa: E402
+
+
+def scene_xml(n_links: int, link: float, radius: float) -> str:
+    """A table, a ball, the hand and one mocap capsule per link (along its body's x axis)."""
+    links = "\n".join(
+        f'<body name="link{i}" mocap="true"><geom type="capsule" size="{radius}" '
+        f'fromto="{-link / 2} 0 0 {link / 2} 0 0" rgba="0.8 0.7 0.5 1" contype="0" conaffinity="0"/></body>'
+        for i in range(n_links)
+    )
+    return f"""
+<mujoco model="suture">
+  <option timestep="0.001"/>
+  <worldbody>
+    <light pos="20 0 30" dir="0 0 -1"/>
+    <geom name="table" type="plane" size="60 60 0.1" pos="0 0 -2" rgba="0.3 0.4 0.5 1"/>
+    <body name="ball" pos="20 5 2"><freejoint/><geom type="sphere" size="0.8" rgba="0.8 0.2 0.2 1"/></body>
+    <body name="driver" mocap="true"><geom type="box" size="0.3 0.15 0.15" rgba="0.6 0.6 0.6 1"
+      contype="0" conaffinity="0"/></body>
+    {links}
+  </worldbody>
+</mujoco>"""
+
+
+def link_quat(d: np.ndarray) -> np.ndarray:
+    """The rotation (w, x, y, z) that turns the x axis onto the unit vector d."""
+    w = 1.0 + d[0]
+    if w < 1e-12:
+        return np.array([0.0, 0.0, 0.0, 1.0])
+    q = np.array([w, 0.0, -d[2], d[1]])
+    return q / np.linalg.norm(q)
+
+
+def place(data: mujoco.MjData, first_link: int, joints) -> None:
+    """Puts capsule i between joints i and i + 1."""
+    p = np.asarray(joints)
+    for i in range(len(p) - 1):
+        a, b = p[i], p[i + 1]
+        d = b - a
+        data.mocap_pos[first_link + i] = (a + b) / 2.0
+        data.mocap_quat[first_link + i] = link_quat(d / np.linalg.norm(d))
+
+
+def run(client: Client | None, chain: int, steps: int, rate: float, start) -> tuple[list, list]:
+    """The loop: `steps` steps at `rate` Hz; returns the step times (µs) and the last joints."""
+    n_links = len(start) - 1
+    model = mujoco.MjModel.from_xml_string(scene_xml(n_links, float(np.linalg.norm(
+        np.subtract(start[1], start[0]))), 0.1))
+    data = mujoco.MjData(model)
+    first_link = 1  # mocap ids: the driver is 0, the links follow
+    joints = start
+    place(data, first_link, joints)
+    head = np.asarray(start[-1], dtype=float)
+    times = []
+    t0 = time.perf_counter()
+    for i in range(steps):
+        # Paced by sleeping, not spinning: the service's core stays the service's.
+        due = t0 + i / rate
+        wait = due - time.perf_counter()
+        if wait > 0:
+            time.sleep(wait)
+        s = time.perf_counter_ns()
+        a = 2.0 * math.pi * (i % 2000) / 2000.0
+        hand = head + np.array([2.0 * (math.cos(a) - 1.0), 2.0 * math.sin(a), 0.5 * math.sin(2 * a)])
+        data.mocap_pos[0] = hand
+        if client is not None:
+            h, elements = client.call("move", chain, [tuple(hand)], joint=JOINT_HEAD)
+            joints = elements[:h.n_joints]
+            place(data, first_link, joints)
+        mujoco.mj_step(model, data)
+        times.append((time.perf_counter_ns() - s) / 1000.0)
+    centres = data.geom_xpos[model.ngeom - n_links:].tolist()
+    return times, centres
+
+
+def percentiles(times: list) -> dict:
+    t = sorted(times)
+    pick = lambda p: t[int(p * (len(t) - 1))]
+    return {"p50_us": pick(0.5), "p99_us": pick(0.99), "max_us": t[-1]}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--prefix", default="tractrix_")
+    ap.add_argument("--chain", default="rope")
+    ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--rate", type=float, default=1000.0)
+    ap.add_argument("--json", action="store_true")
+    a = ap.parse_args()
+    try:
+        client = Client(prefix=a.prefix, wait_for_service=5.0)
+        chain = client.find_chain(a.chain)
+        h, elements = client.call("query", chain)
+        start = elements[:h.n_joints]
+        alone, _ = run(None, chain, a.steps, a.rate, start)
+        with_service, centres = run(client, chain, a.steps, a.rate, start)
+    except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:
+        print(e, file=sys.stderr)
+        return 1
+    result = {
+        "steps": a.steps,
+        "rate_hz": a.rate,
+        "mujoco_alone": percentiles(alone),
+        "mujoco_and_service": percentiles(with_service),
+        "capsule_centres": centres,
+    }
+    if a.json:
+        print(json.dumps(result))
+    else:
+        for k in ("mujoco_alone", "mujoco_and_service"):
+            p = result[k]
+            print(f"{k}: step p50 {p['p50_us']:.1f} us, p99 {p['p99_us']:.1f} us, max {p['max_us']:.1f} us")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
