@@ -16,7 +16,7 @@ TARGET=${CARGO_TARGET_DIR:-target}
 cargo build -q --release -p solver-service -p clients --bins
 cargo build -q --release -p tractrix-client --lib
 scripts/python-venv.sh >/dev/null
-scripts/mono.sh
+scripts/system-packages.sh
 W=$TARGET/lang-latency
 mkdir -p "$W"
 LIB=$TARGET/release

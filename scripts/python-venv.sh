@@ -16,14 +16,14 @@ if [ -x "$VENV/bin/python" ] && "$VENV/bin/python" -c \
     # `wheel` builds the client package without build isolation (no download per run).
     "$VENV/bin/python" -c 'import wheel' 2>/dev/null ||
         "$VENV/bin/pip" install --quiet --disable-pip-version-check wheel
-    "$VENV/bin/python" -c 'import mujoco' 2>/dev/null ||
-        "$VENV/bin/pip" install --quiet --disable-pip-version-check mujoco
+    "$VENV/bin/python" -c 'import mujoco, OpenGL' 2>/dev/null ||
+        "$VENV/bin/pip" install --quiet --disable-pip-version-check mujoco PyOpenGL
     install_client
     exit 0
 fi
 command -v python3 >/dev/null || { echo "python-venv: python3 is needed (apt install python3 python3-venv)" >&2; exit 1; }
 python3 -m venv "$VENV" || { echo "python-venv: python3 -m venv failed (apt install python3-venv)" >&2; exit 1; }
-# MuJoCo for the simulator-loop example (clients/python/examples/mujoco_loop.py).
-"$VENV/bin/pip" install --quiet --disable-pip-version-check iceoryx2==0.10.0 wheel mujoco
+# MuJoCo (and PyOpenGL for its offscreen frames) for the simulator-loop example (clients/python/examples/mujoco_loop.py).
+"$VENV/bin/pip" install --quiet --disable-pip-version-check iceoryx2==0.10.0 wheel mujoco PyOpenGL
 install_client
 "$VENV/bin/python" -c 'import iceoryx2, tractrix_client' && echo "python-venv: $VENV ready (iceoryx2 0.10.0, tractrix-client)" >&2

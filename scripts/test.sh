@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The project's test command (README): builds the binaries the end-to-end tests start and the C library,
-# makes the Python client's venv, installs Mono for the C# example, then runs every test of the workspace.
+# makes the Python client's venv, installs Mono and OSMesa, then runs every test of the workspace.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --workspace --bins --profile test
@@ -8,6 +8,6 @@ cargo build --workspace --bins --profile test
 cargo build -p tractrix-client --lib --profile test
 # The Python client's venv (PyPI wheel iceoryx2==0.10.0) for the end-to-end test of the Python client.
 scripts/python-venv.sh
-# Mono (mcs, mono) for the C# example of the C library.
-scripts/mono.sh
+# Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames).
+scripts/system-packages.sh
 cargo test --workspace "$@"

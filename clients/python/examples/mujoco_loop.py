@@ -10,7 +10,9 @@ service's share of a 1 kHz step is measured, not guessed.
     target/pyenv/bin/python clients/python/examples/mujoco_loop.py --prefix tractrix_ --steps 2000
 
 `--json` prints one JSON object instead, with the capsule centres MuJoCo holds at the end (for a test
-to compare with the service's joints). Needs `pip install mujoco` (scripts/python-venv.sh installs it).
+to compare with the service's joints). `--frames DIR` renders four frames of the run offscreen
+(OSMesa, headless) to DIR/mujoco-K.png. Needs `pip install mujoco PyOpenGL` (scripts/python-venv.sh
+installs them) and, for frames, OSMesa (scripts/system-packages.sh).
 """
 from __future__ import annotations
 
@@ -18,9 +20,13 @@ import argparse
 import json
 import math
 import os
+import struct
 import sys
 import time
+import zlib
 
+if "--frames" in sys.argv:
+    os.environ.setdefault("MUJOCO_GL", "osmesa")  # offscreen, no display: set before mujoco loads
 import mujoco
 import numpy as np
 
@@ -39,7 +45,8 @@ def scene_xml(n_links: int, link: float, radius: float) -> str:
 <mujoco model="suture">
   <option timestep="0.001"/>
   <worldbody>
-    <light pos="20 0 30" dir="0 0 -1"/>
+    <light pos="20 -10 30" dir="0 0.3 -1"/>
+    <camera name="view" pos="33 -10 8" xyaxes="0.914 -0.406 0 0.235 0.529 0.815"/>
     <geom name="table" type="plane" size="60 60 0.1" pos="0 0 -2" rgba="0.3 0.4 0.5 1"/>
     <body name="ball" pos="20 5 2"><freejoint/><geom type="sphere" size="0.8" rgba="0.8 0.2 0.2 1"/></body>
     <body name="driver" mocap="true"><geom type="box" size="0.3 0.15 0.15" rgba="0.6 0.6 0.6 1"
@@ -68,8 +75,24 @@ def place(data: mujoco.MjData, first_link: int, joints) -> None:
         data.mocap_quat[first_link + i] = link_quat(d / np.linalg.norm(d))
 
 
-def run(client: Client | None, chain: int, steps: int, rate: float, start) -> tuple[list, list]:
-    """The loop: `steps` steps at `rate` Hz; returns the step times (µs) and the last joints."""
+def write_png(path: str, rgb: np.ndarray) -> None:
+    """An 8-bit RGB PNG (no imaging library needed)."""
+    h, w, _ = rgb.shape
+    raw = b"".join(b"\x00" + rgb[y].tobytes() for y in range(h))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+                + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+
+
+def run(client: Client | None, chain: int, steps: int, rate: float, start,
+        frames: str | None = None) -> tuple[list, list]:
+    """The loop: `steps` steps at `rate` Hz; returns the step times (µs) and the capsule centres at
+    the end. With `frames`, four frames are rendered (outside the timed step) to that directory."""
     n_links = len(start) - 1
     model = mujoco.MjModel.from_xml_string(scene_xml(n_links, float(np.linalg.norm(
         np.subtract(start[1], start[0]))), 0.1))
@@ -79,6 +102,8 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start) -> tu
     place(data, first_link, joints)
     head = np.asarray(start[-1], dtype=float)
     times = []
+    renderer = mujoco.Renderer(model, 360, 640) if frames else None
+    shots = {steps * k // 4 + steps // 8 for k in range(4)}
     t0 = time.perf_counter()
     for i in range(steps):
         # Paced by sleeping, not spinning: the service's core stays the service's.
@@ -96,6 +121,11 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start) -> tu
             place(data, first_link, joints)
         mujoco.mj_step(model, data)
         times.append((time.perf_counter_ns() - s) / 1000.0)
+        if renderer is not None and i in shots:
+            renderer.update_scene(data, camera="view")
+            write_png(os.path.join(frames, f"mujoco-{sorted(shots).index(i)}.png"), renderer.render())
+    if renderer is not None:
+        renderer.close()
     centres = data.geom_xpos[model.ngeom - n_links:].tolist()
     return times, centres
 
@@ -113,6 +143,7 @@ def main() -> int:
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--rate", type=float, default=1000.0)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--frames", help="render four frames to this directory")
     a = ap.parse_args()
     try:
         client = Client(prefix=a.prefix, wait_for_service=5.0)
@@ -120,7 +151,7 @@ def main() -> int:
         h, elements = client.call("query", chain)
         start = elements[:h.n_joints]
         alone, _ = run(None, chain, a.steps, a.rate, start)
-        with_service, centres = run(client, chain, a.steps, a.rate, start)
+        with_service, centres = run(client, chain, a.steps, a.rate, start, a.frames)
     except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:
         print(e, file=sys.stderr)
         return 1

@@ -180,7 +180,7 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
 }
 
 /// A C# program (P/Invoke, as a Unity script would call the library), compiled with Mono's `mcs` and
-/// run with `mono` (`scripts/mono.sh` installs both), moves the rope and reads the same joints as Rust.
+/// run with `mono` (`scripts/system-packages.sh` installs both), moves the rope and reads the same joints as Rust.
 #[test]
 fn a_csharp_program_moves_the_rope_through_p_invoke() {
     let lib = lib_dir();
@@ -191,7 +191,7 @@ fn a_csharp_program_moves_the_rope_through_p_invoke() {
             .is_ok_and(|o| o.status.success());
         assert!(
             found,
-            "{tool} is missing: run scripts/mono.sh (scripts/test.sh does)"
+            "{tool} is missing: run scripts/system-packages.sh (scripts/test.sh does)"
         );
     }
     let dir = tempfile::tempdir().unwrap();

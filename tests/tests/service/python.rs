@@ -166,13 +166,22 @@ fn the_installed_python_package_has_chainctl_s_commands() {
 
 /// The MuJoCo loop (clients/python/examples/mujoco_loop.py): MuJoCo steps with the suture's capsules
 /// posed from the service every step; at the end every capsule sits between the two joints the service
-/// holds (midpoints computed here from a Rust client's query).
+/// holds (midpoints computed here from a Rust client's query); four frames are rendered offscreen.
 #[test]
 fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let frames = tempfile::tempdir().unwrap();
     let out = Process::new(python())
         .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
-        .args(["--prefix", svc.prefix.as_str(), "--steps", "300", "--json"])
+        .args([
+            "--prefix",
+            svc.prefix.as_str(),
+            "--steps",
+            "300",
+            "--json",
+            "--frames",
+        ])
+        .arg(frames.path())
         .output()
         .expect("run the MuJoCo loop");
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -183,6 +192,12 @@ fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
     );
     let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
     assert_eq!(v["steps"], 300);
+    // Four frames rendered offscreen (OSMesa): PNG files of a 640 × 360 picture.
+    for k in 0..4 {
+        let png = std::fs::read(frames.path().join(format!("mujoco-{k}.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(&png[16..24], &[0, 0, 2, 128, 0, 0, 1, 104], "640 x 360");
+    }
     assert!(v["mujoco_and_service"]["p50_us"].as_f64().unwrap() > 0.0);
     let centres: Vec<[f64; 3]> = serde_json::from_value(v["capsule_centres"].clone()).unwrap();
     let mut c = svc.connect();
