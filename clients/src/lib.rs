@@ -13,6 +13,7 @@ pub mod reach;
 pub mod render;
 pub mod script;
 pub mod snake;
+pub mod viewer;
 
 pub use connection::{
     CallError, ClientWait, ConnectOptions, Connection, Pacer, Reply, StateStream, ToolArgs,

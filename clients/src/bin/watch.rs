@@ -1,10 +1,14 @@
 //! `watch`: subscribes to the service's state stream (every accepted change, in order) and writes it as
-//! CSV and as SVG frames.
+//! CSV, as SVG frames, or to a live Rerun viewer.
 //!
 //! ```text
 //! watch --csv states.csv --duration 10            # every change of every chain for 10 s
 //! watch --chain snake --svg frames/ --every 20    # every 20th state of the snake as frames/snake-SEQ.svg
+//! watch --rerun                                   # to a viewer started with `rerun` (feature `rerun`)
+//! watch --save states.rrd --count 500             # the same, recorded into a file
 //! ```
+//!
+//! What the Rerun view shows is listed in `clients::viewer`.
 //!
 //! CSV columns: `sequence,chain,command,request_id,joint,x,y,z`, one row per joint, numbers printed so
 //! they read back bit for bit. A gap in `sequence`
@@ -16,6 +20,7 @@ use clap::Parser;
 use clients::ToolArgs;
 use clients::cli::usage;
 use clients::render::{Frame, Polyline, View, write_frames_svg};
+use clients::viewer::{self, RerunView, Sink};
 use shared::{Command, RequestHeader};
 use std::collections::HashMap;
 use std::io::Write;
@@ -44,6 +49,13 @@ struct Args {
     /// ones oblique).
     #[arg(long)]
     view: Option<String>,
+    /// Stream every state to a Rerun viewer at URL (without URL: a viewer started with `rerun` on this
+    /// machine). Needs a build with the cargo feature `rerun`.
+    #[arg(long, num_args = 0..=1, default_missing_value = viewer::DEFAULT_URL, value_name = "URL")]
+    rerun: Option<String>,
+    /// Record what `--rerun` would stream into FILE.rrd instead (open it with `rerun FILE.rrd`).
+    #[arg(long, value_name = "FILE.rrd", conflicts_with = "rerun")]
+    save: Option<PathBuf>,
     /// Stop after this many states.
     #[arg(long)]
     count: Option<u64>,
@@ -63,6 +75,9 @@ struct ChainInfo {
     planar: bool,
     seen: u64,
 }
+
+/// How often the Rerun view times a `query` round trip.
+const PROBE_EVERY: Duration = Duration::from_millis(100);
 
 fn run(a: Args) -> Result<u8> {
     let view = a
@@ -94,6 +109,25 @@ fn run(a: Args) -> Result<u8> {
             anyhow::bail!("the service has no chain {name:?}");
         }
     }
+    let mut rr = match (&a.rerun, &a.save) {
+        (Some(url), _) => Some(RerunView::open(Sink::Viewer(url))?),
+        (None, Some(file)) => Some(RerunView::open(Sink::File(file))?),
+        (None, None) => None,
+    };
+    if let Some(v) = &mut rr {
+        for c in 0..first.header.n_chains {
+            let d = conn.call(RequestHeader::new(Command::Describe, c), &[])?;
+            if a.chain.is_empty() || a.chain.contains(&d.header.name_str()) {
+                v.add_chain(
+                    c,
+                    &d.header.name_str(),
+                    d.header.thickness,
+                    d.header.kind == 0,
+                );
+            }
+        }
+    }
+    let mut probe_at = Instant::now();
     let stream = conn.subscribe()?;
     let mut csv: Option<Box<dyn Write>> = match &a.csv {
         Some(p) if p.as_os_str() == "-" => Some(Box::new(std::io::stdout().lock())),
@@ -125,18 +159,24 @@ fn run(a: Args) -> Result<u8> {
         // Drain what is waiting, then sleep a millisecond: a viewer need not spin.
         loop {
             let got = stream.try_next(|h, pts| {
+                let n = (h.n_joints as usize).min(pts.len());
+                let held = pts[n..(n + h.n_held as usize).min(pts.len())]
+                    .iter()
+                    .map(|p| (p.x as u32, p.y != 0.0))
+                    .collect::<Vec<_>>();
                 (
                     *h,
-                    pts[..(h.n_joints as usize).min(pts.len())]
-                        .iter()
-                        .map(|p| p.to_array())
-                        .collect::<Vec<_>>(),
+                    pts[..n].iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+                    held,
                 )
             })?;
-            let Some((h, joints)) = got else { break };
+            let Some((h, joints, held)) = got else { break };
             if let Some(prev) = last_seq {
                 if h.sequence > prev + 1 {
                     missed += h.sequence - prev - 1;
+                    if let Some(v) = &mut rr {
+                        v.missed(h.sequence, missed)?;
+                    }
                 } else if h.sequence <= prev {
                     duplicated += 1;
                 }
@@ -166,6 +206,9 @@ fn run(a: Args) -> Result<u8> {
             }
             states += 1;
             info.seen += 1;
+            if let Some(v) = &mut rr {
+                v.state(h.sequence, h.chain, &joints, &held)?;
+            }
             if let Some(w) = &mut csv {
                 let cmd = Command::from_u32(h.command).map_or("unknown", |c| c.name());
                 for (j, p) in joints.iter().enumerate() {
@@ -192,6 +235,17 @@ fn run(a: Args) -> Result<u8> {
             frames += draw(dir, f)?;
             continue;
         }
+        if let Some(v) = &mut rr {
+            if probe_at.elapsed() >= PROBE_EVERY {
+                probe_at = Instant::now();
+                conn.call(RequestHeader::new(Command::Query, 0), &[])?;
+                v.round_trip(last_seq.unwrap_or(0), probe_at.elapsed())?;
+                continue;
+            }
+            if v.identify_one()? {
+                continue;
+            }
+        }
         if deadline.is_some_and(|d| Instant::now() >= d) {
             break;
         }
@@ -207,6 +261,10 @@ fn run(a: Args) -> Result<u8> {
     }
     if let Some(w) = &mut csv {
         w.flush()?;
+    }
+    if let Some(v) = rr {
+        eprintln!("watch: {} states sent to Rerun", v.logged());
+        v.finish()?;
     }
     eprintln!(
         "watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps), \

@@ -27,6 +27,7 @@ mod latency;
 mod python;
 mod signals;
 mod tools;
+mod viewer;
 
 use clients::{ClientWait, Connection};
 use shared::{

@@ -1,0 +1,228 @@
+//! The Rerun recording (feature `rerun`).
+
+use super::Sink;
+use anyhow::{Context, Result};
+use rerun::{
+    Color, LineStrips3D, Points3D, Radius, RecordingStream, RecordingStreamBuilder, Scalars,
+    TextLog,
+};
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+/// How often a chain's knot is identified at most.
+const KNOT_EVERY: Duration = Duration::from_millis(200);
+
+struct ChainView {
+    name: String,
+    radius: f32,
+    free: bool,
+    last_knot: Option<String>,
+    knot_at: Option<Instant>,
+    /// The latest joints not yet identified.
+    unidentified: Option<(u64, Vec<[f64; 3]>)>,
+}
+
+/// One Rerun recording of the state stream.
+#[allow(missing_debug_implementations)] // RecordingStream has no Debug
+pub struct RerunView {
+    rec: RecordingStream,
+    start: Instant,
+    chains: HashMap<u32, ChainView>,
+    logged: u64,
+}
+
+impl RerunView {
+    /// Opens the recording. Nothing is sent before the first state.
+    pub fn open(sink: Sink<'_>) -> Result<Self> {
+        let builder = RecordingStreamBuilder::new("tractrix");
+        let rec = match sink {
+            Sink::Viewer(url) => builder
+                .connect_grpc_opts(url)
+                .with_context(|| format!("connect to the Rerun viewer at {url}"))?,
+            Sink::File(path) => builder
+                .save(path)
+                .with_context(|| format!("create {}", path.display()))?,
+        };
+        Ok(Self {
+            rec,
+            start: Instant::now(),
+            chains: HashMap::new(),
+            logged: 0,
+        })
+    }
+
+    /// Declares a chain: its name, thickness (0 for a line) and whether it is free (knots are
+    /// identified on free chains only).
+    pub fn add_chain(&mut self, chain: u32, name: &str, thickness: f64, free: bool) {
+        self.chains.insert(
+            chain,
+            ChainView {
+                name: name.to_owned(),
+                radius: (thickness / 2.0) as f32,
+                free,
+                last_knot: None,
+                knot_at: None,
+                unidentified: None,
+            },
+        );
+    }
+
+    fn at(&self, sequence: u64) {
+        self.rec.set_time_sequence("sequence", sequence as i64);
+        self.rec
+            .set_duration_secs("elapsed", self.start.elapsed().as_secs_f64());
+    }
+
+    /// Logs one state: the joints (tail first) and the held joints as (index, anchor).
+    pub fn state(
+        &mut self,
+        sequence: u64,
+        chain: u32,
+        joints: &[[f64; 3]],
+        held: &[(u32, bool)],
+    ) -> Result<()> {
+        if !self.chains.contains_key(&chain) {
+            return Ok(());
+        }
+        self.at(sequence);
+        let c = self.chains.get_mut(&chain).expect("checked above");
+        let pts: Vec<[f32; 3]> = joints
+            .iter()
+            .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32])
+            .collect();
+        let radius = if c.radius > 0.0 {
+            Radius::new_scene_units(c.radius)
+        } else {
+            Radius::new_ui_points(1.5)
+        };
+        let base = format!("chains/{}", c.name);
+        self.rec.log(
+            format!("{base}/rope"),
+            &LineStrips3D::new([pts.clone()])
+                .with_radii([radius])
+                .with_colors([Color::from_rgb(40, 90, 200)]),
+        )?;
+        let joint_radius = if c.radius > 0.0 {
+            Radius::new_scene_units(c.radius * 1.1)
+        } else {
+            Radius::new_ui_points(2.5)
+        };
+        self.rec.log(
+            format!("{base}/joints"),
+            &Points3D::new(pts.iter().copied())
+                .with_radii([joint_radius])
+                .with_colors([Color::from_rgb(20, 40, 120)]),
+        )?;
+        let held_pts: Vec<[f32; 3]> = held
+            .iter()
+            .filter_map(|&(j, _)| pts.get(j as usize).copied())
+            .collect();
+        let labels: Vec<String> = held
+            .iter()
+            .filter(|&&(j, _)| (j as usize) < pts.len())
+            .map(|&(j, anchor)| format!("{} {j}", if anchor { "anchor" } else { "grasp" }))
+            .collect();
+        let colors: Vec<Color> = held
+            .iter()
+            .filter(|&&(j, _)| (j as usize) < pts.len())
+            .map(|&(_, anchor)| {
+                if anchor {
+                    Color::from_rgb(150, 20, 20)
+                } else {
+                    Color::from_rgb(240, 140, 0)
+                }
+            })
+            .collect();
+        let held_radius = if c.radius > 0.0 {
+            Radius::new_scene_units(c.radius * 2.0)
+        } else {
+            Radius::new_ui_points(5.0)
+        };
+        self.rec.log(
+            format!("{base}/held"),
+            &Points3D::new(held_pts)
+                .with_radii([held_radius])
+                .with_colors(colors)
+                .with_labels(labels),
+        )?;
+        if c.free && joints.len() >= 4 {
+            c.unidentified = Some((sequence, joints.to_vec()));
+        }
+        self.logged += 1;
+        Ok(())
+    }
+
+    /// States lost so far (sequence gaps).
+    pub fn missed(&mut self, sequence: u64, missed: u64) -> Result<()> {
+        self.at(sequence);
+        self.rec
+            .log("stream/missed", &Scalars::single(missed as f64))?;
+        Ok(())
+    }
+
+    /// A query round trip measured by the caller.
+    pub fn round_trip(&mut self, sequence: u64, rtt: Duration) -> Result<()> {
+        self.at(sequence);
+        self.rec.log(
+            "latency/query_round_trip_us",
+            &Scalars::single(rtt.as_secs_f64() * 1e6),
+        )?;
+        Ok(())
+    }
+
+    /// Identifies the knot of one chain whose latest state is not yet identified and whose last
+    /// identification is older than 200 ms. Call when the stream is idle; returns whether it did work.
+    pub fn identify_one(&mut self) -> Result<bool> {
+        let now = Instant::now();
+        let Some((&chain, _)) = self.chains.iter().find(|(_, c)| {
+            c.unidentified.is_some() && c.knot_at.is_none_or(|t| now - t >= KNOT_EVERY)
+        }) else {
+            return Ok(false);
+        };
+        let c = self.chains.get_mut(&chain).expect("found above");
+        let (sequence, joints) = c.unidentified.take().expect("found above");
+        c.knot_at = Some(now);
+        let pts: Vec<nalgebra::Vector3<f64>> = joints
+            .iter()
+            .map(|p| nalgebra::Vector3::new(p[0], p[1], p[2]))
+            .collect();
+        let report = tractrix::knot::identify(&pts);
+        let name = report.kind.name().to_owned();
+        let base = format!("chains/{}", c.name);
+        let changed = c.last_knot.as_deref() != Some(name.as_str());
+        c.last_knot = Some(name.clone());
+        self.at(sequence);
+        self.rec.log(
+            format!("{base}/knot_crossings"),
+            &Scalars::single(report.crossings as f64),
+        )?;
+        if changed {
+            self.rec.log(
+                format!("{base}/knot"),
+                &TextLog::new(format!(
+                    "{name} ({} of {} closures agree)",
+                    report.agreeing, report.closures
+                )),
+            )?;
+        }
+        Ok(true)
+    }
+
+    /// States logged so far.
+    pub fn logged(&self) -> u64 {
+        self.logged
+    }
+
+    /// Identifies what is left and writes everything out (a file is complete after this).
+    pub fn finish(mut self) -> Result<()> {
+        while self.identify_one()? {
+            for c in self.chains.values_mut() {
+                c.knot_at = None;
+            }
+        }
+        self.rec
+            .flush_blocking()
+            .map_err(|e| anyhow::anyhow!("flush the Rerun recording: {e}"))?;
+        Ok(())
+    }
+}

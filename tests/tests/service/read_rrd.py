@@ -1,0 +1,47 @@
+"""Reads a Rerun recording with Rerun's own Python reader (rerun-sdk, not the Rust code that wrote it) and
+prints what the viewer test checks, as JSON: per entity its rows and `sequence` values, the rope's
+points at each sequence, the held points' labels at each sequence, the text-log lines and the scalars.
+
+Usage: read_rrd.py FILE.rrd
+"""
+
+import json
+import sys
+
+from rerun.experimental import RrdReader
+
+
+def column(batch, suffix):
+    """The column whose name ends with `suffix` (names carry the archetype, e.g. 'LineStrips3D:strips')."""
+    for name in batch.schema.names:
+        if name.endswith(suffix):
+            return batch.column(name).to_pylist()
+    return None
+
+
+def main():
+    entities = {}
+    for chunk in RrdReader(sys.argv[1]).stream():
+        if chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        seqs = column(batch, "sequence")
+        if seqs is None:
+            continue
+        e = entities.setdefault(
+            chunk.entity_path, {"rows": 0, "sequences": [], "values": {}}
+        )
+        e["rows"] += chunk.num_rows
+        e["sequences"] += seqs
+        for suffix in (":strips", ":positions", ":labels", ":text", ":scalars"):
+            values = column(batch, suffix)
+            if values is None:
+                continue
+            for s, v in zip(seqs, values):
+                if v is not None:
+                    e["values"].setdefault(suffix[1:], []).append([s, v])
+    json.dump(entities, sys.stdout)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,183 @@
+//! `watch --save` (the Rerun view, cargo feature `rerun`, built by scripts/test.sh): the recording is read
+//! back with Rerun's own Python reader (`read_rrd.py`, rerun-sdk in the venv), and its entities, its
+//! number of states, the rope's last strip and the held joints are checked against what this test did
+//! and what the service answers.
+
+use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Command as Process, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+use tests::{Service, bin, unique_prefix};
+
+fn workspace() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+const MOVES: usize = 28;
+
+#[test]
+fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let dir = tempfile::tempdir().unwrap();
+    let rrd = dir.path().join("states.rrd");
+    // grasp + MOVES moves + release
+    let states = MOVES + 2;
+    let mut watch = Process::new(bin("watch"))
+        .args(["--prefix", &svc.prefix, "--chain", "rope", "--save"])
+        .arg(&rrd)
+        .args(["--count", &states.to_string(), "--duration", "60"])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("spawn watch");
+    let err = watch.stderr.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for l in BufReader::new(err).lines().map_while(Result::ok) {
+            let _ = tx.send(l);
+        }
+    });
+    let line = rx
+        .recv_timeout(Duration::from_secs(30))
+        .expect("watch says something");
+    assert!(
+        line.contains("listening"),
+        "{line} (is watch built with the feature `rerun`? scripts/test.sh builds it)"
+    );
+
+    let mut c = svc.connect();
+    let rope = c
+        .find_chain("rope")
+        .unwrap()
+        .expect("the default scene's rope");
+    let mut grasp = RequestHeader::new(Command::Grasp, rope);
+    grasp.joint = 0;
+    assert!(c.call(grasp, &[]).unwrap().is_ok());
+    // Idle long enough for watch to time a query and name the knot (it probes every 100 ms).
+    std::thread::sleep(Duration::from_millis(400));
+    for i in 0..MOVES {
+        let a = i as f64 * 0.2;
+        let mut mv = RequestHeader::new(Command::Move, rope);
+        mv.joint = JOINT_HEAD;
+        let target = Vec3::new(30.0 + 3.0 * a.cos(), 3.0 * a.sin(), 0.1 * i as f64);
+        let r = c.call(mv, &[target]).unwrap();
+        assert!(r.is_ok(), "{:?}", r.header.reason_str());
+    }
+    let held_last = c
+        .call(RequestHeader::new(Command::Query, rope), &[])
+        .unwrap();
+    let mut release = RequestHeader::new(Command::Release, rope);
+    release.joint = 0;
+    assert!(c.call(release, &[]).unwrap().is_ok());
+    let last = c
+        .call(RequestHeader::new(Command::Query, rope), &[])
+        .unwrap();
+
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let st = loop {
+        if let Some(st) = watch.try_wait().unwrap() {
+            break st;
+        }
+        assert!(Instant::now() < deadline, "watch did not stop");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let said: Vec<String> = rx.try_iter().collect();
+    assert!(st.success(), "{said:?}");
+    assert!(
+        said.iter()
+            .any(|l| l.contains(&format!("{states} states sent to Rerun"))),
+        "{said:?}"
+    );
+
+    let py = workspace().join("target/pyenv/bin/python");
+    let out = Process::new(&py)
+        .arg(workspace().join("tests/tests/service/read_rrd.py"))
+        .arg(&rrd)
+        .output()
+        .expect("run read_rrd.py (scripts/python-venv.sh installs rerun-sdk)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    for entity in [
+        "/chains/rope/rope",
+        "/chains/rope/joints",
+        "/chains/rope/held",
+        "/chains/rope/knot",
+        "/chains/rope/knot_crossings",
+        "/latency/query_round_trip_us",
+    ] {
+        assert!(v.get(entity).is_some(), "no {entity} in {:?}", keys(&v));
+    }
+    assert!(
+        v.as_object().unwrap().keys().all(|k| !k.contains("snake")),
+        "--chain rope logs the rope only: {:?}",
+        keys(&v)
+    );
+    // One rope per state, at consecutive sequence numbers ending at the service's.
+    let rope_e = &v["/chains/rope/rope"];
+    assert_eq!(rope_e["rows"], states as u64);
+    let mut seqs: Vec<u64> = serde_json::from_value(rope_e["sequences"].clone()).unwrap();
+    seqs.sort_unstable();
+    assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
+    assert_eq!(*seqs.last().unwrap(), last.header.sequence);
+
+    // The last strip is the service's last state, as f32.
+    let strips = rope_e["values"]["strips"].as_array().unwrap();
+    let (_, strip) = strips
+        .iter()
+        .map(|e| (e[0].as_u64().unwrap(), &e[1]))
+        .max_by_key(|(s, _)| *s)
+        .unwrap();
+    let strip: Vec<Vec<[f32; 3]>> = serde_json::from_value(strip.clone()).unwrap();
+    let expected: Vec<[f32; 3]> = last
+        .joints()
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
+    assert_eq!(strip, vec![expected]);
+
+    // Held: the tail labelled "grasp 0" at its position while held; nothing after the release.
+    let held = &v["/chains/rope/held"]["values"];
+    let at = |what: &str, seq: u64| -> serde_json::Value {
+        held[what]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e[0].as_u64() == Some(seq))
+            .map(|e| e[1].clone())
+            .unwrap_or(serde_json::Value::Null)
+    };
+    let held_seq = held_last.header.sequence;
+    assert_eq!(at("labels", held_seq), serde_json::json!(["grasp 0"]));
+    let tail = held_last.joints()[0];
+    assert_eq!(
+        at("positions", held_seq),
+        serde_json::json!([[tail.x as f32, tail.y as f32, tail.z as f32]])
+    );
+    let after = at("positions", last.header.sequence);
+    assert!(after.is_null() || after == serde_json::json!([]), "{after}");
+
+    // The knot is named (a rope dragged around a circle stays unknotted) and a round trip was timed.
+    let knots = v["/chains/rope/knot"]["values"]["text"].as_array().unwrap();
+    assert!(
+        knots[0][1][0].as_str().unwrap().starts_with("unknot"),
+        "{knots:?}"
+    );
+    let rtts = v["/latency/query_round_trip_us"]["values"]["scalars"]
+        .as_array()
+        .unwrap();
+    assert!(!rtts.is_empty());
+    for r in rtts {
+        let us = r[1][0].as_f64().unwrap();
+        assert!(us > 0.0 && us < 60e6, "{us}");
+    }
+}
+
+fn keys(v: &serde_json::Value) -> Vec<String> {
+    v.as_object().unwrap().keys().cloned().collect()
+}
