@@ -180,14 +180,17 @@ class Client:
             .initial_max_slice_len(MAX_PATH_POINTS)
             .create()
         )
-        # Wakes a service that sleeps between requests (--wait event or hybrid).
-        self.wake_server = (
-            self.node.service_builder(iox2.ServiceName.new(SERVICE_WAKE_SERVER))
-            .event()
-            .open()
-            .notifier_builder()
-            .create()
-        )
+        # Wakes a service that sleeps between requests (--wait event or hybrid). A service that is
+        # starting creates this a moment after the command service: wait for it too.
+        while True:
+            try:
+                wake = self.node.service_builder(iox2.ServiceName.new(SERVICE_WAKE_SERVER)).event().open()
+                break
+            except iox2.EventOpenError:
+                if time.monotonic() >= deadline + 1.0:
+                    raise
+                time.sleep(0.005)
+        self.wake_server = wake.notifier_builder().create()
         self.timeout = timeout
         self.next_id = 1
 

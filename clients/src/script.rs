@@ -173,6 +173,39 @@ impl Script {
         Ok(())
     }
 
+    /// Perturbs the script as the runs of the knot table do (BENCHMARKS.md, knots): each throw's size
+    /// by up to ±3 %, each component of its direction by up to ±0.05, its exit by up to ±1 unit (kept
+    /// ≥ 0), and each waypoint by up to ±0.05 per component. One seed gives one script, so the hands of
+    /// a script agree when each perturbs it with the same seed; seed 0 leaves it as it is.
+    pub fn perturb(&mut self, seed: u64) {
+        if seed == 0 {
+            return;
+        }
+        // SplitMix64: uniform in [lo, hi).
+        let mut state = seed;
+        let mut range = |lo: f64, hi: f64| {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            lo + (hi - lo) * (((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        for t in &mut self.turn {
+            if let Some(th) = &mut t.throw {
+                th.scale *= range(0.97, 1.03);
+                for c in &mut th.outward {
+                    *c += range(-0.05, 0.05);
+                }
+                th.exit = (th.exit + range(-1.0, 1.0)).max(0.0);
+            }
+            for w in &mut t.waypoints {
+                for c in w {
+                    *c += range(-0.05, 0.05);
+                }
+            }
+        }
+    }
+
     /// The hands of the script, in order of first appearance.
     pub fn hands(&self) -> Vec<String> {
         let mut out: Vec<String> = Vec::new();
@@ -385,6 +418,36 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_perturbation_is_small_repeatable_and_off_at_seed_zero() {
+        let base = Script::builtin("square").unwrap();
+        let mut zero = base.clone();
+        zero.perturb(0);
+        assert_eq!(zero, base);
+        let (mut a, mut b, mut c) = (base.clone(), base.clone(), base.clone());
+        a.perturb(7);
+        b.perturb(7);
+        c.perturb(8);
+        assert_eq!(a, b, "one seed, one script: the hands agree");
+        assert_ne!(a, c);
+        assert_ne!(a, base);
+        for (p, q) in a.turn.iter().zip(&base.turn) {
+            if let (Some(t), Some(u)) = (p.throw, q.throw) {
+                assert!((t.scale / u.scale - 1.0).abs() <= 0.03);
+                for k in 0..3 {
+                    assert!((t.outward[k] - u.outward[k]).abs() <= 0.05);
+                }
+                assert!(t.exit >= 0.0 && (t.exit - u.exit).abs() <= 1.0);
+            }
+            for (w, v) in p.waypoints.iter().zip(&q.waypoints) {
+                for k in 0..3 {
+                    assert!((w[k] - v[k]).abs() <= 0.05);
+                }
+            }
+        }
+        a.check().unwrap();
+    }
 
     #[test]
     fn builtins_round_trip_through_toml() {

@@ -89,6 +89,10 @@ enum Cmd {
         /// Do not hold them, whatever the script says: the hand only pushes its joint along.
         #[arg(long)]
         no_grasp: bool,
+        /// Perturb the script's throws and waypoints with this seed (every hand of a script must get
+        /// the same seed; 0: as written). See `Script::perturb`.
+        #[arg(long, default_value_t = 0)]
+        perturb: u64,
     },
     /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
     Replay {
@@ -143,6 +147,7 @@ fn run(a: Args) -> Result<u8> {
             view,
             grasp,
             no_grasp,
+            perturb,
         } => {
             let view = View::parse(&view).map_err(anyhow::Error::msg)?;
             if !(1..=32).contains(&frames) {
@@ -163,6 +168,7 @@ fn run(a: Args) -> Result<u8> {
             if grasp || no_grasp {
                 script.grasp = grasp;
             }
+            script.perturb(perturb);
             if let Some(c) = chain {
                 for t in &mut script.turn {
                     t.chain = c.clone();

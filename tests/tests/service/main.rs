@@ -26,6 +26,7 @@ mod knots;
 mod latency;
 mod python;
 mod signals;
+mod sweep;
 mod tools;
 mod viewer;
 

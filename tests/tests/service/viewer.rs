@@ -1,4 +1,4 @@
-//! `watch --save` (the Rerun view, cargo feature `rerun`, built by scripts/test.sh): the recording is read
+//! `watch --save` (the Rerun view, cargo feature `rerun`, built by scripts/test.sh into target/viewer/): the recording is read
 //! back with Rerun's own Python reader (`read_rrd.py`, rerun-sdk in the venv), and its entities, its
 //! number of states, the rope's last strip and the held joints are checked against what this test did
 //! and what the service answers.
@@ -9,10 +9,41 @@ use std::path::PathBuf;
 use std::process::{Command as Process, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
-use tests::{Service, bin, unique_prefix};
+use tests::{Service, unique_prefix};
 
 fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// `target/viewer/watch`: `watch` with the feature `rerun`, in the profile `viewer` (scripts/test.sh
+/// builds it; built here if it is missing).
+fn watch_with_rerun() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    let target = exe
+        .ancestors()
+        .nth(3)
+        .expect("target/<profile>/deps/<test>")
+        .to_path_buf();
+    let path = target.join("viewer/watch");
+    if !path.exists() {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let ok = Process::new(cargo)
+            .args([
+                "build",
+                "-p",
+                "clients",
+                "--features",
+                "rerun",
+                "--bin",
+                "watch",
+            ])
+            .args(["--profile", "viewer"])
+            .status()
+            .expect("run cargo build")
+            .success();
+        assert!(ok, "building watch with the feature rerun failed");
+    }
+    path
 }
 
 const MOVES: usize = 28;
@@ -24,7 +55,7 @@ fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
     let rrd = dir.path().join("states.rrd");
     // grasp + MOVES moves + release
     let states = MOVES + 2;
-    let mut watch = Process::new(bin("watch"))
+    let mut watch = Process::new(watch_with_rerun())
         .args(["--prefix", &svc.prefix, "--chain", "rope", "--save"])
         .arg(&rrd)
         .args(["--count", &states.to_string(), "--duration", "60"])
@@ -42,10 +73,7 @@ fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
     let line = rx
         .recv_timeout(Duration::from_secs(30))
         .expect("watch says something");
-    assert!(
-        line.contains("listening"),
-        "{line} (is watch built with the feature `rerun`? scripts/test.sh builds it)"
-    );
+    assert!(line.contains("listening"), "{line}");
 
     let mut c = svc.connect();
     let rope = c

@@ -1,0 +1,404 @@
+"""Parameter sweeps and episode farms on Ray.
+
+An *episode* is a dict of knobs; :func:`grid` makes the Cartesian product of some knobs over a base
+episode. :func:`sweep` runs the episodes as Ray tasks (one CPU each), one row per episode, and writes the
+rows to a Parquet file, rewritten as rows arrive, so that a sweep that stops can be resumed: episodes whose
+``id`` is already in the file are skipped. An episode that fails is a row whose ``error`` says why, never a
+lost sweep.
+
+Episode kind ``hand`` (the only kind so far): the episode writes a scene of one rope (``links`` links,
+``length`` long, ``thickness``, ``collision``, ``method``, ``substeps``), starts its own ``solver-service``
+on a unique iceoryx2 prefix (event wait mode: it sleeps between requests, so two episodes share two cores),
+runs the ``hand`` processes of a built-in ``script`` (both hands of a two-handed one) with the script
+perturbed by ``seed`` (``hand run --perturb``), names the knot, reads the final joints with the Python
+client and measures the link-length error here, from those joints. Knobs::
+
+    script       built-in script: overhand, square, granny (default overhand)
+    expect       the knot the script ties (default: trefoil for overhand, square, granny)
+    links        links of the rope (default 160)
+    length       rope length (default 40.0)
+    thickness    (default 0.2)
+    collision    none, spheres, capsules (default capsules)
+    method       tractrix, paper, ftl (default tractrix)
+    substeps     substeps per move (default 1)
+    max_step     the hand's longest motion per request (default: the script's, 0.1)
+    seed         perturbation of the script (0: as written)
+    grasp        true / false: hands hold their joints (default: the script's)
+    timeout      seconds the episode may take (default 300)
+
+Row columns: ``id``, every knob (as a string column ``knobs`` in JSON, plus the common ones as columns),
+``ok`` (no error), ``error``, ``knot`` (the name the identification gave), ``tied`` (``knot`` equals
+``expect``), ``requests``, ``moves_ok``, ``locked``, ``refused``, ``seconds`` (the hands' wall time),
+``us_per_request``, ``length_error`` (largest relative link-length error of the final state, computed here),
+``startup_s`` (the service's start until it answered), ``worker`` (host and pid that ran it).
+
+Binaries: ``bin_dir`` (or ``$TRACTRIX_BIN``) must hold ``solver-service`` and ``hand`` on every worker
+(a shared path, or the container image of the README).
+
+Command line::
+
+    tractrix-sweep run GRID.json --out results.parquet [--address ray://...] [--num-cpus 2]
+    tractrix-sweep summary results.parquet
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import math
+import os
+import re
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import uuid
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+KNOBS = ("script", "links", "length", "thickness", "collision", "method", "substeps", "max_step", "seed")
+DEFAULTS: dict[str, Any] = {
+    "kind": "hand",
+    "script": "overhand",
+    "links": 160,
+    "length": 40.0,
+    "thickness": 0.2,
+    "collision": "capsules",
+    "method": "tractrix",
+    "substeps": 1,
+    "max_step": None,
+    "seed": 0,
+    "grasp": None,
+    "timeout": 300.0,
+}
+EXPECT = {"overhand": "trefoil", "square": "square", "granny": "granny"}
+HANDS = {"overhand": ["A"], "square": ["A", "B"], "granny": ["A", "B"]}
+
+
+def episode_id(ep: dict[str, Any]) -> str:
+    """A stable id from the knobs (so a resumed sweep recognises what it has done)."""
+    if "id" in ep:
+        return str(ep["id"])
+    keys = sorted(k for k in ep if k not in ("id", "timeout"))
+    return ",".join(f"{k}={ep[k]}" for k in keys)
+
+
+def grid(base: dict[str, Any] | None = None, **axes: Sequence[Any]) -> list[dict[str, Any]]:
+    """The Cartesian product of ``axes`` over ``base``: ``grid({"script": "overhand"}, links=[40, 80],
+    seed=range(1, 7))`` is 12 episodes."""
+    base = dict(base or {})
+    names = list(axes)
+    out = []
+    for values in itertools.product(*(list(axes[n]) for n in names)):
+        ep = dict(base)
+        ep.update(zip(names, values))
+        ep["id"] = episode_id(ep)
+        out.append(ep)
+    return out
+
+
+def _scene(ep: dict[str, Any]) -> str:
+    links = int(ep["links"])
+    if not 1 <= links <= 100_000:
+        raise ValueError(f"links {links} is not in 1..=100000")
+    length = float(ep["length"])
+    return "\n".join(
+        [
+            "[[chain]]",
+            'name = "rope"',
+            'kind = "free"',
+            'space = "spatial"',
+            f"links = {links}",
+            f"link_length = {length / links!r}",
+            "base = [0.0, 0.0, 0.0]",
+            'shape = "straight"',
+            "axis = [1.0, 0.0, 0.0]",
+            f"thickness = {float(ep['thickness'])!r}",
+            f'collision = "{ep["collision"]}"',
+            f'method = "{ep["method"]}"',
+            f"substeps = {int(ep['substeps'])}",
+            "",
+        ]
+    )
+
+
+def _max_length_error(joints: list[list[float]], link_length: float) -> float:
+    worst = 0.0
+    for a, b in zip(joints, joints[1:]):
+        d = math.sqrt(sum((y - x) ** 2 for x, y in zip(a, b)))
+        worst = max(worst, abs(d - link_length) / link_length)
+    return worst
+
+
+_HAND_LINE = re.compile(r"hand (\w+): (\d+) requests, (\d+) ok, (\d+) locked(?:, refused: (.*))?")
+_KNOT_LINE = re.compile(r"knot: (\w+)")
+
+
+def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any]:
+    """Runs one episode in this process and returns its row; never raises."""
+    ep = {**DEFAULTS, **ep}
+    row: dict[str, Any] = {
+        "id": episode_id(ep),
+        "knobs": json.dumps({k: ep[k] for k in sorted(ep) if k != "id"}, default=str),
+        "ok": False,
+        "error": "",
+        "knot": "",
+        "tied": False,
+        "requests": 0,
+        "moves_ok": 0,
+        "locked": 0,
+        "refused": 0,
+        "seconds": math.nan,
+        "us_per_request": math.nan,
+        "length_error": math.nan,
+        "startup_s": math.nan,
+        "worker": f"{socket.gethostname()}:{os.getpid()}",
+    }
+    for k in KNOBS:
+        row[k] = ep[k] if k != "max_step" else (math.nan if ep[k] is None else float(ep[k]))
+    bins = Path(bin_dir or os.environ.get("TRACTRIX_BIN", "target/release"))
+    service = None
+    try:
+        if ep["kind"] != "hand":
+            raise ValueError(f"unknown episode kind {ep['kind']!r} (there is: hand)")
+        script = str(ep["script"])
+        if script not in HANDS:
+            raise ValueError(f"unknown script {script!r} (there are {sorted(HANDS)})")
+        expect = ep.get("expect") or EXPECT[script]
+        deadline = time.monotonic() + float(ep["timeout"])
+        with tempfile.TemporaryDirectory(prefix="tractrix-sweep-") as tmp:
+            scene = Path(tmp) / "scene.toml"
+            scene.write_text(_scene(ep))
+            prefix = f"sw{os.getpid()}_{uuid.uuid4().hex[:8]}_"
+            t0 = time.monotonic()
+            service = subprocess.Popen(
+                [str(bins / "solver-service"), "--scene", str(scene), "--no-persist",
+                 "--wait", "event", "--prefix", prefix],
+                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+            )
+            import tractrix_client
+
+            client = tractrix_client.Client(prefix=prefix, wait_for_service=30.0)
+            client.call("query", 0)
+            row["startup_s"] = time.monotonic() - t0
+            hand_args = ["run", "--builtin", script, "--chain", "rope", "--quiet",
+                         "--perturb", str(int(ep["seed"])), "--prefix", prefix]
+            if ep["max_step"] is not None:
+                hand_args += ["--max-step", str(float(ep["max_step"]))]
+            if ep["grasp"] is not None:
+                hand_args += ["--grasp" if ep["grasp"] else "--no-grasp"]
+            hands = HANDS[script]
+            t1 = time.monotonic()
+            procs = [
+                subprocess.Popen(
+                    [str(bins / "hand"), *hand_args, "--hand", h]
+                    + (["--identify", "rope"] if h == hands[-1] else []),
+                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                )
+                for h in hands
+            ]
+            outs = []
+            for p in procs:
+                try:
+                    out, err = p.communicate(timeout=max(1.0, deadline - time.monotonic()))
+                except subprocess.TimeoutExpired:
+                    for q in procs:
+                        q.kill()
+                    raise TimeoutError(f"the episode took longer than {ep['timeout']} s")
+                outs.append((p.returncode, out, err))
+            row["seconds"] = time.monotonic() - t1
+            for code, out, err in outs:
+                m = _HAND_LINE.search(out)
+                if m is None:
+                    raise RuntimeError(f"hand exited {code}: {(err or out).strip()[-300:]}")
+                row["requests"] += int(m.group(2))
+                row["moves_ok"] += int(m.group(3))
+                row["locked"] += int(m.group(4))
+                if m.group(5):
+                    row["refused"] += sum(int(x.split()[0]) for x in m.group(5).split(", "))
+                k = _KNOT_LINE.search(out)
+                if k:
+                    row["knot"] = k.group(1)
+            if row["requests"]:
+                row["us_per_request"] = row["seconds"] * 1e6 / row["requests"]
+            h, points = client.call("query", 0)
+            joints = points[: h.n_joints]
+            row["length_error"] = _max_length_error(joints, float(ep["length"]) / int(ep["links"]))
+            row["tied"] = row["knot"] == expect
+            row["ok"] = True
+    except Exception as e:  # one episode's failure is its row
+        row["error"] = f"{type(e).__name__}: {e}"[:500]
+    finally:
+        if service is not None:
+            service.terminate()
+            try:
+                _, err = service.communicate(timeout=10)
+            except subprocess.TimeoutExpired:
+                service.kill()
+                _, err = service.communicate()
+            if not row["ok"] and err and not row["error"].endswith(err.strip()[-200:]):
+                row["error"] = (row["error"] + " | service: " + err.strip()[-200:])[:700]
+    return row
+
+
+def _schema():
+    import pyarrow as pa
+
+    return pa.schema(
+        [
+            ("id", pa.string()), ("knobs", pa.string()),
+            ("script", pa.string()), ("links", pa.int64()), ("length", pa.float64()),
+            ("thickness", pa.float64()), ("collision", pa.string()), ("method", pa.string()),
+            ("substeps", pa.int64()), ("max_step", pa.float64()), ("seed", pa.int64()),
+            ("ok", pa.bool_()), ("error", pa.string()), ("knot", pa.string()), ("tied", pa.bool_()),
+            ("requests", pa.int64()), ("moves_ok", pa.int64()), ("locked", pa.int64()),
+            ("refused", pa.int64()), ("seconds", pa.float64()), ("us_per_request", pa.float64()),
+            ("length_error", pa.float64()), ("startup_s", pa.float64()), ("worker", pa.string()),
+        ]
+    )
+
+
+def _write(rows: list[dict[str, Any]], out: Path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pylist(rows, schema=_schema())
+    tmp = out.with_name(out.name + ".tmp")
+    pq.write_table(table, tmp)
+    os.replace(tmp, out)  # a reader never sees half a file
+
+
+def read(out: str | Path) -> list[dict[str, Any]]:
+    """The rows of a sweep's Parquet file (empty if there is none)."""
+    import pyarrow.parquet as pq
+
+    out = Path(out)
+    return pq.read_table(out).to_pylist() if out.exists() else []
+
+
+def sweep(
+    episodes: Iterable[dict[str, Any]],
+    out: str | Path,
+    bin_dir: str | None = None,
+    address: str | None = None,
+    num_cpus: int | None = None,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Runs the episodes not yet in ``out`` on Ray and returns every row (old and new).
+
+    ``address``: a running cluster (``ray start --head`` prints it); without it a local Ray is started
+    with ``num_cpus`` CPUs (all by default). Each episode is a task of one CPU.
+    """
+    import ray
+
+    out = Path(out)
+    rows = read(out)
+    done = {r["id"] for r in rows}
+    todo = []
+    for ep in episodes:
+        ep = dict(ep)
+        ep["id"] = episode_id(ep)
+        if ep["id"] not in done:
+            done.add(ep["id"])
+            todo.append(ep)
+    if not todo:
+        return rows
+    bin_dir = str(Path(bin_dir or os.environ.get("TRACTRIX_BIN", "target/release")).resolve())
+    if not ray.is_initialized():
+        if address:
+            ray.init(address=address)
+        else:
+            ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False)
+    task = ray.remote(num_cpus=1, max_retries=0)(run_episode)
+    pending = [task.remote(ep, bin_dir) for ep in todo]
+    bar = None
+    if progress:
+        try:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(pending), desc="episodes", file=sys.stderr)
+        except ImportError:
+            bar = None
+    last_write = time.monotonic()
+    while pending:
+        ready, pending = ray.wait(pending, num_returns=1, timeout=60.0)
+        for ref in ready:
+            try:
+                rows.append(ray.get(ref))
+            except Exception as e:  # the task itself died (worker lost): still a row
+                rows.append({"id": "?", "ok": False, "error": f"ray: {e}"[:500]})
+            if bar is not None:
+                bar.update(1)
+        if ready and (time.monotonic() - last_write > 2.0 or not pending):
+            _write(rows, out)
+            last_write = time.monotonic()
+    if bar is not None:
+        bar.close()
+    _write(rows, out)
+    return rows
+
+
+def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", "collision", "method")) -> str:
+    """A Markdown table: per combination of ``by``, episodes, knots tied, errors, median µs per request,
+    locked moves and the largest link-length error."""
+    groups: dict[tuple, list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault(tuple(r.get(k) for k in by), []).append(r)
+    head = [*by, "episodes", "tied", "failed", "median µs/request", "locked moves", "max length error"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+
+    def median(xs):
+        xs = sorted(x for x in xs if x is not None and not math.isnan(x))
+        return xs[len(xs) // 2] if xs else math.nan
+
+    for key in sorted(groups, key=lambda k: tuple(str(x) for x in k)):
+        g = groups[key]
+        ok = [r for r in g if r.get("ok")]
+        lines.append(
+            "| " + " | ".join(str(k) for k in key)
+            + f" | {len(g)} | {sum(1 for r in ok if r['tied'])}/{len(g)} | {len(g) - len(ok)}"
+            + f" | {median([r['us_per_request'] for r in ok]):.0f}"
+            + f" | {sum(r['locked'] for r in ok)}"
+            + f" | {max([r['length_error'] for r in ok], default=math.nan):.1e} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="tractrix-sweep", description=__doc__.split("\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run", help="run a sweep: GRID is JSON, a list of episodes or {base, axes}")
+    r.add_argument("grid")
+    r.add_argument("--out", required=True)
+    r.add_argument("--bin", help="directory of solver-service and hand (default $TRACTRIX_BIN or target/release)")
+    r.add_argument("--address", help="a Ray cluster's address (default: start a local Ray)")
+    r.add_argument("--num-cpus", type=int)
+    r.add_argument("--no-progress", action="store_true")
+    s = sub.add_parser("summary", help="the Markdown summary of a sweep's Parquet file")
+    s.add_argument("parquet")
+    s.add_argument("--by", default="script,links,collision,method")
+    a = ap.parse_args(argv)
+    if a.cmd == "run":
+        spec = json.loads(Path(a.grid).read_text())
+        if isinstance(spec, dict):
+            episodes = grid(spec.get("base", {}), **spec.get("axes", {}))
+        elif isinstance(spec, list):
+            episodes = spec
+        else:
+            print(f"{a.grid}: expected a list of episodes or {{base, axes}}", file=sys.stderr)
+            return 2
+        rows = sweep(episodes, a.out, a.bin, a.address, a.num_cpus, not a.no_progress)
+        print(summary(rows))
+        return 0 if all(r.get("ok") for r in rows) else 1
+    print(summary(read(a.parquet), tuple(a.by.split(","))))
+    return 0
+
+
+def main_exit() -> None:
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    main_exit()
