@@ -38,6 +38,7 @@ if [ "$QUICK" = 1 ]; then
   export KERNEL_BENCH_SCALE=0.02 COLLISION_BENCH_ROUNDS=1 JOURNAL_BENCH_N=50 ACCURACY_BENCH_REPS=1
   export HOLDS_BENCH_ROUNDS=1 KNOT_BENCH_RUNS=1 KNOT_BENCH_LINKS=40
   LANG_ARGS="500 1"
+  SWEEP_ARGS="4 1"
   LATENCY_ARGS="--samples 500 --warmup 100 --loaded-seconds 1"
   LOAD_SECONDS=1
   AB_ROUNDS=1
@@ -46,6 +47,7 @@ else
   LOAD_SECONDS=10
   AB_ROUNDS=3
   LANG_ARGS=""
+  SWEEP_ARGS=""
 fi
 
 COMMIT=$(git rev-parse --short HEAD)
@@ -92,6 +94,10 @@ block holds "cargo bench -p tractrix --bench holds" \
   cargo bench -q -p tractrix --bench holds
 block knots "KNOT_BENCH_RUNS=4 cargo bench -p clients --bench knots" \
   env KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-4}" cargo bench -q -p clients --bench knots
+block sweep "scripts/sweep-bench.sh scaling $SWEEP_ARGS" \
+  scripts/sweep-bench.sh scaling $SWEEP_ARGS
+block sweep-knots "scripts/sweep-bench.sh knots" \
+  scripts/sweep-bench.sh knots
 
 # The header: where and when.
 {

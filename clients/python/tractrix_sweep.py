@@ -38,7 +38,8 @@ Binaries: ``bin_dir`` (or ``$TRACTRIX_BIN``) must hold ``solver-service`` and ``
 Command line::
 
     tractrix-sweep run GRID.json --out results.parquet [--address ray://...] [--num-cpus 2]
-    tractrix-sweep summary results.parquet
+    tractrix-sweep summary results.parquet [--by script,links]
+    tractrix-sweep scaling [--episodes 32] [--rounds 3]     # episodes/s with 1 and 2 workers
 """
 
 from __future__ import annotations
@@ -346,7 +347,7 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
     groups: dict[tuple, list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault(tuple(r.get(k) for k in by), []).append(r)
-    head = [*by, "episodes", "tied", "failed", "median µs/request", "locked moves", "max length error"]
+    head = [*by, "episodes", "tied", "failed", "median hand wall time per request, µs", "locked moves", "max link-length error"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
 
     def median(xs):
@@ -366,31 +367,94 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
     return "\n".join(lines)
 
 
+def scaling(bin_dir: str | None, episodes: int = 32, rounds: int = 3, links: int = 80) -> str:
+    """Episodes per second with 1 and 2 Ray workers, rounds interleaved (1, 2, 1, 2, ...), each round a
+    fresh local Ray and the same episodes (one-handed overhand, ``links`` links, seeds 1..episodes);
+    and what one episode costs: starting its service, and the hand's run. Returns a Markdown table."""
+    import ray
+
+    results: dict[int, list[tuple[float, list[dict[str, Any]]]]] = {1: [], 2: []}
+    eps = grid({"script": "overhand", "links": links}, seed=range(1, episodes + 1))
+    with tempfile.TemporaryDirectory(prefix="tractrix-scaling-") as tmp:
+        for r in range(rounds):
+            for workers in (1, 2):
+                if ray.is_initialized():
+                    ray.shutdown()
+                ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+                out = Path(tmp) / f"r{r}-w{workers}.parquet"
+                t0 = time.monotonic()
+                rows = sweep(eps, out, bin_dir=bin_dir, progress=False)
+                wall = time.monotonic() - t0
+                ray.shutdown()
+                failed = [x for x in rows if not x["ok"]]
+                if failed:
+                    raise RuntimeError(f"scaling: {len(failed)} episodes failed: {failed[0]['error']}")
+                results[workers].append((wall, rows))
+
+    def med(xs):
+        xs = sorted(xs)
+        return xs[len(xs) // 2]
+
+    lines = [
+        f"| Ray workers (CPUs) | rounds | episodes per round | episodes/s, median of rounds (min, max) "
+        f"| median episode: service start until it answered, s | median episode: hands' run, s "
+        f"| median hand wall time per request, µs |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for workers in (1, 2):
+        rates = [len(rows) / wall for wall, rows in results[workers]]
+        rows = [x for _, rs in results[workers] for x in rs]
+        lines.append(
+            f"| {workers} | {rounds} | {episodes} | {med(rates):.2f} ({min(rates):.2f}, {max(rates):.2f}) "
+            f"| {med([x['startup_s'] for x in rows]):.3f} | {med([x['seconds'] for x in rows]):.2f} "
+            f"| {med([x['us_per_request'] for x in rows]):.0f} |"
+        )
+    r1 = med([len(rows) / wall for wall, rows in results[1]])
+    r2 = med([len(rows) / wall for wall, rows in results[2]])
+    lines.append("")
+    lines.append(f"Speed-up of 2 workers over 1 (ratio of the medians): {r2 / r1:.2f}×.")
+    return "\n".join(lines)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="tractrix-sweep", description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("run", help="run a sweep: GRID is JSON, a list of episodes or {base, axes}")
+    r = sub.add_parser(
+        "run", help="run a sweep: GRID is JSON, {base, axes} or a list of episodes and {base, axes}"
+    )
     r.add_argument("grid")
     r.add_argument("--out", required=True)
     r.add_argument("--bin", help="directory of solver-service and hand (default $TRACTRIX_BIN or target/release)")
     r.add_argument("--address", help="a Ray cluster's address (default: start a local Ray)")
     r.add_argument("--num-cpus", type=int)
     r.add_argument("--no-progress", action="store_true")
+    r.add_argument("--by", default="script,links,collision,method", help="the summary's grouping")
     s = sub.add_parser("summary", help="the Markdown summary of a sweep's Parquet file")
     s.add_argument("parquet")
     s.add_argument("--by", default="script,links,collision,method")
+    c = sub.add_parser("scaling", help="episodes per second with 1 and 2 workers (Markdown)")
+    c.add_argument("--bin", help="directory of solver-service and hand")
+    c.add_argument("--episodes", type=int, default=32)
+    c.add_argument("--rounds", type=int, default=3)
+    c.add_argument("--links", type=int, default=80)
     a = ap.parse_args(argv)
+    if a.cmd == "scaling":
+        print(scaling(a.bin, a.episodes, a.rounds, a.links))
+        return 0
     if a.cmd == "run":
         spec = json.loads(Path(a.grid).read_text())
-        if isinstance(spec, dict):
-            episodes = grid(spec.get("base", {}), **spec.get("axes", {}))
-        elif isinstance(spec, list):
-            episodes = spec
-        else:
-            print(f"{a.grid}: expected a list of episodes or {{base, axes}}", file=sys.stderr)
-            return 2
+        parts = spec if isinstance(spec, list) else [spec]
+        episodes = []
+        for k, part in enumerate(parts):
+            if not isinstance(part, dict):
+                print(f"{a.grid}: item {k}: expected an episode or {{base, axes}}", file=sys.stderr)
+                return 2
+            if "axes" in part:
+                episodes += grid(part.get("base", {}), **part["axes"])
+            else:
+                episodes.append(part)
         rows = sweep(episodes, a.out, a.bin, a.address, a.num_cpus, not a.no_progress)
-        print(summary(rows))
+        print(summary(rows, tuple(a.by.split(","))))
         return 0 if all(r.get("ok") for r in rows) else 1
     print(summary(read(a.parquet), tuple(a.by.split(","))))
     return 0

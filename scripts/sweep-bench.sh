@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# The sweeps of BENCHMARKS.md (issue 19), on a local Ray of this machine's two CPUs, with release binaries:
+#   scripts/sweep-bench.sh scaling [EPISODES] [ROUNDS]   # episodes/s with 1 and 2 workers; cost of one episode
+#   scripts/sweep-bench.sh knots [OUT.parquet]           # knot success over script × resolution (grid file
+#                                                        # clients/python/grids/knots.json), through the service
+# Prints the Markdown table BENCHMARKS.md shows.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+TARGET=${CARGO_TARGET_DIR:-target}
+cargo build -q --release -p solver-service -p clients --bins
+scripts/python-venv.sh >/dev/null
+PY=target/pyenv/bin/python
+export RAY_TMPDIR=${RAY_TMPDIR:-$(realpath "$TARGET")/ray}
+mkdir -p "$RAY_TMPDIR"
+case "${1:-}" in
+  scaling)
+    "$PY" -m tractrix_sweep scaling --bin "$TARGET/release" --episodes "${2:-32}" --rounds "${3:-3}" 2>"$RAY_TMPDIR/sweep-bench.log" || { tail -20 "$RAY_TMPDIR/sweep-bench.log" >&2; exit 1; }
+    ;;
+  knots)
+    OUT=${2:-$TARGET/sweep-knots.parquet}
+    rm -f "$OUT"
+    "$PY" -m tractrix_sweep run clients/python/grids/knots.json --out "$OUT" --bin "$TARGET/release" \
+      --num-cpus 2 --no-progress --by script,length,links 2>"$RAY_TMPDIR/sweep-bench.log" || { tail -20 "$RAY_TMPDIR/sweep-bench.log" >&2; exit 1; }
+    ;;
+  *)
+    echo "usage: scripts/sweep-bench.sh scaling [EPISODES] [ROUNDS] | knots [OUT.parquet]" >&2
+    exit 2
+    ;;
+esac
