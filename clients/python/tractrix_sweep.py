@@ -354,7 +354,10 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
         xs = sorted(x for x in xs if x is not None and not math.isnan(x))
         return xs[len(xs) // 2] if xs else math.nan
 
-    for key in sorted(groups, key=lambda k: tuple(str(x) for x in k)):
+    def order(key):  # numbers as numbers (40 before 160), then text
+        return tuple((0, x, "") if isinstance(x, (int, float)) else (1, 0, str(x)) for x in key)
+
+    for key in sorted(groups, key=order):
         g = groups[key]
         ok = [r for r in g if r.get("ok")]
         lines.append(
