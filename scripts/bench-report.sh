@@ -98,6 +98,8 @@ block sweep "scripts/sweep-bench.sh scaling $SWEEP_ARGS" \
   scripts/sweep-bench.sh scaling $SWEEP_ARGS
 block sweep-knots "scripts/sweep-bench.sh knots" \
   scripts/sweep-bench.sh knots
+block sweep-accuracy "scripts/sweep-bench.sh accuracy" \
+  scripts/sweep-bench.sh accuracy
 
 # The header: where and when.
 {

@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=target/pyenv
 # tractrix_sweep (clients/python): episodes on Ray, rows in Parquet, a progress bar.
-SWEEP="ray==2.60.0 pyarrow tqdm"
+SWEEP="ray==2.60.0 pyarrow tqdm matplotlib"
 install_client() {
     # The client package from this checkout (no network: its one dependency is already there).
     "$VENV/bin/pip" install --quiet --disable-pip-version-check --no-deps --no-build-isolation \
@@ -25,7 +25,7 @@ if [ -x "$VENV/bin/python" ] && "$VENV/bin/python" -c \
         "$VENV/bin/pip" install --quiet --disable-pip-version-check mujoco PyOpenGL
     "$VENV/bin/python" -c 'import importlib.metadata as m, sys; sys.exit(m.version("rerun-sdk") != "0.36.3")' 2>/dev/null ||
         "$VENV/bin/pip" install --quiet --disable-pip-version-check rerun-sdk==0.36.3
-    "$VENV/bin/python" -c 'import ray, pyarrow, tqdm' 2>/dev/null ||
+    "$VENV/bin/python" -c 'import ray, pyarrow, tqdm, matplotlib' 2>/dev/null ||
         "$VENV/bin/pip" install --quiet --disable-pip-version-check $SWEEP
     install_client
     exit 0

@@ -2,7 +2,11 @@
 # The sweeps of BENCHMARKS.md (issue 19), on a local Ray of this machine's two CPUs, with release binaries:
 #   scripts/sweep-bench.sh scaling [EPISODES] [ROUNDS]   # episodes/s with 1 and 2 workers; cost of one episode
 #   scripts/sweep-bench.sh knots [OUT.parquet]           # knot success over script × resolution (grid file
-#                                                        # clients/python/grids/knots.json), through the service
+#                                                        # clients/python/grids/knots.json), through the service;
+#                                                        # also draws docs/sweep-knots.svg
+#   scripts/sweep-bench.sh accuracy [OUT.parquet]        # speed against accuracy (grid file
+#                                                        # clients/python/grids/accuracy.json), episodes of
+#                                                        # the `episode` binary
 # Prints the Markdown table BENCHMARKS.md shows.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,9 +25,18 @@ case "${1:-}" in
     rm -f "$OUT"
     "$PY" -m tractrix_sweep run clients/python/grids/knots.json --out "$OUT" --bin "$TARGET/release" \
       --num-cpus 2 --no-progress --by script,length,links 2>"$RAY_TMPDIR/sweep-bench.log" || { tail -20 "$RAY_TMPDIR/sweep-bench.log" >&2; exit 1; }
+    "$PY" -m tractrix_sweep plot "$OUT" --x link_length --out docs/sweep-knots.svg
+    printf '\n![Knot success over link length, one line per script](docs/sweep-knots.svg)\n'
+    ;;
+  accuracy)
+    OUT=${2:-$TARGET/sweep-accuracy.parquet}
+    rm -f "$OUT"
+    export TRACTRIX_TRUTH_CACHE=$RAY_TMPDIR/truth
+    "$PY" -m tractrix_sweep run clients/python/grids/accuracy.json --out "$OUT" --bin "$TARGET/release" \
+      --num-cpus 2 --no-progress 2>"$RAY_TMPDIR/sweep-bench.log" || { tail -20 "$RAY_TMPDIR/sweep-bench.log" >&2; exit 1; }
     ;;
   *)
-    echo "usage: scripts/sweep-bench.sh scaling [EPISODES] [ROUNDS] | knots [OUT.parquet]" >&2
+    echo "usage: scripts/sweep-bench.sh scaling [EPISODES] [ROUNDS] | knots [OUT.parquet] | accuracy [OUT.parquet]" >&2
     exit 2
     ;;
 esac

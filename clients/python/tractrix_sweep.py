@@ -6,7 +6,14 @@ rows to a Parquet file, rewritten as rows arrive, so that a sweep that stops can
 ``id`` is already in the file are skipped. An episode that fails is a row whose ``error`` says why, never a
 lost sweep.
 
-Episode kind ``hand`` (the only kind so far): the episode writes a scene of one rope (``links`` links,
+Episode kind ``accuracy``: one configuration of the speed-against-accuracy measurement, run by the
+``episode accuracy`` binary (the scenarios and code of ``cargo bench -p clients --bench accuracy``):
+knobs ``scenario`` (helix, overhand, square), ``method``, ``precision`` (f64, f32), ``substeps``,
+``reps``; row columns ``moves``, ``us_per_move``, ``error_links`` (largest joint error against the
+ground truth, in links), ``truth_s``. The ground truth is computed once per scenario and shared through
+``$TRACTRIX_TRUTH_CACHE`` (default: a directory in the system's temporary directory).
+
+Episode kind ``hand`` (the default): the episode writes a scene of one rope (``links`` links,
 ``length`` long, ``thickness``, ``collision``, ``method``, ``substeps``), starts its own ``solver-service``
 on a unique iceoryx2 prefix (event wait mode: it sleeps between requests, so two episodes share two cores),
 runs the ``hand`` processes of a built-in ``script`` (both hands of a two-handed one) with the script
@@ -32,13 +39,14 @@ Row columns: ``id``, every knob (as a string column ``knobs`` in JSON, plus the 
 ``us_per_request``, ``length_error`` (largest relative link-length error of the final state, computed here),
 ``startup_s`` (the service's start until it answered), ``worker`` (host and pid that ran it).
 
-Binaries: ``bin_dir`` (or ``$TRACTRIX_BIN``) must hold ``solver-service`` and ``hand`` on every worker
+Binaries: ``bin_dir`` (or ``$TRACTRIX_BIN``) must hold ``solver-service``, ``hand`` and ``episode`` on every worker
 (a shared path, or the container image of the README).
 
 Command line::
 
     tractrix-sweep run GRID.json --out results.parquet [--address ray://...] [--num-cpus 2]
     tractrix-sweep summary results.parquet [--by script,links]
+    tractrix-sweep plot results.parquet --out knots.svg [--x links] [--series script]
     tractrix-sweep scaling [--episodes 32] [--rounds 3]     # episodes/s with 1 and 2 workers
 """
 
@@ -60,6 +68,8 @@ from pathlib import Path
 from typing import Any, Iterable, Sequence
 
 KNOBS = ("script", "links", "length", "thickness", "collision", "method", "substeps", "max_step", "seed")
+# The knobs of an accuracy episode (the rest of KNOBS are null in its row).
+ACCURACY_KNOBS = ("method", "substeps", "scenario", "precision", "reps")
 DEFAULTS: dict[str, Any] = {
     "kind": "hand",
     "script": "overhand",
@@ -73,6 +83,9 @@ DEFAULTS: dict[str, Any] = {
     "seed": 0,
     "grasp": None,
     "timeout": 300.0,
+    "scenario": "helix",
+    "precision": "f64",
+    "reps": 3,
 }
 EXPECT = {"overhand": "trefoil", "square": "square", "granny": "granny"}
 HANDS = {"overhand": ["A"], "square": ["A", "B"], "granny": ["A", "B"]}
@@ -157,13 +170,22 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
         "startup_s": math.nan,
         "worker": f"{socket.gethostname()}:{os.getpid()}",
     }
-    for k in KNOBS:
-        row[k] = ep[k] if k != "max_step" else (math.nan if ep[k] is None else float(ep[k]))
+    row["kind"] = str(ep["kind"])
+    accuracy = ep["kind"] == "accuracy"
+    for k in KNOBS + ACCURACY_KNOBS:
+        if accuracy and k not in ACCURACY_KNOBS or not accuracy and k not in KNOBS:
+            row[k] = None
+        elif k == "max_step":
+            row[k] = math.nan if ep[k] is None else float(ep[k])
+        else:
+            row[k] = ep[k]
     bins = Path(bin_dir or os.environ.get("TRACTRIX_BIN", "target/release"))
     service = None
     try:
+        if accuracy:
+            return _accuracy_episode(ep, row, bins)
         if ep["kind"] != "hand":
-            raise ValueError(f"unknown episode kind {ep['kind']!r} (there is: hand)")
+            raise ValueError(f"unknown episode kind {ep['kind']!r} (there are: hand, accuracy)")
         script = str(ep["script"])
         if script not in HANDS:
             raise ValueError(f"unknown script {script!r} (there are {sorted(HANDS)})")
@@ -244,6 +266,33 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
     return row
 
 
+def _accuracy_episode(ep: dict[str, Any], row: dict[str, Any], bins: Path) -> dict[str, Any]:
+    """Runs `episode accuracy` (one configuration of the speed-against-accuracy measurement) and fills
+    the row; the ground truth is shared between episodes through a cache directory."""
+    try:
+        cache = ep.get("truth_cache") or os.environ.get("TRACTRIX_TRUTH_CACHE") or str(
+            Path(tempfile.gettempdir()) / "tractrix-truth"
+        )
+        args = [str(bins / "episode"), "accuracy", "--scenario", str(ep["scenario"]),
+                "--method", str(ep["method"]), "--precision", str(ep["precision"]),
+                "--substeps", str(int(ep["substeps"])), "--reps", str(int(ep["reps"])),
+                "--truth-cache", cache]
+        t0 = time.monotonic()
+        p = subprocess.run(args, capture_output=True, text=True, timeout=float(ep["timeout"]))
+        row["seconds"] = time.monotonic() - t0
+        if p.returncode != 0:
+            raise RuntimeError(f"episode exited {p.returncode}: {p.stderr.strip()[-300:]}")
+        r = json.loads(p.stdout.strip().splitlines()[-1])
+        row["moves"] = int(r["moves"])
+        row["us_per_move"] = float(r["us_per_move"])
+        row["error_links"] = float(r["error_links"])
+        row["truth_s"] = float(r["truth_s"])
+        row["ok"] = True
+    except Exception as e:  # one episode's failure is its row
+        row["error"] = f"{type(e).__name__}: {e}"[:500]
+    return row
+
+
 def _schema():
     import pyarrow as pa
 
@@ -257,6 +306,9 @@ def _schema():
             ("requests", pa.int64()), ("moves_ok", pa.int64()), ("locked", pa.int64()),
             ("refused", pa.int64()), ("seconds", pa.float64()), ("us_per_request", pa.float64()),
             ("length_error", pa.float64()), ("startup_s", pa.float64()), ("worker", pa.string()),
+            ("kind", pa.string()), ("scenario", pa.string()), ("precision", pa.string()),
+            ("reps", pa.int64()), ("moves", pa.int64()), ("us_per_move", pa.float64()),
+            ("error_links", pa.float64()), ("truth_s", pa.float64()),
         ]
     )
 
@@ -341,9 +393,38 @@ def sweep(
     return rows
 
 
+def accuracy_summary(rows: list[dict[str, Any]]) -> str:
+    """The speed-against-accuracy table of accuracy episodes: per scenario, each configuration's time
+    per move and largest joint error against the ground truth (in links), ★ on the Pareto front (no
+    other configuration of the scenario is both faster and more accurate)."""
+    ok = [r for r in rows if r.get("kind") == "accuracy" and r.get("ok")]
+    out = []
+    for scen in sorted({r["scenario"] for r in ok}):
+        mine = [r for r in ok if r["scenario"] == scen]
+        moves = mine[0]["moves"]
+        out.append(f"\n### {scen} ({moves} moves)\n")
+        out.append("| method | precision | substeps | µs per move (median of the episode's reps) "
+                   "| error (links) | Pareto front |")
+        out.append("|---|---|---:|---:|---:|:---:|")
+        for r in sorted(mine, key=lambda r: (r["method"], r["precision"], r["substeps"])):
+            front = not any(
+                q is not r and q["us_per_move"] <= r["us_per_move"] and q["error_links"] <= r["error_links"]
+                and (q["us_per_move"] < r["us_per_move"] or q["error_links"] < r["error_links"])
+                for q in mine
+            )
+            out.append(f"| {r['method']} | {r['precision']} | {r['substeps']} | {r['us_per_move']:.2f} "
+                       f"| {r['error_links']:.2e} | {'★' if front else ''} |")
+    failed = [r for r in rows if r.get("kind") == "accuracy" and not r.get("ok")]
+    if failed:
+        out.append(f"\n{len(failed)} episodes failed; the first: {failed[0]['error']}")
+    return "\n".join(out).lstrip("\n")
+
+
 def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", "collision", "method")) -> str:
     """A Markdown table: per combination of ``by``, episodes, knots tied, errors, median µs per request,
-    locked moves and the largest link-length error."""
+    locked moves and the largest link-length error (accuracy episodes: :func:`accuracy_summary`)."""
+    if rows and all(r.get("kind") == "accuracy" for r in rows):
+        return accuracy_summary(rows)
     groups: dict[tuple, list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault(tuple(r.get(k) for k in by), []).append(r)
@@ -368,6 +449,59 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
             + f" | {max([r['length_error'] for r in ok], default=math.nan):.1e} |"
         )
     return "\n".join(lines)
+
+
+def plot(rows: list[dict[str, Any]], out: str | Path, x: str = "links", series: Sequence[str] = ("script",),
+         title: str = "Knot success over rope resolution") -> None:
+    """An SVG of the share of episodes that tied their knot (``tied``) over knob ``x`` (or the derived
+    ``link_length``), one line per combination of ``series``; each point is labelled tied/episodes.
+    Failed episodes count as not tied."""
+    import matplotlib
+
+    matplotlib.use("svg")
+    import matplotlib.pyplot as plt
+
+    def xval(r):  # `link_length` is derived: length / links
+        if x == "link_length":
+            return r["length"] / r["links"] if r.get("links") else None
+        return r.get(x)
+
+    lines: dict[tuple, dict[Any, list[bool]]] = {}
+    for r in rows:
+        v = xval(r)
+        if v is None:
+            continue
+        key = tuple(r.get(k) for k in series)
+        lines.setdefault(key, {}).setdefault(v, []).append(bool(r.get("ok") and r.get("tied")))
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    keys = sorted(lines, key=lambda k: tuple(str(v) for v in k))
+    markers, styles = "osd^v<>", ["-", "--", ":", "-."]
+    every_x = sorted({v for k in keys for v in lines[k]})
+    for i, key in enumerate(keys):
+        xs = sorted(lines[key])
+        ys = [sum(lines[key][v]) / len(lines[key][v]) for v in xs]
+        # Series side by side (a small shift along the log axis) so that equal results stay visible.
+        shift = 2 ** (0.05 * (i - (len(keys) - 1) / 2))
+        ax.plot([v * shift for v in xs], ys, marker=markers[i % len(markers)],
+                linestyle=styles[i % len(styles)], label=", ".join(str(v) for v in key))
+        for v, y in zip(xs, ys):
+            ax.annotate(f"{sum(lines[key][v])}/{len(lines[key][v])}", (v * shift, y),
+                        textcoords="offset points", xytext=(3, 5 + 8 * (i % 3)), fontsize=7)
+    ax.set_xscale("log", base=2)
+    ax.set_xticks(every_x, [f"{v:g}" for v in every_x])
+    ax.set_xlabel(x)
+    ax.set_ylabel("share of episodes tied")
+    ax.set_ylim(-0.05, 1.1)
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend(title=", ".join(series))
+    fig.tight_layout()
+    # No date in the file: the same rows give the same bytes.
+    if str(out).endswith(".png"):
+        fig.savefig(out, format="png", dpi=100)
+    else:
+        fig.savefig(out, format="svg", metadata={"Date": None})
+    plt.close(fig)
 
 
 def scaling(bin_dir: str | None, episodes: int = 32, rounds: int = 3, links: int = 80) -> str:
@@ -435,12 +569,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     s = sub.add_parser("summary", help="the Markdown summary of a sweep's Parquet file")
     s.add_argument("parquet")
     s.add_argument("--by", default="script,links,collision,method")
+    p = sub.add_parser("plot", help="an SVG of knot success over a knob")
+    p.add_argument("parquet")
+    p.add_argument("--out", required=True)
+    p.add_argument("--x", default="links", help="a knob, or link_length (length / links)")
+    p.add_argument("--series", default="script")
     c = sub.add_parser("scaling", help="episodes per second with 1 and 2 workers (Markdown)")
     c.add_argument("--bin", help="directory of solver-service and hand")
     c.add_argument("--episodes", type=int, default=32)
     c.add_argument("--rounds", type=int, default=3)
     c.add_argument("--links", type=int, default=80)
     a = ap.parse_args(argv)
+    if a.cmd == "plot":
+        plot(read(a.parquet), a.out, a.x, tuple(a.series.split(",")))
+        return 0
     if a.cmd == "scaling":
         print(scaling(a.bin, a.episodes, a.rounds, a.links))
         return 0

@@ -2,6 +2,7 @@
 //! on top (`chainctl`: one request from the shell; `hand`: a hand controller running a script, with
 //! recording and replay).
 
+pub mod accuracy;
 pub mod check;
 pub mod cli;
 pub mod connection;

@@ -1,6 +1,7 @@
 //! `tractrix_sweep` (clients/python, on Ray): a sweep of 22 short knot episodes on a local Ray of two
-//! CPUs, each episode its own service on a unique prefix driven by the `hand` binaries; resumed, with two
-//! failing episodes as rows. The checks are in `sweep_check.py`.
+//! CPUs, each episode its own service on a unique prefix driven by the `hand` binaries, and 2 accuracy
+//! episodes (the `episode` binary); resumed, with two failing episodes as rows. The checks are in
+//! `sweep_check.py`.
 
 use std::path::PathBuf;
 use std::process::Command as Process;
@@ -13,7 +14,7 @@ fn a_sweep_on_a_local_ray_resumes_and_reports_failures() {
     let py = root.join("target/pyenv/bin/python");
     // Both binaries the episodes start, built if the runner did not.
     let service = bin("solver-service");
-    assert!(bin("hand").exists());
+    assert!(bin("hand").exists() && bin("episode").exists());
     let bin_dir = service.parent().unwrap().to_path_buf();
     let work = tempfile::tempdir().unwrap();
     let t0 = Instant::now();
@@ -23,6 +24,7 @@ fn a_sweep_on_a_local_ray_resumes_and_reports_failures() {
         .arg(work.path())
         // Ray keeps its session files here, not in /tmp/ray of other runs.
         .env("RAY_TMPDIR", work.path())
+        .env("TRACTRIX_TRUTH_CACHE", work.path().join("truth"))
         // Files, not pipes: nothing blocks on a full pipe while this waits.
         .stdout(std::fs::File::create(work.path().join("out.txt")).unwrap())
         .stderr(std::fs::File::create(work.path().join("err.txt")).unwrap())

@@ -2,9 +2,10 @@
 
 Usage: sweep_check.py BIN_DIR WORK_DIR
 
-A sweep of 22 short episodes on a local Ray of two CPUs, in two parts: the first 11, then all 22 into the
-same Parquet file (the first 11 must not run again). Two episodes fail on purpose (a rope of 0 links, an
-unknown script) and must be rows with their error. Every row is checked here: the Parquet schema, the
+A sweep of 24 short episodes on a local Ray of two CPUs (22 knot episodes through the service, 2 accuracy
+episodes), in two parts: the first 11, then all 24 into the same Parquet file (the first 11 must not run
+again). Two episodes fail on purpose (a rope of 0 links, an unknown script) and must be rows with their
+error. Every row is checked here: the Parquet schema, the
 knobs, the counts, and the link-length error recomputed from the service's final joints is small.
 Exits non-zero with a message on the first failed check.
 """
@@ -34,18 +35,20 @@ def main():
         {"id": "bad-links", "links": 0, "max_step": 0.5},
         {"id": "bad-script", "script": "bowline", "links": 40},
     ]
-    check(len(episodes) == 22, f"22 episodes, not {len(episodes)}")
+    episodes += ts.grid({"kind": "accuracy", "scenario": "helix", "reps": 1}, method=["tractrix", "ftl"],
+                        substeps=[2])
+    check(len(episodes) == 24, f"24 episodes, not {len(episodes)}")
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
 
     first = ts.sweep(episodes[:11], out, bin_dir=bin_dir, progress=False)
     check(len(first) == 11, f"first part: 11 rows, not {len(first)}")
     rows = ts.sweep(episodes, out, bin_dir=bin_dir, progress=False)
-    check(len(rows) == 22, f"all: 22 rows, not {len(rows)}")
+    check(len(rows) == 24, f"all: 24 rows, not {len(rows)}")
 
     # Resumed: the first part's rows are in the file as they were (a re-run would differ in its
     # timings and worker).
     on_disk = {r["id"]: r for r in pq.read_table(out).to_pylist()}
-    check(len(on_disk) == 22, f"22 distinct ids in the file, not {len(on_disk)}")
+    check(len(on_disk) == 24, f"24 distinct ids in the file, not {len(on_disk)}")
     for r in first:
         d = on_disk[r["id"]]
         check(d["worker"] == r["worker"] and d["seconds"] == r["seconds"] or (math.isnan(d["seconds"]) and math.isnan(r["seconds"])),
@@ -60,6 +63,14 @@ def main():
         r = on_disk[ts.episode_id(ep)]
         if ep["id"].startswith("bad-"):
             check(not r["ok"] and r["error"], f"{ep['id']}: a failed row with its error: {r}")
+            continue
+        if ep.get("kind") == "accuracy":
+            check(r["ok"] and r["error"] == "", f"{ep['id']}: {r['error']}")
+            check(r["kind"] == "accuracy" and r["scenario"] == "helix" and r["method"] == ep["method"]
+                  and r["substeps"] == 2 and r["precision"] == "f64", f"{ep['id']}: knobs {r}")
+            check(r["script"] is None and r["links"] is None, f"{ep['id']}: hand knobs are null: {r}")
+            check(r["moves"] > 0 and r["us_per_move"] > 0, f"{ep['id']}: {r}")
+            check(0 < r["error_links"] < 10, f"{ep['id']}: error {r['error_links']}")
             continue
         check(r["ok"] and r["error"] == "", f"{ep['id']}: {r['error']}")
         check(r["script"] == ep["script"] and r["links"] == ep["links"] and r["seed"] == ep["seed"],
