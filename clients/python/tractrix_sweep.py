@@ -58,6 +58,7 @@ import json
 import math
 import os
 import re
+import shutil
 import socket
 import subprocess
 import sys
@@ -181,6 +182,7 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
             row[k] = ep[k]
     bins = Path(bin_dir or os.environ.get("TRACTRIX_BIN", "target/release"))
     service = None
+    tmp: Path | None = None
     try:
         if accuracy:
             return _accuracy_episode(ep, row, bins)
@@ -191,78 +193,86 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
             raise ValueError(f"unknown script {script!r} (there are {sorted(HANDS)})")
         expect = ep.get("expect") or EXPECT[script]
         deadline = time.monotonic() + float(ep["timeout"])
-        with tempfile.TemporaryDirectory(prefix="tractrix-sweep-") as tmp:
-            scene = Path(tmp) / "scene.toml"
-            scene.write_text(_scene(ep))
-            prefix = f"sw{os.getpid()}_{uuid.uuid4().hex[:8]}_"
-            t0 = time.monotonic()
+        # Output goes to files, not pipes: a chatty process never blocks on a full pipe.
+        tmp = Path(tempfile.mkdtemp(prefix="tractrix-sweep-"))
+        scene = tmp / "scene.toml"
+        scene.write_text(_scene(ep))
+        prefix = f"sw{os.getpid()}_{uuid.uuid4().hex[:8]}_"
+        t0 = time.monotonic()
+        with open(tmp / "service.err", "w") as service_err:
             service = subprocess.Popen(
                 [str(bins / "solver-service"), "--scene", str(scene), "--no-persist",
                  "--wait", "event", "--prefix", prefix],
-                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                stdout=subprocess.DEVNULL, stderr=service_err,
             )
-            import tractrix_client
+        import tractrix_client
 
-            client = tractrix_client.Client(prefix=prefix, wait_for_service=30.0)
-            client.call("query", 0)
-            row["startup_s"] = time.monotonic() - t0
-            hand_args = ["run", "--builtin", script, "--chain", "rope", "--quiet",
-                         "--perturb", str(int(ep["seed"])), "--prefix", prefix]
-            if ep["max_step"] is not None:
-                hand_args += ["--max-step", str(float(ep["max_step"]))]
-            if ep["grasp"] is not None:
-                hand_args += ["--grasp" if ep["grasp"] else "--no-grasp"]
-            hands = HANDS[script]
-            t1 = time.monotonic()
-            procs = [
-                subprocess.Popen(
+        client = tractrix_client.Client(prefix=prefix, wait_for_service=30.0)
+        client.call("query", 0)
+        row["startup_s"] = time.monotonic() - t0
+        hand_args = ["run", "--builtin", script, "--chain", "rope", "--quiet",
+                     "--perturb", str(int(ep["seed"])), "--prefix", prefix]
+        if ep["max_step"] is not None:
+            hand_args += ["--max-step", str(float(ep["max_step"]))]
+        if ep["grasp"] is not None:
+            hand_args += ["--grasp" if ep["grasp"] else "--no-grasp"]
+        hands = HANDS[script]
+        t1 = time.monotonic()
+        procs = []
+        for h in hands:
+            with open(tmp / f"hand-{h}.out", "w") as out, open(tmp / f"hand-{h}.err", "w") as err:
+                procs.append(subprocess.Popen(
                     [str(bins / "hand"), *hand_args, "--hand", h]
                     + (["--identify", "rope"] if h == hands[-1] else []),
-                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                )
-                for h in hands
-            ]
-            outs = []
+                    stdout=out, stderr=err,
+                ))
+        try:
             for p in procs:
-                try:
-                    out, err = p.communicate(timeout=max(1.0, deadline - time.monotonic()))
-                except subprocess.TimeoutExpired:
-                    for q in procs:
-                        q.kill()
-                    raise TimeoutError(f"the episode took longer than {ep['timeout']} s")
-                outs.append((p.returncode, out, err))
-            row["seconds"] = time.monotonic() - t1
-            for code, out, err in outs:
-                m = _HAND_LINE.search(out)
-                if m is None:
-                    raise RuntimeError(f"hand exited {code}: {(err or out).strip()[-300:]}")
-                row["requests"] += int(m.group(2))
-                row["moves_ok"] += int(m.group(3))
-                row["locked"] += int(m.group(4))
-                if m.group(5):
-                    row["refused"] += sum(int(x.split()[0]) for x in m.group(5).split(", "))
-                k = _KNOT_LINE.search(out)
-                if k:
-                    row["knot"] = k.group(1)
-            if row["requests"]:
-                row["us_per_request"] = row["seconds"] * 1e6 / row["requests"]
-            h, points = client.call("query", 0)
-            joints = points[: h.n_joints]
-            row["length_error"] = _max_length_error(joints, float(ep["length"]) / int(ep["links"]))
-            row["tied"] = row["knot"] == expect
-            row["ok"] = True
+                p.wait(timeout=max(1.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            raise TimeoutError(f"the episode took longer than {ep['timeout']} s")
+        finally:
+            for p in procs:
+                if p.poll() is None:
+                    p.kill()
+                    p.wait()
+        row["seconds"] = time.monotonic() - t1
+        for h, p in zip(hands, procs):
+            out = (tmp / f"hand-{h}.out").read_text()
+            m = _HAND_LINE.search(out)
+            if m is None:
+                err = (tmp / f"hand-{h}.err").read_text()
+                raise RuntimeError(f"hand {h} exited {p.returncode}: {(err or out).strip()[-300:]}")
+            row["requests"] += int(m.group(2))
+            row["moves_ok"] += int(m.group(3))
+            row["locked"] += int(m.group(4))
+            if m.group(5):
+                row["refused"] += sum(int(x.split()[0]) for x in m.group(5).split(", "))
+            k = _KNOT_LINE.search(out)
+            if k:
+                row["knot"] = k.group(1)
+        if row["requests"]:
+            row["us_per_request"] = row["seconds"] * 1e6 / row["requests"]
+        h, points = client.call("query", 0)
+        joints = points[: h.n_joints]
+        row["length_error"] = _max_length_error(joints, float(ep["length"]) / int(ep["links"]))
+        row["tied"] = row["knot"] == expect
+        row["ok"] = True
     except Exception as e:  # one episode's failure is its row
         row["error"] = f"{type(e).__name__}: {e}"[:500]
     finally:
         if service is not None:
             service.terminate()
             try:
-                _, err = service.communicate(timeout=10)
+                service.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 service.kill()
-                _, err = service.communicate()
-            if not row["ok"] and err and not row["error"].endswith(err.strip()[-200:]):
-                row["error"] = (row["error"] + " | service: " + err.strip()[-200:])[:700]
+                service.wait()
+            err = (tmp / "service.err").read_text().strip() if tmp is not None else ""
+            if not row["ok"] and err:
+                row["error"] = (row["error"] + " | service: " + err[-200:])[:700]
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
     return row
 
 
