@@ -31,6 +31,7 @@ client and measures the link-length error here, from those joints. Knobs::
     max_step     the hand's longest motion per request (default: the script's, 0.1)
     seed         perturbation of the script (0: as written)
     grasp        true / false: hands hold their joints (default: the script's)
+    anchors      joints held by the scene for the whole episode, e.g. [0] (default none)
     timeout      seconds the episode may take (default 300)
 
 Row columns: ``id``, every knob (as a string column ``knobs`` in JSON, plus the common ones as columns),
@@ -68,7 +69,8 @@ import uuid
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
-KNOBS = ("script", "links", "length", "thickness", "collision", "method", "substeps", "max_step", "seed")
+KNOBS = ("script", "links", "length", "thickness", "collision", "method", "substeps", "max_step", "seed",
+         "anchors", "grasp")
 # The knobs of an accuracy episode (the rest of KNOBS are null in its row).
 ACCURACY_KNOBS = ("method", "substeps", "scenario", "precision", "reps")
 DEFAULTS: dict[str, Any] = {
@@ -83,6 +85,7 @@ DEFAULTS: dict[str, Any] = {
     "max_step": None,
     "seed": 0,
     "grasp": None,
+    "anchors": (),
     "timeout": 300.0,
     "scenario": "helix",
     "precision": "f64",
@@ -134,6 +137,7 @@ def _scene(ep: dict[str, Any]) -> str:
             f'collision = "{ep["collision"]}"',
             f'method = "{ep["method"]}"',
             f"substeps = {int(ep['substeps'])}",
+            f"anchors = [{', '.join(str(int(j)) for j in ep['anchors'])}]",
             "",
         ]
     )
@@ -178,6 +182,8 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
             row[k] = None
         elif k == "max_step":
             row[k] = math.nan if ep[k] is None else float(ep[k])
+        elif k == "anchors":
+            row[k] = json.dumps([int(j) for j in ep[k]])
         else:
             row[k] = ep[k]
     bins = Path(bin_dir or os.environ.get("TRACTRIX_BIN", "target/release"))
@@ -312,6 +318,7 @@ def _schema():
             ("script", pa.string()), ("links", pa.int64()), ("length", pa.float64()),
             ("thickness", pa.float64()), ("collision", pa.string()), ("method", pa.string()),
             ("substeps", pa.int64()), ("max_step", pa.float64()), ("seed", pa.int64()),
+            ("anchors", pa.string()), ("grasp", pa.bool_()),
             ("ok", pa.bool_()), ("error", pa.string()), ("knot", pa.string()), ("tied", pa.bool_()),
             ("requests", pa.int64()), ("moves_ok", pa.int64()), ("locked", pa.int64()),
             ("refused", pa.int64()), ("seconds", pa.float64()), ("us_per_request", pa.float64()),
@@ -432,13 +439,15 @@ def accuracy_summary(rows: list[dict[str, Any]]) -> str:
 
 def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", "collision", "method")) -> str:
     """A Markdown table: per combination of ``by``, episodes, knots tied, errors, median µs per request,
-    locked moves and the largest link-length error (accuracy episodes: :func:`accuracy_summary`)."""
+    locked and refused moves (a held rope pulled taut refuses what it cannot reach) and the largest
+    link-length error (accuracy episodes: :func:`accuracy_summary`)."""
     if rows and all(r.get("kind") == "accuracy" for r in rows):
         return accuracy_summary(rows)
     groups: dict[tuple, list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault(tuple(r.get(k) for k in by), []).append(r)
-    head = [*by, "episodes", "tied", "failed", "median hand wall time per request, µs", "locked moves", "max link-length error"]
+    head = [*by, "episodes", "tied", "failed", "median hand wall time per request, µs", "locked moves",
+            "refused moves", "max link-length error"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
 
     def median(xs):
@@ -456,6 +465,7 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
             + f" | {len(g)} | {sum(1 for r in ok if r['tied'])}/{len(g)} | {len(g) - len(ok)}"
             + f" | {median([r['us_per_request'] for r in ok]):.0f}"
             + f" | {sum(r['locked'] for r in ok)}"
+            + f" | {sum(r['refused'] for r in ok)} of {sum(r['requests'] for r in ok)}"
             + f" | {max([r['length_error'] for r in ok], default=math.nan):.1e} |"
         )
     return "\n".join(lines)
