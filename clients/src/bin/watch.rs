@@ -73,6 +73,8 @@ fn main() -> std::process::ExitCode {
 struct ChainInfo {
     name: String,
     planar: bool,
+    thickness: f64,
+    free: bool,
     seen: u64,
 }
 
@@ -100,6 +102,8 @@ fn run(a: Args) -> Result<u8> {
             ChainInfo {
                 name: d.header.name_str(),
                 planar: d.header.dims == 2,
+                thickness: d.header.thickness,
+                free: d.header.kind == 0,
                 seen: 0,
             },
         );
@@ -115,15 +119,9 @@ fn run(a: Args) -> Result<u8> {
         (None, None) => None,
     };
     if let Some(v) = &mut rr {
-        for c in 0..first.header.n_chains {
-            let d = conn.call(RequestHeader::new(Command::Describe, c), &[])?;
-            if a.chain.is_empty() || a.chain.contains(&d.header.name_str()) {
-                v.add_chain(
-                    c,
-                    &d.header.name_str(),
-                    d.header.thickness,
-                    d.header.kind == 0,
-                );
+        for (&c, info) in &chains {
+            if a.chain.is_empty() || a.chain.contains(&info.name) {
+                v.add_chain(c, &info.name, info.thickness, info.free);
             }
         }
     }
