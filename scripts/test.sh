@@ -4,9 +4,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --workspace --bins --profile test
-# `watch` with the Rerun viewer (cargo feature `rerun`, about 500 crates: built once, here, into
-# target/viewer/, in the profile `viewer` (no optimisation, no debug info: about 5 minutes here against 18
-# in the test profile).
+# `watch` with the Rerun viewer (cargo feature `rerun`, many dependencies): built once, here, into
+# target/viewer/, in the profile `viewer` (no optimisation, no debug info: a much shorter build than the
+# optimised test profile's).
 cargo build -p clients --features rerun --bin watch --profile viewer
 # The C library (libtractrix_client.so and .a) that the C and C++ examples link against.
 cargo build -p tractrix-client --lib --profile test
