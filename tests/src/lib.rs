@@ -29,6 +29,32 @@ pub fn unique_prefix() -> String {
     )
 }
 
+/// Runs `cargo ARGS` (the cargo that runs the tests) and fails the test if the build fails: for what a
+/// test needs and the runner may not have built.
+pub fn cargo_build(args: &[&str]) {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let ok = Command::new(cargo)
+        .arg("build")
+        .args(args)
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "cargo build {} failed", args.join(" "));
+}
+
+/// The lines a child writes to its standard error, as they come (read on a thread, so the child never
+/// blocks on a full pipe); the child must have been spawned with `stderr(Stdio::piped())`.
+pub fn stderr_lines(child: &mut std::process::Child) -> std::sync::mpsc::Receiver<String> {
+    use std::io::BufRead;
+    let err = child.stderr.take().expect("stderr piped");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for l in std::io::BufReader::new(err).lines().map_while(Result::ok) {
+            let _ = tx.send(l);
+        }
+    });
+    rx
+}
+
 /// Path of a workspace binary, built on demand if the test runner did not build it.
 pub fn bin(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("test executable path");
@@ -41,21 +67,15 @@ pub fn bin(name: &str) -> PathBuf {
     if !path.exists() {
         static BUILD: std::sync::Once = std::sync::Once::new();
         BUILD.call_once(|| {
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let status = Command::new(cargo)
-                .args([
-                    "build",
-                    "--bins",
-                    "-p",
-                    "solver-service",
-                    "-p",
-                    "clients",
-                    "--profile",
-                    "test",
-                ])
-                .status()
-                .expect("run cargo build");
-            assert!(status.success(), "building the binaries failed");
+            cargo_build(&[
+                "--bins",
+                "-p",
+                "solver-service",
+                "-p",
+                "clients",
+                "--profile",
+                "test",
+            ])
         });
     }
     assert!(path.exists(), "{} missing", path.display());

@@ -286,20 +286,7 @@ fn every_language_s_smallest_program_moves_the_rope() {
     let rust = {
         let p = lib.join("examples/hello");
         if !p.exists() {
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let ok = Process::new(cargo)
-                .args([
-                    "build",
-                    "-p",
-                    "clients",
-                    "--example",
-                    "hello",
-                    "--profile",
-                    "test",
-                ])
-                .status()
-                .is_ok_and(|s| s.success());
-            assert!(ok, "building the Rust example failed");
+            tests::cargo_build(&["-p", "clients", "--example", "hello", "--profile", "test"]);
         }
         p.display().to_string()
     };

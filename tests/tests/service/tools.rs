@@ -3,9 +3,8 @@
 //! an obstacle of a collision scene is refused as locked with the state unchanged.
 
 use shared::{Command, RequestHeader, Status, Vec3};
-use std::io::{BufRead, BufReader, Read};
+use std::io::Read;
 use std::process::{Child, Command as Process, ExitStatus, Stdio};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 use tests::{Service, bin, unique_prefix};
 
@@ -209,13 +208,7 @@ fn watch_writes_every_state_as_csv_and_frames() {
         ],
     );
     // Wait until it listens, so no state is published before it subscribed.
-    let err = watch.stderr.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        for l in BufReader::new(err).lines().map_while(Result::ok) {
-            let _ = tx.send(l);
-        }
-    });
+    let rx = tests::stderr_lines(&mut watch);
     let line = rx
         .recv_timeout(Duration::from_secs(20))
         .expect("watch listens");

@@ -4,12 +4,10 @@
 //! and what the service answers.
 
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
-use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Command as Process, Stdio};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
-use tests::{Service, unique_prefix};
+use tests::{Service, cargo_build, stderr_lines, unique_prefix};
 
 fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -26,22 +24,16 @@ fn watch_with_rerun() -> PathBuf {
         .to_path_buf();
     let path = target.join("viewer/watch");
     if !path.exists() {
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let ok = Process::new(cargo)
-            .args([
-                "build",
-                "-p",
-                "clients",
-                "--features",
-                "rerun",
-                "--bin",
-                "watch",
-            ])
-            .args(["--profile", "viewer"])
-            .status()
-            .expect("run cargo build")
-            .success();
-        assert!(ok, "building watch with the feature rerun failed");
+        cargo_build(&[
+            "-p",
+            "clients",
+            "--features",
+            "rerun",
+            "--bin",
+            "watch",
+            "--profile",
+            "viewer",
+        ]);
     }
     path
 }
@@ -63,13 +55,7 @@ fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
         .stdout(Stdio::null())
         .spawn()
         .expect("spawn watch");
-    let err = watch.stderr.take().unwrap();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        for l in BufReader::new(err).lines().map_while(Result::ok) {
-            let _ = tx.send(l);
-        }
-    });
+    let rx = stderr_lines(&mut watch);
     let line = rx
         .recv_timeout(Duration::from_secs(30))
         .expect("watch says something");
