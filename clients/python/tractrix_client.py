@@ -1,7 +1,7 @@
 """A Python client of the tractrix solver service, on the PyPI wheel iceoryx2==0.10.0.
 
 The wire types are ctypes mirrors of shared/src/lib.rs (the byte layout table there, and the C header
-shared/include/tractrix.h); their iceoryx2 type names must be the Rust ones ("tractrix.v1.*") or the
+shared/include/tractrix.h); their iceoryx2 type names must be the Rust ones ("tractrix.v2.*") or the
 service refuses the connection. Install it (`pip install clients/python`, which brings
 iceoryx2==0.10.0; `scripts/python-venv.sh` does it in target/pyenv), then:
 
@@ -51,7 +51,7 @@ class Vec3(ctypes.Structure):
 
     @staticmethod
     def type_name():
-        return "tractrix.v1.Vec3"
+        return "tractrix.v2.Vec3"
 
 
 class RequestHeader(ctypes.Structure):
@@ -75,7 +75,7 @@ class RequestHeader(ctypes.Structure):
 
     @staticmethod
     def type_name():
-        return "tractrix.v1.RequestHeader"
+        return "tractrix.v2.RequestHeader"
 
 
 class ResponseHeader(ctypes.Structure):
@@ -107,11 +107,13 @@ class ResponseHeader(ctypes.Structure):
         ("thickness", ctypes.c_double),
         ("name", ctypes.c_uint8 * 32),
         ("reason", ctypes.c_uint8 * 96),
+        ("n_instruments", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32 * 7),
     ]
 
     @staticmethod
     def type_name():
-        return "tractrix.v1.ResponseHeader"
+        return "tractrix.v2.ResponseHeader"
 
 
 # The layout table of shared/src/lib.rs, checked when the module loads.
@@ -119,14 +121,29 @@ _LAYOUT = {
     Vec3: (24, {"x": 0, "y": 8, "z": 16}),
     RequestHeader: (96, {"command": 0, "joint": 8, "flags": 36, "client_listener": 40,
                          "request_id": 56, "max_step": 64, "tolerance": 72, "reserved": 80}),
-    ResponseHeader: (256, {"status": 0, "n_joints": 12, "sequence": 32, "residual": 56,
+    ResponseHeader: (288, {"status": 0, "n_joints": 12, "sequence": 32, "residual": 56,
                            "n_chains": 64, "n_links": 76, "n_held": 100, "max_step": 104, "name": 128,
-                           "reason": 160}),
+                           "reason": 160, "n_instruments": 256, "reserved": 260}),
 }
 for _t, (_size, _offsets) in _LAYOUT.items():
     assert ctypes.sizeof(_t) == _size, (_t, ctypes.sizeof(_t))
     for _f, _o in _offsets.items():
         assert getattr(_t, _f).offset == _o, (_t, _f)
+
+
+INSTRUMENT_ELEMENTS = 3
+
+
+def instruments(h: ResponseHeader, elements: list) -> list[dict]:
+    """The chain's instruments in a response: each {"shape": "sphere" | "capsule", "a", "b", "radius"}
+    (a sphere has a == b, its centre)."""
+    at = h.n_joints + h.n_angles + h.n_held
+    out = []
+    for k in range(h.n_instruments):
+        a, b, (radius, shape, _) = elements[at + 3 * k: at + 3 * k + 3]
+        out.append({"shape": "capsule" if shape else "sphere", "a": list(a), "b": list(b),
+                    "radius": radius})
+    return out
 
 
 def _text(buf):
@@ -197,7 +214,8 @@ class Client:
     def call(self, command: str, chain: int = 0, points: Iterable[Point] = (),
              **fields) -> tuple[ResponseHeader, list[tuple[float, float, float]]]:
         """Sends one request; returns (header, list of (x, y, z): n_joints joints, n_angles rotations,
-        n_held held joints as (index, 1 for an anchor else 0, 0)) or raises ServiceError."""
+        n_held held joints as (index, 1 for an anchor else 0, 0), then n_instruments instruments, three
+        elements each: see `instruments`) or raises ServiceError."""
         points = list(points)
         request = self.client.loan_slice_uninit(len(points))
         for i, p in enumerate(points):
@@ -226,7 +244,7 @@ class Client:
                 time.sleep(0.0001)
         h = response.user_header().contents
         # The wheel's Slice.len() is in bytes (issue #1533): count from our own header.
-        n = h.n_joints + h.n_angles + h.n_held
+        n = h.n_joints + h.n_angles + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments
         elements = (Vec3 * n).from_address(response.payload().as_ptr()) if n else []
         out = [(v.x, v.y, v.z) for v in elements]
         copy = ResponseHeader.from_buffer_copy(h)
@@ -331,10 +349,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     # The description fields (n_links, name, ...) come with `describe` only; a chain of n links answers
     # n + 1 joints.
     joints = elements[:h.n_joints]
+    held_from = h.n_joints + h.n_angles
     held = [{"joint": int(x), "anchor": y != 0.0}
-            for x, y, _ in elements[h.n_joints + h.n_angles:]]
+            for x, y, _ in elements[held_from:held_from + h.n_held]]
     out = {"status": STATUS[h.status], "sequence": h.sequence, "n_links": h.n_joints - 1,
            "joints": joints, "held": held}
+    if h.n_instruments:
+        out["instruments"] = instruments(h, elements)
     if a.cmd == "describe":
         out["name"] = _text(h.name)
         out["total_length"] = h.total_length

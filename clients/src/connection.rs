@@ -157,31 +157,29 @@ pub(crate) fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> C
 #[derive(Debug, Clone)]
 pub struct Reply {
     pub header: ResponseHeader,
-    /// `n_joints` joints, then `n_angles` rotations, then `n_held` held joints.
+    /// `n_joints` joints, then `n_angles` rotations, then `n_held` held joints, then `n_instruments`
+    /// instruments.
     pub payload: Vec<Vec3>,
 }
 
 impl Reply {
-    fn part(&self, skip: u32, take: u32) -> &[Vec3] {
-        let from = (skip as usize).min(self.payload.len());
-        let to = (from + take as usize).min(self.payload.len());
-        &self.payload[from..to]
+    /// The payload cut into its parts.
+    pub fn parts(&self) -> shared::Parts<'_> {
+        shared::Parts::of_response(&self.header, &self.payload)
     }
     pub fn joints(&self) -> &[Vec3] {
-        self.part(0, self.header.n_joints)
+        self.parts().joints
     }
     pub fn angles(&self) -> &[Vec3] {
-        self.part(self.header.n_joints, self.header.n_angles)
+        self.parts().angles
     }
     /// The held joints: `(index, anchor of the scene)`.
     pub fn held(&self) -> Vec<(u32, bool)> {
-        self.part(
-            self.header.n_joints + self.header.n_angles,
-            self.header.n_held,
-        )
-        .iter()
-        .map(|v| (v.x as u32, v.y != 0.0))
-        .collect()
+        self.parts().held_joints().collect()
+    }
+    /// The chain's instruments' poses.
+    pub fn instruments(&self) -> Vec<shared::InstrumentPose> {
+        self.parts().instrument_poses().collect()
     }
     pub fn is_ok(&self) -> bool {
         self.header.status == shared::Status::Ok as u32

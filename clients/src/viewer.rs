@@ -9,13 +9,14 @@
 //! | `chains/NAME/rope` | `LineStrips3D`, radius = half the chain's thickness | every state |
 //! | `chains/NAME/joints` | `Points3D` | every state |
 //! | `chains/NAME/held` | `Points3D`, labelled `anchor J` / `grasp J` (empty when nothing is held) | every state |
+//! | `chains/NAME/instruments/K` | `Capsules3D` (from end `a` to `b`) or `Ellipsoids3D` (a sphere): instrument `K` of the chain in the scene's order | every state of a chain with instruments |
 //! | `chains/NAME/knot` | `TextLog`: the knot's name | when the name changes (free chains only) |
 //! | `chains/NAME/knot_crossings` | `Scalars`: crossings of the reduced diagram | with each identification |
 //! | `latency/query_round_trip_us` | `Scalars`: a `query` round trip timed by `watch` itself | every 100 ms |
 //! | `stream/missed` | `Scalars`: states lost so far (sequence gaps: a viewer too slow for its buffer) | on a gap |
 //!
 //! Knots are identified at most every 200 ms per chain, when the stream is idle, so a busy stream costs
-//! the viewer no more than drawing it. Instrument poses are not on the wire yet and are not drawn.
+//! the viewer no more than drawing it.
 
 use std::path::Path;
 

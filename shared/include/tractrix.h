@@ -1,4 +1,4 @@
-/* tractrix.h — the wire types of the tractrix solver service, protocol v1, for C, C++ and C#.
+/* tractrix.h — the wire types of the tractrix solver service, protocol v2, for C, C++ and C#.
  *
  * Mirrors shared/src/lib.rs (the Rust crate `shared`, module `protocol`), which documents
  * every field; the test `cargo test -p shared --test c_header` compiles this header with the
@@ -13,8 +13,11 @@
  *                           slice of tractrix_Vec3 (targets); response user header
  *                           tractrix_ResponseHeader, payload a slice of tractrix_Vec3 (n_joints joints,
  *                           then n_angles rotation vectors, then n_held held joints: x the index,
- *                           y 1 for an anchor of the scene and 0 for a grasp, z 0).
- *   "tractrix/state"        publish-subscribe: user header tractrix_StateHeader, payload tractrix_Vec3[].
+ *                           y 1 for an anchor of the scene and 0 for a grasp, z 0, then
+ *                           n_instruments instruments, three elements each: the axis ends a and b
+ *                           (equal for a sphere), then (radius, 0 sphere / 1 capsule, 0)).
+ *   "tractrix/state"        publish-subscribe: user header tractrix_StateHeader, payload tractrix_Vec3[]
+ *                           (n_joints joints, n_held held joints, n_instruments instruments).
  *   "tractrix/wake-server"  event: notify after sending unless the server spins.
  *   "tractrix/wake-client"  event: the server notifies the listener whose id is in client_listener.
  * iceoryx2 type names (C++: static constexpr const char* IOX2_TYPE_NAME) are the TRACTRIX_TYPE_NAME_*
@@ -26,7 +29,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define TRACTRIX_PROTOCOL_VERSION 1u
+#define TRACTRIX_PROTOCOL_VERSION 2u
 #define TRACTRIX_SERVICE_COMMAND "tractrix/command"
 #define TRACTRIX_SERVICE_STATE "tractrix/state"
 #define TRACTRIX_SERVICE_WAKE_SERVER "tractrix/wake-server"
@@ -34,7 +37,10 @@
 #define TRACTRIX_DEFAULT_PREFIX "tractrix_"
 #define TRACTRIX_MAX_LINKS 65536u
 #define TRACTRIX_MAX_HELD 64u
-#define TRACTRIX_MAX_RESPONSE_ELEMENTS (2u * TRACTRIX_MAX_LINKS + 1u + TRACTRIX_MAX_HELD)
+#define TRACTRIX_MAX_INSTRUMENTS 64u
+#define TRACTRIX_INSTRUMENT_ELEMENTS 3u
+#define TRACTRIX_MAX_RESPONSE_ELEMENTS \
+    (2u * TRACTRIX_MAX_LINKS + 1u + TRACTRIX_MAX_HELD + TRACTRIX_INSTRUMENT_ELEMENTS * TRACTRIX_MAX_INSTRUMENTS)
 #define TRACTRIX_MAX_PATH_POINTS 4096u
 #define TRACTRIX_MAX_CHAINS 256u
 #define TRACTRIX_NAME_LEN 32u
@@ -45,10 +51,10 @@
 #define TRACTRIX_COLLISION_OBSTACLES 2u
 #define TRACTRIX_COLLISION_PAPER_SPHERES 4u
 
-#define TRACTRIX_TYPE_NAME_VEC3 "tractrix.v1.Vec3"
-#define TRACTRIX_TYPE_NAME_REQUESTHEADER "tractrix.v1.RequestHeader"
-#define TRACTRIX_TYPE_NAME_RESPONSEHEADER "tractrix.v1.ResponseHeader"
-#define TRACTRIX_TYPE_NAME_STATEHEADER "tractrix.v1.StateHeader"
+#define TRACTRIX_TYPE_NAME_VEC3 "tractrix.v2.Vec3"
+#define TRACTRIX_TYPE_NAME_REQUESTHEADER "tractrix.v2.RequestHeader"
+#define TRACTRIX_TYPE_NAME_RESPONSEHEADER "tractrix.v2.ResponseHeader"
+#define TRACTRIX_TYPE_NAME_STATEHEADER "tractrix.v2.StateHeader"
 
 /* Commands (RequestHeader.command). */
 enum tractrix_command {
@@ -118,7 +124,7 @@ typedef struct tractrix_RequestHeader {
     uint64_t reserved[2]; /* offset 80 */
 } tractrix_RequestHeader;
 
-/* 256 bytes, align 8. */
+/* 288 bytes, align 8. */
 typedef struct tractrix_ResponseHeader {
     uint32_t status; /* offset 0 */
     uint32_t command; /* offset 4 */
@@ -147,9 +153,11 @@ typedef struct tractrix_ResponseHeader {
     double thickness; /* offset 120 */
     uint8_t name[32]; /* offset 128 */
     uint8_t reason[96]; /* offset 160 */
+    uint32_t n_instruments; /* offset 256 */
+    uint32_t reserved[7]; /* offset 260 */
 } tractrix_ResponseHeader;
 
-/* 32 bytes, align 8. */
+/* 48 bytes, align 8. */
 typedef struct tractrix_StateHeader {
     uint64_t sequence; /* offset 0 */
     uint32_t chain; /* offset 8 */
@@ -157,6 +165,8 @@ typedef struct tractrix_StateHeader {
     uint32_t command; /* offset 16 */
     uint32_t n_held; /* offset 20 */
     uint64_t request_id; /* offset 24 */
+    uint32_t n_instruments; /* offset 32 */
+    uint32_t reserved[3]; /* offset 36 */
 } tractrix_StateHeader;
 
 #ifdef __cplusplus
@@ -187,7 +197,7 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, max_step) == 64, "tractr
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, tolerance) == 72, "tractrix_RequestHeader.tolerance offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_RequestHeader, reserved) == 80, "tractrix_RequestHeader.reserved offset");
 
-TRACTRIX_STATIC_ASSERT(sizeof(tractrix_ResponseHeader) == 256, "tractrix_ResponseHeader size");
+TRACTRIX_STATIC_ASSERT(sizeof(tractrix_ResponseHeader) == 288, "tractrix_ResponseHeader size");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, status) == 0, "tractrix_ResponseHeader starts with status");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, command) == 4, "tractrix_ResponseHeader.command offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, chain) == 8, "tractrix_ResponseHeader.chain offset");
@@ -215,13 +225,17 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, total_length) == 112, "
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, thickness) == 120, "tractrix_ResponseHeader.thickness offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, name) == 128, "tractrix_ResponseHeader.name offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reason) == 160, "tractrix_ResponseHeader.reason offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_instruments) == 256, "tractrix_ResponseHeader.n_instruments offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 260, "tractrix_ResponseHeader.reserved offset");
 
-TRACTRIX_STATIC_ASSERT(sizeof(tractrix_StateHeader) == 32, "tractrix_StateHeader size");
+TRACTRIX_STATIC_ASSERT(sizeof(tractrix_StateHeader) == 48, "tractrix_StateHeader size");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, sequence) == 0, "tractrix_StateHeader starts with sequence");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, chain) == 8, "tractrix_StateHeader.chain offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_joints) == 12, "tractrix_StateHeader.n_joints offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, command) == 16, "tractrix_StateHeader.command offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_held) == 20, "tractrix_StateHeader.n_held offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, request_id) == 24, "tractrix_StateHeader.request_id offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_instruments) == 32, "tractrix_StateHeader.n_instruments offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, reserved) == 36, "tractrix_StateHeader.reserved offset");
 
 #endif /* TRACTRIX_H */

@@ -86,12 +86,14 @@ int tractrix_client_instrument(tractrix_client *client, uint32_t chain, uint32_t
                                const tractrix_Vec3 *axis, tractrix_Vec3 *joints, size_t capacity,
                                size_t *n_joints);
 /* Any request: the response header is written to *response (for refusals too), its elements
- * (n_joints + n_angles + n_held) to (elements, capacity). */
+ * (the whole payload: n_joints + n_angles + n_held + 3 * n_instruments) to (elements, capacity). */
 int tractrix_client_call(tractrix_client *client, const tractrix_RequestHeader *header,
                          const tractrix_Vec3 *points, size_t n_points, tractrix_ResponseHeader *response,
                          tractrix_Vec3 *elements, size_t capacity);
 
-/* The state stream: every accepted change, in order. */
+/* The state stream: every accepted change, in order. `joints` points at the sample's whole payload:
+ * n_joints joints, then header->n_held held joints, then 3 * header->n_instruments instrument elements
+ * (the header's counts are cut to what the payload holds). */
 typedef void (*tractrix_on_state)(void *user, const tractrix_StateHeader *header, const tractrix_Vec3 *joints,
                                   size_t n_joints);
 int tractrix_stream_open(tractrix_client *client, tractrix_stream **out);

@@ -10,7 +10,7 @@
 //! | service | pattern | types | purpose |
 //! |---|---|---|---|
 //! | [`SERVICE_COMMAND`] | request-response, one server | request: user header [`RequestHeader`], payload slice of [`Vec3`] (targets); response: user header [`ResponseHeader`], payload slice of [`Vec3`] (joints, then joint rotations) | every command |
-//! | [`SERVICE_STATE`] | publish-subscribe | user header [`StateHeader`], payload slice of [`Vec3`] (joints) | every accepted change, in order |
+//! | [`SERVICE_STATE`] | publish-subscribe | user header [`StateHeader`], payload slice of [`Vec3`] (joints, held joints, instruments) | every accepted change, in order |
 //! | [`SERVICE_WAKE_SERVER`] | event | – | a client notifies it after sending, so a server in `event`/`hybrid` mode wakes |
 //! | [`SERVICE_WAKE_CLIENT`] | event | – | the server notifies the listener whose id a request carries in [`RequestHeader::client_listener`] |
 //!
@@ -29,8 +29,10 @@
 //!    `n_joints` joint positions (tail first, joint 0 = tail, joint `n_joints - 1` = head) followed by
 //!    `n_angles` joint rotations as rotation vectors (axis × angle in radians; for a planar chain `(0, 0,
 //!    θ)`), then `n_held` held joints (anchors of the scene and grasps of clients), one element each:
-//!    `x` the joint's index, `y` 1 for an anchor and 0 for a grasp, `z` 0. An error response carries no
-//!    elements. The chain's description (name, kind, sizes, defaults) comes with [`Command::Describe`]
+//!    `x` the joint's index, `y` 1 for an anchor and 0 for a grasp, `z` 0, then `n_instruments`
+//!    instruments of the chain (in the scene's order), three elements each ([`InstrumentPose`]): the
+//!    two ends of the axis (equal for a sphere), then `(radius, 0 for a sphere or 1 for a capsule, 0)`.
+//!    A chain without instruments has `n_instruments = 0`. An error response carries no elements. The chain's description (name, kind, sizes, defaults) comes with [`Command::Describe`]
 //!    only.
 //!
 //! # Byte layout
@@ -60,7 +62,7 @@
 //! | | max_step | 64 | double |
 //! | | tolerance | 72 | double |
 //! | | reserved | 80 | uint64_t[2] |
-//! | ResponseHeader (256 B, align 8) | status | 0 | uint32_t |
+//! | ResponseHeader (288 B, align 8) | status | 0 | uint32_t |
 //! | | command | 4 | uint32_t |
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
@@ -87,18 +89,25 @@
 //! | | thickness | 120 | double |
 //! | | name | 128 | uint8_t[32] |
 //! | | reason | 160 | uint8_t[96] |
-//! | StateHeader (32 B, align 8) | sequence | 0 | uint64_t |
+//! | | n_instruments | 256 | uint32_t |
+//! | | reserved | 260 | uint32_t[7] |
+//! | StateHeader (48 B, align 8) | sequence | 0 | uint64_t |
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
 //! | | command | 16 | uint32_t |
 //! | | n_held | 20 | uint32_t |
 //! | | request_id | 24 | uint64_t |
+//! | | n_instruments | 32 | uint32_t |
+//! | | reserved | 36 | uint32_t[3] |
 //! <!-- layout-table-end -->
 //!
 //! Service names carry no version on purpose: a peer of another protocol version finds the service and
 //! is refused at `open` because the type names differ (iceoryx2's `IncompatibleRequestOrResponseType`),
-//! so it can say why instead of reading garbage or timing out. Type names: `tractrix.v1.Vec3`, `tractrix.v1.RequestHeader`,
-//! `tractrix.v1.ResponseHeader`, `tractrix.v1.StateHeader`.
+//! so it can say why instead of reading garbage or timing out. Type names: `tractrix.v2.Vec3`, `tractrix.v2.RequestHeader`,
+//! `tractrix.v2.ResponseHeader`, `tractrix.v2.StateHeader`.
+//!
+//! Versions: v1 had no instruments in payloads and no reserved tail in the response and state headers;
+//! v2 adds `n_instruments` (and the instruments' elements) and zeroed `reserved` words for later fields.
 //!
 //! # Enumerations (all `uint32_t`)
 //!
@@ -125,8 +134,13 @@ pub mod unix_frame;
 /// Most held joints (anchors and grasps) one chain may have; a grasp beyond is refused.
 pub const MAX_HELD: u32 = 64;
 
+/// Most instruments a scene may declare (so at most this many on one chain).
+pub const MAX_INSTRUMENTS: u32 = 64;
+/// Elements per instrument in a payload (see [`InstrumentPose`]).
+pub const INSTRUMENT_ELEMENTS: u32 = 3;
+
 /// Protocol version; it is part of every type name.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 /// Request-response service of every command.
 pub const SERVICE_COMMAND: &str = "tractrix/command";
 /// Publish-subscribe stream of accepted states.
@@ -143,7 +157,8 @@ pub const DEFAULT_PREFIX: &str = "tractrix_";
 /// Most links in one chain. Bounds scenes, snapshots and the response memory (24 B per joint).
 pub const MAX_LINKS: u32 = 65_536;
 /// Most joints in a response: joints plus one rotation per link.
-pub const MAX_RESPONSE_ELEMENTS: u32 = 2 * MAX_LINKS + 1 + MAX_HELD;
+pub const MAX_RESPONSE_ELEMENTS: u32 =
+    2 * MAX_LINKS + 1 + MAX_HELD + INSTRUMENT_ELEMENTS * MAX_INSTRUMENTS;
 /// Most points in one [`Command::Path`] request.
 pub const MAX_PATH_POINTS: u32 = 4096;
 /// Most chains in one scene.
@@ -257,7 +272,7 @@ pub fn prefix_from_env() -> String {
     Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize, Pod, Zeroable,
 )]
 #[repr(C)]
-#[type_name("tractrix.v1.Vec3")]
+#[type_name("tractrix.v2.Vec3")]
 pub struct Vec3 {
     pub x: f64,
     pub y: f64,
@@ -512,7 +527,7 @@ wire_enum_from_u32! {
     Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Serialize, Deserialize, Pod, Zeroable,
 )]
 #[repr(C)]
-#[type_name("tractrix.v1.RequestHeader")]
+#[type_name("tractrix.v2.RequestHeader")]
 pub struct RequestHeader {
     /// A [`Command`].
     pub command: u32,
@@ -573,7 +588,7 @@ impl RequestHeader {
 /// other response leaves them zero (a chain of `n` links answers `n + 1` joints).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[repr(C)]
-#[type_name("tractrix.v1.ResponseHeader")]
+#[type_name("tractrix.v2.ResponseHeader")]
 pub struct ResponseHeader {
     /// A [`Status`].
     pub status: u32,
@@ -631,6 +646,11 @@ pub struct ResponseHeader {
     pub name: [u8; NAME_LEN],
     /// Why the command failed, UTF-8, NUL-padded (empty when ok).
     pub reason: [u8; REASON_LEN],
+    /// Instruments after the held joints, [`INSTRUMENT_ELEMENTS`] elements each (every response that
+    /// carries joints, for a chain whose scene gives it instruments).
+    pub n_instruments: u32,
+    /// Must be zero (room for later fields without a layout change).
+    pub reserved: [u32; 7],
 }
 
 impl Default for ResponseHeader {
@@ -663,6 +683,8 @@ impl Default for ResponseHeader {
             thickness: 0.0,
             name: [0; NAME_LEN],
             reason: [0; REASON_LEN],
+            n_instruments: 0,
+            reserved: [0; 7],
         }
     }
 }
@@ -691,10 +713,10 @@ impl ResponseHeader {
 }
 
 /// The state stream's user header; the payload is the chain's `n_joints` joints, then its `n_held` held
-/// joints (as in a response).
+/// joints, then its `n_instruments` instruments (as in a response).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[repr(C)]
-#[type_name("tractrix.v1.StateHeader")]
+#[type_name("tractrix.v2.StateHeader")]
 pub struct StateHeader {
     /// Increases by one with every accepted change, over all chains; a gap means a missed sample.
     pub sequence: u64,
@@ -708,6 +730,101 @@ pub struct StateHeader {
     pub n_held: u32,
     /// The `request_id` of that command.
     pub request_id: u64,
+    /// Instruments after the held joints in the payload (as in a response).
+    pub n_instruments: u32,
+    /// Must be zero (room for later fields without a layout change).
+    pub reserved: [u32; 3],
+}
+
+/// One instrument as a payload carries it ([`INSTRUMENT_ELEMENTS`] elements: `a`, `b`, then
+/// `(radius, 0 sphere / 1 capsule, 0)`). A sphere has `a == b`, its centre.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct InstrumentPose {
+    /// One end of the axis (a sphere's centre).
+    pub a: Vec3,
+    /// The other end (a sphere's centre again).
+    pub b: Vec3,
+    pub radius: f64,
+    /// A capsule, not a sphere.
+    pub capsule: bool,
+}
+
+impl InstrumentPose {
+    /// Its payload elements.
+    pub fn to_elements(&self) -> [Vec3; INSTRUMENT_ELEMENTS as usize] {
+        let shape = if self.capsule { 1.0 } else { 0.0 };
+        [self.a, self.b, Vec3::new(self.radius, shape, 0.0)]
+    }
+    /// From its payload elements (`None` unless there are exactly [`INSTRUMENT_ELEMENTS`]).
+    pub fn from_elements(e: &[Vec3]) -> Option<Self> {
+        match e {
+            [a, b, r] => Some(InstrumentPose {
+                a: *a,
+                b: *b,
+                radius: r.x,
+                capsule: r.y != 0.0,
+            }),
+            _ => None,
+        }
+    }
+}
+
+/// A payload cut into its parts by the counts of its header; counts larger than the payload are cut
+/// to what is there, so a malformed header cannot index out of it.
+#[derive(Debug, Clone, Copy)]
+pub struct Parts<'a> {
+    pub joints: &'a [Vec3],
+    pub angles: &'a [Vec3],
+    /// `(index, 1 anchor / 0 grasp, 0)` each.
+    pub held: &'a [Vec3],
+    /// [`INSTRUMENT_ELEMENTS`] elements per instrument.
+    pub instruments: &'a [Vec3],
+}
+
+impl<'a> Parts<'a> {
+    /// Cuts `payload` into `n_joints`, `n_angles`, `n_held` and `n_instruments` parts.
+    pub fn new(
+        payload: &'a [Vec3],
+        n_joints: u32,
+        n_angles: u32,
+        n_held: u32,
+        n_inst: u32,
+    ) -> Self {
+        let mut rest = payload;
+        let mut take = |n: usize| {
+            let (head, tail) = rest.split_at(n.min(rest.len()));
+            rest = tail;
+            head
+        };
+        let joints = take(n_joints as usize);
+        let angles = take(n_angles as usize);
+        let held = take(n_held as usize);
+        let instruments = take((n_inst as usize).saturating_mul(INSTRUMENT_ELEMENTS as usize));
+        Parts {
+            joints,
+            angles,
+            held,
+            instruments,
+        }
+    }
+    /// The parts of a response's payload.
+    pub fn of_response(h: &ResponseHeader, payload: &'a [Vec3]) -> Self {
+        Self::new(payload, h.n_joints, h.n_angles, h.n_held, h.n_instruments)
+    }
+    /// The parts of a state sample's payload (no rotations).
+    pub fn of_state(h: &StateHeader, payload: &'a [Vec3]) -> Self {
+        Self::new(payload, h.n_joints, 0, h.n_held, h.n_instruments)
+    }
+    /// The held joints: `(index, anchor of the scene)`.
+    pub fn held_joints(&self) -> impl Iterator<Item = (u32, bool)> + 'a {
+        self.held.iter().map(|v| (v.x as u32, v.y != 0.0))
+    }
+    /// The instruments.
+    pub fn instrument_poses(&self) -> impl Iterator<Item = InstrumentPose> + 'a {
+        self.instruments
+            .chunks_exact(INSTRUMENT_ELEMENTS as usize)
+            .filter_map(InstrumentPose::from_elements)
+    }
 }
 
 fn c_string(bytes: &[u8]) -> String {
@@ -766,17 +883,17 @@ macro_rules! wire_layout {
     };
 }
 
-wire_layout!(Vec3, "tractrix.v1.Vec3", size = 24, align = 8, [
+wire_layout!(Vec3, "tractrix.v2.Vec3", size = 24, align = 8, [
     x: "double" @ 0, y: "double" @ 8, z: "double" @ 16,
 ]);
-wire_layout!(RequestHeader, "tractrix.v1.RequestHeader", size = 96, align = 8, [
+wire_layout!(RequestHeader, "tractrix.v2.RequestHeader", size = 96, align = 8, [
     command: "uint32_t" @ 0, chain: "uint32_t" @ 4, joint: "uint32_t" @ 8, method: "uint32_t" @ 12,
     precision: "uint32_t" @ 16, substep_mode: "uint32_t" @ 20, substeps: "uint32_t" @ 24,
     strategy: "uint32_t" @ 28, max_iterations: "uint32_t" @ 32, flags: "uint32_t" @ 36,
     client_listener: "uint64_t[2]" @ 40, request_id: "uint64_t" @ 56, max_step: "double" @ 64,
     tolerance: "double" @ 72, reserved: "uint64_t[2]" @ 80,
 ]);
-wire_layout!(ResponseHeader, "tractrix.v1.ResponseHeader", size = 256, align = 8, [
+wire_layout!(ResponseHeader, "tractrix.v2.ResponseHeader", size = 288, align = 8, [
     status: "uint32_t" @ 0, command: "uint32_t" @ 4, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12,
     n_angles: "uint32_t" @ 16, iterations: "uint32_t" @ 20, substeps: "uint32_t" @ 24,
     paper_fallbacks: "uint32_t" @ 28, sequence: "uint64_t" @ 32, request_id: "uint64_t" @ 40,
@@ -785,10 +902,12 @@ wire_layout!(ResponseHeader, "tractrix.v1.ResponseHeader", size = 256, align = 8
     collision: "uint32_t" @ 88, substep_mode: "uint32_t" @ 92, substeps_default: "uint32_t" @ 96,
     n_held: "uint32_t" @ 100, max_step: "double" @ 104, total_length: "double" @ 112,
     thickness: "double" @ 120, name: "uint8_t[32]" @ 128, reason: "uint8_t[96]" @ 160,
+    n_instruments: "uint32_t" @ 256, reserved: "uint32_t[7]" @ 260,
 ]);
-wire_layout!(StateHeader, "tractrix.v1.StateHeader", size = 32, align = 8, [
+wire_layout!(StateHeader, "tractrix.v2.StateHeader", size = 48, align = 8, [
     sequence: "uint64_t" @ 0, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12, command: "uint32_t" @ 16,
-    n_held: "uint32_t" @ 20, request_id: "uint64_t" @ 24,
+    n_held: "uint32_t" @ 20, request_id: "uint64_t" @ 24, n_instruments: "uint32_t" @ 32,
+    reserved: "uint32_t[3]" @ 36,
 ]);
 
 /// Every wire type's layout, in the order of the crate docs' table.

@@ -17,8 +17,8 @@
 //! centre and `axis` (capsules only) its new axis direction. Unknown fields are an error.
 
 use crate::{
-    Command, FLAG_ANGLES, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader,
-    Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+    Command, FLAG_ANGLES, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision,
+    RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use serde::{Deserialize, Serialize};
 
@@ -256,6 +256,9 @@ pub struct TextResponse {
     /// Held joints (anchors of the scene and grasps).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub held: Vec<HeldJoint>,
+    /// The chain's instruments' poses.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub instruments: Vec<TextInstrument>,
 }
 
 /// A held joint in a text response.
@@ -267,12 +270,11 @@ pub struct HeldJoint {
 }
 
 impl TextResponse {
-    /// From a header and its payload (`n_joints` positions, `n_angles` rotations, then `n_held` held
-    /// joints; a payload shorter than the header claims is cut to what is there).
+    /// From a header and its payload (`n_joints` positions, `n_angles` rotations, `n_held` held joints,
+    /// then `n_instruments` instruments; a payload shorter than the header claims is cut to what is
+    /// there).
     pub fn from_wire(h: &ResponseHeader, payload: &[Vec3]) -> Self {
-        let nj = (h.n_joints as usize).min(payload.len());
-        let na = (h.n_angles as usize).min(payload.len() - nj);
-        let nh = (h.n_held as usize).min(payload.len() - nj - na);
+        let parts = Parts::of_response(h, payload);
         TextResponse {
             status: Status::from_u32(h.status)
                 .map(|s| s.name().to_string())
@@ -289,15 +291,34 @@ impl TextResponse {
             iterations: h.iterations,
             substeps: h.substeps,
             residual: h.residual,
-            joints: payload[..nj].iter().map(|v| v.to_array()).collect(),
-            angles: payload[nj..nj + na].iter().map(|v| v.to_array()).collect(),
-            held: payload[nj + na..nj + na + nh]
-                .iter()
-                .map(|v| HeldJoint {
-                    joint: v.x as u32,
-                    anchor: v.y != 0.0,
-                })
+            joints: parts.joints.iter().map(|v| v.to_array()).collect(),
+            angles: parts.angles.iter().map(|v| v.to_array()).collect(),
+            held: parts
+                .held_joints()
+                .map(|(joint, anchor)| HeldJoint { joint, anchor })
                 .collect(),
+            instruments: parts.instrument_poses().map(TextInstrument::from).collect(),
+        }
+    }
+}
+
+/// An instrument in a text response: a sphere has `a == b`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TextInstrument {
+    /// `sphere` or `capsule`.
+    pub shape: String,
+    pub a: [f64; 3],
+    pub b: [f64; 3],
+    pub radius: f64,
+}
+
+impl From<InstrumentPose> for TextInstrument {
+    fn from(p: InstrumentPose) -> Self {
+        TextInstrument {
+            shape: if p.capsule { "capsule" } else { "sphere" }.to_string(),
+            a: p.a.to_array(),
+            b: p.b.to_array(),
+            radius: p.radius,
         }
     }
 }

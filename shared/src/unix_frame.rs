@@ -2,12 +2,16 @@
 //! bench, and a way in for a peer that cannot map iceoryx2's shared memory). Little-endian, no padding:
 //!
 //! * request: [`RequestHeader`] (96 B), then `n_points: u32` and a zero `u32`, then `n_points` × [`Vec3`];
-//! * response: [`ResponseHeader`] (256 B), then `n_joints + n_angles` × [`Vec3`].
+//! * response: [`ResponseHeader`] (288 B), then `n_joints + n_angles + n_held + 3 n_instruments` ×
+//!   [`Vec3`] (the payload of the shared-memory response).
 //!
 //! A server refuses a frame announcing more than [`MAX_PATH_POINTS`] points or a non-zero pad and closes
 //! the connection: the stream cannot be trusted after it.
 
-use crate::{MAX_PATH_POINTS, MAX_RESPONSE_ELEMENTS, RequestHeader, ResponseHeader, Vec3};
+use crate::{
+    INSTRUMENT_ELEMENTS, MAX_PATH_POINTS, MAX_RESPONSE_ELEMENTS, RequestHeader, ResponseHeader,
+    Vec3,
+};
 use std::io::{Read, Write};
 
 /// Bytes of the request frame before the points.
@@ -64,7 +68,10 @@ pub fn read_response(
 ) -> std::io::Result<ResponseHeader> {
     let mut h = ResponseHeader::default();
     input.read_exact(bytemuck::bytes_of_mut(&mut h))?;
-    let n = h.n_joints as u64 + h.n_angles as u64;
+    let n = h.n_joints as u64
+        + h.n_angles as u64
+        + h.n_held as u64
+        + h.n_instruments as u64 * INSTRUMENT_ELEMENTS as u64;
     if n > MAX_RESPONSE_ELEMENTS as u64 {
         return Err(std::io::Error::new(
             std::io::ErrorKind::InvalidData,

@@ -70,6 +70,12 @@ fn assertions() -> String {
             u64::from(shared::MAX_RESPONSE_ELEMENTS),
         ),
         ("MAX_PATH_POINTS", u64::from(shared::MAX_PATH_POINTS)),
+        ("MAX_HELD", u64::from(shared::MAX_HELD)),
+        ("MAX_INSTRUMENTS", u64::from(shared::MAX_INSTRUMENTS)),
+        (
+            "INSTRUMENT_ELEMENTS",
+            u64::from(shared::INSTRUMENT_ELEMENTS),
+        ),
         ("MAX_CHAINS", u64::from(shared::MAX_CHAINS)),
         ("NAME_LEN", shared::NAME_LEN as u64),
         ("REASON_LEN", shared::REASON_LEN as u64),

@@ -507,17 +507,19 @@ impl ChainSet {
             .position(|s| s.name == name)
             .map(|i| i as u32)
     }
-    /// The sizes the ports must hold: the most elements in a response (joints and rotations of the
-    /// longest chain) and the most joints in a state sample.
+    /// The sizes the ports must hold: the most elements in a response (joints, rotations, held joints
+    /// and instruments of the largest chain) and the most in a state sample (the same without
+    /// rotations).
     pub fn response_sizes(&self) -> (usize, usize) {
-        let links = self
-            .specs
-            .iter()
-            .map(|s| s.lengths.len())
-            .max()
-            .unwrap_or(1);
-        let held = shared::MAX_HELD as usize;
-        (2 * links + 1 + held, links + 1 + held)
+        let mut most = (1, 1);
+        for (spec, g) in self.specs.iter().zip(&self.geometry) {
+            let links = spec.lengths.len();
+            let tail = shared::MAX_HELD as usize
+                + shared::INSTRUMENT_ELEMENTS as usize * each_form!(g, h => h.instruments().len());
+            most.0 = most.0.max(2 * links + 1 + tail);
+            most.1 = most.1.max(links + 1 + tail);
+        }
+        most
     }
 
     /// Checks a wire request against the scene ([`request::decode`]).
@@ -642,6 +644,7 @@ impl ChainSet {
             Request::Snapshot => Ok(()),
         };
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
+        outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
         match result {
             Ok(()) => {
                 if outcome.changed {
@@ -691,20 +694,27 @@ impl ChainSet {
     /// vector per joint (joint 0: from +x to link 1; joint i: from link i to link i+1). Written in order,
     /// with no intermediate buffer. An error response (or an unknown chain) yields nothing.
     pub fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
-        if h.n_joints + h.n_angles + h.n_held == 0 {
+        if h.n_joints + h.n_angles + h.n_held + h.n_instruments == 0 {
             return Elements::Empty;
         }
-        self.elements_with(h.chain, h.n_angles > 0, h.n_held > 0)
+        self.elements_with(h.chain, h.n_angles > 0, h.n_held > 0, h.n_instruments > 0)
     }
 
     /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).
     pub fn elements_of(&self, chain: u32, angles: bool) -> Elements<'_> {
-        self.elements_with(chain, angles, false)
+        self.elements_with(chain, angles, false, false)
     }
 
     /// A chain's joints, its rotations with `angles`, its held joints with `held` (index, 1 for an
-    /// anchor and 0 for a grasp, 0).
-    pub fn elements_with(&self, chain: u32, angles: bool, held: bool) -> Elements<'_> {
+    /// anchor and 0 for a grasp, 0), its instruments with `instruments` (the wire's three elements
+    /// each, [`shared::InstrumentPose`]).
+    pub fn elements_with(
+        &self,
+        chain: u32,
+        angles: bool,
+        held: bool,
+        instruments: bool,
+    ) -> Elements<'_> {
         let (Some(g), Some(spec)) = (
             self.geometry.get(chain as usize),
             self.specs.get(chain as usize),
@@ -712,19 +722,16 @@ impl ChainSet {
             return Elements::Empty;
         };
         let a = &spec.anchors[..];
+        let wants = Wants {
+            angles,
+            held,
+            instruments,
+        };
         match g {
-            Geometry::Planar64(h) => {
-                Elements::Planar64(ChainElements::new(&h.chain, angles, held, a))
-            }
-            Geometry::Spatial64(h) => {
-                Elements::Spatial64(ChainElements::new(&h.chain, angles, held, a))
-            }
-            Geometry::Planar32(h) => {
-                Elements::Planar32(ChainElements::new(&h.chain, angles, held, a))
-            }
-            Geometry::Spatial32(h) => {
-                Elements::Spatial32(ChainElements::new(&h.chain, angles, held, a))
-            }
+            Geometry::Planar64(h) => Elements::Planar64(ChainElements::new(h, wants, a)),
+            Geometry::Spatial64(h) => Elements::Spatial64(ChainElements::new(h, wants, a)),
+            Geometry::Planar32(h) => Elements::Planar32(ChainElements::new(h, wants, a)),
+            Geometry::Spatial32(h) => Elements::Spatial32(ChainElements::new(h, wants, a)),
         }
     }
 }
@@ -986,16 +993,25 @@ impl Iterator for Elements<'_> {
     }
 }
 
+/// Which parts of a payload to write after the joints.
+#[derive(Debug, Clone, Copy)]
+struct Wants {
+    angles: bool,
+    held: bool,
+    instruments: bool,
+}
+
 /// Joints by a compensated prefix sum (restarted at every held joint, as the kernel sums them), then
-/// joint rotations, then held joints, one at a time.
+/// joint rotations, then held joints, then instruments, one element at a time.
 #[derive(Debug)]
 pub struct ChainElements<'a, T: Real, const D: usize> {
     chain: &'a Chain<T, D>,
     acc: CompensatedSum<T, D>,
-    /// Next joint (0..=n), then n+1+k for rotation k, then held joint k.
+    /// Next joint (0..=n), then n+1+k for rotation k, then held joint k, then instrument elements.
     at: usize,
-    angles: bool,
-    held: bool,
+    rotations: usize,
+    held: usize,
+    instruments: &'a [Obstacle<T, D>],
     /// The next held joint whose state restarts the sum.
     pin: usize,
     anchors: &'a [u32],
@@ -1005,13 +1021,19 @@ impl<'a, T: Real, const D: usize> ChainElements<'a, T, D>
 where
     Vector<T, D>: Embed3<T>,
 {
-    fn new(chain: &'a Chain<T, D>, angles: bool, held: bool, anchors: &'a [u32]) -> Self {
+    fn new(h: &'a Held<T, D>, wants: Wants, anchors: &'a [u32]) -> Self {
+        let chain = &h.chain;
         ChainElements {
             chain,
             acc: CompensatedSum::new(chain.origin()),
             at: 0,
-            angles,
-            held,
+            rotations: if wants.angles { chain.links().len() } else { 0 },
+            held: if wants.held { chain.held().len() } else { 0 },
+            instruments: if wants.instruments {
+                h.instruments()
+            } else {
+                &[]
+            },
             pin: 0,
             anchors,
         }
@@ -1053,9 +1075,8 @@ where
             self.restart_at(i);
             return Some(to_wire(&self.acc.value()));
         }
-        let rotations = if self.angles { n } else { 0 };
         let k = i - n - 1;
-        if k < rotations {
+        if k < self.rotations {
             let b = links[k].to_3d();
             let a = if k == 0 {
                 Vector3::x()
@@ -1070,16 +1091,36 @@ where
                 Vec3::new(r.x.to_f64(), r.y.to_f64(), r.z.to_f64())
             });
         }
-        let k = k - rotations;
-        match self.chain.held_state(k).filter(|_| self.held) {
-            Some((j, _)) => {
-                let anchor = self.anchors.contains(&(j as u32));
-                Some(Vec3::new(j as f64, if anchor { 1.0 } else { 0.0 }, 0.0))
-            }
-            None => {
-                self.at = i;
-                None
-            }
+        let k = k - self.rotations;
+        if k < self.held {
+            let (j, _) = self.chain.held_state(k)?;
+            let anchor = self.anchors.contains(&(j as u32));
+            return Some(Vec3::new(j as f64, if anchor { 1.0 } else { 0.0 }, 0.0));
         }
+        let k = k - self.held;
+        let per = shared::INSTRUMENT_ELEMENTS as usize;
+        let Some(o) = self.instruments.get(k / per) else {
+            self.at = i;
+            return None;
+        };
+        Some(instrument_element(o, k % per))
+    }
+}
+
+/// Element `e` (0, 1 or 2) of an instrument's pose on the wire ([`shared::InstrumentPose`]).
+fn instrument_element<T: Real, const D: usize>(o: &Obstacle<T, D>, e: usize) -> Vec3
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let (a, b, radius, capsule) = match *o {
+        Obstacle::Sphere { center, radius } => (center, center, radius, false),
+        Obstacle::Capsule { a, b, radius } => (a, b, radius, true),
+        // Never an instrument (the scene declares spheres and capsules only).
+        Obstacle::HalfSpace { .. } => return Vec3::default(),
+    };
+    match e {
+        0 => to_wire(&a),
+        1 => to_wire(&b),
+        _ => Vec3::new(radius.to_f64(), if capsule { 1.0 } else { 0.0 }, 0.0),
     }
 }

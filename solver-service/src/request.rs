@@ -136,6 +136,8 @@ pub struct Outcome {
     pub angles: u32,
     /// Held joints in the response (after the joints and rotations).
     pub held: u32,
+    /// Instruments in the response (after the held joints).
+    pub instruments: u32,
     /// Substeps taken (moves).
     pub substeps: u32,
     /// Paper-form substeps that fell back to the closed form.
@@ -638,6 +640,7 @@ pub fn encode(
             h.n_joints = o.joints;
             h.n_angles = o.angles;
             h.n_held = o.held;
+            h.n_instruments = o.instruments;
             h.substeps = o.substeps;
             h.paper_fallbacks = o.paper_fallbacks;
             h.iterations = o.iterations;

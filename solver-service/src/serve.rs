@@ -357,7 +357,8 @@ fn serve_pending<S: Service, H: Handler>(
         if H::SOLVES {
             header.solve_ns = t0.elapsed().as_nanos() as u64;
         }
-        let n = (header.n_joints + header.n_angles + header.n_held) as usize;
+        let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
+        let n = (header.n_joints + header.n_angles + header.n_held) as usize + inst;
         let slot = match req.loan_slice_uninit(n) {
             Ok(slot) => slot,
             Err(e) => {
@@ -371,25 +372,26 @@ fn serve_pending<S: Service, H: Handler>(
         drop(it);
         handler.finish(&mut header, resp.payload());
         *resp.user_header_mut() = header;
-        // The sample: the response's joints and held joints (not its rotations).
-        let joints = (header.n_joints as usize).min(n);
-        let held_from = (joints + header.n_angles as usize).min(n);
-        let held = (header.n_held as usize).min(n - held_from);
+        // The sample: the response's joints, held joints and instruments (not its rotations).
+        let parts = shared::Parts::of_response(&header, resp.payload());
+        let (joints, held, instruments) = (parts.joints, parts.held, parts.instruments);
         let state = match &ports.state {
-            Some(publisher) if changed => match publisher.loan_slice_uninit(joints + held) {
+            Some(publisher) if changed => match publisher
+                .loan_slice_uninit(joints.len() + held.len() + instruments.len())
+            {
                 Ok(s) => {
-                    let payload = resp.payload();
-                    let mut from = payload[..joints]
-                        .iter()
-                        .chain(&payload[held_from..held_from + held]);
+                    let mut from = joints.iter().chain(held).chain(instruments);
                     let mut s = s.write_from_fn(|_| from.next().copied().unwrap_or_default());
                     *s.user_header_mut() = StateHeader {
                         sequence: header.sequence,
                         chain: header.chain,
-                        n_joints: joints as u32,
+                        n_joints: joints.len() as u32,
                         command: request.command,
-                        n_held: held as u32,
+                        n_held: held.len() as u32,
                         request_id: request.request_id,
+                        n_instruments: (instruments.len() / shared::INSTRUMENT_ELEMENTS as usize)
+                            as u32,
+                        reserved: [0; 3],
                     };
                     Some(s)
                 }

@@ -320,7 +320,7 @@ fn snapshot(set: &ChainSet) -> Vec<Vec<[u64; 3]>> {
     (0..set.len() as u32)
         .map(|c| {
             let mut v: Vec<[u64; 3]> = set
-                .elements_with(c, false, true)
+                .elements_with(c, false, true, true)
                 .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
                 .collect();
             let poses = set.instrument_poses(c);
@@ -418,7 +418,7 @@ fn run_case(
             if req.command != Command::Snapshot as u32 && req.command != Command::Describe as u32 {
                 prop_assert_eq!(
                     elements.len(),
-                    (h.n_joints + h.n_angles + h.n_held) as usize
+                    (h.n_joints + h.n_angles + h.n_held + 3 * h.n_instruments) as usize
                 );
             }
             prop_assert!(
@@ -428,7 +428,11 @@ fn run_case(
             prop_assert!(h.residual.is_finite());
         } else {
             prop_assert!(!changed);
-            prop_assert_eq!((h.n_joints, h.n_angles), (0, 0));
+            prop_assert_eq!(
+                (h.n_joints, h.n_angles, h.n_held, h.n_instruments),
+                (0, 0, 0, 0)
+            );
+            prop_assert!(elements.is_empty());
             prop_assert!(
                 !h.reason_str().is_empty(),
                 "status {:?} without a reason",

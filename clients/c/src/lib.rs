@@ -373,8 +373,8 @@ pub unsafe extern "C" fn tractrix_client_find_chain(
 }
 
 /// The general call: any request header and points; the response header is copied to `*response`
-/// (written for refusals too) and its elements (`n_joints + n_angles + n_held`) into
-/// `(elements, capacity)`. Returns 0, the service's status, or a client error.
+/// (written for refusals too) and its elements (`n_joints + n_angles + n_held` + 3 ×
+/// `n_instruments`: the whole payload) into `(elements, capacity)`. Returns 0, the service's status, or a client error.
 ///
 /// # Safety
 ///
@@ -401,7 +401,7 @@ pub unsafe extern "C" fn tractrix_client_call(
                 // SAFETY: non-null; by contract a writable tractrix_ResponseHeader.
                 unsafe { response.write(*rh) };
             }
-            let n = ((rh.n_joints + rh.n_angles + rh.n_held) as usize).min(p.len());
+            let n = p.len();
             if n == 0 {
                 return 0;
             }
@@ -735,8 +735,16 @@ pub unsafe extern "C" fn tractrix_stream_next(
     };
     match catch_unwind(AssertUnwindSafe(|| {
         s.stream.try_next(|h, p| {
-            let n = (h.n_joints as usize).min(p.len());
-            f(user, h, p.as_ptr(), n);
+            // The counts cut to the payload, so that a caller who follows them stays inside it.
+            let parts = shared::Parts::of_state(h, p);
+            let h = StateHeader {
+                n_joints: parts.joints.len() as u32,
+                n_held: parts.held.len() as u32,
+                n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize)
+                    as u32,
+                ..*h
+            };
+            f(user, &h, p.as_ptr(), parts.joints.len());
         })
     })) {
         Ok(Ok(Some(()))) => 1,

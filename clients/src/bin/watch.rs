@@ -157,18 +157,21 @@ fn run(a: Args) -> Result<u8> {
         // Drain what is waiting, then sleep a millisecond: a viewer need not spin.
         loop {
             let got = stream.try_next(|h, pts| {
-                let n = (h.n_joints as usize).min(pts.len());
-                let held = pts[n..(n + h.n_held as usize).min(pts.len())]
-                    .iter()
-                    .map(|p| (p.x as u32, p.y != 0.0))
-                    .collect::<Vec<_>>();
+                let parts = shared::Parts::of_state(h, pts);
                 (
                     *h,
-                    pts[..n].iter().map(|p| p.to_array()).collect::<Vec<_>>(),
-                    held,
+                    parts
+                        .joints
+                        .iter()
+                        .map(|p| p.to_array())
+                        .collect::<Vec<_>>(),
+                    parts.held_joints().collect::<Vec<_>>(),
+                    parts.instrument_poses().collect::<Vec<_>>(),
                 )
             })?;
-            let Some((h, joints, held)) = got else { break };
+            let Some((h, joints, held, instruments)) = got else {
+                break;
+            };
             if let Some(prev) = last_seq {
                 if h.sequence > prev + 1 {
                     missed += h.sequence - prev - 1;
@@ -205,7 +208,7 @@ fn run(a: Args) -> Result<u8> {
             states += 1;
             info.seen += 1;
             if let Some(v) = &mut rr {
-                v.state(h.sequence, h.chain, &joints, &held)?;
+                v.state(h.sequence, h.chain, &joints, &held, &instruments)?;
             }
             if let Some(w) = &mut csv {
                 let cmd = Command::from_u32(h.command).map_or("unknown", |c| c.name());

@@ -22,7 +22,14 @@ impl RerunView {
         match *self {}
     }
     /// Unreachable (no value exists).
-    pub fn state(&mut self, _: u64, _: u32, _: &[[f64; 3]], _: &[(u32, bool)]) -> Result<()> {
+    pub fn state(
+        &mut self,
+        _: u64,
+        _: u32,
+        _: &[[f64; 3]],
+        _: &[(u32, bool)],
+        _: &[shared::InstrumentPose],
+    ) -> Result<()> {
         match *self {}
     }
     /// Unreachable (no value exists).

@@ -2,10 +2,12 @@
 
 use super::Sink;
 use anyhow::{Context, Result};
+use nalgebra::{UnitQuaternion, Vector3};
 use rerun::{
-    Color, LineStrips3D, Points3D, Radius, RecordingStream, RecordingStreamBuilder, Scalars,
-    TextLog,
+    Capsules3D, Color, Ellipsoids3D, FillMode, LineStrips3D, Points3D, Quaternion, Radius,
+    RecordingStream, RecordingStreamBuilder, Scalars, TextLog,
 };
+use shared::InstrumentPose;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
@@ -73,13 +75,15 @@ impl RerunView {
             .set_duration_secs("elapsed", self.start.elapsed().as_secs_f64());
     }
 
-    /// Logs one state: the joints (tail first) and the held joints as (index, anchor).
+    /// Logs one state: the joints (tail first), the held joints as (index, anchor) and the chain's
+    /// instruments.
     pub fn state(
         &mut self,
         sequence: u64,
         chain: u32,
         joints: &[[f64; 3]],
         held: &[(u32, bool)],
+        instruments: &[InstrumentPose],
     ) -> Result<()> {
         if !self.chains.contains_key(&chain) {
             return Ok(());
@@ -145,6 +149,9 @@ impl RerunView {
                 .with_colors(colors)
                 .with_labels(labels),
         )?;
+        for (k, inst) in instruments.iter().enumerate() {
+            log_instrument(&self.rec, &format!("{base}/instruments/{k}"), inst)?;
+        }
         if c.free && joints.len() >= 4 {
             c.unidentified = Some((sequence, joints.to_vec()));
         }
@@ -225,4 +232,38 @@ impl RerunView {
             .map_err(|e| anyhow::anyhow!("flush the Rerun recording: {e}"))?;
         Ok(())
     }
+}
+
+/// One instrument: a capsule from `a` to `b`, or a sphere, in the instruments' steel grey.
+fn log_instrument(rec: &RecordingStream, path: &str, p: &InstrumentPose) -> Result<()> {
+    let grey = Color::from_rgb(150, 155, 165);
+    let radius = p.radius as f32;
+    let a = Vector3::new(p.a.x, p.a.y, p.a.z);
+    if !p.capsule {
+        let centre = [a.x as f32, a.y as f32, a.z as f32];
+        rec.log(
+            path,
+            &Ellipsoids3D::from_centers_and_radii([centre], [radius])
+                .with_colors([grey])
+                .with_fill_mode(FillMode::Solid),
+        )?;
+        return Ok(());
+    }
+    let axis = Vector3::new(p.b.x, p.b.y, p.b.z) - a;
+    // Rerun's capsules run along +Z from their translation.
+    let turn = UnitQuaternion::rotation_between(&Vector3::z(), &axis).unwrap_or_else(|| {
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+    });
+    let q = turn.coords;
+    rec.log(
+        path,
+        &Capsules3D::from_lengths_and_radii([axis.norm() as f32], [radius])
+            .with_translations([[a.x as f32, a.y as f32, a.z as f32]])
+            .with_quaternions([Quaternion::from_xyzw([
+                q.x as f32, q.y as f32, q.z as f32, q.w as f32,
+            ])])
+            .with_colors([grey])
+            .with_fill_mode(FillMode::Solid),
+    )?;
+    Ok(())
 }

@@ -319,3 +319,159 @@ instruments = ["jaws"]
     }
     assert!(crossed > 0, "the hand crossed the strand's line");
 }
+
+/// The instruments' poses as the test reads them from a payload, by its own count of the layout
+/// (`n_joints`, then `n_angles`, then `n_held`, then three elements per instrument: `a`, `b`,
+/// `(radius, 1 capsule / 0 sphere, 0)`).
+fn poses_in(payload: &[Vec3], n_joints: u32, n_angles: u32, n_held: u32, n: u32) -> Vec<[f64; 8]> {
+    let from = (n_joints + n_angles + n_held) as usize;
+    assert_eq!(payload.len(), from + 3 * n as usize, "payload length");
+    payload[from..]
+        .chunks(3)
+        .map(|e| {
+            [
+                e[0].x, e[0].y, e[0].z, e[1].x, e[1].y, e[1].z, e[2].x, e[2].y,
+            ]
+        })
+        .collect()
+}
+
+/// A capsule of half-length `half` centred at `c` along `dir`, and a sphere at `c`, as the test
+/// expects them on the wire.
+fn capsule(c: [f64; 3], dir: [f64; 3], half: f64, r: f64) -> [f64; 8] {
+    let n = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+    let d = [dir[0] / n * half, dir[1] / n * half, dir[2] / n * half];
+    [
+        c[0] - d[0],
+        c[1] - d[1],
+        c[2] - d[2],
+        c[0] + d[0],
+        c[1] + d[1],
+        c[2] + d[2],
+        r,
+        1.0,
+    ]
+}
+fn sphere(c: [f64; 3], r: f64) -> [f64; 8] {
+    [c[0], c[1], c[2], c[0], c[1], c[2], r, 0.0]
+}
+
+fn assert_poses_near(got: &[[f64; 8]], want: &[[f64; 8]], what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}");
+    for (g, w) in got.iter().zip(want) {
+        for (x, y) in g.iter().zip(w) {
+            assert!((x - y).abs() < 1e-9, "{what}: {g:?} against {w:?}");
+        }
+    }
+}
+
+/// Protocol v2: every response that carries the chain's joints carries its instruments' poses too
+/// (describe, query, moves, instrument commands), and so does every state sample; a refused push
+/// leaves them where they were, `reset` puts them back. Expected poses are computed here from the
+/// scene and the requests.
+#[test]
+fn instrument_poses_are_in_describe_query_and_every_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("suture.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &["--scene", scene.to_str().unwrap(), "--no-persist"],
+    );
+    let mut c = svc.connect();
+    let stream = c.subscribe().unwrap();
+    let poses = |r: &clients::Reply| {
+        let h = &r.header;
+        poses_in(
+            &r.payload,
+            h.n_joints,
+            h.n_angles,
+            h.n_held,
+            h.n_instruments,
+        )
+    };
+    let scene_poses = vec![
+        capsule([20.3, -3.0, 0.0], [0.0, 0.0, 1.0], 20.0, 0.3),
+        sphere([5.0, 6.0, 0.0], 0.5),
+    ];
+    let d = c
+        .call(RequestHeader::new(Command::Describe, 0), &[])
+        .unwrap();
+    assert_eq!(d.header.n_instruments, 2);
+    assert_poses_near(&poses(&d), &scene_poses, "describe");
+
+    // The driver moved and turned, the ball moved, the head moved: each response and each state
+    // sample carries the poses so far.
+    let mut want = scene_poses.clone();
+    let mut expected_states = Vec::new();
+    let steps: Vec<(RequestHeader, Vec<Vec3>, usize, [f64; 8])> = vec![
+        {
+            let (h, p) = instrument(0, &[Vec3::new(20.3, -2.5, 1.0), Vec3::new(0.0, 1.0, 4.0)]);
+            (
+                h,
+                p,
+                0,
+                capsule([20.3, -2.5, 1.0], [0.0, 1.0, 4.0], 20.0, 0.3),
+            )
+        },
+        {
+            let (h, p) = instrument(1, &[Vec3::new(4.0, 7.0, 0.5)]);
+            (h, p, 1, sphere([4.0, 7.0, 0.5], 0.5))
+        },
+    ];
+    for (h, p, k, pose) in steps {
+        let r = c.call(h, &p).unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        want[k] = pose;
+        assert_poses_near(&poses(&r), &want, "instrument response");
+        expected_states.push((r.header.sequence, want.clone()));
+    }
+    let mut mv = RequestHeader::new(Command::Move, 0);
+    mv.joint = shared::JOINT_HEAD;
+    let r = c.call(mv, &[Vec3::new(38.0, -8.0, 0.0)]).unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    assert_poses_near(&poses(&r), &want, "move response");
+    expected_states.push((r.header.sequence, want.clone()));
+    let mut q = RequestHeader::new(Command::Query, 0);
+    q.flags = shared::FLAG_ANGLES;
+    let r = c.call(q, &[]).unwrap();
+    assert_eq!(r.header.n_angles, 40);
+    assert_poses_near(&poses(&r), &want, "query with rotations");
+
+    // A refused pose changes nothing; reset puts the scene's poses back.
+    let (h, p) = instrument(1, &[Vec3::new(f64::NAN, 0.0, 0.0)]);
+    let bad = c.call(h, &p).unwrap();
+    assert_eq!(bad.header.n_instruments, 0, "an error carries no elements");
+    let r = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    assert_poses_near(&poses(&r), &want, "after a refusal");
+    let r = c.call(RequestHeader::new(Command::Reset, 0), &[]).unwrap();
+    assert_poses_near(&poses(&r), &scene_poses, "reset");
+    expected_states.push((r.header.sequence, scene_poses.clone()));
+
+    // The state stream: the same poses at the same sequence numbers.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    let mut seen = std::collections::HashMap::new();
+    let last = expected_states.last().unwrap().0;
+    while std::time::Instant::now() < deadline && !seen.contains_key(&last) {
+        match stream
+            .try_next(|h, p| {
+                (
+                    h.sequence,
+                    poses_in(p, h.n_joints, 0, h.n_held, h.n_instruments),
+                )
+            })
+            .unwrap()
+        {
+            Some((s, ps)) => {
+                seen.insert(s, ps);
+            }
+            None => std::thread::sleep(std::time::Duration::from_millis(1)),
+        }
+    }
+    for (seq, want) in &expected_states {
+        let got = seen
+            .get(seq)
+            .unwrap_or_else(|| panic!("no state {seq} on the stream"));
+        assert_poses_near(got, want, &format!("state {seq}"));
+    }
+}

@@ -1,6 +1,8 @@
 """Reads a Rerun recording with Rerun's own Python reader (rerun-sdk, not the Rust code that wrote it) and
 prints what the viewer test checks, as JSON: per entity its rows and `sequence` values, the rope's
-points at each sequence, the held points' labels at each sequence, the text-log lines and the scalars.
+points at each sequence, the held points' labels at each sequence, the text-log lines, the scalars and
+the instruments' shapes (capsules' translations, lengths, quaternions, radii; spheres' centres and
+half sizes).
 
 Usage: read_rrd.py FILE.rrd
 """
@@ -33,7 +35,8 @@ def main():
         )
         e["rows"] += chunk.num_rows
         e["sequences"] += seqs
-        for suffix in (":strips", ":positions", ":labels", ":text", ":scalars"):
+        for suffix in (":strips", ":positions", ":labels", ":text", ":scalars", ":translations",
+                       ":lengths", ":quaternions", ":centers", ":half_sizes", ":radii"):
             values = column(batch, suffix)
             if values is None:
                 continue

@@ -195,3 +195,173 @@ fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
 fn keys(v: &serde_json::Value) -> Vec<String> {
     v.as_object().unwrap().keys().cloned().collect()
 }
+
+const INSTRUMENT_SCENE: &str = r#"
+[[instrument]]
+name = "driver"
+shape = "capsule"
+a = [20.3, -3.0, -20.0]
+b = [20.3, -3.0, 20.0]
+radius = 0.3
+
+[[instrument]]
+name = "ball"
+shape = "sphere"
+center = [5.0, 6.0, 0.0]
+radius = 0.5
+
+[[chain]]
+name = "suture"
+links = 40
+link_length = 1.0
+thickness = 0.2
+collision = "capsules"
+instruments = ["driver", "ball"]
+"#;
+
+/// Rotates `v` by the unit quaternion `q` (x, y, z, w), written here.
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    let [x, y, z, w] = q;
+    let u = [x, y, z];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    // v' = v + 2w (u × v) + 2 u × (u × v)
+    let t = cross(u, v);
+    let t2 = cross(u, t);
+    [
+        v[0] + 2.0 * w * t[0] + 2.0 * t2[0],
+        v[1] + 2.0 * w * t[1] + 2.0 * t2[1],
+        v[2] + 2.0 * w * t[2] + 2.0 * t2[2],
+    ]
+}
+
+/// The instruments are drawn: a capsule from its end `a` along its axis and a sphere at its centre,
+/// at every state, where the test moved them (expected poses computed here from the requests).
+#[test]
+fn watch_draws_the_instruments_where_the_service_has_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("suture.toml");
+    std::fs::write(&scene, INSTRUMENT_SCENE).unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--no-persist",
+            "--wait",
+            "event",
+        ],
+    );
+    let rrd = dir.path().join("instruments.rrd");
+    let steps = 6;
+    let mut watch = Process::new(watch_with_rerun())
+        .args(["--prefix", &svc.prefix, "--save"])
+        .arg(&rrd)
+        .args(["--count", &steps.to_string(), "--duration", "60"])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("spawn watch");
+    let rx = stderr_lines(&mut watch);
+    let line = rx
+        .recv_timeout(Duration::from_secs(30))
+        .expect("watch says something");
+    assert!(line.contains("listening"), "{line}");
+    let mut c = svc.connect();
+    // The driver steps towards the rope, turning; the ball rises.
+    let mut last_driver = ([0.0; 3], [0.0; 3]);
+    let mut last_ball = [0.0; 3];
+    let mut last_seq = 0;
+    for k in 0..steps / 2 {
+        let y = -2.8 + 0.1 * k as f64;
+        let dir_ = [0.0, 0.2 * k as f64, 1.0];
+        let mut h = RequestHeader::new(Command::Instrument, 0);
+        h.joint = 0;
+        let r = c
+            .call(
+                h,
+                &[
+                    Vec3::new(20.3, y, 0.0),
+                    Vec3::new(dir_[0], dir_[1], dir_[2]),
+                ],
+            )
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        let n = (dir_[1] * dir_[1] + 1.0).sqrt();
+        let d = [0.0, dir_[1] / n * 20.0, 20.0 / n];
+        last_driver = (
+            [20.3 - d[0], y - d[1], -d[2]],
+            [20.3 + d[0], y + d[1], d[2]],
+        );
+        let mut h = RequestHeader::new(Command::Instrument, 0);
+        h.joint = 1;
+        last_ball = [5.0, 6.0, 0.2 * (k + 1) as f64];
+        let r = c
+            .call(h, &[Vec3::new(last_ball[0], last_ball[1], last_ball[2])])
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        last_seq = r.header.sequence;
+    }
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let st = loop {
+        if let Some(st) = watch.try_wait().unwrap() {
+            break st;
+        }
+        assert!(Instant::now() < deadline, "watch did not stop");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let said: Vec<String> = rx.try_iter().collect();
+    assert!(st.success(), "{said:?}");
+
+    let out = Process::new(workspace().join("target/pyenv/bin/python"))
+        .arg(workspace().join("tests/tests/service/read_rrd.py"))
+        .arg(&rrd)
+        .output()
+        .expect("run read_rrd.py (scripts/python-venv.sh installs rerun-sdk)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let last_of = |entity: &str, what: &str| -> serde_json::Value {
+        let e = &v[entity];
+        assert_eq!(e["rows"], steps as u64, "{entity}: one row per state");
+        e["values"][what]
+            .as_array()
+            .unwrap_or_else(|| panic!("{entity} has no {what}: {e}"))
+            .iter()
+            .find(|x| x[0].as_u64() == Some(last_seq))
+            .map(|x| x[1].clone())
+            .unwrap_or_else(|| panic!("{entity}: no {what} at {last_seq}"))
+    };
+    let near = |got: &serde_json::Value, want: [f64; 3], what: &str| {
+        let g: [f64; 3] = serde_json::from_value(got.clone()).unwrap();
+        for (a, b) in g.iter().zip(want) {
+            assert!((a - b).abs() < 1e-4, "{what}: {g:?} against {want:?}");
+        }
+    };
+    let capsule = "/chains/suture/instruments/0";
+    let (a, b) = last_driver;
+    near(&last_of(capsule, "translations")[0], a, "capsule start");
+    let length = last_of(capsule, "lengths")[0].as_f64().unwrap();
+    let axis = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+    assert!((length - len).abs() < 1e-4, "{length} against {len}");
+    let q: [f64; 4] = serde_json::from_value(last_of(capsule, "quaternions")[0].clone()).unwrap();
+    let along = rotate(q, [0.0, 0.0, len]);
+    near(
+        &serde_json::json!([a[0] + along[0], a[1] + along[1], a[2] + along[2]]),
+        b,
+        "capsule end (translation + rotated +Z × length)",
+    );
+    assert!((last_of(capsule, "radii")[0].as_f64().unwrap() - 0.3).abs() < 1e-6);
+    let ball = "/chains/suture/instruments/1";
+    near(&last_of(ball, "centers")[0], last_ball, "sphere centre");
+    near(&last_of(ball, "half_sizes")[0], [0.5; 3], "sphere radius");
+}
