@@ -19,7 +19,7 @@
 //! `KNOT_BENCH_DEBUG` prints the knot after every turn. Refused moves are counted and skipped, as a
 //! hand would skip them.
 
-use clients::script::{Handedness, Throw, Turn};
+use clients::script::{Handedness, Script, Throw, Turn};
 use nalgebra::Vector3;
 use tractrix::chain::{Chain, MoveOptions};
 use tractrix::collision::{
@@ -117,11 +117,6 @@ impl Knot {
             throw: Some(t),
             waypoints: vec![],
         };
-        let pull = |head, by: [f64; 3]| Phase {
-            head,
-            throw: None,
-            waypoints: vec![by],
-        };
         let second = if self == Knot::Square {
             Handedness::Right
         } else {
@@ -134,29 +129,26 @@ impl Knot {
                 true,
                 throw(Handedness::Left, [1.0, 0.0, 0.0], 0.9, 12.0),
             )],
-            // The tail anchored, the rope hanging in a U from the anchor to the hand, both ends
-            // pointing up (+y): the head throws upward, away from the rope, and walks on.
-            (Knot::Overhand, true) => vec![
-                throw_at(true, throw(Handedness::Left, [0.0, 1.0, 0.0], 0.9, 6.0)),
-                pull(true, [4.0, 0.0, 0.0]),
-            ],
             // The built-in two-handed script on free ends, scaled to 40 units: each hand throws
             // at its own end, one turn each.
             (_, false) => vec![
                 throw_at(false, throw(Handedness::Left, [-1.0, 0.0, 0.0], 0.45, 8.0)),
                 throw_at(true, throw(second, [1.0, 0.0, 0.0], 0.45, 2.0)),
             ],
-            // Each hand holds its end throughout, the rope hanging between them in a U; six
-            // alternating turns: A throws (upward, away from the rope), B pulls its side out, A
-            // pulls back, B throws (mirrored for the square), A pulls, B pulls.
-            (_, true) => vec![
-                throw_at(false, throw(Handedness::Left, [0.0, 1.0, 0.0], 0.45, 3.0)),
-                pull(true, [3.0, 0.0, 0.0]),
-                pull(false, [-3.0, 0.0, 0.0]),
-                throw_at(true, throw(second, [0.0, 1.0, 0.0], 0.45, 3.0)),
-                pull(false, [-2.0, 0.0, 0.0]),
-                pull(true, [2.0, 0.0, 0.0]),
-            ],
+            // The U scripts are the `hand` built-ins `overhand-u`, `square-u` and `granny-u`
+            // (clients::script), their throws perturbed here.
+            (_, true) => Script::builtin(&format!("{}-u", self.name()))
+                .expect("a built-in U script")
+                .turn
+                .into_iter()
+                .map(|t| Phase {
+                    head: t.joint == "head",
+                    throw: t
+                        .throw
+                        .map(|th| throw(th.handedness, th.outward, th.scale, th.exit)),
+                    waypoints: t.waypoints,
+                })
+                .collect(),
         }
     }
 }

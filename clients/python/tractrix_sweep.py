@@ -20,8 +20,12 @@ runs the ``hand`` processes of a built-in ``script`` (both hands of a two-handed
 perturbed by ``seed`` (``hand run --perturb``), names the knot, reads the final joints with the Python
 client and measures the link-length error here, from those joints. Knobs::
 
-    script       built-in script: overhand, square, granny (default overhand)
-    expect       the knot the script ties (default: trefoil for overhand, square, granny)
+    script       built-in script: overhand, square, granny, or their U forms overhand-u, square-u,
+                 granny-u (default overhand)
+    expect       the knot the script ties (default: trefoil for the overhands, square, granny)
+    start        straight (along x from the origin) or u (hanging in a U: a circular arc between ends
+                 0.3 length apart on the x axis, both pointing up, +y; the start of the U scripts)
+                 (default straight)
     links        links of the rope (default 160)
     length       rope length (default 40.0)
     thickness    (default 0.2)
@@ -69,13 +73,14 @@ import uuid
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
-KNOBS = ("script", "links", "length", "thickness", "collision", "method", "substeps", "max_step", "seed",
-         "anchors", "grasp")
+KNOBS = ("script", "start", "links", "length", "thickness", "collision", "method", "substeps", "max_step",
+         "seed", "anchors", "grasp")
 # The knobs of an accuracy episode (the rest of KNOBS are null in its row).
 ACCURACY_KNOBS = ("method", "substeps", "scenario", "precision", "reps")
 DEFAULTS: dict[str, Any] = {
     "kind": "hand",
     "script": "overhand",
+    "start": "straight",
     "links": 160,
     "length": 40.0,
     "thickness": 0.2,
@@ -91,8 +96,10 @@ DEFAULTS: dict[str, Any] = {
     "precision": "f64",
     "reps": 3,
 }
-EXPECT = {"overhand": "trefoil", "square": "square", "granny": "granny"}
-HANDS = {"overhand": ["A"], "square": ["A", "B"], "granny": ["A", "B"]}
+EXPECT = {"overhand": "trefoil", "square": "square", "granny": "granny",
+          "overhand-u": "trefoil", "square-u": "square", "granny-u": "granny"}
+HANDS = {"overhand": ["A"], "square": ["A", "B"], "granny": ["A", "B"],
+         "overhand-u": ["A"], "square-u": ["A", "B"], "granny-u": ["A", "B"]}
 
 
 def episode_id(ep: dict[str, Any]) -> str:
@@ -117,22 +124,59 @@ def grid(base: dict[str, Any] | None = None, **axes: Sequence[Any]) -> list[dict
     return out
 
 
-def _scene(ep: dict[str, Any]) -> str:
+def u_points(links: int, length: float) -> list[tuple[float, float, float]]:
+    """A rope of ``links`` equal links hanging in a U: a circular arc of length ``length`` whose ends,
+    ``0.3 length`` apart on the x axis (the tail at the origin), both point up (+y); joints at equal
+    angles, so the links are the arc's equal chords (the start of the knot bench's U rows)."""
+    chord = 0.3 * length
+    # Half angle a of the arc: sin a / a = chord / length (bisection; above pi/2 it bulges below).
+    lo, hi = 1e-6, math.pi - 1e-9
+    for _ in range(200):
+        a = 0.5 * (lo + hi)
+        if math.sin(a) / a > chord / length:
+            lo = a
+        else:
+            hi = a
+    a = 0.5 * (lo + hi)
+    r = length / (2.0 * a)
+    cx, cy = chord / 2.0, r * math.cos(a)
+    out = []
+    for k in range(links + 1):
+        t = -a + 2.0 * a * k / links - math.pi / 2.0
+        out.append((cx + r * math.cos(t), cy + r * math.sin(t), 0.0))
+    return out
+
+
+def _start_points(ep: dict[str, Any]) -> list[tuple[float, float, float]] | None:
+    """The explicit start joints of the episode's rope (None: straight along x)."""
     links = int(ep["links"])
     if not 1 <= links <= 100_000:
         raise ValueError(f"links {links} is not in 1..=100000")
+    if ep["start"] == "straight":
+        return None
+    if ep["start"] == "u":
+        return u_points(links, float(ep["length"]))
+    raise ValueError(f"unknown start {ep['start']!r} (there are: straight, u)")
+
+
+def _scene(ep: dict[str, Any]) -> str:
+    links = int(ep["links"])
     length = float(ep["length"])
+    points = _start_points(ep)
+    shape = (
+        [f"links = {links}", f"link_length = {length / links!r}", "base = [0.0, 0.0, 0.0]",
+         'shape = "straight"', "axis = [1.0, 0.0, 0.0]"]
+        if points is None
+        else ['shape = "points"',
+              "points = [" + ", ".join(f"[{x!r}, {y!r}, {z!r}]" for x, y, z in points) + "]"]
+    )
     return "\n".join(
         [
             "[[chain]]",
             'name = "rope"',
             'kind = "free"',
             'space = "spatial"',
-            f"links = {links}",
-            f"link_length = {length / links!r}",
-            "base = [0.0, 0.0, 0.0]",
-            'shape = "straight"',
-            "axis = [1.0, 0.0, 0.0]",
+            *shape,
             f"thickness = {float(ep['thickness'])!r}",
             f'collision = "{ep["collision"]}"',
             f'method = "{ep["method"]}"',
@@ -261,7 +305,9 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
             row["us_per_request"] = row["seconds"] * 1e6 / row["requests"]
         h, points = client.call("query", 0)
         joints = points[: h.n_joints]
-        row["length_error"] = _max_length_error(joints, float(ep["length"]) / int(ep["links"]))
+        start = _start_points(ep)
+        link = float(ep["length"]) / int(ep["links"]) if start is None else math.dist(start[0], start[1])
+        row["length_error"] = _max_length_error(joints, link)
         row["tied"] = row["knot"] == expect
         row["ok"] = True
     except Exception as e:  # one episode's failure is its row
@@ -315,8 +361,8 @@ def _schema():
     return pa.schema(
         [
             ("id", pa.string()), ("knobs", pa.string()),
-            ("script", pa.string()), ("links", pa.int64()), ("length", pa.float64()),
-            ("thickness", pa.float64()), ("collision", pa.string()), ("method", pa.string()),
+            ("script", pa.string()), ("start", pa.string()), ("links", pa.int64()),
+            ("length", pa.float64()), ("thickness", pa.float64()), ("collision", pa.string()), ("method", pa.string()),
             ("substeps", pa.int64()), ("max_step", pa.float64()), ("seed", pa.int64()),
             ("anchors", pa.string()), ("grasp", pa.bool_()),
             ("ok", pa.bool_()), ("error", pa.string()), ("knot", pa.string()), ("tied", pa.bool_()),

@@ -279,6 +279,31 @@ impl Script {
             }),
             "square" => Some(two_hands(Handedness::Right)),
             "granny" => Some(two_hands(Handedness::Left)),
+            // The tail held (by the scene or a second hand), the rope hanging in a U from it to the
+            // hand, both ends pointing up (+y): the head throws upward, away from the rope, and walks
+            // on, then sideways.
+            "overhand-u" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: true,
+                turn: vec![
+                    turn(
+                        "A",
+                        "rope",
+                        "head",
+                        Some(Throw {
+                            handedness: Handedness::Left,
+                            outward: [0.0, 1.0, 0.0],
+                            scale: 0.9,
+                            exit: 6.0,
+                        }),
+                        vec![],
+                    ),
+                    turn("A", "rope", "head", None, vec![[4.0, 0.0, 0.0]]),
+                ],
+            }),
+            "square-u" => Some(two_hands_u(name, Handedness::Right)),
+            "granny-u" => Some(two_hands_u(name, Handedness::Left)),
             "wave" => Some(Script {
                 name: name.into(),
                 max_step: 0.1,
@@ -301,8 +326,50 @@ impl Script {
     }
 }
 
-/// Names accepted by [`Script::builtin`].
-pub const BUILTINS: &[&str] = &["overhand", "square", "granny", "wave"];
+/// The two-handed knots on a rope hanging in a U between the hands (A the tail, B the head), each
+/// hand holding its end throughout; six alternating turns: A throws (upward, away from the rope), B
+/// pulls its side out, A pulls back, B throws (`second`: mirrored for the square), A pulls, B pulls.
+fn two_hands_u(name: &str, second: Handedness) -> Script {
+    let throw = |handedness| Throw {
+        handedness,
+        outward: [0.0, 1.0, 0.0],
+        scale: 0.45,
+        exit: 3.0,
+    };
+    let turn = |hand: &str, throw: Option<Throw>, waypoints: Vec<[f64; 3]>| Turn {
+        hand: hand.into(),
+        chain: "rope".into(),
+        joint: if hand == "A" { "tail" } else { "head" }.into(),
+        throw,
+        waypoints,
+    };
+    Script {
+        name: name.into(),
+        max_step: 0.05,
+        grasp: true,
+        turn: vec![
+            turn("A", Some(throw(Handedness::Left)), vec![]),
+            turn("B", None, vec![[3.0, 0.0, 0.0]]),
+            turn("A", None, vec![[-3.0, 0.0, 0.0]]),
+            turn("B", Some(throw(second)), vec![]),
+            turn("A", None, vec![[-2.0, 0.0, 0.0]]),
+            turn("B", None, vec![[2.0, 0.0, 0.0]]),
+        ],
+    }
+}
+
+/// Names accepted by [`Script::builtin`]. The `-u` scripts start from a rope hanging in a U (see
+/// BENCHMARKS.md, knots): `overhand-u` with the tail held, `square-u` and `granny-u` with one hand on
+/// each end.
+pub const BUILTINS: &[&str] = &[
+    "overhand",
+    "square",
+    "granny",
+    "wave",
+    "overhand-u",
+    "square-u",
+    "granny-u",
+];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.
 pub fn parse_joint(s: &str) -> Result<u32, String> {

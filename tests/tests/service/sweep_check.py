@@ -2,7 +2,8 @@
 
 Usage: sweep_check.py BIN_DIR WORK_DIR
 
-A sweep of 24 short episodes on a local Ray of two CPUs (22 knot episodes through the service, 2 accuracy
+A sweep of 24 short episodes on a local Ray of two CPUs (22 knot episodes through the service, two of them
+U scripts on a rope that starts hanging in a U, one with its tail anchored by the scene; 2 accuracy
 episodes), in two parts: the first 11, then all 24 into the same Parquet file (the first 11 must not run
 again). Two episodes fail on purpose (a rope of 0 links, an unknown script) and must be rows with their
 error. Every row is checked here: the Parquet schema, the
@@ -10,6 +11,7 @@ knobs, the counts, and the link-length error recomputed from the service's final
 Exits non-zero with a message on the first failed check.
 """
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -29,8 +31,15 @@ def check(cond, what):
 def main():
     bin_dir, work = sys.argv[1], Path(sys.argv[2])
     out = work / "sweep.parquet"
-    episodes = ts.grid({"script": "overhand", "max_step": 0.5}, links=[40, 80], seed=range(1, 9))
+    episodes = ts.grid({"script": "overhand", "max_step": 0.5}, links=[40, 80], seed=range(1, 8))
     episodes += ts.grid({"script": "square", "max_step": 0.5}, links=[80], seed=range(1, 5))
+    episodes += [
+        {"script": "overhand-u", "start": "u", "anchors": [0], "grasp": True, "links": 40, "max_step": 0.5,
+         "seed": 1},
+        {"script": "square-u", "start": "u", "grasp": False, "links": 40, "max_step": 0.5, "seed": 2},
+    ]
+    for ep in episodes[-2:]:
+        ep["id"] = ts.episode_id(ep)
     episodes += [
         {"id": "bad-links", "links": 0, "max_step": 0.5},
         {"id": "bad-script", "script": "bowline", "links": 40},
@@ -76,6 +85,8 @@ def main():
         check(r["script"] == ep["script"] and r["links"] == ep["links"] and r["seed"] == ep["seed"],
               f"{ep['id']}: knobs {r}")
         check(r["max_step"] == 0.5, f"{ep['id']}: max_step {r['max_step']}")
+        check(r["start"] == ep.get("start", "straight") and r["anchors"] == json.dumps(ep.get("anchors", []))
+              and r["grasp"] == ep.get("grasp"), f"{ep['id']}: start and holds {r}")
         check(r["requests"] > 0 and r["moves_ok"] + r["locked"] + r["refused"] <= r["requests"],
               f"{ep['id']}: counts {r}")
         check(r["seconds"] > 0 and r["us_per_request"] > 0, f"{ep['id']}: timings {r}")
