@@ -76,6 +76,8 @@ block ab "scripts/ab-request-path.sh 9fe9eab $AB_ROUNDS" \
   scripts/ab-request-path.sh 9fe9eab "$AB_ROUNDS"
 block kernel "cargo bench -p tractrix --bench kernel" \
   cargo bench -q -p tractrix --bench kernel
+block lean "cargo bench -p tractrix --bench lean" \
+  cargo bench -q -p tractrix --bench lean
 block throughput "cargo bench -p tractrix --bench throughput" \
   cargo bench -q -p tractrix --bench throughput
 block ik "cargo bench -p tractrix --bench ik" \

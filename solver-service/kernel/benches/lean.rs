@@ -1,0 +1,341 @@
+//! How close the kernel's `Chain::move_joint` comes to a minimal loop (issue 18, "a lean step").
+//!
+//! `cargo bench -p tractrix --bench lean` moves the head of a chain of 40 and of 1000 unit links along a
+//! helix (a third of a link per move, one substep), in f64 and f32, with the closed-form tractrix and with
+//! follow-the-leader, two ways side by side in one run, batches interleaved:
+//!
+//! * **kernel**: `Chain::move_joint(head, target)`, everything a caller gets (checks, substep count,
+//!   holds, the moved joint landing on its target);
+//! * **minimal loop**: written here, a flat array of link vectors and lengths and the head's position,
+//!   the same arithmetic per link as the kernel's method (for the tractrix: both cancellation rewrites,
+//!   `expm1` for short moves and the second Gram–Schmidt pass; for follow-the-leader a plain norm), and
+//!   nothing else: no checks, no dispatch.
+//!
+//! A third column times the **cheap tractrix**: the minimal loop without the second Gram–Schmidt pass
+//! and with `exp` for every move — what a user saves by dropping those guards — and the table says
+//! what it loses: the largest relative link-length error after the run and after 10⁶ moves of a
+//! 40-link chain along the same helix. Every figure is a median over
+//! the batches' mean ns per link-step; the ratio columns divide medians measured in the same run.
+//! The kernel's joints are compared with the minimal loop's after the run (*max joint difference*).
+//! `LEAN_BENCH_SCALE` (default 1.0) scales the work.
+
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print.
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
+
+use nalgebra::Vector3;
+use std::hint::black_box;
+use std::time::Instant;
+use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
+
+/// Link-steps per timed batch.
+const BATCH_WORK: usize = 200_000;
+
+fn target(n: usize, k: usize) -> [f64; 3] {
+    // A helix of radius n/4 (at most 50) about the initial chain's axis, a third of a link per move.
+    let r = (n as f64 / 4.0).min(50.0);
+    let s = k as f64 / 3.0;
+    let a = s / r.max(1.0);
+    [n as f64 + s * 0.3, r * (1.0 - a.cos()), r * a.sin()]
+}
+
+type P<T> = [T; 3];
+
+#[inline(always)]
+fn dot<T: Real>(a: P<T>, b: P<T>) -> T {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The closed-form tractrix for one link, written flat: `t` the link from its moving end to its
+/// trailing end, `s` the moving end's displacement. Returns (new link, trailing end's displacement).
+/// `guards`: the second Gram–Schmidt pass and `expm1` for short moves, as the kernel does.
+#[inline(always)]
+fn tractrix<T: Real>(t: P<T>, s: P<T>, len: T, guards: bool) -> (P<T>, P<T>) {
+    let one = T::one();
+    let two = T::lit(2.0);
+    let inv = one / len;
+    let ss = [s[0] * inv, s[1] * inv, s[2] * inv];
+    let b = dot(ss, ss).sqrt();
+    if b == T::zero() {
+        return (t, [T::zero(); 3]);
+    }
+    let ib = one / b;
+    let u = [ss[0] * ib, ss[1] * ib, ss[2] * ib];
+    let tt = [t[0] * inv, t[1] * inv, t[2] * inv];
+    let c = dot(tt, u);
+    let mut w = [tt[0] - u[0] * c, tt[1] - u[1] * c, tt[2] - u[2] * c];
+    if guards {
+        let k = dot(w, u);
+        w = [w[0] - u[0] * k, w[1] - u[1] * k, w[2] - u[2] * k];
+    }
+    let y2 = dot(w, w);
+    let (p, m) = if c > T::zero() {
+        (y2 / (one + c), one + c)
+    } else {
+        (one - c, y2 / (one - c))
+    };
+    let (q, e1) = if guards && b < T::lit(0.5) {
+        let e1 = -(-b).exp_m1();
+        (one - e1, e1)
+    } else {
+        let q = (-b).exp();
+        (q, one - q)
+    };
+    let e = q * q;
+    let d = p + e * m;
+    let cw_num = if c > T::zero() {
+        e1 * (q * m - p)
+    } else {
+        e1 * (two * c - e1 * m)
+    };
+    let cu_num = p * m * e1 * (one + q);
+    let inv_d = one / d;
+    let (lu, lw) = ((e * m - p) * inv_d * len, two * q * inv_d * len);
+    let (su, sw) = ((b - cu_num * inv_d) * len, cw_num * inv_d * len);
+    (
+        [
+            u[0] * lu + w[0] * lw,
+            u[1] * lu + w[1] * lw,
+            u[2] * lu + w[2] * lw,
+        ],
+        [
+            u[0] * su + w[0] * sw,
+            u[1] * su + w[1] * sw,
+            u[2] * su + w[2] * sw,
+        ],
+    )
+}
+
+/// Follow-the-leader for one link, written flat (the trailing end on the line from the new moving end
+/// to its old place).
+#[inline(always)]
+fn ftl<T: Real>(t: P<T>, s: P<T>, len: T) -> (P<T>, P<T>) {
+    let r = [t[0] - s[0], t[1] - s[1], t[2] - s[2]];
+    let rn = dot(r, r).sqrt();
+    let k = len / rn;
+    let two_t = [
+        t[0] * T::lit(2.0) - s[0],
+        t[1] * T::lit(2.0) - s[1],
+        t[2] * T::lit(2.0) - s[2],
+    ];
+    let f = dot(s, two_t) / (rn * (len + rn));
+    (
+        [r[0] * k, r[1] * k, r[2] * k],
+        [r[0] * f, r[1] * f, r[2] * f],
+    )
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Form {
+    Tractrix,
+    CheapTractrix,
+    Ftl,
+}
+
+/// The minimal loop's state: link vectors (tail toward head, as the kernel stores them), lengths and
+/// the head.
+struct Flat<T: Real> {
+    links: Vec<P<T>>,
+    lengths: Vec<T>,
+    head: P<T>,
+    form: Form,
+}
+
+impl<T: Real> Flat<T> {
+    fn new(n: usize, form: Form) -> Self {
+        Flat {
+            links: vec![[T::one(), T::zero(), T::zero()]; n],
+            lengths: vec![T::one(); n],
+            head: [T::lit(n as f64), T::zero(), T::zero()],
+            form,
+        }
+    }
+    fn move_head(&mut self, to: P<T>) {
+        let mut s = [
+            to[0] - self.head[0],
+            to[1] - self.head[1],
+            to[2] - self.head[2],
+        ];
+        for (l, &len) in self.links.iter_mut().zip(&self.lengths).rev() {
+            // The link seen from its moving end (the head side) is −l.
+            let t = [-l[0], -l[1], -l[2]];
+            let (nl, shift) = match self.form {
+                Form::Tractrix => tractrix(t, s, len, true),
+                Form::CheapTractrix => tractrix(t, s, len, false),
+                Form::Ftl => ftl(t, s, len),
+            };
+            *l = [-nl[0], -nl[1], -nl[2]];
+            s = shift;
+        }
+        self.head = to;
+    }
+    fn joints(&self) -> Vec<[f64; 3]> {
+        let mut out = vec![[0.0; 3]; self.links.len() + 1];
+        let mut p = self.head.map(|x| x.to_f64());
+        out[self.links.len()] = p;
+        for (i, l) in self.links.iter().enumerate().rev() {
+            p = [
+                p[0] - l[0].to_f64(),
+                p[1] - l[1].to_f64(),
+                p[2] - l[2].to_f64(),
+            ];
+            out[i] = p;
+        }
+        out
+    }
+    fn length_error(&self) -> f64 {
+        self.links
+            .iter()
+            .zip(&self.lengths)
+            .map(|(l, len)| (dot(*l, *l).sqrt() / *len - T::one()).to_f64().abs())
+            .fold(0.0, f64::max)
+    }
+}
+
+enum Runner<T: Real> {
+    Kernel(Chain<T, 3>, MoveOptions<T>),
+    Flat(Flat<T>),
+}
+
+impl<T: Real> Runner<T> {
+    fn batch(&mut self, n: usize, k: &mut usize, moves: usize) -> f64 {
+        let t0 = Instant::now();
+        for _ in 0..moves {
+            *k += 1;
+            let p = target(n, *k).map(T::lit);
+            match self {
+                Runner::Kernel(c, o) => {
+                    black_box(c.move_joint(n, Vector3::from(p), o).expect("a move"));
+                }
+                Runner::Flat(f) => {
+                    f.move_head(p);
+                    black_box(&f.links);
+                }
+            }
+        }
+        t0.elapsed().as_nanos() as f64 / (moves * n) as f64
+    }
+    fn joints(&self) -> Vec<[f64; 3]> {
+        match self {
+            Runner::Kernel(c, _) => c
+                .positions()
+                .iter()
+                .map(|p| [p.x.to_f64(), p.y.to_f64(), p.z.to_f64()])
+                .collect(),
+            Runner::Flat(f) => f.joints(),
+        }
+    }
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Largest relative link-length error of a 40-link chain after `moves` head moves along the bench's
+/// helix.
+fn long_walk<T: Real>(form: Form, moves: usize) -> f64 {
+    let mut f = Flat::<T>::new(40, form);
+    for k in 1..=moves {
+        f.move_head(target(40, k).map(T::lit));
+    }
+    f.length_error()
+}
+
+fn rows<T: Real>(precision: &str, scale: f64) {
+    for n in [40usize, 1000] {
+        for method in [Method::Tractrix, Method::FollowTheLeader] {
+            let opts = MoveOptions {
+                method,
+                substeps: Substeps::Fixed(1),
+                ..MoveOptions::default()
+            };
+            let chain = Chain::<T, 3>::straight(n, T::one(), Vector3::zeros(), Vector3::x())
+                .expect("a straight chain");
+            let tractrix = method == Method::Tractrix;
+            let mut runners = vec![
+                Runner::Kernel(chain, opts),
+                Runner::Flat(Flat::new(
+                    n,
+                    if tractrix { Form::Tractrix } else { Form::Ftl },
+                )),
+            ];
+            if tractrix {
+                runners.push(Runner::Flat(Flat::new(n, Form::CheapTractrix)));
+            }
+            let moves = (BATCH_WORK / n).max(1);
+            let batches = ((40.0 * scale) as usize).max(5);
+            let mut ks = vec![0usize; runners.len()];
+            let mut ns = vec![Vec::new(); runners.len()];
+            for b in 0..batches {
+                for j in 0..runners.len() {
+                    let i = (j + b) % runners.len();
+                    ns[i].push(runners[i].batch(n, &mut ks[i], moves));
+                }
+            }
+            // Every runner made the same moves: the kernel against the minimal loop.
+            let (kj, fj) = (runners[0].joints(), runners[1].joints());
+            let diff = kj
+                .iter()
+                .zip(&fj)
+                .map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f64::max))
+                .fold(0.0, f64::max);
+            let med: Vec<f64> = ns.iter_mut().map(|v| median(v)).collect();
+            let (cheap, cheap_ratio, lost) = if tractrix {
+                let Runner::Flat(c) = &runners[2] else {
+                    unreachable!()
+                };
+                let walk = long_walk::<T>(Form::CheapTractrix, (1_000_000.0 * scale) as usize);
+                let kept = long_walk::<T>(Form::Tractrix, (1_000_000.0 * scale) as usize);
+                (
+                    format!("{:.1}", med[2]),
+                    format!("{:.2}", med[2] / med[1]),
+                    format!(
+                        "{:.1e} / {:.1e} (guarded: {:.1e})",
+                        c.length_error(),
+                        walk,
+                        kept
+                    ),
+                )
+            } else {
+                ("–".into(), "–".into(), "–".into())
+            };
+            println!(
+                "| {n} | {precision} | {} | {batches} | {:.1} | {:.1} | **{:.2}** | {diff:.1e} | {cheap} | {cheap_ratio} | {lost} |",
+                if tractrix {
+                    "closed-form tractrix"
+                } else {
+                    "follow-the-leader"
+                },
+                med[0],
+                med[1],
+                med[0] / med[1],
+            );
+        }
+    }
+}
+
+fn main() {
+    let scale: f64 = std::env::var("LEAN_BENCH_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .filter(|s: &f64| s.is_finite() && *s > 0.0)
+        .unwrap_or(1.0);
+    println!(
+        "Head moves of a third of a link along a helix, one substep each, batches of ~{BATCH_WORK} \
+         link-steps timed whole and interleaved; medians of the batches' mean ns per link-step. *cheap \
+         tractrix*: the minimal loop without the second Gram–Schmidt pass and `expm1`; *its length error*: \
+         after this run / after 10⁶ head moves of a 40-link chain along the helix (the guarded minimal \
+         loop's in brackets).\n"
+    );
+    println!(
+        "| links | precision | method | batches | kernel `move_joint` (ns) | minimal loop (ns) | kernel ÷ minimal \
+         | max joint difference | cheap tractrix (ns) | cheap ÷ minimal | cheap tractrix's length error |"
+    );
+    println!("|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---|");
+    rows::<f64>("f64", scale);
+    rows::<f32>("f32", scale);
+}
