@@ -7,7 +7,8 @@
 use shared::{Command, RequestHeader, Status, Vec3};
 use tests::{Service, unique_prefix};
 
-const SCENE: &str = r#"
+/// A 40-unit suture pushed by a capsule (a needle driver) and a sphere (also the viewer test's scene).
+pub(crate) const SCENE: &str = r#"
 [[instrument]]
 name = "driver"
 shape = "capsule"

@@ -38,19 +38,20 @@ fn watch_with_rerun() -> PathBuf {
     path
 }
 
-const MOVES: usize = 28;
-
-#[test]
-fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
-    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
-    let dir = tempfile::tempdir().unwrap();
-    let rrd = dir.path().join("states.rrd");
-    // grasp + MOVES moves + release
-    let states = MOVES + 2;
+/// Starts `watch --save RRD --count COUNT` on the service with `extra` arguments and waits until it
+/// listens; returns it and its stderr lines.
+fn start_watch(
+    prefix: &str,
+    rrd: &std::path::Path,
+    count: usize,
+    extra: &[&str],
+) -> (std::process::Child, std::sync::mpsc::Receiver<String>) {
     let mut watch = Process::new(watch_with_rerun())
-        .args(["--prefix", &svc.prefix, "--chain", "rope", "--save"])
-        .arg(&rrd)
-        .args(["--count", &states.to_string(), "--duration", "60"])
+        .args(["--prefix", prefix])
+        .args(extra)
+        .arg("--save")
+        .arg(rrd)
+        .args(["--count", &count.to_string(), "--duration", "60"])
         .stderr(Stdio::piped())
         .stdout(Stdio::null())
         .spawn()
@@ -60,7 +61,49 @@ fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
         .recv_timeout(Duration::from_secs(30))
         .expect("watch says something");
     assert!(line.contains("listening"), "{line}");
+    (watch, rx)
+}
 
+/// Waits (60 s at most) for `watch` to stop by itself and returns what it said on stderr.
+fn wait_for(mut watch: std::process::Child, rx: &std::sync::mpsc::Receiver<String>) -> Vec<String> {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let st = loop {
+        if let Some(st) = watch.try_wait().unwrap() {
+            break st;
+        }
+        assert!(Instant::now() < deadline, "watch did not stop");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let said: Vec<String> = rx.try_iter().collect();
+    assert!(st.success(), "{said:?}");
+    said
+}
+
+/// The recording as `read_rrd.py` (Rerun's own Python reader) prints it.
+fn read_rrd(rrd: &std::path::Path) -> serde_json::Value {
+    let out = Process::new(workspace().join("target/pyenv/bin/python"))
+        .arg(workspace().join("tests/tests/service/read_rrd.py"))
+        .arg(rrd)
+        .output()
+        .expect("run read_rrd.py (scripts/python-venv.sh installs rerun-sdk)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON")
+}
+
+const MOVES: usize = 28;
+
+#[test]
+fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let dir = tempfile::tempdir().unwrap();
+    let rrd = dir.path().join("states.rrd");
+    // grasp + MOVES moves + release
+    let states = MOVES + 2;
+    let (watch, rx) = start_watch(&svc.prefix, &rrd, states, &["--chain", "rope"]);
     let mut c = svc.connect();
     let rope = c
         .find_chain("rope")
@@ -89,34 +132,13 @@ fn watch_saves_every_state_to_a_rerun_recording_that_reads_back() {
         .call(RequestHeader::new(Command::Query, rope), &[])
         .unwrap();
 
-    let deadline = Instant::now() + Duration::from_secs(60);
-    let st = loop {
-        if let Some(st) = watch.try_wait().unwrap() {
-            break st;
-        }
-        assert!(Instant::now() < deadline, "watch did not stop");
-        std::thread::sleep(Duration::from_millis(10));
-    };
-    let said: Vec<String> = rx.try_iter().collect();
-    assert!(st.success(), "{said:?}");
+    let said = wait_for(watch, &rx);
     assert!(
         said.iter()
             .any(|l| l.contains(&format!("{states} states sent to Rerun"))),
         "{said:?}"
     );
-
-    let py = workspace().join("target/pyenv/bin/python");
-    let out = Process::new(&py)
-        .arg(workspace().join("tests/tests/service/read_rrd.py"))
-        .arg(&rrd)
-        .output()
-        .expect("run read_rrd.py (scripts/python-venv.sh installs rerun-sdk)");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let v = read_rrd(&rrd);
     for entity in [
         "/chains/rope/rope",
         "/chains/rope/joints",
@@ -196,29 +218,6 @@ fn keys(v: &serde_json::Value) -> Vec<String> {
     v.as_object().unwrap().keys().cloned().collect()
 }
 
-const INSTRUMENT_SCENE: &str = r#"
-[[instrument]]
-name = "driver"
-shape = "capsule"
-a = [20.3, -3.0, -20.0]
-b = [20.3, -3.0, 20.0]
-radius = 0.3
-
-[[instrument]]
-name = "ball"
-shape = "sphere"
-center = [5.0, 6.0, 0.0]
-radius = 0.5
-
-[[chain]]
-name = "suture"
-links = 40
-link_length = 1.0
-thickness = 0.2
-collision = "capsules"
-instruments = ["driver", "ball"]
-"#;
-
 /// Rotates `v` by the unit quaternion `q` (x, y, z, w), written here.
 fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
     let [x, y, z, w] = q;
@@ -246,7 +245,7 @@ fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
 fn watch_draws_the_instruments_where_the_service_has_them() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("suture.toml");
-    std::fs::write(&scene, INSTRUMENT_SCENE).unwrap();
+    std::fs::write(&scene, crate::instruments::SCENE).unwrap();
     let svc = Service::start(
         &unique_prefix(),
         &[
@@ -259,19 +258,7 @@ fn watch_draws_the_instruments_where_the_service_has_them() {
     );
     let rrd = dir.path().join("instruments.rrd");
     let steps = 6;
-    let mut watch = Process::new(watch_with_rerun())
-        .args(["--prefix", &svc.prefix, "--save"])
-        .arg(&rrd)
-        .args(["--count", &steps.to_string(), "--duration", "60"])
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .expect("spawn watch");
-    let rx = stderr_lines(&mut watch);
-    let line = rx
-        .recv_timeout(Duration::from_secs(30))
-        .expect("watch says something");
-    assert!(line.contains("listening"), "{line}");
+    let (watch, rx) = start_watch(&svc.prefix, &rrd, steps, &[]);
     let mut c = svc.connect();
     // The driver steps towards the rope, turning; the ball rises.
     let mut last_driver = ([0.0; 3], [0.0; 3]);
@@ -307,28 +294,8 @@ fn watch_draws_the_instruments_where_the_service_has_them() {
         assert!(r.is_ok(), "{}", r.header.reason_str());
         last_seq = r.header.sequence;
     }
-    let deadline = Instant::now() + Duration::from_secs(60);
-    let st = loop {
-        if let Some(st) = watch.try_wait().unwrap() {
-            break st;
-        }
-        assert!(Instant::now() < deadline, "watch did not stop");
-        std::thread::sleep(Duration::from_millis(10));
-    };
-    let said: Vec<String> = rx.try_iter().collect();
-    assert!(st.success(), "{said:?}");
-
-    let out = Process::new(workspace().join("target/pyenv/bin/python"))
-        .arg(workspace().join("tests/tests/service/read_rrd.py"))
-        .arg(&rrd)
-        .output()
-        .expect("run read_rrd.py (scripts/python-venv.sh installs rerun-sdk)");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    wait_for(watch, &rx);
+    let v = read_rrd(&rrd);
     let last_of = |entity: &str, what: &str| -> serde_json::Value {
         let e = &v[entity];
         assert_eq!(e["rows"], steps as u64, "{entity}: one row per state");
