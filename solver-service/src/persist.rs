@@ -35,7 +35,9 @@ use std::path::{Path, PathBuf};
 use tractrix::Chain;
 use tractrix::math::{Embed3, Real, Vector};
 
-const SNAPSHOT_MAGIC: u32 = 0x5452_5833; // "TRX3": with held joints and instrument poses
+const SNAPSHOT_MAGIC: u32 = 0x5452_5834; // "TRX4": held joints, instrument poses and the base joint
+/// The third format: no base joint (read; the base is joint 0, at the stored origin).
+const SNAPSHOT_MAGIC_V3: u32 = 0x5452_5833; // "TRX3"
 /// The second format: held joints, no instruments (read; instruments start at the scene's poses).
 const SNAPSHOT_MAGIC_V2: u32 = 0x5452_5832; // "TRX2"
 /// The first format, without held joints: refused with a message.
@@ -72,6 +74,28 @@ struct ChainSnapshot {
     held: Vec<(u32, Vec<f64>, Vec<f64>)>,
     /// The chain's instruments' poses (a sphere's centre; a capsule's `a` then `b`).
     instruments: Vec<Vec<f64>>,
+    /// The base joint (the last moved one) and its position: the next move of it starts there.
+    base: (u32, Vec<f64>),
+}
+
+/// [`ChainSnapshot`] of the "TRX3" format (no base joint).
+#[derive(Debug, Deserialize)]
+struct ChainSnapshotV3 {
+    name: String,
+    dims: u32,
+    precision: u32,
+    lengths: Vec<f64>,
+    origin: Vec<f64>,
+    links: Vec<f64>,
+    held: Vec<(u32, Vec<f64>, Vec<f64>)>,
+    instruments: Vec<Vec<f64>>,
+}
+
+#[derive(Debug, Deserialize)]
+struct SnapshotV3 {
+    magic: u32,
+    sequence: u64,
+    chains: Vec<ChainSnapshotV3>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -100,7 +124,8 @@ struct SnapshotV2 {
     chains: Vec<ChainSnapshotV2>,
 }
 
-/// Decodes a snapshot of this format or of "TRX2" (whose instruments are then `None`).
+/// Decodes a snapshot of this format, of "TRX3" (base at joint 0) or of "TRX2" (also without
+/// instruments: the flag is then `false`).
 fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String> {
     // The magic number comes first in every format.
     let (magic, _): (u32, usize) = bincode::serde::decode_from_slice(bytes, config())
@@ -110,6 +135,33 @@ fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String
             let (snap, _): (Snapshot, usize) = bincode::serde::decode_from_slice(bytes, config())
                 .map_err(|e| io(path, "not a snapshot", e))?;
             Ok((snap, true))
+        }
+        SNAPSHOT_MAGIC_V3 => {
+            let (old, _): (SnapshotV3, usize) = bincode::serde::decode_from_slice(bytes, config())
+                .map_err(|e| io(path, "not a snapshot", e))?;
+            let chains = old
+                .chains
+                .into_iter()
+                .map(|c| ChainSnapshot {
+                    name: c.name,
+                    dims: c.dims,
+                    precision: c.precision,
+                    lengths: c.lengths,
+                    base: (0, c.origin.clone()),
+                    origin: c.origin,
+                    links: c.links,
+                    held: c.held,
+                    instruments: c.instruments,
+                })
+                .collect();
+            Ok((
+                Snapshot {
+                    magic: old.magic,
+                    sequence: old.sequence,
+                    chains,
+                },
+                true,
+            ))
         }
         SNAPSHOT_MAGIC_V2 => {
             let (old, _): (SnapshotV2, usize) = bincode::serde::decode_from_slice(bytes, config())
@@ -122,6 +174,7 @@ fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String
                     dims: c.dims,
                     precision: c.precision,
                     lengths: c.lengths,
+                    base: (0, c.origin.clone()),
                     origin: c.origin,
                     links: c.links,
                     held: c.held,
@@ -628,7 +681,7 @@ fn encode_snapshot(set: &ChainSet) -> Result<(Vec<u8>, u64), String> {
             .iter()
             .zip(set.geometry())
             .map(|(spec, g)| {
-                let (origin, links, held) = each_form!(g, g => raw_parts(&g.chain));
+                let (origin, links, held, base) = each_form!(g, g => raw_parts(&g.chain));
                 ChainSnapshot {
                     name: spec.name.clone(),
                     dims: spec.dims,
@@ -638,6 +691,7 @@ fn encode_snapshot(set: &ChainSet) -> Result<(Vec<u8>, u64), String> {
                     links,
                     held,
                     instruments: each_form!(g, g => g.instrument_numbers()),
+                    base,
                 }
             })
             .collect(),
@@ -826,7 +880,9 @@ fn next_record(input: &mut impl Read, buf: &mut Vec<u8>) -> Option<(Record, u64)
 
 type HeldParts = Vec<(u32, Vec<f64>, Vec<f64>)>;
 
-fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>, HeldParts)
+type BasePart = (u32, Vec<f64>);
+
+fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>, HeldParts, BasePart)
 where
     Vector<T, D>: Embed3<T>,
 {
@@ -837,7 +893,8 @@ where
         .held_raw()
         .map(|(j, sum, carry)| (j as u32, f(&sum), f(&carry)))
         .collect();
-    (origin, links, held)
+    let (b, at) = c.base();
+    (origin, links, held, (b as u32, f(&at)))
 }
 
 fn install(set: &mut ChainSet, snap: &Snapshot, with_instruments: bool) -> Result<(), String> {
@@ -880,7 +937,7 @@ fn install(set: &mut ChainSet, snap: &Snapshot, with_instruments: bool) -> Resul
         }
         let mut g = geometry.clone();
         each_form!(&mut g, h => {
-            h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held).map_err(|m| format!("chain {:?}: {m}", d.name))?;
+            h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held, &s.base).map_err(|m| format!("chain {:?}: {m}", d.name))?;
             if with_instruments {
                 h.set_instrument_numbers(&s.instruments).map_err(|m| format!("chain {:?}: {m}", d.name))?;
             }
@@ -896,6 +953,7 @@ fn rebuild<T: Real, const D: usize>(
     origin: &[f64],
     links: &[f64],
     held: &HeldParts,
+    base: &BasePart,
 ) -> Result<Chain<T, D>, String>
 where
     Vector<T, D>: Embed3<T>,
@@ -926,7 +984,21 @@ where
     chain
         .set_held_raw(&pins)
         .map_err(|e| format!("held joints: {e}"))?;
-    Ok(chain)
+    if base.1.len() != D {
+        return Err(format!("base joint: {} coordinates", base.1.len()));
+    }
+    let (b, at) = (base.0 as usize, v(&base.1));
+    // The base must put joint 0 where the stored origin is (the parts came from this chain).
+    let mut probe = chain.clone();
+    probe
+        .set_base(b, at)
+        .map_err(|e| format!("base joint {b}: {e}"))?;
+    let extent = chain.total_length() + o.norm();
+    let tol = T::EPSILON.sqrt() * (T::one() + extent);
+    if (probe.origin() - o).norm() > tol {
+        return Err(format!("base joint {b} is not where the links put it"));
+    }
+    Ok(probe)
 }
 
 #[cfg(test)]
@@ -956,7 +1028,9 @@ mod tests {
             let (req, p) = match i % 3 {
                 0 => {
                     let mut r = RequestHeader::new(Command::Move, 0);
-                    r.joint = if i % 2 == 0 { JOINT_HEAD } else { 0 };
+                    // Runs of moves of one end: the move after the snapshot starts from the
+                    // base joint the snapshot kept.
+                    r.joint = if (i / 6) % 2 == 0 { JOINT_HEAD } else { 0 };
                     (
                         r,
                         vec![Vec3::new(20.0 + 5.0 * t.cos(), 5.0 * t.sin(), t.sin())],
@@ -1000,6 +1074,49 @@ mod tests {
         assert_eq!(r.dropped_tail_bytes, 6);
         assert_eq!(fresh.sequence(), expected_seq);
         assert_eq!(joints(&fresh), expected);
+        // And the base joints: the next move of the last moved joint starts where it did.
+        assert_eq!(bases(&fresh), bases(&set));
+        let mut req = RequestHeader::new(Command::Move, 0);
+        req.joint = 0;
+        let p = [Vec3::new(3.3, -1.7, 0.9)];
+        assert!(set.apply_wire(&req, &p).unwrap().changed);
+        assert!(fresh.apply_wire(&req, &p).unwrap().changed);
+        assert_eq!(joints(&fresh), joints(&set));
+    }
+
+    /// A snapshot keeps each chain's base joint (the last moved one, at its exact target) bit for bit.
+    #[test]
+    fn a_snapshot_keeps_the_base_joints() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = default_scene();
+        let mut set = ChainSet::new(&scene).unwrap();
+        // The free chains' heads (a fixed-base arm refuses a move: its base stays joint 0).
+        for c in 0..set.len() as u32 {
+            let req = RequestHeader::new(Command::Move, c);
+            let _ = set.apply_wire(&req, &[Vec3::new(1.1, 0.7, 0.0)]);
+        }
+        let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+        store.snapshot(&set).unwrap();
+        drop(store);
+        let mut fresh = ChainSet::new(&scene).unwrap();
+        let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+        store.restore(&mut fresh).unwrap();
+        assert!(bases(&set).iter().any(|b| b.0 > 0), "{:?}", bases(&set));
+        assert_eq!(bases(&fresh), bases(&set));
+        assert_eq!(joints(&fresh), joints(&set));
+    }
+
+    /// Each chain's base joint and the bits of its position.
+    fn bases(set: &ChainSet) -> Vec<(usize, Vec<u64>)> {
+        set.geometry()
+            .iter()
+            .map(|g| {
+                each_form!(g, g => {
+                    let (b, at) = g.chain.base();
+                    (b, at.iter().map(|x| x.to_f64().to_bits()).collect())
+                })
+            })
+            .collect()
     }
 
     /// Regression (issue 15): a failed append used to leave its partial bytes; later appends landed after

@@ -3,8 +3,12 @@
 //! # State
 //!
 //! Joints are numbered `0..=n`: joint 0 is the *tail* end (the base of a manipulator), joint `n` the
-//! *head*. Link `i` (1-based) joins joints `i−1` and `i`. The state is flat: the position of joint 0 and
-//! one contiguous buffer of link vectors `lᵢ = Xᵢ − Xᵢ₋₁`, plus the nominal lengths.
+//! *head*. Link `i` (1-based) joins joints `i−1` and `i`. The state is flat: one contiguous buffer of
+//! link vectors `lᵢ = Xᵢ − Xᵢ₋₁`, the nominal lengths, and one *base*: a joint `b` and its position.
+//! Joint 0 (the origin) is the compensated sum `X_b − Σ_{i<b} lᵢ`, computed when it is asked for, and
+//! every other position is summed forward from it. A move sets the base to the moved joint and its
+//! target, O(1), instead of walking the chain to place the origin: a move costs one pass over the
+//! links, nothing more, and the next move of the same joint starts exactly where the last one put it.
 //!
 //! Storing link vectors rather than absolute positions is a deliberate choice: a link's length is then a
 //! property of one stored vector, so it is kept to a few ulps *relative to the link* however far the chain
@@ -30,7 +34,7 @@
 //! freely, exactly as without holds ([`crate::hold`]).
 
 use crate::fixed_base::ReachOptions;
-use crate::link::{Method, step};
+use crate::link::{LinkStep, Method, follow_the_leader_step, step, tractrix_step};
 use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
 
 /// How a move is divided into straight substeps. Motion is path dependent: finer substeps follow a curved
@@ -161,7 +165,10 @@ pub enum ChainError {
 /// A chain of rigid links in `D` dimensions (see the module docs for the layout).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Chain<T: Real, const D: usize> {
-    origin: Vector<T, D>,
+    /// The base joint `b` (at most the first held joint) and its position; joint 0 is summed back from
+    /// it on demand.
+    base: usize,
+    base_at: Vector<T, D>,
     links: Vec<Vector<T, D>>,
     lengths: Vec<T>,
     min_length: T,
@@ -253,7 +260,8 @@ where
     fn assemble(origin: Vector<T, D>, links: Vec<Vector<T, D>>, lengths: Vec<T>) -> Self {
         let min_length = lengths.iter().copied().fold(lengths[0], T::min);
         Chain {
-            origin,
+            base: 0,
+            base_at: origin,
             links,
             lengths,
             min_length,
@@ -265,7 +273,8 @@ where
     /// service's per-request backup).
     pub fn copy_from(&mut self, other: &Self) {
         if self.links.len() == other.links.len() {
-            self.origin = other.origin;
+            self.base = other.base;
+            self.base_at = other.base_at;
             self.links.copy_from_slice(&other.links);
             self.lengths.copy_from_slice(&other.lengths);
             self.min_length = other.min_length;
@@ -297,7 +306,58 @@ where
 
     /// Position of joint 0 (the base of a manipulator).
     pub fn origin(&self) -> Vector<T, D> {
-        self.origin
+        if self.base == 0 {
+            return self.base_at;
+        }
+        // The moved joint's target back along the links before it (compensated, in link order).
+        let mut acc = CompensatedSum::new(self.base_at);
+        for l in &self.links[..self.base] {
+            acc.add(&-l);
+        }
+        acc.value()
+    }
+
+    /// The base joint and its position (see the module docs): what a snapshot stores besides the
+    /// links and the held joints.
+    pub fn base(&self) -> (usize, Vector<T, D>) {
+        (self.base, self.base_at)
+    }
+
+    /// Restores a base stored by [`Chain::base`]. Fails, changing nothing, unless the joint is in
+    /// range and at most the first held joint and the position is finite.
+    pub fn set_base(&mut self, joint: usize, at: Vector<T, D>) -> Result<(), ChainError> {
+        self.check_joint(joint)?;
+        if !all_finite(&at) {
+            return Err(ChainError::NonFinite);
+        }
+        if self.pins.first().is_some_and(|p| p.0 < joint) {
+            return Err(ChainError::BadOption(
+                "the base joint must not lie beyond the first held joint",
+            ));
+        }
+        self.base = joint;
+        self.base_at = at;
+        Ok(())
+    }
+
+    /// Moves the base to joint 0 (where it already was summed): positions do not change, bit for bit.
+    /// Needed before anything edits the links before the base other than a move that sets it again.
+    pub(crate) fn settle_origin(&mut self) {
+        if self.base != 0 {
+            self.base_at = self.origin();
+            self.base = 0;
+        }
+    }
+
+    /// Where joint `joint` is: the base's own position if it is the base (exactly where the last move
+    /// put it), else summed ([`Chain::joint`]).
+    #[inline]
+    pub(crate) fn current(&self, joint: usize) -> Vector<T, D> {
+        if joint == self.base {
+            self.base_at
+        } else {
+            self.joint(joint)
+        }
     }
 
     /// The shortest nominal link length.
@@ -319,7 +379,7 @@ where
     pub(crate) fn sum_at(&self, i: usize) -> CompensatedSum<T, D> {
         let (mut acc, from) = match self.pins.iter().rev().find(|p| p.0 <= i) {
             Some(&(j, s)) => (s, j),
-            None => (CompensatedSum::new(self.origin), 0),
+            None => (CompensatedSum::new(self.origin()), 0),
         };
         for l in &self.links[from..i] {
             acc.add(l);
@@ -335,6 +395,10 @@ where
         match self.pins.binary_search_by_key(&joint, |p| p.0) {
             Ok(_) => {}
             Err(at) => {
+                // The base stays at or before the first held joint.
+                if joint < self.base {
+                    self.settle_origin();
+                }
                 let state = self.sum_at(joint);
                 self.pins.insert(at, (joint, state));
             }
@@ -391,7 +455,10 @@ where
         &mut self,
         held: &[(usize, Vector<T, D>, Vector<T, D>)],
     ) -> Result<(), ChainError> {
-        let extent = self.total_length() + self.origin.norm();
+        let extent = self.total_length() + self.origin().norm();
+        if held.first().is_some_and(|h| h.0 < self.base) {
+            self.settle_origin();
+        }
         let tol = T::EPSILON.sqrt() * (T::one() + extent);
         let mut pins = Vec::with_capacity(held.len());
         for (k, &(j, sum, carry)) in held.iter().enumerate() {
@@ -426,8 +493,9 @@ where
     /// Positions are accurate to a few ulps of their magnitude whatever the chain's length (compensated
     /// prefix sum).
     pub fn write_positions(&self, out: &mut [Vector<T, D>]) {
-        let mut acc = CompensatedSum::new(self.origin);
-        out[0] = self.origin;
+        let origin = self.origin();
+        let mut acc = CompensatedSum::new(origin);
+        out[0] = origin;
         let mut pins = self.pins.iter().peekable();
         if let Some(&(_, s)) = pins.next_if(|p| p.0 == 0) {
             acc = s;
@@ -473,7 +541,8 @@ where
                 });
             }
         }
-        self.origin = points[0];
+        self.base = 0;
+        self.base_at = points[0];
         for ((l, w), &len) in self
             .links
             .iter_mut()
@@ -489,17 +558,20 @@ where
     /// Moves the origin (joint 0) to `p` without rotating any link: a rigid translation (of the part
     /// before the first held joint: held joints stay).
     pub fn translate_to(&mut self, p: Vector<T, D>) {
-        self.origin = p;
+        self.base = 0;
+        self.base_at = p;
     }
 
     /// Overwrites link vectors directly (same count; used by solvers that rotate links). Callers keep
     /// lengths: the vectors are not rescaled here.
     pub(crate) fn links_mut(&mut self) -> &mut [Vector<T, D>] {
+        self.settle_origin();
         &mut self.links
     }
 
     /// Link vectors (mutable) beside the nominal lengths, for solvers that rotate links in place.
     pub(crate) fn links_and_lengths_mut(&mut self) -> (&mut [Vector<T, D>], &[T]) {
+        self.settle_origin();
         (&mut self.links, &self.lengths)
     }
 
@@ -550,7 +622,7 @@ where
         if self.held_elsewhere(joint) {
             return crate::hold::move_held(self, joint, target, opts);
         }
-        let delta = target - self.joint(joint);
+        let delta = target - self.current(joint);
         let k = self.substep_count(&delta, opts)?;
         let outcome = self.apply_move(joint, target, delta, k, opts.method);
         self.repin(joint);
@@ -578,14 +650,11 @@ where
         (lo, hi)
     }
 
-    /// Sets the origin (joint 0) so that the compensated sum of the links before `joint` puts `joint` at
-    /// `at` (for a chain with no held joint before `joint`).
+    /// Makes `joint` the base, at `at`: the origin is then the compensated sum of the links before it
+    /// back from `at` (for a chain with no held joint before `joint`).
     pub(crate) fn place_origin_from(&mut self, joint: usize, at: Vector<T, D>) {
-        let mut acc = CompensatedSum::new(at);
-        for l in &self.links[..joint] {
-            acc.add(&-l);
-        }
-        self.origin = acc.value();
+        self.base = joint;
+        self.base_at = at;
     }
 
     /// Moves joint `joint` through `targets` in order, one straight move per target. Every target and
@@ -597,7 +666,7 @@ where
         opts: &MoveOptions<T>,
     ) -> Result<MoveOutcome, ChainError> {
         self.check_joint(joint)?;
-        let mut from = self.joint(joint);
+        let mut from = self.current(joint);
         for t in targets {
             if !all_finite(t) {
                 return Err(ChainError::NonFinite);
@@ -625,7 +694,7 @@ where
             return Ok(total);
         }
         for t in targets {
-            let delta = t - self.joint(joint);
+            let delta = t - self.current(joint);
             let k = self.substep_count(&delta, opts)?;
             let o = self.apply_move(joint, *t, delta, k, opts.method);
             total.substeps = total.substeps.saturating_add(o.substeps);
@@ -659,14 +728,12 @@ where
         let sd = delta / T::lit(k as f64);
         let mut fallbacks = 0u32;
         for _ in 0..k {
-            fallbacks = fallbacks.saturating_add(self.sweep(joint, &sd, method));
+            let (fb, _) = self.tail_side(joint, &sd, method, 0);
+            let n = self.links.len();
+            fallbacks = fallbacks.saturating_add(fb + self.head_side(joint, &sd, method, n));
         }
-        // The moved joint lands on its target: joint 0 is placed from it.
-        let mut acc = CompensatedSum::new(target);
-        for l in &self.links[..joint] {
-            acc.add(&-l);
-        }
-        self.origin = acc.value();
+        // The moved joint lands on its target: it becomes the base.
+        self.place_origin_from(joint, target);
         MoveOutcome {
             substeps: k,
             paper_fallbacks: fallbacks,
@@ -675,10 +742,11 @@ where
     }
 
     /// One substep: joint `m` moves by `s`; links toward the tail and toward the head follow outward.
-    /// Returns the number of paper-form fallbacks. The origin is not updated (callers place it).
+    /// Returns the number of paper-form fallbacks. The origin is kept where it was (callers place it).
     pub(crate) fn sweep(&mut self, m: usize, s: &Vector<T, D>, method: Method) -> u32 {
-        let (fallbacks, _) = self.sweep_tail_side(m, s, method, 0);
-        fallbacks + self.sweep_head_side(m, s, method, self.links.len())
+        self.settle_origin();
+        let (fallbacks, _) = self.tail_side(m, s, method, 0);
+        fallbacks + self.head_side(m, s, method, self.links.len())
     }
 
     /// Joint `m` moves by `s`; links with 0-based index `m..hi` follow toward the head (the moving end of
@@ -690,11 +758,37 @@ where
         method: Method,
         hi: usize,
     ) -> u32 {
+        if m < self.base {
+            self.settle_origin();
+        }
+        self.head_side(m, s, method, hi)
+    }
+
+    /// [`Chain::sweep_head_side`] leaving the base alone (the caller places it).
+    #[inline]
+    fn head_side(&mut self, m: usize, s: &Vector<T, D>, method: Method, hi: usize) -> u32 {
+        // One loop per method, the method chosen once per sweep rather than once per link.
+        match method {
+            Method::Tractrix => {
+                self.head_side_with(m, s, hi, |t, s, l| (tractrix_step(t, s, l), false))
+            }
+            Method::FollowTheLeader => {
+                self.head_side_with(m, s, hi, |t, s, l| (follow_the_leader_step(t, s, l), false))
+            }
+            Method::TractrixPaper => self.head_side_with(m, s, hi, paper_or_closed_form),
+        }
+    }
+
+    #[inline(always)]
+    fn head_side_with<F>(&mut self, m: usize, s: &Vector<T, D>, hi: usize, f: F) -> u32
+    where
+        F: Fn(&Vector<T, D>, &Vector<T, D>, T) -> (LinkStep<T, D>, bool),
+    {
         let mut fallbacks = 0;
         let mut shift = *s;
-        for i in m..hi {
-            let (st, fb) = step(method, &self.links[i], &shift, self.lengths[i]);
-            self.links[i] = st.link;
+        for (l, &len) in self.links[m..hi].iter_mut().zip(&self.lengths[m..hi]) {
+            let (st, fb) = f(l, &shift, len);
+            *l = st.link;
             shift = st.tail_shift;
             fallbacks += fb as u32;
         }
@@ -710,16 +804,66 @@ where
         method: Method,
         lo: usize,
     ) -> (u32, Vector<T, D>) {
+        if lo < self.base {
+            self.settle_origin();
+        }
+        self.tail_side(m, s, method, lo)
+    }
+
+    /// [`Chain::sweep_tail_side`] leaving the base alone (the caller places it).
+    #[inline]
+    fn tail_side(
+        &mut self,
+        m: usize,
+        s: &Vector<T, D>,
+        method: Method,
+        lo: usize,
+    ) -> (u32, Vector<T, D>) {
+        match method {
+            Method::Tractrix => {
+                self.tail_side_with(m, s, lo, |t, s, l| (tractrix_step(t, s, l), false))
+            }
+            Method::FollowTheLeader => {
+                self.tail_side_with(m, s, lo, |t, s, l| (follow_the_leader_step(t, s, l), false))
+            }
+            Method::TractrixPaper => self.tail_side_with(m, s, lo, paper_or_closed_form),
+        }
+    }
+
+    #[inline(always)]
+    fn tail_side_with<F>(
+        &mut self,
+        m: usize,
+        s: &Vector<T, D>,
+        lo: usize,
+        f: F,
+    ) -> (u32, Vector<T, D>)
+    where
+        F: Fn(&Vector<T, D>, &Vector<T, D>, T) -> (LinkStep<T, D>, bool),
+    {
         let mut fallbacks = 0;
         let mut shift = *s;
-        for i in (lo..m).rev() {
-            let (st, fb) = step(method, &(-self.links[i]), &shift, self.lengths[i]);
-            self.links[i] = -st.link;
+        for (l, &len) in self.links[lo..m].iter_mut().zip(&self.lengths[lo..m]).rev() {
+            let (st, fb) = f(&(-*l), &shift, len);
+            *l = -st.link;
             shift = st.tail_shift;
             fallbacks += fb as u32;
         }
         (fallbacks, shift)
     }
+}
+
+/// The paper's form where it is defined, the closed form (counted as a fallback) where it is not.
+#[inline(always)]
+fn paper_or_closed_form<T: Real, const D: usize>(
+    t: &Vector<T, D>,
+    s: &Vector<T, D>,
+    len: T,
+) -> (LinkStep<T, D>, bool)
+where
+    Vector<T, D>: Embed3<T>,
+{
+    step(Method::TractrixPaper, t, s, len)
 }
 
 /// The checks every constructor shares: at least one link, one length per link, finite coordinates.

@@ -277,7 +277,7 @@ pub(crate) fn move_held<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    let m_now = c.joint(m);
+    let m_now = c.current(m);
     let delta = target - m_now;
     let k = c.substep_count(&delta, opts)?;
     if delta.iter().all(|x| *x == T::zero()) {

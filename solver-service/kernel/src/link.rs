@@ -112,6 +112,8 @@ pub fn tractrix_step<T: Real, const D: usize>(
             tail_shift: Vector::zeros(),
         };
     }
+    // Divided, not multiplied by 1/b: the rounding of a reciprocal leaves |û| an ulp off 1, which a
+    // push near the line of motion amplifies (by up to 1/|w|) into a length error.
     let u = ss / b;
     let tt = t * inv_len;
     let c = tt.dot(&u);
@@ -152,11 +154,33 @@ pub fn tractrix_step<T: Real, const D: usize>(
     // 1 − E = e1 (1 + q)
     let cu_num = p * m * e1 * (one + q);
     if d > T::lit(1e-30) {
+        // The length folded into the scalar coefficients: two vector scalings fewer.
         let inv_d = one / d;
-        let link = (u * ((e * m - p) * inv_d) + w * (two * q * inv_d)) * len;
-        let tail_shift = (u * (b - cu_num * inv_d) + w * (cw_num * inv_d)) * len;
+        let link = u * ((e * m - p) * inv_d * len) + w * (two * q * inv_d * len);
+        let tail_shift = u * ((b - cu_num * inv_d) * len) + w * (cw_num * inv_d * len);
         return LinkStep { link, tail_shift };
     }
+    tiny_denominator_step(t, s, &u, &w, q, m, b, e1, len)
+}
+
+/// The rest of [`tractrix_step`] when `D` is tiny (out of line: rare, and it keeps the common path's
+/// registers free).
+#[cold]
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn tiny_denominator_step<T: Real, const D: usize>(
+    t: &Vector<T, D>,
+    s: &Vector<T, D>,
+    u: &Vector<T, D>,
+    w: &Vector<T, D>,
+    q: T,
+    m: T,
+    b: T,
+    e1: T,
+    len: T,
+) -> LinkStep<T, D> {
+    let one = T::one();
+    let two = T::lit(2.0);
     // D tiny: a push nearly along the link (c > 0, |w|² and E = e^{−2b} near or below the smallest
     // normal number: ~44+ links in one substep in f32, ~350+ in f64). 1/D overflows and E, |w|² lose
     // their digits, so the step is written with |w| and q alone: with τ = |w| / (q m) the link turns

@@ -10,6 +10,10 @@ use nalgebra::{RealField, SVector, Vector2, Vector3};
 pub trait Real: RealField + Copy + Default + std::fmt::Debug + 'static {
     /// Machine epsilon of the type.
     const EPSILON: Self;
+    /// The smallest positive normal number.
+    const MIN_POSITIVE: Self;
+    /// The largest finite number.
+    const MAX: Self;
     /// Converts an `f64` constant or measurement into this type (rounding to nearest for `f32`).
     fn lit(x: f64) -> Self;
     /// Widens to `f64` (exact for both implementors).
@@ -18,6 +22,8 @@ pub trait Real: RealField + Copy + Default + std::fmt::Debug + 'static {
 
 impl Real for f64 {
     const EPSILON: Self = f64::EPSILON;
+    const MIN_POSITIVE: Self = f64::MIN_POSITIVE;
+    const MAX: Self = f64::MAX;
     #[inline(always)]
     fn lit(x: f64) -> Self {
         x
@@ -30,6 +36,8 @@ impl Real for f64 {
 
 impl Real for f32 {
     const EPSILON: Self = f32::EPSILON;
+    const MIN_POSITIVE: Self = f32::MIN_POSITIVE;
+    const MAX: Self = f32::MAX;
     #[inline(always)]
     fn lit(x: f64) -> Self {
         x as f32
@@ -83,9 +91,15 @@ pub mod tol {
     pub const PAPER_AGREEMENT_REL: f64 = 1e-12;
 }
 
-/// `|v|` computed without overflow or underflow for any finite `v` (scales by the largest component).
+/// `|v|` computed without overflow or underflow for any finite `v`. The plain `√(v·v)` when `v·v` is a
+/// normal finite number (then no square lost more than an ulp of the total); otherwise scaled by the
+/// largest component.
 #[inline]
 pub fn robust_norm<T: Real, const D: usize>(v: &Vector<T, D>) -> T {
+    let n2 = v.norm_squared();
+    if n2 >= T::MIN_POSITIVE && n2 <= T::MAX {
+        return n2.sqrt();
+    }
     let m = v.amax();
     if m == T::zero() || !m.is_finite() {
         return m;

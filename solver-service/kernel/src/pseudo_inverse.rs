@@ -63,6 +63,7 @@ where
         return Err(ReachError::Unreachable { nearest, residual });
     }
     let backup: Vec<_> = chain.links().to_vec();
+    let backup_base = chain.base();
     let total = chain.total_length();
     let tol = opts.tolerance * total;
     let max_step = opts.max_step * total;
@@ -110,6 +111,7 @@ where
     }
     let residual = (chain.head() - target).norm();
     chain.links_mut().copy_from_slice(&backup);
+    chain.place_origin_from(backup_base.0, backup_base.1);
     Err(ReachError::NotConverged {
         iterations: opts.max_iterations,
         residual,

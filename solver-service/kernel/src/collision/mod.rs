@@ -205,7 +205,7 @@ where
     if !all_finite(&target) {
         return Err(ChainError::NonFinite);
     }
-    let start = chain.joint(joint);
+    let start = chain.current(joint);
     let delta = target - start;
     let requested = chain.substep_count(&delta, opts)?;
     // No substep may move the hand more than half the smallest clearance (no tunnelling).
@@ -239,7 +239,7 @@ where
     }
     ws.backup_links.clear();
     ws.backup_links.extend_from_slice(chain.links());
-    let backup_origin = chain.origin();
+    let backup_base = chain.base();
     ws.pos.resize(chain.n_links() + 1, Vector::zeros());
 
     let sd = delta / T::lit(k as f64);
@@ -266,7 +266,7 @@ where
             }
             Err((iterations, penetration)) => {
                 chain.links_mut().copy_from_slice(&ws.backup_links);
-                chain.translate_to(backup_origin);
+                chain.place_origin_from(backup_base.0, backup_base.1);
                 return Err(ChainError::Locked {
                     substep: s,
                     iterations,
@@ -274,7 +274,8 @@ where
                 });
             }
         }
-        chain.translate_to(ws.pos[0]);
+        // The moved joint is where the hand put it: the base (as after a plain move).
+        chain.place_origin_from(joint, hand);
     }
     // The hand may hold the joint it moves: its pin follows it.
     chain.repin(joint);
