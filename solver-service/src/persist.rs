@@ -35,8 +35,8 @@ use std::path::{Path, PathBuf};
 use tractrix::Chain;
 use tractrix::math::{Embed3, Real, Vector};
 
-const SNAPSHOT_MAGIC: u32 = 0x5452_5834; // "TRX4": held joints, instrument poses and the base joint
-/// The third format: no base joint (read; the base is joint 0, at the stored origin).
+const SNAPSHOT_MAGIC: u32 = 0x5452_5834; // "TRX4": held joints, instrument poses and the datum joint
+/// The third format: no datum joint (read; the datum is joint 0, at the stored origin).
 const SNAPSHOT_MAGIC_V3: u32 = 0x5452_5833; // "TRX3"
 /// The second format: held joints, no instruments (read; instruments start at the scene's poses).
 const SNAPSHOT_MAGIC_V2: u32 = 0x5452_5832; // "TRX2"
@@ -74,11 +74,11 @@ struct ChainSnapshot {
     held: Vec<(u32, Vec<f64>, Vec<f64>)>,
     /// The chain's instruments' poses (a sphere's centre; a capsule's `a` then `b`).
     instruments: Vec<Vec<f64>>,
-    /// The base joint (the last moved one) and its position: the next move of it starts there.
-    base: (u32, Vec<f64>),
+    /// The datum joint (the last moved one) and its position: the next move of it starts there.
+    datum: (u32, Vec<f64>),
 }
 
-/// [`ChainSnapshot`] of the "TRX3" format (no base joint).
+/// [`ChainSnapshot`] of the "TRX3" format (no datum joint).
 #[derive(Debug, Deserialize)]
 struct ChainSnapshotV3 {
     name: String,
@@ -124,7 +124,7 @@ struct SnapshotV2 {
     chains: Vec<ChainSnapshotV2>,
 }
 
-/// Decodes a snapshot of this format, of "TRX3" (base at joint 0) or of "TRX2" (also without
+/// Decodes a snapshot of this format, of "TRX3" (datum at joint 0) or of "TRX2" (also without
 /// instruments: the flag is then `false`).
 fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String> {
     // The magic number comes first in every format.
@@ -147,7 +147,7 @@ fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String
                     dims: c.dims,
                     precision: c.precision,
                     lengths: c.lengths,
-                    base: (0, c.origin.clone()),
+                    datum: (0, c.origin.clone()),
                     origin: c.origin,
                     links: c.links,
                     held: c.held,
@@ -174,7 +174,7 @@ fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String
                     dims: c.dims,
                     precision: c.precision,
                     lengths: c.lengths,
-                    base: (0, c.origin.clone()),
+                    datum: (0, c.origin.clone()),
                     origin: c.origin,
                     links: c.links,
                     held: c.held,
@@ -681,7 +681,7 @@ fn encode_snapshot(set: &ChainSet) -> Result<(Vec<u8>, u64), String> {
             .iter()
             .zip(set.geometry())
             .map(|(spec, g)| {
-                let (origin, links, held, base) = each_form!(g, g => raw_parts(&g.chain));
+                let (origin, links, held, datum) = each_form!(g, g => raw_parts(&g.chain));
                 ChainSnapshot {
                     name: spec.name.clone(),
                     dims: spec.dims,
@@ -691,7 +691,7 @@ fn encode_snapshot(set: &ChainSet) -> Result<(Vec<u8>, u64), String> {
                     links,
                     held,
                     instruments: each_form!(g, g => g.instrument_numbers()),
-                    base,
+                    datum,
                 }
             })
             .collect(),
@@ -880,9 +880,9 @@ fn next_record(input: &mut impl Read, buf: &mut Vec<u8>) -> Option<(Record, u64)
 
 type HeldParts = Vec<(u32, Vec<f64>, Vec<f64>)>;
 
-type BasePart = (u32, Vec<f64>);
+type DatumPart = (u32, Vec<f64>);
 
-fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>, HeldParts, BasePart)
+fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>, HeldParts, DatumPart)
 where
     Vector<T, D>: Embed3<T>,
 {
@@ -893,7 +893,7 @@ where
         .held_raw()
         .map(|(j, sum, carry)| (j as u32, f(&sum), f(&carry)))
         .collect();
-    let (b, at) = c.base();
+    let (b, at) = c.datum();
     (origin, links, held, (b as u32, f(&at)))
 }
 
@@ -937,7 +937,7 @@ fn install(set: &mut ChainSet, snap: &Snapshot, with_instruments: bool) -> Resul
         }
         let mut g = geometry.clone();
         each_form!(&mut g, h => {
-            h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held, &s.base).map_err(|m| format!("chain {:?}: {m}", d.name))?;
+            h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held, &s.datum).map_err(|m| format!("chain {:?}: {m}", d.name))?;
             if with_instruments {
                 h.set_instrument_numbers(&s.instruments).map_err(|m| format!("chain {:?}: {m}", d.name))?;
             }
@@ -953,7 +953,7 @@ fn rebuild<T: Real, const D: usize>(
     origin: &[f64],
     links: &[f64],
     held: &HeldParts,
-    base: &BasePart,
+    datum: &DatumPart,
 ) -> Result<Chain<T, D>, String>
 where
     Vector<T, D>: Embed3<T>,
@@ -984,19 +984,19 @@ where
     chain
         .set_held_raw(&pins)
         .map_err(|e| format!("held joints: {e}"))?;
-    if base.1.len() != D {
-        return Err(format!("base joint: {} coordinates", base.1.len()));
+    if datum.1.len() != D {
+        return Err(format!("datum joint: {} coordinates", datum.1.len()));
     }
-    let (b, at) = (base.0 as usize, v(&base.1));
-    // The base must put joint 0 where the stored origin is (the parts came from this chain).
+    let (b, at) = (datum.0 as usize, v(&datum.1));
+    // The datum must put joint 0 where the stored origin is (the parts came from this chain).
     let mut probe = chain.clone();
     probe
-        .set_base(b, at)
-        .map_err(|e| format!("base joint {b}: {e}"))?;
+        .set_datum(b, at)
+        .map_err(|e| format!("datum joint {b}: {e}"))?;
     let extent = chain.total_length() + o.norm();
     let tol = T::EPSILON.sqrt() * (T::one() + extent);
     if (probe.origin() - o).norm() > tol {
-        return Err(format!("base joint {b} is not where the links put it"));
+        return Err(format!("datum joint {b} is not where the links put it"));
     }
     Ok(probe)
 }
@@ -1029,7 +1029,7 @@ mod tests {
                 0 => {
                     let mut r = RequestHeader::new(Command::Move, 0);
                     // Runs of moves of one end: the move after the snapshot starts from the
-                    // base joint the snapshot kept.
+                    // datum joint the snapshot kept.
                     r.joint = if (i / 6) % 2 == 0 { JOINT_HEAD } else { 0 };
                     (
                         r,
@@ -1074,8 +1074,8 @@ mod tests {
         assert_eq!(r.dropped_tail_bytes, 6);
         assert_eq!(fresh.sequence(), expected_seq);
         assert_eq!(joints(&fresh), expected);
-        // And the base joints: the next move of the last moved joint starts where it did.
-        assert_eq!(bases(&fresh), bases(&set));
+        // And the datum joints: the next move of the last moved joint starts where it did.
+        assert_eq!(datums(&fresh), datums(&set));
         let mut req = RequestHeader::new(Command::Move, 0);
         req.joint = 0;
         let p = [Vec3::new(3.3, -1.7, 0.9)];
@@ -1084,13 +1084,13 @@ mod tests {
         assert_eq!(joints(&fresh), joints(&set));
     }
 
-    /// A snapshot keeps each chain's base joint (the last moved one, at its exact target) bit for bit.
+    /// A snapshot keeps each chain's datum joint (the last moved one, at its exact target) bit for bit.
     #[test]
-    fn a_snapshot_keeps_the_base_joints() {
+    fn a_snapshot_keeps_the_datum_joints() {
         let dir = tempfile::tempdir().unwrap();
         let scene = default_scene();
         let mut set = ChainSet::new(&scene).unwrap();
-        // The free chains' heads (a fixed-base arm refuses a move: its base stays joint 0).
+        // The free chains' heads (a fixed-base arm refuses a move: its datum stays joint 0).
         for c in 0..set.len() as u32 {
             let req = RequestHeader::new(Command::Move, c);
             let _ = set.apply_wire(&req, &[Vec3::new(1.1, 0.7, 0.0)]);
@@ -1101,18 +1101,18 @@ mod tests {
         let mut fresh = ChainSet::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.restore(&mut fresh).unwrap();
-        assert!(bases(&set).iter().any(|b| b.0 > 0), "{:?}", bases(&set));
-        assert_eq!(bases(&fresh), bases(&set));
+        assert!(datums(&set).iter().any(|b| b.0 > 0), "{:?}", datums(&set));
+        assert_eq!(datums(&fresh), datums(&set));
         assert_eq!(joints(&fresh), joints(&set));
     }
 
-    /// Each chain's base joint and the bits of its position.
-    fn bases(set: &ChainSet) -> Vec<(usize, Vec<u64>)> {
+    /// Each chain's datum joint and the bits of its position.
+    fn datums(set: &ChainSet) -> Vec<(usize, Vec<u64>)> {
         set.geometry()
             .iter()
             .map(|g| {
                 each_form!(g, g => {
-                    let (b, at) = g.chain.base();
+                    let (b, at) = g.chain.datum();
                     (b, at.iter().map(|x| x.to_f64().to_bits()).collect())
                 })
             })

@@ -4,9 +4,9 @@
 //!
 //! Joints are numbered `0..=n`: joint 0 is the *tail* end (the base of a manipulator), joint `n` the
 //! *head*. Link `i` (1-based) joins joints `i−1` and `i`. The state is flat: one contiguous buffer of
-//! link vectors `lᵢ = Xᵢ − Xᵢ₋₁`, the nominal lengths, and one *base*: a joint `b` and its position.
+//! link vectors `lᵢ = Xᵢ − Xᵢ₋₁`, the nominal lengths, and one *datum*: a joint `b` and its position.
 //! Joint 0 (the origin) is the compensated sum `X_b − Σ_{i<b} lᵢ`, computed when it is asked for, and
-//! every other position is summed forward from it. A move sets the base to the moved joint and its
+//! every other position is summed forward from it. A move sets the datum to the moved joint and its
 //! target, O(1), instead of walking the chain to place the origin: a move costs one pass over the
 //! links, nothing more, and the next move of the same joint starts exactly where the last one put it.
 //!
@@ -165,10 +165,10 @@ pub enum ChainError {
 /// A chain of rigid links in `D` dimensions (see the module docs for the layout).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Chain<T: Real, const D: usize> {
-    /// The base joint `b` (at most the first held joint) and its position; joint 0 is summed back from
+    /// The datum joint `b` (at most the first held joint) and its position; joint 0 is summed back from
     /// it on demand.
-    base: usize,
-    base_at: Vector<T, D>,
+    datum: usize,
+    datum_at: Vector<T, D>,
     links: Vec<Vector<T, D>>,
     lengths: Vec<T>,
     min_length: T,
@@ -260,8 +260,8 @@ where
     fn assemble(origin: Vector<T, D>, links: Vec<Vector<T, D>>, lengths: Vec<T>) -> Self {
         let min_length = lengths.iter().copied().fold(lengths[0], T::min);
         Chain {
-            base: 0,
-            base_at: origin,
+            datum: 0,
+            datum_at: origin,
             links,
             lengths,
             min_length,
@@ -273,8 +273,8 @@ where
     /// service's per-request backup).
     pub fn copy_from(&mut self, other: &Self) {
         if self.links.len() == other.links.len() {
-            self.base = other.base;
-            self.base_at = other.base_at;
+            self.datum = other.datum;
+            self.datum_at = other.datum_at;
             self.links.copy_from_slice(&other.links);
             self.lengths.copy_from_slice(&other.lengths);
             self.min_length = other.min_length;
@@ -306,55 +306,55 @@ where
 
     /// Position of joint 0 (the base of a manipulator).
     pub fn origin(&self) -> Vector<T, D> {
-        if self.base == 0 {
-            return self.base_at;
+        if self.datum == 0 {
+            return self.datum_at;
         }
         // The moved joint's target back along the links before it (compensated, in link order).
-        let mut acc = CompensatedSum::new(self.base_at);
-        for l in &self.links[..self.base] {
+        let mut acc = CompensatedSum::new(self.datum_at);
+        for l in &self.links[..self.datum] {
             acc.add(&-l);
         }
         acc.value()
     }
 
-    /// The base joint and its position (see the module docs): what a snapshot stores besides the
+    /// The datum joint and its position (see the module docs): what a snapshot stores besides the
     /// links and the held joints.
-    pub fn base(&self) -> (usize, Vector<T, D>) {
-        (self.base, self.base_at)
+    pub fn datum(&self) -> (usize, Vector<T, D>) {
+        (self.datum, self.datum_at)
     }
 
-    /// Restores a base stored by [`Chain::base`]. Fails, changing nothing, unless the joint is in
+    /// Restores a datum stored by [`Chain::datum`]. Fails, changing nothing, unless the joint is in
     /// range and at most the first held joint and the position is finite.
-    pub fn set_base(&mut self, joint: usize, at: Vector<T, D>) -> Result<(), ChainError> {
+    pub fn set_datum(&mut self, joint: usize, at: Vector<T, D>) -> Result<(), ChainError> {
         self.check_joint(joint)?;
         if !all_finite(&at) {
             return Err(ChainError::NonFinite);
         }
         if self.pins.first().is_some_and(|p| p.0 < joint) {
             return Err(ChainError::BadOption(
-                "the base joint must not lie beyond the first held joint",
+                "the datum joint must not lie beyond the first held joint",
             ));
         }
-        self.base = joint;
-        self.base_at = at;
+        self.datum = joint;
+        self.datum_at = at;
         Ok(())
     }
 
-    /// Moves the base to joint 0 (where it already was summed): positions do not change, bit for bit.
-    /// Needed before anything edits the links before the base other than a move that sets it again.
+    /// Moves the datum to joint 0 (where it already was summed): positions do not change, bit for bit.
+    /// Needed before anything edits the links before the datum other than a move that sets it again.
     pub(crate) fn settle_origin(&mut self) {
-        if self.base != 0 {
-            self.base_at = self.origin();
-            self.base = 0;
+        if self.datum != 0 {
+            self.datum_at = self.origin();
+            self.datum = 0;
         }
     }
 
-    /// Where joint `joint` is: the base's own position if it is the base (exactly where the last move
+    /// Where joint `joint` is: the datum's own position if it is the datum (exactly where the last move
     /// put it), else summed ([`Chain::joint`]).
     #[inline]
     pub(crate) fn current(&self, joint: usize) -> Vector<T, D> {
-        if joint == self.base {
-            self.base_at
+        if joint == self.datum {
+            self.datum_at
         } else {
             self.joint(joint)
         }
@@ -395,8 +395,8 @@ where
         match self.pins.binary_search_by_key(&joint, |p| p.0) {
             Ok(_) => {}
             Err(at) => {
-                // The base stays at or before the first held joint.
-                if joint < self.base {
+                // The datum stays at or before the first held joint.
+                if joint < self.datum {
                     self.settle_origin();
                 }
                 let state = self.sum_at(joint);
@@ -456,7 +456,7 @@ where
         held: &[(usize, Vector<T, D>, Vector<T, D>)],
     ) -> Result<(), ChainError> {
         let extent = self.total_length() + self.origin().norm();
-        if held.first().is_some_and(|h| h.0 < self.base) {
+        if held.first().is_some_and(|h| h.0 < self.datum) {
             self.settle_origin();
         }
         let tol = T::EPSILON.sqrt() * (T::one() + extent);
@@ -541,8 +541,8 @@ where
                 });
             }
         }
-        self.base = 0;
-        self.base_at = points[0];
+        self.datum = 0;
+        self.datum_at = points[0];
         for ((l, w), &len) in self
             .links
             .iter_mut()
@@ -558,8 +558,8 @@ where
     /// Moves the origin (joint 0) to `p` without rotating any link: a rigid translation (of the part
     /// before the first held joint: held joints stay).
     pub fn translate_to(&mut self, p: Vector<T, D>) {
-        self.base = 0;
-        self.base_at = p;
+        self.datum = 0;
+        self.datum_at = p;
     }
 
     /// Overwrites link vectors directly (same count; used by solvers that rotate links). Callers keep
@@ -650,11 +650,11 @@ where
         (lo, hi)
     }
 
-    /// Makes `joint` the base, at `at`: the origin is then the compensated sum of the links before it
+    /// Makes `joint` the datum, at `at`: the origin is then the compensated sum of the links before it
     /// back from `at` (for a chain with no held joint before `joint`).
     pub(crate) fn place_origin_from(&mut self, joint: usize, at: Vector<T, D>) {
-        self.base = joint;
-        self.base_at = at;
+        self.datum = joint;
+        self.datum_at = at;
     }
 
     /// Moves joint `joint` through `targets` in order, one straight move per target. Every target and
@@ -732,7 +732,7 @@ where
             let n = self.links.len();
             fallbacks = fallbacks.saturating_add(fb + self.head_side(joint, &sd, method, n));
         }
-        // The moved joint lands on its target: it becomes the base.
+        // The moved joint lands on its target: it becomes the datum.
         self.place_origin_from(joint, target);
         MoveOutcome {
             substeps: k,
@@ -758,13 +758,13 @@ where
         method: Method,
         hi: usize,
     ) -> u32 {
-        if m < self.base {
+        if m < self.datum {
             self.settle_origin();
         }
         self.head_side(m, s, method, hi)
     }
 
-    /// [`Chain::sweep_head_side`] leaving the base alone (the caller places it).
+    /// [`Chain::sweep_head_side`] leaving the datum alone (the caller places it).
     #[inline]
     fn head_side(&mut self, m: usize, s: &Vector<T, D>, method: Method, hi: usize) -> u32 {
         // One loop per method, the method chosen once per sweep rather than once per link.
@@ -804,13 +804,13 @@ where
         method: Method,
         lo: usize,
     ) -> (u32, Vector<T, D>) {
-        if lo < self.base {
+        if lo < self.datum {
             self.settle_origin();
         }
         self.tail_side(m, s, method, lo)
     }
 
-    /// [`Chain::sweep_tail_side`] leaving the base alone (the caller places it).
+    /// [`Chain::sweep_tail_side`] leaving the datum alone (the caller places it).
     #[inline]
     fn tail_side(
         &mut self,

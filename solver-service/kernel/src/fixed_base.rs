@@ -191,7 +191,7 @@ where
     let tol = opts.tolerance * chain.total_length();
     ws.backup.clear();
     ws.backup.extend_from_slice(chain.links());
-    let backup_base = chain.base();
+    let backup_datum = chain.datum();
     let result = match opts.strategy {
         Strategy::TranslateBack => translate_back(chain, target, opts, tol),
         Strategy::TractrixTwoLink if chain.n_links() >= 3 => {
@@ -216,7 +216,7 @@ where
     };
     if result.is_err() {
         chain.links_mut().copy_from_slice(&ws.backup);
-        chain.place_origin_from(backup_base.0, backup_base.1);
+        chain.place_origin_from(backup_datum.0, backup_datum.1);
     }
     result
 }

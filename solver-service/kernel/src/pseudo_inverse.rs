@@ -63,7 +63,7 @@ where
         return Err(ReachError::Unreachable { nearest, residual });
     }
     let backup: Vec<_> = chain.links().to_vec();
-    let backup_base = chain.base();
+    let backup_datum = chain.datum();
     let total = chain.total_length();
     let tol = opts.tolerance * total;
     let max_step = opts.max_step * total;
@@ -111,7 +111,7 @@ where
     }
     let residual = (chain.head() - target).norm();
     chain.links_mut().copy_from_slice(&backup);
-    chain.place_origin_from(backup_base.0, backup_base.1);
+    chain.place_origin_from(backup_datum.0, backup_datum.1);
     Err(ReachError::NotConverged {
         iterations: opts.max_iterations,
         residual,

@@ -239,7 +239,7 @@ where
     }
     ws.backup_links.clear();
     ws.backup_links.extend_from_slice(chain.links());
-    let backup_base = chain.base();
+    let backup_datum = chain.datum();
     ws.pos.resize(chain.n_links() + 1, Vector::zeros());
 
     let sd = delta / T::lit(k as f64);
@@ -266,7 +266,7 @@ where
             }
             Err((iterations, penetration)) => {
                 chain.links_mut().copy_from_slice(&ws.backup_links);
-                chain.place_origin_from(backup_base.0, backup_base.1);
+                chain.place_origin_from(backup_datum.0, backup_datum.1);
                 return Err(ChainError::Locked {
                     substep: s,
                     iterations,
@@ -274,7 +274,7 @@ where
                 });
             }
         }
-        // The moved joint is where the hand put it: the base (as after a plain move).
+        // The moved joint is where the hand put it: the datum (as after a plain move).
         chain.place_origin_from(joint, hand);
     }
     // The hand may hold the joint it moves: its pin follows it.
