@@ -124,6 +124,45 @@ struct SnapshotV2 {
     chains: Vec<ChainSnapshotV2>,
 }
 
+impl From<ChainSnapshotV2> for ChainSnapshotV3 {
+    /// A "TRX2" chain has no instrument poses: they start where the scene puts them.
+    fn from(c: ChainSnapshotV2) -> Self {
+        ChainSnapshotV3 {
+            name: c.name,
+            dims: c.dims,
+            precision: c.precision,
+            lengths: c.lengths,
+            origin: c.origin,
+            links: c.links,
+            held: c.held,
+            instruments: Vec::new(),
+        }
+    }
+}
+
+/// A snapshot of the older formats in this one: each chain's datum is joint 0, at the stored origin.
+fn upgrade(magic: u32, sequence: u64, chains: Vec<ChainSnapshotV3>) -> Snapshot {
+    let chains = chains
+        .into_iter()
+        .map(|c| ChainSnapshot {
+            name: c.name,
+            dims: c.dims,
+            precision: c.precision,
+            lengths: c.lengths,
+            datum: (0, c.origin.clone()),
+            origin: c.origin,
+            links: c.links,
+            held: c.held,
+            instruments: c.instruments,
+        })
+        .collect();
+    Snapshot {
+        magic,
+        sequence,
+        chains,
+    }
+}
+
 /// Decodes a snapshot of this format, of "TRX3" (datum at joint 0) or of "TRX2" (also without
 /// instruments: the flag is then `false`).
 fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String> {
@@ -139,56 +178,13 @@ fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String
         SNAPSHOT_MAGIC_V3 => {
             let (old, _): (SnapshotV3, usize) = bincode::serde::decode_from_slice(bytes, config())
                 .map_err(|e| io(path, "not a snapshot", e))?;
-            let chains = old
-                .chains
-                .into_iter()
-                .map(|c| ChainSnapshot {
-                    name: c.name,
-                    dims: c.dims,
-                    precision: c.precision,
-                    lengths: c.lengths,
-                    datum: (0, c.origin.clone()),
-                    origin: c.origin,
-                    links: c.links,
-                    held: c.held,
-                    instruments: c.instruments,
-                })
-                .collect();
-            Ok((
-                Snapshot {
-                    magic: old.magic,
-                    sequence: old.sequence,
-                    chains,
-                },
-                true,
-            ))
+            Ok((upgrade(old.magic, old.sequence, old.chains), true))
         }
         SNAPSHOT_MAGIC_V2 => {
             let (old, _): (SnapshotV2, usize) = bincode::serde::decode_from_slice(bytes, config())
                 .map_err(|e| io(path, "not a snapshot", e))?;
-            let chains = old
-                .chains
-                .into_iter()
-                .map(|c| ChainSnapshot {
-                    name: c.name,
-                    dims: c.dims,
-                    precision: c.precision,
-                    lengths: c.lengths,
-                    datum: (0, c.origin.clone()),
-                    origin: c.origin,
-                    links: c.links,
-                    held: c.held,
-                    instruments: Vec::new(),
-                })
-                .collect();
-            Ok((
-                Snapshot {
-                    magic: old.magic,
-                    sequence: old.sequence,
-                    chains,
-                },
-                false,
-            ))
+            let chains = old.chains.into_iter().map(ChainSnapshotV3::from).collect();
+            Ok((upgrade(old.magic, old.sequence, chains), false))
         }
         SNAPSHOT_MAGIC_V1 => Err(io(
             path,

@@ -456,9 +456,6 @@ where
         held: &[(usize, Vector<T, D>, Vector<T, D>)],
     ) -> Result<(), ChainError> {
         let extent = self.total_length() + self.origin().norm();
-        if held.first().is_some_and(|h| h.0 < self.datum) {
-            self.settle_origin();
-        }
         let tol = T::EPSILON.sqrt() * (T::one() + extent);
         let mut pins = Vec::with_capacity(held.len());
         for (k, &(j, sum, carry)) in held.iter().enumerate() {
@@ -479,6 +476,10 @@ where
                 ));
             }
             pins.push((j, state));
+        }
+        // The datum stays at or before the first held joint (settling it moves no position).
+        if pins.first().is_some_and(|p| p.0 < self.datum) {
+            self.settle_origin();
         }
         self.pins = pins;
         Ok(())
