@@ -26,6 +26,8 @@
 //!   fixed-base chain.
 //! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
 //! * [`angles`]: joint angles (eq. 15, relative rotations).
+//! * [`strands`]: many free strands at once (hair, fur, bundles), SIMD across strands, the substep
+//!   wavefront.
 //! * `pseudo_inverse` (feature `reference`): the damped-least-squares resolved-rate baseline of Korein &
 //!   Badler.
 //! * `ground_truth` (feature `reference`): the continuous motion integrated by DOP853, for tests and
@@ -48,6 +50,7 @@ pub mod link;
 pub mod math;
 #[cfg(feature = "reference")]
 pub mod pseudo_inverse;
+pub mod strands;
 
 pub use chain::{Chain, ChainError, MoveOptions, MoveOutcome, Substeps};
 pub use fixed_base::{ReachError, ReachOptions, ReachOutcome, ReachWorkspace, Strategy, reach};

@@ -16,6 +16,8 @@
 //!   lengths kept, no holds = the free move bit for bit.
 //! * `instrument`: instruments moved by pose push the rope without penetration, keep held joints, and
 //!   lock when the rope would pass through them.
+//! * `strands`: many strands at once, against one chain per strand, SIMD against the baseline bit for
+//!   bit, halves on two threads, refusals, lengths over 10⁵ moves.
 //! * `knot`: the identification on ropes built by hand (trefoil, mirror, square, granny, a spiral
 //!   that is no knot), perturbed.
 
@@ -35,4 +37,5 @@ mod hold;
 mod instrument;
 mod knot;
 mod link;
+mod strands;
 mod support;

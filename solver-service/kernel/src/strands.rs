@@ -1,0 +1,643 @@
+//! Many free strands at once (hair, fur, a bundle of sutures): every strand's head moved to its own
+//! target, every link following its closed-form tractrix, computed across strands with SIMD.
+//!
+//! # Layout
+//!
+//! Strands are stored in blocks of [`LANES`] (structure of arrays inside a block, arrays of blocks
+//! outside): block `b` holds strands `b·LANES ..` and, for each link `i` from the head, one [`Block`]
+//! of the `LANES` link vectors' x, y and z. A sweep steps link `i` of all the block's strands with the
+//! same instructions, so the compiler turns the lane loop into vector instructions: 4 f64 or 8 f32 per
+//! AVX2 register, 8 or 16 with AVX-512. The instruction set is picked at run time (`pulp`): AVX-512,
+//! else AVX2 + FMA, else the baseline (SSE2 on x86-64). Each block holds up to `substeps` steps in
+//! flight (the substep wavefront: substep `s` of link `i` beside substep `s − 1` of link `i + 1`), which
+//! is the same arithmetic in another order, bit for bit.
+//!
+//! # The arithmetic, and how it differs from [`crate::link::tractrix_step`]
+//!
+//! A lane computes exactly what `tractrix_step` computes, operation for operation, except the
+//! exponential: `e^{−b}` and `1 − e^{−b}` come from a polynomial written here (branch-free, so it
+//! vectorises) instead of the platform's `exp`/`exp_m1`. Both are within about an ulp of the true value,
+//! so a strand agrees with a [`crate::Chain`] moved the same way to a few ulps per step (the tests
+//! bound it); the link lengths are kept to the same 1e-12. No fused multiply-add is used anywhere, so
+//! the SIMD result equals the baseline result bit for bit on every instruction set. Lanes in the rare
+//! cases `tractrix_step` treats apart (a denominator below 1e-30: a push exactly along the link) are
+//! recomputed by `tractrix_step` itself.
+//!
+//! The kernel runs no threads: [`Strands::split_at_block`] cuts the state into independent halves a
+//! caller may sweep on two cores.
+
+use crate::link::tractrix_step;
+use crate::math::Real;
+use nalgebra::Vector3;
+
+/// Strands per block: the width of the lane loop (two AVX2 registers of f64, one of f32).
+pub const LANES: usize = 8;
+
+/// Most substeps kept in flight at once by the wavefront; more substeps run as several wavefronts.
+const MAX_WAVE: usize = 32;
+
+/// `LANES` vectors as three arrays.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Block<T> {
+    /// x of each lane.
+    pub x: [T; LANES],
+    /// y of each lane.
+    pub y: [T; LANES],
+    /// z of each lane.
+    pub z: [T; LANES],
+}
+
+impl<T: Real> Block<T> {
+    fn splat(v: Vector3<T>) -> Self {
+        Block {
+            x: [v.x; LANES],
+            y: [v.y; LANES],
+            z: [v.z; LANES],
+        }
+    }
+    fn get(&self, l: usize) -> Vector3<T> {
+        Vector3::new(self.x[l], self.y[l], self.z[l])
+    }
+    fn set(&mut self, l: usize, v: Vector3<T>) {
+        self.x[l] = v.x;
+        self.y[l] = v.y;
+        self.z[l] = v.z;
+    }
+}
+
+/// The scalars a strand sweep runs in, with the branch-free exponential the lanes use.
+pub trait StrandReal: Real {
+    /// `(e^{−b}, 1 − e^{−b})` for `b ≥ 0` (or `+∞`), each accurate to about an ulp: the second without
+    /// cancellation for small `b`. Branch-free: both forms are computed and one is selected.
+    fn exp_neg_pair(b: Self) -> (Self, Self);
+}
+
+#[inline(always)]
+fn sel<T: Copy>(c: bool, a: T, b: T) -> T {
+    if c { a } else { b }
+}
+
+/// `1/k!` for `k = 0..=15`, each from the last by one division (rounded; the high terms are tiny).
+const INV_FACT_64: [f64; 16] = {
+    let mut c = [1.0f64; 16];
+    let mut k = 1;
+    while k < 16 {
+        c[k] = c[k - 1] / k as f64;
+        k += 1;
+    }
+    c
+};
+
+/// `1/k!` for `k = 0..=9` in f32, rounded from the f64 values.
+const INV_FACT_32: [f32; 10] = {
+    let mut c = [1.0f32; 10];
+    let mut k = 0;
+    while k < 10 {
+        c[k] = INV_FACT_64[k] as f32;
+        k += 1;
+    }
+    c
+};
+
+impl StrandReal for f64 {
+    #[inline(always)]
+    fn exp_neg_pair(b: f64) -> (f64, f64) {
+        let x = -b;
+        // Small b: e^x − 1 = x (1 + x/2 (1 + x/3 (…))) through x¹⁵/15!: for |x| ≤ 0.5 the next term
+        // is below 5e-17 of the sum.
+        let mut p = INV_FACT_64[15];
+        for c in INV_FACT_64[1..15].iter().rev() {
+            p = p * x + c;
+        }
+        let e1_small = -(x * p);
+        // Large b: e^x = 2ⁿ e^r, n = round(x / ln 2), |r| ≤ ln 2 / 2, e^r by its series through r¹³.
+        let xc = sel(x > -746.0, x, -746.0);
+        const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 · 2⁵², rounds to an integer
+        const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+        const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+        let n = (xc * std::f64::consts::LOG2_E + SHIFT) - SHIFT;
+        let r = (xc - n * LN2_HI) - n * LN2_LO;
+        let mut er = INV_FACT_64[13];
+        for c in INV_FACT_64[..13].iter().rev() {
+            er = er * r + c;
+        }
+        // 2ⁿ as two normal factors (n ≥ −1076 would underflow one), exponents built by the shift trick.
+        let n1 = (n * 0.5).floor();
+        let n2 = n - n1;
+        let pow2 = |m: f64| {
+            f64::from_bits(
+                (m + SHIFT)
+                    .to_bits()
+                    .wrapping_sub(SHIFT.to_bits())
+                    .wrapping_add(1023)
+                    << 52,
+            )
+        };
+        let q_large = er * pow2(n1) * pow2(n2);
+        let small = b < 0.5;
+        (
+            sel(small, 1.0 - e1_small, q_large),
+            sel(small, e1_small, 1.0 - q_large),
+        )
+    }
+}
+
+impl StrandReal for f32 {
+    #[inline(always)]
+    fn exp_neg_pair(b: f32) -> (f32, f32) {
+        let x = -b;
+        // Through x⁹/9! for |x| ≤ 0.5 (next term below 3e-9 of the sum).
+        let mut p = INV_FACT_32[9];
+        for c in INV_FACT_32[1..9].iter().rev() {
+            p = p * x + c;
+        }
+        let e1_small = -(x * p);
+        let xc = sel(x > -104.0, x, -104.0);
+        const SHIFT: f32 = 12_582_912.0; // 1.5 · 2²³
+        const LN2_HI: f32 = 0.693_145_75;
+        const LN2_LO: f32 = 1.428_606_8e-6;
+        let n = (xc * std::f32::consts::LOG2_E + SHIFT) - SHIFT;
+        let r = (xc - n * LN2_HI) - n * LN2_LO;
+        // Through r⁷/7! for |r| ≤ ln 2 / 2.
+        let mut er = INV_FACT_32[7];
+        for c in INV_FACT_32[..7].iter().rev() {
+            er = er * r + c;
+        }
+        let n1 = (n * 0.5).floor();
+        let n2 = n - n1;
+        let pow2 = |m: f32| {
+            f32::from_bits(
+                (m + SHIFT)
+                    .to_bits()
+                    .wrapping_sub(SHIFT.to_bits())
+                    .wrapping_add(127)
+                    << 23,
+            )
+        };
+        let q_large = er * pow2(n1) * pow2(n2);
+        let small = b < 0.5;
+        (
+            sel(small, 1.0 - e1_small, q_large),
+            sel(small, e1_small, 1.0 - q_large),
+        )
+    }
+}
+
+/// One lane of [`crate::link::tractrix_step`], written out in scalars with selects instead of branches.
+/// Returns the new link, the tail's shift, and whether the lane must be recomputed by `tractrix_step`
+/// (a denominator at or below 1e-30, or not finite).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn lane<T: StrandReal>(
+    tx: T,
+    ty: T,
+    tz: T,
+    sx: T,
+    sy: T,
+    sz: T,
+    len: T,
+    inv_len: T,
+) -> ([T; 6], bool) {
+    let zero = T::zero();
+    let one = T::one();
+    let two = T::lit(2.0);
+    let (ssx, ssy, ssz) = (sx * inv_len, sy * inv_len, sz * inv_len);
+    let b = (ssx * ssx + ssy * ssy + ssz * ssz).sqrt();
+    let moved = b != zero;
+    let (ux, uy, uz) = (ssx / b, ssy / b, ssz / b);
+    let (ttx, tty, ttz) = (tx * inv_len, ty * inv_len, tz * inv_len);
+    let c = ttx * ux + tty * uy + ttz * uz;
+    let (wx, wy, wz) = (ttx - ux * c, tty - uy * c, ttz - uz * c);
+    let c2 = wx * ux + wy * uy + wz * uz;
+    let (wx, wy, wz) = (wx - ux * c2, wy - uy * c2, wz - uz * c2);
+    let y2 = wx * wx + wy * wy + wz * wz;
+    let pos = c > zero;
+    let p = sel(pos, y2 / (one + c), one - c);
+    let m = sel(pos, one + c, y2 / (one - c));
+    let (q, e1) = T::exp_neg_pair(b);
+    let e = q * q;
+    let d = p + e * m;
+    let cw_num = sel(pos, e1 * (q * m - p), e1 * (two * c - e1 * m));
+    let cu_num = p * m * e1 * (one + q);
+    let regular = d > T::lit(1e-30) && d <= T::MAX;
+    let inv_d = one / d;
+    let a_link = (e * m - p) * inv_d * len;
+    let b_link = two * q * inv_d * len;
+    let a_tail = (b - cu_num * inv_d) * len;
+    let b_tail = cw_num * inv_d * len;
+    let out = [
+        sel(moved, ux * a_link + wx * b_link, tx),
+        sel(moved, uy * a_link + wy * b_link, ty),
+        sel(moved, uz * a_link + wz * b_link, tz),
+        sel(moved, ux * a_tail + wx * b_tail, zero),
+        sel(moved, uy * a_tail + wy * b_tail, zero),
+        sel(moved, uz * a_tail + wz * b_tail, zero),
+    ];
+    (out, moved && !regular)
+}
+
+/// Steps one link of a block: `t` the links, `s` the shifts of their head ends (replaced by the shifts
+/// of their tail ends).
+#[inline(always)]
+fn step_block<T: StrandReal>(t: &mut Block<T>, s: &mut Block<T>, len: T, inv_len: T) {
+    let mut apart = [false; LANES];
+    let (old_t, old_s) = (*t, *s);
+    for (l, apart) in apart.iter_mut().enumerate() {
+        let (o, a) = lane(
+            old_t.x[l], old_t.y[l], old_t.z[l], old_s.x[l], old_s.y[l], old_s.z[l], len, inv_len,
+        );
+        t.x[l] = o[0];
+        t.y[l] = o[1];
+        t.z[l] = o[2];
+        s.x[l] = o[3];
+        s.y[l] = o[4];
+        s.z[l] = o[5];
+        *apart = a;
+    }
+    if apart.iter().any(|&a| a) {
+        for l in (0..LANES).filter(|&l| apart[l]) {
+            let st = tractrix_step::<T, 3>(&old_t.get(l), &old_s.get(l), len);
+            t.set(l, st.link);
+            s.set(l, st.tail_shift);
+        }
+    }
+}
+
+/// `substeps` substeps of `sub` for one block's links (head end first), as wavefronts of up to
+/// [`MAX_WAVE`] substeps in flight.
+#[inline(always)]
+fn sweep_block<T: StrandReal>(links: &mut [Block<T>], sub: Block<T>, substeps: usize, len: T) {
+    let inv_len = T::one() / len;
+    let n = links.len();
+    let mut left = substeps;
+    while left > 0 {
+        let k = left.min(MAX_WAVE);
+        let mut wave = [sub; MAX_WAVE];
+        for d in 0..n + k - 1 {
+            let lo = d.saturating_sub(n - 1);
+            let hi = d.min(k - 1);
+            for (s, shift) in wave.iter_mut().enumerate().take(hi + 1).skip(lo) {
+                step_block(&mut links[d - s], shift, len, inv_len);
+            }
+        }
+        left -= k;
+    }
+}
+
+/// Which instructions a sweep runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Simd {
+    /// The best the CPU offers, detected at run time (AVX-512, AVX2 + FMA, or the baseline).
+    Best,
+    /// The target's baseline only (SSE2 on x86-64): the reference the SIMD result equals bit for bit.
+    Baseline,
+}
+
+/// The instruction set [`Simd::Best`] picks on this CPU: `"avx512"`, `"avx2"` or `"baseline"`.
+pub fn best_simd() -> &'static str {
+    #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+    match pulp::Arch::new() {
+        pulp::Arch::V4(_) => return "avx512",
+        pulp::Arch::V3(_) => return "avx2",
+        _ => {}
+    }
+    "baseline"
+}
+
+struct Sweep<'a, T> {
+    heads: &'a mut [Block<T>],
+    links: &'a mut [Block<T>],
+    targets: &'a [Block<T>],
+    n_links: usize,
+    substeps: usize,
+    len: T,
+}
+
+impl<T: StrandReal> pulp::WithSimd for Sweep<'_, T> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let k = self.substeps;
+        let kk = T::lit(k as f64);
+        for ((head, target), links) in self
+            .heads
+            .iter_mut()
+            .zip(self.targets)
+            .zip(self.links.chunks_exact_mut(self.n_links))
+        {
+            let mut sub = *target;
+            for l in 0..LANES {
+                sub.x[l] = (target.x[l] - head.x[l]) / kk;
+                sub.y[l] = (target.y[l] - head.y[l]) / kk;
+                sub.z[l] = (target.z[l] - head.z[l]) / kk;
+            }
+            sweep_block(links, sub, k, self.len);
+            *head = *target;
+        }
+    }
+}
+
+/// Why a strand move was refused (the state is unchanged).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum StrandsError {
+    /// The targets' count is not the strands'.
+    #[error("{got} targets for {want} strands")]
+    TargetCount {
+        /// Targets given.
+        got: usize,
+        /// Strands.
+        want: usize,
+    },
+    /// A target is not finite.
+    #[error("target {0} is not finite")]
+    NonFinite(usize),
+    /// Zero substeps.
+    #[error("substeps must be at least 1")]
+    NoSubsteps,
+    /// Bad construction parameters.
+    #[error("{0}")]
+    Shape(&'static str),
+}
+
+/// Many free strands of equal links, moved head first (see the module docs for the layout).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Strands<T> {
+    n_strands: usize,
+    n_links: usize,
+    len: T,
+    /// One block per `LANES` strands: the heads (joint `n_links`).
+    heads: Vec<Block<T>>,
+    /// Block-major: block `b`'s links at `b·n_links ..`, head end first, each tail − head.
+    links: Vec<Block<T>>,
+    /// Targets staged in blocks (the move's scratch; padding lanes keep their heads).
+    staged: Vec<Block<T>>,
+}
+
+impl<T: StrandReal> Strands<T> {
+    /// `heads.len()` straight strands of `n_links` links of `link_length`, each hanging from its head
+    /// along `direction` (normalised).
+    pub fn straight(
+        heads: &[Vector3<T>],
+        n_links: usize,
+        link_length: T,
+        direction: Vector3<T>,
+    ) -> Result<Self, StrandsError> {
+        if heads.is_empty() || n_links == 0 {
+            return Err(StrandsError::Shape("at least one strand of one link"));
+        }
+        if !(link_length > T::zero() && link_length <= T::MAX) {
+            return Err(StrandsError::Shape(
+                "the link length must be positive and finite",
+            ));
+        }
+        let norm = direction.norm();
+        if !(norm > T::zero() && norm <= T::MAX)
+            || heads.iter().any(|h| !h.iter().all(|c| c.is_finite()))
+        {
+            return Err(StrandsError::Shape(
+                "heads and direction must be finite, the direction non-zero",
+            ));
+        }
+        let link = direction * (link_length / norm);
+        let blocks = heads.len().div_ceil(LANES);
+        let mut hb = vec![Block::splat(Vector3::zeros()); blocks];
+        for (i, h) in heads.iter().enumerate() {
+            hb[i / LANES].set(i % LANES, *h);
+        }
+        // Padding lanes sit at the last real head, with real links: they are stepped by zero shifts.
+        for i in heads.len()..blocks * LANES {
+            hb[i / LANES].set(i % LANES, heads[heads.len() - 1]);
+        }
+        Ok(Strands {
+            n_strands: heads.len(),
+            n_links,
+            len: link_length,
+            heads: hb,
+            links: vec![Block::splat(link); blocks * n_links],
+            staged: Vec::new(),
+        })
+    }
+
+    /// Strands.
+    pub fn n_strands(&self) -> usize {
+        self.n_strands
+    }
+    /// Links per strand.
+    pub fn n_links(&self) -> usize {
+        self.n_links
+    }
+    /// The length of every link.
+    pub fn link_length(&self) -> T {
+        self.len
+    }
+    /// Blocks of [`LANES`] strands.
+    pub fn n_blocks(&self) -> usize {
+        self.heads.len()
+    }
+    /// Strand `i`'s head.
+    pub fn head(&self, i: usize) -> Vector3<T> {
+        self.heads[i / LANES].get(i % LANES)
+    }
+    /// Strand `i`'s link `j` from the head (tail − head).
+    pub fn link(&self, i: usize, j: usize) -> Vector3<T> {
+        self.links[(i / LANES) * self.n_links + j].get(i % LANES)
+    }
+
+    /// Calls `f` with strand `i`'s joints, tail (joint 0) first, head (joint `n_links`) last: the head
+    /// minus the links' running sum, each joint computed once.
+    pub fn for_each_joint(&self, i: usize, mut f: impl FnMut(Vector3<T>)) {
+        let (b, l) = (i / LANES, i % LANES);
+        let links = &self.links[b * self.n_links..(b + 1) * self.n_links];
+        let mut p = self.heads[b].get(l);
+        for t in links {
+            p += t.get(l);
+        }
+        // p is now the tail; walk back toward the head.
+        for t in links.iter().rev() {
+            f(p);
+            p -= t.get(l);
+        }
+        f(self.heads[b].get(l));
+    }
+
+    /// Largest relative error of any link's length.
+    pub fn max_length_error(&self) -> f64 {
+        let len = self.len.to_f64();
+        let mut worst = 0.0f64;
+        for b in 0..self.n_blocks() {
+            let lanes = LANES.min(self.n_strands - b * LANES);
+            for t in &self.links[b * self.n_links..(b + 1) * self.n_links] {
+                for l in 0..lanes {
+                    worst = worst.max((t.get(l).norm().to_f64() - len).abs() / len);
+                }
+            }
+        }
+        worst
+    }
+
+    /// Moves every strand's head to its target (`targets[i]` for strand `i`) in `substeps` equal
+    /// substeps; each link follows its tractrix. Checks the targets first: on error nothing changes.
+    pub fn move_heads(
+        &mut self,
+        targets: &[Vector3<T>],
+        substeps: usize,
+        simd: Simd,
+    ) -> Result<(), StrandsError> {
+        self.stage(targets)?;
+        if substeps == 0 {
+            return Err(StrandsError::NoSubsteps);
+        }
+        let staged = std::mem::take(&mut self.staged);
+        let all = self.heads.len();
+        self.halves(all).0.sweep(&staged, substeps, simd);
+        self.staged = staged;
+        Ok(())
+    }
+
+    /// Checks `targets` and stages them in blocks (padding lanes at their heads): the first half of
+    /// [`Strands::move_heads`], for a caller that sweeps [`Strands::split_at_block`]'s halves itself
+    /// (then [`Strands::staged`] gives the blocks to pass).
+    pub fn stage(&mut self, targets: &[Vector3<T>]) -> Result<(), StrandsError> {
+        if targets.len() != self.n_strands {
+            return Err(StrandsError::TargetCount {
+                got: targets.len(),
+                want: self.n_strands,
+            });
+        }
+        if let Some(i) = targets
+            .iter()
+            .position(|t| !t.iter().all(|c| c.is_finite()))
+        {
+            return Err(StrandsError::NonFinite(i));
+        }
+        self.staged.clear();
+        self.staged.extend_from_slice(&self.heads);
+        for (i, t) in targets.iter().enumerate() {
+            self.staged[i / LANES].set(i % LANES, *t);
+        }
+        Ok(())
+    }
+
+    /// The targets staged by [`Strands::stage`], one block per block of strands (moved out: give them
+    /// back with [`Strands::restore_staged`] to keep the allocation).
+    pub fn take_staged(&mut self) -> Vec<Block<T>> {
+        std::mem::take(&mut self.staged)
+    }
+    /// Returns the staging buffer taken by [`Strands::take_staged`].
+    pub fn restore_staged(&mut self, staged: Vec<Block<T>>) {
+        self.staged = staged;
+    }
+
+    /// The state cut after block `at` (clamped) into two independent parts that may be swept at the
+    /// same time (on two threads): blocks `..at` and `at..`.
+    pub fn split_at_block(&mut self, at: usize) -> (StrandsMut<'_, T>, StrandsMut<'_, T>) {
+        self.halves(at)
+    }
+
+    fn halves(&mut self, at: usize) -> (StrandsMut<'_, T>, StrandsMut<'_, T>) {
+        let at = at.min(self.heads.len());
+        let (h0, h1) = self.heads.split_at_mut(at);
+        let (l0, l1) = self.links.split_at_mut(at * self.n_links);
+        let (n, len) = (self.n_links, self.len);
+        (
+            StrandsMut {
+                first_block: 0,
+                heads: h0,
+                links: l0,
+                n_links: n,
+                len,
+            },
+            StrandsMut {
+                first_block: at,
+                heads: h1,
+                links: l1,
+                n_links: n,
+                len,
+            },
+        )
+    }
+}
+
+/// A run of whole blocks of a [`Strands`], swept independently of the rest.
+#[derive(Debug)]
+pub struct StrandsMut<'a, T> {
+    first_block: usize,
+    heads: &'a mut [Block<T>],
+    links: &'a mut [Block<T>],
+    n_links: usize,
+    len: T,
+}
+
+impl<T: StrandReal> StrandsMut<'_, T> {
+    /// The part's first block in the whole.
+    pub fn first_block(&self) -> usize {
+        self.first_block
+    }
+    /// Blocks in the part.
+    pub fn n_blocks(&self) -> usize {
+        self.heads.len()
+    }
+    /// Moves the part's heads to `staged[first_block ..]` (all staged blocks of the whole, as
+    /// [`Strands::take_staged`] gives them) in `substeps ≥ 1` substeps.
+    pub fn sweep(self, staged: &[Block<T>], substeps: usize, simd: Simd) {
+        let n = self.heads.len();
+        let targets = &staged[self.first_block..self.first_block + n];
+        let op = Sweep {
+            heads: self.heads,
+            links: self.links,
+            targets,
+            n_links: self.n_links,
+            substeps: substeps.max(1),
+            len: self.len,
+        };
+        match simd {
+            Simd::Best => pulp::Arch::new().dispatch(op),
+            Simd::Baseline => pulp::WithSimd::with_simd(op, pulp::Scalar::new()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The branch-free exponential against the platform's, over the whole range a step meets.
+    #[test]
+    fn the_lane_exponential_is_within_two_ulps() {
+        let mut worst_q = 0.0f64;
+        let mut worst_e1 = 0.0f64;
+        let mut b = 1e-300f64;
+        while b < 800.0 {
+            let (q, e1) = f64::exp_neg_pair(b);
+            let (tq, te1) = ((-b).exp(), -(-b).exp_m1());
+            if tq > f64::MIN_POSITIVE {
+                worst_q = worst_q.max(((q - tq) / tq).abs() / f64::EPSILON);
+            } else {
+                assert!(
+                    (q - tq).abs() <= 4.0 * 4.9e-324,
+                    "b = {b}: {q} against {tq}"
+                );
+            }
+            worst_e1 = worst_e1.max(((e1 - te1) / te1).abs() / f64::EPSILON);
+            b *= 1.0123;
+        }
+        assert!(worst_q <= 2.0, "e^-b off by {worst_q} ulp");
+        assert!(worst_e1 <= 2.0, "1 - e^-b off by {worst_e1} ulp");
+        assert_eq!(f64::exp_neg_pair(f64::INFINITY), (0.0, 1.0));
+        assert_eq!(f64::exp_neg_pair(0.0), (1.0, 0.0));
+
+        let (mut wq, mut we) = (0.0f64, 0.0f64);
+        let mut b = 1e-40f32;
+        while b < 120.0 {
+            let (q, e1) = f32::exp_neg_pair(b);
+            let (tq, te1) = ((-(b as f64)).exp(), -(-(b as f64)).exp_m1());
+            if tq > f32::MIN_POSITIVE as f64 {
+                wq = wq.max(((q as f64 - tq) / tq).abs() / f32::EPSILON as f64);
+            }
+            we = we.max(((e1 as f64 - te1) / te1).abs() / f32::EPSILON as f64);
+            b *= 1.0123;
+        }
+        assert!(wq <= 2.0, "f32 e^-b off by {wq} ulp");
+        assert!(we <= 2.0, "f32 1 - e^-b off by {we} ulp");
+    }
+}
