@@ -99,88 +99,86 @@ const INV_FACT_32: [f32; 10] = {
     c
 };
 
-impl StrandReal for f64 {
-    #[inline(always)]
-    fn exp_neg_pair(b: f64) -> (f64, f64) {
-        let x = -b;
-        // Small b: e^x − 1 = x (1 + x/2 (1 + x/3 (…))) through x¹⁵/15!: for |x| ≤ 0.5 the next term
-        // is below 5e-17 of the sum.
-        let mut p = INV_FACT_64[15];
-        for c in INV_FACT_64[1..15].iter().rev() {
-            p = p * x + c;
-        }
-        let e1_small = -(x * p);
-        // Large b: e^x = 2ⁿ e^r, n = round(x / ln 2), |r| ≤ ln 2 / 2, e^r by its series through r¹³.
-        let xc = sel(x > -746.0, x, -746.0);
-        const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 · 2⁵², rounds to an integer
-        const LN2_HI: f64 = 6.931_471_803_691_238e-1;
-        const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
-        let n = (xc * std::f64::consts::LOG2_E + SHIFT) - SHIFT;
-        let r = (xc - n * LN2_HI) - n * LN2_LO;
-        let mut er = INV_FACT_64[13];
-        for c in INV_FACT_64[..13].iter().rev() {
-            er = er * r + c;
-        }
-        // 2ⁿ as two normal factors (n ≥ −1076 would underflow one), exponents built by the shift trick.
-        let n1 = (n * 0.5).floor();
-        let n2 = n - n1;
-        let pow2 = |m: f64| {
-            f64::from_bits(
-                (m + SHIFT)
-                    .to_bits()
-                    .wrapping_sub(SHIFT.to_bits())
-                    .wrapping_add(1023)
-                    << 52,
+/// The exponential both ways from one polynomial. `x = −b ≤ 0` is reduced to `x = n ln 2 + r`,
+/// `|r| ≤ ln 2 / 2` (`n` = `x / ln 2` rounded by the shift trick, `ln 2` in two parts), and
+/// `e^r − 1 = r (1 + r/2! + … )` is summed by Horner through the term `coef` ends with. Then
+/// `e^x = 2ⁿ (1 + (e^r − 1))`, and for `b < 0.5` (where `n` is 0 or −1, so `2ⁿ − 1` is exact)
+/// `1 − e^x = −(2ⁿ (e^r − 1) + (2ⁿ − 1))` without cancellation; as in `tractrix_step`, the small side
+/// takes `q = 1 − e1` and the large side `e1 = 1 − q`. `2ⁿ` is built as two normal factors so that
+/// `n` down to −1076 (`x` is clamped to `lo`, where `e^x` rounds to 0) never leaves the normal range.
+macro_rules! exp_neg_pair {
+    ($t:ty, $bits:ty, $coef:expr, $terms:expr, $shift:expr, $ln2_hi:expr, $ln2_lo:expr, $lo:expr,
+     $bias:expr, $mant:expr, $log2e:expr) => {
+        #[inline(always)]
+        fn exp_neg_pair(b: $t) -> ($t, $t) {
+            const SHIFT: $t = $shift;
+            let x = -b;
+            let xc = sel(x > $lo, x, $lo);
+            let n = (xc * $log2e + SHIFT) - SHIFT;
+            let r = (xc - n * $ln2_hi) - n * $ln2_lo;
+            let c = &$coef;
+            let mut p = c[$terms];
+            for k in (1..$terms).rev() {
+                p = p * r + c[k];
+            }
+            let em1 = r * p;
+            let n1 = (n * 0.5).floor();
+            let n2 = n - n1;
+            let pow2 = |m: $t| {
+                <$t>::from_bits(
+                    (m + SHIFT)
+                        .to_bits()
+                        .wrapping_sub(SHIFT.to_bits())
+                        .wrapping_add($bias)
+                        << $mant,
+                )
+            };
+            let (s1, s2) = (pow2(n1), pow2(n2));
+            let q_large = (1.0 + em1) * s1 * s2;
+            // For b < 0.5, n ≥ −1 and s1 s2 = 2ⁿ exactly.
+            let p2 = s1 * s2;
+            let e1_small = -(p2 * em1 + (p2 - 1.0));
+            let small = b < 0.5;
+            (
+                sel(small, 1.0 - e1_small, q_large),
+                sel(small, e1_small, 1.0 - q_large),
             )
-        };
-        let q_large = er * pow2(n1) * pow2(n2);
-        let small = b < 0.5;
-        (
-            sel(small, 1.0 - e1_small, q_large),
-            sel(small, e1_small, 1.0 - q_large),
-        )
-    }
+        }
+    };
+}
+
+impl StrandReal for f64 {
+    // Through r¹⁴/14!: for |r| ≤ 0.347 the next term is below 2e-17 of e^r − 1.
+    exp_neg_pair!(
+        f64,
+        u64,
+        INV_FACT_64,
+        14,
+        6_755_399_441_055_744.0, // 1.5 · 2⁵²: adding it rounds to an integer
+        6.931_471_803_691_238e-1,
+        1.908_214_929_270_587_7e-10,
+        -746.0,
+        1023,
+        52,
+        std::f64::consts::LOG2_E
+    );
 }
 
 impl StrandReal for f32 {
-    #[inline(always)]
-    fn exp_neg_pair(b: f32) -> (f32, f32) {
-        let x = -b;
-        // Through x⁹/9! for |x| ≤ 0.5 (next term below 3e-9 of the sum).
-        let mut p = INV_FACT_32[9];
-        for c in INV_FACT_32[1..9].iter().rev() {
-            p = p * x + c;
-        }
-        let e1_small = -(x * p);
-        let xc = sel(x > -104.0, x, -104.0);
-        const SHIFT: f32 = 12_582_912.0; // 1.5 · 2²³
-        const LN2_HI: f32 = 0.693_145_75;
-        const LN2_LO: f32 = 1.428_606_8e-6;
-        let n = (xc * std::f32::consts::LOG2_E + SHIFT) - SHIFT;
-        let r = (xc - n * LN2_HI) - n * LN2_LO;
-        // Through r⁷/7! for |r| ≤ ln 2 / 2.
-        let mut er = INV_FACT_32[7];
-        for c in INV_FACT_32[..7].iter().rev() {
-            er = er * r + c;
-        }
-        let n1 = (n * 0.5).floor();
-        let n2 = n - n1;
-        let pow2 = |m: f32| {
-            f32::from_bits(
-                (m + SHIFT)
-                    .to_bits()
-                    .wrapping_sub(SHIFT.to_bits())
-                    .wrapping_add(127)
-                    << 23,
-            )
-        };
-        let q_large = er * pow2(n1) * pow2(n2);
-        let small = b < 0.5;
-        (
-            sel(small, 1.0 - e1_small, q_large),
-            sel(small, e1_small, 1.0 - q_large),
-        )
-    }
+    // Through r⁸/8!: the next term is below 2e-8 of e^r − 1.
+    exp_neg_pair!(
+        f32,
+        u32,
+        INV_FACT_32,
+        8,
+        12_582_912.0, // 1.5 · 2²³
+        0.693_145_75,
+        1.428_606_8e-6,
+        -104.0,
+        127,
+        23,
+        std::f32::consts::LOG2_E
+    );
 }
 
 /// One lane of [`crate::link::tractrix_step`], written out in scalars with selects instead of branches.
@@ -212,8 +210,11 @@ fn lane<T: StrandReal>(
     let (wx, wy, wz) = (wx - ux * c2, wy - uy * c2, wz - uz * c2);
     let y2 = wx * wx + wy * wy + wz * wz;
     let pos = c > zero;
-    let p = sel(pos, y2 / (one + c), one - c);
-    let m = sel(pos, one + c, y2 / (one - c));
+    // One division for the side that cancels (the same quotient tractrix_step takes).
+    let (opc, omc) = (one + c, one - c);
+    let ratio = y2 / sel(pos, opc, omc);
+    let p = sel(pos, ratio, omc);
+    let m = sel(pos, opc, ratio);
     let (q, e1) = T::exp_neg_pair(b);
     let e = q * q;
     let d = p + e * m;
@@ -264,7 +265,8 @@ fn step_block<T: StrandReal>(t: &mut Block<T>, s: &mut Block<T>, len: T, inv_len
 }
 
 /// `substeps` substeps of `sub` for one block's links (head end first), as wavefronts of up to
-/// [`MAX_WAVE`] substeps in flight.
+/// [`MAX_WAVE`] substeps in flight. (Two blocks stepped side by side were tried as well: no gain on
+/// the machine the benches ran on, and the baseline build spilled registers.)
 #[inline(always)]
 fn sweep_block<T: StrandReal>(links: &mut [Block<T>], sub: Block<T>, substeps: usize, len: T) {
     let inv_len = T::one() / len;

@@ -1,0 +1,178 @@
+//! Hair: 10⁴ strands of 20 links, every strand's head moved to its own target each frame.
+//!
+//! `cargo bench -p tractrix --bench strands` prints one table, ns per link-step (a frame's time over
+//! strands × links × substeps; median and p90 over timed batches, the variants interleaved batch by
+//! batch so they share the machine's state):
+//!
+//! * *one Chain per strand*: the kernel's `Chain::move_joint` (closed-form tractrix) on each strand;
+//! * *strands, baseline*: `tractrix::strands` on the target's baseline instructions (SSE2), one thread;
+//! * *strands, SIMD*: the same sweep on the best instructions the CPU has (run-time detection);
+//! * *strands, SIMD, 2 threads*: the state cut in two halves, one swept on a scoped thread spawned for
+//!   the frame and one on the caller (the spawn is timed with the frame).
+//!
+//! After the run the strands' joints are compared with the chains' (*max joint difference*, links),
+//! and the SIMD state with the baseline state (*SIMD = baseline*: bit for bit). `STRANDS_BENCH_SCALE`
+//! (default 1.0) scales the number of batches and frames.
+
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print.
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
+
+use nalgebra::Vector3;
+use std::hint::black_box;
+use std::time::Instant;
+use tractrix::strands::{Simd, StrandReal, Strands, best_simd};
+use tractrix::{Chain, MoveOptions, Real, Substeps};
+
+const STRANDS: usize = 10_000;
+const LINKS: usize = 20;
+
+fn heads<T: Real>() -> Vec<Vector3<T>> {
+    (0..STRANDS)
+        .map(|i| {
+            let (a, b) = ((i % 100) as f64, (i / 100) as f64);
+            Vector3::new(T::lit(a * 0.3), T::lit(0.0), T::lit(b * 0.3))
+        })
+        .collect()
+}
+
+/// Frame `f`'s target for the head that started at `h0`: a small circle, phase by strand.
+fn target<T: Real>(h0: &Vector3<T>, i: usize, f: usize) -> Vector3<T> {
+    let a = f as f64 * 0.37 + i as f64 * 0.001;
+    h0 + Vector3::new(T::lit(0.3 * a.cos()), T::lit(0.1), T::lit(0.3 * a.sin()))
+}
+
+fn stats(v: &mut [f64]) -> (f64, f64) {
+    v.sort_by(f64::total_cmp);
+    (v[v.len() / 2], v[(v.len() - 1) * 9 / 10])
+}
+
+struct Row {
+    name: &'static str,
+    median: f64,
+    p90: f64,
+}
+
+fn run<T: StrandReal>(tag: &str, k: usize, batches: usize, frames: usize) -> (Vec<Row>, f64, bool) {
+    let h0 = heads::<T>();
+    let down = Vector3::new(T::zero(), -T::one(), T::zero());
+    let len = T::lit(0.1);
+    let mut chains: Vec<Chain<T, 3>> = h0
+        .iter()
+        .map(|h| Chain::straight(LINKS, len, h + down * T::lit(LINKS as f64 * 0.1), -down).unwrap())
+        .collect();
+    let fresh = Strands::<T>::straight(&h0, LINKS, len, down).unwrap();
+    let (mut base, mut simd, mut two) = (fresh.clone(), fresh.clone(), fresh);
+    let opts = MoveOptions {
+        substeps: Substeps::Fixed(k as u32),
+        ..MoveOptions::default()
+    };
+    // Each batch's targets, computed before its timed loops (frame-major).
+    let mut targets: Vec<Vector3<T>> = Vec::new();
+    let mut times: [Vec<f64>; 4] = Default::default();
+    let work = (STRANDS * LINKS * k * frames) as f64;
+    let mut frame = 0;
+    for _ in 0..batches {
+        let f0 = frame;
+        targets.clear();
+        for f in f0..f0 + frames {
+            targets.extend(h0.iter().enumerate().map(|(i, h)| target(h, i, f)));
+        }
+        let t = Instant::now();
+        for frame_targets in targets.chunks_exact(STRANDS) {
+            for (c, x) in chains.iter_mut().zip(frame_targets) {
+                c.move_joint(LINKS, *x, &opts).unwrap();
+            }
+        }
+        times[0].push(t.elapsed().as_nanos() as f64 / work);
+        for (v, s, mode) in [(1, &mut base, Simd::Baseline), (2, &mut simd, Simd::Best)] {
+            let t = Instant::now();
+            for frame_targets in targets.chunks_exact(STRANDS) {
+                s.move_heads(black_box(frame_targets), k, mode).unwrap();
+            }
+            times[v].push(t.elapsed().as_nanos() as f64 / work);
+        }
+        let t = Instant::now();
+        for frame_targets in targets.chunks_exact(STRANDS) {
+            two.stage(black_box(frame_targets)).unwrap();
+            let staged = two.take_staged();
+            let at = two.n_blocks() / 2;
+            let (left, right) = two.split_at_block(at);
+            std::thread::scope(|sc| {
+                sc.spawn(|| left.sweep(&staged, k, Simd::Best));
+                right.sweep(&staged, k, Simd::Best);
+            });
+            two.restore_staged(staged);
+        }
+        times[3].push(t.elapsed().as_nanos() as f64 / work);
+        frame += frames;
+    }
+    let mut worst = 0.0f64;
+    for (i, c) in chains.iter().enumerate() {
+        let mut j = 0;
+        simd.for_each_joint(i, |p| {
+            worst = worst.max((p - c.joint(j)).norm().to_f64() / 0.1);
+            j += 1;
+        });
+    }
+    let same = base == simd && simd == two;
+    let names = [
+        "one Chain per strand",
+        "strands, baseline",
+        "strands, SIMD",
+        "strands, SIMD, 2 threads",
+    ];
+    let rows = names
+        .iter()
+        .zip(times.iter_mut())
+        .map(|(name, t)| {
+            let (median, p90) = stats(t);
+            Row { name, median, p90 }
+        })
+        .collect();
+    let _ = tag;
+    (rows, worst, same)
+}
+
+fn main() {
+    let scale: f64 = std::env::var("STRANDS_BENCH_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .filter(|s: &f64| s.is_finite() && *s > 0.0)
+        .unwrap_or(1.0);
+    let batches = ((20.0 * scale).round() as usize).max(3);
+    let frames = 2;
+    println!(
+        "Every head moved each frame ({STRANDS} strands × {LINKS} links, {batches} batches of \
+         {frames} frames per variant, interleaved); SIMD here: **{}**; the aim is ≤ 10 ns per \
+         link-step in f64 and ≤ 5 ns in f32.\n",
+        best_simd()
+    );
+    println!(
+        "| precision | substeps | variant | median ns per link-step | p90 of batches | speed-up over \
+         one Chain per strand (medians) | max joint difference from the chains, links | SIMD = \
+         baseline bit for bit |"
+    );
+    println!("|---|---:|---|---:|---:|---:|---:|---|");
+    for (tag, k) in [("f64", 1usize), ("f64", 4), ("f32", 1), ("f32", 4)] {
+        let (rows, worst, same) = if tag == "f64" {
+            run::<f64>(tag, k, batches, frames)
+        } else {
+            run::<f32>(tag, k, batches, frames)
+        };
+        let chain = rows[0].median;
+        for r in &rows {
+            println!(
+                "| {tag} | {k} | {} | {:.2} | {:.2} | {:.1} | {worst:.1e} | {} |",
+                r.name,
+                r.median,
+                r.p90,
+                chain / r.median,
+                if same { "yes" } else { "**no**" }
+            );
+        }
+    }
+}
