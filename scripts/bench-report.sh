@@ -37,7 +37,7 @@ cargo build -q --release --bins
 if [ "$QUICK" = 1 ]; then
   export KERNEL_BENCH_SCALE=0.02 COLLISION_BENCH_ROUNDS=1 JOURNAL_BENCH_N=50 ACCURACY_BENCH_REPS=1
   export HOLDS_BENCH_ROUNDS=1 KNOT_BENCH_RUNS=1 KNOT_BENCH_LINKS=40
-  export LEAN_BENCH_SCALE=0.05 OVERHEAD_BENCH_SCALE=0.05
+  export LEAN_BENCH_SCALE=0.05 OVERHEAD_BENCH_SCALE=0.05 STRANDS_BENCH_SCALE=0.05
   LANG_ARGS="500 1"
   SWEEP_ARGS="4 1"
   LATENCY_ARGS="--samples 500 --warmup 100 --loaded-seconds 1"
@@ -83,6 +83,8 @@ block overhead "cargo bench -p solver-service --bench overhead" \
   cargo bench -q -p solver-service --bench overhead
 block throughput "cargo bench -p tractrix --bench throughput" \
   cargo bench -q -p tractrix --bench throughput
+block strands "cargo bench -p solver-service --bench strands" \
+  cargo bench -q -p solver-service --bench strands
 block ik "cargo bench -p tractrix --bench ik" \
   cargo bench -q -p tractrix --bench ik
 block extremes "cargo bench -p tractrix --bench extremes" \

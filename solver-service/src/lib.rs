@@ -9,9 +9,11 @@
 //! * [`service`]: the solver as a [`serve::Handler`], with persistence and shutdown;
 //! * [`echo`]: the raw echo, the latency bench's baseline, served by the same loop;
 //! * [`persist`]: snapshots and the journal (the only bincode user);
+//! * [`bundle`]: many strands (hair, fur) swept on both cores;
 //! * [`batch`], [`unix_socket`]: the same requests from a file and over a Unix socket.
 
 pub mod batch;
+pub mod bundle;
 pub mod chain_set;
 pub mod echo;
 pub mod persist;

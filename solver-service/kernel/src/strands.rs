@@ -361,8 +361,9 @@ pub enum StrandsError {
     Shape(&'static str),
 }
 
-/// Many free strands of equal links, moved head first (see the module docs for the layout).
-#[derive(Debug, Clone, PartialEq)]
+/// Many free strands of equal links, moved head first (see the module docs for the layout). Two are
+/// equal when their strands are (the staging scratch is not compared).
+#[derive(Debug, Clone)]
 pub struct Strands<T> {
     n_strands: usize,
     n_links: usize,
@@ -373,6 +374,16 @@ pub struct Strands<T> {
     links: Vec<Block<T>>,
     /// Targets staged in blocks (the move's scratch; padding lanes keep their heads).
     staged: Vec<Block<T>>,
+}
+
+impl<T: PartialEq> PartialEq for Strands<T> {
+    fn eq(&self, o: &Self) -> bool {
+        self.n_strands == o.n_strands
+            && self.n_links == o.n_links
+            && self.len == o.len
+            && self.heads == o.heads
+            && self.links == o.links
+    }
 }
 
 impl<T: StrandReal> Strands<T> {
@@ -485,15 +496,50 @@ impl<T: StrandReal> Strands<T> {
         substeps: usize,
         simd: Simd,
     ) -> Result<(), StrandsError> {
-        self.stage(targets)?;
         if substeps == 0 {
             return Err(StrandsError::NoSubsteps);
+        }
+        self.stage(targets)?;
+        self.sweep_staged(substeps, simd)
+    }
+
+    /// Moves the heads to the targets staged by [`Strands::stage`] (the second half of
+    /// [`Strands::move_heads`]); the staging is used up.
+    pub fn sweep_staged(&mut self, substeps: usize, simd: Simd) -> Result<(), StrandsError> {
+        if substeps == 0 {
+            return Err(StrandsError::NoSubsteps);
+        }
+        if self.staged.len() != self.heads.len() {
+            return Err(StrandsError::Shape("no targets staged"));
         }
         let staged = std::mem::take(&mut self.staged);
         let all = self.heads.len();
         self.halves(all).0.sweep(&staged, substeps, simd);
         self.staged = staged;
+        self.staged.clear();
         Ok(())
+    }
+
+    /// Cuts the strands from block `at` (clamped to 1 ..= blocks − 1) on into strands of their own,
+    /// which may then live and be swept on another thread: this keeps strands `..at·LANES`, the result
+    /// holds the rest (its strand 0 is this one's strand `at·LANES`). `None` with a single block.
+    pub fn split_off_blocks(&mut self, at: usize) -> Option<Strands<T>> {
+        let blocks = self.heads.len();
+        if blocks < 2 {
+            return None;
+        }
+        let at = at.clamp(1, blocks - 1);
+        let rest = Strands {
+            n_strands: self.n_strands - at * LANES,
+            n_links: self.n_links,
+            len: self.len,
+            heads: self.heads.split_off(at),
+            links: self.links.split_off(at * self.n_links),
+            staged: Vec::new(),
+        };
+        self.n_strands = at * LANES;
+        self.staged.clear();
+        Some(rest)
     }
 
     /// Checks `targets` and stages them in blocks (padding lanes at their heads): the first half of

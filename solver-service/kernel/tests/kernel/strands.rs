@@ -212,3 +212,39 @@ fn lengths_hold_over_many_moves() {
     assert!(worst32 < 1e-5, "f32 length error {worst32:e}");
     println!("10⁵ moves: length error f64 {worst:.1e}, f32 {worst32:.1e}");
 }
+
+#[test]
+fn strands_split_off_move_as_the_whole_did() {
+    let mut rng = Rng(11);
+    let n = 5 * LANES + 2;
+    let heads: Vec<V> = (0..n).map(|i| V::new(i as f64, 0.0, 0.0)).collect();
+    let mut whole = Strands::<f64>::straight(&heads, 7, 1.0, -V::y()).unwrap();
+    let mut first = whole.clone();
+    let mut rest = first.split_off_blocks(2).unwrap();
+    assert_eq!(
+        (first.n_strands(), rest.n_strands()),
+        (2 * LANES, n - 2 * LANES)
+    );
+    assert_eq!(rest.head(0), whole.head(2 * LANES));
+    for _ in 0..30 {
+        let targets: Vec<V> = (0..n).map(|i| whole.head(i) + rng.dir3() * 0.5).collect();
+        whole.move_heads(&targets, 3, Simd::Best).unwrap();
+        first
+            .move_heads(&targets[..2 * LANES], 3, Simd::Best)
+            .unwrap();
+        rest.stage(&targets[2 * LANES..]).unwrap();
+        rest.sweep_staged(3, Simd::Best).unwrap();
+        // The staging is used up: a second sweep is refused.
+        assert!(rest.sweep_staged(3, Simd::Best).is_err());
+    }
+    for i in 0..n {
+        let part = if i < 2 * LANES {
+            strand_joints(&first, i)
+        } else {
+            strand_joints(&rest, i - 2 * LANES)
+        };
+        assert_eq!(part, strand_joints(&whole, i), "strand {i}");
+    }
+    let mut one = Strands::<f64>::straight(&heads[..3], 7, 1.0, -V::y()).unwrap();
+    assert!(one.split_off_blocks(1).is_none());
+}

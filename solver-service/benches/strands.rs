@@ -1,27 +1,23 @@
 //! Hair: 10⁴ strands of 20 links, every strand's head moved to its own target each frame.
 //!
-//! `cargo bench -p tractrix --bench strands` prints one table, ns per link-step (a frame's time over
+//! `cargo bench -p solver-service --bench strands` prints one table, ns per link-step (a frame's time over
 //! strands × links × substeps; median and p90 over timed batches, the variants interleaved batch by
 //! batch so they share the machine's state):
 //!
 //! * *one Chain per strand*: the kernel's `Chain::move_joint` (closed-form tractrix) on each strand;
 //! * *strands, baseline*: `tractrix::strands` on the target's baseline instructions (SSE2), one thread;
 //! * *strands, SIMD*: the same sweep on the best instructions the CPU has (run-time detection);
-//! * *strands, SIMD, 2 threads*: the state cut in two halves, one swept on a scoped thread spawned for
-//!   the frame and one on the caller (the spawn is timed with the frame).
+//! * *strands, SIMD, 2 threads spawned per frame*: the state cut in two halves, one swept on a scoped
+//!   thread spawned for the frame and one on the caller (the spawn is timed with the frame);
+//! * *bundle on two cores (the service's)*: `solver_service::bundle::Bundle`, the halves owned by the
+//!   caller and by a helper thread that sleeps between frames (its wake-up is timed with the frame).
 //!
 //! After the run the strands' joints are compared with the chains' (*max joint difference*, links),
-//! and the SIMD state with the baseline state (*SIMD = baseline*: bit for bit). `STRANDS_BENCH_SCALE`
+//! and the SIMD state with the baseline and two-core states (bit for bit). `STRANDS_BENCH_SCALE`
 //! (default 1.0) scales the number of batches and frames.
 
-// The kernel's I/O rules (clippy.toml) are for its library: benches time and print.
-#![allow(
-    clippy::disallowed_types,
-    clippy::disallowed_macros,
-    clippy::disallowed_methods
-)]
-
 use nalgebra::Vector3;
+use solver_service::bundle::Bundle;
 use std::hint::black_box;
 use std::time::Instant;
 use tractrix::strands::{Simd, StrandReal, Strands, best_simd};
@@ -56,7 +52,7 @@ struct Row {
     p90: f64,
 }
 
-fn run<T: StrandReal>(tag: &str, k: usize, batches: usize, frames: usize) -> (Vec<Row>, f64, bool) {
+fn run<T: StrandReal + Send>(k: usize, batches: usize, frames: usize) -> (Vec<Row>, f64, bool) {
     let h0 = heads::<T>();
     let down = Vector3::new(T::zero(), -T::one(), T::zero());
     let len = T::lit(0.1);
@@ -65,14 +61,16 @@ fn run<T: StrandReal>(tag: &str, k: usize, batches: usize, frames: usize) -> (Ve
         .map(|h| Chain::straight(LINKS, len, h + down * T::lit(LINKS as f64 * 0.1), -down).unwrap())
         .collect();
     let fresh = Strands::<T>::straight(&h0, LINKS, len, down).unwrap();
-    let (mut base, mut simd, mut two) = (fresh.clone(), fresh.clone(), fresh);
+    let (mut base, mut simd, mut two) = (fresh.clone(), fresh.clone(), fresh.clone());
+    let mut bundle = Bundle::new(fresh, true).unwrap();
+    assert!(bundle.on_two_cores());
     let opts = MoveOptions {
         substeps: Substeps::Fixed(k as u32),
         ..MoveOptions::default()
     };
     // Each batch's targets, computed before its timed loops (frame-major).
     let mut targets: Vec<Vector3<T>> = Vec::new();
-    let mut times: [Vec<f64>; 4] = Default::default();
+    let mut times: [Vec<f64>; 5] = Default::default();
     let work = (STRANDS * LINKS * k * frames) as f64;
     let mut frame = 0;
     for _ in 0..batches {
@@ -108,6 +106,11 @@ fn run<T: StrandReal>(tag: &str, k: usize, batches: usize, frames: usize) -> (Ve
             two.restore_staged(staged);
         }
         times[3].push(t.elapsed().as_nanos() as f64 / work);
+        let t = Instant::now();
+        for frame_targets in targets.chunks_exact(STRANDS) {
+            bundle.move_heads(black_box(frame_targets), k).unwrap();
+        }
+        times[4].push(t.elapsed().as_nanos() as f64 / work);
         frame += frames;
     }
     let mut worst = 0.0f64;
@@ -118,12 +121,19 @@ fn run<T: StrandReal>(tag: &str, k: usize, batches: usize, frames: usize) -> (Ve
             j += 1;
         });
     }
-    let same = base == simd && simd == two;
+    let mut same = base == simd && simd == two;
+    for i in 0..STRANDS {
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        simd.for_each_joint(i, |p| a.push(p));
+        bundle.for_each_joint(i, |p| b.push(p));
+        same &= a == b;
+    }
     let names = [
         "one Chain per strand",
         "strands, baseline",
         "strands, SIMD",
-        "strands, SIMD, 2 threads",
+        "strands, SIMD, 2 threads spawned per frame",
+        "bundle on two cores (the service's)",
     ];
     let rows = names
         .iter()
@@ -133,7 +143,6 @@ fn run<T: StrandReal>(tag: &str, k: usize, batches: usize, frames: usize) -> (Ve
             Row { name, median, p90 }
         })
         .collect();
-    let _ = tag;
     (rows, worst, same)
 }
 
@@ -154,14 +163,14 @@ fn main() {
     println!(
         "| precision | substeps | variant | median ns per link-step | p90 of batches | speed-up over \
          one Chain per strand (medians) | max joint difference from the chains, links | SIMD = \
-         baseline bit for bit |"
+         baseline = two cores, bit for bit |"
     );
     println!("|---|---:|---|---:|---:|---:|---:|---|");
     for (tag, k) in [("f64", 1usize), ("f64", 4), ("f32", 1), ("f32", 4)] {
         let (rows, worst, same) = if tag == "f64" {
-            run::<f64>(tag, k, batches, frames)
+            run::<f64>(k, batches, frames)
         } else {
-            run::<f32>(tag, k, batches, frames)
+            run::<f32>(k, batches, frames)
         };
         let chain = rows[0].median;
         for r in &rows {

@@ -1,0 +1,208 @@
+//! A bundle of strands (hair, fur, many sutures) swept on both cores: the kernel's
+//! [`tractrix::strands::Strands`] cut in two at a block boundary, one half kept by the caller's thread
+//! and one owned by a helper thread that sleeps on a channel between moves.
+//!
+//! A move validates every target first (an error changes nothing), stages the helper's half and sends
+//! it over (moving a `Vec` moves three words, not the strands), sweeps its own half meanwhile, and takes
+//! the helper's half back. Waking the helper costs a futex wake-up (tens of µs on a loaded VM), which is
+//! why small bundles stay on one thread: the cut is made only when a move's link-steps reach
+//! [`TWO_CORES_FROM`]. The helper never spins, so it takes a core only while it computes; a client that
+//! busy-polls on the other core competes with it (then pass `two_cores = false`).
+
+use nalgebra::Vector3;
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::thread::JoinHandle;
+use tractrix::strands::{LANES, Simd, StrandReal, Strands, StrandsError};
+
+/// Link-steps per move (strands × links × substeps) from which a bundle is swept on two cores.
+pub const TWO_CORES_FROM: usize = 50_000;
+
+type Job<T> = (Strands<T>, usize);
+
+#[derive(Debug)]
+struct Helper<T> {
+    to: Option<SyncSender<Job<T>>>,
+    from: Receiver<Result<Strands<T>, StrandsError>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl<T> Drop for Helper<T> {
+    fn drop(&mut self) {
+        // Closing the channel ends the helper's loop.
+        self.to = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Strands on one or two cores (see the module docs).
+#[derive(Debug)]
+pub struct Bundle<T: StrandReal + Send> {
+    first: Strands<T>,
+    /// The helper's half while it is home (always, between moves).
+    second: Option<Strands<T>>,
+    helper: Option<Helper<T>>,
+    /// Strands in `first`.
+    split: usize,
+    n_strands: usize,
+    simd: Simd,
+}
+
+impl<T: StrandReal + Send> Bundle<T> {
+    /// Takes `strands`; cuts them in two and starts the helper thread when `two_cores` and a one-substep
+    /// move would reach [`TWO_CORES_FROM`] link-steps.
+    pub fn new(mut strands: Strands<T>, two_cores: bool) -> std::io::Result<Self> {
+        let n_strands = strands.n_strands();
+        let work = n_strands * strands.n_links();
+        let mut b = Bundle {
+            split: n_strands,
+            n_strands,
+            first: strands.clone(),
+            second: None,
+            helper: None,
+            simd: Simd::Best,
+        };
+        if two_cores && work >= TWO_CORES_FROM {
+            let at = strands.n_blocks() / 2;
+            if let Some(rest) = strands.split_off_blocks(at) {
+                let (to, jobs) = sync_channel::<Job<T>>(1);
+                let (done, from) = sync_channel(1);
+                let thread = std::thread::Builder::new()
+                    .name("strands-helper".into())
+                    .spawn(move || {
+                        for (mut half, substeps) in jobs {
+                            let r = half.sweep_staged(substeps, Simd::Best).map(|()| half);
+                            if done.send(r).is_err() {
+                                break;
+                            }
+                        }
+                    })?;
+                b.split = at * LANES;
+                b.first = strands;
+                b.second = Some(rest);
+                b.helper = Some(Helper {
+                    to: Some(to),
+                    from,
+                    thread: Some(thread),
+                });
+            }
+        }
+        Ok(b)
+    }
+
+    /// Whether moves run on two cores.
+    pub fn on_two_cores(&self) -> bool {
+        self.helper.is_some()
+    }
+    /// Strands.
+    pub fn n_strands(&self) -> usize {
+        self.n_strands
+    }
+    /// Links per strand.
+    pub fn n_links(&self) -> usize {
+        self.first.n_links()
+    }
+
+    /// Moves every strand's head to its target in `substeps` substeps. On error nothing changes.
+    pub fn move_heads(&mut self, targets: &[Vector3<T>], substeps: usize) -> Result<(), String> {
+        if targets.len() != self.n_strands {
+            return Err(StrandsError::TargetCount {
+                got: targets.len(),
+                want: self.n_strands,
+            }
+            .to_string());
+        }
+        if substeps == 0 {
+            return Err(StrandsError::NoSubsteps.to_string());
+        }
+        let (mine, theirs) = targets.split_at(self.split);
+        self.first.stage(mine).map_err(|e| e.to_string())?;
+        let (Some(helper), Some(mut second)) = (&self.helper, self.second.take()) else {
+            return self
+                .first
+                .sweep_staged(substeps, self.simd)
+                .map_err(|e| e.to_string());
+        };
+        if let Err(e) = second.stage(theirs) {
+            self.second = Some(second);
+            return Err(match e {
+                StrandsError::NonFinite(i) => StrandsError::NonFinite(i + self.split),
+                e => e,
+            }
+            .to_string());
+        }
+        let sent = helper.to.as_ref().map(|to| to.send((second, substeps)));
+        if let Some(Err(std::sync::mpsc::SendError((second, _)))) = sent {
+            // The helper is gone (it never panics on valid input): sweep its half here instead.
+            self.second = Some(second);
+            return Err("the strands helper thread has stopped".into());
+        }
+        let mine = self.first.sweep_staged(substeps, self.simd);
+        match helper.from.recv() {
+            Ok(Ok(half)) => self.second = Some(half),
+            Ok(Err(e)) => return Err(e.to_string()),
+            Err(_) => return Err("the strands helper thread has stopped".into()),
+        }
+        mine.map_err(|e| e.to_string())
+    }
+
+    /// Calls `f` with strand `i`'s joints, tail first.
+    pub fn for_each_joint(&self, i: usize, f: impl FnMut(Vector3<T>)) {
+        match &self.second {
+            Some(s) if i >= self.split => s.for_each_joint(i - self.split, f),
+            _ => self.first.for_each_joint(i, f),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bundle_on_two_cores_moves_as_one_strands_does() {
+        let heads: Vec<Vector3<f64>> = (0..3001)
+            .map(|i| Vector3::new((i % 50) as f64, 0.0, (i / 50) as f64))
+            .collect();
+        let whole = Strands::straight(&heads, 20, 0.5, -Vector3::y()).unwrap();
+        let mut one = whole.clone();
+        let mut two = Bundle::new(whole, true).unwrap();
+        assert!(two.on_two_cores());
+        for f in 0..20 {
+            let a = f as f64 * 0.3;
+            let targets: Vec<_> = heads
+                .iter()
+                .map(|h| h + Vector3::new(a.cos(), 0.2, a.sin()))
+                .collect();
+            one.move_heads(&targets, 2, Simd::Best).unwrap();
+            two.move_heads(&targets, 2).unwrap();
+        }
+        for i in [0, 1, 1499, 1500, 1504, 3000] {
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            one.for_each_joint(i, |p| a.push(p));
+            two.for_each_joint(i, |p| b.push(p));
+            assert_eq!(a, b, "strand {i}");
+        }
+        // A bad target in the helper's half is refused with its index, and nothing moves.
+        let mut bad: Vec<_> = heads.clone();
+        bad[2999].x = f64::NAN;
+        let before: Vec<_> = (0..3001)
+            .map(|i| {
+                let mut v = Vec::new();
+                two.for_each_joint(i, |p| v.push(p));
+                v
+            })
+            .collect();
+        let e = two.move_heads(&bad, 1).unwrap_err();
+        assert!(e.contains("2999"), "{e}");
+        assert!(two.move_heads(&heads[1..], 1).is_err());
+        for (i, b) in before.iter().enumerate() {
+            let mut v = Vec::new();
+            two.for_each_joint(i, |p| v.push(p));
+            assert_eq!(&v, b);
+        }
+        let small = Strands::straight(&heads[..10], 20, 0.5, -Vector3::y()).unwrap();
+        assert!(!Bundle::new(small, true).unwrap().on_two_cores());
+    }
+}
