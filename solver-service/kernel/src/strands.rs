@@ -544,7 +544,7 @@ impl<T: StrandReal> Strands<T> {
 
     /// Checks `targets` and stages them in blocks (padding lanes at their heads): the first half of
     /// [`Strands::move_heads`], for a caller that sweeps [`Strands::split_at_block`]'s halves itself
-    /// (then [`Strands::staged`] gives the blocks to pass).
+    /// (then [`Strands::take_staged`] gives the blocks to pass).
     pub fn stage(&mut self, targets: &[Vector3<T>]) -> Result<(), StrandsError> {
         if targets.len() != self.n_strands {
             return Err(StrandsError::TargetCount {

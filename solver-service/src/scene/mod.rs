@@ -47,8 +47,8 @@
 //!
 //! Errors name the file, the line and the field; sizes are checked before anything is allocated.
 //!
-//! Three steps: [`read`] (TOML into raw tables that remember their spans), [`validate`] (raw tables into
-//! [`ChainSpec`]s of kernel types) and [`shapes`] (initial joints).
+//! Three steps: `read` (TOML into raw tables that remember their spans), `validate` (raw tables into
+//! [`ChainSpec`]s of kernel types) and `shapes` (initial joints).
 
 mod read;
 mod shapes;
