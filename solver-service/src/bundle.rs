@@ -22,7 +22,7 @@ type Job<T> = (Strands<T>, usize);
 #[derive(Debug)]
 struct Helper<T> {
     to: Option<SyncSender<Job<T>>>,
-    from: Receiver<Result<Strands<T>, StrandsError>>,
+    from: Receiver<(Strands<T>, Result<(), StrandsError>)>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -55,40 +55,46 @@ impl<T: StrandReal + Send> Bundle<T> {
     pub fn new(mut strands: Strands<T>, two_cores: bool) -> std::io::Result<Self> {
         let n_strands = strands.n_strands();
         let work = n_strands * strands.n_links();
-        let mut b = Bundle {
-            split: n_strands,
-            n_strands,
-            first: strands.clone(),
-            second: None,
-            helper: None,
-            simd: Simd::Best,
+        let at = strands.n_blocks() / 2;
+        let second = if two_cores && work >= TWO_CORES_FROM {
+            strands.split_off_blocks(at)
+        } else {
+            None
         };
-        if two_cores && work >= TWO_CORES_FROM {
-            let at = strands.n_blocks() / 2;
-            if let Some(rest) = strands.split_off_blocks(at) {
+        let helper = match second {
+            None => None,
+            Some(_) => {
                 let (to, jobs) = sync_channel::<Job<T>>(1);
                 let (done, from) = sync_channel(1);
                 let thread = std::thread::Builder::new()
                     .name("strands-helper".into())
                     .spawn(move || {
                         for (mut half, substeps) in jobs {
-                            let r = half.sweep_staged(substeps, Simd::Best).map(|()| half);
-                            if done.send(r).is_err() {
+                            let r = half.sweep_staged(substeps, Simd::Best);
+                            if done.send((half, r)).is_err() {
                                 break;
                             }
                         }
                     })?;
-                b.split = at * LANES;
-                b.first = strands;
-                b.second = Some(rest);
-                b.helper = Some(Helper {
+                Some(Helper {
                     to: Some(to),
                     from,
                     thread: Some(thread),
-                });
+                })
             }
-        }
-        Ok(b)
+        };
+        Ok(Bundle {
+            split: if second.is_some() {
+                at * LANES
+            } else {
+                n_strands
+            },
+            n_strands,
+            first: strands,
+            second,
+            helper,
+            simd: Simd::Best,
+        })
     }
 
     /// Whether moves run on two cores.
@@ -118,7 +124,11 @@ impl<T: StrandReal + Send> Bundle<T> {
         }
         let (mine, theirs) = targets.split_at(self.split);
         self.first.stage(mine).map_err(|e| e.to_string())?;
-        let (Some(helper), Some(mut second)) = (&self.helper, self.second.take()) else {
+        let Some(mut second) = self.second.take() else {
+            if self.helper.is_some() {
+                // Only after the helper died mid-move (a kernel bug): its half went with it.
+                return Err("the strands helper thread died with half of the strands".into());
+            }
             return self
                 .first
                 .sweep_staged(substeps, self.simd)
@@ -132,26 +142,37 @@ impl<T: StrandReal + Send> Bundle<T> {
             }
             .to_string());
         }
-        let sent = helper.to.as_ref().map(|to| to.send((second, substeps)));
-        if let Some(Err(std::sync::mpsc::SendError((second, _)))) = sent {
-            // The helper is gone (it never panics on valid input): sweep its half here instead.
+        let sent = match self.helper.as_ref().and_then(|h| h.to.as_ref()) {
+            Some(to) => to.send((second, substeps)).map_err(|e| e.0.0),
+            None => Err(second),
+        };
+        if let Err(mut second) = sent {
+            // The helper is gone: both halves on this thread from now on.
+            self.helper = None;
+            let r = second.sweep_staged(substeps, self.simd);
             self.second = Some(second);
-            return Err("the strands helper thread has stopped".into());
+            return r
+                .and_then(|()| self.first.sweep_staged(substeps, self.simd))
+                .map_err(|e| e.to_string());
         }
         let mine = self.first.sweep_staged(substeps, self.simd);
-        match helper.from.recv() {
-            Ok(Ok(half)) => self.second = Some(half),
-            Ok(Err(e)) => return Err(e.to_string()),
-            Err(_) => return Err("the strands helper thread has stopped".into()),
+        // Returns when the helper answers, or at once with an error if it has died (its sender drops).
+        let back = self.helper.as_ref().map(|h| h.from.recv());
+        match back {
+            Some(Ok((half, r))) => {
+                self.second = Some(half);
+                r.and(mine).map_err(|e| e.to_string())
+            }
+            _ => Err("the strands helper thread died with half of the strands".into()),
         }
-        mine.map_err(|e| e.to_string())
     }
 
-    /// Calls `f` with strand `i`'s joints, tail first.
+    /// Calls `f` with strand `i`'s joints, tail first (nothing for a strand lost with a dead helper).
     pub fn for_each_joint(&self, i: usize, f: impl FnMut(Vector3<T>)) {
-        match &self.second {
-            Some(s) if i >= self.split => s.for_each_joint(i - self.split, f),
-            _ => self.first.for_each_joint(i, f),
+        if i < self.split {
+            self.first.for_each_joint(i, f);
+        } else if let Some(s) = &self.second {
+            s.for_each_joint(i - self.split, f);
         }
     }
 }
