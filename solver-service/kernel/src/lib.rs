@@ -33,7 +33,7 @@
 //! * `ground_truth` (feature `reference`): the continuous motion integrated by DOP853, for tests and
 //!   accuracy reports.
 //!
-//! Cargo keeps the crate pure: its only dependencies are `nalgebra` and `thiserror` (and `ode_solvers`
+//! Cargo keeps the crate pure: its only dependencies are `nalgebra`, `pulp` (safe run-time SIMD dispatch for [`strands`]; no I/O) and `thiserror` (and `ode_solvers`
 //! with the `reference` feature).
 
 #![deny(missing_docs)]
