@@ -50,6 +50,54 @@ pub struct Plan {
     /// Write the sequence number of every `ok` response (warmup included), one per line: the load
     /// test merges the files of all hands and checks that no change was lost or answered twice.
     pub sequences: Option<PathBuf>,
+    /// At a fixed rate: how the sender waits for each due time ([`wait_until`]).
+    pub schedule: Schedule,
+}
+
+/// How a fixed-rate sender keeps its schedule.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Schedule {
+    /// Sleep until this long before the due time, then spin (yielding) the rest of the way: zero
+    /// sleeps all the way (the wake-up's lateness is then the sender's); a longer stretch keeps the
+    /// schedule on a machine whose sleeps overshoot, for the CPU the stretch costs.
+    pub spin_before_due: Duration,
+    /// Align the due times to the system clock's millisecond grid plus this offset, so that
+    /// processes started apart keep fixed phases against each other (two hands and a probe on one
+    /// core do not spin at the same time). `None`: due times count from the start.
+    pub phase: Option<Duration>,
+}
+
+impl Default for Schedule {
+    fn default() -> Self {
+        Schedule {
+            spin_before_due: WAKE_EARLY,
+            phase: None,
+        }
+    }
+}
+
+impl Schedule {
+    /// The first due time for a `period`: now, or with a phase, the next point of the grid.
+    pub fn start(&self, period: Duration) -> Instant {
+        let now = Instant::now();
+        let Some(phase) = self.phase else {
+            return now;
+        };
+        let since = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default()
+            .as_nanos();
+        let p = period.as_nanos().max(1);
+        let into = (since + p - phase.as_nanos() % p) % p;
+        now + Duration::from_nanos((p - into) as u64)
+    }
+}
+
+/// The CPU time this thread has used (Linux: `/proc/thread-self/schedstat`), or `None`.
+pub fn thread_cpu_time() -> Option<Duration> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: u64 = s.split_whitespace().next()?.parse().ok()?;
+    Some(Duration::from_nanos(ns))
 }
 
 impl Default for Plan {
@@ -64,6 +112,7 @@ impl Default for Plan {
             points_per_turn: 200,
             duration: None,
             sequences: None,
+            schedule: Schedule::default(),
         }
     }
 }
@@ -122,6 +171,10 @@ pub struct Summary {
     /// link lengths (the service's own published positions, f64 rounding included).
     #[serde(default)]
     pub max_length_error: f64,
+    /// The sender's CPU time over the run's wall time (Linux; `None` where it cannot be read): what
+    /// its way of waiting costs.
+    #[serde(default)]
+    pub cpu_share: Option<f64>,
 }
 
 fn histogram() -> Histogram<u64> {
@@ -229,7 +282,8 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
     let mut late = histogram();
     let mut s = Summary::default();
     let period = (plan.rate_hz > 0.0).then(|| Duration::from_secs_f64(1.0 / plan.rate_hz));
-    let start = Instant::now();
+    let start = period.map_or_else(Instant::now, |p| plan.schedule.start(p));
+    let (wall0, cpu0) = (Instant::now(), thread_cpu_time());
     let mut checksum = 0.0;
     for i in 0..plan.warmup + plan.samples {
         if plan.duration.is_some_and(|d| start.elapsed() >= d) {
@@ -237,7 +291,7 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
         }
         let due = period.map(|p| start + p.mul_f64(i as f64));
         if let Some(due) = due {
-            wait_until(due);
+            wait_until(due, plan.schedule.spin_before_due);
         }
         // Around the circle, starting and ending at the joint's own start.
         let a =
@@ -292,22 +346,63 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
     s.from_due = period.map(|_| Percentiles::of(&from_due));
     s.late = period.map(|_| Percentiles::of(&late));
     s.solve = Percentiles::of(&solve);
+    s.cpu_share = cpu_share(wall0, cpu0);
     Ok(s)
 }
 
-/// How early a fixed-rate sender wakes from its sleep before a request is due: a sleep overshoots by
-/// 50-100 µs here (timer slack and wake-up), so it sleeps short and yields the rest of the way.
+fn cpu_share(wall0: Instant, cpu0: Option<Duration>) -> Option<f64> {
+    let used = thread_cpu_time()?.checked_sub(cpu0?)?;
+    Some(used.as_secs_f64() / wall0.elapsed().as_secs_f64().max(1e-9))
+}
+
+/// The machine's own lateness beside a run: a thread that waits for a `rate_hz` schedule exactly as
+/// a sender with `schedule` does, for `seconds`, and sends nothing. Returns the wake-up lateness
+/// (after the due time, ns) and the thread's CPU share.
+pub fn probe(
+    rate_hz: f64,
+    seconds: f64,
+    schedule: Schedule,
+) -> anyhow::Result<(Percentiles, Option<f64>)> {
+    if !(rate_hz.is_finite() && rate_hz > 0.0 && rate_hz <= 1e5) {
+        anyhow::bail!("rate {rate_hz} Hz: expected (0, 10^5]");
+    }
+    if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
+        anyhow::bail!("seconds {seconds}: expected (0, 3600]");
+    }
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let n = (seconds * rate_hz).round().max(1.0) as u64;
+    let start = schedule.start(period);
+    let (wall0, cpu0) = (Instant::now(), thread_cpu_time());
+    let mut late = histogram();
+    for i in 0..n {
+        let due = start + period.mul_f64(i as f64);
+        wait_until(due, schedule.spin_before_due);
+        let _ = late.record(
+            Instant::now()
+                .saturating_duration_since(due)
+                .as_nanos()
+                .max(1) as u64,
+        );
+    }
+    Ok((Percentiles::of(&late), cpu_share(wall0, cpu0)))
+}
+
+/// How early a fixed-rate sender wakes from its sleep before a request is due, by default: a sleep
+/// usually overshoots by 50-150 µs on these VMs (timer slack and wake-up), so it sleeps short and
+/// spins the rest of the way.
 pub const WAKE_EARLY: Duration = Duration::from_micros(250);
 
-/// Sleeps until `WAKE_EARLY` before `due`, then yields the processor until `due` (other threads on
-/// the core run meanwhile: this is not a busy spin).
-pub fn wait_until(due: Instant) {
+/// Sleeps until `spin` before `due`, then spins until `due` (the stretch's CPU cost: yielding instead
+/// hands the core to any runnable thread for a whole time slice, which on a busy machine is
+/// milliseconds). `spin` zero sleeps all the way. Senders sharing a core should keep their stretches
+/// apart ([`Schedule::phase`]): never two spinning threads on one core.
+pub fn wait_until(due: Instant, spin: Duration) {
     let now = Instant::now();
-    if due > now + WAKE_EARLY {
-        std::thread::sleep(due - now - WAKE_EARLY);
+    if due > now + spin {
+        std::thread::sleep(due - now - spin);
     }
     while Instant::now() < due {
-        std::thread::yield_now();
+        std::hint::spin_loop();
     }
 }
 

@@ -4,6 +4,7 @@
 //! ```text
 //! latency client --chain rope --samples 20000 --pin 1          # back to back, percentiles in µs
 //! latency client --chain rope --joint tail --rate 1000         # a 1 kHz hand, latency from due time
+//! latency probe --rate 1000 --seconds 10 --pin 1               # the machine's own wake-up lateness
 //! solver-service echo --prefix raw_ --elements 41 --wait spin  # the echo baseline (same serving loop)
 //! latency bench                                                # everything, Markdown tables
 //! ```
@@ -35,10 +36,59 @@ enum Cmd {
     Client(ClientArgs),
     /// Start everything in turn and print the tables of BENCHMARKS.md.
     Bench(BenchArgs),
+    /// The machine's own lateness: wait for a fixed-rate schedule exactly as a hand does, send
+    /// nothing, and print the wake-up lateness and the CPU share (one JSON line with --json).
+    Probe(ProbeArgs),
     /// The load run: a hand at full speed and one at 1 kHz on one rope plus a viewer; checks that no
     /// change is lost or answered twice and that link lengths hold, and prints the tails. Exits 1 if a
     /// check fails.
     Load(LoadArgs),
+}
+
+/// How a fixed-rate sender waits for each due time.
+#[derive(Args, Debug, Clone)]
+struct ScheduleArgs {
+    /// Sleep until this many µs before each due time, then spin (yielding) the rest of the way;
+    /// 0 sleeps all the way.
+    #[arg(long, default_value_t = 250.0)]
+    spin_before_due_us: f64,
+    /// Align due times to the system clock's millisecond grid plus this many µs (keeps processes
+    /// started apart at fixed phases against each other).
+    #[arg(long)]
+    phase_us: Option<f64>,
+}
+
+impl ScheduleArgs {
+    fn schedule(&self) -> Result<clients::latency::Schedule> {
+        let us = |name: &str, v: f64| {
+            if v.is_finite() && (0.0..=1e6).contains(&v) {
+                Ok(Duration::from_secs_f64(v * 1e-6))
+            } else {
+                Err(usage(format!("--{name} {v}: expected 0 to 10^6 µs")))
+            }
+        };
+        Ok(clients::latency::Schedule {
+            spin_before_due: us("spin-before-due-us", self.spin_before_due_us)?,
+            phase: self.phase_us.map(|p| us("phase-us", p)).transpose()?,
+        })
+    }
+}
+
+#[derive(Args, Debug)]
+struct ProbeArgs {
+    /// Due times per second.
+    #[arg(long, default_value_t = 1000.0)]
+    rate: f64,
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f64,
+    #[command(flatten)]
+    schedule: ScheduleArgs,
+    /// Pin this process to a CPU core.
+    #[arg(long)]
+    pin: Option<usize>,
+    /// Print one JSON line.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args, Debug)]
@@ -101,6 +151,8 @@ struct ClientArgs {
     /// Write the sequence number of every ok response to this file, one per line.
     #[arg(long)]
     sequences: Option<PathBuf>,
+    #[command(flatten)]
+    schedule: ScheduleArgs,
 }
 
 #[derive(Args, Debug)]
@@ -164,6 +216,7 @@ fn run(cli: Cli) -> Result<u8> {
                     Some(t) => return Err(usage(format!("--seconds {t}: expected (0, 10^6]"))),
                 },
                 sequences: a.sequences,
+                schedule: a.schedule.schedule()?,
                 ..Plan::default()
             };
             pin(a.pin)?;
@@ -190,6 +243,9 @@ fn run(cli: Cli) -> Result<u8> {
                     p("sent late", d);
                 }
                 p("solve", &s.solve);
+                if let Some(c) = s.cpu_share {
+                    println!("CPU share of the sender: {:.1} %", 100.0 * c);
+                }
                 println!(
                     "{} ok, {} refused, {} mismatched, {} out of order, {} elements per response, \
                      link length error {:.1e}",
@@ -201,6 +257,26 @@ fn run(cli: Cli) -> Result<u8> {
             } else {
                 0
             })
+        }
+        Cmd::Probe(a) => {
+            let schedule = a.schedule.schedule()?;
+            pin(a.pin)?;
+            let (late, cpu) =
+                clients::latency::probe(a.rate, a.seconds, schedule).map_err(usage)?;
+            if a.json {
+                println!("{}", serde_json::json!({ "late": late, "cpu_share": cpu }));
+            } else {
+                println!(
+                    "wake-up lateness: p50 {:.1} µs, p99 {:.1}, p99.9 {:.1}, max {:.1} ({} wakes); CPU share {}",
+                    late.p50 as f64 / 1e3,
+                    late.p99 as f64 / 1e3,
+                    late.p999 as f64 / 1e3,
+                    late.max as f64 / 1e3,
+                    late.count,
+                    cpu.map_or("unknown".into(), |c| format!("{:.1} %", 100.0 * c))
+                );
+            }
+            Ok(0)
         }
         Cmd::Load(a) => {
             let exe = std::env::current_exe()?;

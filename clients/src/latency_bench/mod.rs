@@ -200,7 +200,7 @@ pub fn run(cfg: &BenchConfig, out: &mut impl Write) -> Result<()> {
     }
     writeln!(
         out,
-        "\nRatios of medians (aim: spin ≤ 1.2 × (raw + solve)):\n\n\
+        "\nRatios of medians (aim: spin ≤ 1.1 × (raw + solve)):\n\n\
          | links | wait | service ÷ raw | service ÷ (raw + solve) | Unix socket ÷ service |"
     )?;
     writeln!(out, "|---:|---|---:|---:|---:|")?;
