@@ -188,9 +188,11 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
             .args(["--rate", &rate.to_string(), "--seconds", &secs.to_string()])
             .args(["--sequences", &seq.display().to_string(), "--json"])
             .args(if rate > 0.0 {
-                ["--warmup", "0"]
+                // Sleeps all the way to each due time: the full-speed hand already spins on this
+                // core (never two spinning threads on one core).
+                ["--warmup", "0", "--spin-before-due-us", "0"]
             } else {
-                ["--warmup", "1000"]
+                ["--warmup", "1000", "--spin-before-due-us", "0"]
             })
             .args([
                 "--samples",
