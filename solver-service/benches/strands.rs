@@ -13,13 +13,20 @@
 //!   caller and by a helper thread that sleeps between frames (its wake-up is timed with the frame).
 //!
 //! After the run the strands' joints are compared with the chains' (*max joint difference*, links),
-//! and the SIMD state with the baseline and two-core states (bit for bit). `STRANDS_BENCH_SCALE`
+//! and the SIMD state with the baseline and two-core states (bit for bit).
+//!
+//! A second table trades speed for accuracy: 2000 strands whose heads all follow the same helix
+//! (30 moves), for 1 to 16 substeps, each variant timed over the whole path (median of a few runs
+//! from the same start) and its end state compared with the continuous ground truth (DOP853,
+//! `tractrix::ground_truth`): the largest joint distance over three strands, in links. ★ marks the
+//! rows no other row of the same precision beats in both time and error. `STRANDS_BENCH_SCALE`
 //! (default 1.0) scales the number of batches and frames.
 
 use nalgebra::Vector3;
 use solver_service::bundle::Bundle;
 use std::hint::black_box;
 use std::time::Instant;
+use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};
 use tractrix::strands::{Simd, StrandReal, Strands, best_simd};
 use tractrix::{Chain, MoveOptions, Real, Substeps};
 
@@ -146,6 +153,134 @@ fn run<T: StrandReal + Send>(k: usize, batches: usize, frames: usize) -> (Vec<Ro
     (rows, worst, same)
 }
 
+/// One row of the speed-against-accuracy table.
+struct AccRow {
+    precision: &'static str,
+    k: usize,
+    variant: &'static str,
+    error: f64,
+    frame_us: f64,
+    ns_per_step: f64,
+}
+
+/// The helix path for 2000 strands, every variant and substep count in `ks`.
+fn accuracy<T: StrandReal + Send>(
+    precision: &'static str,
+    ks: &[usize],
+    reps: usize,
+) -> Vec<AccRow> {
+    const N: usize = 2000;
+    const MOVES: usize = 30;
+    let len = 0.1;
+    let h0: Vec<Vector3<T>> = heads::<T>().into_iter().take(N).collect();
+    let path = helix(Vector3::zeros(), 0.5, 0.5, 1.0, MOVES);
+    // The ground truth of one strand hanging from the origin (every strand moves the same way).
+    let points: Vec<Vector3<f64>> = (0..=LINKS)
+        .map(|j| Vector3::new(0.0, -((LINKS - j) as f64) * len, 0.0))
+        .collect();
+    let truth = follow_path(&points, LINKS, &path, &GroundTruthOptions::default())
+        .expect("the ground truth integrates");
+    let down = Vector3::new(T::zero(), -T::one(), T::zero());
+    let to64 = |v: Vector3<T>| Vector3::new(v.x.to_f64(), v.y.to_f64(), v.z.to_f64());
+    let targets: Vec<Vec<Vector3<T>>> = path
+        .iter()
+        .map(|o| {
+            let o = Vector3::new(T::lit(o.x), T::lit(o.y), T::lit(o.z));
+            h0.iter().map(|h| h + o).collect()
+        })
+        .collect();
+    let probe = [0, N / 2, N - 1];
+    let error_of = |joints: &dyn Fn(usize) -> Vec<Vector3<f64>>| {
+        let mut worst = 0.0f64;
+        for &i in &probe {
+            let h = to64(h0[i]);
+            for (p, t) in joints(i).iter().zip(&truth) {
+                worst = worst.max((p - (h + t)).norm() / len);
+            }
+        }
+        worst
+    };
+    let fresh = Strands::<T>::straight(&h0, LINKS, T::lit(len), down).unwrap();
+    let mut rows = Vec::new();
+    for &k in ks {
+        let work = (N * LINKS * k * MOVES) as f64;
+        let mut push = |variant, mut times: Vec<f64>, error| {
+            times.sort_by(f64::total_cmp);
+            let t = times[times.len() / 2];
+            rows.push(AccRow {
+                precision,
+                k,
+                variant,
+                error,
+                frame_us: t / MOVES as f64 / 1e3,
+                ns_per_step: t / work,
+            });
+        };
+        // One Chain per strand.
+        let opts = MoveOptions {
+            substeps: Substeps::Fixed(k as u32),
+            ..MoveOptions::default()
+        };
+        let (mut times, mut error) = (Vec::new(), 0.0);
+        for _ in 0..reps {
+            let mut chains: Vec<Chain<T, 3>> = h0
+                .iter()
+                .map(|h| {
+                    Chain::straight(
+                        LINKS,
+                        T::lit(len),
+                        h + down * T::lit(LINKS as f64 * len),
+                        -down,
+                    )
+                    .unwrap()
+                })
+                .collect();
+            let t = Instant::now();
+            for frame in &targets {
+                for (c, x) in chains.iter_mut().zip(frame) {
+                    c.move_joint(LINKS, *x, &opts).unwrap();
+                }
+            }
+            times.push(t.elapsed().as_nanos() as f64);
+            error = error_of(&|i| (0..=LINKS).map(|j| to64(chains[i].joint(j))).collect());
+        }
+        push("one Chain per strand", times, error);
+        // Strands, SIMD, one core.
+        let (mut times, mut error) = (Vec::new(), 0.0);
+        for _ in 0..reps {
+            let mut s = fresh.clone();
+            let t = Instant::now();
+            for frame in &targets {
+                s.move_heads(frame, k, Simd::Best).unwrap();
+            }
+            times.push(t.elapsed().as_nanos() as f64);
+            error = error_of(&|i| {
+                let mut v = Vec::new();
+                s.for_each_joint(i, |p| v.push(to64(p)));
+                v
+            });
+        }
+        push("strands, SIMD", times, error);
+        // The service's bundle on two cores.
+        let (mut times, mut error) = (Vec::new(), 0.0);
+        for _ in 0..reps {
+            let mut b = Bundle::new(fresh.clone(), true).unwrap();
+            let t = Instant::now();
+            for frame in &targets {
+                b.move_heads(frame, k).unwrap();
+            }
+            times.push(t.elapsed().as_nanos() as f64);
+            error = error_of(&|i| {
+                let mut v = Vec::new();
+                b.for_each_joint(i, |p| v.push(to64(p)));
+                v
+            });
+        }
+        push("bundle on two cores", times, error);
+    }
+    rows
+}
+
 fn main() {
     let scale: f64 = std::env::var("STRANDS_BENCH_SCALE")
         .ok()
@@ -183,5 +318,38 @@ fn main() {
                 if same { "yes" } else { "**no**" }
             );
         }
+    }
+
+    let reps = ((5.0 * scale).round() as usize).max(1);
+    println!(
+        "\n### Speed against accuracy: 2000 strands × {LINKS} links, every head along one helix \
+         (30 moves; error: largest joint distance from the ground truth at the end, in links; \
+         median of {reps} runs)\n"
+    );
+    println!(
+        "| precision | substeps | variant | error, links | µs per frame (2000 strands) | ns per \
+         link-step | ★ |"
+    );
+    println!("|---|---:|---|---:|---:|---:|---|");
+    let ks = [1usize, 2, 4, 8, 16];
+    let mut rows = accuracy::<f64>("f64", &ks, reps);
+    rows.extend(accuracy::<f32>("f32", &ks, reps));
+    for r in &rows {
+        let front = !rows.iter().any(|o| {
+            o.precision == r.precision
+                && o.frame_us <= r.frame_us
+                && o.error <= r.error
+                && (o.frame_us < r.frame_us || o.error < r.error)
+        });
+        println!(
+            "| {} | {} | {} | {:.1e} | {:.0} | {:.2} | {} |",
+            r.precision,
+            r.k,
+            r.variant,
+            r.error,
+            r.frame_us,
+            r.ns_per_step,
+            if front { "★" } else { "" }
+        );
     }
 }
