@@ -228,26 +228,8 @@ where
     }
     let collision = spec.collision.as_ref().map(|c| {
         let v = |q: &Vector3<f64>| point::<T, D>((*q).into());
-        let obstacles = c
-            .obstacles
-            .iter()
-            .map(|o| match o {
-                Obstacle::Sphere { center, radius } => Obstacle::Sphere {
-                    center: v(center),
-                    radius: T::lit(*radius),
-                },
-                Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
-                    a: v(a),
-                    b: v(b),
-                    radius: T::lit(*radius),
-                },
-                Obstacle::HalfSpace { point, normal } => Obstacle::HalfSpace {
-                    point: v(point),
-                    normal: v(normal),
-                },
-            })
-            .collect::<Vec<_>>();
-        let instruments = c.instruments.iter().map(|(_, o)| match o {
+        // The scene's obstacles, then its instruments (the kernel sees both as obstacles).
+        let convert = |o: &Obstacle<f64, 3>| match o {
             Obstacle::Sphere { center, radius } => Obstacle::Sphere {
                 center: v(center),
                 radius: T::lit(*radius),
@@ -261,8 +243,13 @@ where
                 point: v(point),
                 normal: v(normal),
             },
-        });
-        let obstacles: Vec<Obstacle<T, D>> = obstacles.into_iter().chain(instruments).collect();
+        };
+        let obstacles: Vec<Obstacle<T, D>> = c
+            .obstacles
+            .iter()
+            .chain(c.instruments.iter().map(|(_, o)| o))
+            .map(convert)
+            .collect();
         let o = &c.options;
         let model = CollisionModel {
             options: CollisionOptions {
