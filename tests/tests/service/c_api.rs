@@ -50,6 +50,21 @@ fn compile(compiler: &str, args: &[&str]) {
     );
 }
 
+/// Compiles with every warning an error: `cc` as C11, `c++` as C++17 with the examples' folder on the
+/// include path too; `rest` is the sources, libraries and output.
+fn compile_strict(compiler: &str, include: &str, examples: &std::path::Path, rest: &[&str]) {
+    let ex = examples.display().to_string();
+    let mut args = vec!["-Wall", "-Wextra", "-Werror", "-I", include];
+    if compiler == "cc" {
+        args.insert(0, "-std=c11");
+    } else {
+        args.insert(0, "-std=c++17");
+        args.extend(["-I", ex.as_str()]);
+    }
+    args.extend_from_slice(rest);
+    compile(compiler, &args);
+}
+
 /// The joints a program printed as `joint I XBITS YBITS ZBITS`.
 fn printed_joints(text: &str) -> Vec<[u64; 3]> {
     text.lines()
@@ -80,15 +95,11 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
     let examples = root().join("clients/c/examples");
     let dir = tempfile::tempdir().unwrap();
     let c_exe = dir.path().join("move").display().to_string();
-    compile(
+    compile_strict(
         "cc",
+        &include,
+        &examples,
         &[
-            "-std=c11",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-I",
-            &include,
             examples.join("move.c").to_str().unwrap(),
             "-L",
             &lib_s,
@@ -100,17 +111,11 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
         ],
     );
     let cpp_exe = dir.path().join("loop").display().to_string();
-    compile(
+    compile_strict(
         "c++",
+        &include,
+        &examples,
         &[
-            "-std=c++17",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-I",
-            &include,
-            "-I",
-            examples.to_str().unwrap(),
             examples.join("loop.cpp").to_str().unwrap(),
             &format!("{lib_s}/libtractrix_client.a"),
             "-lpthread",
@@ -238,15 +243,11 @@ fn every_language_s_smallest_program_moves_the_rope() {
     let examples = root().join("clients/c/examples");
     let dir = tempfile::tempdir().unwrap();
     let exe = |n: &str| dir.path().join(n).display().to_string();
-    compile(
+    compile_strict(
         "cc",
+        &include,
+        &examples,
         &[
-            "-std=c11",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-I",
-            &include,
             examples.join("hello.c").to_str().unwrap(),
             "-L",
             &lib_s,
@@ -256,17 +257,11 @@ fn every_language_s_smallest_program_moves_the_rope() {
             &exe("hello_c"),
         ],
     );
-    compile(
+    compile_strict(
         "c++",
+        &include,
+        &examples,
         &[
-            "-std=c++17",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-I",
-            &include,
-            "-I",
-            examples.to_str().unwrap(),
             examples.join("hello.cpp").to_str().unwrap(),
             "-L",
             &lib_s,
