@@ -415,6 +415,20 @@ pub unsafe extern "C" fn tractrix_client_call(
     })
 }
 
+/// A request on `chain`'s `joint` with no points whose joints the caller does not want.
+fn command_only(client: *mut TractrixClient, command: Command, chain: u32, joint: u32) -> c_int {
+    joint_request(
+        client,
+        command,
+        chain,
+        joint,
+        &[],
+        std::ptr::null_mut(),
+        0,
+        std::ptr::null_mut(),
+    )
+}
+
 /// A request on `chain`'s `joint` with `points`; joints into `(joints, capacity)`, count to `*n_joints`.
 fn joint_request(
     client: *mut TractrixClient,
@@ -559,16 +573,7 @@ pub unsafe extern "C" fn tractrix_client_query(
 /// not yet closed; buffers valid for their stated capacity; strings NUL-terminated).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tractrix_client_reset(client: *mut TractrixClient, chain: u32) -> c_int {
-    joint_request(
-        client,
-        Command::Reset,
-        chain,
-        0,
-        &[],
-        std::ptr::null_mut(),
-        0,
-        std::ptr::null_mut(),
-    )
+    command_only(client, Command::Reset, chain, 0)
 }
 
 /// Holds `joint` where it is (a hand's grasp).
@@ -583,16 +588,7 @@ pub unsafe extern "C" fn tractrix_client_grasp(
     chain: u32,
     joint: u32,
 ) -> c_int {
-    joint_request(
-        client,
-        Command::Grasp,
-        chain,
-        joint,
-        &[],
-        std::ptr::null_mut(),
-        0,
-        std::ptr::null_mut(),
-    )
+    command_only(client, Command::Grasp, chain, joint)
 }
 
 /// Lets a grasped joint go.
@@ -607,16 +603,7 @@ pub unsafe extern "C" fn tractrix_client_release(
     chain: u32,
     joint: u32,
 ) -> c_int {
-    joint_request(
-        client,
-        Command::Release,
-        chain,
-        joint,
-        &[],
-        std::ptr::null_mut(),
-        0,
-        std::ptr::null_mut(),
-    )
+    command_only(client, Command::Release, chain, joint)
 }
 
 /// Moves instrument `index` of `chain` to `centre`, turned to `*axis` (capsules; null for a sphere).
