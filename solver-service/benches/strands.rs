@@ -15,7 +15,7 @@
 //! After the run the strands' joints are compared with the chains' (*max joint difference*, links),
 //! and the SIMD state with the baseline and two-core states (bit for bit).
 //!
-//! A second table trades speed for accuracy: 2000 strands whose heads all follow the same helix
+//! A second table trades speed for accuracy: 5000 strands whose heads all follow the same helix
 //! (30 moves), for 1 to 16 substeps, each variant timed over the whole path (median of a few runs
 //! from the same start) and its end state compared with the continuous ground truth (DOP853,
 //! `tractrix::ground_truth`): the largest joint distance over three strands, in links. ★ marks the
@@ -163,13 +163,14 @@ struct AccRow {
     ns_per_step: f64,
 }
 
-/// The helix path for 2000 strands, every variant and substep count in `ks`.
+/// The helix path for 5000 strands, every variant and substep count in `ks`.
 fn accuracy<T: StrandReal + Send>(
     precision: &'static str,
     ks: &[usize],
     reps: usize,
 ) -> Vec<AccRow> {
-    const N: usize = 2000;
+    // Enough strands for the bundle to use its second core (TWO_CORES_FROM link-steps).
+    const N: usize = 5000;
     const MOVES: usize = 30;
     let len = 0.1;
     let h0: Vec<Vector3<T>> = heads::<T>().into_iter().take(N).collect();
@@ -265,6 +266,7 @@ fn accuracy<T: StrandReal + Send>(
         let (mut times, mut error) = (Vec::new(), 0.0);
         for _ in 0..reps {
             let mut b = Bundle::new(fresh.clone(), true).unwrap();
+            assert!(b.on_two_cores());
             let t = Instant::now();
             for frame in &targets {
                 b.move_heads(frame, k).unwrap();
@@ -322,12 +324,12 @@ fn main() {
 
     let reps = ((5.0 * scale).round() as usize).max(1);
     println!(
-        "\n### Speed against accuracy: 2000 strands × {LINKS} links, every head along one helix \
+        "\n### Speed against accuracy: 5000 strands × {LINKS} links, every head along one helix \
          (30 moves; error: largest joint distance from the ground truth at the end, in links; \
          median of {reps} runs)\n"
     );
     println!(
-        "| precision | substeps | variant | error, links | µs per frame (2000 strands) | ns per \
+        "| precision | substeps | variant | error, links | µs per frame (5000 strands) | ns per \
          link-step | ★ |"
     );
     println!("|---|---:|---|---:|---:|---:|---|");
