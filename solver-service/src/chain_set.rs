@@ -993,6 +993,8 @@ struct Wants {
 #[derive(Debug)]
 pub struct ChainElements<'a, T: Real, const D: usize> {
     chain: &'a Chain<T, D>,
+    /// Joint 0, summed back from the chain's datum once (an O(n) pass).
+    origin: Vector<T, D>,
     acc: CompensatedSum<T, D>,
     /// Next joint (0..=n), then n+1+k for rotation k, then held joint k, then instrument elements.
     at: usize,
@@ -1010,9 +1012,11 @@ where
 {
     fn new(h: &'a Held<T, D>, wants: Wants, anchors: &'a [u32]) -> Self {
         let chain = &h.chain;
+        let origin = chain.origin();
         ChainElements {
             chain,
-            acc: CompensatedSum::new(chain.origin()),
+            origin,
+            acc: CompensatedSum::new(origin),
             at: 0,
             rotations: if wants.angles { chain.links().len() } else { 0 },
             held: if wants.held { chain.held().len() } else { 0 },
@@ -1055,7 +1059,7 @@ where
             if self.restart_at(0) {
                 return Some(to_wire(&self.acc.value()));
             }
-            return Some(to_wire(&self.chain.origin()));
+            return Some(to_wire(&self.origin));
         }
         if i <= n {
             self.acc.add(&links[i - 1]);
