@@ -252,6 +252,17 @@ impl<S: Service> Connection<S> {
                 Err(e) => return Err(ipc("open the command service")(e)),
             }
         };
+        // The service exists a moment before its server port does (a service starting up): wait for
+        // the server within the same deadline, or a first request would find nobody to answer it.
+        while command.dynamic_config().number_of_servers() == 0 {
+            if Instant::now() >= deadline {
+                return Err(CallError::NoService {
+                    prefix: opts.prefix.clone(),
+                    waited: opts.connect_timeout,
+                });
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
         let client = command
             .client_builder()
             .initial_max_slice_len(opts.max_request_points.max(1))

@@ -98,25 +98,8 @@ impl<S: Service> ServerPorts<S> {
         if node.wait(Duration::ZERO).is_err() {
             return Err("terminated while starting".into());
         }
-        let server = node
-            .service_builder(&service_name(SERVICE_COMMAND)?)
-            .request_response::<[Vec3], [Vec3]>()
-            .request_user_header::<RequestHeader>()
-            .response_user_header::<ResponseHeader>()
-            .max_servers(1)
-            .max_clients(MAX_CLIENTS)
-            .max_nodes(MAX_CLIENTS + 4)
-            .max_active_requests_per_client(2)
-            .open_or_create()
-            .map_err(err(
-                "cannot open or create the command service (a peer of another protocol version?)",
-            ))?
-            .server_builder()
-            .initial_max_slice_len(max_elements.max(1))
-            .create()
-            .map_err(err(
-                "cannot create the server (is another solver-service running with this prefix?)",
-            ))?;
+        // The command service and its server come last: a client that finds the command service
+        // finds the wake-up events and the state stream already there.
         let wake_listener = node
             .service_builder(&service_name(SERVICE_WAKE_SERVER)?)
             .event()
@@ -159,6 +142,25 @@ impl<S: Service> ServerPorts<S> {
                     .map_err(err("cannot create the state publisher"))?,
             ),
         };
+        let server = node
+            .service_builder(&service_name(SERVICE_COMMAND)?)
+            .request_response::<[Vec3], [Vec3]>()
+            .request_user_header::<RequestHeader>()
+            .response_user_header::<ResponseHeader>()
+            .max_servers(1)
+            .max_clients(MAX_CLIENTS)
+            .max_nodes(MAX_CLIENTS + 4)
+            .max_active_requests_per_client(2)
+            .open_or_create()
+            .map_err(err(
+                "cannot open or create the command service (a peer of another protocol version?)",
+            ))?
+            .server_builder()
+            .initial_max_slice_len(max_elements.max(1))
+            .create()
+            .map_err(err(
+                "cannot create the server (is another solver-service running with this prefix?)",
+            ))?;
         Ok((
             ServerPorts {
                 node,
