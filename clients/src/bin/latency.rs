@@ -176,6 +176,19 @@ fn main() -> std::process::ExitCode {
     clients::cli::main("latency", || run(Cli::parse()))
 }
 
+/// One line of percentiles in µs.
+fn print_percentiles(name: &str, q: &clients::latency::Percentiles) {
+    println!(
+        "{name:>10}: p50 {:.1} µs, p90 {:.1}, p99 {:.1}, p99.9 {:.1}, max {:.1} ({} samples)",
+        q.p50 as f64 / 1e3,
+        q.p90 as f64 / 1e3,
+        q.p99 as f64 / 1e3,
+        q.p999 as f64 / 1e3,
+        q.max as f64 / 1e3,
+        q.count
+    )
+}
+
 fn pin(core: Option<usize>) -> Result<()> {
     if let Some(c) = core {
         shared::pin_current_thread(c).map_err(usage)?;
@@ -224,17 +237,7 @@ fn run(cli: Cli) -> Result<u8> {
             if a.json {
                 println!("{}", serde_json::to_string(&s)?);
             } else {
-                let p = |name: &str, q: &clients::latency::Percentiles| {
-                    println!(
-                        "{name:>10}: p50 {:.1} µs, p90 {:.1}, p99 {:.1}, p99.9 {:.1}, max {:.1} ({} samples)",
-                        q.p50 as f64 / 1e3,
-                        q.p90 as f64 / 1e3,
-                        q.p99 as f64 / 1e3,
-                        q.p999 as f64 / 1e3,
-                        q.max as f64 / 1e3,
-                        q.count
-                    )
-                };
+                let p = print_percentiles;
                 p("round trip", &s.round_trip);
                 if let Some(d) = &s.from_due {
                     p("from due", d);
@@ -266,13 +269,9 @@ fn run(cli: Cli) -> Result<u8> {
             if a.json {
                 println!("{}", serde_json::json!({ "late": late, "cpu_share": cpu }));
             } else {
+                print_percentiles("wake-up lateness", &late);
                 println!(
-                    "wake-up lateness: p50 {:.1} µs, p99 {:.1}, p99.9 {:.1}, max {:.1} ({} wakes); CPU share {}",
-                    late.p50 as f64 / 1e3,
-                    late.p99 as f64 / 1e3,
-                    late.p999 as f64 / 1e3,
-                    late.max as f64 / 1e3,
-                    late.count,
+                    "CPU share: {}",
                     cpu.map_or("unknown".into(), |c| format!("{:.1} %", 100.0 * c))
                 );
             }
