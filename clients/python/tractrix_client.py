@@ -35,6 +35,9 @@ SERVICE_WAKE_SERVER = "tractrix/wake-server"
 DEFAULT_PREFIX = "tractrix_"
 JOINT_HEAD = 0xFFFFFFFF
 MAX_PATH_POINTS = 4096
+FLAG_ANGLES = 1
+FLAG_POSE = 2
+KIND = ["free", "fixed-base", "bundle"]
 
 CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
        "grasp": 8, "release": 9, "instrument": 10}

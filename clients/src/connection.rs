@@ -384,9 +384,18 @@ impl<S: Service> Connection<S> {
 
     /// Subscribes to the state stream.
     pub fn subscribe(&self) -> Result<StateStream<S>, CallError> {
+        self.subscribe_to(SERVICE_STATE)
+    }
+
+    /// Subscribes to the bundles' state stream (a scene with bundles only).
+    pub fn subscribe_bundles(&self) -> Result<StateStream<S>, CallError> {
+        self.subscribe_to(shared::SERVICE_BUNDLE_STATE)
+    }
+
+    fn subscribe_to(&self, service: &str) -> Result<StateStream<S>, CallError> {
         let svc = self
             .node
-            .service_builder(&SERVICE_STATE.try_into().map_err(ipc("name"))?)
+            .service_builder(&service.try_into().map_err(ipc("name"))?)
             .publish_subscribe::<[Vec3]>()
             .user_header::<StateHeader>()
             .open()

@@ -18,6 +18,10 @@
  *                           (equal for a sphere), then (radius, 0 sphere / 1 capsule, 0)).
  *   "tractrix/state"        publish-subscribe: user header tractrix_StateHeader, payload tractrix_Vec3[]
  *                           (n_joints joints, n_held held joints, n_instruments instruments).
+ *   "tractrix/bundle-state" publish-subscribe, only for a scene with bundles: user header
+ *                           tractrix_StateHeader, payload all joints of one bundle (strand after
+ *                           strand, each tail first); at most TRACTRIX_MAX_BUNDLE_SUBSCRIBERS
+ *                           subscribers buffering TRACTRIX_BUNDLE_STATE_BUFFER samples each.
  *   "tractrix/wake-server"  event: notify after sending unless the server spins.
  *   "tractrix/wake-client"  event: the server notifies the listener whose id is in client_listener.
  * iceoryx2 type names (C++: static constexpr const char* IOX2_TYPE_NAME) are the TRACTRIX_TYPE_NAME_*
@@ -32,6 +36,7 @@
 #define TRACTRIX_PROTOCOL_VERSION 2u
 #define TRACTRIX_SERVICE_COMMAND "tractrix/command"
 #define TRACTRIX_SERVICE_STATE "tractrix/state"
+#define TRACTRIX_SERVICE_BUNDLE_STATE "tractrix/bundle-state"
 #define TRACTRIX_SERVICE_WAKE_SERVER "tractrix/wake-server"
 #define TRACTRIX_SERVICE_WAKE_CLIENT "tractrix/wake-client"
 #define TRACTRIX_DEFAULT_PREFIX "tractrix_"
@@ -47,6 +52,12 @@
 #define TRACTRIX_REASON_LEN 96u
 #define TRACTRIX_JOINT_HEAD 0xFFFFFFFFu
 #define TRACTRIX_FLAG_ANGLES 1u
+/* A bundle's move by one rigid motion of its heads: points (t, rotation vector r); head_i = R(r) h0_i + t. */
+#define TRACTRIX_FLAG_POSE 2u
+#define TRACTRIX_MAX_BUNDLE_JOINTS 1048576u
+#define TRACTRIX_MAX_BUNDLE_STRANDS 131072u
+#define TRACTRIX_BUNDLE_STATE_BUFFER 2u
+#define TRACTRIX_MAX_BUNDLE_SUBSCRIBERS 4u
 #define TRACTRIX_COLLISION_SELF 1u
 #define TRACTRIX_COLLISION_OBSTACLES 2u
 #define TRACTRIX_COLLISION_PAPER_SPHERES 4u
@@ -96,7 +107,7 @@ enum tractrix_method { TRACTRIX_METHOD_DEFAULT = 0, TRACTRIX_METHOD_TRACTRIX = 1
 enum tractrix_precision { TRACTRIX_PRECISION_DEFAULT = 0, TRACTRIX_PRECISION_F64 = 1, TRACTRIX_PRECISION_F32 = 2 };
 enum tractrix_substep_mode { TRACTRIX_SUBSTEPS_DEFAULT = 0, TRACTRIX_SUBSTEPS_FIXED = 1, TRACTRIX_SUBSTEPS_MAX_STEP = 2 };
 enum tractrix_strategy { TRACTRIX_STRATEGY_DEFAULT = 0, TRACTRIX_STRATEGY_TRANSLATE_BACK = 1, TRACTRIX_STRATEGY_TWO_LINK = 2 };
-enum tractrix_chain_kind { TRACTRIX_KIND_FREE = 0, TRACTRIX_KIND_FIXED_BASE = 1 };
+enum tractrix_chain_kind { TRACTRIX_KIND_FREE = 0, TRACTRIX_KIND_FIXED_BASE = 1, TRACTRIX_KIND_BUNDLE = 2 };
 
 /* 24 bytes, align 8. */
 typedef struct tractrix_Vec3 {

@@ -11,6 +11,7 @@
 //! |---|---|---|---|
 //! | [`SERVICE_COMMAND`] | request-response, one server | request: user header [`RequestHeader`], payload slice of [`Vec3`] (targets); response: user header [`ResponseHeader`], payload slice of [`Vec3`] (joints, then joint rotations) | every command |
 //! | [`SERVICE_STATE`] | publish-subscribe | user header [`StateHeader`], payload slice of [`Vec3`] (joints, held joints, instruments) | every accepted change, in order |
+//! | [`SERVICE_BUNDLE_STATE`] | publish-subscribe | user header [`StateHeader`], payload slice of [`Vec3`] (all joints of one bundle) | every accepted change of a bundle; created only for a scene with bundles |
 //! | [`SERVICE_WAKE_SERVER`] | event | – | a client notifies it after sending, so a server in `event`/`hybrid` mode wakes |
 //! | [`SERVICE_WAKE_CLIENT`] | event | – | the server notifies the listener whose id a request carries in [`RequestHeader::client_listener`] |
 //!
@@ -34,6 +35,29 @@
 //!    two ends of the axis (equal for a sphere), then `(radius, 0 for a sphere or 1 for a capsule, 0)`.
 //!    A chain without instruments has `n_instruments = 0`. An error response carries no elements. The chain's description (name, kind, sizes, defaults) comes with [`Command::Describe`]
 //!    only.
+//!
+//! # Bundles
+//!
+//! A scene's `[[bundle]]`s (many free strands of equal links: hair, fur, a bundle of sutures) take the
+//! handles after its chains (`n_chains` counts both; [`Command::Describe`] says [`ChainKind::Bundle`],
+//! `n_links` per strand, `n_joints` = strands × (`n_links` + 1)). A bundle answers four commands:
+//!
+//! * [`Command::Move`], `joint` = [`JOINT_HEAD`]: every strand's head to its own target (one point per
+//!   strand, in strand order), or with [`FLAG_POSE`] all heads by one rigid motion (two points). Only the
+//!   closed-form tractrix (`method` 0 or 1) and fixed substeps (`substep_mode` 0 or 1).
+//! * [`Command::Query`], [`Command::Describe`], [`Command::Reset`].
+//!
+//! Every other command is refused ([`Status::WrongChainKind`]). The response carries all joints, strand
+//! after strand, each tail first; a change is published on [`SERVICE_BUNDLE_STATE`], not
+//! [`SERVICE_STATE`]. A client sending per-strand targets sizes its request port for them (the Rust
+//! client's `max_request_points`). Bundles are not persisted: the response's and the bundle stream's
+//! `sequence` counts the bundle's own changes since the service started, and a restarted service
+//! starts its bundles from the scene.
+//!
+//! Size limits: a bundle has at most [`MAX_BUNDLE_STRANDS`] strands and [`MAX_BUNDLE_JOINTS`] joints
+//! (24 MiB per sample). The service sizes its response and bundle-stream ports from the scene, so a
+//! scene without bundles pays nothing; the bundle stream buffers [`BUNDLE_STATE_BUFFER`] samples per
+//! subscriber for at most [`MAX_BUNDLE_SUBSCRIBERS`] subscribers.
 //!
 //! # Byte layout
 //!
@@ -121,8 +145,9 @@
 //! * `substep_mode` ([`SubstepMode`]): 0 chain default, 1 `substeps` equal substeps, 2 no substep longer
 //!   than `max_step` × the chain's shortest link.
 //! * `strategy` ([`WireStrategy`]): 0 default (translate back), 1 translate back, 2 tractrix + two-link.
-//! * `flags`: bit 0 [`FLAG_ANGLES`] (reach and query: append joint rotations).
-//! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base. `collision`: bit 0 self, bit 1 obstacles.
+//! * `flags`: bit 0 [`FLAG_ANGLES`] (reach and query: append joint rotations), bit 1 [`FLAG_POSE`] (a
+//!   bundle's move by one rigid motion of its heads).
+//! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base, 2 bundle. `collision`: bit 0 self, bit 1 obstacles.
 
 use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
@@ -149,6 +174,13 @@ pub const SERVICE_STATE: &str = "tractrix/state";
 pub const SERVICE_WAKE_SERVER: &str = "tractrix/wake-server";
 /// Event service through which the server wakes a waiting client.
 pub const SERVICE_WAKE_CLIENT: &str = "tractrix/wake-client";
+/// Publish-subscribe stream of the bundles' accepted states (only for a scene with bundles).
+pub const SERVICE_BUNDLE_STATE: &str = "tractrix/bundle-state";
+/// Samples a subscriber of [`SERVICE_BUNDLE_STATE`] buffers (a bundle's sample is megabytes: the
+/// stream keeps the newest few, not a history).
+pub const BUNDLE_STATE_BUFFER: usize = 2;
+/// Most subscribers of [`SERVICE_BUNDLE_STATE`].
+pub const MAX_BUNDLE_SUBSCRIBERS: usize = 4;
 /// Environment variable holding the iceoryx2 prefix that isolates one instance (and its clients).
 pub const PREFIX_ENV: &str = "TRACTRIX_IOX_PREFIX";
 /// Default iceoryx2 prefix.
@@ -182,6 +214,15 @@ pub const REASON_LEN: usize = 96;
 pub const JOINT_HEAD: u32 = u32::MAX;
 /// Flag: append joint rotations to the response.
 pub const FLAG_ANGLES: u32 = 1;
+/// Flag (a move of a bundle): the two points are one rigid motion of the strands' heads, a translation
+/// `t` then a rotation vector `r` (axis × angle, radians): strand `i`'s head goes to `R(r)·h0_i + t`,
+/// `h0_i` its head in the scene. Without the flag a bundle's move carries one target per strand.
+pub const FLAG_POSE: u32 = 2;
+
+/// Most joints (strands × (links + 1)) of one bundle: 24 MiB per state sample in `Vec3`s.
+pub const MAX_BUNDLE_JOINTS: u32 = 1 << 20;
+/// Most strands in a bundle (so a move's targets fit one request of [`MAX_BUNDLE_STRANDS`] points).
+pub const MAX_BUNDLE_STRANDS: u32 = 1 << 17;
 /// Collision bit: the chain avoids itself.
 pub const COLLISION_SELF: u32 = 1;
 /// Collision bit: the chain avoids the scene's obstacles.
@@ -489,6 +530,9 @@ pub enum ChainKind {
     Free = 0,
     /// A manipulator whose joint 0 is fixed.
     FixedBase = 1,
+    /// A bundle of free strands of equal links (hair, fur, sutures) moved together: a scene's
+    /// `[[bundle]]`. Its joints are the strands' joints, strand after strand, each tail first.
+    Bundle = 2,
 }
 
 macro_rules! wire_enum_from_u32 {
@@ -519,7 +563,7 @@ wire_enum_from_u32! {
     Precision { Default, F64, F32 }
     SubstepMode { Default, Fixed, MaxStep }
     WireStrategy { Default, TranslateBack, TractrixTwoLink }
-    ChainKind { Free, FixedBase }
+    ChainKind { Free, FixedBase, Bundle }
 }
 
 /// The request's user header. Zero every field you do not set: zero means "default".

@@ -7,7 +7,7 @@
 //! * a C program that fills a request header field by field and prints its bytes, compared with the
 //!   bytes of the same Rust value.
 
-use shared::{Command, RequestHeader, Status, WIRE_TYPES};
+use shared::{ChainKind, Command, RequestHeader, Status, WIRE_TYPES};
 use std::path::{Path, PathBuf};
 use std::process::Command as Process;
 
@@ -62,6 +62,14 @@ fn assertions() -> String {
             cmd as u32
         ));
     }
+    for kind in ChainKind::ALL {
+        let name = match kind {
+            ChainKind::Free => "FREE",
+            ChainKind::FixedBase => "FIXED_BASE",
+            ChainKind::Bundle => "BUNDLE",
+        };
+        check(format!("TRACTRIX_KIND_{name} == {}", kind as u32));
+    }
     for (name, v) in [
         ("PROTOCOL_VERSION", u64::from(shared::PROTOCOL_VERSION)),
         ("MAX_LINKS", u64::from(shared::MAX_LINKS)),
@@ -81,6 +89,14 @@ fn assertions() -> String {
         ("REASON_LEN", shared::REASON_LEN as u64),
         ("JOINT_HEAD", u64::from(shared::JOINT_HEAD)),
         ("FLAG_ANGLES", u64::from(shared::FLAG_ANGLES)),
+        ("FLAG_POSE", u64::from(shared::FLAG_POSE)),
+        ("MAX_BUNDLE_JOINTS", u64::from(shared::MAX_BUNDLE_JOINTS)),
+        ("MAX_BUNDLE_STRANDS", u64::from(shared::MAX_BUNDLE_STRANDS)),
+        ("BUNDLE_STATE_BUFFER", shared::BUNDLE_STATE_BUFFER as u64),
+        (
+            "MAX_BUNDLE_SUBSCRIBERS",
+            shared::MAX_BUNDLE_SUBSCRIBERS as u64,
+        ),
         ("COLLISION_SELF", u64::from(shared::COLLISION_SELF)),
         (
             "COLLISION_OBSTACLES",

@@ -49,6 +49,25 @@ pub struct Bundle<T: StrandReal + Send> {
     simd: Simd,
 }
 
+impl<T: StrandReal + Send> Clone for Bundle<T> {
+    /// A copy of the strands, with a helper of its own when this one has one (or on one thread if
+    /// the helper cannot be started).
+    fn clone(&self) -> Self {
+        let whole = self.whole();
+        match Bundle::new(whole.clone(), self.on_two_cores()) {
+            Ok(b) => b,
+            Err(_) => Bundle {
+                split: whole.n_strands(),
+                n_strands: whole.n_strands(),
+                first: whole,
+                second: None,
+                helper: None,
+                simd: self.simd,
+            },
+        }
+    }
+}
+
 impl<T: StrandReal + Send> Bundle<T> {
     /// Takes `strands`; cuts them in two and starts the helper thread when `two_cores` and a one-substep
     /// move would reach [`TWO_CORES_FROM`] link-steps.
@@ -165,6 +184,30 @@ impl<T: StrandReal + Send> Bundle<T> {
             }
             _ => Err("the strands helper thread died with half of the strands".into()),
         }
+    }
+
+    /// All the strands in one [`Strands`] (a copy).
+    pub fn whole(&self) -> Strands<T> {
+        let mut w = self.first.clone();
+        if let Some(s) = &self.second {
+            // `first` is whole blocks of the same strands: appending cannot fail.
+            let _ = w.append_blocks(s.clone());
+        }
+        w
+    }
+
+    /// Puts every strand back as in `whole` (the same shape: a reset to the scene's strands); the cut
+    /// between the two threads stays where it is.
+    pub fn set_to(&mut self, whole: &Strands<T>) {
+        let mut first = whole.clone();
+        if self.second.is_some() {
+            self.second = first.split_off_blocks(self.split / LANES);
+        } else if self.helper.is_some() {
+            // The helper died with its half: from now on everything lives on this thread.
+            self.helper = None;
+            self.split = self.n_strands;
+        }
+        self.first = first;
     }
 
     /// Calls `f` with strand `i`'s joints, tail first (nothing for a strand lost with a dead helper).

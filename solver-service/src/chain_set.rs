@@ -159,11 +159,14 @@ pub(crate) use each_form;
 /// 80 ns here): about 4 ms. See [`ChainSet::set_budget`].
 pub const DEFAULT_BUDGET: u64 = 50_000;
 
-/// Every chain of a scene, the state sequence number, and the undo record of the last change.
+/// Every chain and bundle of a scene, the state sequence number, and the undo record of the last
+/// change.
 #[derive(Debug, Clone)]
 pub struct ChainSet {
     specs: Vec<ChainSpec>,
     geometry: Vec<Geometry>,
+    /// The bundles, handles `specs.len()..`: not persisted, not in `sequence` (each counts its own).
+    bundles: Vec<crate::bundles::Live>,
     sequence: u64,
     /// Most link-steps one request may cost.
     budget: u64,
@@ -298,9 +301,15 @@ impl ChainSet {
             .map_err(|e| format!("chain {:?}: {e}", spec.name))?;
             geometry.push(g);
         }
+        let bundles = scene
+            .bundles
+            .iter()
+            .map(crate::bundles::Live::new)
+            .collect::<Result<_, _>>()?;
         Ok(ChainSet {
             specs: scene.chains.clone(),
             geometry,
+            bundles,
             sequence: 0,
             budget: DEFAULT_BUDGET,
             undo: None,
@@ -324,6 +333,9 @@ impl ChainSet {
     /// move are counted from where the joint is now, as the kernel will count them. A move needing more
     /// substeps than its chain allows is refused here as the kernel would refuse it (`too-many-substeps`).
     pub fn estimate(&self, req: &Request<'_>) -> Result<u64, Refusal> {
+        if let Request::Bundle { index, op, .. } = req {
+            return Ok(self.bundles[*index].spec.estimate(op));
+        }
         let Some(chain) = req.chain() else {
             return Ok(0);
         };
@@ -451,17 +463,30 @@ impl ChainSet {
             | Request::Reset { .. }
             | Request::Grasp { .. }
             | Request::Release { .. } => Ok(n),
-            Request::Snapshot => Ok(0),
+            Request::Snapshot | Request::Bundle { .. } => Ok(0),
         }
     }
 
-    /// Number of chains.
+    /// Number of chains (bundles aside).
     pub fn len(&self) -> usize {
         self.specs.len()
     }
-    /// Whether the scene has no chain (never true for a validated scene).
+    /// Whether the scene has no chain (a scene of bundles only).
     pub fn is_empty(&self) -> bool {
         self.specs.is_empty()
+    }
+    /// The bundles, by handle − [`ChainSet::len`].
+    pub fn bundles(&self) -> &[crate::bundles::Live] {
+        &self.bundles
+    }
+    /// The bundle a handle addresses, and its index.
+    fn bundle_of(&self, handle: u32) -> Option<(usize, &crate::bundles::Live)> {
+        let i = (handle as usize).checked_sub(self.specs.len())?;
+        self.bundles.get(i).map(|b| (i, b))
+    }
+    /// Joints in the largest bundle, for the bundle stream's samples (`None`: no bundles, no stream).
+    pub fn bundle_stream_size(&self) -> Option<usize> {
+        self.bundles.iter().map(|b| b.spec.joints()).max()
     }
     /// The chains' specifications, by handle.
     pub fn specs(&self) -> &[ChainSpec] {
@@ -491,7 +516,9 @@ impl ChainSet {
     pub fn find(&self, name: &str) -> Option<u32> {
         self.specs
             .iter()
-            .position(|s| s.name == name)
+            .map(|s| &s.name)
+            .chain(self.bundles.iter().map(|b| &b.spec.name))
+            .position(|n| n == name)
             .map(|i| i as u32)
     }
     /// The sizes the ports must hold: the most elements in a response (joints, rotations, held joints
@@ -506,6 +533,9 @@ impl ChainSet {
             most.0 = most.0.max(2 * links + 1 + tail);
             most.1 = most.1.max(links + 1 + tail);
         }
+        if let Some(j) = self.bundle_stream_size() {
+            most.0 = most.0.max(j);
+        }
         most
     }
 
@@ -515,7 +545,42 @@ impl ChainSet {
         h: &RequestHeader,
         points: &'a [Vec3],
     ) -> Result<Request<'a>, Refusal> {
+        if h.command != shared::Command::Snapshot as u32
+            && let Some((index, b)) = self.bundle_of(h.chain)
+        {
+            return crate::bundles::decode(h, points, &b.spec).map(|op| Request::Bundle {
+                handle: h.chain,
+                index,
+                op,
+            });
+        }
+        let total = self.specs.len() + self.bundles.len();
+        if h.chain as usize >= total
+            && h.command != shared::Command::Snapshot as u32
+            && shared::Command::try_from(h.command).is_ok()
+        {
+            return Err(refuse!(
+                UnknownChain,
+                "chain {} (the scene has 0..{total})",
+                h.chain
+            ));
+        }
         request::decode(h, points, &self.specs)
+    }
+
+    /// The response header of a request: from its outcome or its refusal ([`request::encode`]), with
+    /// a bundle's sequence and description.
+    pub fn encode(&self, req: &RequestHeader, result: &Result<Outcome, Refusal>) -> ResponseHeader {
+        let bundle = self.bundle_of(req.chain);
+        let sequence = bundle.map_or(self.sequence, |(_, b)| b.sequence);
+        let mut h = request::encode(req, result, sequence, &self.specs);
+        h.n_chains = (self.specs.len() + self.bundles.len()) as u32;
+        if let (Ok(o), Some((_, b))) = (result, bundle)
+            && o.describe
+        {
+            b.spec.describe(&mut h);
+        }
+        h
     }
 
     /// Decodes and applies a wire request (the journal's replay, tests).
@@ -535,6 +600,19 @@ impl ChainSet {
                 "about {work:.2e} link-steps, over the budget of {:.2e} (--budget)",
                 self.budget as f64
             ));
+        }
+        if let Request::Bundle { handle, index, op } = *req {
+            let b = &mut self.bundles[index];
+            let substeps = b.apply(&op)?;
+            return Ok(Outcome {
+                chain: Some(handle),
+                changed: op.changes_state(),
+                joints: b.spec.joints() as u32,
+                substeps,
+                describe: op == crate::bundles::BundleOp::Describe,
+                bundle: true,
+                ..Outcome::default()
+            });
         }
         let Some(chain) = req.chain() else {
             return Ok(Outcome::default());
@@ -628,7 +706,7 @@ impl ChainSet {
             Request::Release { joint, .. } => each_form!(&mut *g, h => h.chain.release(joint))
                 .map(|_| ())
                 .map_err(Refusal::from),
-            Request::Snapshot => Ok(()),
+            Request::Snapshot | Request::Bundle { .. } => Ok(()),
         };
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
@@ -668,7 +746,7 @@ impl ChainSet {
         out: &mut Vec<Vec3>,
     ) -> (ResponseHeader, bool) {
         let result = self.decode(req, points).and_then(|r| self.apply(&r));
-        let mut h = request::encode(req, &result, self.sequence, &self.specs);
+        let mut h = self.encode(req, &result);
         out.clear();
         out.extend(self.elements(&h));
         if let Ok(o) = &result {
@@ -683,6 +761,9 @@ impl ChainSet {
     pub fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
         if h.n_joints + h.n_angles + h.n_held + h.n_instruments == 0 {
             return Elements::Empty;
+        }
+        if let Some((_, b)) = self.bundle_of(h.chain) {
+            return Elements::Bundle(b.elements());
         }
         self.elements_with(h.chain, h.n_angles > 0, h.n_held > 0, h.n_instruments > 0)
     }
@@ -964,6 +1045,8 @@ pub enum Elements<'a> {
     Planar32(ChainElements<'a, f32, 2>),
     /// Spatial, f32.
     Spatial32(ChainElements<'a, f32, 3>),
+    /// A bundle's joints.
+    Bundle(crate::bundles::BundleElements<'a>),
 }
 
 impl Iterator for Elements<'_> {
@@ -976,6 +1059,7 @@ impl Iterator for Elements<'_> {
             Elements::Spatial64(e) => e.next(),
             Elements::Planar32(e) => e.next(),
             Elements::Spatial32(e) => e.next(),
+            Elements::Bundle(e) => e.next(),
         }
     }
 }

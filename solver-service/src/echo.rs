@@ -23,6 +23,7 @@ impl Handler for Echo {
                 ..ResponseHeader::default()
             },
             changed: false,
+            bundle: false,
         }
     }
 

@@ -14,6 +14,7 @@
 
 pub mod batch;
 pub mod bundle;
+pub mod bundles;
 pub mod chain_set;
 pub mod echo;
 pub mod persist;

@@ -91,6 +91,15 @@ pub enum Request<'a> {
         /// Substep limit (the chain's).
         max_substeps: u32,
     },
+    /// A command to a bundle ([`crate::bundles`]).
+    Bundle {
+        /// Wire handle (after the chains').
+        handle: u32,
+        /// Index among the scene's bundles.
+        index: usize,
+        /// What to do.
+        op: crate::bundles::BundleOp<'a>,
+    },
 }
 
 impl Request<'_> {
@@ -105,7 +114,7 @@ impl Request<'_> {
             | Request::Grasp { chain, .. }
             | Request::Release { chain, .. }
             | Request::Instrument { chain, .. } => Some(chain),
-            Request::Snapshot => None,
+            Request::Snapshot | Request::Bundle { .. } => None,
         }
     }
 
@@ -119,7 +128,7 @@ impl Request<'_> {
                 | Request::Grasp { .. }
                 | Request::Release { .. }
                 | Request::Instrument { .. }
-        )
+        ) || matches!(self, Request::Bundle { op, .. } if op.changes_state())
     }
 }
 
@@ -148,6 +157,8 @@ pub struct Outcome {
     pub residual: Residual,
     /// Whether the response carries the chain's description.
     pub describe: bool,
+    /// Whether a bundle answered (its change goes to the bundle stream, not the journal).
+    pub bundle: bool,
 }
 
 /// The distance between where a joint should be and where it is.
@@ -346,22 +357,29 @@ fn wire_enum<E: TryFrom<u32, Error = u32>>(v: u32, field: &str, range: &str) -> 
     E::try_from(v).map_err(|v| refuse!(BadOption, "{field} {v} is not one of {range}"))
 }
 
-/// Checks a request against the scene's chains and resolves its defaults. Nothing is changed.
-pub fn decode<'a>(
-    h: &RequestHeader,
-    points: &'a [Vec3],
-    chains: &[ChainSpec],
-) -> Result<Request<'a>, Refusal> {
+/// The header fields every command checks, whatever it addresses: the command, the reserved words,
+/// the flags (`allowed` bits), every wire enumeration and every float option.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Checked {
+    pub command: Command,
+    pub method: WireMethod,
+    pub precision: Precision,
+    pub substep_mode: SubstepMode,
+    pub strategy: WireStrategy,
+}
+
+/// Checks what [`Checked`] holds.
+pub(crate) fn check_header(h: &RequestHeader, allowed: u32) -> Result<Checked, Refusal> {
     let command = Command::try_from(h.command)
         .map_err(|c| refuse!(UnknownCommand, "command {c} is not one of 1..=10"))?;
     if h.reserved != [0, 0] {
         return Err(refuse!(BadOption, "reserved fields must be zero"));
     }
-    if h.flags & !FLAG_ANGLES != 0 {
+    if h.flags & !allowed != 0 {
         return Err(refuse!(
             BadOption,
             "unknown flag bits {:#x}",
-            h.flags & !FLAG_ANGLES
+            h.flags & !allowed
         ));
     }
     let method: WireMethod = wire_enum(h.method, "method", "0..=3")?;
@@ -376,6 +394,28 @@ pub fn decode<'a>(
     if !h.tolerance.is_finite() {
         return Err(refuse!(NonFinite, "tolerance is not finite"));
     }
+    Ok(Checked {
+        command,
+        method,
+        precision,
+        substep_mode,
+        strategy,
+    })
+}
+
+/// Checks a request against the scene's chains and resolves its defaults. Nothing is changed.
+pub fn decode<'a>(
+    h: &RequestHeader,
+    points: &'a [Vec3],
+    chains: &[ChainSpec],
+) -> Result<Request<'a>, Refusal> {
+    let Checked {
+        command,
+        method,
+        precision,
+        substep_mode,
+        strategy,
+    } = check_header(h, FLAG_ANGLES)?;
     let expected = match command {
         Command::Move | Command::Reach => 1..=1,
         Command::Path => 1..=MAX_PATH_POINTS as usize,

@@ -26,8 +26,9 @@ use iceoryx2::prelude::*;
 use iceoryx2::service::Service;
 use iceoryx2::waitset::WaitSetRunResult;
 use shared::{
-    MAX_CLIENTS, RequestHeader, ResponseHeader, SERVICE_COMMAND, SERVICE_STATE,
-    SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER, StateHeader, Vec3, WaitMode, service_name,
+    BUNDLE_STATE_BUFFER, MAX_BUNDLE_SUBSCRIBERS, MAX_CLIENTS, RequestHeader, ResponseHeader,
+    SERVICE_BUNDLE_STATE, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER,
+    StateHeader, Vec3, WaitMode, service_name,
 };
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -57,6 +58,8 @@ pub struct ServerPorts<S: Service> {
     pub wake_notifier: Notifier<S>,
     /// Every accepted change, in order (the service has one, the raw echo none).
     pub state: Option<Publisher<S, [Vec3], StateHeader>>,
+    /// Every accepted change of a bundle (only for a scene with bundles).
+    pub bundle_state: Option<Publisher<S, [Vec3], StateHeader>>,
 }
 
 impl<S: Service> std::fmt::Debug for ServerPorts<S> {
@@ -69,13 +72,15 @@ impl<S: Service> std::fmt::Debug for ServerPorts<S> {
 
 impl<S: Service> ServerPorts<S> {
     /// Creates the node `name` with `iox` and opens (or creates) the services: responses of up to
-    /// `max_elements` elements, and a state stream of up to `state_joints` joints if given. Resources
+    /// `max_elements` elements, a state stream of up to `state_joints` joints if given, and a bundle
+    /// stream of up to `bundle_joints` joints if given. Resources
     /// of a dead predecessor (kill -9, power cut) are cleaned first; the count is returned.
     pub fn open(
         iox: &iceoryx2::config::Config,
         name: &str,
         max_elements: usize,
         state_joints: Option<usize>,
+        bundle_joints: Option<usize>,
     ) -> Result<(Self, usize), String> {
         let mut stale = 0;
         let _ = Node::<S>::list(iox, |state| {
@@ -142,6 +147,28 @@ impl<S: Service> ServerPorts<S> {
                     .map_err(err("cannot create the state publisher"))?,
             ),
         };
+        // Megabytes per sample: a short buffer, few subscribers (shared memory is reserved for every
+        // sample a subscriber may hold).
+        let bundle_state = match bundle_joints {
+            None => None,
+            Some(joints) => Some(
+                node.service_builder(&service_name(SERVICE_BUNDLE_STATE)?)
+                    .publish_subscribe::<[Vec3]>()
+                    .user_header::<StateHeader>()
+                    .max_publishers(1)
+                    .max_subscribers(MAX_BUNDLE_SUBSCRIBERS)
+                    .max_nodes(MAX_CLIENTS + 4)
+                    .subscriber_max_buffer_size(BUNDLE_STATE_BUFFER)
+                    .history_size(0)
+                    .enable_safe_overflow(true)
+                    .open_or_create()
+                    .map_err(err("cannot open or create the bundle stream"))?
+                    .publisher_builder()
+                    .initial_max_slice_len(joints.max(1))
+                    .create()
+                    .map_err(err("cannot create the bundle publisher"))?,
+            ),
+        };
         let server = node
             .service_builder(&service_name(SERVICE_COMMAND)?)
             .request_response::<[Vec3], [Vec3]>()
@@ -156,6 +183,9 @@ impl<S: Service> ServerPorts<S> {
                 "cannot open or create the command service (a peer of another protocol version?)",
             ))?
             .server_builder()
+            // One response per request: the data segment holds fewer samples (a bundle's response
+            // is megabytes).
+            .max_loaned_responses_per_request(1)
             .initial_max_slice_len(max_elements.max(1))
             .create()
             .map_err(err(
@@ -168,6 +198,7 @@ impl<S: Service> ServerPorts<S> {
                 wake_listener,
                 wake_notifier,
                 state,
+                bundle_state,
             },
             stale,
         ))
@@ -197,6 +228,8 @@ pub struct Handled {
     pub header: ResponseHeader,
     /// Whether an accepted change was made.
     pub changed: bool,
+    /// Whether a bundle changed (published on the bundle stream instead of the state stream).
+    pub bundle: bool,
 }
 
 /// Whoever answers the requests: the solver, or the raw echo.
@@ -355,6 +388,7 @@ fn serve_pending<S: Service, H: Handler>(
         let Handled {
             mut header,
             changed,
+            bundle,
         } = handler.handle(&request, req.payload());
         if H::SOLVES {
             header.solve_ns = t0.elapsed().as_nanos() as u64;
@@ -377,7 +411,12 @@ fn serve_pending<S: Service, H: Handler>(
         // The sample: the response's joints, held joints and instruments (not its rotations).
         let parts = shared::Parts::of_response(&header, resp.payload());
         let (joints, held, instruments) = (parts.joints, parts.held, parts.instruments);
-        let state = match &ports.state {
+        let stream = if bundle {
+            &ports.bundle_state
+        } else {
+            &ports.state
+        };
+        let state = match stream {
             Some(publisher) if changed => match publisher
                 .loan_slice_uninit(joints.len() + held.len() + instruments.len())
             {

@@ -109,7 +109,8 @@ impl Solver {
                     ));
                 }
             };
-        if outcome.changed {
+        // A bundle's change is not persisted (see `crate::bundles`).
+        if outcome.changed && !outcome.bundle {
             if let Some(store) = self.store.as_mut()
                 && let Err(e) = store.append(self.set.sequence(), header, points)
             {
@@ -161,8 +162,9 @@ impl Handler for Solver {
         let result = self.run(req, points);
         self.residual = result.as_ref().map_or(Residual::None, |o| o.residual);
         Handled {
-            header: request::encode(req, &result, self.set.sequence(), self.set.specs()),
-            changed: result.is_ok_and(|o| o.changed),
+            header: self.set.encode(req, &result),
+            changed: result.as_ref().is_ok_and(|o| o.changed),
+            bundle: result.is_ok_and(|o| o.bundle),
         }
     }
 
@@ -213,8 +215,13 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
     }
     let (elements, joints) = set.response_sizes();
     let iox = shared::iceoryx_config(&cfg.prefix)?;
-    let (ports, stale) =
-        ServerPorts::<ipc::Service>::open(&iox, "tractrix-solver", elements, Some(joints))?;
+    let (ports, stale) = ServerPorts::<ipc::Service>::open(
+        &iox,
+        "tractrix-solver",
+        elements,
+        Some(joints),
+        set.bundle_stream_size(),
+    )?;
     if stale > 0 {
         eprintln!("solver-service: cleaned the resources of {stale} dead process(es)");
     }
@@ -224,8 +231,12 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
         .map(|p| p.snapshot_every)
         .unwrap_or(Duration::ZERO);
     let mut solver = Solver::new(set, store, snapshot_every);
+    let bundles = match solver.set.bundles().len() {
+        0 => String::new(),
+        n => format!(" and {n} bundles"),
+    };
     ready(&format!(
-        "solver-service ready: {} chains, prefix {}, wait {:?}{}",
+        "solver-service ready: {} chains{bundles}, prefix {}, wait {:?}{}",
         solver.set.len(),
         cfg.prefix,
         cfg.wait,
@@ -264,7 +275,7 @@ pub fn run_echo(
     }
     let iox = shared::iceoryx_config(prefix)?;
     let (ports, _) =
-        ServerPorts::<ipc::Service>::open(&iox, "tractrix-echo", elements as usize, None)?;
+        ServerPorts::<ipc::Service>::open(&iox, "tractrix-echo", elements as usize, None, None)?;
     ready(&format!(
         "solver-service echo ready: {elements} elements, prefix {prefix}, wait {:?}",
         opts.wait

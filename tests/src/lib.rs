@@ -6,7 +6,7 @@ use clients::process::Proc;
 use clients::{ClientWait, ConnectOptions, Connection};
 use iceoryx2::prelude::local;
 use solver_service::chain_set::ChainSet;
-use solver_service::scene::default_scene;
+use solver_service::scene::{Scene, default_scene};
 use solver_service::serve::{LoopOptions, ServerPorts, serve};
 use solver_service::service::Solver;
 use std::path::{Path, PathBuf};
@@ -156,18 +156,30 @@ pub struct InProcess {
     pub prefix: String,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<Result<(), String>>>,
+    /// Request points a connection is sized for (the largest bundle's strands at least).
+    max_points: usize,
 }
 
 impl InProcess {
     /// Serves the default scene in event mode until dropped.
     pub fn start() -> InProcess {
+        Self::start_scene(default_scene())
+    }
+
+    /// Serves `scene` in event mode until dropped.
+    pub fn start_scene(scene: Scene) -> InProcess {
+        let max_points = scene
+            .bundles
+            .iter()
+            .map(|b| b.strands as usize)
+            .fold(2 * shared::MAX_PATH_POINTS as usize, usize::max);
         let prefix = unique_prefix();
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, rx) = std::sync::mpsc::channel();
         let thread = {
             let (prefix, stop) = (prefix.clone(), stop.clone());
             std::thread::spawn(move || -> Result<(), String> {
-                let set = ChainSet::new(&default_scene())?;
+                let set = ChainSet::new(&scene)?;
                 let iox = shared::iceoryx_config(&prefix)?;
                 let (elements, joints) = set.response_sizes();
                 let (ports, _) = ServerPorts::<local::Service>::open(
@@ -175,6 +187,7 @@ impl InProcess {
                     "tractrix-solver-in-process",
                     elements,
                     Some(joints),
+                    set.bundle_stream_size(),
                 )?;
                 let mut solver = Solver::new(set, None, Duration::ZERO);
                 let _ = tx.send(());
@@ -191,6 +204,7 @@ impl InProcess {
             prefix,
             stop,
             thread: Some(thread),
+            max_points,
         }
     }
 
@@ -201,7 +215,7 @@ impl InProcess {
             wait: ClientWait::Hybrid(Duration::from_micros(50)),
             connect_timeout: Duration::from_secs(5),
             call_timeout: Duration::from_secs(10),
-            max_request_points: 2 * shared::MAX_PATH_POINTS as usize,
+            max_request_points: self.max_points,
         })
         .expect("connect to the in-process service")
     }

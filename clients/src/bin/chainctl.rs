@@ -191,10 +191,19 @@ fn run(a: Args) -> Result<u8> {
                     serde_json::to_string(&TextResponse::from_wire(h, &r.payload))?
                 );
             } else {
+                let strands = if h.kind == shared::ChainKind::Bundle as u32 {
+                    format!(" of {} strands", h.n_joints / (h.n_links + 1).max(1))
+                } else {
+                    String::new()
+                };
                 println!(
-                    "{c}: {:?} {} {}D, {} links, length {}, thickness {}, precision {}, method {}",
+                    "{c}: {:?} {} {}D, {} links{strands}, length {}, thickness {}, precision {}, method {}",
                     h.name_str(),
-                    if h.kind == 1 { "fixed-base" } else { "free" },
+                    match shared::ChainKind::try_from(h.kind) {
+                        Ok(shared::ChainKind::FixedBase) => "fixed-base",
+                        Ok(shared::ChainKind::Bundle) => "bundle",
+                        _ => "free",
+                    },
                     h.dims,
                     h.n_links,
                     h.total_length,

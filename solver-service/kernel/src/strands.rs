@@ -542,6 +542,25 @@ impl<T: StrandReal> Strands<T> {
         Some(rest)
     }
 
+    /// Puts strands cut off by [`Strands::split_off_blocks`] back after these (the inverse of the cut:
+    /// `a.split_off_blocks(k)` then `a.append_blocks(rest)` gives `a` back). Refused unless these
+    /// fill their blocks and the links agree.
+    pub fn append_blocks(&mut self, rest: Strands<T>) -> Result<(), StrandsError> {
+        if self.n_strands != self.heads.len() * LANES
+            || rest.n_links != self.n_links
+            || rest.len != self.len
+        {
+            return Err(StrandsError::Shape(
+                "only strands of the same links after whole blocks can be appended",
+            ));
+        }
+        self.n_strands += rest.n_strands;
+        self.heads.extend_from_slice(&rest.heads);
+        self.links.extend_from_slice(&rest.links);
+        self.staged.clear();
+        Ok(())
+    }
+
     /// Checks `targets` and stages them in blocks (padding lanes at their heads): the first half of
     /// [`Strands::move_heads`], for a caller that sweeps [`Strands::split_at_block`]'s halves itself
     /// (then [`Strands::take_staged`] gives the blocks to pass).

@@ -45,6 +45,23 @@
 //! rest of the rope; the links within the instrument's reach of the joint are held by it and not tested
 //! against it.
 //!
+//! A `[[bundle]]` is many free strands of equal links moved together by one request (hair, fur, a
+//! bundle of sutures; see `shared`'s "Bundles"): its handle comes after the chains'. Its strands hang
+//! straight from heads on a grid; it has no collision, no holds and no instruments.
+//!
+//! | field | type | default | meaning |
+//! |---|---|---|---|
+//! | `name` | string, 1..=31 bytes | required | unique among chains and bundles |
+//! | `strands` | integer, 1..=131072 | required | number of strands |
+//! | `links` | integer ≥ 1, strands × (links + 1) ≤ 2²⁰ | required | links per strand |
+//! | `link_length` | positive number | required | every link's length |
+//! | `origin` | vector | origin | the first strand's head |
+//! | `spacing`, `columns` | positive number, integer | `link_length`, ⌈√strands⌉ | heads on a grid in z = const: strand `i` at `origin + spacing·(i mod columns, i div columns, 0)` |
+//! | `hang` | vector | `[0, 0, -1]` | the direction each strand hangs from its head |
+//! | `precision` | `"f64"` \| `"f32"` | `"f64"` | arithmetic and storage |
+//! | `substeps` | integer ≥ 1 | 1 | default substeps of a move |
+//! | `two_cores` | bool | `true` | sweep half the strands on a second thread when a move is large enough |
+//!
 //! Errors name the file, the line and the field; sizes are checked before anything is allocated.
 //!
 //! Three steps: `read` (TOML into raw tables that remember their spans), `validate` (raw tables into
@@ -75,6 +92,8 @@ pub const MAX_SCENE_LINKS: usize = 1 << 20;
 pub const MAX_OBSTACLES: usize = 256;
 /// Most instruments a scene may declare.
 pub const MAX_INSTRUMENTS: usize = 64;
+/// Most joints all the bundles of a scene may have together (48 MiB of f64 state).
+pub const MAX_SCENE_BUNDLE_JOINTS: usize = 2 << 20;
 
 /// A scene error: where and what.
 #[derive(Debug, Clone, PartialEq)]
@@ -167,11 +186,45 @@ pub struct CollisionSpec {
     pub follows: Vec<Option<u32>>,
 }
 
+/// One bundle of a validated scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BundleSpec {
+    /// Unique handle for clients (1..=31 bytes).
+    pub name: String,
+    /// Number of strands.
+    pub strands: u32,
+    /// Links per strand.
+    pub links: u32,
+    /// Every link's length.
+    pub link_length: f64,
+    /// `F64` or `F32`.
+    pub precision: Precision,
+    /// The strands' heads in the scene (the reference of a pose move), strand order.
+    pub heads: Vec<Vector3<f64>>,
+    /// Unit direction each strand hangs from its head.
+    pub hang: Vector3<f64>,
+    /// Default substeps of a move.
+    pub substeps: u32,
+    /// Whether a large move may use a second thread.
+    pub two_cores: bool,
+    /// Largest coordinate a target may have ([`shared::max_coordinate`]).
+    pub max_coordinate: f64,
+}
+
+impl BundleSpec {
+    /// Joints of all strands: strands × (links + 1).
+    pub fn joints(&self) -> usize {
+        self.strands as usize * (self.links as usize + 1)
+    }
+}
+
 /// A validated scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
     /// The chains, in declaration order (their index is the wire's chain handle).
     pub chains: Vec<ChainSpec>,
+    /// The bundles, in declaration order (handle = number of chains + index).
+    pub bundles: Vec<BundleSpec>,
 }
 
 /// Reads and validates a scene file.
@@ -216,6 +269,20 @@ mod tests {
         assert_eq!(s.chains[2].kind, ChainKind::FixedBase);
         assert_eq!(s.chains[2].dims, 2);
         assert_eq!(s.chains[2].lengths, vec![0.2; 10]);
+    }
+
+    #[test]
+    fn a_bundle_hangs_from_a_grid() {
+        let s = parse_scene(
+            "[[bundle]]\nname = \"hair\"\nstrands = 10\nlinks = 3\nlink_length = 0.5\ncolumns = 4\nspacing = 2.0\norigin = [1, 1, 1]\n",
+            "t.toml",
+        )
+        .unwrap();
+        assert!(s.chains.is_empty());
+        let b = &s.bundles[0];
+        assert_eq!((b.strands, b.links, b.joints()), (10, 3, 40));
+        assert_eq!(b.heads[5], Vector3::new(3.0, 3.0, 1.0));
+        assert_eq!(b.hang, -Vector3::z());
     }
 
     #[test]
@@ -410,6 +477,48 @@ mod tests {
         }
         let empty = parse_scene("", "empty.toml").unwrap_err();
         assert!(empty.message.contains("no [[chain]]"));
+        let bundles: &[(&str, usize, &str)] = &[
+            (
+                "[[bundle]]\nname = \"h\"\nstrands = 0\nlinks = 2\nlink_length = 1.0\n",
+                3,
+                "bundle \"h\": field `strands`",
+            ),
+            (
+                "[[bundle]]\nname = \"h\"\nstrands = 100000\nlinks = 20\nlink_length = 1.0\n",
+                4,
+                "at most 1048576",
+            ),
+            (
+                "[[bundle]]\nname = \"h\"\nstrands = 10\nlink_length = 1.0\n",
+                2,
+                "field `links`: missing",
+            ),
+            (
+                "[[bundle]]\nname = \"h\"\nstrands = 10\nlinks = 2\nlink_length = 1.0\nhang = [0, 0, 0]\n",
+                6,
+                "field `hang`",
+            ),
+            (
+                "[[chain]]\nname = \"h\"\nlinks = 2\nlink_length = 1.0\n[[bundle]]\nname = \"h\"\nstrands = 10\nlinks = 2\nlink_length = 1.0\n",
+                6,
+                "declared twice",
+            ),
+            (
+                "[[bundle]]\nname = \"h\"\nstrands = 10\nlinks = 2\nlink_length = 1.0\nprecision = \"f16\"\n",
+                6,
+                "field `precision`",
+            ),
+            (
+                "[[bundle]]\nname = \"h\"\nstrands = 10\nlinks = 2\nlink_length = 1.0\ncolour = 3\n",
+                6,
+                "colour",
+            ),
+        ];
+        for (text, line, field) in bundles {
+            let e = parse_scene(text, "bad.toml").expect_err(text);
+            assert_eq!(e.line, *line, "{e}");
+            assert!(e.message.contains(field), "{e} should mention {field}");
+        }
     }
 
     /// Many chains at the per-chain maximum: the total is bounded, and the error names the chain that

@@ -19,6 +19,26 @@ pub(super) struct RawScene {
     /// `[[instrument]]` tables: obstacles that clients move (spheres and capsules).
     #[serde(default)]
     pub instrument: Vec<Spanned<RawObstacle>>,
+    /// `[[bundle]]` tables: many free strands moved together.
+    #[serde(default)]
+    pub bundle: Vec<Spanned<RawBundle>>,
+}
+
+/// A `[[bundle]]` table as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawBundle {
+    pub name: Spanned<String>,
+    pub strands: Field<i64>,
+    pub links: Field<i64>,
+    pub link_length: Field<f64>,
+    pub origin: Field<Vec<f64>>,
+    pub spacing: Field<f64>,
+    pub columns: Field<i64>,
+    pub hang: Field<Vec<f64>>,
+    pub precision: Field<String>,
+    pub substeps: Field<i64>,
+    pub two_cores: Field<bool>,
 }
 
 /// An `[[obstacle]]` or `[[instrument]]` table as written.

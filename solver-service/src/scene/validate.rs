@@ -1,13 +1,15 @@
 //! Validating a scene: raw tables into [`ChainSpec`]s of kernel types, every error with the file, the
 //! line and the field. Sizes are checked before anything is allocated.
 
-use super::read::{Field, RawChain, RawObstacle, RawScene, line_of};
+use super::read::{Field, RawBundle, RawChain, RawObstacle, RawScene, line_of};
 use super::{
-    ChainSpec, CollisionSpec, MAX_INSTRUMENTS, MAX_OBSTACLES, MAX_SCENE_LINKS, MAX_SUBSTEPS_LIMIT,
-    Scene, SceneError, shapes,
+    BundleSpec, ChainSpec, CollisionSpec, MAX_INSTRUMENTS, MAX_OBSTACLES, MAX_SCENE_BUNDLE_JOINTS,
+    MAX_SCENE_LINKS, MAX_SUBSTEPS_LIMIT, Scene, SceneError, shapes,
 };
 use nalgebra::Vector3;
-use shared::{ChainKind, MAX_CHAINS, MAX_LINKS, NAME_LEN, Precision};
+use shared::{
+    ChainKind, MAX_BUNDLE_JOINTS, MAX_BUNDLE_STRANDS, MAX_CHAINS, MAX_LINKS, NAME_LEN, Precision,
+};
 use std::ops::Range;
 use toml::Spanned;
 use tractrix::collision::{CollisionOptions, Obstacle, Scheme};
@@ -28,8 +30,8 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         line: 0,
         message: message.into(),
     };
-    if raw.chain.is_empty() {
-        return Err(whole("the scene declares no [[chain]]"));
+    if raw.chain.is_empty() && raw.bundle.is_empty() {
+        return Err(whole("the scene declares no [[chain]] and no [[bundle]]"));
     }
     if raw.chain.len() > MAX_CHAINS as usize {
         return Err(at(
@@ -190,7 +192,163 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         }
         chains.push(spec);
     }
-    Ok(Scene { chains })
+    if chains.len() + raw.bundle.len() > MAX_CHAINS as usize {
+        return Err(at(
+            raw.bundle[MAX_CHAINS as usize - chains.len()].span(),
+            format!(
+                "{} chains and {} bundles; a scene may have at most {MAX_CHAINS} in all",
+                chains.len(),
+                raw.bundle.len()
+            ),
+        ));
+    }
+    let mut bundles: Vec<BundleSpec> = Vec::with_capacity(raw.bundle.len());
+    let mut bundle_joints = 0usize;
+    for b in &raw.bundle {
+        let spec = bundle(b.get_ref(), &at)?;
+        let name = b.get_ref().name.get_ref();
+        if chains.iter().any(|c| &c.name == name) || bundles.iter().any(|c| &c.name == name) {
+            return Err(at(
+                b.get_ref().name.span(),
+                format!("field `name`: {name:?} is declared twice"),
+            ));
+        }
+        bundle_joints += spec.joints();
+        if bundle_joints > MAX_SCENE_BUNDLE_JOINTS {
+            return Err(at(
+                b.span(),
+                format!(
+                    "bundle {name:?}: the scene's bundles have {bundle_joints} joints in all; at \
+                     most {MAX_SCENE_BUNDLE_JOINTS}"
+                ),
+            ));
+        }
+        bundles.push(spec);
+    }
+    Ok(Scene { chains, bundles })
+}
+
+/// One `[[bundle]]` table.
+fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
+    let name = b.name.get_ref().clone();
+    let f = Fields {
+        c: b,
+        table: "bundle",
+        name: &name,
+        at,
+        dims: 3,
+    };
+    if name.is_empty() || name.len() >= NAME_LEN || name.chars().any(|ch| ch.is_control()) {
+        return Err(f.err(
+            b.name.span(),
+            "name",
+            format!(
+                "{name:?} must have 1..={} bytes and no control characters",
+                NAME_LEN - 1
+            ),
+        ));
+    }
+    let need = |field: &str| f.err(b.name.span(), field, "missing".into());
+    let strands = f.count(
+        b.strands.as_ref().ok_or_else(|| need("strands"))?,
+        "strands",
+        1,
+        i64::from(MAX_BUNDLE_STRANDS),
+    )?;
+    let links_field = b.links.as_ref().ok_or_else(|| need("links"))?;
+    let links = f.count(links_field, "links", 1, i64::from(MAX_BUNDLE_JOINTS) - 1)?;
+    if (strands as usize) * (links as usize + 1) > MAX_BUNDLE_JOINTS as usize {
+        return Err(f.err(
+            links_field.span(),
+            "links",
+            format!(
+                "{strands} strands of {links} links have {} joints; a bundle may have at most \
+                 {MAX_BUNDLE_JOINTS}",
+                strands as usize * (links as usize + 1)
+            ),
+        ));
+    }
+    let link_length = f.positive(
+        b.link_length.as_ref().ok_or_else(|| need("link_length"))?,
+        "link_length",
+    )?;
+    let precision = f.choice(
+        &b.precision,
+        "precision",
+        &[("f64", Precision::F64), ("f32", Precision::F32)],
+        Precision::F64,
+    )?;
+    let origin = b
+        .origin
+        .as_ref()
+        .map_or(Ok(Vector3::zeros()), |o| f.vector(o, "origin"))?;
+    let spacing = b
+        .spacing
+        .as_ref()
+        .map_or(Ok(link_length), |s| f.positive(s, "spacing"))?;
+    let columns = f.count_or(
+        &b.columns,
+        "columns",
+        1,
+        i64::from(MAX_BUNDLE_STRANDS),
+        (f64::from(strands).sqrt().ceil() as u32).max(1),
+    )?;
+    let hang = match &b.hang {
+        None => -Vector3::z(),
+        Some(h) => {
+            let v = f.vector(h, "hang")?;
+            let n = v.norm();
+            if !(n > 0.0 && n.is_finite()) {
+                return Err(f.err(h.span(), "hang", "must be a non-zero vector".into()));
+            }
+            v / n
+        }
+    };
+    let substeps = f.count_or(&b.substeps, "substeps", 1, i64::from(MAX_SUBSTEPS_LIMIT), 1)?;
+    let heads: Vec<Vector3<f64>> = (0..strands)
+        .map(|i| {
+            origin
+                + Vector3::new(
+                    f64::from(i % columns) * spacing,
+                    f64::from(i / columns) * spacing,
+                    0.0,
+                )
+        })
+        .collect();
+    // Every joint must stay where the precision can carry the link lengths.
+    let reach = f64::from(links) * link_length;
+    let max_coordinate = shared::max_coordinate(link_length, precision == Precision::F32);
+    let far = heads
+        .iter()
+        .map(|h| h.abs().max() + reach)
+        .fold(0.0, f64::max);
+    if far.is_nan() || far > max_coordinate {
+        return Err(f.err(
+            b.name.span(),
+            "origin",
+            format!(
+                "a joint may lie {far:.3e} from the origin; links of {link_length} in {} allow \
+                 {max_coordinate:.3e}",
+                if precision == Precision::F32 {
+                    "f32"
+                } else {
+                    "f64"
+                }
+            ),
+        ));
+    }
+    Ok(BundleSpec {
+        name,
+        strands,
+        links,
+        link_length,
+        precision,
+        heads,
+        hang,
+        substeps,
+        two_cores: b.two_cores.as_ref().is_none_or(|t| *t.get_ref()),
+        max_coordinate,
+    })
 }
 
 /// A 2- or 3-vector of finite numbers (`z = 0` when two are given).
@@ -260,20 +418,23 @@ fn obstacle(o: &RawObstacle, at: &At<'_>) -> Result<Obstacle<f64, 3>, SceneError
     }
 }
 
-/// The fields of one chain table, with errors that name the chain, the line and the field.
-struct Fields<'a> {
-    c: &'a RawChain,
+/// The fields of one chain (or bundle) table, with errors that name the table, the line and the
+/// field.
+struct Fields<'a, R = RawChain> {
+    c: &'a R,
+    /// `"chain"` or `"bundle"`.
+    table: &'static str,
     name: &'a str,
     at: &'a At<'a>,
     /// 2 (planar: every vector must have z = 0) or 3.
     dims: u32,
 }
 
-impl Fields<'_> {
+impl<R> Fields<'_, R> {
     fn err(&self, span: Range<usize>, field: &str, what: String) -> SceneError {
         (self.at)(
             span,
-            format!("chain {:?}: field `{field}`: {what}", self.name),
+            format!("{} {:?}: field `{field}`: {what}", self.table, self.name),
         )
     }
 
@@ -378,6 +539,7 @@ fn chain(
     let name = c.name.get_ref().clone();
     let mut f = Fields {
         c,
+        table: "chain",
         name: &name,
         at,
         dims: 3,

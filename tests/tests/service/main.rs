@@ -16,6 +16,7 @@
 //! * SIGTERM and SIGINT in every wait mode, idle and under load, 20 times each (`signals`);
 //! * a hostile client beside a 1 kHz client (`hostile`).
 
+mod bundles;
 mod c_api;
 mod crash;
 mod faults;

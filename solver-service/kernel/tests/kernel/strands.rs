@@ -245,6 +245,16 @@ fn strands_split_off_move_as_the_whole_did() {
         };
         assert_eq!(part, strand_joints(&whole, i), "strand {i}");
     }
+    // Appended back, the halves are the whole; strands of other links are refused.
+    let other = Strands::<f64>::straight(&heads[..3], 6, 1.0, -V::y()).unwrap();
+    assert!(first.append_blocks(other).is_err());
+    first.append_blocks(rest).unwrap();
+    assert!(first == whole);
     let mut one = Strands::<f64>::straight(&heads[..3], 7, 1.0, -V::y()).unwrap();
     assert!(one.split_off_blocks(1).is_none());
+    let more = Strands::<f64>::straight(&heads[..3], 7, 1.0, -V::y()).unwrap();
+    assert!(
+        one.append_blocks(more).is_err(),
+        "3 strands do not fill their block"
+    );
 }

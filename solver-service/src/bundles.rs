@@ -1,0 +1,383 @@
+//! The scene's bundles at run time: many free strands moved together by one request (see `shared`'s
+//! "Bundles" for the wire). Each bundle is a [`Bundle`] (the kernel's SIMD strands, on two cores when a
+//! move is large enough) in the precision its scene declared, with its scene state for `reset` and a
+//! buffer for the targets (allocated once).
+//!
+//! [`decode`] checks a request against a [`BundleSpec`]; [`Live::apply`] runs it, atomically: a refused
+//! request changes nothing. Bundles are not persisted (their state is megabytes per move); each counts
+//! its own changes in [`Live::sequence`].
+//!
+//! No I/O and no clock here.
+
+use crate::bundle::Bundle;
+use crate::request::{Checked, Refusal, check_header, refuse};
+use crate::scene::BundleSpec;
+use nalgebra::{Rotation3, Vector3};
+use shared::{
+    ChainKind, Command, FLAG_POSE, JOINT_HEAD, Precision, RequestHeader, ResponseHeader,
+    SubstepMode, Vec3, WireMethod,
+};
+use tractrix::Real;
+use tractrix::strands::{LANES, StrandReal, Strands};
+
+/// What a request asks of a bundle, checked.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BundleOp<'a> {
+    /// Every strand's head to its own target, in `substeps` substeps.
+    Heads {
+        /// One target per strand, finite and in range.
+        targets: &'a [Vec3],
+        /// Substeps, ≥ 1.
+        substeps: u32,
+    },
+    /// Every head by one rigid motion of the scene's heads: `R(rotation)·h0 + translation`.
+    Pose {
+        /// Translation.
+        translation: Vec3,
+        /// Rotation vector (axis × angle, radians).
+        rotation: Vec3,
+        /// Substeps, ≥ 1.
+        substeps: u32,
+    },
+    /// The joints.
+    Query,
+    /// The description and the joints.
+    Describe,
+    /// Back to the scene's strands.
+    Reset,
+}
+
+impl BundleOp<'_> {
+    /// Whether an accepted request of this kind changes the bundle.
+    pub fn changes_state(&self) -> bool {
+        matches!(
+            self,
+            BundleOp::Heads { .. } | BundleOp::Pose { .. } | BundleOp::Reset
+        )
+    }
+}
+
+/// Checks a request addressed to bundle `spec`. Nothing is changed.
+pub fn decode<'a>(
+    h: &RequestHeader,
+    points: &'a [Vec3],
+    spec: &BundleSpec,
+) -> Result<BundleOp<'a>, Refusal> {
+    let Checked {
+        command,
+        method,
+        precision,
+        substep_mode,
+        ..
+    } = check_header(h, FLAG_POSE)?;
+    let name = &spec.name;
+    if precision != Precision::Default && precision != spec.precision {
+        return Err(refuse!(
+            BadOption,
+            "bundle {name:?} is stored in another precision"
+        ));
+    }
+    let pose = h.flags & FLAG_POSE != 0;
+    if pose && command != Command::Move {
+        return Err(refuse!(BadOption, "FLAG_POSE is for a bundle's move"));
+    }
+    let want = match command {
+        Command::Move if pose => 2,
+        Command::Move => spec.strands as usize,
+        Command::Query | Command::Describe | Command::Reset => 0,
+        other => {
+            return Err(refuse!(
+                WrongChainKind,
+                "{name:?} is a bundle: {} is not for bundles (move, query, describe, reset)",
+                other.name()
+            ));
+        }
+    };
+    if points.len() != want {
+        return Err(refuse!(
+            BadPointCount,
+            "{} of bundle {name:?} takes {want} points, got {}",
+            command.name(),
+            points.len()
+        ));
+    }
+    for (i, p) in points.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(refuse!(NonFinite, "point {i} is not finite"));
+        }
+        let far = p.x.abs().max(p.y.abs()).max(p.z.abs());
+        // A pose's second point is a rotation vector, bounded by what a rotation can be.
+        if (!pose || i == 0) && far > spec.max_coordinate {
+            return Err(refuse!(
+                TooFar,
+                "point {i}: {far:.3e} is beyond {:.3e}: too far to keep link lengths",
+                spec.max_coordinate
+            ));
+        }
+    }
+    match command {
+        Command::Move => {
+            if h.joint != JOINT_HEAD && h.joint != spec.links {
+                return Err(refuse!(
+                    JointOutOfRange,
+                    "a bundle moves its heads: joint must be {} or JOINT_HEAD",
+                    spec.links
+                ));
+            }
+            if !matches!(method, WireMethod::Default | WireMethod::Tractrix) {
+                return Err(refuse!(
+                    BadOption,
+                    "a bundle moves by the closed-form tractrix only (method 0 or 1)"
+                ));
+            }
+            let substeps = match substep_mode {
+                SubstepMode::Default => spec.substeps,
+                SubstepMode::Fixed if (1..=spec.max_substeps()).contains(&h.substeps) => h.substeps,
+                SubstepMode::Fixed => {
+                    return Err(refuse!(
+                        BadOption,
+                        "substeps {} outside 1..={}",
+                        h.substeps,
+                        spec.max_substeps()
+                    ));
+                }
+                SubstepMode::MaxStep => {
+                    return Err(refuse!(
+                        BadOption,
+                        "a bundle takes fixed substeps (substep_mode 0 or 1)"
+                    ));
+                }
+            };
+            Ok(if pose {
+                BundleOp::Pose {
+                    translation: points[0],
+                    rotation: points[1],
+                    substeps,
+                }
+            } else {
+                BundleOp::Heads {
+                    targets: points,
+                    substeps,
+                }
+            })
+        }
+        Command::Query => Ok(BundleOp::Query),
+        Command::Describe => Ok(BundleOp::Describe),
+        _ => Ok(BundleOp::Reset),
+    }
+}
+
+impl BundleSpec {
+    /// Most substeps a move may ask for.
+    pub fn max_substeps(&self) -> u32 {
+        crate::scene::MAX_SUBSTEPS_LIMIT
+    }
+
+    /// The work of `op` in block-steps (one block of [`LANES`] strands' links following once; about
+    /// as long as one link-step of a chain), for the service's budget.
+    pub fn estimate(&self, op: &BundleOp<'_>) -> u64 {
+        let blocks = u64::from(self.strands).div_ceil(LANES as u64);
+        let links = u64::from(self.links);
+        match *op {
+            BundleOp::Heads { substeps, .. } | BundleOp::Pose { substeps, .. } => blocks
+                .saturating_mul(links)
+                .saturating_mul(u64::from(substeps)),
+            _ => blocks.saturating_mul(links),
+        }
+    }
+
+    /// The description fields of a response.
+    pub fn describe(&self, h: &mut ResponseHeader) {
+        h.kind = ChainKind::Bundle as u32;
+        h.dims = 3;
+        h.n_links = self.links;
+        h.precision = self.precision as u32;
+        h.method = WireMethod::Tractrix as u32;
+        h.collision = 0;
+        h.substep_mode = SubstepMode::Fixed as u32;
+        h.substeps_default = self.substeps;
+        h.max_step = 0.0;
+        h.total_length = f64::from(self.links) * self.link_length;
+        h.thickness = 0.0;
+        h.set_name(&self.name);
+    }
+}
+
+/// A bundle's strands in one precision.
+#[derive(Debug, Clone)]
+pub struct State<T: StrandReal + Send> {
+    bundle: Bundle<T>,
+    initial: Strands<T>,
+    targets: Vec<Vector3<T>>,
+}
+
+/// The two precisions.
+#[derive(Debug, Clone)]
+pub enum Form {
+    /// f64.
+    F64(State<f64>),
+    /// f32.
+    F32(State<f32>),
+}
+
+/// One bundle of the running scene.
+#[derive(Debug, Clone)]
+pub struct Live {
+    /// What the scene declared.
+    pub spec: BundleSpec,
+    /// The strands.
+    pub form: Form,
+    /// Accepted changes since the service started.
+    pub sequence: u64,
+}
+
+fn state<T: StrandReal + Send>(spec: &BundleSpec) -> Result<State<T>, String> {
+    let v = |p: &Vector3<f64>| Vector3::new(T::lit(p.x), T::lit(p.y), T::lit(p.z));
+    let heads: Vec<Vector3<T>> = spec.heads.iter().map(v).collect();
+    let initial = Strands::straight(
+        &heads,
+        spec.links as usize,
+        T::lit(spec.link_length),
+        v(&spec.hang),
+    )
+    .map_err(|e| format!("bundle {:?}: {e}", spec.name))?;
+    let bundle = Bundle::new(initial.clone(), spec.two_cores).map_err(|e| {
+        format!(
+            "bundle {:?}: cannot start its helper thread: {e}",
+            spec.name
+        )
+    })?;
+    Ok(State {
+        bundle,
+        initial,
+        targets: Vec::with_capacity(spec.strands as usize),
+    })
+}
+
+impl Live {
+    /// Builds the strands `spec` declares.
+    pub fn new(spec: &BundleSpec) -> Result<Self, String> {
+        Ok(Live {
+            form: match spec.precision {
+                Precision::F32 => Form::F32(state(spec)?),
+                _ => Form::F64(state(spec)?),
+            },
+            spec: spec.clone(),
+            sequence: 0,
+        })
+    }
+
+    /// Runs a decoded request; on a refusal nothing changed. Returns the substeps taken.
+    pub fn apply(&mut self, op: &BundleOp<'_>) -> Result<u32, Refusal> {
+        let r = match &mut self.form {
+            Form::F64(s) => apply(s, &self.spec, op),
+            Form::F32(s) => apply(s, &self.spec, op),
+        }?;
+        if op.changes_state() {
+            self.sequence += 1;
+        }
+        Ok(r)
+    }
+
+    /// Whether moves of this bundle use a second thread.
+    pub fn on_two_cores(&self) -> bool {
+        match &self.form {
+            Form::F64(s) => s.bundle.on_two_cores(),
+            Form::F32(s) => s.bundle.on_two_cores(),
+        }
+    }
+
+    /// The joints, strand after strand, each tail first.
+    pub fn elements(&self) -> BundleElements<'_> {
+        BundleElements {
+            live: self,
+            strand: 0,
+            buf: Vec::with_capacity(self.spec.links as usize + 1),
+            at: 0,
+        }
+    }
+}
+
+fn apply<T: StrandReal + Send>(
+    s: &mut State<T>,
+    spec: &BundleSpec,
+    op: &BundleOp<'_>,
+) -> Result<u32, Refusal> {
+    let v = |p: Vec3| Vector3::new(T::lit(p.x), T::lit(p.y), T::lit(p.z));
+    let substeps = match *op {
+        BundleOp::Heads { targets, substeps } => {
+            s.targets.clear();
+            s.targets.extend(targets.iter().map(|&p| v(p)));
+            substeps
+        }
+        BundleOp::Pose {
+            translation,
+            rotation,
+            substeps,
+        } => {
+            let r = Rotation3::from_scaled_axis(Vector3::new(rotation.x, rotation.y, rotation.z));
+            let t = Vector3::new(translation.x, translation.y, translation.z);
+            s.targets.clear();
+            for (i, h0) in spec.heads.iter().enumerate() {
+                let p = r * h0 + t;
+                if p.amax().is_nan() || p.amax() > spec.max_coordinate {
+                    return Err(refuse!(
+                        TooFar,
+                        "the pose takes head {i} {:.3e} from the origin, beyond {:.3e}",
+                        p.amax(),
+                        spec.max_coordinate
+                    ));
+                }
+                s.targets.push(v(Vec3::new(p.x, p.y, p.z)));
+            }
+            substeps
+        }
+        BundleOp::Reset => {
+            s.bundle.set_to(&s.initial);
+            return Ok(0);
+        }
+        BundleOp::Query | BundleOp::Describe => return Ok(0),
+    };
+    // The targets were checked (count, finite, in range): an error here is the helper thread's death.
+    s.bundle
+        .move_heads(&s.targets, substeps as usize)
+        .map_err(|e| refuse!(Internal, "{e}"))?;
+    Ok(substeps)
+}
+
+/// A bundle's joints as wire vectors, strand after strand, each tail first (one strand's joints
+/// computed at a time).
+#[derive(Debug)]
+pub struct BundleElements<'a> {
+    live: &'a Live,
+    strand: usize,
+    buf: Vec<Vec3>,
+    at: usize,
+}
+
+impl Iterator for BundleElements<'_> {
+    type Item = Vec3;
+    fn next(&mut self) -> Option<Vec3> {
+        if self.at == self.buf.len() {
+            if self.strand == self.live.spec.strands as usize {
+                return None;
+            }
+            self.buf.clear();
+            let buf = &mut self.buf;
+            let w = |p: Vector3<f64>| Vec3::new(p.x, p.y, p.z);
+            match &self.live.form {
+                Form::F64(s) => s.bundle.for_each_joint(self.strand, |p| buf.push(w(p))),
+                Form::F32(s) => s
+                    .bundle
+                    .for_each_joint(self.strand, |p| buf.push(w(p.map(|x| x.to_f64())))),
+            }
+            self.strand += 1;
+            self.at = 0;
+            if self.buf.is_empty() {
+                return None;
+            }
+        }
+        self.at += 1;
+        Some(self.buf[self.at - 1])
+    }
+}
