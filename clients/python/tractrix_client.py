@@ -166,7 +166,9 @@ class Client:
     """One client port on the command service. Waits by polling (spin, then short sleeps)."""
 
     def __init__(self, prefix: str = DEFAULT_PREFIX, wait_for_service: float = 0.0,
-                 timeout: float = 5.0) -> None:
+                 timeout: float = 5.0, max_request_points: int = MAX_PATH_POINTS) -> None:
+        """`max_request_points` sizes the request port: raise it to the strands of a bundle to move
+        each strand's head to its own target (a pose move, `flags=FLAG_POSE`, takes two points)."""
         cfg = iox2.config.default()
         cfg.global_cfg.prefix = iox2.FileName.new(prefix)
         self.node = iox2.NodeBuilder.new().config(cfg).create(iox2.ServiceType.Ipc)
@@ -197,7 +199,7 @@ class Client:
                 time.sleep(0.02)
         self.client = (
             service.client_builder()
-            .initial_max_slice_len(MAX_PATH_POINTS)
+            .initial_max_slice_len(max(1, max_request_points))
             .create()
         )
         # Wakes a service that sleeps between requests (--wait event or hybrid). A service that is

@@ -10,7 +10,13 @@
 //! * *strands, SIMD, 2 threads spawned per frame*: the state cut in two halves, one swept on a scoped
 //!   thread spawned for the frame and one on the caller (the spawn is timed with the frame);
 //! * *bundle on two cores (the service's)*: `solver_service::bundle::Bundle`, the halves owned by the
-//!   caller and by a helper thread that sleeps between frames (its wake-up is timed with the frame).
+//!   caller and by a helper thread that sleeps between frames (its wake-up is timed with the frame);
+//! * *service: decode + move*: the same move as a wire request to a scene's `[[bundle]]`
+//!   (`ChainSet::apply_wire`: the request checked, the wire targets converted, the bundle moved), what
+//!   the service reports as `solve_ns`;
+//! * *service: decode + move + response payload*: the same, plus writing the response's joints (all
+//!   strands × (links + 1), as the serving loop writes them into shared memory) into a buffer
+//!   (`ChainSet::respond`).
 //!
 //! After the run the strands' joints are compared with the chains' (*max joint difference*, links),
 //! and the SIMD state with the baseline and two-core states (bit for bit).
@@ -23,7 +29,10 @@
 //! (default 1.0) scales the number of batches and frames.
 
 use nalgebra::Vector3;
+use shared::{Command, RequestHeader, SubstepMode, Vec3};
 use solver_service::bundle::Bundle;
+use solver_service::chain_set::ChainSet;
+use solver_service::scene::parse_scene;
 use std::hint::black_box;
 use std::time::Instant;
 use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};
@@ -59,8 +68,38 @@ struct Row {
     p90: f64,
 }
 
-fn run<T: StrandReal + Send>(k: usize, batches: usize, frames: usize) -> (Vec<Row>, f64, bool) {
+/// The bench's strands as a scene's bundle: the same grid, links and hanging direction.
+fn scene(precision: &str) -> ChainSet {
+    let text = format!(
+        "[[bundle]]\nname = \"hair\"\nstrands = {STRANDS}\nlinks = {LINKS}\nlink_length = 0.1\n\
+         columns = 100\nspacing = 0.3\nhang = [0, -1, 0]\nprecision = \"{precision}\"\n"
+    );
+    let mut set = ChainSet::new(&parse_scene(&text, "bench").unwrap()).unwrap();
+    // Four substeps are 100,000 block-steps, over the service's default budget (`--budget`).
+    set.set_budget(u64::MAX);
+    set
+}
+
+fn run<T: StrandReal + Send>(
+    precision: &str,
+    k: usize,
+    batches: usize,
+    frames: usize,
+) -> (Vec<Row>, f64, bool) {
     let h0 = heads::<T>();
+    let mut set = scene(precision);
+    let mut request = RequestHeader::new(Command::Move, 0);
+    request.substep_mode = SubstepMode::Fixed as u32;
+    request.substeps = k as u32;
+    // The scene's heads lie in z = 0 on the same grid; each gets the same circle as in `target`.
+    let wire_heads: Vec<Vec3> = set.bundles()[0]
+        .spec
+        .heads
+        .iter()
+        .map(|h| Vec3::new(h.x, h.y, h.z))
+        .collect();
+    let mut wire: Vec<Vec3> = Vec::new();
+    let mut out: Vec<Vec3> = Vec::new();
     let down = Vector3::new(T::zero(), -T::one(), T::zero());
     let len = T::lit(0.1);
     let mut chains: Vec<Chain<T, 3>> = h0
@@ -77,7 +116,7 @@ fn run<T: StrandReal + Send>(k: usize, batches: usize, frames: usize) -> (Vec<Ro
     };
     // Each batch's targets, computed before its timed loops (frame-major).
     let mut targets: Vec<Vector3<T>> = Vec::new();
-    let mut times: [Vec<f64>; 5] = Default::default();
+    let mut times: [Vec<f64>; 7] = Default::default();
     let work = (STRANDS * LINKS * k * frames) as f64;
     let mut frame = 0;
     for _ in 0..batches {
@@ -118,6 +157,26 @@ fn run<T: StrandReal + Send>(k: usize, batches: usize, frames: usize) -> (Vec<Ro
             bundle.move_heads(black_box(frame_targets), k).unwrap();
         }
         times[4].push(t.elapsed().as_nanos() as f64 / work);
+        wire.clear();
+        for f in f0..f0 + frames {
+            wire.extend(wire_heads.iter().enumerate().map(|(i, h)| {
+                let p = target(&Vector3::new(h.x, h.y, h.z), i, f);
+                Vec3::new(p.x, p.y, p.z)
+            }));
+        }
+        let t = Instant::now();
+        for frame_targets in wire.chunks_exact(STRANDS) {
+            let o = set.apply_wire(&request, black_box(frame_targets)).unwrap();
+            assert!(o.changed);
+        }
+        times[5].push(t.elapsed().as_nanos() as f64 / work);
+        let t = Instant::now();
+        for frame_targets in wire.chunks_exact(STRANDS) {
+            let (h, _) = set.respond(&request, black_box(frame_targets), &mut out);
+            assert_eq!(h.status, 0, "{}", h.reason_str());
+            black_box(&out);
+        }
+        times[6].push(t.elapsed().as_nanos() as f64 / work);
         frame += frames;
     }
     let mut worst = 0.0f64;
@@ -141,6 +200,8 @@ fn run<T: StrandReal + Send>(k: usize, batches: usize, frames: usize) -> (Vec<Ro
         "strands, SIMD",
         "strands, SIMD, 2 threads spawned per frame",
         "bundle on two cores (the service's)",
+        "service: decode + move",
+        "service: decode + move + response payload",
     ];
     let rows = names
         .iter()
@@ -305,9 +366,9 @@ fn main() {
     println!("|---|---:|---|---:|---:|---:|---:|---|");
     for (tag, k) in [("f64", 1usize), ("f64", 4), ("f32", 1), ("f32", 4)] {
         let (rows, worst, same) = if tag == "f64" {
-            run::<f64>(k, batches, frames)
+            run::<f64>(tag, k, batches, frames)
         } else {
-            run::<f32>(k, batches, frames)
+            run::<f32>(tag, k, batches, frames)
         };
         let chain = rows[0].median;
         for r in &rows {
