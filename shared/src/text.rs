@@ -14,10 +14,12 @@
 //! `"tail"` or an index, points have 2 or 3 coordinates (a missing `z` is 0), `method` is `tractrix`,
 //! `paper` or `ftl`, `precision` is `f64` or `f32`, `strategy` is `translate-back` or `two-link`. For
 //! `instrument`, `joint` is the instrument's index in the chain's `instruments` list, `target` its new
-//! centre and `axis` (capsules only) its new axis direction. Unknown fields are an error.
+//! centre and `axis` (capsules only) its new axis direction. A `move` with `rotation` (a rotation
+//! vector, axis × angle in radians) is a bundle's pose move ([`crate::FLAG_POSE`]): every head by the
+//! rigid motion `R(rotation)·h0 + target`. Unknown fields are an error.
 
 use crate::{
-    Command, FLAG_ANGLES, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision,
+    Command, FLAG_ANGLES, FLAG_POSE, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision,
     RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use serde::{Deserialize, Serialize};
@@ -54,6 +56,9 @@ pub struct TextRequest {
     /// An instrument's axis direction (capsules).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<Vec<f64>>,
+    /// A bundle's pose move: the heads' rotation vector (`target` is then the translation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<Vec<f64>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -203,7 +208,14 @@ impl TextRequest {
                     .target
                     .as_ref()
                     .ok_or_else(|| format!("{}: field `target` is missing", self.cmd))?;
-                vec![parse_point(t)?]
+                match (&self.rotation, command) {
+                    (Some(r), Command::Move) => {
+                        h.flags |= FLAG_POSE;
+                        vec![parse_point(t)?, parse_point(r)?]
+                    }
+                    (Some(_), _) => return Err("reach: `rotation` is for a bundle's move".into()),
+                    (None, _) => vec![parse_point(t)?],
+                }
             }
             Command::Path => {
                 let p = self
@@ -326,6 +338,20 @@ impl From<InstrumentPose> for TextInstrument {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_move_with_a_rotation_is_a_pose_move() {
+        let r = TextRequest {
+            cmd: "move".into(),
+            chain: Some(ChainRef::Index(3)),
+            target: Some(vec![1.0, 2.0, 3.0]),
+            rotation: Some(vec![0.0, 0.0, 0.5]),
+            ..Default::default()
+        };
+        let (h, p) = r.to_wire(&|_| None).expect("valid request");
+        assert_eq!(h.flags, FLAG_POSE);
+        assert_eq!(p, vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.0, 0.0, 0.5)]);
+    }
 
     #[test]
     fn a_move_maps_onto_the_wire() {

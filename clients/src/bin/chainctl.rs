@@ -58,6 +58,10 @@ struct Args {
     /// An instrument's axis direction x,y[,z] (capsules).
     #[arg(long)]
     axis: Option<String>,
+    /// A bundle's pose move: the heads' rotation vector x,y,z (axis × angle, radians); `--target` is
+    /// then the translation.
+    #[arg(long)]
+    rotation: Option<String>,
     /// Path points, space-separated x,y[,z] groups.
     #[arg(long)]
     path: Option<String>,
@@ -257,6 +261,7 @@ fn run(a: Args) -> Result<u8> {
         }),
         target: a.target.as_deref().map(point).transpose()?,
         axis: a.axis.as_deref().map(point).transpose()?,
+        rotation: a.rotation.as_deref().map(point).transpose()?,
         path: a
             .path
             .as_deref()
