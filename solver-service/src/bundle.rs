@@ -210,6 +210,24 @@ impl<T: StrandReal + Send> Bundle<T> {
         self.first = first;
     }
 
+    /// Blocks of [`LANES`] strands.
+    pub fn n_blocks(&self) -> usize {
+        self.n_strands.div_ceil(LANES)
+    }
+
+    /// Block `b`'s joints, strand after strand, each tail first ([`Strands::block_joints`]; nothing
+    /// for a block lost with a dead helper).
+    pub fn block_joints(&self, b: usize, out: &mut Vec<Vector3<T>>) {
+        let first = self.first.n_blocks();
+        if b < first {
+            self.first.block_joints(b, out);
+        } else if let Some(s) = &self.second {
+            s.block_joints(b - first, out);
+        } else {
+            out.clear();
+        }
+    }
+
     /// Calls `f` with strand `i`'s joints, tail first (nothing for a strand lost with a dead helper).
     pub fn for_each_joint(&self, i: usize, f: impl FnMut(Vector3<T>)) {
         if i < self.split {

@@ -289,11 +289,14 @@ impl Live {
 
     /// The joints, strand after strand, each tail first.
     pub fn elements(&self) -> BundleElements<'_> {
+        let block = LANES * (self.spec.links as usize + 1);
         BundleElements {
             live: self,
-            strand: 0,
-            buf: Vec::with_capacity(self.spec.links as usize + 1),
+            block: 0,
+            buf: Vec::with_capacity(block),
             at: 0,
+            scratch64: Vec::new(),
+            scratch32: Vec::new(),
         }
     }
 }
@@ -345,37 +348,53 @@ fn apply<T: StrandReal + Send>(
     Ok(substeps)
 }
 
-/// A bundle's joints as wire vectors, strand after strand, each tail first (one strand's joints
-/// computed at a time).
+/// A bundle's joints as wire vectors, strand after strand, each tail first (one block of
+/// [`LANES`] strands computed at a time, eight lanes at once).
 #[derive(Debug)]
 pub struct BundleElements<'a> {
     live: &'a Live,
-    strand: usize,
+    block: usize,
     buf: Vec<Vec3>,
     at: usize,
+    scratch64: Vec<Vector3<f64>>,
+    scratch32: Vec<Vector3<f32>>,
+}
+
+impl BundleElements<'_> {
+    /// Fills `buf` with the next block's joints; false at the end.
+    fn refill(&mut self) -> bool {
+        let w = |p: Vector3<f64>| Vec3::new(p.x, p.y, p.z);
+        self.buf.clear();
+        self.at = 0;
+        let blocks = match &self.live.form {
+            Form::F64(s) => s.bundle.n_blocks(),
+            Form::F32(s) => s.bundle.n_blocks(),
+        };
+        if self.block >= blocks {
+            return false;
+        }
+        match &self.live.form {
+            Form::F64(s) => {
+                s.bundle.block_joints(self.block, &mut self.scratch64);
+                self.buf.extend(self.scratch64.iter().map(|p| w(*p)));
+            }
+            Form::F32(s) => {
+                s.bundle.block_joints(self.block, &mut self.scratch32);
+                self.buf
+                    .extend(self.scratch32.iter().map(|p| w(p.map(|x| x.to_f64()))));
+            }
+        }
+        self.block += 1;
+        !self.buf.is_empty()
+    }
 }
 
 impl Iterator for BundleElements<'_> {
     type Item = Vec3;
+    #[inline]
     fn next(&mut self) -> Option<Vec3> {
-        if self.at == self.buf.len() {
-            if self.strand == self.live.spec.strands as usize {
-                return None;
-            }
-            self.buf.clear();
-            let buf = &mut self.buf;
-            let w = |p: Vector3<f64>| Vec3::new(p.x, p.y, p.z);
-            match &self.live.form {
-                Form::F64(s) => s.bundle.for_each_joint(self.strand, |p| buf.push(w(p))),
-                Form::F32(s) => s
-                    .bundle
-                    .for_each_joint(self.strand, |p| buf.push(w(p.map(|x| x.to_f64())))),
-            }
-            self.strand += 1;
-            self.at = 0;
-            if self.buf.is_empty() {
-                return None;
-            }
+        if self.at == self.buf.len() && !self.refill() {
+            return None;
         }
         self.at += 1;
         Some(self.buf[self.at - 1])

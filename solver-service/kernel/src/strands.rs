@@ -473,6 +473,43 @@ impl<T: StrandReal> Strands<T> {
         f(self.heads[b].get(l));
     }
 
+    /// The joints of block `b`'s strands (its real strands, not the padding lanes), strand after
+    /// strand, each tail first, into `out` (cleared): [`Strands::for_each_joint`]'s sums, bit for bit,
+    /// made for the block's eight lanes at once. Nothing for a block past the end.
+    pub fn block_joints(&self, b: usize, out: &mut Vec<Vector3<T>>) {
+        out.clear();
+        let n = self.n_links;
+        let lanes = LANES.min(self.n_strands.saturating_sub(b * LANES));
+        if lanes == 0 || b >= self.heads.len() {
+            return;
+        }
+        let links = &self.links[b * n..(b + 1) * n];
+        let head = self.heads[b];
+        let mut p = head;
+        for t in links {
+            for l in 0..LANES {
+                p.x[l] += t.x[l];
+                p.y[l] += t.y[l];
+                p.z[l] += t.z[l];
+            }
+        }
+        out.resize(lanes * (n + 1), Vector3::zeros());
+        // p is the tails; walk back toward the heads.
+        for (k, t) in links.iter().rev().enumerate() {
+            for l in 0..lanes {
+                out[l * (n + 1) + k] = p.get(l);
+            }
+            for l in 0..LANES {
+                p.x[l] -= t.x[l];
+                p.y[l] -= t.y[l];
+                p.z[l] -= t.z[l];
+            }
+        }
+        for l in 0..lanes {
+            out[l * (n + 1) + n] = head.get(l);
+        }
+    }
+
     /// Largest relative error of any link's length.
     pub fn max_length_error(&self) -> f64 {
         let len = self.len.to_f64();

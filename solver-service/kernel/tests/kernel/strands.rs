@@ -245,6 +245,22 @@ fn strands_split_off_move_as_the_whole_did() {
         };
         assert_eq!(part, strand_joints(&whole, i), "strand {i}");
     }
+    // A block's joints at once are each strand's, bit for bit (the last block is partial).
+    let mut block = Vec::new();
+    for b in 0..whole.n_blocks() {
+        whole.block_joints(b, &mut block);
+        let lanes = LANES.min(n - b * LANES);
+        assert_eq!(block.len(), lanes * 8);
+        for l in 0..lanes {
+            assert_eq!(
+                &block[l * 8..(l + 1) * 8],
+                &strand_joints(&whole, b * LANES + l)[..],
+                "block {b} lane {l}"
+            );
+        }
+    }
+    whole.block_joints(whole.n_blocks(), &mut block);
+    assert!(block.is_empty());
     // Appended back, the halves are the whole; strands of other links are refused.
     let other = Strands::<f64>::straight(&heads[..3], 6, 1.0, -V::y()).unwrap();
     assert!(first.append_blocks(other).is_err());
