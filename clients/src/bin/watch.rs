@@ -62,6 +62,9 @@ struct Args {
     /// Stop after this many seconds.
     #[arg(long)]
     duration: Option<f64>,
+    /// Pin the viewer to this core (a latency run keeps it off the hands' core).
+    #[arg(long)]
+    pin: Option<usize>,
     #[command(flatten)]
     service: ToolArgs,
 }
@@ -90,6 +93,9 @@ fn run(a: Args) -> Result<u8> {
         .map_err(usage)?;
     if a.every == 0 || a.duration.is_some_and(|d| !(d.is_finite() && d > 0.0)) {
         return Err(usage("--every must be ≥ 1 and --duration positive"));
+    }
+    if let Some(core) = a.pin {
+        shared::pin_current_thread(core).map_err(anyhow::Error::msg)?;
     }
     let mut conn = a.service.connect()?;
     // Chain names and kinds, once.

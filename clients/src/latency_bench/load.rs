@@ -179,7 +179,7 @@ pub fn load(cfg: &LoadConfig, out: &mut impl Write) -> Result<LoadReport> {
         tmp.path().join("state"),
         stop_monitor.clone(),
     );
-    let viewer = Viewer::start(&cfg.bin_dir, &prefix, "rope", secs + 2.0)?;
+    let viewer = Viewer::start(&cfg.bin_dir, &prefix, Some("rope"), secs + 2.0)?;
     eprintln!("[load] a hand at full speed and one at 1 kHz on the rope + a viewer, {secs} s");
     let hand = |joint: &str, rate: f64, seq: PathBuf| {
         let mut cmd = Command::new(cfg.bin_dir.join("latency"));

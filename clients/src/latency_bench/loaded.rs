@@ -1,7 +1,11 @@
 //! The bench's loaded run: two hands at 1 kHz on one rope and a viewer, with the machine's own
-//! lateness measured beside them, in three set-ups: the service in its default mode (hybrid) with hands
-//! that sleep all the way to each due time, the same with hands that spin the last stretch, and the
-//! service spinning with hands that spin the last stretch and spin for their responses.
+//! lateness measured beside them, in five set-ups (see [`SETUPS`]): the service in its default mode
+//! (hybrid) with hands that sleep all the way to each due time, the same with hands that spin the last
+//! stretch, the service in hybrid mode with a spin budget longer than the hands' interval (it spins
+//! while they send and sleeps when they stop), the service spinning with hands that spin the last
+//! stretch and for their responses, and the raw echo (the same serving loop, no solver) in that
+//! spinning set-up: what the transport and the machine give a spinning server under the same load,
+//! beside which the service's round trip is read.
 //!
 //! The two hands and the probe share core 1 at fixed phases of the millisecond grid (head 0, tail
 //! 500 µs, probe 750 µs), so their spinning stretches (at most 250 µs each) never overlap: one spinning
@@ -19,26 +23,68 @@ use std::time::Duration;
 
 /// One set-up of the loaded run.
 struct Setup {
+    /// The raw echo instead of the service.
+    echo: bool,
     service: WaitMode,
+    /// Hybrid: the server's spin budget after each request, µs (`None`: the service's default).
+    spin_budget_us: Option<u32>,
     /// How the hands wait for a response.
     hands: WaitMode,
     /// The hands' and the probe's spinning stretch before each due time, µs.
     spin_us: u32,
 }
 
-const SETUPS: [Setup; 3] = [
+impl Setup {
+    fn server(&self) -> String {
+        let who = if self.echo { "raw echo" } else { "service" };
+        match self.spin_budget_us {
+            Some(b) => format!("{who} {} (spins {b} µs)", self.service.name()),
+            None => format!("{who} {}", self.service.name()),
+        }
+    }
+    fn viewer(&self) -> &'static str {
+        if self.echo { "none" } else { "not pinned" }
+    }
+}
+
+/// The hybrid server's spin budget that bridges the hands' 500 µs interval with room to spare.
+const BRIDGE_US: u32 = 1500;
+
+const SETUPS: [Setup; 5] = [
     Setup {
+        echo: false,
         service: WaitMode::Hybrid,
+        spin_budget_us: None,
         hands: WaitMode::Hybrid,
         spin_us: 0,
     },
     Setup {
+        echo: false,
         service: WaitMode::Hybrid,
+        spin_budget_us: None,
+        hands: WaitMode::Hybrid,
+        spin_us: 250,
+    },
+    // Hands that wait in hybrid mode notify the server after sending: a hybrid server that went to
+    // sleep in a gap (the machine's) is woken at once, not at its next tick.
+    Setup {
+        echo: false,
+        service: WaitMode::Hybrid,
+        spin_budget_us: Some(BRIDGE_US),
         hands: WaitMode::Hybrid,
         spin_us: 250,
     },
     Setup {
+        echo: false,
         service: WaitMode::Spin,
+        spin_budget_us: None,
+        hands: WaitMode::Spin,
+        spin_us: 250,
+    },
+    Setup {
+        echo: true,
+        service: WaitMode::Spin,
+        spin_budget_us: None,
         hands: WaitMode::Spin,
         spin_us: 250,
     },
@@ -67,21 +113,42 @@ fn run_setup(
     let secs = cfg.loaded_seconds;
     let samples = (1000.0 * secs).round() as usize;
     let mut svc = Command::new(cfg.bin_dir.join("solver-service"));
-    svc.args(["--scene", scene_arg, "--prefix", prefix, "--pin", "0"])
-        .args(["--wait", setup.service.name()])
-        .args(["--state-dir", &state_dir.display().to_string()]);
+    if setup.echo {
+        let links: usize = chain.trim_start_matches("rope").parse()?;
+        svc.args(["echo", "--prefix", prefix, "--pin", "0"])
+            .args(["--elements", &(links + 1).to_string()]);
+    } else {
+        svc.args(["--scene", scene_arg, "--prefix", prefix, "--pin", "0"])
+            .args(["--state-dir", &state_dir.display().to_string()]);
+    }
+    svc.args(["--wait", setup.service.name()]);
+    if let Some(b) = setup.spin_budget_us {
+        svc.args(["--spin-us", &b.to_string()]);
+    }
     let mut service = Proc::ready(svc, "solver-service (loaded)")?;
-    let viewer = Viewer::start(&cfg.bin_dir, prefix, chain, secs + 3.0)?;
+    // The echo publishes no states (and has no state stream to subscribe to): no viewer.
+    let viewer = if setup.echo {
+        None
+    } else {
+        Some(Viewer::start(
+            &cfg.bin_dir,
+            prefix,
+            Some(chain),
+            secs + 3.0,
+        )?)
+    };
     let spin = setup.spin_us.to_string();
     let wait = setup.hands.name();
     let hands: Vec<_> = [("head", "0"), ("tail", "500")]
         .into_iter()
         .map(|(joint, phase)| {
             let (prefix, chain, spin) = (prefix.to_string(), chain.to_string(), spin.clone());
+            let echo = setup.echo;
             let bin = cfg.bin_dir.join("latency");
             std::thread::spawn(move || -> Result<Summary> {
                 let mut cmd = Command::new(bin);
                 cmd.args(["client", "--prefix", &prefix, "--chain", &chain])
+                    .args(if echo { &["--raw"][..] } else { &[][..] })
                     .args(["--joint", joint, "--rate", "1000", "--warmup", "500"])
                     .args([
                         "--pin",
@@ -117,13 +184,21 @@ fn run_setup(
                 .map_err(|_| anyhow::anyhow!("hand thread panicked"))?
         })
         .collect::<Result<_>>()?;
-    let viewer = viewer.finish(Duration::from_secs_f64(secs + 30.0))?;
+    let viewer = match viewer {
+        Some(v) => v.finish(Duration::from_secs_f64(secs + 30.0))?,
+        None => "none (the echo publishes no states)".into(),
+    };
     service.stop();
     Ok(Outcome {
         hands,
         probe,
         viewer,
     })
+}
+
+/// The worse hand's round-trip p99.9, ns.
+fn worse_p999(o: &Outcome) -> u64 {
+    o.hands.iter().map(|h| h.round_trip.p999).max().unwrap_or(0)
 }
 
 fn share(c: Option<f64>) -> String {
@@ -145,10 +220,11 @@ pub(super) fn loaded(
     let mut outcomes = Vec::new();
     for (k, setup) in SETUPS.iter().enumerate() {
         eprintln!(
-            "[loaded] service {}, hands spin {} µs before due: two hands at 1 kHz on {chain} + a \
-             probe + a viewer, {secs} s",
-            setup.service.name(),
-            setup.spin_us
+            "[loaded] {}, hands spin {} µs before due, viewer {}: two hands at 1 kHz on {chain} + \
+             a probe + a viewer, {secs} s",
+            setup.server(),
+            setup.spin_us,
+            setup.viewer()
         );
         let prefix = format!("{tag}load{k}_");
         let state_dir = tmp.join(format!("state{k}"));
@@ -160,7 +236,7 @@ pub(super) fn loaded(
         out,
         "\nLoaded runs: two hands at 1 kHz ({secs} s each, the head and the tail of {chain}) and a \
          probe pinned to core 1 at phases 0, 500 and 750 µs of the millisecond grid, a viewer on the \
-         state stream (not pinned), the service (journal written) pinned to core 0. The probe waits \
+         state stream, the service (journal written) or the raw echo pinned to core 0. The probe waits \
          for its due times exactly as the hands do and sends nothing: its lateness is the machine's \
          own, measured beside the hands. *Sent late* is the hand's own lateness; *round trip* (send \
          to answer) is what the service and the transport add, the hand's lateness excluded; *solve* \
@@ -169,18 +245,19 @@ pub(super) fn loaded(
     )?;
     writeln!(
         out,
-        "| service waits | hands wait (response) | hands spin before due | who | requests | refused or mismatched | late p99 | late p99.9 | round trip p50 | round trip p99 | round trip p99.9 | round trip max | solve p99.9 | from due p99.9 | CPU |"
+        "| server waits | hands wait (response) | hands spin before due | viewer | who | requests | refused or mismatched | late p99 | late p99.9 | round trip p50 | round trip p99 | round trip p99.9 | round trip max | solve p99.9 | from due p99.9 | CPU |"
     )?;
     writeln!(
         out,
-        "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     )?;
     for (setup, o) in SETUPS.iter().zip(&outcomes) {
         let head = format!(
-            "| {} | {} | {} µs",
-            setup.service.name(),
+            "| {} | {} | {} µs | {}",
+            setup.server(),
             setup.hands.name(),
-            setup.spin_us
+            setup.spin_us,
+            setup.viewer()
         );
         writeln!(
             out,
@@ -210,25 +287,48 @@ pub(super) fn loaded(
             )?;
         }
     }
+    // The echo's round trip under the same load, beside which the spinning set-ups are read.
+    let echo = SETUPS
+        .iter()
+        .zip(&outcomes)
+        .find(|(s, _)| s.echo)
+        .map(|(_, o)| worse_p999(o));
     writeln!(
         out,
-        "\nAim: the service's own contribution to the p99.9 (the worse hand's round trip p99.9) \
-         below 100 µs:\n"
+        "\nAim: the service's own contribution to the p99.9 below 100 µs. For each set-up of the service: \
+         its own time (the worse hand's solve p99.9, receipt to answer), and the worse hand's round \
+         trip p99.9, the transport and the machine's gaps on core 0 included; for the spinning \
+         set-ups, also that round trip less the raw echo's under the same load (what the service adds \
+         to what any server would see):\n"
     )?;
-    for (setup, o) in SETUPS.iter().zip(&outcomes) {
-        let worst = o.hands.iter().map(|h| h.round_trip.p999).max().unwrap_or(0);
+    for (setup, o) in SETUPS.iter().zip(&outcomes).filter(|(s, _)| !s.echo) {
+        let worst = worse_p999(o);
+        let solve = o.hands.iter().map(|h| h.solve.p999).max().unwrap_or(0);
+        let verdict = |v: u64| if v < 100_000 { "met" } else { "**not met**" };
+        let beside_echo = match echo {
+            Some(e) if setup.service == WaitMode::Spin || setup.spin_budget_us.is_some() => {
+                let added = worst.saturating_sub(e);
+                format!(
+                    "; less the echo's {} µs: {} µs, {}",
+                    us(e),
+                    us(added),
+                    verdict(added)
+                )
+            }
+            _ => String::new(),
+        };
         writeln!(
             out,
-            "- service {}, hands {} and spinning {} µs before due: {} µs, {}; viewer: {}",
-            setup.service.name(),
+            "- {}, hands {} and spinning {} µs before due, viewer {}: solve {} µs, {}; round trip {} \
+             µs, {}{beside_echo}; viewer: {}",
+            setup.server(),
             setup.hands.name(),
             setup.spin_us,
+            setup.viewer(),
+            us(solve),
+            verdict(solve),
             us(worst),
-            if worst < 100_000 {
-                "met"
-            } else {
-                "**not met**"
-            },
+            verdict(worst),
             o.viewer.trim_start_matches("watch: ").trim()
         )?;
     }

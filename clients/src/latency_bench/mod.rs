@@ -245,12 +245,16 @@ struct Viewer {
 }
 
 impl Viewer {
-    fn start(bin_dir: &Path, prefix: &str, chain: &str, secs: f64) -> Result<Viewer> {
+    /// `chain`: the chain to watch (`None`: every chain, for a server without any).
+    fn start(bin_dir: &Path, prefix: &str, chain: Option<&str>, secs: f64) -> Result<Viewer> {
         let mut cmd = Command::new(bin_dir.join("watch"));
-        cmd.args(["--prefix", prefix, "--chain", chain])
+        cmd.args(["--prefix", prefix])
             .args(["--duration", &format!("{secs}")])
             .stdout(Stdio::null())
             .stderr(Stdio::piped());
+        if let Some(c) = chain {
+            cmd.args(["--chain", c]);
+        }
         let mut child = cmd.spawn().context("start the viewer (watch)")?;
         let err = child.stderr.take().expect("piped stderr");
         let (tx, lines) = mpsc::channel();
