@@ -8,7 +8,7 @@
 //! * **handle**: the service's request handler (`Solver::handle`, what `solve_ns` in a response
 //!   times: decode, the work estimate, the undo copy, the move, the response header);
 //! * **handle + payload**: `handle`, then the response's joints written out as the serving loop
-//!   writes them into shared memory (`Solver::elements`, a compensated prefix sum) and `finish`
+//!   writes them into shared memory (`Handler::feed`, a compensated prefix sum) and `finish`
 //!   (the landing residual from the written joints): everything the service computes per request.
 //!
 //! Medians over the batches of the mean ns per move; the ratio columns divide medians of one run.
@@ -18,7 +18,7 @@ use nalgebra::Vector3;
 use shared::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Vec3};
 use solver_service::chain_set::ChainSet;
 use solver_service::scene::parse_scene;
-use solver_service::serve::Handler;
+use solver_service::serve::{ElementSink, Handler};
 use solver_service::service::Solver;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -76,8 +76,10 @@ impl<T: Real> Way<T> {
                     );
                     if *payload {
                         let mut header: ResponseHeader = h.header;
-                        out.clear();
-                        out.extend(s.elements(&header));
+                        let n = (header.n_joints + header.n_angles + header.n_held) as usize
+                            + (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
+                        out.resize(n, Vec3::default());
+                        s.feed(&header, Fill(out));
                         s.finish(&mut header, out);
                         black_box((&header, &out));
                     } else {
@@ -163,6 +165,19 @@ fn rows<T: Real>(precision: &str, scale: f64) {
             med[1] / med[0],
             med[2] / med[0],
         );
+    }
+}
+
+/// Writes the elements into a buffer of the response's size, element by element, as the serving loop
+/// writes them into the loaned shared-memory slice.
+struct Fill<'a>(&'a mut Vec<Vec3>);
+
+impl ElementSink for Fill<'_> {
+    type Out = ();
+    fn take<I: Iterator<Item = Vec3>>(self, mut it: I) {
+        for e in self.0.iter_mut() {
+            *e = it.next().unwrap_or_default();
+        }
     }
 }
 

@@ -748,7 +748,7 @@ impl ChainSet {
         let result = self.decode(req, points).and_then(|r| self.apply(&r));
         let mut h = self.encode(req, &result);
         out.clear();
-        out.extend(self.elements(&h));
+        self.elements(&h).feed(Extend(out));
         if let Ok(o) = &result {
             request::finish(&mut h, o.residual, out);
         }
@@ -1049,6 +1049,31 @@ pub enum Elements<'a> {
     Bundle(crate::bundles::BundleElements<'a>),
 }
 
+/// Appends elements to a buffer.
+struct Extend<'a>(&'a mut Vec<Vec3>);
+
+impl crate::serve::ElementSink for Extend<'_> {
+    type Out = ();
+    fn take<I: Iterator<Item = Vec3>>(self, it: I) {
+        self.0.extend(it);
+    }
+}
+
+impl Elements<'_> {
+    /// Hands the elements to `sink` as the concrete iterator of their form (one dispatch per
+    /// response instead of one per element).
+    pub fn feed<K: crate::serve::ElementSink>(self, sink: K) -> K::Out {
+        match self {
+            Elements::Empty => sink.take(std::iter::empty()),
+            Elements::Planar64(e) => sink.take(e),
+            Elements::Spatial64(e) => sink.take(e),
+            Elements::Planar32(e) => sink.take(e),
+            Elements::Spatial32(e) => sink.take(e),
+            Elements::Bundle(e) => sink.take(e),
+        }
+    }
+}
+
 impl Iterator for Elements<'_> {
     type Item = Vec3;
     #[inline]
@@ -1085,8 +1110,9 @@ pub struct ChainElements<'a, T: Real, const D: usize> {
     rotations: usize,
     held: usize,
     instruments: &'a [Obstacle<T, D>],
-    /// The next held joint whose state restarts the sum.
+    /// The next held joint whose state restarts the sum, and its index (`usize::MAX`: none left).
     pin: usize,
+    pin_at: usize,
     anchors: &'a [u32],
 }
 
@@ -1110,6 +1136,7 @@ where
                 &[]
             },
             pin: 0,
+            pin_at: chain.held_state(0).map_or(usize::MAX, |(j, _)| j),
             anchors,
         }
     }
@@ -1117,10 +1144,17 @@ where
     /// Restarts the sum at joint `i` if it is held.
     #[inline]
     fn restart_at(&mut self, i: usize) -> bool {
+        if i != self.pin_at {
+            return false;
+        }
         match self.chain.held_state(self.pin) {
             Some((j, s)) if j == i => {
                 self.acc = s;
                 self.pin += 1;
+                self.pin_at = self
+                    .chain
+                    .held_state(self.pin)
+                    .map_or(usize::MAX, |(j, _)| j);
                 true
             }
             _ => false,

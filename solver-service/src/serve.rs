@@ -23,6 +23,8 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
+use iceoryx2::response_mut::ResponseMut;
+use iceoryx2::response_mut_uninit::ResponseMutUninit;
 use iceoryx2::service::Service;
 use iceoryx2::waitset::WaitSetRunResult;
 use shared::{
@@ -30,6 +32,7 @@ use shared::{
     SERVICE_BUNDLE_STATE, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER,
     StateHeader, Vec3, WaitMode, service_name,
 };
+use std::mem::MaybeUninit;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -232,6 +235,25 @@ pub struct Handled {
     pub bundle: bool,
 }
 
+/// Takes a response's elements as one concrete iterator, so that a handler whose elements come in
+/// several forms ([`crate::chain_set::Elements`]) picks the form once per response, not per element.
+pub trait ElementSink {
+    /// What taking the elements gives.
+    type Out;
+    /// Consumes the elements.
+    fn take<I: Iterator<Item = Vec3>>(self, it: I) -> Self::Out;
+}
+
+/// Writes elements into a loaned response slice.
+struct Fill<S: Service>(ResponseMutUninit<S, [MaybeUninit<Vec3>], ResponseHeader>);
+
+impl<S: Service> ElementSink for Fill<S> {
+    type Out = ResponseMut<S, [Vec3], ResponseHeader>;
+    fn take<I: Iterator<Item = Vec3>>(self, mut it: I) -> Self::Out {
+        self.0.write_from_fn(|_| it.next().unwrap_or_default())
+    }
+}
+
 /// Whoever answers the requests: the solver, or the raw echo.
 pub trait Handler {
     /// Whether the response's `solve_ns` is the time [`Handler::handle`] took (the raw echo solves
@@ -241,6 +263,10 @@ pub trait Handler {
     fn handle(&mut self, req: &RequestHeader, points: &[Vec3]) -> Handled;
     /// The response's elements, in order (at least `n_joints + n_angles` of them).
     fn elements(&self, h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_;
+    /// Hands [`Handler::elements`] to `sink` (a handler with several forms of elements picks one here).
+    fn feed<K: ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out {
+        sink.take(self.elements(h))
+    }
     /// Completes the header from the elements just written (default: nothing to complete).
     fn finish(&mut self, _h: &mut ResponseHeader, _written: &[Vec3]) {}
     /// Runs at least every [`CHECK_EVERY`] (periodic snapshots); an error is reported, not fatal.
@@ -403,9 +429,7 @@ fn serve_pending<S: Service, H: Handler>(
                 continue;
             }
         };
-        let mut it = handler.elements(&header);
-        let mut resp = slot.write_from_fn(|_| it.next().unwrap_or_default());
-        drop(it);
+        let mut resp = handler.feed(&header, Fill(slot));
         handler.finish(&mut header, resp.payload());
         *resp.user_header_mut() = header;
         // The sample: the response's joints, held joints and instruments (not its rotations).

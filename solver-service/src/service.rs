@@ -172,6 +172,10 @@ impl Handler for Solver {
         self.set.elements(h)
     }
 
+    fn feed<K: crate::serve::ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out {
+        self.set.elements(h).feed(sink)
+    }
+
     fn finish(&mut self, h: &mut ResponseHeader, written: &[Vec3]) {
         request::finish(h, self.residual, written);
     }
