@@ -238,16 +238,7 @@ fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
         at,
         dims: 3,
     };
-    if name.is_empty() || name.len() >= NAME_LEN || name.chars().any(|ch| ch.is_control()) {
-        return Err(f.err(
-            b.name.span(),
-            "name",
-            format!(
-                "{name:?} must have 1..={} bytes and no control characters",
-                NAME_LEN - 1
-            ),
-        ));
-    }
+    f.check_name(b.name.span())?;
     let need = |field: &str| f.err(b.name.span(), field, "missing".into());
     let strands = f.count(
         b.strands.as_ref().ok_or_else(|| need("strands"))?,
@@ -431,6 +422,22 @@ struct Fields<'a, R = RawChain> {
 }
 
 impl<R> Fields<'_, R> {
+    /// The table's name: 1..`NAME_LEN` bytes, no control characters.
+    fn check_name(&self, span: Range<usize>) -> Result<(), SceneError> {
+        let name = self.name;
+        if name.is_empty() || name.len() >= NAME_LEN || name.chars().any(|ch| ch.is_control()) {
+            return Err(self.err(
+                span,
+                "name",
+                format!(
+                    "{name:?} must have 1..={} bytes and no control characters",
+                    NAME_LEN - 1
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     fn err(&self, span: Range<usize>, field: &str, what: String) -> SceneError {
         (self.at)(
             span,
@@ -544,16 +551,7 @@ fn chain(
         at,
         dims: 3,
     };
-    if name.is_empty() || name.len() >= NAME_LEN || name.chars().any(|ch| ch.is_control()) {
-        return Err(f.err(
-            c.name.span(),
-            "name",
-            format!(
-                "{name:?} must have 1..={} bytes and no control characters",
-                NAME_LEN - 1
-            ),
-        ));
-    }
+    f.check_name(c.name.span())?;
     let kind = f.choice(
         &c.kind,
         "kind",
