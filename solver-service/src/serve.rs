@@ -130,48 +130,32 @@ impl<S: Service> ServerPorts<S> {
             .notifier_builder()
             .create()
             .map_err(err("wake notifier"))?;
-        let state = match state_joints {
-            None => None,
-            Some(joints) => Some(
-                node.service_builder(&service_name(SERVICE_STATE)?)
-                    .publish_subscribe::<[Vec3]>()
-                    .user_header::<StateHeader>()
-                    .max_publishers(1)
-                    .max_subscribers(MAX_CLIENTS)
-                    .max_nodes(MAX_CLIENTS + 4)
-                    .subscriber_max_buffer_size(64)
-                    .history_size(0)
-                    .enable_safe_overflow(true)
-                    .open_or_create()
-                    .map_err(err("cannot open or create the state stream"))?
-                    .publisher_builder()
-                    .initial_max_slice_len(joints.max(1))
-                    .create()
-                    .map_err(err("cannot create the state publisher"))?,
-            ),
-        };
+        let state = state_joints
+            .map(|joints| {
+                stream_publisher(
+                    &node,
+                    SERVICE_STATE,
+                    MAX_CLIENTS,
+                    64,
+                    joints,
+                    "state stream",
+                )
+            })
+            .transpose()?;
         // Megabytes per sample: a short buffer, few subscribers (shared memory is reserved for every
         // sample a subscriber may hold).
-        let bundle_state = match bundle_joints {
-            None => None,
-            Some(joints) => Some(
-                node.service_builder(&service_name(SERVICE_BUNDLE_STATE)?)
-                    .publish_subscribe::<[Vec3]>()
-                    .user_header::<StateHeader>()
-                    .max_publishers(1)
-                    .max_subscribers(MAX_BUNDLE_SUBSCRIBERS)
-                    .max_nodes(MAX_CLIENTS + 4)
-                    .subscriber_max_buffer_size(BUNDLE_STATE_BUFFER)
-                    .history_size(0)
-                    .enable_safe_overflow(true)
-                    .open_or_create()
-                    .map_err(err("cannot open or create the bundle stream"))?
-                    .publisher_builder()
-                    .initial_max_slice_len(joints.max(1))
-                    .create()
-                    .map_err(err("cannot create the bundle publisher"))?,
-            ),
-        };
+        let bundle_state = bundle_joints
+            .map(|joints| {
+                stream_publisher(
+                    &node,
+                    SERVICE_BUNDLE_STATE,
+                    MAX_BUNDLE_SUBSCRIBERS,
+                    BUNDLE_STATE_BUFFER,
+                    joints,
+                    "bundle stream",
+                )
+            })
+            .transpose()?;
         let server = node
             .service_builder(&service_name(SERVICE_COMMAND)?)
             .request_response::<[Vec3], [Vec3]>()
@@ -221,6 +205,33 @@ impl<S: Service> ServerPorts<S> {
             }
         });
     }
+}
+
+/// The publisher of a stream of accepted states (`service`): samples of up to `joints` elements, at
+/// most `subscribers` subscribers buffering `buffer` samples each, the oldest dropped on overflow.
+fn stream_publisher<S: Service>(
+    node: &Node<S>,
+    service: &str,
+    subscribers: usize,
+    buffer: usize,
+    joints: usize,
+    what: &'static str,
+) -> Result<Publisher<S, [Vec3], StateHeader>, String> {
+    node.service_builder(&service_name(service)?)
+        .publish_subscribe::<[Vec3]>()
+        .user_header::<StateHeader>()
+        .max_publishers(1)
+        .max_subscribers(subscribers)
+        .max_nodes(MAX_CLIENTS + 4)
+        .subscriber_max_buffer_size(buffer)
+        .history_size(0)
+        .enable_safe_overflow(true)
+        .open_or_create()
+        .map_err(|e| format!("cannot open or create the {what}: {e:?}"))?
+        .publisher_builder()
+        .initial_max_slice_len(joints.max(1))
+        .create()
+        .map_err(|e| format!("cannot create the {what}'s publisher: {e:?}"))
 }
 
 /// A handled request: the response header (`n_joints + n_angles` elements follow) and whether the state
