@@ -15,6 +15,11 @@
 //!   after 16 iterations), as the service does for grasps and anchors.
 //!
 //! A run succeeds when the rope's knot, named by the identification, is the one the script ties.
+//!
+//! A second table measures why the resolution matters: how much of a loop the hand draws stays in
+//! the rope behind it. The head of a free rope (40 units, nothing held, no collision) circles at radius
+//! `R` until it has travelled more than the rope's length, in moves of 0.05; then the rope's distance
+//! from the circle's centre is read joint by joint behind the head (computed here).
 //! `KNOT_BENCH_RUNS` (default 6) sets the runs per cell, `KNOT_BENCH_LINKS` keeps one resolution and
 //! `KNOT_BENCH_DEBUG` prints the knot after every turn. Refused moves are counted and skipped, as a
 //! hand would skip them.
@@ -255,6 +260,49 @@ fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
     }
 }
 
+/// The loop-survival table: for each link length and loop radius, how much rope behind the circling
+/// head keeps at least half the loop's radius.
+fn loop_survival() {
+    println!(
+        "\nHow much of a drawn loop stays in the rope: the head of a free 40-unit rope circles at \
+         radius *R* (moves of 0.05, tractrix, one substep) until it has travelled more than the \
+         rope's length; then the rope is read behind the head, joint by joint. *rope until R/2*: the \
+         rope behind the head before the first joint nearer the circle's centre than R/2 (\"whole \
+         rope\" when none is); *in loops*: that length ÷ 2πR; *model*: 3R²/(4L), where a steady \
+         tractrix puts it (each link's tail circles at r² − L² when its head circles at r).\n"
+    );
+    println!("| link length L | links | R | rope until R/2 | in loops | model 3R²/(4L) |");
+    println!("|---:|---:|---:|---:|---:|---:|");
+    for n in [40usize, 80, 160] {
+        let l = LENGTH / n as f64;
+        for r in [1.0f64, 2.0, 3.0, 4.0] {
+            // The rope trails straight behind the head, which starts on the circle heading +y.
+            let head = V::new(r, 0.0, 0.0);
+            let mut chain =
+                Chain::straight(n, l, head - V::new(0.0, LENGTH, 0.0), V::y()).expect("rope");
+            let opts = MoveOptions::default();
+            let loop_len = std::f64::consts::TAU * r;
+            let turns = ((LENGTH + loop_len) / loop_len).ceil();
+            let steps = (turns * loop_len / 0.05).ceil() as usize;
+            for k in 1..=steps {
+                let a = turns * std::f64::consts::TAU * k as f64 / steps as f64;
+                let t = V::new(r * a.cos(), r * a.sin(), 0.0);
+                chain.move_joint(n, t, &opts).expect("a free move");
+            }
+            let p = chain.positions();
+            let until = (0..=n)
+                .find(|&k| (p[n - k].x.powi(2) + p[n - k].y.powi(2)).sqrt() < 0.5 * r)
+                .map(|k| k as f64 * l);
+            let (until, loops) = match until {
+                Some(u) => (format!("{u:.2}"), format!("{:.2}", u / loop_len)),
+                None => ("whole rope".into(), format!("> {:.2}", LENGTH / loop_len)),
+            };
+            let model = 0.75 * r * r / l;
+            println!("| {l} | {n} | {r} | {until} | {loops} | {model:.2} |");
+        }
+    }
+}
+
 fn main() {
     let runs: usize = std::env::var("KNOT_BENCH_RUNS")
         .ok()
@@ -311,4 +359,5 @@ fn main() {
             println!();
         }
     }
+    loop_survival();
 }
