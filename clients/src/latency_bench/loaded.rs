@@ -1,9 +1,10 @@
 //! The bench's loaded run: two hands at 1 kHz on one rope and a viewer, with the machine's own
-//! lateness measured beside them, in five set-ups (see [`SETUPS`]): the service in its default mode
+//! lateness measured beside them, in six set-ups (see [`SETUPS`]): the service in its default mode
 //! (hybrid) with hands that sleep all the way to each due time, the same with hands that spin the last
 //! stretch, the service in hybrid mode with a spin budget longer than the hands' interval (it spins
 //! while they send and sleeps when they stop), the service spinning with hands that spin the last
-//! stretch and for their responses, and the raw echo (the same serving loop, no solver) in that
+//! stretch and for their responses, the same without the journal (whether
+//! the journal's `write` is in the solve's tail), and the raw echo (the same serving loop, no solver) in that
 //! spinning set-up: what the transport and the machine give a spinning server under the same load,
 //! beside which the service's round trip is read.
 //!
@@ -32,14 +33,22 @@ struct Setup {
     hands: WaitMode,
     /// The hands' and the probe's spinning stretch before each due time, µs.
     spin_us: u32,
+    /// Whether the service journals every change (`--state-dir`); the set-up without tells whether
+    /// the journal's `write` is in the solve's tail.
+    journal: bool,
 }
 
 impl Setup {
     fn server(&self) -> String {
         let who = if self.echo { "raw echo" } else { "service" };
+        let journal = if self.echo || self.journal {
+            ""
+        } else {
+            ", no journal"
+        };
         match self.spin_budget_us {
-            Some(b) => format!("{who} {} (spins {b} µs)", self.service.name()),
-            None => format!("{who} {}", self.service.name()),
+            Some(b) => format!("{who} {} (spins {b} µs){journal}", self.service.name()),
+            None => format!("{who} {}{journal}", self.service.name()),
         }
     }
     fn viewer(&self) -> &'static str {
@@ -50,13 +59,14 @@ impl Setup {
 /// The hybrid server's spin budget that bridges the hands' 500 µs interval with room to spare.
 const BRIDGE_US: u32 = 1500;
 
-const SETUPS: [Setup; 5] = [
+const SETUPS: [Setup; 6] = [
     Setup {
         echo: false,
         service: WaitMode::Hybrid,
         spin_budget_us: None,
         hands: WaitMode::Hybrid,
         spin_us: 0,
+        journal: true,
     },
     Setup {
         echo: false,
@@ -64,6 +74,7 @@ const SETUPS: [Setup; 5] = [
         spin_budget_us: None,
         hands: WaitMode::Hybrid,
         spin_us: 250,
+        journal: true,
     },
     // Hands that wait in hybrid mode notify the server after sending: a hybrid server that went to
     // sleep in a gap (the machine's) is woken at once, not at its next tick.
@@ -73,6 +84,7 @@ const SETUPS: [Setup; 5] = [
         spin_budget_us: Some(BRIDGE_US),
         hands: WaitMode::Hybrid,
         spin_us: 250,
+        journal: true,
     },
     Setup {
         echo: false,
@@ -80,6 +92,16 @@ const SETUPS: [Setup; 5] = [
         spin_budget_us: None,
         hands: WaitMode::Spin,
         spin_us: 250,
+        journal: true,
+    },
+    // The spinning set-up again without the journal: the solve's tail with and without its `write`.
+    Setup {
+        echo: false,
+        service: WaitMode::Spin,
+        spin_budget_us: None,
+        hands: WaitMode::Spin,
+        spin_us: 250,
+        journal: false,
     },
     Setup {
         echo: true,
@@ -87,6 +109,7 @@ const SETUPS: [Setup; 5] = [
         spin_budget_us: None,
         hands: WaitMode::Spin,
         spin_us: 250,
+        journal: false,
     },
 ];
 
@@ -118,8 +141,10 @@ fn run_setup(
         svc.args(["echo", "--prefix", prefix, "--pin", "0"])
             .args(["--elements", &(links + 1).to_string()]);
     } else {
-        svc.args(["--scene", scene_arg, "--prefix", prefix, "--pin", "0"])
-            .args(["--state-dir", &state_dir.display().to_string()]);
+        svc.args(["--scene", scene_arg, "--prefix", prefix, "--pin", "0"]);
+        if setup.journal {
+            svc.args(["--state-dir", &state_dir.display().to_string()]);
+        }
     }
     svc.args(["--wait", setup.service.name()]);
     if let Some(b) = setup.spin_budget_us {
@@ -206,7 +231,7 @@ fn share(c: Option<f64>) -> String {
 }
 
 /// Two hands at 1 kHz (the two ends of one rope) on core 1, a probe beside them, and a viewer, with
-/// the service (journal written) on core 0, in each set-up.
+/// the service (journal written, but in the set-up without) on core 0, in each set-up.
 pub(super) fn loaded(
     cfg: &BenchConfig,
     scene_arg: &str,
@@ -236,11 +261,11 @@ pub(super) fn loaded(
         out,
         "\nLoaded runs: two hands at 1 kHz ({secs} s each, the head and the tail of {chain}) and a \
          probe pinned to core 1 at phases 0, 500 and 750 µs of the millisecond grid, a viewer on the \
-         state stream, the service (journal written) or the raw echo pinned to core 0. The probe waits \
+         state stream, the service (journal written unless the row says no journal) or the raw echo pinned to core 0. The probe waits \
          for its due times exactly as the hands do and sends nothing: its lateness is the machine's \
          own, measured beside the hands. *Sent late* is the hand's own lateness; *round trip* (send \
          to answer) is what the service and the transport add, the hand's lateness excluded; *solve* \
-         is the service's own time from decoding to journaling (`solve_ns`); *from due* adds both. \
+         is the service's own time from decoding to journaling (`solve_ns`; to encoding without a journal); *from due* adds both. \
          CPU is the thread's CPU time over the run's wall time (µs):\n"
     )?;
     writeln!(
