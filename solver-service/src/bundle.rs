@@ -228,6 +228,24 @@ impl<T: StrandReal + Send> Bundle<T> {
         }
     }
 
+    /// [`Bundle::block_joints`] written through `f` straight into `out` ([`Strands::block_joints_into`]);
+    /// returns how many were written (0 for a block lost with a dead helper, or past the end).
+    pub fn block_joints_into<U>(
+        &self,
+        b: usize,
+        out: &mut [U],
+        f: impl FnMut(Vector3<T>) -> U,
+    ) -> usize {
+        let first = self.first.n_blocks();
+        if b < first {
+            self.first.block_joints_into(b, out, f)
+        } else if let Some(s) = &self.second {
+            s.block_joints_into(b - first, out, f)
+        } else {
+            0
+        }
+    }
+
     /// Calls `f` with strand `i`'s joints, tail first (nothing for a strand lost with a dead helper).
     pub fn for_each_joint(&self, i: usize, f: impl FnMut(Vector3<T>)) {
         if i < self.split {

@@ -17,7 +17,6 @@ use shared::{
     ChainKind, Command, FLAG_POSE, JOINT_HEAD, Precision, RequestHeader, ResponseHeader,
     SubstepMode, Vec3, WireMethod,
 };
-use tractrix::Real;
 use tractrix::strands::{LANES, StrandReal, Strands};
 
 /// What a request asks of a bundle, checked.
@@ -289,14 +288,17 @@ impl Live {
 
     /// The joints, strand after strand, each tail first.
     pub fn elements(&self) -> BundleElements<'_> {
-        let block = LANES * (self.spec.links as usize + 1);
+        let blocks = match &self.form {
+            Form::F64(s) => s.bundle.n_blocks(),
+            Form::F32(s) => s.bundle.n_blocks(),
+        };
         BundleElements {
             live: self,
             block: 0,
-            buf: Vec::with_capacity(block),
+            blocks,
+            buf: vec![Vec3::default(); LANES * (self.spec.links as usize + 1)],
             at: 0,
-            scratch64: Vec::new(),
-            scratch32: Vec::new(),
+            len: 0,
         }
     }
 }
@@ -349,43 +351,35 @@ fn apply<T: StrandReal + Send>(
 }
 
 /// A bundle's joints as wire vectors, strand after strand, each tail first (one block of
-/// [`LANES`] strands computed at a time, eight lanes at once).
+/// [`LANES`] strands computed at a time, eight lanes at once, straight into a block-sized buffer).
 #[derive(Debug)]
 pub struct BundleElements<'a> {
     live: &'a Live,
     block: usize,
+    blocks: usize,
     buf: Vec<Vec3>,
     at: usize,
-    scratch64: Vec<Vector3<f64>>,
-    scratch32: Vec<Vector3<f32>>,
+    len: usize,
 }
 
 impl BundleElements<'_> {
     /// Fills `buf` with the next block's joints; false at the end.
     fn refill(&mut self) -> bool {
-        let w = |p: Vector3<f64>| Vec3::new(p.x, p.y, p.z);
-        self.buf.clear();
         self.at = 0;
-        let blocks = match &self.live.form {
-            Form::F64(s) => s.bundle.n_blocks(),
-            Form::F32(s) => s.bundle.n_blocks(),
-        };
-        if self.block >= blocks {
+        self.len = 0;
+        if self.block >= self.blocks {
             return false;
         }
-        match &self.live.form {
-            Form::F64(s) => {
-                s.bundle.block_joints(self.block, &mut self.scratch64);
-                self.buf.extend(self.scratch64.iter().map(|p| w(*p)));
-            }
-            Form::F32(s) => {
-                s.bundle.block_joints(self.block, &mut self.scratch32);
-                self.buf
-                    .extend(self.scratch32.iter().map(|p| w(p.map(|x| x.to_f64()))));
-            }
-        }
+        self.len = match &self.live.form {
+            Form::F64(s) => s
+                .bundle
+                .block_joints_into(self.block, &mut self.buf, |p| Vec3::new(p.x, p.y, p.z)),
+            Form::F32(s) => s.bundle.block_joints_into(self.block, &mut self.buf, |p| {
+                Vec3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z))
+            }),
+        };
         self.block += 1;
-        !self.buf.is_empty()
+        self.len > 0
     }
 }
 
@@ -393,7 +387,7 @@ impl Iterator for BundleElements<'_> {
     type Item = Vec3;
     #[inline]
     fn next(&mut self) -> Option<Vec3> {
-        if self.at == self.buf.len() && !self.refill() {
+        if self.at == self.len && !self.refill() {
             return None;
         }
         self.at += 1;

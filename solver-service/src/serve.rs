@@ -456,8 +456,22 @@ fn serve_pending<S: Service, H: Handler>(
                 .loan_slice_uninit(joints.len() + held.len() + instruments.len())
             {
                 Ok(s) => {
-                    let mut from = joints.iter().chain(held).chain(instruments);
-                    let mut s = s.write_from_fn(|_| from.next().copied().unwrap_or_default());
+                    // A copy of the response's elements: one memcpy when there are only joints (a
+                    // bundle, a chain without holds or instruments), else element by element.
+                    let mut s = if held.is_empty() && instruments.is_empty() {
+                        s.write_from_slice(joints)
+                    } else {
+                        let (nj, nh) = (joints.len(), held.len());
+                        s.write_from_fn(|i| {
+                            if i < nj {
+                                joints[i]
+                            } else if i < nj + nh {
+                                held[i - nj]
+                            } else {
+                                instruments.get(i - nj - nh).copied().unwrap_or_default()
+                            }
+                        })
+                    };
                     *s.user_header_mut() = StateHeader {
                         sequence: header.sequence,
                         chain: header.chain,

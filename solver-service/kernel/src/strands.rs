@@ -478,11 +478,33 @@ impl<T: StrandReal> Strands<T> {
     /// made for the block's eight lanes at once. Nothing for a block past the end.
     pub fn block_joints(&self, b: usize, out: &mut Vec<Vector3<T>>) {
         out.clear();
-        let n = self.n_links;
-        let lanes = LANES.min(self.n_strands.saturating_sub(b * LANES));
-        if lanes == 0 || b >= self.heads.len() {
-            return;
+        out.resize(self.block_len(b), Vector3::zeros());
+        self.block_joints_into(b, out, |p| p);
+    }
+
+    /// How many joints block `b` has: its real strands × (links + 1); 0 past the end.
+    pub fn block_len(&self, b: usize) -> usize {
+        if b >= self.heads.len() {
+            return 0;
         }
+        LANES.min(self.n_strands.saturating_sub(b * LANES)) * (self.n_links + 1)
+    }
+
+    /// [`Strands::block_joints`] written through `f` straight into `out[..block_len(b)]` (a wire
+    /// buffer, a shared-memory response): no intermediate copy. Returns how many were written;
+    /// nothing if `out` is shorter than the block.
+    pub fn block_joints_into<U>(
+        &self,
+        b: usize,
+        out: &mut [U],
+        mut f: impl FnMut(Vector3<T>) -> U,
+    ) -> usize {
+        let n = self.n_links;
+        let len = self.block_len(b);
+        if len == 0 || out.len() < len {
+            return 0;
+        }
+        let lanes = len / (n + 1);
         let links = &self.links[b * n..(b + 1) * n];
         let head = self.heads[b];
         let mut p = head;
@@ -493,11 +515,10 @@ impl<T: StrandReal> Strands<T> {
                 p.z[l] += t.z[l];
             }
         }
-        out.resize(lanes * (n + 1), Vector3::zeros());
         // p is the tails; walk back toward the heads.
         for (k, t) in links.iter().rev().enumerate() {
             for l in 0..lanes {
-                out[l * (n + 1) + k] = p.get(l);
+                out[l * (n + 1) + k] = f(p.get(l));
             }
             for l in 0..LANES {
                 p.x[l] -= t.x[l];
@@ -506,8 +527,9 @@ impl<T: StrandReal> Strands<T> {
             }
         }
         for l in 0..lanes {
-            out[l * (n + 1) + n] = head.get(l);
+            out[l * (n + 1) + n] = f(head.get(l));
         }
+        len
     }
 
     /// Largest relative error of any link's length.
