@@ -13,6 +13,11 @@
 //! * *held, U*: the same start and scripts with both ends held, so each move of a hand's end is
 //!   solved by the paper's fixed-base method from the other end (translate back; the reach hierarchy
 //!   after 16 iterations), as the service does for grasps and anchors.
+//! * *free, straight, wide loop*: the overhand as one wide loop and a tuck (the built-in
+//!   `overhand-wide`, [`clients::script::WideLoop`]), nothing held; its radius, direction and pull
+//!   perturbed as the throws are.
+//! * *held, U, wide loop*: the same from the U with both ends held, heading up, the loop on the side
+//!   away from the tail.
 //!
 //! A run succeeds when the rope's knot, named by the identification, is the one the script ties.
 //!
@@ -24,7 +29,7 @@
 //! `KNOT_BENCH_DEBUG` prints the knot after every turn. Refused moves are counted and skipped, as a
 //! hand would skip them.
 
-use clients::script::{Handedness, Script, Throw, Turn};
+use clients::script::{Handedness, Script, Throw, Turn, WideLoop};
 use nalgebra::Vector3;
 use tractrix::chain::{Chain, MoveOptions};
 use tractrix::collision::{
@@ -71,6 +76,11 @@ enum Ends {
     /// The same U and scripts with both ends held (the tail anchored or held by hand A, the head by
     /// the moving hand B): the move of a hand's end is solved by the paper's fixed-base method.
     Held,
+    /// Straight, nothing held, the overhand as one wide loop and a tuck (`overhand-wide`).
+    Wide,
+    /// The U with both ends held, the overhand as one wide loop and a tuck heading up, the loop on
+    /// the side away from the tail.
+    WideHeld,
 }
 
 impl Ends {
@@ -79,7 +89,17 @@ impl Ends {
             Ends::Free => "free, straight",
             Ends::UFree => "free, U",
             Ends::Held => "held, U",
+            Ends::Wide => "free, straight, wide loop",
+            Ends::WideHeld => "held, U, wide loop",
         }
+    }
+    /// Whether the rope starts in the U.
+    fn u(self) -> bool {
+        !matches!(self, Ends::Free | Ends::Wide)
+    }
+    /// Whether both ends are held.
+    fn held(self) -> bool {
+        matches!(self, Ends::Held | Ends::WideHeld)
     }
 }
 
@@ -87,6 +107,7 @@ impl Ends {
 struct Phase {
     head: bool,
     throw: Option<Throw>,
+    wide_loop: Option<WideLoop>,
     waypoints: Vec<[f64; 3]>,
 }
 
@@ -105,6 +126,24 @@ impl Knot {
             Knot::Granny => KnotType::Granny,
         }
     }
+    /// The wide-loop overhand (`overhand-wide`) heading `outward` with the loop on `side`, perturbed
+    /// by `rng` as the throws are (size ±3 %, direction ±0.05 per component, exit ±1 unit).
+    fn wide(outward: [f64; 3], side: [f64; 3], rng: &mut Rng) -> Vec<Phase> {
+        let builtin = Script::builtin("overhand-wide").expect("a built-in");
+        let l = builtin.turn[0].wide_loop.expect("a wide loop");
+        vec![Phase {
+            head: true,
+            throw: None,
+            wide_loop: Some(WideLoop {
+                outward: outward.map(|c| c + rng.range(-0.05, 0.05)),
+                side,
+                radius: l.radius * rng.range(0.97, 1.03),
+                exit: (l.exit + rng.range(-1.0, 1.0)).max(0.0),
+            }),
+            waypoints: vec![],
+        }]
+    }
+
     /// The script's phases, perturbed by `rng`, for the straight rope or the U.
     fn phases(self, u: bool, rng: &mut Rng) -> Vec<Phase> {
         let mut throw = |handedness, outward: [f64; 3], scale: f64, exit: f64| Throw {
@@ -120,6 +159,7 @@ impl Knot {
         let throw_at = |head, t| Phase {
             head,
             throw: Some(t),
+            wide_loop: None,
             waypoints: vec![],
         };
         let second = if self == Knot::Square {
@@ -151,6 +191,7 @@ impl Knot {
                     throw: t
                         .throw
                         .map(|th| throw(th.handedness, th.outward, th.scale, th.exit)),
+                    wide_loop: None,
                     waypoints: t.waypoints,
                 })
                 .collect(),
@@ -200,7 +241,7 @@ fn start_rope(n: usize, arc: bool) -> Chain<f64, 3> {
 }
 
 fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
-    let u = ends != Ends::Free;
+    let u = ends.u();
     let mut chain = start_rope(n, u);
     let model = CollisionModel {
         options: CollisionOptions {
@@ -212,13 +253,18 @@ fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
     };
     let mut ws = CollisionWorkspace::new();
     let opts = MoveOptions::default();
-    if ends == Ends::Held {
+    if ends.held() {
         chain.hold(0).expect("tail");
         chain.hold(n).expect("head");
     }
     let (mut refused, mut moves) = (0, 0);
     let (mut iters, mut max_iters) = (0u64, 0u32);
-    for phase in knot.phases(u, rng) {
+    let phases = match ends {
+        Ends::Wide => Knot::wide([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], rng),
+        Ends::WideHeld => Knot::wide([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], rng),
+        _ => knot.phases(u, rng),
+    };
+    for phase in phases {
         let joint = if phase.head { n } else { 0 };
         let start = chain.joint(joint);
         let turn = Turn {
@@ -226,6 +272,7 @@ fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
             chain: "rope".into(),
             joint: if phase.head { "head" } else { "tail" }.into(),
             throw: phase.throw,
+            wide_loop: phase.wide_loop,
             waypoints: phase.waypoints,
         };
         for t in turn.targets([start.x, start.y, start.z], 0.05) {
@@ -330,9 +377,20 @@ fn main() {
         if only.is_some_and(|o| o != n) {
             continue;
         }
-        for ends in [Ends::Free, Ends::UFree, Ends::Held] {
+        for ends in [
+            Ends::Free,
+            Ends::UFree,
+            Ends::Held,
+            Ends::Wide,
+            Ends::WideHeld,
+        ] {
             print!("| {n} | {} | {} |", LENGTH / n as f64, ends.name());
             for knot in knots {
+                // The wide loop is an overhand: no two-handed script.
+                if matches!(ends, Ends::Wide | Ends::WideHeld) && knot != Knot::Overhand {
+                    print!(" – | – | – |");
+                    continue;
+                }
                 let mut rng = Rng(0x5EED ^ (n as u64) << 8 ^ knot as u64);
                 let (mut ok, mut refused, mut moves, mut iterations) = (0, 0, 0, 0u64);
                 let mut found = Vec::new();

@@ -24,6 +24,10 @@
 //! `"left"` throw is a trefoil of negative writhe; `"right"` its mirror. Two throws of opposite
 //! handedness in series make a square knot, of the same handedness a granny.
 //!
+//! A *wide loop* (`wide_loop = { outward = [1, 0, 0], side = [0, 1, 0], radius = 4.5, exit = 5.4 }`)
+//! is the overhand the paper's coarse rope keeps: one loop wide enough to survive behind the hand
+//! until the end is tucked through it ([`WideLoop`]; built-in `overhand-wide` on 40 unit links).
+//!
 //! Errors name the line and the field (the `toml` crate's spans).
 
 use serde::{Deserialize, Serialize};
@@ -71,6 +75,9 @@ pub struct Turn {
     pub joint: String,
     #[serde(default)]
     pub throw: Option<Throw>,
+    /// One wide loop and a tuck (after the throw, if both are given).
+    #[serde(default)]
+    pub wide_loop: Option<WideLoop>,
     /// Relative to the joint's position when the turn starts.
     #[serde(default)]
     pub waypoints: Vec<[f64; 3]>,
@@ -101,6 +108,37 @@ fn default_scale() -> f64 {
 pub enum Handedness {
     Left,
     Right,
+}
+
+/// An overhand tied as one wide loop and a tuck, the form the paper's coarse rope can keep: a loop
+/// survives behind the hand over a length of rope that grows with the square of its radius and falls
+/// with the link length (BENCHMARKS.md, knots), so on unit links the loop must be wide. The hand heads
+/// `outward`, draws a circle of `radius` on the `side` it is given (crossing over the rope it laid as
+/// it closes the circle, one unit above), dives under the loop's far side, comes up through the loop
+/// and leaves over its near side, then pulls `exit` units back along `outward`. The rope must be free
+/// to slide after the hand: the knot takes about a loop and a half of rope.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WideLoop {
+    /// Direction the hand heads in as it starts the loop (normalised here).
+    pub outward: [f64; 3],
+    /// The side the loop lies on (its part across `outward`, normalised); the crossings are along
+    /// `outward × side`.
+    pub side: [f64; 3],
+    /// Radius of the loop.
+    #[serde(default = "default_loop_radius")]
+    pub radius: f64,
+    /// Pull after the tuck, back along `outward`.
+    #[serde(default = "default_loop_exit")]
+    pub exit: f64,
+}
+
+fn default_loop_radius() -> f64 {
+    4.5
+}
+
+fn default_loop_exit() -> f64 {
+    5.4
 }
 
 impl Script {
@@ -169,13 +207,30 @@ impl Script {
                     return Err(at(format!("throw.exit {} is not in [0, 1e9]", th.exit)));
                 }
             }
+            if let Some(l) = &t.wide_loop {
+                if loop_frame(l).is_none() {
+                    return Err(at(
+                        "wide_loop.outward and wide_loop.side must be finite, non-zero and not parallel"
+                            .into(),
+                    ));
+                }
+                if !(l.radius > 0.0 && l.radius.is_finite() && l.radius <= 1e6) {
+                    return Err(at(format!(
+                        "wide_loop.radius {} is not in (0, 1e6]",
+                        l.radius
+                    )));
+                }
+                if !(l.exit >= 0.0 && l.exit.is_finite() && l.exit <= 1e9) {
+                    return Err(at(format!("wide_loop.exit {} is not in [0, 1e9]", l.exit)));
+                }
+            }
         }
         Ok(())
     }
 
-    /// Perturbs the script as the runs of the knot table do (BENCHMARKS.md, knots): each throw's size
-    /// by up to ±3 %, each component of its direction by up to ±0.05, its exit by up to ±1 unit (kept
-    /// ≥ 0), and each waypoint by up to ±0.05 per component. One seed gives one script, so the hands of
+    /// Perturbs the script as the runs of the knot table do (BENCHMARKS.md, knots): each throw's (and
+    /// wide loop's) size by up to ±3 %, each component of its direction by up to ±0.05, its exit by up
+    /// to ±1 unit (kept ≥ 0), and each waypoint by up to ±0.05 per component. One seed gives one script, so the hands of
     /// a script agree when each perturbs it with the same seed; seed 0 leaves it as it is.
     pub fn perturb(&mut self, seed: u64) {
         if seed == 0 {
@@ -197,6 +252,13 @@ impl Script {
                     *c += range(-0.05, 0.05);
                 }
                 th.exit = (th.exit + range(-1.0, 1.0)).max(0.0);
+            }
+            if let Some(l) = &mut t.wide_loop {
+                l.radius *= range(0.97, 1.03);
+                for c in &mut l.outward {
+                    *c += range(-0.05, 0.05);
+                }
+                l.exit = (l.exit + range(-1.0, 1.0)).max(0.0);
             }
             for w in &mut t.waypoints {
                 for c in w {
@@ -230,6 +292,7 @@ impl Script {
             chain: chain.into(),
             joint: joint.into(),
             throw,
+            wide_loop: None,
             waypoints,
         };
         let two_hands = |second| Script {
@@ -276,6 +339,22 @@ impl Script {
                     }),
                     vec![],
                 )],
+            }),
+            // The paper's rope (40 unit links, free): one wide loop and a tuck, heading away from the
+            // rope along +x with the loop on the +y side.
+            "overhand-wide" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: true,
+                turn: vec![Turn {
+                    wide_loop: Some(WideLoop {
+                        outward: [1.0, 0.0, 0.0],
+                        side: [0.0, 1.0, 0.0],
+                        radius: default_loop_radius(),
+                        exit: default_loop_exit(),
+                    }),
+                    ..turn("A", "paper", "head", None, vec![])
+                }],
             }),
             "square" => Some(two_hands(Handedness::Right)),
             "granny" => Some(two_hands(Handedness::Left)),
@@ -341,6 +420,7 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
         chain: "rope".into(),
         joint: if hand == "A" { "tail" } else { "head" }.into(),
         throw,
+        wide_loop: None,
         waypoints,
     };
     Script {
@@ -360,9 +440,11 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
 
 /// Names accepted by [`Script::builtin`]. The `-u` scripts start from a rope hanging in a U (see
 /// BENCHMARKS.md, knots): `overhand-u` with the tail held, `square-u` and `granny-u` with one hand on
-/// each end.
+/// each end. `overhand-wide` ties the overhand on the paper's rope (chain `paper` of `knots.toml`: 40
+/// unit links) with one wide loop.
 pub const BUILTINS: &[&str] = &[
     "overhand",
+    "overhand-wide",
     "square",
     "granny",
     "wave",
@@ -389,6 +471,10 @@ impl Turn {
         let mut corners: Vec<[f64; 3]> = Vec::new();
         if let Some(th) = &self.throw {
             corners.extend(throw_path(start, th));
+        }
+        if let Some(l) = &self.wide_loop {
+            let from = corners.last().copied().unwrap_or(start);
+            corners.extend(loop_path(from, l));
         }
         corners.extend(self.waypoints.iter().map(|w| add(start, *w)));
         densify(start, &corners, max_step)
@@ -447,6 +533,82 @@ fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
     out.push(away);
     if th.exit > 0.0 {
         out.push(add(away, scale(u, th.exit)));
+    }
+    out
+}
+
+/// The unit frame of a wide loop: along `outward`, across it toward `side`, and their cross product.
+fn loop_frame(l: &WideLoop) -> Option<[[f64; 3]; 3]> {
+    let n = norm(l.outward);
+    if !(n > 0.0 && n.is_finite()) || !l.side.iter().all(|c| c.is_finite()) {
+        return None;
+    }
+    let u = scale(l.outward, 1.0 / n);
+    let d = l.side[0] * u[0] + l.side[1] * u[1] + l.side[2] * u[2];
+    let across = add(l.side, scale(u, -d));
+    let m = norm(across);
+    if !(m > 1e-9 * norm(l.side).max(f64::MIN_POSITIVE)) || !m.is_finite() {
+        return None;
+    }
+    let v = scale(across, 1.0 / m);
+    Some([u, v, cross(u, v)])
+}
+
+/// The corners of a wide loop's path from `start` (see [`WideLoop`]): a Catmull-Rom curve through the
+/// loop's 24 points and the tuck's, eight corners per span.
+fn loop_path(start: [f64; 3], l: &WideLoop) -> Vec<[f64; 3]> {
+    let Some([u, v, w]) = loop_frame(l) else {
+        return Vec::new();
+    };
+    let r = l.radius;
+    // In the loop's frame (along, across, up): the circle about (0, r) entered at its near point,
+    // rising one unit over the last 30 % to cross the rope it laid; then under the far side, up
+    // through the loop, over the near side, and the pull.
+    let mut local: Vec<[f64; 3]> = vec![[0.0; 3]];
+    let n = 24;
+    for k in 1..=n {
+        let a = -std::f64::consts::FRAC_PI_2 + std::f64::consts::TAU * k as f64 / n as f64;
+        let rise = 0.7 * n as f64;
+        let z = if (k as f64) < rise {
+            0.0
+        } else {
+            (k as f64 - rise) / (n as f64 - rise)
+        };
+        local.push([r * a.cos(), r + r * a.sin(), z]);
+    }
+    local.extend([
+        [0.6 * r, -0.4 * r, 0.3],
+        [1.3 * r, 0.1 * r, -1.0],
+        [1.1 * r, 0.5 * r, -1.0],
+        [0.2 * r, r, -1.0],
+        [-0.2 * r, r, 0.0],
+        [-0.5 * r, r, 1.0],
+        [-1.3 * r, r, 1.0],
+        [-1.3 * r - l.exit, r, 1.0],
+    ]);
+    let world = |p: [f64; 3]| {
+        add(
+            start,
+            add(add(scale(u, p[0]), scale(v, p[1])), scale(w, p[2])),
+        )
+    };
+    let pts: Vec<[f64; 3]> = local.into_iter().map(world).collect();
+    // Catmull-Rom through the points (the ends repeated), eight samples per span.
+    let at = |i: isize| pts[i.clamp(0, pts.len() as isize - 1) as usize];
+    let mut out = Vec::new();
+    for i in 0..pts.len() as isize - 1 {
+        let (p0, p1, p2, p3) = (at(i - 1), at(i), at(i + 1), at(i + 2));
+        for j in 1..=8 {
+            let t = j as f64 / 8.0;
+            let (t2, t3) = (t * t, t * t * t);
+            let c = |d: usize| {
+                0.5 * (2.0 * p1[d]
+                    + (p2[d] - p0[d]) * t
+                    + (2.0 * p0[d] - 5.0 * p1[d] + 4.0 * p2[d] - p3[d]) * t2
+                    + (3.0 * p1[d] - p0[d] - 3.0 * p2[d] + p3[d]) * t3)
+            };
+            out.push([c(0), c(1), c(2)]);
+        }
     }
     out
 }
@@ -543,6 +705,41 @@ mod tests {
         let e = Script::parse("name = \"a\"\nmax_step = -1\n[[turn]]\nhand = \"A\"\nchain = \"r\"\njoint = \"head\"\n", "s")
             .unwrap_err();
         assert!(e.contains("max_step"), "{e}");
+    }
+
+    #[test]
+    fn a_wide_loop_needs_a_side_across_its_direction_and_keeps_the_step() {
+        let text = |side: &str| {
+            format!(
+                "name = \"w\"\n[[turn]]\nhand = \"A\"\nchain = \"paper\"\njoint = \"head\"\nwide_loop = {{ outward = [1, 0, 0], side = {side} }}\n"
+            )
+        };
+        let e = Script::parse(&text("[2, 0, 0]"), "w.toml").unwrap_err();
+        assert!(e.contains("not parallel"), "{e}");
+        let s = Script::parse(&text("[0.5, 1, 0]"), "w.toml").unwrap();
+        let l = s.turn[0].wide_loop.unwrap();
+        assert_eq!((l.radius, l.exit), (4.5, 5.4));
+        let p = s.turn[0].targets([0.0; 3], 0.05);
+        let mut prev = [0.0; 3];
+        for q in &p {
+            let d = norm([q[0] - prev[0], q[1] - prev[1], q[2] - prev[2]]);
+            assert!(d <= 0.05 + 1e-12, "{d}");
+            prev = *q;
+        }
+        // The loop lies on the +y side (within a radius and a half of the start), rises one unit to
+        // cross, dips one under, and the pull ends 1.3 radii + exit back along -x, on the loop's
+        // far side.
+        let ys = p.iter().map(|q| q[1]);
+        assert!(ys.clone().fold(f64::MIN, f64::max) > 8.0);
+        assert!(ys.fold(f64::MAX, f64::min) > -3.0);
+        let zs = p.iter().map(|q| q[2]);
+        assert!(zs.clone().fold(f64::MIN, f64::max) > 0.99);
+        assert!(zs.fold(f64::MAX, f64::min) < -0.99);
+        let end = *p.last().unwrap();
+        assert!(
+            (end[0] + 1.3 * 4.5 + 5.4).abs() < 1e-9 && (end[1] - 4.5).abs() < 1e-9,
+            "{end:?}"
+        );
     }
 
     #[test]

@@ -86,7 +86,8 @@ struct Watcher {
 }
 
 impl Watcher {
-    fn start(svc: &Service, chain: u32) -> Watcher {
+    /// Watches `chain`, whose links are `link` long.
+    fn start(svc: &Service, chain: u32, link: f64) -> Watcher {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let mut conn = svc.connect();
@@ -130,7 +131,7 @@ impl Watcher {
                         assert_eq!(seq, next, "a published state was missed");
                         next += 1;
                         if c == chain {
-                            min = min.min(clearance(&pts, 0.25));
+                            min = min.min(clearance(&pts, link));
                             checked += 1;
                         }
                     }
@@ -180,7 +181,7 @@ fn assert_never_passed_through(checked: u64, min: f64, expected_states: u64) {
 fn one_hand_ties_an_overhand_knot_a_trefoil() {
     let svc = knot_service();
     let id = svc.connect().find_chain("overhand").unwrap().unwrap();
-    let w = Watcher::start(&svc, id);
+    let w = Watcher::start(&svc, id, 0.25);
     let dir = tempfile::tempdir().unwrap();
     let svg = dir.path().display().to_string();
     let out = finish(hand(
@@ -206,10 +207,61 @@ fn one_hand_ties_an_overhand_knot_a_trefoil() {
     );
 }
 
+/// The paper's own rope (figure 5: 40 links of unit length, 0.2 thick): one hand ties the overhand
+/// with one wide loop and a tuck, the knot in the middle third of the rope.
+#[test]
+fn one_hand_ties_an_overhand_on_the_papers_forty_unit_links() {
+    let svc = knot_service();
+    let id = svc.connect().find_chain("paper").unwrap().unwrap();
+    let w = Watcher::start(&svc, id, 1.0);
+    let out = finish(hand(&svc, &["--builtin", "overhand-wide"]));
+    let (checked, min) = w.finish();
+    assert!(out.contains("0 locked"), "{out}");
+    assert_never_passed_through(checked, min, 1000);
+    let k = knot_of(&svc, "paper");
+    assert_eq!(k.kind, KnotType::Trefoil, "{k:?}");
+    assert_eq!((k.crossings, k.determinant), (3, 3), "{k:?}");
+    // Where the knot is: the links that touch a non-adjacent link (closer than twice the thickness),
+    // found here from the joints.
+    let mut c = svc.connect();
+    let joints: Vec<V> = c
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap()
+        .joints()
+        .iter()
+        .map(|q| V::new(q.x, q.y, q.z))
+        .collect();
+    let n = joints.len() - 1;
+    assert_eq!(n, 40);
+    let mut touching = Vec::new();
+    for i in 0..n {
+        for j in i + 2..n {
+            let d = clients::check::segment_distance(
+                joints[i],
+                joints[i + 1],
+                joints[j],
+                joints[j + 1],
+            );
+            if d < 2.0 * THICKNESS {
+                touching.extend([i, j]);
+            }
+        }
+    }
+    let (lo, hi) = (
+        touching.iter().min().unwrap(),
+        touching.iter().max().unwrap(),
+    );
+    let middle = (lo + hi) as f64 / 2.0;
+    assert!(
+        (n as f64 / 3.0..=2.0 * n as f64 / 3.0).contains(&middle),
+        "the knot spans links {lo}..={hi}, not around the middle"
+    );
+}
+
 /// Two hand processes, started together, take turns on the 80-unit rope.
 fn two_hands(script: &str, dir: &std::path::Path, svc: &Service) -> (u64, f64) {
     let id = svc.connect().find_chain("reef").unwrap().unwrap();
-    let w = Watcher::start(svc, id);
+    let w = Watcher::start(svc, id, 0.25);
     let rec = |h: &str| {
         dir.join(format!("{script}-{h}.jsonl"))
             .display()
