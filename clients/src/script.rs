@@ -540,14 +540,15 @@ fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
 /// The unit frame of a wide loop: along `outward`, across it toward `side`, and their cross product.
 fn loop_frame(l: &WideLoop) -> Option<[[f64; 3]; 3]> {
     let n = norm(l.outward);
-    if !(n > 0.0 && n.is_finite()) || !l.side.iter().all(|c| c.is_finite()) {
+    if !(n > 0.0 && n.is_finite() && l.side.iter().all(|c| c.is_finite())) {
         return None;
     }
     let u = scale(l.outward, 1.0 / n);
     let d = l.side[0] * u[0] + l.side[1] * u[1] + l.side[2] * u[2];
     let across = add(l.side, scale(u, -d));
     let m = norm(across);
-    if !(m > 1e-9 * norm(l.side).max(f64::MIN_POSITIVE)) || !m.is_finite() {
+    let tiny = 1e-9 * norm(l.side).max(f64::MIN_POSITIVE);
+    if !(m.is_finite() && m > tiny) {
         return None;
     }
     let v = scale(across, 1.0 / m);
