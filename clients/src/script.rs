@@ -230,8 +230,9 @@ impl Script {
 
     /// Perturbs the script as the runs of the knot table do (BENCHMARKS.md, knots): each throw's (and
     /// wide loop's) size by up to ±3 %, each component of its direction by up to ±0.05, its exit by up
-    /// to ±1 unit (kept ≥ 0), and each waypoint by up to ±0.05 per component. One seed gives one script, so the hands of
-    /// a script agree when each perturbs it with the same seed; seed 0 leaves it as it is.
+    /// to ±1 unit (kept ≥ 0), and each waypoint by up to ±0.05 per component. One seed gives one
+    /// script, so the hands of a script agree when each perturbs it with the same seed; seed 0 leaves
+    /// it as it is.
     pub fn perturb(&mut self, seed: u64) {
         if seed == 0 {
             return;
@@ -727,9 +728,8 @@ mod tests {
             assert!(d <= 0.05 + 1e-12, "{d}");
             prev = *q;
         }
-        // The loop lies on the +y side (within a radius and a half of the start), rises one unit to
-        // cross, dips one under, and the pull ends 1.3 radii + exit back along -x, on the loop's
-        // far side.
+        // The loop lies on the +y side (its far side two radii out), rises one unit to cross, dips
+        // one under, and the pull ends 1.3 radii + exit back along -x, level with the loop's centre.
         let ys = p.iter().map(|q| q[1]);
         assert!(ys.clone().fold(f64::MIN, f64::max) > 8.0);
         assert!(ys.fold(f64::MAX, f64::min) > -3.0);

@@ -215,21 +215,9 @@ impl<T: StrandReal + Send> Bundle<T> {
         self.n_strands.div_ceil(LANES)
     }
 
-    /// Block `b`'s joints, strand after strand, each tail first ([`Strands::block_joints`]; nothing
-    /// for a block lost with a dead helper).
-    pub fn block_joints(&self, b: usize, out: &mut Vec<Vector3<T>>) {
-        let first = self.first.n_blocks();
-        if b < first {
-            self.first.block_joints(b, out);
-        } else if let Some(s) = &self.second {
-            s.block_joints(b - first, out);
-        } else {
-            out.clear();
-        }
-    }
-
-    /// [`Bundle::block_joints`] written through `f` straight into `out` ([`Strands::block_joints_into`]);
-    /// returns how many were written (0 for a block lost with a dead helper, or past the end).
+    /// Block `b`'s joints, strand after strand, each tail first, written through `f` straight into
+    /// `out` ([`Strands::block_joints_into`]); returns how many were written (0 for a block lost with a
+    /// dead helper, or past the end).
     pub fn block_joints_into<U>(
         &self,
         b: usize,

@@ -3,10 +3,10 @@
 //! (hybrid) with hands that sleep all the way to each due time, the same with hands that spin the last
 //! stretch, the service in hybrid mode with a spin budget longer than the hands' interval (it spins
 //! while they send and sleeps when they stop), the service spinning with hands that spin the last
-//! stretch and for their responses, the same without the journal (whether
-//! the journal's `write` is in the solve's tail), and the raw echo (the same serving loop, no solver) in that
-//! spinning set-up: what the transport and the machine give a spinning server under the same load,
-//! beside which the service's round trip is read.
+//! stretch and for their responses, the same without the journal (whether the journal's `write` is
+//! in the solve's tail), and the raw echo (the same serving loop, no solver) in that spinning set-up:
+//! what the transport and the machine give a spinning server under the same load, beside which the
+//! service's round trip is read.
 //!
 //! The two hands and the probe share core 1 at fixed phases of the millisecond grid (head 0, tail
 //! 500 µs, probe 750 µs), so their spinning stretches (at most 250 µs each) never overlap: one spinning
@@ -231,7 +231,7 @@ fn share(c: Option<f64>) -> String {
 }
 
 /// Two hands at 1 kHz (the two ends of one rope) on core 1, a probe beside them, and a viewer, with
-/// the service (journal written, but in the set-up without) on core 0, in each set-up.
+/// the service on core 0 (journal written, except in the set-up without), in each set-up.
 pub(super) fn loaded(
     cfg: &BenchConfig,
     scene_arg: &str,
