@@ -18,6 +18,9 @@
 //!   perturbed as the throws are.
 //! * *held, U, wide loop*: the same from the U with both ends held, heading up, the loop on the side
 //!   away from the tail.
+//! * *held (pull-back)*: the held rows again with the held side corrected by pulling its end back
+//!   by a tractrix pass (`tractrix::fixed_base::Strategy::PullBack`) instead of translating the whole
+//!   side back: the slack is given up near the hold.
 //!
 //! A run succeeds when the rope's knot, named by the identification, is the one the script ties.
 //!
@@ -35,6 +38,7 @@ use tractrix::chain::{Chain, MoveOptions};
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, move_joint_colliding,
 };
+use tractrix::fixed_base::Strategy;
 use tractrix::knot::{KnotType, identify};
 
 type V = Vector3<f64>;
@@ -81,6 +85,10 @@ enum Ends {
     /// The U with both ends held, the overhand as one wide loop and a tuck heading up, the loop on
     /// the side away from the tail.
     WideHeld,
+    /// `Held` with the held side corrected by pulling its end back (`Strategy::PullBack`).
+    HeldPull,
+    /// `WideHeld` with the held side corrected by pulling its end back.
+    WideHeldPull,
 }
 
 impl Ends {
@@ -91,6 +99,8 @@ impl Ends {
             Ends::Held => "held, U",
             Ends::Wide => "free, straight, wide loop",
             Ends::WideHeld => "held, U, wide loop",
+            Ends::HeldPull => "held (pull-back), U",
+            Ends::WideHeldPull => "held (pull-back), U, wide loop",
         }
     }
     /// Whether the rope starts in the U.
@@ -99,7 +109,18 @@ impl Ends {
     }
     /// Whether both ends are held.
     fn held(self) -> bool {
-        matches!(self, Ends::Held | Ends::WideHeld)
+        matches!(
+            self,
+            Ends::Held | Ends::WideHeld | Ends::HeldPull | Ends::WideHeldPull
+        )
+    }
+    /// Whether the held sides are corrected by the pull-back.
+    fn pull(self) -> bool {
+        matches!(self, Ends::HeldPull | Ends::WideHeldPull)
+    }
+    /// Whether the script is the wide loop.
+    fn wide(self) -> bool {
+        matches!(self, Ends::Wide | Ends::WideHeld | Ends::WideHeldPull)
     }
 }
 
@@ -252,7 +273,10 @@ fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
         holding: Vec::new(),
     };
     let mut ws = CollisionWorkspace::new();
-    let opts = MoveOptions::default();
+    let mut opts = MoveOptions::default();
+    if ends.pull() {
+        opts.held.strategy = Strategy::PullBack;
+    }
     if ends.held() {
         chain.hold(0).expect("tail");
         chain.hold(n).expect("head");
@@ -261,7 +285,7 @@ fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
     let (mut iters, mut max_iters) = (0u64, 0u32);
     let phases = match ends {
         Ends::Wide => Knot::wide([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], rng),
-        Ends::WideHeld => Knot::wide([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], rng),
+        Ends::WideHeld | Ends::WideHeldPull => Knot::wide([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], rng),
         _ => knot.phases(u, rng),
     };
     for phase in phases {
@@ -383,11 +407,13 @@ fn main() {
             Ends::Held,
             Ends::Wide,
             Ends::WideHeld,
+            Ends::HeldPull,
+            Ends::WideHeldPull,
         ] {
             print!("| {n} | {} | {} |", LENGTH / n as f64, ends.name());
             for knot in knots {
                 // The wide loop is an overhand: no two-handed script.
-                if matches!(ends, Ends::Wide | Ends::WideHeld) && knot != Knot::Overhand {
+                if ends.wide() && knot != Knot::Overhand {
                     print!(" – | – | – |");
                     continue;
                 }

@@ -8,6 +8,12 @@
 //! * [`Strategy::TractrixTwoLink`]: RESOLUTION-TRACTRIX down to the tail of the third link, then the
 //!   closed-form two-link solution (Korein & Badler's algebraic solution of the perfectly constrained 2R
 //!   subchain; in space, two spherical joints, whose elbow circle is resolved toward the current elbow).
+//! * [`Strategy::PullBack`] (not the paper's): RESOLUTION-TRACTRIX with the head moving to the target,
+//!   then RESOLUTION-TRACTRIX again with joint 0 moving back to the base, the rest following it;
+//!   repeated (Korein & Badler's and FABRIK's forward-backward alternation, with tractrix passes). The
+//!   correction dies out from the base toward the head instead of moving the whole chain rigidly: a
+//!   rope held at one end gives up its slack near the hold, and what the head has drawn stays where it
+//!   is (measured in BENCHMARKS.md, knots).
 //!
 //! The paper notes that the closed form "does not work very well when the links are fully stretched out":
 //! the tractrix pulls the distal part toward the target and often leaves joint 2 *outside* the two-link
@@ -41,6 +47,9 @@ pub enum Strategy {
     TranslateBack = 0,
     /// (ii) tractrix down to the third link, closed-form two-link solution for the first two.
     TractrixTwoLink = 1,
+    /// Tractrix to the target, then tractrix pulling joint 0 back to the base, repeated: the
+    /// correction dies out away from the base (not one of the paper's two).
+    PullBack = 2,
 }
 
 /// Options of a fixed-base reach.
@@ -193,7 +202,8 @@ where
     ws.backup.extend_from_slice(chain.links());
     let backup_datum = chain.datum();
     let result = match opts.strategy {
-        Strategy::TranslateBack => translate_back(chain, target, opts, tol),
+        Strategy::TranslateBack => translate_back(chain, target, opts, tol, false),
+        Strategy::PullBack => translate_back(chain, target, opts, tol, true),
         Strategy::TractrixTwoLink if chain.n_links() >= 3 => {
             tractrix_two_link(chain, target, opts, tol)
         }
@@ -221,11 +231,14 @@ where
     result
 }
 
+/// Strategy (i), or with `pull` the pull-back: the base is put back by a tractrix pass from joint 0
+/// (then the rounding translated away, so it lands exactly) instead of a rigid translation.
 fn translate_back<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     target: &Vector<T, D>,
     opts: &ReachOptions<T>,
     tol: T,
+    pull: bool,
 ) -> Result<ReachOutcome<T>, ReachError<T, D>>
 where
     Vector<T, D>: Embed3<T>,
@@ -262,6 +275,9 @@ where
             chain.move_joint(n, mid, &mopts)?;
         }
         chain.move_joint(n, *target, &mopts)?;
+        if pull {
+            chain.move_joint(0, base, &mopts)?;
+        }
         chain.translate_to(base);
         last = residual;
         residual = (chain.head() - target).norm();

@@ -80,7 +80,11 @@ fn random_reachable_targets_converge_with_the_base_fixed() {
             .collect::<Vec<_>>(),
     )
     .unwrap();
-    for strategy in [Strategy::TranslateBack, Strategy::TractrixTwoLink] {
+    for strategy in [
+        Strategy::TranslateBack,
+        Strategy::TractrixTwoLink,
+        Strategy::PullBack,
+    ] {
         for tol in [1e-4, 1e-9] {
             let p = summary(converge_all(&planar, strategy, tol, 1));
             let s = summary(converge_all(&spatial, strategy, tol, 2));
@@ -101,6 +105,19 @@ fn random_reachable_targets_converge_with_the_base_fixed() {
                     (Strategy::TranslateBack, _) => {
                         assert!(
                             (3..=8).contains(&median),
+                            "{strategy:?} {tol:e}: median {median}"
+                        )
+                    }
+                    // The pull-back: about as many iterations as strategy (i), or fewer.
+                    (Strategy::PullBack, 1e-4) => {
+                        assert!(
+                            (1..=4).contains(&median),
+                            "{strategy:?} {tol:e}: median {median}"
+                        )
+                    }
+                    (Strategy::PullBack, _) => {
+                        assert!(
+                            (2..=8).contains(&median),
                             "{strategy:?} {tol:e}: median {median}"
                         )
                     }
