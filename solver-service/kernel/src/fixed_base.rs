@@ -10,10 +10,9 @@
 //!   subchain; in space, two spherical joints, whose elbow circle is resolved toward the current elbow).
 //! * [`Strategy::PullBack`] (not the paper's): RESOLUTION-TRACTRIX with the head moving to the target,
 //!   then RESOLUTION-TRACTRIX again with joint 0 moving back to the base, the rest following it;
-//!   repeated (Korein & Badler's and FABRIK's forward-backward alternation, with tractrix passes). The
-//!   correction dies out from the base toward the head instead of moving the whole chain rigidly: a
-//!   rope held at one end gives up its slack near the hold, and what the head has drawn stays where it
-//!   is (measured in BENCHMARKS.md, knots).
+//!   repeated (FABRIK's forward-backward alternation, with tractrix passes). The correction dies out
+//!   from the base toward the head instead of moving the whole chain rigidly, so a rope held at one
+//!   end gives up its slack near the hold (whether that ties knots: BENCHMARKS.md, knots).
 //!
 //! The paper notes that the closed form "does not work very well when the links are fully stretched out":
 //! the tractrix pulls the distal part toward the target and often leaves joint 2 *outside* the two-link
