@@ -144,7 +144,8 @@
 //! * `precision` ([`Precision`]): 0 chain's, 1 f64, 2 f32 (must match the chain's declared precision).
 //! * `substep_mode` ([`SubstepMode`]): 0 chain default, 1 `substeps` equal substeps, 2 no substep longer
 //!   than `max_step` × the chain's shortest link.
-//! * `strategy` ([`WireStrategy`]): 0 default (translate back), 1 translate back, 2 tractrix + two-link.
+//! * `strategy` ([`WireStrategy`]): 0 default (translate back), 1 translate back, 2 tractrix + two-link,
+//!   3 pull-back (tractrix, then a tractrix pass pulling the base end back).
 //! * `flags`: bit 0 [`FLAG_ANGLES`] (reach and query: append joint rotations), bit 1 [`FLAG_POSE`] (a
 //!   bundle's move by one rigid motion of its heads).
 //! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base, 2 bundle. `collision`: bit 0 self, bit 1 obstacles.
@@ -520,6 +521,9 @@ pub enum WireStrategy {
     TranslateBack = 1,
     #[cfg_attr(feature = "clap", value(name = "two-link"))]
     TractrixTwoLink = 2,
+    /// Tractrix to the target, then a tractrix pass pulling the base end back to the base.
+    #[cfg_attr(feature = "clap", value(name = "pull-back"))]
+    PullBack = 3,
 }
 
 /// What a chain is.
@@ -562,7 +566,7 @@ wire_enum_from_u32! {
     WireMethod { Default, Tractrix, Paper, FollowTheLeader }
     Precision { Default, F64, F32 }
     SubstepMode { Default, Fixed, MaxStep }
-    WireStrategy { Default, TranslateBack, TractrixTwoLink }
+    WireStrategy { Default, TranslateBack, TractrixTwoLink, PullBack }
     ChainKind { Free, FixedBase, Bundle }
 }
 

@@ -12,9 +12,9 @@
 //!
 //! Field names are those of [`RequestHeader`]; `chain` is a name or an index, `joint` is `"head"`,
 //! `"tail"` or an index, points have 2 or 3 coordinates (a missing `z` is 0), `method` is `tractrix`,
-//! `paper` or `ftl`, `precision` is `f64` or `f32`, `strategy` is `translate-back` or `two-link`. For
-//! `instrument`, `joint` is the instrument's index in the chain's `instruments` list, `target` its new
-//! centre and `axis` (capsules only) its new axis direction. A `move` with `rotation` (a rotation
+//! `paper` or `ftl`, `precision` is `f64` or `f32`, `strategy` is `translate-back`, `two-link` or
+//! `pull-back`. For `instrument`, `joint` is the instrument's index in the chain's `instruments` list,
+//! `target` its new centre and `axis` (capsules only) its new axis direction. A `move` with `rotation` (a rotation
 //! vector, axis × angle in radians) is a bundle's pose move ([`crate::FLAG_POSE`]): every head by the
 //! rigid motion `R(rotation)·h0 + target`. Unknown fields are an error.
 
@@ -129,8 +129,9 @@ pub fn parse_strategy(s: &str) -> Result<WireStrategy, String> {
     match s {
         "translate-back" => Ok(WireStrategy::TranslateBack),
         "two-link" => Ok(WireStrategy::TractrixTwoLink),
+        "pull-back" => Ok(WireStrategy::PullBack),
         _ => Err(format!(
-            "unknown strategy {s:?} (expected translate-back or two-link)"
+            "unknown strategy {s:?} (expected translate-back, two-link or pull-back)"
         )),
     }
 }
@@ -373,6 +374,18 @@ mod tests {
         assert_eq!(h.method, WireMethod::FollowTheLeader as u32);
         assert_eq!((h.substep_mode, h.substeps), (SubstepMode::Fixed as u32, 8));
         assert_eq!(p, vec![Vec3::new(1.0, 2.0, 0.0)]);
+    }
+
+    #[test]
+    fn strategies_by_name() {
+        for (name, w) in [
+            ("translate-back", WireStrategy::TranslateBack),
+            ("two-link", WireStrategy::TractrixTwoLink),
+            ("pull-back", WireStrategy::PullBack),
+        ] {
+            assert_eq!(parse_strategy(name), Ok(w));
+        }
+        assert!(parse_strategy("push").unwrap_err().contains("pull-back"));
     }
 
     #[test]

@@ -350,6 +350,7 @@ pub fn strategy_from_wire(s: WireStrategy) -> Option<Strategy> {
         WireStrategy::Default => None,
         WireStrategy::TranslateBack => Some(Strategy::TranslateBack),
         WireStrategy::TractrixTwoLink => Some(Strategy::TractrixTwoLink),
+        WireStrategy::PullBack => Some(Strategy::PullBack),
     }
 }
 
@@ -385,7 +386,7 @@ pub(crate) fn check_header(h: &RequestHeader, allowed: u32) -> Result<Checked, R
     let method: WireMethod = wire_enum(h.method, "method", "0..=3")?;
     let precision: Precision = wire_enum(h.precision, "precision", "0..=2")?;
     let substep_mode: SubstepMode = wire_enum(h.substep_mode, "substep_mode", "0..=2")?;
-    let strategy: WireStrategy = wire_enum(h.strategy, "strategy", "0..=2")?;
+    let strategy: WireStrategy = wire_enum(h.strategy, "strategy", "0..=3")?;
     // Every float option is checked, whether or not the command uses it: NonFinite means what it says
     // for any field.
     if !h.max_step.is_finite() {

@@ -103,6 +103,7 @@ fn angles(c: &Chain<f64, 2>) -> Vec<f64> {
 enum Solver {
     TranslateBack,
     TwoLink,
+    PullBack,
     Fabrik,
     Dls,
 }
@@ -112,6 +113,7 @@ impl Solver {
         match self {
             Solver::TranslateBack => "tractrix, translate back (i)",
             Solver::TwoLink => "tractrix + two-link (ii)",
+            Solver::PullBack => "tractrix, pull back (not the paper's)",
             Solver::Fabrik => "FABRIK",
             Solver::Dls => "pseudo-inverse (DLS)",
         }
@@ -138,6 +140,7 @@ fn main() {
     let solvers = [
         Solver::TranslateBack,
         Solver::TwoLink,
+        Solver::PullBack,
         Solver::Fabrik,
         Solver::Dls,
     ];
@@ -163,12 +166,12 @@ fn main() {
                 let before = angles(c);
                 let t0 = Instant::now();
                 let res: Option<(u32, f64)> = match s {
-                    Solver::TranslateBack | Solver::TwoLink => {
+                    Solver::TranslateBack | Solver::TwoLink | Solver::PullBack => {
                         let opts = ReachOptions {
-                            strategy: if *s == Solver::TwoLink {
-                                Strategy::TractrixTwoLink
-                            } else {
-                                Strategy::TranslateBack
+                            strategy: match s {
+                                Solver::TwoLink => Strategy::TractrixTwoLink,
+                                Solver::PullBack => Strategy::PullBack,
+                                _ => Strategy::TranslateBack,
                             },
                             tolerance: tol,
                             ..ReachOptions::default()

@@ -27,7 +27,7 @@
 //! | `method` | `"tractrix"` \| `"paper"` \| `"ftl"` | `"tractrix"` | default single-link method |
 //! | `substeps` / `max_step` | integer ≥ 1 / fraction of the shortest link | `substeps = 1` | default substep policy |
 //! | `max_substeps` | integer ≥ 1 | 65536 | a move needing more substeps is refused |
-//! | `strategy` | `"translate-back"` \| `"two-link"` | `"translate-back"` | fixed-base strategy |
+//! | `strategy` | `"translate-back"` \| `"two-link"` \| `"pull-back"` | `"translate-back"` | fixed-base strategy (also of a free chain's held sides) |
 //! | `tolerance` | number in (0, 0.1] | 1e-9 | fixed-base tolerance, fraction of the total length |
 //! | `max_iterations` | integer 1..=100000 | 1000 | fixed-base iteration limit |
 //!

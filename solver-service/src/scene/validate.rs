@@ -584,6 +584,7 @@ fn chain(
         &[
             ("translate-back", Strategy::TranslateBack),
             ("two-link", Strategy::TractrixTwoLink),
+            ("pull-back", Strategy::PullBack),
         ],
         Strategy::TranslateBack,
     )?;

@@ -123,6 +123,15 @@ fn every_command_answers() {
     assert!(r.is_ok(), "{}", r.header.reason_str());
     assert!(dist(r.joints()[40], path[49]) < 1e-12);
 
+    // reach by the pull-back: the base stays, the head lands
+    let mut h = req(Command::Reach, 2);
+    h.strategy = WireStrategy::PullBack as u32;
+    let target = Vec3::new(-0.7, 1.2, 0.0);
+    let r = c.call(h, &[target]).unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    assert_eq!(r.joints()[0], Vec3::default(), "the base never moves");
+    assert!(dist(r.joints()[10], target) <= 1e-9 * 2.0);
+
     // reach with joint rotations
     let mut h = req(Command::Reach, 2);
     h.flags = FLAG_ANGLES;
