@@ -20,8 +20,8 @@ runs the ``hand`` processes of a built-in ``script`` (both hands of a two-handed
 perturbed by ``seed`` (``hand run --perturb``), names the knot, reads the final joints with the Python
 client and measures the link-length error here, from those joints. Knobs::
 
-    script       built-in script: overhand, square, granny, or their U forms overhand-u, square-u,
-                 granny-u (default overhand)
+    script       built-in script: overhand, square, granny, their U forms overhand-u, square-u,
+                 granny-u, or overhand-wide (one wide loop: the overhand on unit links; default overhand)
     expect       the knot the script ties (default: trefoil for the overhands, square, granny)
     start        straight (along x from the origin) or u (hanging in a U: a circular arc between ends
                  0.3 length apart on the x axis, both pointing up, +y; the start of the U scripts)
@@ -97,9 +97,11 @@ DEFAULTS: dict[str, Any] = {
     "reps": 3,
 }
 EXPECT = {"overhand": "trefoil", "square": "square", "granny": "granny",
-          "overhand-u": "trefoil", "square-u": "square", "granny-u": "granny"}
+          "overhand-u": "trefoil", "square-u": "square", "granny-u": "granny",
+          "overhand-wide": "trefoil"}
 HANDS = {"overhand": ["A"], "square": ["A", "B"], "granny": ["A", "B"],
-         "overhand-u": ["A"], "square-u": ["A", "B"], "granny-u": ["A", "B"]}
+         "overhand-u": ["A"], "square-u": ["A", "B"], "granny-u": ["A", "B"],
+         "overhand-wide": ["A"]}
 
 
 def episode_id(ep: dict[str, Any]) -> str:

@@ -1,4 +1,4 @@
-//! `tractrix_sweep` (clients/python, on Ray): a sweep of 22 short knot episodes on a local Ray of two
+//! `tractrix_sweep` (clients/python, on Ray): a sweep of 23 short knot episodes on a local Ray of two
 //! CPUs, each episode its own service on a unique prefix driven by the `hand` binaries, and 2 accuracy
 //! episodes (the `episode` binary); resumed, with two failing episodes as rows. The checks are in
 //! `sweep_check.py`.

@@ -37,8 +37,9 @@ def main():
         {"script": "overhand-u", "start": "u", "anchors": [0], "grasp": True, "links": 40, "max_step": 0.5,
          "seed": 1},
         {"script": "square-u", "start": "u", "grasp": False, "links": 40, "max_step": 0.5, "seed": 2},
+        {"script": "overhand-wide", "links": 40, "max_step": 0.5, "seed": 3},
     ]
-    for ep in episodes[-2:]:
+    for ep in episodes[-3:]:
         ep["id"] = ts.episode_id(ep)
     episodes += [
         {"id": "bad-links", "links": 0, "max_step": 0.5},
@@ -46,18 +47,18 @@ def main():
     ]
     episodes += ts.grid({"kind": "accuracy", "scenario": "helix", "reps": 1}, method=["tractrix", "ftl"],
                         substeps=[2])
-    check(len(episodes) == 24, f"24 episodes, not {len(episodes)}")
+    check(len(episodes) == 25, f"25 episodes, not {len(episodes)}")
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
 
     first = ts.sweep(episodes[:11], out, bin_dir=bin_dir, progress=False)
     check(len(first) == 11, f"first part: 11 rows, not {len(first)}")
     rows = ts.sweep(episodes, out, bin_dir=bin_dir, progress=False)
-    check(len(rows) == 24, f"all: 24 rows, not {len(rows)}")
+    check(len(rows) == 25, f"all: 25 rows, not {len(rows)}")
 
     # Resumed: the first part's rows are in the file as they were (a re-run would differ in its
     # timings and worker).
     on_disk = {r["id"]: r for r in pq.read_table(out).to_pylist()}
-    check(len(on_disk) == 24, f"24 distinct ids in the file, not {len(on_disk)}")
+    check(len(on_disk) == 25, f"25 distinct ids in the file, not {len(on_disk)}")
     for r in first:
         d = on_disk[r["id"]]
         check(d["worker"] == r["worker"] and d["seconds"] == r["seconds"] or (math.isnan(d["seconds"]) and math.isnan(r["seconds"])),
