@@ -727,12 +727,21 @@ where
             return MoveOutcome::default();
         }
         let sd = delta / T::lit(k as f64);
-        let mut fallbacks = 0u32;
-        for _ in 0..k {
+        let fallbacks = if k == 1 {
             let (fb, _) = self.tail_side(joint, &sd, method, 0);
             let n = self.links.len();
-            fallbacks = fallbacks.saturating_add(fb + self.head_side(joint, &sd, method, n));
-        }
+            fb + self.head_side(joint, &sd, method, n)
+        } else {
+            match method {
+                Method::Tractrix => {
+                    self.waves(joint, &sd, k, |t, s, l| (tractrix_step(t, s, l), false))
+                }
+                Method::FollowTheLeader => self.waves(joint, &sd, k, |t, s, l| {
+                    (follow_the_leader_step(t, s, l), false)
+                }),
+                Method::TractrixPaper => self.waves(joint, &sd, k, paper_or_closed_form),
+            }
+        };
         // The moved joint lands on its target: it becomes the datum.
         self.place_origin_from(joint, target);
         MoveOutcome {
@@ -740,6 +749,32 @@ where
             paper_fallbacks: fallbacks,
             ..MoveOutcome::default()
         }
+    }
+
+    /// `k` substeps of `s` of joint `m`, both sides, as wavefronts of up to [`MAX_WAVE`] substeps in
+    /// flight. The two sides share no link, so each side's substeps can run to the end before the other
+    /// side's start; within a side, substep `j` of link `i` needs only link `i` after substep `j − 1` and
+    /// the shift of link `i − 1` at substep `j`, so it runs beside substep `j − 1` of link `i + 1`. The
+    /// same operations on the same inputs as substep after substep: the result is equal bit for bit
+    /// (the kernel's tests check it), only the independent divisions, square roots and exponentials
+    /// overlap in the CPU. Returns the paper-form fallbacks.
+    #[inline(always)]
+    fn waves<F>(&mut self, m: usize, s: &Vector<T, D>, k: u32, f: F) -> u32
+    where
+        F: Fn(&Vector<T, D>, &Vector<T, D>, T) -> (LinkStep<T, D>, bool),
+    {
+        let (tail, head) = self.links.split_at_mut(m);
+        let (tail_lengths, head_lengths) = self.lengths.split_at(m);
+        let mut fallbacks = 0u32;
+        let mut left = k as usize;
+        while left > 0 {
+            let w = left.min(MAX_WAVE);
+            fallbacks = fallbacks
+                .saturating_add(wave::<T, D, true, F>(tail, tail_lengths, s, w, &f))
+                .saturating_add(wave::<T, D, false, F>(head, head_lengths, s, w, &f));
+            left -= w;
+        }
+        fallbacks
     }
 
     /// One substep: joint `m` moves by `s`; links toward the tail and toward the head follow outward.
@@ -852,6 +887,51 @@ where
         }
         (fallbacks, shift)
     }
+}
+
+/// Most substeps one wavefront keeps in flight ([`Chain::move_joint`] with `k ≥ 2` substeps); more
+/// substeps run as several wavefronts. Two in flight already hide most of a step's latency on the
+/// machine the throughput bench ran on; more cost nothing but a few hundred bytes of stack.
+pub const MAX_WAVE: usize = 16;
+
+/// `w ≤ MAX_WAVE` substeps of `s` along one side's links, as a wavefront: at diagonal `d`, substep `j`
+/// steps the `(d − j)`-th link from the moved joint. `REV` is the tail side: its links are walked from
+/// the last to the first and stepped reversed (`−l`), exactly as [`Chain::sweep_tail_side`] does.
+#[inline(always)]
+fn wave<T: Real, const D: usize, const REV: bool, F>(
+    links: &mut [Vector<T, D>],
+    lengths: &[T],
+    s: &Vector<T, D>,
+    w: usize,
+    f: &F,
+) -> u32
+where
+    F: Fn(&Vector<T, D>, &Vector<T, D>, T) -> (LinkStep<T, D>, bool),
+{
+    let n = links.len();
+    if n == 0 {
+        return 0;
+    }
+    let mut lanes = [*s; MAX_WAVE];
+    let mut fallbacks = 0u32;
+    for d in 0..n + w - 1 {
+        let lo = d.saturating_sub(n - 1);
+        let hi = d.min(w - 1);
+        for (j, lane) in lanes[lo..=hi].iter_mut().enumerate() {
+            let along = d - lo - j;
+            let i = if REV { n - 1 - along } else { along };
+            let (st, fb) = if REV {
+                let (st, fb) = f(&(-links[i]), lane, lengths[i]);
+                (LinkStep { link: -st.link, ..st }, fb)
+            } else {
+                f(&links[i], lane, lengths[i])
+            };
+            links[i] = st.link;
+            *lane = st.tail_shift;
+            fallbacks += fb as u32;
+        }
+    }
+    fallbacks
 }
 
 /// The paper's form where it is defined, the closed form (counted as a fallback) where it is not.
