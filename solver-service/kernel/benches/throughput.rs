@@ -8,7 +8,8 @@
 //!    substep (as `Chain::move_joint` does), against a wavefront that runs substep `s` of link `i`
 //!    beside substep `s − 1` of link `i + 1` (they are independent), keeping up to `k` steps in flight.
 //!    Both orders do the same operations on the same inputs: the bench checks the results are identical
-//!    bit for bit.
+//!    bit for bit. A third column times the kernel's own `Chain::move_joint` on the same rope and
+//!    moves (it runs `k ≥ 2` substeps as such wavefronts), checked against the loops to 1e-12.
 //! 2. **Many chains**: hair, 10⁴ strands of 20 links, every head moved each frame; strands one after
 //!    another, against groups of G strands advanced link by link together (G independent steps in
 //!    flight).
@@ -24,6 +25,7 @@ use nalgebra::Vector3;
 use std::hint::black_box;
 use std::time::Instant;
 use tractrix::link::tractrix_step;
+use tractrix::{Chain, MoveOptions, Substeps};
 
 type V = Vector3<f64>;
 
@@ -40,12 +42,14 @@ fn rope(n: usize) -> Vec<V> {
 
 /// `k` substeps of `delta / k`, one after another. Returns the tail's total shift.
 fn sequential(links: &mut [V], delta: V, k: usize) -> V {
+    // The length from memory, as the kernel reads it (a literal 1.0 would fold divisions away).
+    let len = black_box(1.0);
     let sub = delta / k as f64;
     let mut tail = V::zeros();
     for _ in 0..k {
         let mut s = sub;
         for l in links.iter_mut() {
-            let st = tractrix_step(l, &s, 1.0);
+            let st = tractrix_step(l, &s, len);
             *l = st.link;
             s = st.tail_shift;
         }
@@ -56,6 +60,7 @@ fn sequential(links: &mut [V], delta: V, k: usize) -> V {
 
 /// The same substeps as a wavefront: at diagonal `d`, lane `s` steps link `d − s`.
 fn wavefront(links: &mut [V], delta: V, k: usize, lanes: &mut Vec<V>) -> V {
+    let len = black_box(1.0);
     let n = links.len();
     lanes.clear();
     lanes.resize(k, delta / k as f64);
@@ -65,7 +70,7 @@ fn wavefront(links: &mut [V], delta: V, k: usize, lanes: &mut Vec<V>) -> V {
         let hi = d.min(k - 1);
         for (s, lane) in lanes.iter_mut().enumerate().take(hi + 1).skip(lo) {
             let i = d - s;
-            let st = tractrix_step(&links[i], lane, 1.0);
+            let st = tractrix_step(&links[i], lane, len);
             links[i] = st.link;
             *lane = st.tail_shift;
         }
@@ -75,6 +80,13 @@ fn wavefront(links: &mut [V], delta: V, k: usize, lanes: &mut Vec<V>) -> V {
         }
     }
     tail
+}
+
+/// The bench's rope as a kernel chain (link vectors `Xᵢ − Xᵢ₋₁` tail first, joint `n` the head).
+fn as_chain(links: &[V]) -> Chain<f64, 3> {
+    let l: Vec<V> = links.iter().rev().map(|l| -l).collect();
+    let n = l.len();
+    Chain::from_raw_parts(V::zeros(), l, vec![1.0; n]).expect("a unit rope")
 }
 
 fn head_move(frame: usize) -> V {
@@ -94,23 +106,43 @@ fn main() {
          (medians of {batches} batches)\n"
     );
     println!(
-        "| substeps k | substep after substep, median ns | wavefront, median ns \
-         | speed-up (after ÷ wavefront) |"
+        "| substeps k | substep after substep (bench loop), median ns | wavefront (bench loop), median ns \
+         | speed-up (after ÷ wavefront) | kernel `Chain::move_joint`, median ns | speed-up (after ÷ kernel) |"
     );
-    println!("|---:|---:|---:|---:|");
+    println!("|---:|---:|---:|---:|---:|---:|");
     for k in [1usize, 2, 4, 8, 16, 32] {
         let mut a = rope(1000);
         let mut b = a.clone();
+        let mut c = as_chain(&a);
+        let opts = MoveOptions {
+            substeps: Substeps::Fixed(k as u32),
+            ..MoveOptions::default()
+        };
         let mut lanes = Vec::new();
-        // Same results, bit for bit.
+        // Same results, bit for bit; the kernel's to rounding (it divides the move from where it
+        // summed the head).
         for f in 0..5 {
             let ta = sequential(&mut a, head_move(f), k);
             let tb = wavefront(&mut b, head_move(f), k, &mut lanes);
             assert_eq!(a, b, "k = {k}: the wavefront changed the result");
             assert_eq!(ta, tb, "k = {k}: the tail shifts differ");
+            let head = c.head_index();
+            c.move_joint(head, c.head() + head_move(f), &opts).unwrap();
         }
+        // Where the head is: the last target, exactly (the kernel lands it there).
+        let mut at = c.head();
+        let off = as_chain(&a)
+            .links()
+            .iter()
+            .zip(c.links())
+            .map(|(x, y)| (x - y).amax())
+            .fold(0.0, f64::max);
+        assert!(
+            off < 1e-12,
+            "k = {k}: the kernel differs from the loops by {off:e}"
+        );
         let moves = (400 / k).max(4);
-        let (mut ts, mut tw) = (Vec::new(), Vec::new());
+        let (mut ts, mut tw, mut tk) = (Vec::new(), Vec::new(), Vec::new());
         for batch in 0..batches {
             let t0 = Instant::now();
             for f in 0..moves {
@@ -127,10 +159,22 @@ fn main() {
                 ));
             }
             tw.push(t0.elapsed().as_nanos() as f64 / (moves * k * 1000) as f64);
+            let head = c.head_index();
+            let t0 = Instant::now();
+            for f in 0..moves {
+                at += head_move(batch * moves + f);
+                black_box(c.move_joint(head, at, &opts).unwrap());
+            }
+            tk.push(t0.elapsed().as_nanos() as f64 / (moves * k * 1000) as f64);
         }
         let (s50, _) = stats(&mut ts);
         let (w50, _) = stats(&mut tw);
-        println!("| {k} | {s50:.1} | {w50:.1} | {:.2} |", s50 / w50);
+        let (k50, _) = stats(&mut tk);
+        println!(
+            "| {k} | {s50:.1} | {w50:.1} | {:.2} | {k50:.1} | {:.2} |",
+            s50 / w50,
+            s50 / k50
+        );
     }
 
     println!(

@@ -915,20 +915,30 @@ where
     let mut lanes = [*s; MAX_WAVE];
     let mut fallbacks = 0u32;
     for d in 0..n + w - 1 {
+        // Substeps lo..=hi are in flight; substep j is at the (d − j)-th link from the moved joint, so
+        // the links stepped form one contiguous run (zipped, not indexed: no bounds check per step).
         let lo = d.saturating_sub(n - 1);
         let hi = d.min(w - 1);
-        for (j, lane) in lanes[lo..=hi].iter_mut().enumerate() {
-            let along = d - lo - j;
-            let i = if REV { n - 1 - along } else { along };
-            let (st, fb) = if REV {
-                let (st, fb) = f(&(-links[i]), lane, lengths[i]);
-                (LinkStep { link: -st.link, ..st }, fb)
-            } else {
-                f(&links[i], lane, lengths[i])
-            };
-            links[i] = st.link;
-            *lane = st.tail_shift;
-            fallbacks += fb as u32;
+        let lanes = &mut lanes[lo..=hi];
+        if REV {
+            // The (d − j)-th from the moved joint is index n − 1 + j − d: rising with j.
+            let run = n - 1 + lo - d..=n - 1 + hi - d;
+            for ((l, &len), lane) in links[run.clone()].iter_mut().zip(&lengths[run]).zip(lanes) {
+                let (st, fb) = f(&(-*l), lane, len);
+                *l = -st.link;
+                *lane = st.tail_shift;
+                fallbacks += fb as u32;
+            }
+        } else {
+            // Index d − j: falling with j.
+            let run = d - hi..=d - lo;
+            let steps = links[run.clone()].iter_mut().zip(&lengths[run]).rev();
+            for ((l, &len), lane) in steps.zip(lanes) {
+                let (st, fb) = f(l, lane, len);
+                *l = st.link;
+                *lane = st.tail_shift;
+                fallbacks += fb as u32;
+            }
         }
     }
     fallbacks
