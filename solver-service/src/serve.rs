@@ -6,10 +6,14 @@
 //!
 //! 1. receive it (header + target slice, read in place in shared memory);
 //! 2. [`Handler::handle`] answers it: a response header, and whether the state changed;
-//! 3. loan the response slice and stream [`Handler::elements`] **directly into it**; [`Handler::finish`]
-//!    reads what was written (the moved joint, for the residual) and completes the header;
-//! 4. for a change, copy the joints just written into a state-stream sample (no second pass over the
-//!    chain), send the response, wake the client if it asked, publish the state.
+//! 3. loan the response slice and write [`Handler::elements`] into it (gathered by a tight loop into a
+//!    reused buffer and copied at once, or, for a bundle's megabytes, streamed straight in);
+//!    [`Handler::finish`] reads what was written (the moved joint, for the residual) and completes
+//!    the header;
+//! 4. send the response and wake the client if it asked; for a change, publish the joints just
+//!    written on the state stream (no second pass over the chain), from the buffer after the
+//!    response has gone, so the client does not wait for the viewers' sample (a sample of more than
+//!    [`DEFER_STATE_UP_TO`] elements, a bundle's, is copied from the response before it goes).
 //!
 //! Waiting ([`WaitMode`]): `spin` polls without pause (one core at 100 %, the lowest latency), `event`
 //! sleeps on a WaitSet until a client's notification (no CPU when idle, one wake-up per request),
@@ -25,6 +29,8 @@ use iceoryx2::port::server::Server;
 use iceoryx2::prelude::*;
 use iceoryx2::response_mut::ResponseMut;
 use iceoryx2::response_mut_uninit::ResponseMutUninit;
+use iceoryx2::sample_mut::SampleMut;
+use iceoryx2::sample_mut_uninit::SampleMutUninit;
 use iceoryx2::service::Service;
 use iceoryx2::waitset::WaitSetRunResult;
 use shared::{
@@ -255,6 +261,16 @@ pub trait ElementSink {
     fn take<I: Iterator<Item = Vec3>>(self, it: I) -> Self::Out;
 }
 
+/// Gathers the first `.1` elements into a buffer (the loop's scratch; no allocation once warm).
+struct Gather<'a>(&'a mut Vec<Vec3>, usize);
+
+impl ElementSink for Gather<'_> {
+    type Out = ();
+    fn take<I: Iterator<Item = Vec3>>(self, it: I) {
+        self.0.extend(it.take(self.1));
+    }
+}
+
 /// Writes elements into a loaned response slice.
 struct Fill<S: Service>(ResponseMutUninit<S, [MaybeUninit<Vec3>], ResponseHeader>);
 
@@ -305,6 +321,8 @@ pub fn serve<S: Service, H: Handler>(
 where
     Listener<S>: SynchronousMultiplexing,
 {
+    // A small state sample's contents while its response is sent first (no allocation once warm).
+    let mut scratch: Vec<Vec3> = Vec::new();
     let mut checks = Checks {
         next: Instant::now() + CHECK_EVERY,
         stop: false,
@@ -313,7 +331,7 @@ where
     match opts.wait {
         WaitMode::Spin => {
             while !checks.stop {
-                if serve_pending(ports, handler)? == 0 {
+                if serve_pending(ports, handler, &mut scratch)? == 0 {
                     std::hint::spin_loop();
                 }
                 checks.run(ports, handler);
@@ -342,9 +360,9 @@ where
                     Err(e) => return Err(format!("WaitSet: {e:?}")),
                 }
                 // Serve even without a notification: a polling client may not notify.
-                let served = serve_pending(ports, handler)?;
+                let served = serve_pending(ports, handler, &mut scratch)?;
                 if opts.wait == WaitMode::Hybrid && served > 0 {
-                    spin_while_busy(ports, handler, opts.spin_budget, &mut checks)?;
+                    spin_while_busy(ports, handler, opts.spin_budget, &mut checks, &mut scratch)?;
                 }
                 checks.next = Instant::now();
                 checks.run(ports, handler);
@@ -387,11 +405,12 @@ fn spin_while_busy<S: Service, H: Handler>(
     handler: &mut H,
     budget: Duration,
     checks: &mut Checks,
+    scratch: &mut Vec<Vec3>,
 ) -> Result<(), String> {
     let mut last = Instant::now();
     loop {
         while last.elapsed() < budget {
-            if serve_pending(ports, handler)? > 0 {
+            if serve_pending(ports, handler, scratch)? > 0 {
                 last = Instant::now();
             } else {
                 std::hint::spin_loop();
@@ -405,17 +424,29 @@ fn spin_while_busy<S: Service, H: Handler>(
         // request that landed after the last poll has its notification dropped here, and would otherwise
         // wait for the next tick (the loaded latency bench caught it).
         let _ = ports.wake_listener.try_wait(|_| {});
-        if serve_pending(ports, handler)? == 0 {
+        if serve_pending(ports, handler, scratch)? == 0 {
             return Ok(());
         }
         last = Instant::now();
     }
 }
 
+/// The largest state sample (elements) published after its response (kept in a reused buffer
+/// meanwhile): a chain of tens of thousands of links. Larger ones (bundles) are copied from the
+/// response before it is sent, which spares copying megabytes twice.
+const DEFER_STATE_UP_TO: usize = 1 << 16;
+
 /// Serves every request waiting; returns how many.
+///
+/// Two ways to write a response, by size. Up to [`DEFER_STATE_UP_TO`] elements (a chain): the
+/// elements are gathered into `scratch` by a tight loop, copied into the loaned response at once,
+/// and after the response has gone the state sample is copied from `scratch`, so the client never
+/// waits for the viewers. Above (a bundle's megabytes): the elements are streamed straight into the
+/// loaned response and the state sample copied from it before it goes, to spare a third copy.
 fn serve_pending<S: Service, H: Handler>(
     ports: &ServerPorts<S>,
     handler: &mut H,
+    scratch: &mut Vec<Vec3>,
 ) -> Result<usize, String> {
     let mut served = 0;
     while let Some(req) = ports.server.receive().map_err(err("receive"))? {
@@ -440,28 +471,46 @@ fn serve_pending<S: Service, H: Handler>(
                 continue;
             }
         };
-        let mut resp = handler.feed(&header, Fill(slot));
+        let small = n <= DEFER_STATE_UP_TO;
+        let mut resp = if small {
+            scratch.clear();
+            handler.feed(&header, Gather(scratch, n));
+            scratch.resize(n, Vec3::default());
+            slot.write_from_slice(scratch)
+        } else {
+            handler.feed(&header, Fill(slot))
+        };
         handler.finish(&mut header, resp.payload());
         *resp.user_header_mut() = header;
-        // The sample: the response's joints, held joints and instruments (not its rotations).
-        let parts = shared::Parts::of_response(&header, resp.payload());
-        let (joints, held, instruments) = (parts.joints, parts.held, parts.instruments);
         let stream = if bundle {
             &ports.bundle_state
         } else {
             &ports.state
         };
-        let state = match stream {
-            Some(publisher) if changed => match publisher
-                .loan_slice_uninit(joints.len() + held.len() + instruments.len())
-            {
-                Ok(s) => {
-                    // A copy of the response's elements: one memcpy when there are only joints (a
-                    // bundle, a chain without holds or instruments), else element by element.
-                    let mut s = if held.is_empty() && instruments.is_empty() {
+        let publisher = stream.as_ref().filter(|_| changed);
+        // The sample: the response's joints, held joints and instruments (not its rotations).
+        let parts = shared::Parts::of_response(&header, resp.payload());
+        let (nj, na) = (parts.joints.len(), header.n_angles as usize);
+        let n_state = nj + parts.held.len() + parts.instruments.len();
+        let state_header = StateHeader {
+            sequence: header.sequence,
+            chain: header.chain,
+            n_joints: nj as u32,
+            command: request.command,
+            n_held: parts.held.len() as u32,
+            request_id: request.request_id,
+            n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize) as u32,
+            reserved: [0; 3],
+        };
+        let early = match publisher {
+            Some(p) if !small => {
+                let (joints, held, instruments) = (parts.joints, parts.held, parts.instruments);
+                state_sample(p, n_state, state_header, |s| {
+                    // One memcpy when there are only joints (a bundle), else element by element.
+                    if held.is_empty() && instruments.is_empty() {
                         s.write_from_slice(joints)
                     } else {
-                        let (nj, nh) = (joints.len(), held.len());
+                        let nh = held.len();
                         s.write_from_fn(|i| {
                             if i < nj {
                                 joints[i]
@@ -471,25 +520,9 @@ fn serve_pending<S: Service, H: Handler>(
                                 instruments.get(i - nj - nh).copied().unwrap_or_default()
                             }
                         })
-                    };
-                    *s.user_header_mut() = StateHeader {
-                        sequence: header.sequence,
-                        chain: header.chain,
-                        n_joints: joints.len() as u32,
-                        command: request.command,
-                        n_held: held.len() as u32,
-                        request_id: request.request_id,
-                        n_instruments: (instruments.len() / shared::INSTRUMENT_ELEMENTS as usize)
-                            as u32,
-                        reserved: [0; 3],
-                    };
-                    Some(s)
-                }
-                Err(e) => {
-                    eprintln!("solver-service: cannot loan a state sample: {e:?}");
-                    None
-                }
-            },
+                    }
+                })
+            }
             _ => None,
         };
         if let Err(e) = resp.send() {
@@ -497,11 +530,42 @@ fn serve_pending<S: Service, H: Handler>(
         }
         ports.wake_client(request.listener_id());
         drop(req);
-        if let Some(s) = state
+        let late = match publisher {
+            Some(p) if small => {
+                // The response's elements without its rotations.
+                scratch.drain(nj..nj + na);
+                state_sample(p, n_state, state_header, |s| s.write_from_slice(scratch))
+            }
+            _ => None,
+        };
+        if let Some(s) = early.or(late)
             && let Err(e) = s.send()
         {
             eprintln!("solver-service: state not published: {e:?}");
         }
     }
     Ok(served)
+}
+
+/// A state sample of `n` elements written by `write`, with its header (`None`, reported, if the
+/// publisher has no room).
+fn state_sample<S: Service>(
+    publisher: &Publisher<S, [Vec3], StateHeader>,
+    n: usize,
+    header: StateHeader,
+    write: impl FnOnce(
+        SampleMutUninit<S, [MaybeUninit<Vec3>], StateHeader>,
+    ) -> SampleMut<S, [Vec3], StateHeader>,
+) -> Option<SampleMut<S, [Vec3], StateHeader>> {
+    match publisher.loan_slice_uninit(n) {
+        Ok(s) => {
+            let mut s = write(s);
+            *s.user_header_mut() = header;
+            Some(s)
+        }
+        Err(e) => {
+            eprintln!("solver-service: cannot loan a state sample: {e:?}");
+            None
+        }
+    }
 }

@@ -28,6 +28,31 @@ fn opts(method: Method, k: u32) -> MoveOptions<f64> {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
+    /// The compensated sum's running sum and carry are, bit for bit, those of Neumaier's form written
+    /// here (the error of each addition taken after comparing magnitudes), over terms of any size.
+    #[test]
+    fn the_compensated_sum_is_neumaiers_bit_for_bit(
+        terms in proptest::collection::vec((-1e6f64..1e6, -30i32..30, 0usize..3), 1..200),
+    ) {
+        let mut sum = tractrix::math::CompensatedSum::<f64, 3>::new(Vector3::zeros());
+        let (mut s, mut c) = ([0.0f64; 3], [0.0f64; 3]);
+        for &(m, e, k) in &terms {
+            let mut v = Vector3::new(m * 0.37, -m * 1.3, m);
+            v[k] *= 2f64.powi(e);
+            sum.add(&v);
+            for j in 0..3 {
+                let t = s[j] + v[j];
+                c[j] += if s[j].abs() >= v[j].abs() { (s[j] - t) + v[j] } else { (v[j] - t) + s[j] };
+                s[j] = t;
+            }
+        }
+        let (got_s, got_c) = sum.parts();
+        for j in 0..3 {
+            prop_assert_eq!(got_s[j].to_bits(), s[j].to_bits());
+            prop_assert_eq!(got_c[j].to_bits(), c[j].to_bits());
+        }
+    }
+
     /// A move of `k` substeps equals, bit for bit, `k` substeps run one after the other over the whole
     /// chain (the order written here, link by link from the moved joint outward), however the kernel
     /// schedules them (it runs them as wavefronts: several substeps in flight along the chain).
