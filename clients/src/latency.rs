@@ -193,18 +193,23 @@ enum Link {
 impl Link {
     /// One request; returns the response header, a checksum of the payload (every element read) and
     /// the largest relative link-length error of its joints against `lengths` (0 if `lengths` is empty).
+    /// Sends one request and reads its response. Returns the response header, a checksum of its
+    /// elements, the largest link-length error in its joints, and when the response was in hand
+    /// (before those checks: the round trip ends there, the client's own checks are not the server's).
     fn call(
         &mut self,
         h: &RequestHeader,
         points: &[Vec3],
         lengths: &[f64],
-    ) -> anyhow::Result<(ResponseHeader, f64, f64)> {
+    ) -> anyhow::Result<(ResponseHeader, f64, f64, Instant)> {
         let read = |r: &ResponseHeader, p: &[Vec3]| {
+            let arrived = Instant::now();
             let joints = &p[..(r.n_joints as usize).min(p.len())];
             (
                 *r,
                 p.iter().map(|v| v.x + v.y + v.z).sum::<f64>(),
                 length_error(joints, lengths),
+                arrived,
             )
         };
         match self {
@@ -303,8 +308,7 @@ pub fn run(target: &Target, plan: &Plan) -> anyhow::Result<Summary> {
         )];
         header.request_id = i as u64 + 1;
         let sent = Instant::now();
-        let (resp, sum, len_err) = link.call(&header, &target, &lengths)?;
-        let done = Instant::now();
+        let (resp, sum, len_err, done) = link.call(&header, &target, &lengths)?;
         checksum += sum;
         s.max_length_error = s.max_length_error.max(len_err);
         if resp.status == Status::Ok as u32 && !raw {

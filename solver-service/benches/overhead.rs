@@ -8,7 +8,8 @@
 //! * **handle**: the service's request handler (`Solver::handle`, what `solve_ns` in a response
 //!   times: decode, the work estimate, the undo copy, the move, the response header);
 //! * **handle + payload**: `handle`, then the response's joints written out as the serving loop
-//!   writes them into shared memory (`Handler::feed`, a compensated prefix sum) and `finish`
+//!   writes them (`Handler::gather`, a compensated prefix sum into a buffer, copied at once, here
+//!   into a plain buffer instead of shared memory) and `finish`
 //!   (the landing residual from the written joints): everything the service computes per request.
 //!
 //! Medians over the batches of the mean ns per move; the ratio columns divide medians of one run.
@@ -18,7 +19,7 @@ use nalgebra::Vector3;
 use shared::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Vec3};
 use solver_service::chain_set::ChainSet;
 use solver_service::scene::parse_scene;
-use solver_service::serve::{ElementSink, Handler};
+use solver_service::serve::Handler;
 use solver_service::service::Solver;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -55,7 +56,13 @@ enum Way<T: Real> {
 }
 
 impl<T: Real> Way<T> {
-    fn batch(&mut self, n: usize, k: &mut usize, moves: usize, out: &mut Vec<Vec3>) -> f64 {
+    fn batch(
+        &mut self,
+        n: usize,
+        k: &mut usize,
+        moves: usize,
+        (out, gathered): (&mut Vec<Vec3>, &mut Vec<Vec3>),
+    ) -> f64 {
         let mut req = RequestHeader::new(Command::Move, 0);
         req.joint = JOINT_HEAD;
         let t0 = Instant::now();
@@ -79,7 +86,12 @@ impl<T: Real> Way<T> {
                         let n = (header.n_joints + header.n_angles + header.n_held) as usize
                             + (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
                         out.resize(n, Vec3::default());
-                        s.feed(&header, Fill(out));
+                        // As the serving loop does: gathered, then copied at once (here into a
+                        // plain buffer instead of the loaned shared memory).
+                        gathered.clear();
+                        s.gather(&header, gathered, n);
+                        gathered.resize(n, Vec3::default());
+                        out.copy_from_slice(gathered);
                         s.finish(&mut header, out);
                         black_box((&header, &out));
                     } else {
@@ -142,11 +154,11 @@ fn rows<T: Real>(precision: &str, scale: f64) {
         let batches = ((30.0 * scale) as usize).max(5);
         let mut ks = vec![0usize; ways.len()];
         let mut ns = vec![Vec::new(); ways.len()];
-        let mut out = Vec::new();
+        let (mut out, mut gathered) = (Vec::new(), Vec::new());
         for b in 0..batches {
             for j in 0..ways.len() {
                 let i = (j + b) % ways.len();
-                ns[i].push(ways[i].batch(n, &mut ks[i], moves, &mut out));
+                ns[i].push(ways[i].batch(n, &mut ks[i], moves, (&mut out, &mut gathered)));
             }
         }
         // The same moves: the service's chain against the kernel's.
@@ -165,19 +177,6 @@ fn rows<T: Real>(precision: &str, scale: f64) {
             med[1] / med[0],
             med[2] / med[0],
         );
-    }
-}
-
-/// Writes the elements into a buffer of the response's size, element by element, as the serving loop
-/// writes them into the loaned shared-memory slice.
-struct Fill<'a>(&'a mut Vec<Vec3>);
-
-impl ElementSink for Fill<'_> {
-    type Out = ();
-    fn take<I: Iterator<Item = Vec3>>(self, mut it: I) {
-        for e in self.0.iter_mut() {
-            *e = it.next().unwrap_or_default();
-        }
     }
 }
 

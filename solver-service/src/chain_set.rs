@@ -1074,6 +1074,21 @@ impl Elements<'_> {
     }
 }
 
+impl Elements<'_> {
+    /// Appends the first `n` elements to `out` (a chain's joints by one tight loop:
+    /// [`ChainElements::gather_into`]).
+    pub fn gather_into(self, out: &mut Vec<Vec3>, n: usize) {
+        match self {
+            Elements::Empty => {}
+            Elements::Planar64(e) => e.gather_into(out, n),
+            Elements::Spatial64(e) => e.gather_into(out, n),
+            Elements::Planar32(e) => e.gather_into(out, n),
+            Elements::Spatial32(e) => e.gather_into(out, n),
+            Elements::Bundle(e) => out.extend(e.take(n)),
+        }
+    }
+}
+
 impl Iterator for Elements<'_> {
     type Item = Vec3;
     #[inline]
@@ -1159,6 +1174,42 @@ where
             }
             _ => false,
         }
+    }
+}
+
+impl<T: Real, const D: usize> ChainElements<'_, T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    /// Appends the first `n` elements to `out`, the same as `out.extend(self.take(n))`: the joints by
+    /// one tight loop (the sum's state kept in registers, held joints restarting it), the rest one
+    /// at a time.
+    pub fn gather_into(mut self, out: &mut Vec<Vec3>, n: usize) {
+        out.reserve(n);
+        let start = out.len();
+        let links = self.chain.links();
+        let joints = (links.len() + 1).min(n);
+        if self.at == 0 && joints > 0 {
+            out.extend(self.next());
+            let mut acc = self.acc;
+            for (i, l) in links[..joints - 1]
+                .iter()
+                .enumerate()
+                .map(|(i, l)| (i + 1, l))
+            {
+                acc.add(l);
+                if i == self.pin_at {
+                    self.acc = acc;
+                    self.restart_at(i);
+                    acc = self.acc;
+                }
+                out.push(to_wire(&acc.value()));
+            }
+            self.acc = acc;
+            self.at = joints;
+        }
+        let done = out.len() - start;
+        out.extend(self.take(n - done));
     }
 }
 

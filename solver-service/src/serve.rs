@@ -294,6 +294,11 @@ pub trait Handler {
     fn feed<K: ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out {
         sink.take(self.elements(h))
     }
+    /// Appends the first `n` elements to `out` (default: [`Handler::feed`] into `out`; the solver
+    /// gathers a chain's joints by one tight loop).
+    fn gather(&self, h: &ResponseHeader, out: &mut Vec<Vec3>, n: usize) {
+        self.feed(h, Gather(out, n));
+    }
     /// Completes the header from the elements just written (default: nothing to complete).
     fn finish(&mut self, _h: &mut ResponseHeader, _written: &[Vec3]) {}
     /// Runs at least every [`CHECK_EVERY`] (periodic snapshots); an error is reported, not fatal.
@@ -474,7 +479,7 @@ fn serve_pending<S: Service, H: Handler>(
         let small = n <= DEFER_STATE_UP_TO;
         let mut resp = if small {
             scratch.clear();
-            handler.feed(&header, Gather(scratch, n));
+            handler.gather(&header, scratch, n);
             scratch.resize(n, Vec3::default());
             slot.write_from_slice(scratch)
         } else {

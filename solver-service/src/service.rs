@@ -176,6 +176,10 @@ impl Handler for Solver {
         self.set.elements(h).feed(sink)
     }
 
+    fn gather(&self, h: &ResponseHeader, out: &mut Vec<Vec3>, n: usize) {
+        self.set.elements(h).gather_into(out, n);
+    }
+
     fn finish(&mut self, h: &mut ResponseHeader, written: &[Vec3]) {
         request::finish(h, self.residual, written);
     }

@@ -373,6 +373,31 @@ fn check_invariants(set: &ChainSet) -> Result<(), TestCaseError> {
                 spec.name
             );
         }
+        // The serving loop's fast gather writes what the element iterator yields, bit for bit, for
+        // every part a response may carry and for a payload cut short anywhere.
+        let bits = |v: &[Vec3]| -> Vec<[u64; 3]> {
+            v.iter()
+                .map(|e| [e.x.to_bits(), e.y.to_bits(), e.z.to_bits()])
+                .collect()
+        };
+        for parts in 0..8u32 {
+            let (a, h, i) = (parts & 1 != 0, parts & 2 != 0, parts & 4 != 0);
+            let all: Vec<Vec3> = set.elements_with(c as u32, a, h, i).collect();
+            for n in [all.len(), all.len() / 2, 1, 0] {
+                let mut got = vec![Vec3::new(7.0, 7.0, 7.0)];
+                set.elements_with(c as u32, a, h, i)
+                    .gather_into(&mut got, n);
+                prop_assert_eq!(bits(&got[..1]), bits(&[Vec3::new(7.0, 7.0, 7.0)]));
+                prop_assert_eq!(
+                    bits(&got[1..]),
+                    bits(&all[..n]),
+                    "chain {}, parts {}, n {}",
+                    spec.name,
+                    parts,
+                    n
+                );
+            }
+        }
     }
     Ok(())
 }
