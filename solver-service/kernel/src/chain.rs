@@ -23,6 +23,13 @@
 //! parts that both follow outward (remark 2). A move can be split into substeps ([`Substeps`]); the moved
 //! joint lands exactly on its target. A move allocates nothing.
 //!
+//! Two or more substeps run as a *wavefront*: substep `j` of link `i` beside substep `j − 1` of link
+//! `i + 1`, up to [`MAX_WAVE`] in flight, the same operations as substep after substep, bit for bit.
+//! From [`SIMD_FROM`] substeps on, the closed-form tractrix of a spatial f64 or f32 chain runs the steps
+//! in flight with SIMD ([`crate::strands::chain_wave`]): the same arithmetic but for the exponential
+//! (a polynomial within an ulp of the platform's), so the links agree with substep after substep to
+//! about 1e-13 of a link, and are the same bits on every instruction set.
+//!
 //! # Holds
 //!
 //! Joints can be *held* ([`Chain::hold`]): an anchor in tissue, a grasp of a hand. A held joint stores
@@ -734,7 +741,10 @@ where
         } else {
             match method {
                 Method::Tractrix => {
-                    self.waves(joint, &sd, k, |t, s, l| (tractrix_step(t, s, l), false))
+                    if !self.simd_waves(joint, &sd, k) {
+                        self.waves(joint, &sd, k, |t, s, l| (tractrix_step(t, s, l), false));
+                    }
+                    0
                 }
                 Method::FollowTheLeader => self.waves(joint, &sd, k, |t, s, l| {
                     (follow_the_leader_step(t, s, l), false)
@@ -775,6 +785,38 @@ where
             left -= w;
         }
         fallbacks
+    }
+
+    /// The closed-form tractrix's `k` substeps of `s` with SIMD across the steps in flight, for a
+    /// spatial chain in f64 or f32 (the types the lanes are written for; found at run time, so a
+    /// planar chain or another scalar type answers `false` and changes nothing). Waves of at least
+    /// [`SIMD_FROM`] substeps run in [`crate::strands::chain_wave`], shorter ones (a block of lanes
+    /// would stand mostly idle) as the scalar wavefront.
+    fn simd_waves(&mut self, m: usize, s: &Vector<T, D>, k: u32) -> bool {
+        use std::any::Any;
+        if (k as usize) < SIMD_FROM {
+            return false;
+        }
+        let links: &mut dyn Any = &mut self.links;
+        let lengths: &dyn Any = &self.lengths;
+        let s: &dyn Any = s;
+        if let (Some(l), Some(len), Some(s)) = (
+            links.downcast_mut::<Vec<nalgebra::Vector3<f64>>>(),
+            lengths.downcast_ref::<Vec<f64>>(),
+            s.downcast_ref::<nalgebra::Vector3<f64>>(),
+        ) {
+            simd_side_waves(l, len, m, *s, k);
+            return true;
+        }
+        if let (Some(l), Some(len), Some(s)) = (
+            links.downcast_mut::<Vec<nalgebra::Vector3<f32>>>(),
+            lengths.downcast_ref::<Vec<f32>>(),
+            s.downcast_ref::<nalgebra::Vector3<f32>>(),
+        ) {
+            simd_side_waves(l, len, m, *s, k);
+            return true;
+        }
+        false
     }
 
     /// One substep: joint `m` moves by `s`; links toward the tail and toward the head follow outward.
@@ -893,6 +935,40 @@ where
 /// substeps run as several wavefronts. Two in flight already hide most of a step's latency on the
 /// machine the throughput bench ran on; more cost nothing but a few hundred bytes of stack.
 pub const MAX_WAVE: usize = 16;
+
+/// The fewest substeps in flight for which a move runs its closed-form steps with SIMD
+/// ([`crate::strands::chain_wave`]). Measured by the throughput bench: with four in flight a block of
+/// eight lanes already beats the scalar wavefront; with two it stands mostly idle and does not.
+pub const SIMD_FROM: usize = 4;
+
+/// Both sides of a move of joint `m`, `k` substeps of `s`, in waves of up to
+/// [`crate::strands::CHAIN_WAVE`]: SIMD for waves of at least [`SIMD_FROM`], the scalar wavefront
+/// for a shorter last one.
+fn simd_side_waves<T: crate::strands::StrandReal>(
+    links: &mut [nalgebra::Vector3<T>],
+    lengths: &[T],
+    m: usize,
+    s: nalgebra::Vector3<T>,
+    k: u32,
+) {
+    use crate::strands::{CHAIN_WAVE, Simd, chain_wave};
+    let (tail, head) = links.split_at_mut(m);
+    let (tail_lengths, head_lengths) = lengths.split_at(m);
+    let step =
+        |t: &nalgebra::Vector3<T>, s: &nalgebra::Vector3<T>, l: T| (tractrix_step(t, s, l), false);
+    let mut left = k as usize;
+    while left > 0 {
+        let w = left.min(CHAIN_WAVE);
+        if w >= SIMD_FROM {
+            chain_wave(tail, tail_lengths, s, w, true, Simd::Best);
+            chain_wave(head, head_lengths, s, w, false, Simd::Best);
+        } else {
+            wave::<T, 3, true, _>(tail, tail_lengths, &s, w, &step);
+            wave::<T, 3, false, _>(head, head_lengths, &s, w, &step);
+        }
+        left -= w;
+    }
+}
 
 /// `w ≤ MAX_WAVE` substeps of `s` along one side's links, as a wavefront: at diagonal `d`, substep `j`
 /// steps the `(d − j)`-th link from the moved joint. `REV` is the tail side: its links are walked from

@@ -241,11 +241,24 @@ fn lane<T: StrandReal>(
 /// of their tail ends).
 #[inline(always)]
 fn step_block<T: StrandReal>(t: &mut Block<T>, s: &mut Block<T>, len: T, inv_len: T) {
+    step_lanes(t, s, &[len; LANES], &[inv_len; LANES]);
+}
+
+/// [`step_block`] with a length per lane (the steps of one chain's wavefront: each lane at a
+/// different link).
+#[inline(always)]
+fn step_lanes<T: StrandReal>(
+    t: &mut Block<T>,
+    s: &mut Block<T>,
+    len: &[T; LANES],
+    inv_len: &[T; LANES],
+) {
     let mut apart = [false; LANES];
     let (old_t, old_s) = (*t, *s);
     for (l, apart) in apart.iter_mut().enumerate() {
         let (o, a) = lane(
-            old_t.x[l], old_t.y[l], old_t.z[l], old_s.x[l], old_s.y[l], old_s.z[l], len, inv_len,
+            old_t.x[l], old_t.y[l], old_t.z[l], old_s.x[l], old_s.y[l], old_s.z[l], len[l],
+            inv_len[l],
         );
         t.x[l] = o[0];
         t.y[l] = o[1];
@@ -257,9 +270,101 @@ fn step_block<T: StrandReal>(t: &mut Block<T>, s: &mut Block<T>, len: T, inv_len
     }
     if apart.iter().any(|&a| a) {
         for l in (0..LANES).filter(|&l| apart[l]) {
-            let st = tractrix_step::<T, 3>(&old_t.get(l), &old_s.get(l), len);
+            let st = tractrix_step::<T, 3>(&old_t.get(l), &old_s.get(l), len[l]);
             t.set(l, st.link);
             s.set(l, st.tail_shift);
+        }
+    }
+}
+
+/// Most substeps [`chain_wave`] keeps in flight: two blocks of lanes.
+pub const CHAIN_WAVE: usize = 2 * LANES;
+
+/// One side of one chain moved by `w ≤ CHAIN_WAVE` substeps of `s` as a wavefront, with SIMD across
+/// the steps in flight: at diagonal `d`, substep `j` (lane `j`) steps the `(d − j)`-th link from the
+/// moved joint. `links` are the side's link vectors as the chain stores them (`Xᵢ − Xᵢ₋₁`, tail
+/// first); `tail_side` says the moved joint is at their end (the tail side of a move: links walked
+/// last to first, stepped reversed), else at their start. The lanes compute what
+/// [`crate::link::tractrix_step`] computes but for the exponential (the module docs), so the result
+/// is the scalar wavefront's to a few ulps per step, and the same bits on every instruction set.
+pub fn chain_wave<T: StrandReal>(
+    links: &mut [Vector3<T>],
+    lengths: &[T],
+    s: Vector3<T>,
+    w: usize,
+    tail_side: bool,
+    simd: Simd,
+) {
+    let op = ChainWave {
+        links,
+        lengths,
+        s,
+        w: w.clamp(1, CHAIN_WAVE),
+        tail_side,
+    };
+    match simd {
+        Simd::Best => pulp::Arch::new().dispatch(op),
+        Simd::Baseline => pulp::WithSimd::with_simd(op, pulp::Scalar::new()),
+    }
+}
+
+struct ChainWave<'a, T> {
+    links: &'a mut [Vector3<T>],
+    lengths: &'a [T],
+    s: Vector3<T>,
+    w: usize,
+    tail_side: bool,
+}
+
+impl<T: StrandReal> pulp::WithSimd for ChainWave<'_, T> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let n = self.links.len();
+        if n == 0 || self.lengths.len() != n {
+            return;
+        }
+        let (w, rev) = (self.w, self.tail_side);
+        // Lane j of block b is substep b·LANES + j: its shift lives here from its first step to its
+        // last; its link and length are gathered per diagonal.
+        let mut shift = [Block::splat(self.s); 2];
+        let first = if rev {
+            -self.links[n - 1]
+        } else {
+            self.links[0]
+        };
+        let mut t = [Block::splat(first); 2];
+        let mut len = [[self.lengths[0]; LANES]; 2];
+        let mut inv = [[T::one() / self.lengths[0]; LANES]; 2];
+        let at = |d: usize, j: usize| {
+            let along = d - j;
+            if rev { n - 1 - along } else { along }
+        };
+        for d in 0..n + w - 1 {
+            let lo = d.saturating_sub(n - 1);
+            let hi = d.min(w - 1);
+            for j in lo..=hi {
+                let i = at(d, j);
+                let (b, l) = (j / LANES, j % LANES);
+                t[b].set(l, if rev { -self.links[i] } else { self.links[i] });
+                len[b][l] = self.lengths[i];
+                inv[b][l] = T::one() / self.lengths[i];
+            }
+            for b in lo / LANES..=hi / LANES {
+                // Lanes not in flight (not started, or done) keep their shifts.
+                let keep = shift[b];
+                step_lanes(&mut t[b], &mut shift[b], &len[b], &inv[b]);
+                for l in 0..LANES {
+                    let j = b * LANES + l;
+                    if j < lo || j > hi {
+                        shift[b].set(l, keep.get(l));
+                    }
+                }
+            }
+            for j in lo..=hi {
+                let v = t[j / LANES].get(j % LANES);
+                self.links[at(d, j)] = if rev { -v } else { v };
+            }
         }
     }
 }

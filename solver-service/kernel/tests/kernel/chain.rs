@@ -55,9 +55,11 @@ proptest! {
 
     /// A move of `k` substeps equals, bit for bit, `k` substeps run one after the other over the whole
     /// chain (the order written here, link by link from the moved joint outward), however the kernel
-    /// schedules them (it runs them as wavefronts: several substeps in flight along the chain).
+    /// schedules them (it runs them as wavefronts: several substeps in flight along the chain). The
+    /// exception is the closed form from `SIMD_FROM` substeps on, whose lanes take the exponential
+    /// from a polynomial: there the links agree to 1e-12 of a link.
     #[test]
-    fn substeps_in_any_order_give_the_sequential_result_bit_for_bit(
+    fn substeps_in_any_order_give_the_sequential_result(
         seed in 0u64..1000, n in 1usize..60, joint_frac in 0.0f64..=1.0, m in 0usize..3,
         k in 1u32..40, tx in -30.0f64..30.0, ty in -30.0f64..30.0, tz in -30.0f64..30.0,
     ) {
@@ -90,9 +92,14 @@ proptest! {
         let out = c.move_joint(joint, target, &opts(method, k)).unwrap();
         prop_assert_eq!(out.substeps, k);
         prop_assert_eq!(out.paper_fallbacks, fallbacks);
+        let simd = method == Method::Tractrix && k as usize >= tractrix::chain::SIMD_FROM;
         for (i, (a, b)) in c.links().iter().zip(&links).enumerate() {
             for (x, y) in a.iter().zip(b.iter()) {
-                prop_assert_eq!(x.to_bits(), y.to_bits(), "link {} of {}, joint {}, k {}", i, n, joint, k);
+                if simd {
+                    prop_assert!((x - y).abs() <= 1e-12, "link {} of {}, joint {}, k {}: {} vs {}", i, n, joint, k, x, y);
+                } else {
+                    prop_assert_eq!(x.to_bits(), y.to_bits(), "link {} of {}, joint {}, k {}", i, n, joint, k);
+                }
             }
         }
     }

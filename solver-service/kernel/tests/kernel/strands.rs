@@ -274,3 +274,70 @@ fn strands_split_off_move_as_the_whole_did() {
         "3 strands do not fill their block"
     );
 }
+
+/// One chain's wavefront with SIMD across its steps in flight (`strands::chain_wave`, what a move of
+/// eight or more closed-form substeps runs): the same bits on the best instruction set and the
+/// baseline, and, against substeps written out here one after another with `tractrix_step`, the same
+/// links to 1e-12 of a link, every link keeping its length; over links of mixed lengths, both sides
+/// of a move, every wave width, tiny, large and along-the-link pushes.
+#[test]
+fn a_chains_simd_wavefront_matches_substeps_one_after_another() {
+    use tractrix::link::tractrix_step;
+    use tractrix::strands::{CHAIN_WAVE, chain_wave};
+    let mut rng = Rng(0x5eed_c4a1);
+    for case in 0..400 {
+        let n = 1 + rng.below(50);
+        let lengths: Vec<f64> = (0..n).map(|_| rng.range(0.05, 3.0)).collect();
+        let links: Vec<V> = lengths.iter().map(|&l| rng.dir3() * l).collect();
+        let w = 1 + rng.below(CHAIN_WAVE);
+        let tail_side = rng.below(2) == 0;
+        let scale = lengths.iter().copied().fold(0.0, f64::max);
+        let s = match rng.below(6) {
+            0 => rng.dir3() * 1e-9 * scale,
+            1 => rng.dir3() * 4.0 * scale,
+            // Along the first link stepped (a push the lanes hand back to `tractrix_step`).
+            2 => {
+                let first = if tail_side { -links[n - 1] } else { links[0] };
+                first * rng.range(-0.3, 0.3)
+            }
+            _ => rng.dir3() * rng.range(0.01, 0.5) * scale,
+        };
+        let mut best = links.clone();
+        let mut base = links.clone();
+        chain_wave(&mut best, &lengths, s, w, tail_side, Simd::Best);
+        chain_wave(&mut base, &lengths, s, w, tail_side, Simd::Baseline);
+        for (a, b) in best.iter().zip(&base) {
+            for k in 0..3 {
+                assert_eq!(
+                    a[k].to_bits(),
+                    b[k].to_bits(),
+                    "case {case}: SIMD ≠ baseline"
+                );
+            }
+        }
+        // Substep after substep, link by link from the moved joint outward.
+        let mut want = links.clone();
+        for _ in 0..w {
+            let mut shift = s;
+            for j in 0..n {
+                let i = if tail_side { n - 1 - j } else { j };
+                let t = if tail_side { -want[i] } else { want[i] };
+                let st = tractrix_step(&t, &shift, lengths[i]);
+                want[i] = if tail_side { -st.link } else { st.link };
+                shift = st.tail_shift;
+            }
+        }
+        for (i, (a, b)) in best.iter().zip(&want).enumerate() {
+            let off = (a - b).amax();
+            assert!(
+                off <= 1e-12 * lengths[i].max(1.0),
+                "case {case}: link {i} of {n} (w {w}, tail side {tail_side}) off by {off:e}"
+            );
+            let len_err = (a.norm() - lengths[i]).abs() / lengths[i];
+            assert!(
+                len_err <= 1e-12,
+                "case {case}: link {i} length off by {len_err:e}"
+            );
+        }
+    }
+}
