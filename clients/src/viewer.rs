@@ -12,6 +12,7 @@
 //! | `chains/NAME/instruments/K` | `Capsules3D` (from end `a` to `b`) or `Ellipsoids3D` (a sphere): instrument `K` of the chain in the scene's order | every state of a chain with instruments |
 //! | `chains/NAME/knot` | `TextLog`: the knot's name | when the name changes (free chains only) |
 //! | `chains/NAME/knot_crossings` | `Scalars`: crossings of the reduced diagram | with each identification |
+//! | `bundles/NAME/strands` | `LineStrips3D`, one strip per strand (timeline `bundle_sequence`: the bundle's own count of changes) | every state of a bundle |
 //! | `latency/query_round_trip_us` | `Scalars`: a `query` round trip timed by `watch` itself | every 100 ms |
 //! | `stream/missed` | `Scalars`: states lost so far (sequence gaps: a viewer too slow for its buffer) | on a gap |
 //!

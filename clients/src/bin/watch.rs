@@ -10,8 +10,13 @@
 //!
 //! What the Rerun view shows is listed in `clients::viewer`.
 //!
-//! CSV columns: `sequence,chain,command,request_id,joint,x,y,z`, one row per joint, numbers printed so
-//! they read back bit for bit. A gap in `sequence`
+//! A scene's bundles (`[[bundle]]`, many strands) come on a stream of their own; `watch` subscribes
+//! to it when a bundle is among the chains it watches, and draws a bundle's strands as one polyline
+//! each. A bundle's `sequence` counts its own changes.
+//!
+//! CSV columns: `sequence,chain,command,request_id,joint,x,y,z`, one row per joint (a bundle's joints
+//! numbered strand after strand, each strand tail first: joint `s·(links + 1) + j`), numbers printed
+//! so they read back bit for bit. A gap in `sequence`
 //! (a viewer too slow for its buffer) is counted and reported at the end. Stops after `--count` states,
 //! after `--duration` seconds, or on Ctrl-C. Exit codes: 0 ok, 1 failure, 2 usage.
 
@@ -21,7 +26,7 @@ use clients::ToolArgs;
 use clients::cli::usage;
 use clients::render::{Frame, Polyline, View, write_frames_svg};
 use clients::viewer::{self, RerunView, Sink};
-use shared::{Command, RequestHeader};
+use shared::{ChainKind, Command, RequestHeader};
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::PathBuf;
@@ -79,6 +84,8 @@ struct ChainInfo {
     thickness: f64,
     free: bool,
     seen: u64,
+    /// A bundle's strands: joints per strand (`links + 1`) and the link length.
+    bundle: Option<(usize, f64)>,
 }
 
 /// How often the Rerun view times a `query` round trip.
@@ -100,9 +107,14 @@ fn run(a: Args) -> Result<u8> {
     let mut conn = a.service.connect()?;
     // Chain names and kinds, once.
     let mut chains: HashMap<u32, ChainInfo> = HashMap::new();
+    let mut bundle_seq_at_start: HashMap<u32, u64> = HashMap::new();
     let first = conn.call(RequestHeader::new(Command::Describe, 0), &[])?;
     for c in 0..first.header.n_chains {
         let d = conn.call(RequestHeader::new(Command::Describe, c), &[])?;
+        let links = d.header.n_links as usize;
+        if d.header.kind == ChainKind::Bundle as u32 {
+            bundle_seq_at_start.insert(c, d.header.sequence);
+        }
         chains.insert(
             c,
             ChainInfo {
@@ -111,6 +123,8 @@ fn run(a: Args) -> Result<u8> {
                 thickness: d.header.thickness,
                 free: d.header.kind == 0,
                 seen: 0,
+                bundle: (d.header.kind == ChainKind::Bundle as u32 && links > 0)
+                    .then(|| (links + 1, d.header.total_length / links as f64)),
             },
         );
     }
@@ -124,15 +138,24 @@ fn run(a: Args) -> Result<u8> {
         (None, Some(file)) => Some(RerunView::open(Sink::File(file))?),
         (None, None) => None,
     };
+    let watched = |info: &ChainInfo| a.chain.is_empty() || a.chain.contains(&info.name);
     if let Some(v) = &mut rr {
         for (&c, info) in &chains {
-            if a.chain.is_empty() || a.chain.contains(&info.name) {
-                v.add_chain(c, &info.name, info.thickness, info.free);
+            match (watched(info), info.bundle) {
+                (false, _) => {}
+                (true, None) => v.add_chain(c, &info.name, info.thickness, info.free),
+                (true, Some(_)) => v.add_bundle(c, &info.name),
             }
         }
     }
     let mut probe_at = Instant::now();
     let stream = conn.subscribe()?;
+    // The bundles' stream, only when a bundle is watched (it exists only in a scene with bundles).
+    let bundle_stream = if chains.values().any(|i| i.bundle.is_some() && watched(i)) {
+        Some(conn.subscribe_bundles()?)
+    } else {
+        None
+    };
     let mut csv: Option<Box<dyn Write>> = match &a.csv {
         Some(p) if p.as_os_str() == "-" => Some(Box::new(std::io::stdout().lock())),
         Some(p) => Some(Box::new(std::io::BufWriter::new(
@@ -154,7 +177,12 @@ fn run(a: Args) -> Result<u8> {
     // relative deviation from them in any later state.
     let mut lengths: HashMap<u32, Vec<f64>> = HashMap::new();
     let mut length_error = 0.0f64;
-    let mut last_seq: Option<u64> = None;
+    // The sequence when `watch` described the scene: a state published after it and not seen is
+    // missed, the first one included.
+    let mut last_seq: Option<u64> =
+        (first.header.kind != ChainKind::Bundle as u32).then_some(first.header.sequence);
+    // A bundle's sequence counts its own changes: the last seen per bundle, from its description.
+    let mut last_bundle_seq = bundle_seq_at_start;
     // Frames are drawn when the stream is idle (drawing takes about a millisecond; a subscriber's buffer
     // holds 64 states), at most one per idle turn, and all at the end.
     let mut pending = std::collections::VecDeque::new();
@@ -162,7 +190,7 @@ fn run(a: Args) -> Result<u8> {
     'outer: loop {
         // Drain what is waiting, then sleep a millisecond: a viewer need not spin.
         loop {
-            let got = stream.try_next(|h, pts| {
+            let read = |h: &shared::StateHeader, pts: &[shared::Vec3]| {
                 let parts = shared::Parts::of_state(h, pts);
                 (
                     *h,
@@ -174,24 +202,52 @@ fn run(a: Args) -> Result<u8> {
                     parts.held_joints().collect::<Vec<_>>(),
                     parts.instrument_poses().collect::<Vec<_>>(),
                 )
-            })?;
+            };
+            // The chains' stream first, then the bundles'.
+            let (got, from_bundles) = match stream.try_next(read)? {
+                Some(g) => (Some(g), false),
+                None => match &bundle_stream {
+                    Some(b) => (b.try_next(read)?, true),
+                    None => (None, false),
+                },
+            };
             let Some((h, joints, held, instruments)) = got else {
                 break;
             };
-            if let Some(prev) = last_seq {
+            let last = if from_bundles {
+                last_bundle_seq.get(&h.chain).copied()
+            } else {
+                last_seq
+            };
+            if let Some(prev) = last {
                 if h.sequence > prev + 1 {
                     missed += h.sequence - prev - 1;
-                    if let Some(v) = &mut rr {
+                    if let (Some(v), false) = (&mut rr, from_bundles) {
                         v.missed(h.sequence, missed)?;
                     }
                 } else if h.sequence <= prev {
                     duplicated += 1;
                 }
             }
-            last_seq = Some(h.sequence.max(last_seq.unwrap_or(0)));
+            let newest = h.sequence.max(last.unwrap_or(0));
+            if from_bundles {
+                last_bundle_seq.insert(h.chain, newest);
+            } else {
+                last_seq = Some(newest);
+            }
             let dist =
                 |a: &[f64; 3], b: &[f64; 3]| (b[0] - a[0]).hypot(b[1] - a[1]).hypot(b[2] - a[2]);
+            let bundle = chains.get(&h.chain).and_then(|i| i.bundle);
             match lengths.get(&h.chain) {
+                // A bundle's links all have the bundle's length, strand by strand.
+                _ if bundle.is_some() => {
+                    let (per, l) = bundle.expect("checked");
+                    for s in joints.chunks(per) {
+                        for w in s.windows(2) {
+                            length_error = length_error.max(((dist(&w[0], &w[1]) - l) / l).abs());
+                        }
+                    }
+                }
                 Some(l) if l.len() + 1 == joints.len() => {
                     for (w, l) in joints.windows(2).zip(l) {
                         length_error = length_error.max(((dist(&w[0], &w[1]) - l) / l).abs());
@@ -214,7 +270,10 @@ fn run(a: Args) -> Result<u8> {
             states += 1;
             info.seen += 1;
             if let Some(v) = &mut rr {
-                v.state(h.sequence, h.chain, &joints, &held, &instruments)?;
+                match info.bundle {
+                    Some((per, _)) => v.bundle_state(h.sequence, h.chain, &joints, per)?,
+                    None => v.state(h.sequence, h.chain, &joints, &held, &instruments)?,
+                }
             }
             if let Some(w) = &mut csv {
                 let cmd = Command::from_u32(h.command).map_or("unknown", |c| c.name());
@@ -232,7 +291,8 @@ fn run(a: Args) -> Result<u8> {
                 } else {
                     View::OBLIQUE
                 });
-                pending.push_back((info.name.clone(), h.sequence, v, joints, info.planar));
+                let per = info.bundle.map_or(joints.len(), |(per, _)| per);
+                pending.push_back((info.name.clone(), h.sequence, v, joints, info.planar, per));
             }
             if a.count.is_some_and(|c| states >= c) {
                 break 'outer;
@@ -280,18 +340,25 @@ fn run(a: Args) -> Result<u8> {
     Ok(0)
 }
 
+/// A frame to draw: chain name, sequence, view, joints, planar, joints per polyline (a bundle's
+/// strand; all of them for a chain).
+type Pending = (String, u64, View, Vec<[f64; 3]>, bool, usize);
+
 fn draw(
     dir: &std::path::Path,
-    (name, sequence, view, joints, planar): (String, u64, View, Vec<[f64; 3]>, bool),
+    (name, sequence, view, joints, planar, per): Pending,
 ) -> Result<u64> {
     let file = dir.join(format!("{name}-{sequence:08}.svg"));
     let frame = Frame {
         label: format!("{name} after change {sequence}"),
-        lines: vec![Polyline {
-            joints,
-            color: (20, 60, 160),
-            markers: planar,
-        }],
+        lines: joints
+            .chunks(per.max(1))
+            .map(|s| Polyline {
+                joints: s.to_vec(),
+                color: (20, 60, 160),
+                markers: planar,
+            })
+            .collect(),
         marks: vec![],
     };
     write_frames_svg(&file, &name, &[frame], view, 1)?;

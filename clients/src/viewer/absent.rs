@@ -33,6 +33,14 @@ impl RerunView {
         match *self {}
     }
     /// Unreachable (no value exists).
+    pub fn add_bundle(&mut self, _chain: u32, _name: &str) {
+        match *self {}
+    }
+    /// Unreachable (no value exists).
+    pub fn bundle_state(&mut self, _: u64, _: u32, _: &[[f64; 3]], _: usize) -> Result<()> {
+        match *self {}
+    }
+    /// Unreachable (no value exists).
     pub fn missed(&mut self, _sequence: u64, _missed: u64) -> Result<()> {
         match *self {}
     }

@@ -30,6 +30,8 @@ pub struct RerunView {
     rec: RecordingStream,
     start: Instant,
     chains: HashMap<u32, ChainView>,
+    /// Bundles by handle: their names.
+    bundles: HashMap<u32, String>,
     logged: u64,
 }
 
@@ -49,6 +51,7 @@ impl RerunView {
             rec,
             start: Instant::now(),
             chains: HashMap::new(),
+            bundles: HashMap::new(),
             logged: 0,
         })
     }
@@ -67,6 +70,42 @@ impl RerunView {
                 unidentified: None,
             },
         );
+    }
+
+    /// Declares a bundle: its strands are drawn as one line strip each.
+    pub fn add_bundle(&mut self, chain: u32, name: &str) {
+        self.bundles.insert(chain, name.to_owned());
+    }
+
+    /// Logs one state of a bundle: `joints` strand after strand, `per_strand` of them each (tail
+    /// first). `sequence` is the bundle's own count of changes (timeline `bundle_sequence`).
+    pub fn bundle_state(
+        &mut self,
+        sequence: u64,
+        chain: u32,
+        joints: &[[f64; 3]],
+        per_strand: usize,
+    ) -> Result<()> {
+        let Some(name) = self.bundles.get(&chain) else {
+            return Ok(());
+        };
+        self.rec
+            .set_time_sequence("bundle_sequence", sequence as i64);
+        self.rec
+            .set_duration_secs("elapsed", self.start.elapsed().as_secs_f64());
+        let strips = joints.chunks(per_strand.max(1)).map(|s| {
+            s.iter()
+                .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32])
+                .collect::<Vec<_>>()
+        });
+        self.rec.log(
+            format!("bundles/{name}/strands"),
+            &LineStrips3D::new(strips)
+                .with_radii([Radius::new_ui_points(1.0)])
+                .with_colors([Color::from_rgb(120, 70, 20)]),
+        )?;
+        self.logged += 1;
+        Ok(())
     }
 
     fn at(&self, sequence: u64) {

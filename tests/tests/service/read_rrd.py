@@ -1,6 +1,6 @@
 """Reads a Rerun recording with Rerun's own Python reader (rerun-sdk, not the Rust code that wrote it) and
 prints what the viewer test checks, as JSON: per entity its rows and `sequence` values, the rope's
-points at each sequence, the held points' labels at each sequence, the text-log lines, the scalars and
+points at each sequence (and a bundle's `bundle_sequence` values), the held points' labels at each sequence, the text-log lines, the scalars and
 the instruments' shapes (capsules' translations, lengths, quaternions, radii; spheres' centres and
 half sizes).
 
@@ -14,7 +14,10 @@ from rerun.experimental import RrdReader
 
 
 def column(batch, suffix):
-    """The column whose name ends with `suffix` (names carry the archetype, e.g. 'LineStrips3D:strips')."""
+    """The column named `suffix`, else the one whose name ends with it (names carry the archetype, e.g.
+    'LineStrips3D:strips')."""
+    if suffix in batch.schema.names:
+        return batch.column(suffix).to_pylist()
     for name in batch.schema.names:
         if name.endswith(suffix):
             return batch.column(name).to_pylist()
@@ -35,6 +38,10 @@ def main():
         )
         e["rows"] += chunk.num_rows
         e["sequences"] += seqs
+        # A bundle's own count of changes (its timeline `bundle_sequence`), where logged.
+        bundle_seqs = column(batch, "bundle_sequence")
+        if bundle_seqs is not None:
+            e.setdefault("bundle_sequences", []).extend(bundle_seqs)
         for suffix in (":strips", ":positions", ":labels", ":text", ":scalars", ":translations",
                        ":lengths", ":quaternions", ":centers", ":half_sizes", ":radii"):
             values = column(batch, suffix)

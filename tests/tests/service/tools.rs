@@ -330,3 +330,171 @@ radius = 1.0
         }
     }
 }
+
+/// `watch` on a bundle: it subscribes to the bundles' stream, writes every state of the bundle (all
+/// its strands, strand after strand, each tail first) as CSV rows that read back bit for bit as the
+/// service's `query`, counts no gap, and draws a frame with one polyline per strand. The rope beside
+/// the bundle is not watched. Link lengths are computed here.
+#[test]
+fn watch_writes_a_bundles_strands() {
+    const STRANDS: usize = 20;
+    const LINKS: usize = 6;
+    const LEN: f64 = 0.25;
+    const MOVES: usize = 5;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("hair.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "[[chain]]\nname = \"rope\"\nlinks = 10\nlink_length = 1.0\n\n\
+             [[bundle]]\nname = \"hair\"\nstrands = {STRANDS}\nlinks = {LINKS}\n\
+             link_length = {LEN}\ncolumns = 5\nspacing = 0.5\norigin = [0.0, 0.0, 3.0]\n"
+        ),
+    )
+    .unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--no-persist",
+            "--wait",
+            "event",
+        ],
+    );
+    let csv = dir.path().join("hair.csv");
+    let frames = dir.path().join("frames");
+    let (csv_s, frames_s) = (csv.display().to_string(), frames.display().to_string());
+    let mut watch = spawn(
+        &svc,
+        "watch",
+        &[
+            "--chain",
+            "hair",
+            "--csv",
+            &csv_s,
+            "--svg",
+            &frames_s,
+            "--every",
+            "5",
+            "--count",
+            &MOVES.to_string(),
+            "--duration",
+            "8",
+        ],
+    );
+    let rx = tests::stderr_lines(&mut watch);
+    let line = rx
+        .recv_timeout(Duration::from_secs(20))
+        .expect("watch listens");
+    assert!(line.contains("listening"), "{line}");
+    let mut c = svc.connect();
+    let hair = c.find_chain("hair").unwrap().expect("the bundle");
+    let rope = c.find_chain("rope").unwrap().expect("the rope");
+    let start = c
+        .call(RequestHeader::new(Command::Query, hair), &[])
+        .unwrap();
+    let heads: Vec<Vec3> = start.joints().chunks(LINKS + 1).map(|s| s[LINKS]).collect();
+    for m in 1..=MOVES {
+        // A rope move between bundle moves: on the other stream, not watched.
+        let r = c
+            .call(
+                RequestHeader::new(Command::Move, rope),
+                &[Vec3::new(10.0, 0.3 * m as f64, 0.0)],
+            )
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        let targets: Vec<Vec3> = heads
+            .iter()
+            .enumerate()
+            .map(|(i, h)| {
+                let a = 0.7 * (i + m) as f64;
+                Vec3::new(
+                    h.x + 0.2 * a.cos(),
+                    h.y + 0.2 * a.sin(),
+                    h.z + 0.05 * m as f64,
+                )
+            })
+            .collect();
+        let r = c
+            .call(RequestHeader::new(Command::Move, hair), &targets)
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        // A viewer's pace: the bundles' stream buffers two samples per subscriber (megabytes each
+        // for real hair), and `watch` counts what it could not keep up with as missed.
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let deadline = Instant::now() + TOOL_TIMEOUT;
+    let st = loop {
+        if let Some(st) = watch.try_wait().unwrap() {
+            break st;
+        }
+        assert!(Instant::now() < deadline, "watch did not stop");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let said: Vec<String> = rx.try_iter().collect();
+    assert!(st.success(), "{said:?}");
+    assert!(
+        said.iter()
+            .any(|l| l.contains(&format!("{MOVES} states, 1 SVG frames, 0 missed"))),
+        "{said:?}"
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let per_state = STRANDS * (LINKS + 1);
+    assert_eq!(rows.len(), MOVES * per_state, "every joint of every strand");
+    assert!(rows.iter().all(|r| r[1] == "hair"), "only the bundle");
+    let seqs: Vec<u64> = rows
+        .iter()
+        .step_by(per_state)
+        .map(|r| r[0].parse().unwrap())
+        .collect();
+    assert_eq!(
+        seqs,
+        (1..=MOVES as u64).collect::<Vec<_>>(),
+        "the bundle's own count"
+    );
+    let point = |r: &Vec<&str>| -> [f64; 3] {
+        let v: Vec<f64> = r[5..8].iter().map(|x| x.parse().unwrap()).collect();
+        [v[0], v[1], v[2]]
+    };
+    for state in rows.chunks(per_state) {
+        for strand in state.chunks(LINKS + 1) {
+            for w in strand.windows(2) {
+                let (a, b) = (point(&w[0]), point(&w[1]));
+                let d =
+                    ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
+                assert!((d - LEN).abs() <= 1e-12 * LEN, "a link of length {d}");
+            }
+        }
+    }
+    let q = c
+        .call(RequestHeader::new(Command::Query, hair), &[])
+        .unwrap();
+    for (row, p) in rows[rows.len() - per_state..].iter().zip(q.joints()) {
+        let v = point(row);
+        assert_eq!(
+            [v[0].to_bits(), v[1].to_bits(), v[2].to_bits()],
+            [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+        );
+    }
+    let svg = std::fs::read_dir(&frames)
+        .unwrap()
+        .next()
+        .expect("a frame")
+        .unwrap()
+        .path();
+    let text = std::fs::read_to_string(svg).unwrap();
+    // The frame draws a polyline segment per link: one per link of every strand, none joining the
+    // tail of one strand to the head of the one before (one polyline of all joints would have
+    // STRANDS·(LINKS + 1) − 1).
+    assert_eq!(
+        text.matches("<polyline").count(),
+        STRANDS * LINKS,
+        "a segment per link of every strand"
+    );
+}

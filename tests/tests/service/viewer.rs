@@ -332,3 +332,93 @@ fn watch_draws_the_instruments_where_the_service_has_them() {
     near(&last_of(ball, "centers")[0], last_ball, "sphere centre");
     near(&last_of(ball, "half_sizes")[0], [0.5; 3], "sphere radius");
 }
+
+/// A bundle in the Rerun view: `watch --save` subscribes to the bundles' stream and logs each state
+/// of the bundle as one line strip per strand, on the bundle's own timeline; the last strips are the
+/// service's last state, strand by strand.
+#[test]
+fn watch_draws_a_bundles_strands() {
+    const STRANDS: usize = 12;
+    const LINKS: usize = 5;
+    const MOVES: usize = 4;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("hair.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "[[chain]]\nname = \"rope\"\nlinks = 10\nlink_length = 1.0\n\n\
+             [[bundle]]\nname = \"hair\"\nstrands = {STRANDS}\nlinks = {LINKS}\n\
+             link_length = 0.3\ncolumns = 4\nspacing = 0.5\norigin = [0.0, 0.0, 2.0]\n"
+        ),
+    )
+    .unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--no-persist",
+            "--wait",
+            "event",
+        ],
+    );
+    let rrd = dir.path().join("hair.rrd");
+    let (watch, rx) = start_watch(&svc.prefix, &rrd, MOVES, &["--chain", "hair"]);
+    let mut c = svc.connect();
+    let hair = c.find_chain("hair").unwrap().expect("the bundle");
+    let start = c
+        .call(RequestHeader::new(Command::Query, hair), &[])
+        .unwrap();
+    let heads: Vec<Vec3> = start.joints().chunks(LINKS + 1).map(|s| s[LINKS]).collect();
+    for m in 1..=MOVES {
+        let targets: Vec<Vec3> = heads
+            .iter()
+            .enumerate()
+            .map(|(i, h)| {
+                let a = 0.9 * (i + m) as f64;
+                Vec3::new(h.x + 0.3 * a.cos(), h.y + 0.3 * a.sin(), h.z)
+            })
+            .collect();
+        let r = c
+            .call(RequestHeader::new(Command::Move, hair), &targets)
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        // A viewer's pace (the bundles' stream buffers two samples per subscriber).
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let last = c
+        .call(RequestHeader::new(Command::Query, hair), &[])
+        .unwrap();
+    let said = wait_for(watch, &rx);
+    assert!(
+        said.iter()
+            .any(|l| l.contains(&format!("{MOVES} states sent to Rerun"))),
+        "{said:?}"
+    );
+    let v = read_rrd(&rrd);
+    let e = &v["/bundles/hair/strands"];
+    assert!(e.is_object(), "no bundle entity in {:?}", keys(&v));
+    assert_eq!(e["rows"], MOVES as u64);
+    let mut seqs: Vec<u64> = serde_json::from_value(e["bundle_sequences"].clone()).unwrap();
+    seqs.sort_unstable();
+    assert_eq!(seqs, (1..=MOVES as u64).collect::<Vec<_>>());
+    // The service's last state is among the logged ones: one strip per strand, each the strand's
+    // joints (tail first) as f32.
+    let expected: Vec<Vec<[f32; 3]>> = last
+        .joints()
+        .chunks(LINKS + 1)
+        .map(|s| {
+            s.iter()
+                .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+                .collect()
+        })
+        .collect();
+    let strips = e["values"]["strips"].as_array().unwrap();
+    assert_eq!(strips.len(), MOVES);
+    assert!(
+        strips.iter().any(|s| {
+            serde_json::from_value::<Vec<Vec<[f32; 3]>>>(s[1].clone()).unwrap() == expected
+        }),
+        "the last state is not among the logged strips"
+    );
+}
