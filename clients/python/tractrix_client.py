@@ -197,6 +197,16 @@ class Client:
                         f"(waited {wait_for_service} s)"
                     ) from e
                 time.sleep(0.02)
+        # The service exists a moment before its server port does (a service starting up): wait for
+        # the server within the same deadline, or a first request would find nobody to answer it and
+        # time out (a sweep on a loaded machine caught it), as the Rust client does.
+        while service.dynamic_config.number_of_servers == 0:
+            if time.monotonic() >= deadline:
+                raise RuntimeError(
+                    f"the solver-service with prefix {prefix!r} has no server port "
+                    f"(waited {wait_for_service} s)"
+                )
+            time.sleep(0.005)
         self.client = (
             service.client_builder()
             .initial_max_slice_len(max(1, max_request_points))
@@ -235,6 +245,8 @@ class Client:
             setattr(header, k, v)
         self.next_id += 1
         pending = request.assume_init().send()
+        if pending.number_of_server_connections == 0:
+            raise RuntimeError("no solver-service answers (its server port is gone)")
         self.wake_server.notify()
         deadline = time.monotonic() + self.timeout
         spins = 0
