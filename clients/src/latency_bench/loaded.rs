@@ -9,8 +9,12 @@
 //! service's round trip is read.
 //!
 //! The two hands and the probe share core 1 at fixed phases of the millisecond grid (head 0, tail
-//! 500 µs, probe 750 µs), so their spinning stretches (at most 250 µs each) never overlap: one spinning
-//! thread per core at any time.
+//! 500 µs, probe 800 µs). A thread spins at most [`SPIN_US`] before its due time and a hand then
+//! spins for its answer, so the core's millisecond reads: head's answer from 0, tail's stretch from
+//! 300, tail's answer from 500, probe's stretch from 600, head's stretch from 800. Nothing overlaps
+//! while an answer takes under 100 µs: one spinning thread per core. (An earlier layout, probe at
+//! 750 µs after stretches of 250, started the probe's stretch as the tail hand sent: the tail hand
+//! then waited for the core, and its round trip's tail was the probe's stretch.)
 
 use super::{BenchConfig, Viewer, us};
 use crate::latency::{Percentiles, Summary, WaitMode};
@@ -59,6 +63,14 @@ impl Setup {
 /// The hybrid server's spin budget that bridges the hands' 500 µs interval with room to spare.
 const BRIDGE_US: u32 = 1500;
 
+/// The hands' and the probe's spinning stretch before each due time, µs, where they spin: enough for
+/// this machine's usual wake-up lateness (its p99), and short enough that the three stretches and the
+/// hands' waits for their answers fit in the millisecond side by side (see the module docs).
+const SPIN_US: u32 = 200;
+
+/// The probe's phase in the millisecond grid, µs: its stretch ends where the head hand's begins.
+const PROBE_PHASE_US: u32 = 800;
+
 const SETUPS: [Setup; 6] = [
     Setup {
         echo: false,
@@ -73,7 +85,7 @@ const SETUPS: [Setup; 6] = [
         service: WaitMode::Hybrid,
         spin_budget_us: None,
         hands: WaitMode::Hybrid,
-        spin_us: 250,
+        spin_us: SPIN_US,
         journal: true,
     },
     // Hands that wait in hybrid mode notify the server after sending: a hybrid server that went to
@@ -83,7 +95,7 @@ const SETUPS: [Setup; 6] = [
         service: WaitMode::Hybrid,
         spin_budget_us: Some(BRIDGE_US),
         hands: WaitMode::Hybrid,
-        spin_us: 250,
+        spin_us: SPIN_US,
         journal: true,
     },
     Setup {
@@ -91,7 +103,7 @@ const SETUPS: [Setup; 6] = [
         service: WaitMode::Spin,
         spin_budget_us: None,
         hands: WaitMode::Spin,
-        spin_us: 250,
+        spin_us: SPIN_US,
         journal: true,
     },
     // The spinning set-up again without the journal: the solve's tail with and without its `write`.
@@ -100,7 +112,7 @@ const SETUPS: [Setup; 6] = [
         service: WaitMode::Spin,
         spin_budget_us: None,
         hands: WaitMode::Spin,
-        spin_us: 250,
+        spin_us: SPIN_US,
         journal: false,
     },
     Setup {
@@ -108,7 +120,7 @@ const SETUPS: [Setup; 6] = [
         service: WaitMode::Spin,
         spin_budget_us: None,
         hands: WaitMode::Spin,
-        spin_us: 250,
+        spin_us: SPIN_US,
         journal: false,
     },
 ];
@@ -196,7 +208,8 @@ fn run_setup(
         .collect();
     let mut probe = Command::new(cfg.bin_dir.join("latency"));
     probe
-        .args(["probe", "--rate", "1000", "--pin", "1", "--phase-us", "750"])
+        .args(["probe", "--rate", "1000", "--pin", "1", "--phase-us"])
+        .arg(PROBE_PHASE_US.to_string())
         .args(["--seconds", &(secs + 0.5).to_string(), "--json"])
         .args(["--spin-before-due-us", &spin]);
     let probe_line = output_line(probe, "latency probe", Duration::from_secs_f64(secs + 60.0))?;
@@ -260,7 +273,7 @@ pub(super) fn loaded(
     writeln!(
         out,
         "\nLoaded runs: two hands at 1 kHz ({secs} s each, the head and the tail of {chain}) and a \
-         probe pinned to core 1 at phases 0, 500 and 750 µs of the millisecond grid, a viewer on the \
+         probe pinned to core 1 at phases 0, 500 and {PROBE_PHASE_US} µs of the millisecond grid, a viewer on the \
          state stream, the service (journal written unless the row says no journal) or the raw echo pinned to core 0. The probe waits \
          for its due times exactly as the hands do and sends nothing: its lateness is the machine's \
          own, measured beside the hands. *Sent late* is the hand's own lateness; *round trip* (send \
