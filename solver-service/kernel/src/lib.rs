@@ -27,7 +27,8 @@
 //! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
 //! * [`angles`]: joint angles (eq. 15, relative rotations).
 //! * [`strands`]: many free strands at once (hair, fur, bundles), SIMD across strands, the substep
-//!   wavefront.
+//!   wavefront; and one chain's wavefront with SIMD across its steps in flight
+//!   ([`strands::chain_wave`], what [`Chain::move_joint`] runs from four closed-form substeps on).
 //! * `pseudo_inverse` (feature `reference`): the damped-least-squares resolved-rate baseline of Korein &
 //!   Badler.
 //! * `ground_truth` (feature `reference`): the continuous motion integrated by DOP853, for tests and
