@@ -81,11 +81,11 @@
 //! | | strategy | 28 | uint32_t |
 //! | | max_iterations | 32 | uint32_t |
 //! | | flags | 36 | uint32_t |
-//! | | client_listener | 40 | uint64_t[2] |
+//! | | client_listener | 40 | `uint64_t[2]` |
 //! | | request_id | 56 | uint64_t |
 //! | | max_step | 64 | double |
 //! | | tolerance | 72 | double |
-//! | | reserved | 80 | uint64_t[2] |
+//! | | reserved | 80 | `uint64_t[2]` |
 //! | ResponseHeader (288 B, align 8) | status | 0 | uint32_t |
 //! | | command | 4 | uint32_t |
 //! | | chain | 8 | uint32_t |
@@ -111,10 +111,10 @@
 //! | | max_step | 104 | double |
 //! | | total_length | 112 | double |
 //! | | thickness | 120 | double |
-//! | | name | 128 | uint8_t[32] |
-//! | | reason | 160 | uint8_t[96] |
+//! | | name | 128 | `uint8_t[32]` |
+//! | | reason | 160 | `uint8_t[96]` |
 //! | | n_instruments | 256 | uint32_t |
-//! | | reserved | 260 | uint32_t[7] |
+//! | | reserved | 260 | `uint32_t[7]` |
 //! | StateHeader (48 B, align 8) | sequence | 0 | uint64_t |
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
@@ -122,7 +122,7 @@
 //! | | n_held | 20 | uint32_t |
 //! | | request_id | 24 | uint64_t |
 //! | | n_instruments | 32 | uint32_t |
-//! | | reserved | 36 | uint32_t[3] |
+//! | | reserved | 36 | `uint32_t[3]` |
 //! <!-- layout-table-end -->
 //!
 //! Service names carry no version on purpose: a peer of another protocol version finds the service and

@@ -439,7 +439,7 @@ fn spin_while_busy<S: Service, H: Handler>(
 /// The largest state sample (elements) published after its response (kept in a reused buffer
 /// meanwhile): a chain of tens of thousands of links. Larger ones (bundles) are copied from the
 /// response before it is sent, which spares copying megabytes twice.
-const DEFER_STATE_UP_TO: usize = 1 << 16;
+pub const DEFER_STATE_UP_TO: usize = 1 << 16;
 
 /// Serves every request waiting; returns how many.
 ///

@@ -52,17 +52,17 @@ struct Args {
     /// Joint: head, tail or an index (instrument: its index, default 0).
     #[arg(long, default_value = "head")]
     joint: String,
-    /// Target point x,y[,z].
+    /// Target point: x,y or x,y,z.
     #[arg(long)]
     target: Option<String>,
-    /// An instrument's axis direction x,y[,z] (capsules).
+    /// An instrument's axis direction: x,y or x,y,z (capsules).
     #[arg(long)]
     axis: Option<String>,
     /// A bundle's pose move: the heads' rotation vector x,y,z (axis × angle, radians); `--target` is
     /// then the translation.
     #[arg(long)]
     rotation: Option<String>,
-    /// Path points, space-separated x,y[,z] groups.
+    /// Path points: space-separated groups, each x,y or x,y,z.
     #[arg(long)]
     path: Option<String>,
     /// Method (default: the chain's).
