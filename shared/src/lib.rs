@@ -983,7 +983,7 @@ mod tests {
             .map(|l| {
                 l.trim_matches('|')
                     .split('|')
-                    .map(|c| c.trim().to_string())
+                    .map(|c| c.trim().trim_matches('`').to_string())
                     .collect()
             })
             .collect();
