@@ -160,6 +160,7 @@ impl Knot {
                 side,
                 radius: l.radius * rng.range(0.97, 1.03),
                 exit: (l.exit + rng.range(-1.0, 1.0)).max(0.0),
+                ..l
             }),
             waypoints: vec![],
         }]

@@ -131,6 +131,22 @@ pub struct WideLoop {
     /// Pull after the tuck, back along `outward`.
     #[serde(default = "default_loop_exit")]
     pub exit: f64,
+    /// Rope fed toward the hold while the circle is drawn: the hand moves back along `outward` by
+    /// `feed` times the length of circle drawn so far, then draws the tuck where the loop lies. A rope
+    /// held at its other end cannot slide after the hand as a free one does, so a hand that did not
+    /// feed would pull the whole rope, loop included, toward the hold; 1 on a held rope that starts
+    /// straight along `outward`, 0 (the default) on a free rope.
+    #[serde(default)]
+    pub feed: f64,
+    /// Chirality of the knot: `"right"` (the default) a trefoil of positive writhe, `"left"` its
+    /// mirror (every crossing the other way up), as for throws.
+    #[serde(default = "default_loop_handedness")]
+    pub handedness: Handedness,
+}
+
+
+fn default_loop_handedness() -> Handedness {
+    Handedness::Right
 }
 
 fn default_loop_radius() -> f64 {
@@ -222,6 +238,9 @@ impl Script {
                 }
                 if !(l.exit >= 0.0 && l.exit.is_finite() && l.exit <= 1e9) {
                     return Err(at(format!("wide_loop.exit {} is not in [0, 1e9]", l.exit)));
+                }
+                if !(l.feed.is_finite() && (0.0..=10.0).contains(&l.feed)) {
+                    return Err(at(format!("wide_loop.feed {} is not in [0, 10]", l.feed)));
                 }
             }
         }
@@ -353,6 +372,8 @@ impl Script {
                         side: [0.0, 1.0, 0.0],
                         radius: default_loop_radius(),
                         exit: default_loop_exit(),
+                        feed: 0.0,
+                        handedness: Handedness::Right,
                     }),
                     ..turn("A", "paper", "head", None, vec![])
                 }],
@@ -382,6 +403,35 @@ impl Script {
                     turn("A", "rope", "head", None, vec![[4.0, 0.0, 0.0]]),
                 ],
             }),
+            // The paper's rope with its tail held: by the idle hand A (chain `paper`) or by the
+            // scene (chain `suture`, anchored). The head's hand draws the wide loop feeding rope
+            // toward the hold, tucks, then pulls the knot snug back along the rope.
+            "overhand-held" | "overhand-anchored" => {
+                let chain = if name == "overhand-held" {
+                    "paper"
+                } else {
+                    "suture"
+                };
+                // The hand that ties: B beside the holding hand A, else A (the default hand).
+                let mut turns = Vec::new();
+                let ties = if name == "overhand-held" {
+                    turns.push(turn("A", chain, "tail", None, vec![]));
+                    "B"
+                } else {
+                    "A"
+                };
+                turns.push(Turn {
+                    wide_loop: Some(held_loop(Handedness::Right)),
+                    ..turn(ties, chain, "head", None, vec![])
+                });
+                turns.push(turn(ties, chain, "head", None, vec![[-HELD_PULL, 0.0, 0.0]]));
+                Some(Script {
+                    name: name.into(),
+                    max_step: 0.05,
+                    grasp: true,
+                    turn: turns,
+                })
+            }
             "square-u" => Some(two_hands_u(name, Handedness::Right)),
             "granny-u" => Some(two_hands_u(name, Handedness::Left)),
             "wave" => Some(Script {
@@ -405,6 +455,24 @@ impl Script {
         }
     }
 }
+
+/// The wide loop of the held overhand on the paper's rope, straight along +x and held at its tail: a
+/// loop of radius 4 (on unit links a smaller one does not survive the tuck; BENCHMARKS.md, knots),
+/// the rope fed toward the hold as the circle is drawn.
+fn held_loop(handedness: Handedness) -> WideLoop {
+    WideLoop {
+        outward: [1.0, 0.0, 0.0],
+        side: [0.0, 1.0, 0.0],
+        radius: 4.0,
+        exit: 2.0,
+        feed: 1.0,
+        handedness,
+    }
+}
+
+/// How far the held overhand's hand pulls back along the rope after the tuck: the knot snug, before
+/// it jams (a jammed knot locks the hand's moves).
+const HELD_PULL: f64 = 8.0;
 
 /// The two-handed knots on a rope hanging in a U between the hands (A the tail, B the head), each
 /// hand holding its end throughout; six alternating turns: A throws (upward, away from the rope), B
@@ -442,10 +510,13 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
 /// Names accepted by [`Script::builtin`]. The `-u` scripts start from a rope hanging in a U (see
 /// BENCHMARKS.md, knots): `overhand-u` with the tail held, `square-u` and `granny-u` with one hand on
 /// each end. `overhand-wide` ties the overhand on the paper's rope (chain `paper` of `knots.toml`: 40
-/// unit links) with one wide loop.
+/// unit links) with one wide loop; `overhand-held` ties it with the tail held by a second hand that
+/// does not move, `overhand-anchored` with the tail anchored by the scene (chain `suture`).
 pub const BUILTINS: &[&str] = &[
     "overhand",
     "overhand-wide",
+    "overhand-held",
+    "overhand-anchored",
     "square",
     "granny",
     "wave",
@@ -556,18 +627,16 @@ fn loop_frame(l: &WideLoop) -> Option<[[f64; 3]; 3]> {
     Some([u, v, cross(u, v)])
 }
 
-/// The corners of a wide loop's path from `start` (see [`WideLoop`]): a Catmull-Rom curve through the
-/// loop's 24 points and the tuck's, eight corners per span.
-fn loop_path(start: [f64; 3], l: &WideLoop) -> Vec<[f64; 3]> {
-    let Some([u, v, w]) = loop_frame(l) else {
-        return Vec::new();
-    };
+/// A wide loop's path in its own frame (along `outward`, across toward `side`, up), from its
+/// origin: a Catmull-Rom curve through the loop's 24 points and the tuck's, eight corners per span
+/// (the circle is the first 24 spans), mirrored for a left loop.
+fn loop_local(l: &WideLoop) -> Vec<[f64; 3]> {
     let r = l.radius;
-    // In the loop's frame (along, across, up): the circle about (0, r) entered at its near point,
-    // rising one unit over the last 30 % to cross the rope it laid; then under the far side, up
-    // through the loop, over the near side, and the pull.
-    let mut local: Vec<[f64; 3]> = vec![[0.0; 3]];
-    let n = 24;
+    // The circle about (0, r) entered at its near point, rising one unit over the last 30 % to
+    // cross the rope it laid; then under the far side, up through the loop, over the near side, and
+    // the pull.
+    let mut pts: Vec<[f64; 3]> = vec![[0.0; 3]];
+    let n = LOOP_POINTS;
     for k in 1..=n {
         let a = -std::f64::consts::FRAC_PI_2 + std::f64::consts::TAU * k as f64 / n as f64;
         let rise = 0.7 * n as f64;
@@ -576,9 +645,9 @@ fn loop_path(start: [f64; 3], l: &WideLoop) -> Vec<[f64; 3]> {
         } else {
             (k as f64 - rise) / (n as f64 - rise)
         };
-        local.push([r * a.cos(), r + r * a.sin(), z]);
+        pts.push([r * a.cos(), r + r * a.sin(), z]);
     }
-    local.extend([
+    pts.extend([
         [0.6 * r, -0.4 * r, 0.3],
         [1.3 * r, 0.1 * r, -1.0],
         [1.1 * r, 0.5 * r, -1.0],
@@ -588,13 +657,12 @@ fn loop_path(start: [f64; 3], l: &WideLoop) -> Vec<[f64; 3]> {
         [-1.3 * r, r, 1.0],
         [-1.3 * r - l.exit, r, 1.0],
     ]);
-    let world = |p: [f64; 3]| {
-        add(
-            start,
-            add(add(scale(u, p[0]), scale(v, p[1])), scale(w, p[2])),
-        )
-    };
-    let pts: Vec<[f64; 3]> = local.into_iter().map(world).collect();
+    // The mirror knot: every crossing the other way up.
+    if l.handedness == Handedness::Left {
+        for p in &mut pts {
+            p[2] = -p[2];
+        }
+    }
     // Catmull-Rom through the points (the ends repeated), eight samples per span.
     let at = |i: isize| pts[i.clamp(0, pts.len() as isize - 1) as usize];
     let mut out = Vec::new();
@@ -610,6 +678,34 @@ fn loop_path(start: [f64; 3], l: &WideLoop) -> Vec<[f64; 3]> {
                     + (3.0 * p1[d] - p0[d] - 3.0 * p2[d] + p3[d]) * t3)
             };
             out.push([c(0), c(1), c(2)]);
+        }
+    }
+    out
+}
+
+/// Points of a wide loop's circle.
+const LOOP_POINTS: usize = 24;
+
+/// The corners of a wide loop's path (see [`WideLoop`]) from `start`, fed back along `outward` by
+/// `feed` times the circle drawn so far.
+fn loop_path(start: [f64; 3], l: &WideLoop) -> Vec<[f64; 3]> {
+    let Some([u, v, w]) = loop_frame(l) else {
+        return Vec::new();
+    };
+    let local = loop_local(l);
+    let circle = LOOP_POINTS * 8;
+    let mut out: Vec<[f64; 3]> = local
+        .iter()
+        .map(|p| add(start, add(add(scale(u, p[0]), scale(v, p[1])), scale(w, p[2]))))
+        .collect();
+    if l.feed > 0.0 {
+        let (mut drawn, mut prev) = (0.0, start);
+        for (k, p) in out.iter_mut().enumerate() {
+            if k < circle {
+                drawn += norm([p[0] - prev[0], p[1] - prev[1], p[2] - prev[2]]);
+                prev = *p;
+            }
+            *p = add(*p, scale(u, -l.feed * drawn));
         }
     }
     out
