@@ -806,6 +806,46 @@ mod tests {
     }
 
     #[test]
+    fn a_fed_loop_walks_back_by_its_circle_and_a_left_loop_is_the_mirror() {
+        let script = |extra: &str| {
+            Script::parse(
+                &format!(
+                    "name = \"w\"\n[[turn]]\nhand = \"A\"\nchain = \"paper\"\njoint = \"head\"\nwide_loop = {{ outward = [1, 0, 0], side = [0, 1, 0], radius = 4{extra} }}\n"
+                ),
+                "w.toml",
+            )
+            .unwrap()
+            .turn[0]
+                .targets([40.0, 0.0, 0.0], 0.05)
+        };
+        let plain = script("");
+        // Fed: the first step stays put along the rope (the hand draws back as much as it heads
+        // out), and the tuck is the plain one moved back along -x by the circle's length, which
+        // lies between the circle's and the circle's plus its rise of one unit.
+        let fed = script(", feed = 1");
+        assert!(fed[0][0] < 40.0 + 1e-3, "{:?}", fed[0]);
+        let (a, b) = (plain.last().unwrap(), fed.last().unwrap());
+        let back = a[0] - b[0];
+        let circle = std::f64::consts::TAU * 4.0;
+        assert!((circle..circle + 1.0).contains(&back), "{back}");
+        assert!((a[1] - b[1]).abs() < 1e-9 && (a[2] - b[2]).abs() < 1e-9);
+        // Left: every point of the right (default) loop with its height (along outward × side)
+        // the other way.
+        let left = script(", handedness = \"left\"");
+        assert_eq!(left.len(), plain.len());
+        for (l, r) in left.iter().zip(&plain) {
+            assert!((l[0] - r[0]).abs() < 1e-9 && (l[1] - r[1]).abs() < 1e-9);
+            assert!((l[2] + r[2]).abs() < 1e-9, "{l:?} {r:?}");
+        }
+        let bad = Script::parse(
+            "name = \"w\"\n[[turn]]\nhand = \"A\"\nchain = \"paper\"\njoint = \"head\"\nwide_loop = { outward = [1, 0, 0], side = [0, 1, 0], feed = -1 }\n",
+            "w.toml",
+        )
+        .unwrap_err();
+        assert!(bad.contains("wide_loop.feed") && bad.contains("turn 1"), "{bad}");
+    }
+
+    #[test]
     fn a_wide_loop_needs_a_side_across_its_direction_and_keeps_the_step() {
         let text = |side: &str| {
             format!(

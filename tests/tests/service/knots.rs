@@ -82,7 +82,15 @@ fn clearance(p: &[V], link: f64) -> f64 {
 /// state was missed (sequence numbers without gaps). Returns (states checked, smallest clearance).
 struct Watcher {
     stop: Arc<AtomicBool>,
-    handle: std::thread::JoinHandle<(u64, f64)>,
+    handle: std::thread::JoinHandle<Watched>,
+}
+
+/// What a [`Watcher`] saw: states checked, the smallest clearance, and how many different tail
+/// positions (bit for bit) the states had.
+struct Watched {
+    checked: u64,
+    min: f64,
+    tails: usize,
 }
 
 impl Watcher {
@@ -108,6 +116,7 @@ impl Watcher {
             let stream = conn.subscribe().unwrap();
             let _ = ready_tx.send(());
             let (mut next, mut checked, mut min) = (seq0 + 1, 0u64, f64::INFINITY);
+            let mut tails: Vec<[u64; 3]> = Vec::new();
             let mut idle_since = None;
             loop {
                 let got = stream
@@ -133,13 +142,22 @@ impl Watcher {
                         if c == chain {
                             min = min.min(clearance(&pts, link));
                             checked += 1;
+                            let t = pts[0].map(f64::to_bits);
+                            let t = [t.x, t.y, t.z];
+                            if !tails.contains(&t) {
+                                tails.push(t);
+                            }
                         }
                     }
                     None => {
                         if flag.load(Ordering::Relaxed) {
                             let t = *idle_since.get_or_insert_with(Instant::now);
                             if t.elapsed() > Duration::from_millis(300) {
-                                return (checked, min);
+                                return Watched {
+                                    checked,
+                                    min,
+                                    tails: tails.len(),
+                                };
                             }
                         }
                         std::thread::sleep(Duration::from_micros(200));
@@ -155,6 +173,11 @@ impl Watcher {
     }
 
     fn finish(self) -> (u64, f64) {
+        let w = self.finish_all();
+        (w.checked, w.min)
+    }
+
+    fn finish_all(self) -> Watched {
         self.stop.store(true, Ordering::Relaxed);
         self.handle.join().expect("watcher")
     }
@@ -221,8 +244,12 @@ fn one_hand_ties_an_overhand_on_the_papers_forty_unit_links() {
     let k = knot_of(&svc, "paper");
     assert_eq!(k.kind, KnotType::Trefoil, "{k:?}");
     assert_eq!((k.crossings, k.determinant), (3, 3), "{k:?}");
-    // Where the knot is: the links that touch a non-adjacent link (closer than twice the thickness),
-    // found here from the joints.
+    assert_knot_near_the_middle(&svc, id, 40);
+}
+
+/// Where the knot is: the links that touch a non-adjacent link (closer than twice the thickness),
+/// found here from the joints; the middle of that span lies in the middle third of the rope.
+fn assert_knot_near_the_middle(svc: &Service, id: u32, links: usize) {
     let mut c = svc.connect();
     let joints: Vec<V> = c
         .call(RequestHeader::new(Command::Query, id), &[])
@@ -232,7 +259,7 @@ fn one_hand_ties_an_overhand_on_the_papers_forty_unit_links() {
         .map(|q| V::new(q.x, q.y, q.z))
         .collect();
     let n = joints.len() - 1;
-    assert_eq!(n, 40);
+    assert_eq!(n, links);
     let mut touching = Vec::new();
     for i in 0..n {
         for j in i + 2..n {
@@ -255,6 +282,40 @@ fn one_hand_ties_an_overhand_on_the_papers_forty_unit_links() {
         (n as f64 / 3.0..=2.0 * n as f64 / 3.0).contains(&middle),
         "the knot spans links {lo}..={hi}, not around the middle"
     );
+}
+
+/// The paper's rope held at its tail (figure 5 with the far end held, issue 16): anchored by the scene
+/// (chain `suture`), the head's hand ties the overhand; then the same on chain `paper` with the tail
+/// held by a second hand process that does not move. The held tail is bit for bit the same in every
+/// published state, no state lets the rope through itself, and the knot is a trefoil near the middle.
+#[test]
+fn the_overhand_is_tied_on_the_papers_rope_held_at_its_tail() {
+    let svc = knot_service();
+    for (chain, script, hands) in [
+        ("suture", "overhand-anchored", &["A"][..]),
+        ("paper", "overhand-held", &["A", "B"][..]),
+    ] {
+        let id = svc.connect().find_chain(chain).unwrap().unwrap();
+        let w = Watcher::start(&svc, id, 1.0);
+        let children: Vec<Child> = hands
+            .iter()
+            .map(|h| hand(&svc, &["--builtin", script, "--hand", h]))
+            .collect();
+        for child in children {
+            let out = finish(child);
+            assert!(out.contains("0 locked"), "{script}: {out}");
+        }
+        let seen = w.finish_all();
+        assert_never_passed_through(seen.checked, seen.min, 1000);
+        assert_eq!(
+            seen.tails, 1,
+            "{script}: the held tail moved in a published state"
+        );
+        let k = knot_of(&svc, chain);
+        assert_eq!(k.kind, KnotType::Trefoil, "{script}: {k:?}");
+        assert_eq!((k.crossings, k.determinant), (3, 3), "{script}: {k:?}");
+        assert_knot_near_the_middle(&svc, id, 40);
+    }
 }
 
 /// Two hand processes, started together, take turns on the 80-unit rope.
