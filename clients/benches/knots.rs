@@ -22,6 +22,11 @@
 //!   by a tractrix pass (`tractrix::fixed_base::Strategy::PullBack`) instead of translating the whole
 //!   side back: the slack is given up near the hold.
 //!
+//! * *held, straight, fed loop*: the rope straight, both ends held; the overhand as the built-in
+//!   `overhand-anchored` draws it (one wide loop whose circle is fed toward the held tail, since the
+//!   held rope cannot slide after the hand, then a pull back); the two-handed knots as a fed loop
+//!   by each hand (B at the head, then A at the tail, mirrored for the square) and a pull by each.
+//!
 //! A run succeeds when the rope's knot, named by the identification, is the one the script ties.
 //!
 //! A second table measures why the resolution matters: how much of a loop the hand draws stays in
@@ -89,6 +94,11 @@ enum Ends {
     HeldPull,
     /// `WideHeld` with the held side corrected by pulling its end back.
     WideHeldPull,
+    /// Straight, both ends held, the knots as fed wide loops: the overhand of the built-in
+    /// `overhand-anchored`/`overhand-held` (the head's loop fed toward the held tail, then a pull
+    /// back); the two-handed knots as B's fed loop at the head, A's at the tail (mirrored for the
+    /// square), B's pull, A's pull.
+    HeldFed,
 }
 
 impl Ends {
@@ -101,17 +111,18 @@ impl Ends {
             Ends::WideHeld => "held, U, wide loop",
             Ends::HeldPull => "held (pull-back), U",
             Ends::WideHeldPull => "held (pull-back), U, wide loop",
+            Ends::HeldFed => "held, straight, fed loop",
         }
     }
     /// Whether the rope starts in the U.
     fn u(self) -> bool {
-        !matches!(self, Ends::Free | Ends::Wide)
+        !matches!(self, Ends::Free | Ends::Wide | Ends::HeldFed)
     }
     /// Whether both ends are held.
     fn held(self) -> bool {
         matches!(
             self,
-            Ends::Held | Ends::WideHeld | Ends::HeldPull | Ends::WideHeldPull
+            Ends::Held | Ends::WideHeld | Ends::HeldPull | Ends::WideHeldPull | Ends::HeldFed
         )
     }
     /// Whether the held sides are corrected by the pull-back.
@@ -164,6 +175,45 @@ impl Knot {
             }),
             waypoints: vec![],
         }]
+    }
+
+    /// The fed wide loops on the straight rope held at both ends (`Ends::HeldFed`), perturbed by
+    /// `rng` as the throws are.
+    fn fed(self, rng: &mut Rng) -> Vec<Phase> {
+        let builtin = Script::builtin("overhand-anchored").expect("a built-in");
+        let l = builtin.turn[0].wide_loop.expect("a wide loop");
+        let pull = builtin.turn[1].waypoints[0][0].abs();
+        let mut fed = |head: bool, handedness| Phase {
+            head,
+            throw: None,
+            wide_loop: Some(WideLoop {
+                outward: [if head { 1.0 } else { -1.0 }, 0.0, 0.0].map(|c| c + rng.range(-0.05, 0.05)),
+                radius: l.radius * rng.range(0.97, 1.03),
+                exit: (l.exit + rng.range(-1.0, 1.0)).max(0.0),
+                handedness,
+                ..l
+            }),
+            waypoints: vec![],
+        };
+        let pull_back = |head: bool| Phase {
+            head,
+            throw: None,
+            wide_loop: None,
+            waypoints: vec![[if head { -pull } else { pull }, 0.0, 0.0]],
+        };
+        match self {
+            Knot::Overhand => vec![fed(true, l.handedness), pull_back(true)],
+            _ => {
+                let second = if self == Knot::Square {
+                    Handedness::Left
+                } else {
+                    Handedness::Right
+                };
+                let b = fed(true, Handedness::Right);
+                let a = fed(false, second);
+                vec![b, a, pull_back(true), pull_back(false)]
+            }
+        }
     }
 
     /// The script's phases, perturbed by `rng`, for the straight rope or the U.
@@ -287,6 +337,7 @@ fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
     let phases = match ends {
         Ends::Wide => Knot::wide([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], rng),
         Ends::WideHeld | Ends::WideHeldPull => Knot::wide([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], rng),
+        Ends::HeldFed => knot.fed(rng),
         _ => knot.phases(u, rng),
     };
     for phase in phases {
@@ -410,6 +461,7 @@ fn main() {
             Ends::WideHeld,
             Ends::HeldPull,
             Ends::WideHeldPull,
+            Ends::HeldFed,
         ] {
             print!("| {n} | {} | {} |", LENGTH / n as f64, ends.name());
             for knot in knots {
