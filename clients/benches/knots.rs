@@ -179,9 +179,10 @@ impl Knot {
 
     /// The fed wide loops on the straight rope held at both ends (`Ends::HeldFed`), perturbed by
     /// `rng` as the throws are.
-    fn fed(self, rng: &mut Rng) -> Vec<Phase> {
+    fn fed(self, radius: Option<f64>, rng: &mut Rng) -> Vec<Phase> {
         let builtin = Script::builtin("overhand-anchored").expect("a built-in");
-        let l = builtin.turn[0].wide_loop.expect("a wide loop");
+        let mut l = builtin.turn[0].wide_loop.expect("a wide loop");
+        l.radius = radius.unwrap_or(l.radius);
         let pull = builtin.turn[1].waypoints[0][0].abs();
         let mut fed = |head: bool, handedness| Phase {
             head,
@@ -312,7 +313,8 @@ fn start_rope(n: usize, arc: bool) -> Chain<f64, 3> {
     Chain::from_points(&points).expect("rope")
 }
 
-fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
+/// Ties `knot` on `n` links as `ends` says; `radius` replaces the fed loops' radius.
+fn tie(n: usize, ends: Ends, knot: Knot, radius: Option<f64>, rng: &mut Rng) -> Outcome {
     let u = ends.u();
     let mut chain = start_rope(n, u);
     let model = CollisionModel {
@@ -337,7 +339,7 @@ fn tie(n: usize, ends: Ends, knot: Knot, rng: &mut Rng) -> Outcome {
     let phases = match ends {
         Ends::Wide => Knot::wide([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], rng),
         Ends::WideHeld | Ends::WideHeldPull => Knot::wide([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], rng),
-        Ends::HeldFed => knot.fed(rng),
+        Ends::HeldFed => knot.fed(radius, rng),
         _ => knot.phases(u, rng),
     };
     for phase in phases {
@@ -426,6 +428,43 @@ fn loop_survival() {
     }
 }
 
+/// The held overhand's loop against the rope's resolution: the fed loop of `overhand-anchored` with
+/// other radii, tied on the straight rope held at both ends; and the rope its circle takes.
+fn fed_radius(runs: usize, only: Option<usize>) {
+    let builtin = Script::builtin("overhand-anchored").expect("a built-in");
+    let own = builtin.turn[0].wide_loop.expect("a wide loop").radius;
+    let radii = [2.0, 2.5, 3.0, 3.5, 4.0];
+    println!(
+        "\nHow small a fed loop each resolution keeps: the held overhand (*held, straight, fed loop*) \
+         with the loop's radius *R* set (the built-in's is {own}), {runs} perturbed runs per cell; \
+         *circle 2πR*: the rope one loop takes, which a second throw (the two-handed knots) needs \
+         again.\n"
+    );
+    let sizes: Vec<usize> = [40usize, 80, 160]
+        .into_iter()
+        .filter(|&n| only.is_none_or(|o| o == n))
+        .collect();
+    print!("| R | circle 2πR |");
+    for n in &sizes {
+        print!(" {n} links tied |");
+    }
+    println!("\n|---:|---:|{}", "---:|".repeat(sizes.len()));
+    for r in radii {
+        print!("| {r} | {:.1} |", std::f64::consts::TAU * r);
+        for &n in &sizes {
+            let mut rng = Rng(0xFED ^ (n as u64) << 8 ^ r.to_bits());
+            let ok = (0..runs)
+                .filter(|_| {
+                    tie(n, Ends::HeldFed, Knot::Overhand, Some(r), &mut rng).knot
+                        == KnotType::Trefoil
+                })
+                .count();
+            print!(" {ok}/{runs} |");
+        }
+        println!();
+    }
+}
+
 fn main() {
     let runs: usize = std::env::var("KNOT_BENCH_RUNS")
         .ok()
@@ -474,7 +513,7 @@ fn main() {
                 let (mut ok, mut refused, mut moves, mut iterations) = (0, 0, 0, 0u64);
                 let mut found = Vec::new();
                 for _ in 0..runs {
-                    let o = tie(n, ends, knot, &mut rng);
+                    let o = tie(n, ends, knot, None, &mut rng);
                     ok += usize::from(o.knot == knot.expected());
                     refused += o.refused;
                     moves += o.moves;
@@ -496,5 +535,6 @@ fn main() {
             println!();
         }
     }
+    fed_radius(runs, only);
     loop_survival();
 }
