@@ -26,7 +26,10 @@
 //!
 //! A *wide loop* (`wide_loop = { outward = [1, 0, 0], side = [0, 1, 0], radius = 4.5, exit = 5.4 }`)
 //! is the overhand the paper's coarse rope keeps: one loop wide enough to survive behind the hand
-//! until the end is tucked through it ([`WideLoop`]; built-in `overhand-wide` on 40 unit links).
+//! until the end is tucked through it ([`WideLoop`]; built-in `overhand-wide` on 40 unit links). On a
+//! rope held at its other end the loop is *fed* (`feed = 1`): the hand draws back toward the hold by as
+//! much circle as it has drawn, since a held rope cannot slide after it (built-ins `overhand-anchored`
+//! and `overhand-held`); `handedness = "left"` mirrors it.
 //!
 //! Errors name the line and the field (the `toml` crate's spans).
 
