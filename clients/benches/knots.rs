@@ -428,17 +428,18 @@ fn loop_survival() {
     }
 }
 
-/// The held overhand's loop against the rope's resolution: the fed loop of `overhand-anchored` with
-/// other radii, tied on the straight rope held at both ends; and the rope its circle takes.
+/// The held overhand over its loop's radius and the rope's resolution: the fed loop of
+/// `overhand-anchored` with other radii, tied on the straight rope held at both ends; and the rope its
+/// circle takes.
 fn fed_radius(runs: usize, only: Option<usize>) {
     let builtin = Script::builtin("overhand-anchored").expect("a built-in");
     let own = builtin.turn[0].wide_loop.expect("a wide loop").radius;
     let radii = [2.0, 2.5, 3.0, 3.5, 4.0];
     println!(
-        "\nHow small a fed loop each resolution keeps: the held overhand (*held, straight, fed loop*) \
-         with the loop's radius *R* set (the built-in's is {own}), {runs} perturbed runs per cell; \
-         *circle 2πR*: the rope one loop takes, which a second throw (the two-handed knots) needs \
-         again.\n"
+        "\nThe held overhand over its loop's radius and the rope's resolution: the fed loop of \
+         *held, straight, fed loop* (feed as the built-in's) with its radius *R* set (the \
+         built-in's is {own}), {runs} perturbed runs per cell; *circle 2πR*: the rope one loop takes, \
+         which a second throw (the two-handed knots) needs again.\n"
     );
     let sizes: Vec<usize> = [40usize, 80, 160]
         .into_iter()
