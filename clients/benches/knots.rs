@@ -188,7 +188,8 @@ impl Knot {
             head,
             throw: None,
             wide_loop: Some(WideLoop {
-                outward: [if head { 1.0 } else { -1.0 }, 0.0, 0.0].map(|c| c + rng.range(-0.05, 0.05)),
+                outward: [if head { 1.0 } else { -1.0 }, 0.0, 0.0]
+                    .map(|c| c + rng.range(-0.05, 0.05)),
                 radius: l.radius * rng.range(0.97, 1.03),
                 exit: (l.exit + rng.range(-1.0, 1.0)).max(0.0),
                 handedness,

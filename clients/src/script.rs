@@ -147,7 +147,6 @@ pub struct WideLoop {
     pub handedness: Handedness,
 }
 
-
 fn default_loop_handedness() -> Handedness {
     Handedness::Right
 }
@@ -424,10 +423,16 @@ impl Script {
                     "A"
                 };
                 turns.push(Turn {
-                    wide_loop: Some(held_loop(Handedness::Right)),
+                    wide_loop: Some(held_loop()),
                     ..turn(ties, chain, "head", None, vec![])
                 });
-                turns.push(turn(ties, chain, "head", None, vec![[-HELD_PULL, 0.0, 0.0]]));
+                turns.push(turn(
+                    ties,
+                    chain,
+                    "head",
+                    None,
+                    vec![[-HELD_PULL, 0.0, 0.0]],
+                ));
                 Some(Script {
                     name: name.into(),
                     max_step: 0.05,
@@ -462,14 +467,14 @@ impl Script {
 /// The wide loop of the held overhand on the paper's rope, straight along +x and held at its tail: a
 /// loop of radius 4 (on unit links a smaller one does not survive the tuck; BENCHMARKS.md, knots),
 /// the rope fed toward the hold as the circle is drawn.
-fn held_loop(handedness: Handedness) -> WideLoop {
+fn held_loop() -> WideLoop {
     WideLoop {
         outward: [1.0, 0.0, 0.0],
         side: [0.0, 1.0, 0.0],
         radius: 4.0,
         exit: 2.0,
         feed: 1.0,
-        handedness,
+        handedness: Handedness::Right,
     }
 }
 
@@ -699,7 +704,12 @@ fn loop_path(start: [f64; 3], l: &WideLoop) -> Vec<[f64; 3]> {
     let circle = LOOP_POINTS * 8;
     let mut out: Vec<[f64; 3]> = local
         .iter()
-        .map(|p| add(start, add(add(scale(u, p[0]), scale(v, p[1])), scale(w, p[2]))))
+        .map(|p| {
+            add(
+                start,
+                add(add(scale(u, p[0]), scale(v, p[1])), scale(w, p[2])),
+            )
+        })
         .collect();
     if l.feed > 0.0 {
         let (mut drawn, mut prev) = (0.0, start);
@@ -845,7 +855,10 @@ mod tests {
             "w.toml",
         )
         .unwrap_err();
-        assert!(bad.contains("wide_loop.feed") && bad.contains("turn 1"), "{bad}");
+        assert!(
+            bad.contains("wide_loop.feed") && bad.contains("turn 1"),
+            "{bad}"
+        );
     }
 
     #[test]
