@@ -37,7 +37,7 @@
 //! `KNOT_BENCH_DEBUG` prints the knot after every turn. Refused moves are counted and skipped, as a
 //! hand would skip them.
 
-use clients::script::{Handedness, Script, Throw, Turn, WideLoop};
+use clients::script::{Handedness, Script, Throw, Tuck, Turn, WideLoop};
 use nalgebra::Vector3;
 use tractrix::chain::{Chain, MoveOptions};
 use tractrix::collision::{
@@ -140,6 +140,7 @@ struct Phase {
     head: bool,
     throw: Option<Throw>,
     wide_loop: Option<WideLoop>,
+    tuck: Option<Tuck>,
     waypoints: Vec<[f64; 3]>,
 }
 
@@ -173,6 +174,7 @@ impl Knot {
                 exit: (l.exit + rng.range(-1.0, 1.0)).max(0.0),
                 ..l
             }),
+            tuck: None,
             waypoints: vec![],
         }]
     }
@@ -195,12 +197,14 @@ impl Knot {
                 handedness,
                 ..l
             }),
+            tuck: None,
             waypoints: vec![],
         };
         let pull_back = |head: bool| Phase {
             head,
             throw: None,
             wide_loop: None,
+            tuck: None,
             waypoints: vec![[if head { -pull } else { pull }, 0.0, 0.0]],
         };
         match self {
@@ -234,6 +238,7 @@ impl Knot {
             head,
             throw: Some(t),
             wide_loop: None,
+            tuck: None,
             waypoints: vec![],
         };
         let second = if self == Knot::Square {
@@ -266,6 +271,7 @@ impl Knot {
                         .throw
                         .map(|th| throw(th.handedness, th.outward, th.scale, th.exit)),
                     wide_loop: None,
+                    tuck: None,
                     waypoints: t.waypoints,
                 })
                 .collect(),
@@ -345,16 +351,17 @@ fn tie(n: usize, ends: Ends, knot: Knot, radius: Option<f64>, rng: &mut Rng) -> 
     };
     for phase in phases {
         let joint = if phase.head { n } else { 0 };
-        let start = chain.joint(joint);
         let turn = Turn {
             hand: if phase.head { "B" } else { "A" }.into(),
             chain: "rope".into(),
             joint: if phase.head { "head" } else { "tail" }.into(),
             throw: phase.throw,
             wide_loop: phase.wide_loop,
+            tuck: phase.tuck,
             waypoints: phase.waypoints,
         };
-        for t in turn.targets([start.x, start.y, start.z], 0.05) {
+        let rope: Vec<[f64; 3]> = chain.positions().iter().map(|p| [p.x, p.y, p.z]).collect();
+        for t in turn.targets_on(&rope, joint, 0.05).unwrap_or_default() {
             moves += 1;
             let t = V::new(t[0], t[1], t[2]);
             match move_joint_colliding(&mut chain, joint, t, &opts, &model, &mut ws) {

@@ -60,6 +60,8 @@ pub struct HandReport {
     pub locked: u64,
     /// Other refusals (status name, count).
     pub refused: Vec<(String, u64)>,
+    /// Turns skipped because their path could not be made (a tuck that found no loop).
+    pub skipped_turns: u64,
     /// Key frames: `(label, joints)`, kept when asked for ([`HandConfig::frames_per_turn`]).
     pub frames: Vec<(String, Vec<[f64; 3]>)>,
 }
@@ -365,10 +367,20 @@ fn drive(
         } else {
             joint as usize
         };
-        let Some(start) = joints.get(idx) else {
+        if idx >= joints.len() {
             bail!("joint {} is not a joint of {:?}", turn.joint, turn.chain);
+        }
+        let rope: Vec<[f64; 3]> = joints.iter().map(|p| p.to_array()).collect();
+        // A tuck that finds no loop in the rope is skipped, said on stderr and counted: the other
+        // hands go on (the knot is then not tied, which the identification reports).
+        let targets = match turn.targets_on(&rope, idx, cfg.script.max_step) {
+            Ok(t) => t,
+            Err(e) => {
+                eprintln!("hand {}: turn {} skipped: {e}", cfg.hand, k + 1);
+                report.skipped_turns += 1;
+                Vec::new()
+            }
         };
-        let targets = turn.targets(start.to_array(), cfg.script.max_step);
         let every = (targets.len() / cfg.frames_per_turn.max(1)).max(1);
         if cfg.frames_per_turn > 0 && report.frames.is_empty() {
             let joints = q.joints().iter().map(|p| p.to_array()).collect();

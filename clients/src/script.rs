@@ -81,6 +81,11 @@ pub struct Turn {
     /// One wide loop and a tuck (after the throw, if both are given).
     #[serde(default)]
     pub wide_loop: Option<WideLoop>,
+    /// A tuck through the loop the rope has *now*, found in the rope's joints when the turn starts
+    /// (after the wide loop, if both are given, and before the waypoints): the hand that watches
+    /// where its loop lies.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tuck: Option<Tuck>,
     /// Relative to the joint's position when the turn starts.
     #[serde(default)]
     pub waypoints: Vec<[f64; 3]>,
@@ -145,6 +150,49 @@ pub struct WideLoop {
     /// mirror (every crossing the other way up), as for throws.
     #[serde(default = "default_loop_handedness")]
     pub handedness: Handedness,
+    /// Whether the turn ends with the drawn tuck and pull (the default) or with the circle, for a
+    /// [`Tuck`] (a later turn) to thread the loop where it then lies.
+    #[serde(default = "default_true", skip_serializing_if = "is_true")]
+    pub tuck: bool,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
+}
+
+/// A tuck that watches the rope: when its turn starts, the hand finds the loop nearest its end in the
+/// rope's joints (seen along `outward × side`: walking from the end, the first stretch of rope that
+/// comes back across itself) and threads the end through it where it lies, as the drawn tuck of a
+/// [`WideLoop`] does where the loop was drawn: under the loop's far side (along `outward`), up
+/// through its middle, over its near side, then `exit` units on along −`outward`. On a tractrix rope
+/// the loop a hand draws does not stay where it was drawn (it is dragged and shrinks as the rope
+/// follows the hand, by amounts that depend on the link length: BENCHMARKS.md, knots), so a tuck aimed
+/// at the drawn loop misses it on some ropes. No loop in the rope: the turn is refused
+/// ([`Turn::targets_on`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tuck {
+    /// The loop's frame, as the [`WideLoop`]'s that drew it: the far side lies along `outward`.
+    pub outward: [f64; 3],
+    /// Across `outward`, toward the loop.
+    pub side: [f64; 3],
+    /// How far the end passes beyond the loop's rim and above and below its plane.
+    #[serde(default = "default_tuck_clearance")]
+    pub clearance: f64,
+    /// Pull after the tuck, back along `outward`.
+    #[serde(default = "default_loop_exit")]
+    pub exit: f64,
+    /// The knot's chirality, as the loop's: `"left"` passes under and over the other way up.
+    #[serde(default = "default_loop_handedness")]
+    pub handedness: Handedness,
+}
+
+fn default_tuck_clearance() -> f64 {
+    1.0
 }
 
 fn default_loop_handedness() -> Handedness {
@@ -282,6 +330,12 @@ impl Script {
                 }
                 l.exit = (l.exit + range(-1.0, 1.0)).max(0.0);
             }
+            if let Some(k) = &mut t.tuck {
+                for c in &mut k.outward {
+                    *c += range(-0.05, 0.05);
+                }
+                k.exit = (k.exit + range(-1.0, 1.0)).max(0.0);
+            }
             for w in &mut t.waypoints {
                 for c in w {
                     *c += range(-0.05, 0.05);
@@ -315,6 +369,7 @@ impl Script {
             joint: joint.into(),
             throw,
             wide_loop: None,
+            tuck: None,
             waypoints,
         };
         let two_hands = |second| Script {
@@ -376,6 +431,7 @@ impl Script {
                         exit: default_loop_exit(),
                         feed: 0.0,
                         handedness: Handedness::Right,
+                        tuck: true,
                     }),
                     ..turn("A", "paper", "head", None, vec![])
                 }],
@@ -440,6 +496,8 @@ impl Script {
                     turn: turns,
                 })
             }
+            "square-held" => Some(two_hands_held(name, Handedness::Left)),
+            "granny-held" => Some(two_hands_held(name, Handedness::Right)),
             "square-u" => Some(two_hands_u(name, Handedness::Right)),
             "granny-u" => Some(two_hands_u(name, Handedness::Left)),
             "wave" => Some(Script {
@@ -475,12 +533,82 @@ fn held_loop() -> WideLoop {
         exit: 2.0,
         feed: 1.0,
         handedness: Handedness::Right,
+        tuck: true,
     }
 }
 
 /// How far the held overhand's hand pulls back along the rope after the tuck: the knot snug, before
 /// it jams (a jammed knot locks the hand's moves).
 const HELD_PULL: f64 = 8.0;
+
+/// The two-handed knots on the paper's rope (chain `paper`: 40 unit links, straight along +x), each
+/// end held by its hand for the whole script (A the tail, B the head), the hands moving alternately
+/// (five alternations). Each throw is a fed loop of radius 2 drawn by one hand (the circle only) and a
+/// tuck that watches the rope ([`Tuck`]: the end threaded through the loop where it lies); B throws
+/// first (a right trefoil), then A (`second`: `Left` mirrors it, a square knot; `Right`, a granny);
+/// then each hand pulls its end back along the rope by one unit, twice, in turn.
+fn two_hands_held(name: &str, second: Handedness) -> Script {
+    let hand = |h: &str| Turn {
+        hand: h.into(),
+        chain: "paper".into(),
+        joint: if h == "A" { "tail" } else { "head" }.into(),
+        throw: None,
+        wide_loop: None,
+        tuck: None,
+        waypoints: vec![],
+    };
+    // Each hand heads away from the rope (B along +x, A along −x), the loop on the +y side.
+    let outward = |h: &str| [if h == "A" { -1.0 } else { 1.0 }, 0.0, 0.0];
+    let handedness = |h: &str| {
+        if h == "A" { second } else { Handedness::Right }
+    };
+    let circle = |h: &str| Turn {
+        wide_loop: Some(WideLoop {
+            outward: outward(h),
+            side: [0.0, 1.0, 0.0],
+            radius: HELD_TWO_RADIUS,
+            exit: 0.0,
+            feed: 1.0,
+            handedness: handedness(h),
+            tuck: false,
+        }),
+        ..hand(h)
+    };
+    let tuck = |h: &str| Turn {
+        tuck: Some(Tuck {
+            outward: outward(h),
+            side: [0.0, 1.0, 0.0],
+            clearance: default_tuck_clearance(),
+            exit: 2.0,
+            handedness: handedness(h),
+        }),
+        ..hand(h)
+    };
+    let pull = |h: &str| Turn {
+        waypoints: vec![[-outward(h)[0], 0.0, 0.0]],
+        ..hand(h)
+    };
+    Script {
+        name: name.into(),
+        max_step: 0.05,
+        grasp: true,
+        turn: vec![
+            circle("B"),
+            tuck("B"),
+            circle("A"),
+            tuck("A"),
+            pull("B"),
+            pull("A"),
+            pull("B"),
+            pull("A"),
+        ],
+    }
+}
+
+/// The radius of each throw's loop in the two-handed held knots: two loops and their tucks fit in 40
+/// units (BENCHMARKS.md, knots: a fed loop of radius 4, which the drawn tuck needs on unit links,
+/// takes more than half the rope).
+const HELD_TWO_RADIUS: f64 = 2.0;
 
 /// The two-handed knots on a rope hanging in a U between the hands (A the tail, B the head), each
 /// hand holding its end throughout; six alternating turns: A throws (upward, away from the rope), B
@@ -498,6 +626,7 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
         joint: if hand == "A" { "tail" } else { "head" }.into(),
         throw,
         wide_loop: None,
+        tuck: None,
         waypoints,
     };
     Script {
@@ -519,7 +648,9 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
 /// BENCHMARKS.md, knots): `overhand-u` with the tail held, `square-u` and `granny-u` with one hand on
 /// each end. `overhand-wide` ties the overhand on the paper's rope (chain `paper` of `knots.toml`: 40
 /// unit links) with one wide loop; `overhand-held` ties it with the tail held by a second hand that
-/// does not move, `overhand-anchored` with the tail anchored by the scene (chain `suture`).
+/// does not move, `overhand-anchored` with the tail anchored by the scene (chain `suture`);
+/// `square-held` and `granny-held` tie the two-handed knots on it with each end held by its hand
+/// throughout, the hands taking turns.
 pub const BUILTINS: &[&str] = &[
     "overhand",
     "overhand-wide",
@@ -531,6 +662,8 @@ pub const BUILTINS: &[&str] = &[
     "overhand-u",
     "square-u",
     "granny-u",
+    "square-held",
+    "granny-held",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.
@@ -548,6 +681,33 @@ impl Turn {
     /// The absolute targets of this turn for a joint starting at `start`, split so that no request
     /// moves the joint more than `max_step`.
     pub fn targets(&self, start: [f64; 3], max_step: f64) -> Vec<[f64; 3]> {
+        self.corners(start, None)
+            .map(|c| densify(start, &c, max_step))
+            .unwrap_or_default()
+    }
+
+    /// The absolute targets of this turn for its joint `joint` of the rope `joints` as the turn
+    /// starts, split so that no request moves the joint more than `max_step`. A [`Tuck`] is aimed at
+    /// the loop the rope has; an error when it has none, or when `joint` is not a joint of it.
+    pub fn targets_on(
+        &self,
+        joints: &[[f64; 3]],
+        joint: usize,
+        max_step: f64,
+    ) -> Result<Vec<[f64; 3]>, String> {
+        let start = *joints
+            .get(joint)
+            .ok_or_else(|| format!("joint {joint} is not a joint of the rope"))?;
+        let corners = self.corners(start, Some((joints, joint)))?;
+        Ok(densify(start, &corners, max_step))
+    }
+
+    /// The corners of the turn's path; a tuck needs the rope.
+    fn corners(
+        &self,
+        start: [f64; 3],
+        rope: Option<(&[[f64; 3]], usize)>,
+    ) -> Result<Vec<[f64; 3]>, String> {
         let mut corners: Vec<[f64; 3]> = Vec::new();
         if let Some(th) = &self.throw {
             corners.extend(throw_path(start, th));
@@ -556,8 +716,12 @@ impl Turn {
             let from = corners.last().copied().unwrap_or(start);
             corners.extend(loop_path(from, l));
         }
+        if let Some(t) = &self.tuck {
+            let (joints, joint) = rope.ok_or("a tuck needs the rope's joints")?;
+            corners.extend(tuck_path(joints, joint, t)?);
+        }
         corners.extend(self.waypoints.iter().map(|w| add(start, *w)));
-        densify(start, &corners, max_step)
+        Ok(corners)
     }
 }
 
@@ -655,7 +819,23 @@ fn loop_local(l: &WideLoop) -> Vec<[f64; 3]> {
         };
         pts.push([r * a.cos(), r + r * a.sin(), z]);
     }
-    pts.extend([
+    if l.tuck {
+        pts.extend(tuck_local(r, l.exit));
+    }
+    // The mirror knot: every crossing the other way up.
+    if l.handedness == Handedness::Left {
+        for p in &mut pts {
+            p[2] = -p[2];
+        }
+    }
+    catmull_rom(&pts)
+}
+
+/// The drawn tuck in a loop's frame (the loop a circle of radius `r` about `(0, r)`, entered and
+/// closed at the origin): on past the crossing, under the far side, up through the middle, over the
+/// near side, and `exit` on.
+fn tuck_local(r: f64, exit: f64) -> [[f64; 3]; 8] {
+    [
         [0.6 * r, -0.4 * r, 0.3],
         [1.3 * r, 0.1 * r, -1.0],
         [1.1 * r, 0.5 * r, -1.0],
@@ -663,15 +843,12 @@ fn loop_local(l: &WideLoop) -> Vec<[f64; 3]> {
         [-0.2 * r, r, 0.0],
         [-0.5 * r, r, 1.0],
         [-1.3 * r, r, 1.0],
-        [-1.3 * r - l.exit, r, 1.0],
-    ]);
-    // The mirror knot: every crossing the other way up.
-    if l.handedness == Handedness::Left {
-        for p in &mut pts {
-            p[2] = -p[2];
-        }
-    }
-    // Catmull-Rom through the points (the ends repeated), eight samples per span.
+        [-1.3 * r - exit, r, 1.0],
+    ]
+}
+
+/// A Catmull-Rom curve through `pts` (the ends repeated), eight samples per span.
+fn catmull_rom(pts: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let at = |i: isize| pts[i.clamp(0, pts.len() as isize - 1) as usize];
     let mut out = Vec::new();
     for i in 0..pts.len() as isize - 1 {
@@ -693,6 +870,148 @@ fn loop_local(l: &WideLoop) -> Vec<[f64; 3]> {
 
 /// Points of a wide loop's circle.
 const LOOP_POINTS: usize = 24;
+
+/// The loop nearest the end `joint` (0 or the last) of the rope `joints`, seen along `w` in the frame
+/// `(u, v, w)`: walking from the end, the first stretch of rope whose projection comes back across
+/// the rope walked before it (at least four links and twice `min_span` across, so that a kink is no
+/// loop). Returns the loop's joints.
+fn find_loop(
+    joints: &[[f64; 3]],
+    joint: usize,
+    [u, v, _]: [[f64; 3]; 3],
+    min_span: f64,
+    reach: f64,
+) -> Option<Vec<[f64; 3]>> {
+    let n = joints.len();
+    if n < 6 || (joint != 0 && joint != n - 1) {
+        return None;
+    }
+    let walk: Vec<[f64; 3]> = if joint == 0 {
+        joints.to_vec()
+    } else {
+        joints.iter().rev().copied().collect()
+    };
+    let mut flat: Vec<[f64; 2]> = walk.iter().map(|p| [dot(*p, u), dot(*p, v)]).collect();
+    // The end's link reaches half a link past the end: a hand that closed its loop right above the
+    // rope it crosses (the circle drawn to where it began) crosses it there.
+    flat[0] = [
+        1.5 * flat[0][0] - 0.5 * flat[1][0],
+        1.5 * flat[0][1] - 0.5 * flat[1][1],
+    ];
+    let spread_ok = |ring: &[[f64; 3]]| {
+        let spread = |d: [f64; 3]| {
+            let xs = ring.iter().map(|p| dot(*p, d));
+            xs.clone().fold(f64::MIN, f64::max) - xs.fold(f64::MAX, f64::min)
+        };
+        spread(u).min(spread(v)) >= 2.0 * min_span
+    };
+    // Segment a (walk[a]..walk[a + 1]) against the later segments b ≥ a + 4.
+    for a in 0..n - 1 {
+        for b in a + 4..n - 1 {
+            if segments_cross(flat[a], flat[a + 1], flat[b], flat[b + 1])
+                && spread_ok(&walk[a + 1..=b])
+            {
+                return Some(walk[a + 1..=b].to_vec());
+            }
+        }
+    }
+    // No crossing: the end's own link may have closed the loop short of the rope it headed for,
+    // by up to `reach` (a hand's aim is no better); the nearest such approach closes it.
+    (4..n - 1)
+        .map(|b| {
+            (
+                segment_distance_2d(flat[0], flat[1], flat[b], flat[b + 1]),
+                b,
+            )
+        })
+        .filter(|&(d, b)| d < reach && spread_ok(&walk[1..=b]))
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .map(|(_, b)| walk[1..=b].to_vec())
+}
+
+/// Distance between two segments of the plane (they do not cross).
+fn segment_distance_2d(p: [f64; 2], q: [f64; 2], r: [f64; 2], s: [f64; 2]) -> f64 {
+    let point = |x: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let l2 = d[0] * d[0] + d[1] * d[1];
+        let t = if l2 > 0.0 {
+            (((x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        ((x[0] - a[0] - t * d[0]).powi(2) + (x[1] - a[1] - t * d[1]).powi(2)).sqrt()
+    };
+    point(p, r, s)
+        .min(point(q, r, s))
+        .min(point(r, p, q))
+        .min(point(s, p, q))
+}
+
+/// Whether two segments of the plane cross (proper crossings only).
+fn segments_cross(p: [f64; 2], q: [f64; 2], r: [f64; 2], s: [f64; 2]) -> bool {
+    let orient = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    };
+    let (d1, d2) = (orient(r, s, p), orient(r, s, q));
+    let (d3, d4) = (orient(p, q, r), orient(p, q, s));
+    d1 * d2 < 0.0 && d3 * d4 < 0.0
+}
+
+/// The corners of a tuck (see [`Tuck`]) through the loop nearest the end `joint` of `joints`.
+fn tuck_path(joints: &[[f64; 3]], joint: usize, t: &Tuck) -> Result<Vec<[f64; 3]>, String> {
+    let frame = loop_frame(&WideLoop {
+        outward: t.outward,
+        side: t.side,
+        radius: 1.0,
+        exit: 0.0,
+        feed: 0.0,
+        handedness: t.handedness,
+        tuck: true,
+    })
+    .ok_or("tuck.outward and tuck.side must be finite, non-zero and not parallel")?;
+    let [u, v, w] = frame;
+    let ring = find_loop(joints, joint, frame, t.clearance.min(1.0), t.clearance)
+        .ok_or("no loop to tuck through: the rope does not cross itself near the hand's end")?;
+    let k = ring.len() as f64;
+    let c = scale(ring.iter().fold([0.0; 3], |a, p| add(a, *p)), 1.0 / k);
+    let along = |d: [f64; 3]| ring.iter().map(move |p| dot(add(*p, scale(c, -1.0)), d));
+    let far = along(u).fold(f64::MIN, f64::max);
+    let near = -along(u).fold(f64::MAX, f64::min);
+    let bottom = -along(v).fold(f64::MAX, f64::min);
+    let rho = ring
+        .iter()
+        .map(|p| {
+            let d = add(*p, scale(c, -1.0));
+            (dot(d, u).powi(2) + dot(d, v).powi(2)).sqrt()
+        })
+        .sum::<f64>()
+        / k;
+    let (d, e) = (t.clearance, t.exit);
+    let up = if t.handedness == Handedness::Left {
+        -1.0
+    } else {
+        1.0
+    };
+    let local = [
+        [0.6 * rho, -bottom - 0.4 * rho, 0.3 * d],
+        [far + d, -bottom + 0.1 * rho, -d],
+        [far + 0.5 * d, -0.5 * rho, -d],
+        [0.2 * rho, 0.0, -d],
+        [-0.2 * rho, 0.0, 0.0],
+        [-0.5 * rho, 0.0, d],
+        [-near - d, 0.0, d],
+        [-near - d - e, 0.0, d],
+    ];
+    Ok(local
+        .iter()
+        .map(|p| {
+            add(
+                c,
+                add(add(scale(u, p[0]), scale(v, p[1])), scale(w, up * p[2])),
+            )
+        })
+        .collect())
+}
 
 /// The corners of a wide loop's path (see [`WideLoop`]) from `start`, fed back along `outward` by
 /// `feed` times the circle drawn so far.
@@ -738,6 +1057,9 @@ fn densify(start: [f64; 3], corners: &[[f64; 3]], max_step: f64) -> Vec<[f64; 3]
     out
 }
 
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
 fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
@@ -893,6 +1215,89 @@ mod tests {
             (end[0] + 1.3 * 4.5 + 5.4).abs() < 1e-9 && (end[1] - 4.5).abs() < 1e-9,
             "{end:?}"
         );
+    }
+
+    /// A rope written here: straight along +x from the origin to (20, 0, 0), then a circle of radius
+    /// `r` about (20, r) drawn counter-clockwise from its bottom, rising to `z = 1` over its last
+    /// quarter, its end `back` short of the bottom (in unit-ish links).
+    fn looped_rope(r: f64, back: f64) -> Vec<[f64; 3]> {
+        let mut p: Vec<[f64; 3]> = (0..=20).map(|k| [k as f64, 0.0, 0.0]).collect();
+        let m = 40;
+        for k in 1..=m {
+            let a = (std::f64::consts::TAU - back / r) * k as f64 / m as f64;
+            let z = (4.0 * k as f64 / m as f64 - 3.0).max(0.0);
+            p.push([20.0 + r * a.sin(), r - r * a.cos(), z]);
+        }
+        p
+    }
+
+    #[test]
+    fn a_tuck_finds_the_loop_where_it_lies_and_threads_it() {
+        let tuck = Tuck {
+            outward: [1.0, 0.0, 0.0],
+            side: [0.0, 1.0, 0.0],
+            clearance: 1.0,
+            exit: 2.0,
+            handedness: Handedness::Right,
+        };
+        let turn = Turn {
+            hand: "B".into(),
+            chain: "paper".into(),
+            joint: "head".into(),
+            throw: None,
+            wide_loop: None,
+            tuck: Some(tuck),
+            waypoints: vec![],
+        };
+        // The end closes the loop just past the rope it crosses (a proper crossing), or 0.4 short of
+        // it (closed within the clearance): either way the loop of radius 3 about (20, 3) is found.
+        for back in [-0.3, 0.4] {
+            let rope = looped_rope(3.0, back);
+            let head = rope.len() - 1;
+            let p = turn.targets_on(&rope, head, 0.05).unwrap();
+            let mut prev = rope[head];
+            for q in &p {
+                assert!(norm([q[0] - prev[0], q[1] - prev[1], q[2] - prev[2]]) <= 0.05 + 1e-12);
+                prev = *q;
+            }
+            // Under the far side (x beyond 23, below the loop), up through the middle (near
+            // (20, 3) and rising), over the near side (x short of 17, above), then 2 on along −x.
+            assert!(p.iter().any(|q| q[0] > 23.5 && q[2] < -0.5), "back {back}");
+            let through = p
+                .iter()
+                .filter(|q| (q[0] - 20.0).abs() < 1.0 && (q[1] - 3.0).abs() < 1.0)
+                .map(|q| q[2]);
+            let (lo, hi) = through.fold((f64::MAX, f64::MIN), |(a, b), z| (a.min(z), b.max(z)));
+            assert!(lo < -0.5 && hi > 0.5, "back {back}: {lo} {hi}");
+            let end = p.last().unwrap();
+            assert!(end[0] < 15.5 && end[2] > 0.5, "back {back}: {end:?}");
+            // The left tuck is the same path the other way up.
+            let left = Turn {
+                tuck: Some(Tuck {
+                    handedness: Handedness::Left,
+                    ..tuck
+                }),
+                ..turn.clone()
+            };
+            let q = left.targets_on(&rope, head, 0.05).unwrap();
+            assert!(q.iter().any(|x| x[0] > 23.5 && x[2] > 0.5), "back {back}");
+            assert!(
+                q.iter().all(|x| !(x[0] > 23.5 && x[2] < -0.5)),
+                "back {back}"
+            );
+            let end = q.last().unwrap();
+            assert!(end[0] < 15.5 && end[2] < -0.5, "back {back}: {end:?}");
+        }
+        // A straight rope has no loop: the turn is refused; so is a joint that is not an end.
+        let straight: Vec<[f64; 3]> = (0..=40).map(|k| [k as f64, 0.0, 0.0]).collect();
+        let e = turn.targets_on(&straight, 40, 0.05).unwrap_err();
+        assert!(e.contains("no loop"), "{e}");
+        assert!(turn.targets_on(&looped_rope(3.0, -0.3), 20, 0.05).is_err());
+        assert!(turn.targets_on(&straight, 41, 0.05).is_err());
+        // A circle whose end stops farther from the rope than the clearance (2.3 above it) is no
+        // loop yet.
+        let open = looped_rope(3.0, 4.0);
+        assert!(turn.targets_on(&open, 60, 0.05).is_err());
     }
 
     #[test]
