@@ -85,12 +85,16 @@ struct Watcher {
     handle: std::thread::JoinHandle<Watched>,
 }
 
-/// What a [`Watcher`] saw: states checked, the smallest clearance, and how many different tail
-/// positions (bit for bit) the states had.
+/// What a [`Watcher`] saw: states checked, the smallest clearance, how many different tail
+/// positions (bit for bit) the states had, and how many states moved the tail, the head, and both
+/// (bit for bit, against the state before).
 struct Watched {
     checked: u64,
     min: f64,
     tails: usize,
+    tail_moved: u64,
+    head_moved: u64,
+    both_moved: u64,
 }
 
 impl Watcher {
@@ -117,6 +121,12 @@ impl Watcher {
             let _ = ready_tx.send(());
             let (mut next, mut checked, mut min) = (seq0 + 1, 0u64, f64::INFINITY);
             let mut tails: Vec<[u64; 3]> = Vec::new();
+            let bits = |p: V| {
+                let b = p.map(f64::to_bits);
+                [b.x, b.y, b.z]
+            };
+            let mut ends: Option<([u64; 3], [u64; 3])> = None;
+            let (mut tail_moved, mut head_moved, mut both_moved) = (0u64, 0u64, 0u64);
             let mut idle_since = None;
             loop {
                 let got = stream
@@ -142,11 +152,17 @@ impl Watcher {
                         if c == chain {
                             min = min.min(clearance(&pts, link));
                             checked += 1;
-                            let t = pts[0].map(f64::to_bits);
-                            let t = [t.x, t.y, t.z];
+                            let t = bits(pts[0]);
                             if !tails.contains(&t) {
                                 tails.push(t);
                             }
+                            let h = bits(pts[pts.len() - 1]);
+                            if let Some((t0, h0)) = ends {
+                                tail_moved += u64::from(t != t0);
+                                head_moved += u64::from(h != h0);
+                                both_moved += u64::from(t != t0 && h != h0);
+                            }
+                            ends = Some((t, h));
                         }
                     }
                     None => {
@@ -157,6 +173,9 @@ impl Watcher {
                                     checked,
                                     min,
                                     tails: tails.len(),
+                                    tail_moved,
+                                    head_moved,
+                                    both_moved,
                                 };
                             }
                         }
@@ -314,6 +333,61 @@ fn the_overhand_is_tied_on_the_papers_rope_held_at_its_tail() {
         let k = knot_of(&svc, chain);
         assert_eq!(k.kind, KnotType::Trefoil, "{script}: {k:?}");
         assert_eq!((k.crossings, k.determinant), (3, 3), "{script}: {k:?}");
+        assert_knot_near_the_middle(&svc, id, 40);
+    }
+}
+
+/// The two-handed knots on the paper's rope held at both ends (figure 6, issue 16): two hand
+/// processes on chain `paper` (40 unit links, 0.2 thick), A holding the tail and B the head for the
+/// whole script, moving alternately (five alternations: each throws, then each pulls twice in turn).
+/// B's throw is a right trefoil; A's mirrors it for the square knot and repeats it for the granny.
+/// In every published state one end at most has moved (bit for bit) since the state before, so the
+/// hand that waits holds its end still while the other moves; no state lets the rope through itself;
+/// the knot, named by the identification, lies around the middle of the rope.
+#[test]
+fn two_hands_tie_the_square_and_granny_on_the_papers_rope_both_ends_held() {
+    let svc = knot_service();
+    let id = svc.connect().find_chain("paper").unwrap().unwrap();
+    for (script, expected) in [
+        ("square-held", KnotType::Square),
+        ("granny-held", KnotType::Granny),
+    ] {
+        let mut c = svc.connect();
+        assert!(
+            c.call(RequestHeader::new(Command::Reset, id), &[])
+                .unwrap()
+                .is_ok()
+        );
+        drop(c);
+        let w = Watcher::start(&svc, id, 1.0);
+        let hands: Vec<Child> = ["A", "B"]
+            .iter()
+            .map(|h| hand(&svc, &["--builtin", script, "--hand", h]))
+            .collect();
+        for h in hands {
+            let out = finish(h);
+            assert!(!out.contains("skipped"), "{script}: {out}");
+        }
+        let seen = w.finish_all();
+        assert_never_passed_through(seen.checked, seen.min, 1000);
+        assert_eq!(
+            seen.both_moved, 0,
+            "{script}: a state moved both held ends at once"
+        );
+        assert!(
+            seen.tail_moved > 100 && seen.head_moved > 100,
+            "{script}: both hands moved their ends ({} and {} states)",
+            seen.tail_moved,
+            seen.head_moved
+        );
+        let k = knot_of(&svc, "paper");
+        assert_eq!(k.kind, expected, "{script}: {k:?}");
+        assert_eq!(k.determinant, 9, "{script}: {k:?}");
+        if expected == KnotType::Granny {
+            assert!(k.writhe.abs() >= 4, "{script}: {k:?}");
+        } else {
+            assert!(k.writhe.abs() <= 2, "{script}: {k:?}");
+        }
         assert_knot_near_the_middle(&svc, id, 40);
     }
 }
