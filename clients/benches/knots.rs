@@ -24,8 +24,10 @@
 //!
 //! * *held, straight, fed loop*: the rope straight, both ends held; the overhand as the built-in
 //!   `overhand-anchored` draws it (one wide loop whose circle is fed toward the held tail, since the
-//!   held rope cannot slide after the hand, then a pull back); the two-handed knots as a fed loop
-//!   by each hand (B at the head, then A at the tail, mirrored for the square) and a pull by each.
+//!   held rope cannot slide after the hand, then a pull back); the two-handed knots as the built-ins
+//!   `square-held` and `granny-held` tie them (B's fed circle of radius 2 and a tuck that finds the
+//!   loop where it lies, then A's, mirrored for the square; then the pulls in turn), perturbed as
+//!   `hand run --perturb` perturbs them.
 //!
 //! A run succeeds when the rope's knot, named by the identification, is the one the script ties.
 //!
@@ -96,8 +98,8 @@ enum Ends {
     WideHeldPull,
     /// Straight, both ends held, the knots as fed wide loops: the overhand of the built-in
     /// `overhand-anchored`/`overhand-held` (the head's loop fed toward the held tail, then a pull
-    /// back); the two-handed knots as B's fed loop at the head, A's at the tail (mirrored for the
-    /// square), B's pull, A's pull.
+    /// back); the two-handed knots of `square-held`/`granny-held` (each hand's fed circle and a
+    /// tuck that watches the rope, then the pulls in turn).
     HeldFed,
 }
 
@@ -209,15 +211,24 @@ impl Knot {
         };
         match self {
             Knot::Overhand => vec![fed(true, l.handedness), pull_back(true)],
+            // The built-ins `square-held` and `granny-held`: each hand's fed circle and a tuck that
+            // finds the loop where it lies, then the pulls in turn; perturbed as the hands'
+            // `--perturb` does.
             _ => {
-                let second = if self == Knot::Square {
-                    Handedness::Left
-                } else {
-                    Handedness::Right
-                };
-                let b = fed(true, Handedness::Right);
-                let a = fed(false, second);
-                vec![b, a, pull_back(true), pull_back(false)]
+                let mut script = Script::builtin(&format!("{}-held", self.name()))
+                    .expect("a built-in held script");
+                script.perturb(1 + (rng.unit() * 1e15) as u64);
+                script
+                    .turn
+                    .into_iter()
+                    .map(|t| Phase {
+                        head: t.joint == "head",
+                        throw: None,
+                        wide_loop: t.wide_loop,
+                        tuck: t.tuck,
+                        waypoints: t.waypoints,
+                    })
+                    .collect()
             }
         }
     }
