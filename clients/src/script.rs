@@ -543,10 +543,13 @@ const HELD_PULL: f64 = 8.0;
 
 /// The two-handed knots on the paper's rope (chain `paper`: 40 unit links, straight along +x), each
 /// end held by its hand for the whole script (A the tail, B the head), the hands moving alternately
-/// (five alternations). Each throw is a fed loop of radius 2 drawn by one hand (the circle only) and a
-/// tuck that watches the rope ([`Tuck`]: the end threaded through the loop where it lies); B throws
-/// first (a right trefoil), then A (`second`: `Left` mirrors it, a square knot; `Right`, a granny);
-/// then each hand pulls its end back along the rope by one unit, twice, in turn.
+/// (six alternations). A first gives the rope slack: its end 4 units toward B, dipping aside and up
+/// on the way (the rope between the knots would otherwise be taut after B's throw, and A's circle
+/// would drag B's knot until it jammed; a move straight along a straight rope only pushes it along,
+/// so the hand goes round). Each throw is a fed loop of radius 2 drawn by one hand (the circle only)
+/// and a tuck that watches the rope ([`Tuck`]: the end threaded through the loop where it lies); B
+/// throws first (a right trefoil), then A (`second`: `Left` mirrors it, a square knot; `Right`, a
+/// granny); then each hand pulls its end back along the rope by one unit, twice, in turn.
 fn two_hands_held(name: &str, second: Handedness) -> Script {
     let hand = |h: &str| Turn {
         hand: h.into(),
@@ -593,6 +596,10 @@ fn two_hands_held(name: &str, second: Handedness) -> Script {
         max_step: 0.05,
         grasp: true,
         turn: vec![
+            Turn {
+                waypoints: vec![[4.0, -2.0, 0.5], [4.0, 0.0, 0.0]],
+                ..hand("A")
+            },
             circle("B"),
             tuck("B"),
             circle("A"),

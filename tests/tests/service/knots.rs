@@ -339,7 +339,7 @@ fn the_overhand_is_tied_on_the_papers_rope_held_at_its_tail() {
 
 /// The two-handed knots on the paper's rope held at both ends (figure 6, issue 16): two hand
 /// processes on chain `paper` (40 unit links, 0.2 thick), A holding the tail and B the head for the
-/// whole script, moving alternately (five alternations: each throws, then each pulls twice in turn).
+/// whole script, moving alternately (six alternations: A gives slack, each throws, each pulls twice in turn).
 /// B's throw is a right trefoil; A's mirrors it for the square knot and repeats it for the granny.
 /// In every published state one end at most has moved (bit for bit) since the state before, so the
 /// hand that waits holds its end still while the other moves; no state lets the rope through itself;
