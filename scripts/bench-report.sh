@@ -99,8 +99,8 @@ block languages "scripts/lang-latency.sh $LANG_ARGS" \
   scripts/lang-latency.sh $LANG_ARGS
 block holds "cargo bench -p tractrix --bench holds" \
   cargo bench -q -p tractrix --bench holds
-block knots "KNOT_BENCH_RUNS=4 cargo bench -p clients --bench knots" \
-  env KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-4}" cargo bench -q -p clients --bench knots
+block knots "KNOT_BENCH_RUNS=8 cargo bench -p clients --bench knots" \
+  env KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-8}" cargo bench -q -p clients --bench knots
 block sweep "scripts/sweep-bench.sh scaling $SWEEP_ARGS" \
   scripts/sweep-bench.sh scaling $SWEEP_ARGS
 block sweep-knots "scripts/sweep-bench.sh knots" \
