@@ -183,7 +183,9 @@ impl Knot {
 
     /// The fed wide loops on the straight rope held at both ends (`Ends::HeldFed`), perturbed by
     /// `rng` as the throws are.
-    fn fed(self, radius: Option<f64>, rng: &mut Rng) -> Vec<Phase> {
+    /// `watch`: the overhand as one throw of `square-held` (the circle only, a tuck that watches the
+    /// rope, a pull of 2) instead of the built-in's drawn tuck and pull.
+    fn fed(self, radius: Option<f64>, watch: bool, rng: &mut Rng) -> Vec<Phase> {
         let builtin = Script::builtin("overhand-anchored").expect("a built-in");
         let mut l = builtin.turn[0].wide_loop.expect("a wide loop");
         l.radius = radius.unwrap_or(l.radius);
@@ -210,6 +212,30 @@ impl Knot {
             waypoints: vec![[if head { -pull } else { pull }, 0.0, 0.0]],
         };
         match self {
+            Knot::Overhand if watch => {
+                let mut circle = fed(true, l.handedness);
+                if let Some(w) = &mut circle.wide_loop {
+                    w.tuck = false;
+                }
+                let tuck = Phase {
+                    head: true,
+                    throw: None,
+                    wide_loop: None,
+                    tuck: Some(Tuck {
+                        outward: [1.0, 0.0, 0.0].map(|c| c + rng.range(-0.05, 0.05)),
+                        side: [0.0, 1.0, 0.0],
+                        clearance: 1.0,
+                        exit: (2.0 + rng.range(-1.0, 1.0)).max(0.0),
+                        handedness: l.handedness,
+                    }),
+                    waypoints: vec![],
+                };
+                let pull = Phase {
+                    waypoints: vec![[-2.0, 0.0, 0.0]],
+                    ..pull_back(true)
+                };
+                vec![circle, tuck, pull]
+            }
             Knot::Overhand => vec![fed(true, l.handedness), pull_back(true)],
             // The built-ins `square-held` and `granny-held`: each hand's fed circle and a tuck that
             // finds the loop where it lies, then the pulls in turn; perturbed as the hands'
@@ -332,7 +358,14 @@ fn start_rope(n: usize, arc: bool) -> Chain<f64, 3> {
 }
 
 /// Ties `knot` on `n` links as `ends` says; `radius` replaces the fed loops' radius.
-fn tie(n: usize, ends: Ends, knot: Knot, radius: Option<f64>, rng: &mut Rng) -> Outcome {
+fn tie(
+    n: usize,
+    ends: Ends,
+    knot: Knot,
+    radius: Option<f64>,
+    watch: bool,
+    rng: &mut Rng,
+) -> Outcome {
     let u = ends.u();
     let mut chain = start_rope(n, u);
     let model = CollisionModel {
@@ -357,7 +390,7 @@ fn tie(n: usize, ends: Ends, knot: Knot, radius: Option<f64>, rng: &mut Rng) -> 
     let phases = match ends {
         Ends::Wide => Knot::wide([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], rng),
         Ends::WideHeld | Ends::WideHeldPull => Knot::wide([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], rng),
-        Ends::HeldFed => knot.fed(radius, rng),
+        Ends::HeldFed => knot.fed(radius, watch, rng),
         _ => knot.phases(u, rng),
     };
     for phase in phases {
@@ -453,12 +486,16 @@ fn loop_survival() {
 fn fed_radius(runs: usize, only: Option<usize>) {
     let builtin = Script::builtin("overhand-anchored").expect("a built-in");
     let own = builtin.turn[0].wide_loop.expect("a wide loop").radius;
-    let radii = [2.0, 2.5, 3.0, 3.5, 4.0];
+    let pull = builtin.turn[1].waypoints[0][0].abs();
+    let radii = [1.5, 2.0, 2.5, 3.0, 3.5, 4.0];
     println!(
         "\nThe held overhand over its loop's radius and the rope's resolution: the fed loop of \
          *held, straight, fed loop* (feed as the built-in's) with its radius *R* set (the \
-         built-in's is {own}), {runs} perturbed runs per cell; *circle 2πR*: the rope one loop takes, \
-         which a second throw (the two-handed knots) needs again.\n"
+         built-in's is {own}), {runs} perturbed runs per cell, the end threaded two ways: *drawn*, \
+         the built-in's tuck drawn where the circle was drawn, and a pull of {pull}; \
+         *watching*, a tuck that finds the loop in the rope where it lies (`Tuck`; one throw of \
+         `square-held`), and a pull of 2. *circle 2πR*: the rope one loop takes, which a second \
+         throw (the two-handed knots) needs again.\n"
     );
     let sizes: Vec<usize> = [40usize, 80, 160]
         .into_iter()
@@ -466,20 +503,22 @@ fn fed_radius(runs: usize, only: Option<usize>) {
         .collect();
     print!("| R | circle 2πR |");
     for n in &sizes {
-        print!(" {n} links tied |");
+        print!(" {n} links tied, drawn | {n} links tied, watching |");
     }
-    println!("\n|---:|---:|{}", "---:|".repeat(sizes.len()));
+    println!("\n|---:|---:|{}", "---:|---:|".repeat(sizes.len()));
     for r in radii {
         print!("| {r} | {:.1} |", std::f64::consts::TAU * r);
         for &n in &sizes {
-            let mut rng = Rng(0xFED ^ (n as u64) << 8 ^ r.to_bits());
-            let ok = (0..runs)
-                .filter(|_| {
-                    tie(n, Ends::HeldFed, Knot::Overhand, Some(r), &mut rng).knot
-                        == KnotType::Trefoil
-                })
-                .count();
-            print!(" {ok}/{runs} |");
+            for watch in [false, true] {
+                let mut rng = Rng(0xFED ^ (n as u64) << 8 ^ r.to_bits());
+                let ok = (0..runs)
+                    .filter(|_| {
+                        tie(n, Ends::HeldFed, Knot::Overhand, Some(r), watch, &mut rng).knot
+                            == KnotType::Trefoil
+                    })
+                    .count();
+                print!(" {ok}/{runs} |");
+            }
         }
         println!();
     }
@@ -533,7 +572,7 @@ fn main() {
                 let (mut ok, mut refused, mut moves, mut iterations) = (0, 0, 0, 0u64);
                 let mut found = Vec::new();
                 for _ in 0..runs {
-                    let o = tie(n, ends, knot, None, &mut rng);
+                    let o = tie(n, ends, knot, None, false, &mut rng);
                     ok += usize::from(o.knot == knot.expected());
                     refused += o.refused;
                     moves += o.moves;

@@ -192,7 +192,7 @@ fn run(a: Args) -> Result<u8> {
             let r = run_hand(&mut conn, &cfg)?;
             let refused: Vec<String> = r.refused.iter().map(|(n, c)| format!("{c} {n}")).collect();
             println!(
-                "hand {hand}: {} requests, {} ok, {} locked{}{}",
+                "hand {hand}: {} requests, {} ok, {} locked{}",
                 r.requests,
                 r.ok,
                 r.locked,
@@ -200,13 +200,14 @@ fn run(a: Args) -> Result<u8> {
                     String::new()
                 } else {
                     format!(", refused: {}", refused.join(", "))
-                },
-                if r.skipped_turns > 0 {
-                    format!(", {} turns skipped", r.skipped_turns)
-                } else {
-                    String::new()
                 }
             );
+            if r.skipped_turns > 0 {
+                println!(
+                    "hand {hand}: {} turns skipped (a tuck found no loop)",
+                    r.skipped_turns
+                );
+            }
             if let Some(dir) = &svg {
                 std::fs::create_dir_all(dir)
                     .with_context(|| format!("create {}", dir.display()))?;
