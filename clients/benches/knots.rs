@@ -402,6 +402,8 @@ fn tie(
             throw: phase.throw,
             wide_loop: phase.wide_loop,
             tuck: phase.tuck,
+            wrap: None,
+            instrument: None,
             waypoints: phase.waypoints,
         };
         let rope: Vec<[f64; 3]> = chain.positions().iter().map(|p| [p.x, p.y, p.z]).collect();

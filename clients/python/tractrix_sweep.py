@@ -23,8 +23,8 @@ client and measures the link-length error here, from those joints. Knobs::
     script       built-in script: overhand, square, granny, their U forms overhand-u, square-u,
                  granny-u, overhand-wide (one wide loop: the overhand on unit links), or its held
                  forms overhand-anchored (with anchors = [0]) and overhand-held (hand A holds the
-                 tail), and the two-handed knots with both ends held, square-held and granny-held
-                 (default overhand)
+                 tail), the two-handed knots with both ends held, square-held and granny-held, and
+                 the instrument tie, instrument-tie (with driver = true; default overhand)
     expect       the knot the script ties (default: trefoil for the overhands, square, granny)
     start        straight (along x from the origin) or u (hanging in a U: a circular arc between ends
                  0.3 length apart on the x axis, both pointing up, +y; the start of the U scripts)
@@ -38,6 +38,8 @@ client and measures the link-length error here, from those joints. Knobs::
     max_step     the hand's longest motion per request (default: the script's, 0.1)
     seed         perturbation of the script (0: as written)
     grasp        true / false: hands hold their joints (default: the script's)
+    driver       true: the scene has knots.toml's needle driver, riding with the tail (for
+                 instrument-tie; default false)
     anchors      joints held by the scene for the whole episode, e.g. [0] (default none)
     timeout      seconds the episode may take (default 300)
 
@@ -77,7 +79,7 @@ from pathlib import Path
 from typing import Any, Iterable, Sequence
 
 KNOBS = ("script", "start", "links", "length", "thickness", "collision", "method", "substeps", "max_step",
-         "seed", "anchors", "grasp")
+         "seed", "anchors", "grasp", "driver")
 # The knobs of an accuracy episode (the rest of KNOBS are null in its row).
 ACCURACY_KNOBS = ("method", "substeps", "scenario", "precision", "reps")
 DEFAULTS: dict[str, Any] = {
@@ -93,6 +95,7 @@ DEFAULTS: dict[str, Any] = {
     "max_step": None,
     "seed": 0,
     "grasp": None,
+    "driver": False,
     "anchors": (),
     "timeout": 300.0,
     "scenario": "helix",
@@ -102,11 +105,11 @@ DEFAULTS: dict[str, Any] = {
 EXPECT = {"overhand": "trefoil", "square": "square", "granny": "granny",
           "overhand-u": "trefoil", "square-u": "square", "granny-u": "granny",
           "overhand-wide": "trefoil", "overhand-anchored": "trefoil", "overhand-held": "trefoil",
-          "square-held": "square", "granny-held": "granny"}
+          "square-held": "square", "granny-held": "granny", "instrument-tie": "trefoil"}
 HANDS = {"overhand": ["A"], "square": ["A", "B"], "granny": ["A", "B"],
          "overhand-u": ["A"], "square-u": ["A", "B"], "granny-u": ["A", "B"],
          "overhand-wide": ["A"], "overhand-anchored": ["A"], "overhand-held": ["A", "B"],
-         "square-held": ["A", "B"], "granny-held": ["A", "B"]}
+         "square-held": ["A", "B"], "granny-held": ["A", "B"], "instrument-tie": ["A", "B"]}
 
 
 def episode_id(ep: dict[str, Any]) -> str:
@@ -177,8 +180,16 @@ def _scene(ep: dict[str, Any]) -> str:
         else ['shape = "points"',
               "points = [" + ", ".join(f"[{x!r}, {y!r}, {z!r}]" for x, y, z in points) + "]"]
     )
+    # The needle driver of `knots.toml`'s chain `tie` (the instrument tie): a capsule parked beside
+    # the rope, riding with the tail once a hand moves it.
+    driver = (
+        ["[[instrument]]", 'name = "driver"', 'shape = "capsule"', "a = [0.0, -6.0, 0.0]",
+         f"b = [{7 * math.sqrt(2)!r}, -6.0, {7 * math.sqrt(2)!r}]", "radius = 0.8", 'follows = "tail"', ""]
+        if ep["driver"] else []
+    )
     return "\n".join(
         [
+            *driver,
             "[[chain]]",
             'name = "rope"',
             'kind = "free"',
@@ -189,6 +200,7 @@ def _scene(ep: dict[str, Any]) -> str:
             f'method = "{ep["method"]}"',
             f"substeps = {int(ep['substeps'])}",
             f"anchors = [{', '.join(str(int(j)) for j in ep['anchors'])}]",
+            *(['instruments = ["driver"]'] if ep["driver"] else []),
             "",
         ]
     )
@@ -371,7 +383,7 @@ def _schema():
             ("script", pa.string()), ("start", pa.string()), ("links", pa.int64()),
             ("length", pa.float64()), ("thickness", pa.float64()), ("collision", pa.string()), ("method", pa.string()),
             ("substeps", pa.int64()), ("max_step", pa.float64()), ("seed", pa.int64()),
-            ("anchors", pa.string()), ("grasp", pa.bool_()),
+            ("anchors", pa.string()), ("grasp", pa.bool_()), ("driver", pa.bool_()),
             ("ok", pa.bool_()), ("error", pa.string()), ("knot", pa.string()), ("tied", pa.bool_()),
             ("requests", pa.int64()), ("moves_ok", pa.int64()), ("locked", pa.int64()),
             ("refused", pa.int64()), ("seconds", pa.float64()), ("us_per_request", pa.float64()),

@@ -8,7 +8,7 @@
 //! any order, seconds apart. Every wait has a deadline.
 
 use crate::connection::{CallError, Connection, Pacer, Svc, count_refusal, ipc};
-use crate::script::{Script, parse_joint};
+use crate::script::{InstrumentEnds, Script, parse_joint};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::prelude::*;
@@ -39,9 +39,13 @@ pub struct Record {
     pub sequence: u64,
     /// CRC-32 of the returned joint positions (little-endian f64 x, y, z per joint): bit-for-bit check.
     pub digest: u32,
-    /// The command: `move` (the default, and what older recordings hold), `grasp` or `release`.
+    /// The command: `move` (the default, and what older recordings hold), `grasp`, `release` or
+    /// `instrument` (`joint` the instrument's index, `target` its centre, `axis` its axis).
     #[serde(default = "move_command", skip_serializing_if = "is_move")]
     pub command: String,
+    /// An instrument's new axis direction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
 }
 
 fn move_command() -> String {
@@ -323,6 +327,7 @@ fn hold(
             sequence: r.header.sequence,
             digest: digest(r.joints()),
             command: command.name().into(),
+            axis: None,
         };
         serde_json::to_writer(&mut *w, &rec)?;
         w.write_all(b"\n")?;
@@ -371,9 +376,78 @@ fn drive(
             bail!("joint {} is not a joint of {:?}", turn.joint, turn.chain);
         }
         let rope: Vec<[f64; 3]> = joints.iter().map(|p| p.to_array()).collect();
+        let instruments: Vec<InstrumentEnds> = q
+            .instruments()
+            .iter()
+            .map(|i| (i.a.to_array(), i.b.to_array()))
+            .collect();
+        if let Some(m) = &turn.instrument {
+            let Some(now) = instruments.get(m.index as usize) else {
+                bail!(
+                    "turn {}: instrument {} of {:?} (it has {})",
+                    k + 1,
+                    m.index,
+                    turn.chain,
+                    instruments.len()
+                );
+            };
+            let poses = turn.instrument_poses(rope[idx], *now, cfg.script.max_step);
+            let pacer = Pacer::new(cfg.rate_hz);
+            for (i, (centre, axis)) in poses.iter().enumerate() {
+                pacer.wait(i);
+                if conn.node().wait(Duration::ZERO).is_err() {
+                    bail!("interrupted (SIGINT or SIGTERM)");
+                }
+                let mut h = RequestHeader::new(Command::Instrument, chain);
+                h.joint = m.index;
+                let sent = now_ns();
+                let (status, seq, rid, dg) = conn.call_with(
+                    h,
+                    &[
+                        Vec3::new(centre[0], centre[1], centre[2]),
+                        Vec3::new(axis[0], axis[1], axis[2]),
+                    ],
+                    |rh, pts| {
+                        let n = (rh.n_joints as usize).min(pts.len());
+                        (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
+                    },
+                )?;
+                report.requests += 1;
+                let name = Status::from_u32(status).map_or("unknown", |s| s.name());
+                match Status::from_u32(status) {
+                    Some(Status::Ok) => report.ok += 1,
+                    Some(Status::Locked) => report.locked += 1,
+                    _ => count_refusal(&mut report.refused, name),
+                }
+                if let Some(w) = record.as_mut() {
+                    let r = Record {
+                        t_ns: sent,
+                        hand: cfg.hand.clone(),
+                        turn: k as u32,
+                        chain: turn.chain.clone(),
+                        joint: m.index,
+                        target: *centre,
+                        request_id: rid,
+                        status: name.to_string(),
+                        sequence: seq,
+                        digest: dg,
+                        command: Command::Instrument.name().into(),
+                        axis: Some(*axis),
+                    };
+                    serde_json::to_writer(&mut *w, &r)?;
+                    w.write_all(b"\n")?;
+                }
+            }
+            if let Some(w) = record.as_mut() {
+                w.flush()?;
+            }
+            mine.push(k);
+            baton.announce(&mine);
+            continue;
+        }
         // A tuck that finds no loop in the rope is skipped, said on stderr and counted: the other
         // hands go on (the knot is then not tied, which the identification reports).
-        let targets = match turn.targets_on(&rope, idx, cfg.script.max_step) {
+        let targets = match turn.targets_with(&rope, idx, &instruments, cfg.script.max_step) {
             Ok(t) => t,
             Err(e) => {
                 eprintln!("hand {}: turn {} skipped: {e}", cfg.hand, k + 1);
@@ -437,6 +511,7 @@ fn drive(
                     sequence: seq,
                     digest: dg,
                     command: move_command(),
+                    axis: None,
                 };
                 serde_json::to_writer(&mut *w, &r)?;
                 w.write_all(b"\n")?;
@@ -528,11 +603,15 @@ pub fn replay(
         let command = shared::text::parse_command(&r.command).map_err(anyhow::Error::msg)?;
         let mut h = RequestHeader::new(command, id);
         h.joint = r.joint;
-        let target = [Vec3::new(r.target[0], r.target[1], r.target[2])];
-        let points: &[Vec3] = if command == Command::Move {
-            &target
-        } else {
-            &[]
+        let target = Vec3::new(r.target[0], r.target[1], r.target[2]);
+        let with_axis;
+        let points: &[Vec3] = match (command, r.axis) {
+            (Command::Move, _) | (Command::Instrument, None) => std::slice::from_ref(&target),
+            (Command::Instrument, Some(a)) => {
+                with_axis = [target, Vec3::new(a[0], a[1], a[2])];
+                &with_axis
+            }
+            _ => &[],
         };
         let (status, dg) = conn.call_with(h, points, |rh, pts| {
             let n = (rh.n_joints as usize).min(pts.len());

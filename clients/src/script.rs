@@ -86,6 +86,14 @@ pub struct Turn {
     /// where its loop lies.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tuck: Option<Tuck>,
+    /// The hand's end wound round one of the chain's instruments (where the instrument is when the
+    /// turn starts), after the tuck and before the waypoints.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wrap: Option<Wrap>,
+    /// The turn moves one of the chain's instruments instead of the joint (the hand that carries a
+    /// needle driver); such a turn moves nothing else.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instrument: Option<InstrumentMove>,
     /// Relative to the joint's position when the turn starts.
     #[serde(default)]
     pub waypoints: Vec<[f64; 3]>,
@@ -191,6 +199,56 @@ pub struct Tuck {
     pub handedness: Handedness,
 }
 
+/// The hand's end wound round an instrument's axis (a capsule: the axis from its tip, the scene's end
+/// `a`, to its end `b`): from where the end is, straight to the nearest point of a circle of `radius`
+/// about the axis `at` units from the tip, then `turns` times round it (`"right"`: counter-clockwise
+/// seen from the tip, looking along the axis), advancing `pitch` along the axis per turn so that the
+/// turns lie side by side. Where the instrument is is read from the service when the turn starts.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wrap {
+    /// The instrument's index in the chain's `instruments` list.
+    pub instrument: u32,
+    /// Distance of the first turn from the tip, along the axis.
+    pub at: f64,
+    /// Radius of the turns about the axis.
+    pub radius: f64,
+    #[serde(default = "default_wrap_turns")]
+    pub turns: f64,
+    #[serde(default)]
+    pub pitch: f64,
+    #[serde(default = "default_loop_handedness")]
+    pub handedness: Handedness,
+}
+
+fn default_wrap_turns() -> f64 {
+    1.0
+}
+
+/// One of the chain's instruments moved to a new pose: its tip (the scene's end `a` of a capsule, the
+/// centre of a sphere) to `tip`, relative to the turn's joint when the turn starts, and a capsule's axis
+/// to point from the tip along `axis`. The hand moves it in steps that move no point of it more than
+/// the script's `max_step` (the centre on a straight line, the axis turning at an even rate).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstrumentMove {
+    /// The instrument's index in the chain's `instruments` list.
+    pub index: u32,
+    /// Where the tip goes, relative to the turn's joint.
+    pub tip: [f64; 3],
+    /// The direction from the tip to the other end (a capsule's).
+    #[serde(default = "default_instrument_axis")]
+    pub axis: [f64; 3],
+}
+
+fn default_instrument_axis() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+/// An instrument's pose as the service reports it: the axis ends `a` (the tip) and `b` (equal for a
+/// sphere).
+pub type InstrumentEnds = ([f64; 3], [f64; 3]);
+
 fn default_tuck_clearance() -> f64 {
     1.0
 }
@@ -273,6 +331,45 @@ impl Script {
                     return Err(at(format!("throw.exit {} is not in [0, 1e9]", th.exit)));
                 }
             }
+            if let Some(w) = &t.wrap {
+                if !(w.radius > 0.0 && w.radius.is_finite() && w.radius <= 1e6) {
+                    return Err(at(format!("wrap.radius {} is not in (0, 1e6]", w.radius)));
+                }
+                if !(w.turns > 0.0 && w.turns <= 100.0) {
+                    return Err(at(format!("wrap.turns {} is not in (0, 100]", w.turns)));
+                }
+                if !(w.at.is_finite()
+                    && w.at.abs() <= 1e6
+                    && w.pitch.is_finite()
+                    && w.pitch.abs() <= 1e6)
+                {
+                    return Err(at(
+                        "wrap.at and wrap.pitch must be finite, at most 1e6".into()
+                    ));
+                }
+            }
+            if let Some(m) = &t.instrument {
+                let n = norm(m.axis);
+                if !(m.tip.iter().all(|c| c.is_finite() && c.abs() <= 1e9)
+                    && n > 0.0
+                    && n.is_finite())
+                {
+                    return Err(at(
+                        "instrument.tip must be finite and instrument.axis finite and non-zero"
+                            .into(),
+                    ));
+                }
+                if t.throw.is_some()
+                    || t.wide_loop.is_some()
+                    || t.tuck.is_some()
+                    || t.wrap.is_some()
+                    || !t.waypoints.is_empty()
+                {
+                    return Err(at(
+                        "a turn that moves an instrument moves nothing else".into()
+                    ));
+                }
+            }
             if let Some(l) = &t.wide_loop {
                 if loop_frame(l).is_none() {
                     return Err(at(
@@ -330,6 +427,15 @@ impl Script {
                 }
                 l.exit = (l.exit + range(-1.0, 1.0)).max(0.0);
             }
+            if let Some(w) = &mut t.wrap {
+                w.radius *= range(0.97, 1.03);
+                w.at += range(-0.05, 0.05);
+            }
+            if let Some(m) = &mut t.instrument {
+                for c in &mut m.tip {
+                    *c += range(-0.05, 0.05);
+                }
+            }
             if let Some(k) = &mut t.tuck {
                 for c in &mut k.outward {
                     *c += range(-0.05, 0.05);
@@ -370,6 +476,8 @@ impl Script {
             throw,
             wide_loop: None,
             tuck: None,
+            wrap: None,
+            instrument: None,
             waypoints,
         };
         let two_hands = |second| Script {
@@ -498,6 +606,7 @@ impl Script {
             }
             "square-held" => Some(two_hands_held(name, Handedness::Left)),
             "granny-held" => Some(two_hands_held(name, Handedness::Right)),
+            "instrument-tie" => Some(instrument_tie(name)),
             "square-u" => Some(two_hands_u(name, Handedness::Right)),
             "granny-u" => Some(two_hands_u(name, Handedness::Left)),
             "wave" => Some(Script {
@@ -558,6 +667,8 @@ fn two_hands_held(name: &str, second: Handedness) -> Script {
         throw: None,
         wide_loop: None,
         tuck: None,
+        wrap: None,
+        instrument: None,
         waypoints: vec![],
     };
     // Each hand heads away from the rope (B along +x, A along −x), the loop on the +y side.
@@ -617,6 +728,85 @@ fn two_hands_held(name: &str, second: Handedness) -> Script {
 /// takes more than half the rope).
 const HELD_TWO_RADIUS: f64 = 2.0;
 
+/// The instrument tie of surgery on chain `tie` of `knots.toml` (the paper's rope stitched in at joint
+/// 16, the needle driver `driver` riding with the tail): hand B holds the short end's tail in the
+/// driver's jaws and carries the driver there, its axis rising away from the stitch; hand A holds the
+/// long end (the head), brings it over and winds it once round the driver's jaws, 3 units from the tip,
+/// and draws it off; B pulls the tail back along the driver's axis through the wrap (the driver riding
+/// with it, the wrap sliding off its tip onto the tail); A pulls its end away; then each draws its end
+/// out of the knot (five alternations).
+fn instrument_tie(name: &str) -> Script {
+    let hand = |h: &str| Turn {
+        hand: h.into(),
+        chain: "tie".into(),
+        joint: if h == "A" { "head" } else { "tail" }.into(),
+        throw: None,
+        wide_loop: None,
+        tuck: None,
+        wrap: None,
+        instrument: None,
+        waypoints: vec![],
+    };
+    let axis = [
+        std::f64::consts::FRAC_1_SQRT_2,
+        0.0,
+        std::f64::consts::FRAC_1_SQRT_2,
+    ];
+    Script {
+        name: name.into(),
+        max_step: 0.05,
+        grasp: true,
+        turn: vec![
+            Turn {
+                instrument: Some(InstrumentMove {
+                    index: 0,
+                    tip: [0.0; 3],
+                    axis,
+                }),
+                ..hand("B")
+            },
+            // Over the rope to the driver's side, then level with the wrap's centre, so that the wrap
+            // starts on the +y side of the driver.
+            Turn {
+                waypoints: vec![[-20.0, 6.0, 3.0], [-37.88, 6.0, 2.12]],
+                ..hand("A")
+            },
+            Turn {
+                wrap: Some(Wrap {
+                    instrument: 0,
+                    at: 3.0,
+                    radius: 2.2,
+                    turns: 1.0,
+                    pitch: 0.6,
+                    handedness: Handedness::Right,
+                }),
+                ..hand("A")
+            },
+            Turn {
+                waypoints: vec![[2.5, 1.3, -0.9]],
+                ..hand("A")
+            },
+            Turn {
+                waypoints: vec![scale(axis, 10.0)],
+                ..hand("B")
+            },
+            Turn {
+                waypoints: vec![[6.0, -3.0, -1.5]],
+                ..hand("A")
+            },
+            // Both ends drawn out of the knot, which tightens between them.
+            Turn {
+                waypoints: vec![scale(axis, 2.0)],
+                ..hand("B")
+            },
+            Turn {
+                waypoints: vec![[8.0, 0.0, 0.0]],
+                ..hand("A")
+            },
+        ],
+    }
+}
+
 /// The two-handed knots on a rope hanging in a U between the hands (A the tail, B the head), each
 /// hand holding its end throughout; six alternating turns: A throws (upward, away from the rope), B
 /// pulls its side out, A pulls back, B throws (`second`: mirrored for the square), A pulls, B pulls.
@@ -634,6 +824,8 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
         throw,
         wide_loop: None,
         tuck: None,
+        wrap: None,
+        instrument: None,
         waypoints,
     };
     Script {
@@ -671,6 +863,7 @@ pub const BUILTINS: &[&str] = &[
     "granny-u",
     "square-held",
     "granny-held",
+    "instrument-tie",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.
@@ -702,11 +895,87 @@ impl Turn {
         joint: usize,
         max_step: f64,
     ) -> Result<Vec<[f64; 3]>, String> {
+        self.targets_with(joints, joint, &[], max_step)
+    }
+
+    /// [`Turn::targets_on`] with the chain's instruments where they are (a [`Wrap`] needs them).
+    pub fn targets_with(
+        &self,
+        joints: &[[f64; 3]],
+        joint: usize,
+        instruments: &[InstrumentEnds],
+        max_step: f64,
+    ) -> Result<Vec<[f64; 3]>, String> {
         let start = *joints
             .get(joint)
             .ok_or_else(|| format!("joint {joint} is not a joint of the rope"))?;
-        let corners = self.corners(start, Some((joints, joint)))?;
+        let mut corners = self.corners(start, Some((joints, joint)))?;
+        if let Some(w) = &self.wrap {
+            let ends = instruments.get(w.instrument as usize).ok_or_else(|| {
+                format!(
+                    "wrap: instrument {} (the chain has {})",
+                    w.instrument,
+                    instruments.len()
+                )
+            })?;
+            let k = corners.len() - self.waypoints.len();
+            let from = if k > 0 { corners[k - 1] } else { start };
+            let wound = wrap_path(from, *ends, w)?;
+            corners.splice(k..k, wound);
+        }
         Ok(densify(start, &corners, max_step))
+    }
+
+    /// The poses (centre, axis direction) an [`InstrumentMove`] turn sends, from the instrument's
+    /// ends now, for the turn's joint at `joint_at`: steps that move no point of the instrument more
+    /// than `max_step`.
+    pub fn instrument_poses(
+        &self,
+        joint_at: [f64; 3],
+        now: InstrumentEnds,
+        max_step: f64,
+    ) -> Vec<([f64; 3], [f64; 3])> {
+        let Some(m) = &self.instrument else {
+            return Vec::new();
+        };
+        let (a, b) = now;
+        let len = norm(sub(b, a));
+        let d0 = if len > 0.0 {
+            scale(sub(b, a), 1.0 / len)
+        } else {
+            scale(m.axis, 1.0 / norm(m.axis))
+        };
+        let d1 = scale(m.axis, 1.0 / norm(m.axis));
+        let c0 = add(a, scale(d0, 0.5 * len));
+        let tip = add(joint_at, m.tip);
+        let c1 = add(tip, scale(d1, 0.5 * len));
+        // The farthest any point travels: the centre's distance plus the axis end's sweep.
+        let angle = dot(d0, d1).clamp(-1.0, 1.0).acos();
+        let travel = norm(sub(c1, c0)) + 0.5 * len * angle;
+        let k = (travel / max_step).ceil().clamp(1.0, 1e7) as usize;
+        (1..=k)
+            .map(|i| {
+                let t = i as f64 / k as f64;
+                let c = add(c0, scale(sub(c1, c0), t));
+                let d = add(scale(d0, 1.0 - t), scale(d1, t));
+                let n = norm(d);
+                // Opposite axes: turn about any axis across them.
+                let d = if n > 1e-9 {
+                    scale(d, 1.0 / n)
+                } else {
+                    let across = cross(
+                        d0,
+                        if d0[0].abs() < 0.9 {
+                            [1.0, 0.0, 0.0]
+                        } else {
+                            [0.0, 1.0, 0.0]
+                        },
+                    );
+                    scale(across, 1.0 / norm(across))
+                };
+                (c, d)
+            })
+            .collect()
     }
 
     /// The corners of the turn's path; a tuck needs the rope.
@@ -873,6 +1142,54 @@ fn catmull_rom(pts: &[[f64; 3]]) -> Vec<[f64; 3]> {
         }
     }
     out
+}
+
+/// The corners of a [`Wrap`] from `from` round the instrument with ends `(a, b)`.
+fn wrap_path(from: [f64; 3], (a, b): InstrumentEnds, w: &Wrap) -> Result<Vec<[f64; 3]>, String> {
+    let axis = sub(b, a);
+    let len = norm(axis);
+    if !(len > 0.0 && len.is_finite()) {
+        return Err("wrap: the instrument has no axis (a sphere)".into());
+    }
+    let u = scale(axis, 1.0 / len);
+    let centre = add(a, scale(u, w.at));
+    // Start at the circle's point nearest the hand; if the hand is on the axis, anywhere.
+    let off = sub(from, centre);
+    let across = sub(off, scale(u, dot(off, u)));
+    let e1 = if norm(across) > 1e-9 {
+        scale(across, 1.0 / norm(across))
+    } else {
+        let c = cross(
+            u,
+            if u[0].abs() < 0.9 {
+                [1.0, 0.0, 0.0]
+            } else {
+                [0.0, 1.0, 0.0]
+            },
+        );
+        scale(c, 1.0 / norm(c))
+    };
+    let sign = if w.handedness == Handedness::Right {
+        1.0
+    } else {
+        -1.0
+    };
+    let e2 = scale(cross(u, e1), sign);
+    let per_turn = 48.0;
+    let n = (w.turns * per_turn).ceil().max(1.0) as usize;
+    Ok((0..=n)
+        .map(|k| {
+            let f = w.turns * k as f64 / n as f64;
+            let t = std::f64::consts::TAU * f;
+            add(
+                centre,
+                add(
+                    add(scale(e1, w.radius * t.cos()), scale(e2, w.radius * t.sin())),
+                    scale(u, w.pitch * f),
+                ),
+            )
+        })
+        .collect())
 }
 
 /// Points of a wide loop's circle.
@@ -1064,6 +1381,9 @@ fn densify(start: [f64; 3], corners: &[[f64; 3]], max_step: f64) -> Vec<[f64; 3]
     out
 }
 
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -1254,6 +1574,8 @@ mod tests {
             throw: None,
             wide_loop: None,
             tuck: Some(tuck),
+            wrap: None,
+            instrument: None,
             waypoints: vec![],
         };
         // The end closes the loop just past the rope it crosses (a proper crossing), or 0.4 short of

@@ -57,6 +57,36 @@ fn finish(mut child: Child) -> String {
     }
 }
 
+/// Waits (with a deadline) for a hand that may have had requests refused as over-budget (a hand
+/// whose moves were locked for a while asks, when it goes on, for a move long enough to cost more
+/// than the service's work budget per request); it exits 1 then. Any other failure fails the test.
+fn finish_allowing_over_budget(mut child: Child) -> String {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            let mut out = String::new();
+            std::io::Read::read_to_string(child.stdout.as_mut().unwrap(), &mut out).unwrap();
+            let only_budget = out.lines().filter(|l| l.contains("refused:")).all(|l| {
+                l.split("refused:")
+                    .nth(1)
+                    .unwrap_or("")
+                    .split(',')
+                    .all(|r| r.trim().ends_with("over-budget"))
+            });
+            assert!(
+                st.success() || (st.code() == Some(1) && out.contains("refused:") && only_budget),
+                "hand failed: {st}\n{out}"
+            );
+            return out;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("a hand did not finish within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// Smallest distance between the axes of non-adjacent links (pairs whose joints are far apart are
 /// skipped: they cannot be closer than one thickness).
 fn clearance(p: &[V], link: f64) -> f64 {
@@ -95,11 +125,18 @@ struct Watched {
     tail_moved: u64,
     head_moved: u64,
     both_moved: u64,
+    /// The smallest surface gap between an instrument and a link it does not hold, over all states.
+    gap: f64,
 }
 
 impl Watcher {
     /// Watches `chain`, whose links are `link` long.
     fn start(svc: &Service, chain: u32, link: f64) -> Watcher {
+        Watcher::start_skipping(svc, chain, link, 0)
+    }
+
+    /// Watches `chain`; its first `skip` links are held by its instruments (not checked against them).
+    fn start_skipping(svc: &Service, chain: u32, link: f64, skip: usize) -> Watcher {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let mut conn = svc.connect();
@@ -127,10 +164,26 @@ impl Watcher {
             };
             let mut ends: Option<([u64; 3], [u64; 3])> = None;
             let (mut tail_moved, mut head_moved, mut both_moved) = (0u64, 0u64, 0u64);
+            let mut gap = f64::INFINITY;
             let mut idle_since = None;
             loop {
                 let got = stream
                     .try_next(|h, p| {
+                        // The test's own reading of the layout: joints, held joints, then three
+                        // elements per instrument (the axis ends a and b, then the radius).
+                        let at = (h.n_joints + h.n_held) as usize;
+                        let instruments: Vec<(V, V, f64)> = p
+                            .get(at..at + 3 * h.n_instruments as usize)
+                            .unwrap_or(&[])
+                            .chunks(3)
+                            .map(|e| {
+                                (
+                                    V::new(e[0].x, e[0].y, e[0].z),
+                                    V::new(e[1].x, e[1].y, e[1].z),
+                                    e[2].x,
+                                )
+                            })
+                            .collect();
                         (
                             h.sequence,
                             h.chain,
@@ -138,11 +191,12 @@ impl Watcher {
                                 .iter()
                                 .map(|q| V::new(q.x, q.y, q.z))
                                 .collect::<Vec<_>>(),
+                            instruments,
                         )
                     })
                     .unwrap();
                 match got {
-                    Some((seq, c, pts)) => {
+                    Some((seq, c, pts, instruments)) => {
                         idle_since = None;
                         if seq < next {
                             continue; // published before the watcher subscribed
@@ -163,6 +217,14 @@ impl Watcher {
                                 both_moved += u64::from(t != t0 && h != h0);
                             }
                             ends = Some((t, h));
+                            // Each instrument's axis against the links it does not hold (those
+                            // from `skip` on), less its radius and half the rope's thickness.
+                            for (a, b, r) in &instruments {
+                                for w in pts.windows(2).skip(skip) {
+                                    let d = clients::check::segment_distance(w[0], w[1], *a, *b);
+                                    gap = gap.min(d - r - 0.5 * THICKNESS);
+                                }
+                            }
                         }
                     }
                     None => {
@@ -176,6 +238,7 @@ impl Watcher {
                                     tail_moved,
                                     head_moved,
                                     both_moved,
+                                    gap,
                                 };
                             }
                         }
@@ -390,6 +453,60 @@ fn two_hands_tie_the_square_and_granny_on_the_papers_rope_both_ends_held() {
         }
         assert_knot_near_the_middle(&svc, id, 40);
     }
+}
+
+/// The instrument tie (issue 16, beyond the paper): on chain `tie` of `knots.toml` (the paper's rope
+/// stitched in at joint 16), hand B carries the needle driver (a capsule of radius 0.8 riding with the
+/// tail) to the short end's tail, hand A winds the long end round the driver's jaws, B pulls the tail
+/// back through the wrap along the driver, and the hands draw their ends out. The rope ends in a
+/// trefoil (the instrument tie's half knot); the driver ends where B's jaws have the tail; no
+/// published state lets the rope into the driver (the links it holds aside) or through itself; at
+/// most one end moves per state.
+#[test]
+fn two_hands_tie_the_instrument_tie_with_a_needle_driver() {
+    let svc = knot_service();
+    let id = svc.connect().find_chain("tie").unwrap().unwrap();
+    // The links the driver holds: within its reach of the tail (its radius 0.8, half its length 7
+    // and half the thickness 0.1, in unit links, rounded up, and one more: 9), checked here from
+    // the 10th on.
+    let w = Watcher::start_skipping(&svc, id, 1.0, 10);
+    let hands: Vec<Child> = ["A", "B"]
+        .iter()
+        .map(|h| hand(&svc, &["--builtin", "instrument-tie", "--hand", h]))
+        .collect();
+    for h in hands {
+        finish_allowing_over_budget(h);
+    }
+    let seen = w.finish_all();
+    eprintln!("instrument tie: smallest gap to the driver {}", seen.gap);
+    assert_never_passed_through(seen.checked, seen.min, 1000);
+    assert_eq!(seen.both_moved, 0, "a state moved both ends at once");
+    assert!(seen.gap.is_finite(), "no state carried the driver");
+    assert!(
+        seen.gap >= (0.8 + 0.5 * THICKNESS) * -TOLERANCE,
+        "the rope entered the driver by {}",
+        -seen.gap
+    );
+    let k = knot_of(&svc, "tie");
+    assert_eq!(k.kind, KnotType::Trefoil, "{k:?}");
+    assert_eq!((k.crossings, k.determinant), (3, 3), "{k:?}");
+    // The driver was carried: its tip is on the tail (B put it there and it rode with the tail),
+    // far from where the scene parked it.
+    let q = svc
+        .connect()
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap();
+    let tail = q.joints()[0];
+    let driver = q.instruments()[0];
+    let off = ((driver.a.x - tail.x).powi(2)
+        + (driver.a.y - tail.y).powi(2)
+        + (driver.a.z - tail.z).powi(2))
+    .sqrt();
+    assert!(off < 0.1, "the driver's tip is {off} from the tail");
+    assert!(
+        (driver.a.y + 6.0).abs() > 5.0,
+        "the driver is still where the scene parked it"
+    );
 }
 
 /// Two hand processes, started together, take turns on the 80-unit rope.
