@@ -1630,6 +1630,83 @@ mod tests {
     }
 
     #[test]
+    fn a_wrap_winds_round_the_instrument_where_it_is_and_an_instrument_turn_steps_its_pose() {
+        let tie = Script::builtin("instrument-tie").unwrap();
+        let wrap = tie.turn.iter().find(|t| t.wrap.is_some()).unwrap().clone();
+        let w = wrap.wrap.unwrap();
+        // A driver along +z from (1, 2, 0): the hand's end at (10, 2, 3) starts the circle on the
+        // +x side, 3 up from the tip, winds once counter-clockwise seen along +z, rising by the pitch.
+        let rope: Vec<[f64; 3]> = (0..=10).map(|k| [k as f64, 2.0, 3.0]).collect();
+        let driver = ([1.0, 2.0, 0.0], [1.0, 2.0, 14.0]);
+        let p = wrap.targets_with(&rope, 10, &[driver], 0.05).unwrap();
+        let mut prev = rope[10];
+        for q in &p {
+            assert!(norm(sub(*q, prev)) <= 0.05 + 1e-12);
+            prev = *q;
+        }
+        let on_circle: Vec<&[f64; 3]> = p
+            .iter()
+            .filter(|q| ((q[0] - 1.0).hypot(q[1] - 2.0) - w.radius).abs() < 1e-9)
+            .collect();
+        assert!(on_circle.len() > 40, "{}", on_circle.len());
+        let first = on_circle[0];
+        assert!((first[0] - (1.0 + w.radius)).abs() < 1e-9 && (first[2] - w.at).abs() < 1e-9);
+        let last = p.last().unwrap();
+        assert!((last[0] - first[0]).abs() < 1e-9 && (last[2] - w.at - w.pitch).abs() < 1e-9);
+        // Counter-clockwise about +z: a quarter of the way round the circle is on the +y side.
+        let quarter = on_circle[on_circle.len() / 4];
+        assert!(quarter[1] > 2.0 + 0.9 * w.radius, "{quarter:?}");
+        // No instrument, or a sphere: refused.
+        assert!(wrap.targets_with(&rope, 10, &[], 0.05).is_err());
+        let ball = ([1.0, 2.0, 0.0], [1.0, 2.0, 0.0]);
+        assert!(wrap.targets_with(&rope, 10, &[ball], 0.05).is_err());
+
+        // The driver carried from where the scene parks it to the tail: its tip ends on the joint,
+        // its axis along the script's, and no step moves any point more than the step.
+        let carry = &tie.turn[0];
+        let m = carry.instrument.unwrap();
+        let park = (
+            [0.0, -6.0, 0.0],
+            [7.0 * 2f64.sqrt(), -6.0, 7.0 * 2f64.sqrt()],
+        );
+        let tail = [0.5, 0.0, 0.0];
+        let poses = carry.instrument_poses(tail, park, 0.05);
+        let half = 7.0;
+        let ends = |(c, d): ([f64; 3], [f64; 3])| (sub(c, scale(d, half)), add(c, scale(d, half)));
+        let mut prev = park;
+        for pose in &poses {
+            assert!((norm(pose.1) - 1.0).abs() < 1e-12);
+            let (a, b) = ends(*pose);
+            assert!(norm(sub(a, prev.0)) <= 0.05 + 1e-9 && norm(sub(b, prev.1)) <= 0.05 + 1e-9);
+            prev = (a, b);
+        }
+        let (a, _) = ends(*poses.last().unwrap());
+        assert!(norm(sub(a, add(tail, m.tip))) < 1e-9);
+        let axis = poses.last().unwrap().1;
+        let want = scale(m.axis, 1.0 / norm(m.axis));
+        assert!(norm(sub(axis, want)) < 1e-12);
+
+        // An instrument turn moves nothing else; bad numbers name the field.
+        let bad = |extra: &str| {
+            Script::parse(
+                &format!(
+                    "name = \"i\"\n[[turn]]\nhand = \"B\"\nchain = \"tie\"\njoint = \"tail\"\n{extra}\n"
+                ),
+                "i.toml",
+            )
+            .unwrap_err()
+        };
+        let e = bad("waypoints = [[1, 0, 0]]\ninstrument = { index = 0, tip = [0, 0, 0] }");
+        assert!(e.contains("moves nothing else"), "{e}");
+        let e = bad("instrument = { index = 0, tip = [0, 0, 0], axis = [0, 0, 0] }");
+        assert!(e.contains("instrument.axis"), "{e}");
+        let e = bad("wrap = { instrument = 0, at = 3, radius = -1 }");
+        assert!(e.contains("wrap.radius"), "{e}");
+        let e = bad("wrap = { instrument = 0, at = 3, radius = 1, turns = 1000 }");
+        assert!(e.contains("wrap.turns"), "{e}");
+    }
+
+    #[test]
     fn targets_start_next_to_the_hand_and_respect_the_step() {
         let t = &Script::builtin("square").unwrap().turn[0];
         let start = [0.0, 0.0, 0.0];
