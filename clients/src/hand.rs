@@ -64,10 +64,25 @@ pub struct HandReport {
     pub locked: u64,
     /// Other refusals (status name, count).
     pub refused: Vec<(String, u64)>,
-    /// Turns skipped because their path could not be made (a tuck that found no loop).
+    /// Turns skipped because their path could not be made (a tuck that found no loop, a wrap round an
+    /// instrument the chain does not have).
     pub skipped_turns: u64,
     /// Key frames: `(label, joints)`, kept when asked for ([`HandConfig::frames_per_turn`]).
     pub frames: Vec<(String, Vec<[f64; 3]>)>,
+}
+
+impl HandReport {
+    /// Counts one request's answer by its status; returns the status's name.
+    fn tally(&mut self, status: u32) -> &'static str {
+        self.requests += 1;
+        let name = Status::from_u32(status).map_or("unknown", |s| s.name());
+        match Status::from_u32(status) {
+            Some(Status::Ok) => self.ok += 1,
+            Some(Status::Locked) => self.locked += 1,
+            _ => count_refusal(&mut self.refused, name),
+        }
+        name
+    }
 }
 
 /// How a hand runs.
@@ -412,13 +427,7 @@ fn drive(
                         (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
                     },
                 )?;
-                report.requests += 1;
-                let name = Status::from_u32(status).map_or("unknown", |s| s.name());
-                match Status::from_u32(status) {
-                    Some(Status::Ok) => report.ok += 1,
-                    Some(Status::Locked) => report.locked += 1,
-                    _ => count_refusal(&mut report.refused, name),
-                }
+                let name = report.tally(status);
                 if let Some(w) = record.as_mut() {
                     let r = Record {
                         t_ns: sent,
@@ -445,8 +454,9 @@ fn drive(
             baton.announce(&mine);
             continue;
         }
-        // A tuck that finds no loop in the rope is skipped, said on stderr and counted: the other
-        // hands go on (the knot is then not tied, which the identification reports).
+        // A turn whose path cannot be made (a tuck that finds no loop in the rope, a wrap round an
+        // instrument that is not there) is skipped, said on stderr and counted: the other hands go
+        // on (the knot is then not tied, which the identification reports).
         let targets = match turn.targets_with(&rope, idx, &instruments, cfg.script.max_step) {
             Ok(t) => t,
             Err(e) => {
@@ -491,13 +501,7 @@ fn drive(
                 let label = format!("hand {}, turn {}, move {}", cfg.hand, k + 1, i + 1);
                 report.frames.push((label, f));
             }
-            report.requests += 1;
-            let name = Status::from_u32(status).map_or("unknown", |s| s.name());
-            match Status::from_u32(status) {
-                Some(Status::Ok) => report.ok += 1,
-                Some(Status::Locked) => report.locked += 1,
-                _ => count_refusal(&mut report.refused, name),
-            }
+            let name = report.tally(status);
             if let Some(w) = record.as_mut() {
                 let r = Record {
                     t_ns: sent,

@@ -204,7 +204,7 @@ fn run(a: Args) -> Result<u8> {
             );
             if r.skipped_turns > 0 {
                 println!(
-                    "hand {hand}: {} turns skipped (a tuck found no loop)",
+                    "hand {hand}: {} turns skipped (their path could not be made; see above)",
                     r.skipped_turns
                 );
             }
