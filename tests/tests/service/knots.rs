@@ -470,9 +470,17 @@ fn two_hands_tie_the_instrument_tie_with_a_needle_driver() {
     // and half the thickness 0.1, in unit links, rounded up, and one more: 9), checked here from
     // the 10th on.
     let w = Watcher::start_skipping(&svc, id, 1.0, 10);
+    let dir = tempfile::tempdir().unwrap();
+    let rec = |h: &str| dir.path().join(format!("tie-{h}.jsonl"));
     let hands: Vec<Child> = ["A", "B"]
         .iter()
-        .map(|h| hand(&svc, &["--builtin", "instrument-tie", "--hand", h]))
+        .map(|h| {
+            let r = rec(h).display().to_string();
+            hand(
+                &svc,
+                &["--builtin", "instrument-tie", "--hand", h, "--record", &r],
+            )
+        })
         .collect();
     for h in hands {
         finish_allowing_over_budget(h);
@@ -506,6 +514,27 @@ fn two_hands_tie_the_instrument_tie_with_a_needle_driver() {
     assert!(
         (driver.a.y + 6.0).abs() > 5.0,
         "the driver is still where the scene parked it"
+    );
+    // The recordings (moves, grasps and the driver's poses) replay bit for bit from the scene.
+    let out = Process::new(bin("hand"))
+        .arg("--prefix")
+        .arg(&svc.prefix)
+        .arg("replay")
+        .arg(rec("A"))
+        .arg(rec("B"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains(": 0 differed"), "{text}");
+    let driver_again = svc
+        .connect()
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap()
+        .instruments()[0];
+    assert_eq!(
+        (driver_again.a.to_array(), driver_again.b.to_array()),
+        (driver.a.to_array(), driver.b.to_array())
     );
 }
 
