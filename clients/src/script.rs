@@ -31,6 +31,16 @@
 //! much circle as it has drawn, since a held rope cannot slide after it (built-ins `overhand-anchored`
 //! and `overhand-held`); `handedness = "left"` mirrors it.
 //!
+//! Some turns look at the rope before they move: a *tuck* (`tuck = { outward = [1, 0, 0], side =
+//! [0, 1, 0] }`, [`Tuck`]) finds the loop nearest the hand's end in the rope's joints when its turn
+//! starts and threads the end through it where it lies (after a wide loop with `tuck = false`, which
+//! draws the circle only: built-ins `square-held` and `granny-held`, the two-handed knots with both
+//! ends held); a *wrap* (`wrap = { instrument = 0, at = 3, radius = 2.2 }`, [`Wrap`]) winds the end
+//! round one of the chain's instruments where the service reports it. A turn with `instrument = {
+//! index = 0, tip = [0, 0, 0], axis = [1, 0, 1] }` ([`InstrumentMove`]) moves that instrument instead
+//! of the joint: its tip to the joint (plus `tip`), its axis along `axis` (built-in `instrument-tie`,
+//! hand B carrying the needle driver).
+//!
 //! Errors name the line and the field (the `toml` crate's spans).
 
 use serde::{Deserialize, Serialize};
