@@ -341,6 +341,23 @@ impl Script {
                     return Err(at(format!("throw.exit {} is not in [0, 1e9]", th.exit)));
                 }
             }
+            if let Some(k) = &t.tuck {
+                if loop_frame(k.outward, k.side).is_none() {
+                    return Err(at(
+                        "tuck.outward and tuck.side must be finite, non-zero and not parallel"
+                            .into(),
+                    ));
+                }
+                if !(k.clearance > 0.0 && k.clearance <= 1e6) {
+                    return Err(at(format!(
+                        "tuck.clearance {} is not in (0, 1e6]",
+                        k.clearance
+                    )));
+                }
+                if !(k.exit >= 0.0 && k.exit <= 1e9) {
+                    return Err(at(format!("tuck.exit {} is not in [0, 1e9]", k.exit)));
+                }
+            }
             if let Some(w) = &t.wrap {
                 if !(w.radius > 0.0 && w.radius.is_finite() && w.radius <= 1e6) {
                     return Err(at(format!("wrap.radius {} is not in (0, 1e6]", w.radius)));
@@ -381,7 +398,7 @@ impl Script {
                 }
             }
             if let Some(l) = &t.wide_loop {
-                if loop_frame(l).is_none() {
+                if loop_frame(l.outward, l.side).is_none() {
                     return Err(at(
                         "wide_loop.outward and wide_loop.side must be finite, non-zero and not parallel"
                             .into(),
@@ -1068,16 +1085,15 @@ fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
 }
 
 /// The unit frame of a wide loop: along `outward`, across it toward `side`, and their cross product.
-fn loop_frame(l: &WideLoop) -> Option<[[f64; 3]; 3]> {
-    let n = norm(l.outward);
-    if !(n > 0.0 && n.is_finite() && l.side.iter().all(|c| c.is_finite())) {
+fn loop_frame(outward: [f64; 3], side: [f64; 3]) -> Option<[[f64; 3]; 3]> {
+    let n = norm(outward);
+    if !(n > 0.0 && n.is_finite() && side.iter().all(|c| c.is_finite())) {
         return None;
     }
-    let u = scale(l.outward, 1.0 / n);
-    let d = l.side[0] * u[0] + l.side[1] * u[1] + l.side[2] * u[2];
-    let across = add(l.side, scale(u, -d));
+    let u = scale(outward, 1.0 / n);
+    let across = add(side, scale(u, -dot(side, u)));
     let m = norm(across);
-    let tiny = 1e-9 * norm(l.side).max(f64::MIN_POSITIVE);
+    let tiny = 1e-9 * norm(side).max(f64::MIN_POSITIVE);
     if !(m.is_finite() && m > tiny) {
         return None;
     }
@@ -1293,16 +1309,8 @@ fn segments_cross(p: [f64; 2], q: [f64; 2], r: [f64; 2], s: [f64; 2]) -> bool {
 
 /// The corners of a tuck (see [`Tuck`]) through the loop nearest the end `joint` of `joints`.
 fn tuck_path(joints: &[[f64; 3]], joint: usize, t: &Tuck) -> Result<Vec<[f64; 3]>, String> {
-    let frame = loop_frame(&WideLoop {
-        outward: t.outward,
-        side: t.side,
-        radius: 1.0,
-        exit: 0.0,
-        feed: 0.0,
-        handedness: t.handedness,
-        tuck: true,
-    })
-    .ok_or("tuck.outward and tuck.side must be finite, non-zero and not parallel")?;
+    let frame = loop_frame(t.outward, t.side)
+        .ok_or("tuck.outward and tuck.side must be finite, non-zero and not parallel")?;
     let [u, v, w] = frame;
     let ring = find_loop(joints, joint, frame, t.clearance.min(1.0), t.clearance)
         .ok_or("no loop to tuck through: the rope does not cross itself near the hand's end")?;
@@ -1350,7 +1358,7 @@ fn tuck_path(joints: &[[f64; 3]], joint: usize, t: &Tuck) -> Result<Vec<[f64; 3]
 /// The corners of a wide loop's path (see [`WideLoop`]) from `start`, fed back along `outward` by
 /// `feed` times the circle drawn so far.
 fn loop_path(start: [f64; 3], l: &WideLoop) -> Vec<[f64; 3]> {
-    let Some([u, v, w]) = loop_frame(l) else {
+    let Some([u, v, w]) = loop_frame(l.outward, l.side) else {
         return Vec::new();
     };
     let local = loop_local(l);
@@ -1710,6 +1718,8 @@ mod tests {
         assert!(e.contains("moves nothing else"), "{e}");
         let e = bad("instrument = { index = 0, tip = [0, 0, 0], axis = [0, 0, 0] }");
         assert!(e.contains("instrument.axis"), "{e}");
+        let e = bad("tuck = { outward = [1, 0, 0], side = [2, 0, 0] }");
+        assert!(e.contains("tuck.outward"), "{e}");
         let e = bad("wrap = { instrument = 0, at = 3, radius = -1 }");
         assert!(e.contains("wrap.radius"), "{e}");
         let e = bad("wrap = { instrument = 0, at = 3, radius = 1, turns = 1000 }");
