@@ -40,44 +40,39 @@ fn hand(svc: &Service, args: &[&str]) -> Child {
 }
 
 /// Waits (with a deadline) for a hand and returns its stdout.
-fn finish(mut child: Child) -> String {
-    let deadline = Instant::now() + Duration::from_secs(120);
-    loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            let mut out = String::new();
-            std::io::Read::read_to_string(child.stdout.as_mut().unwrap(), &mut out).unwrap();
-            assert!(st.success(), "hand failed: {st}\n{out}");
-            return out;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            panic!("a hand did not finish within 120 s");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
+fn finish(child: Child) -> String {
+    let (st, out) = exit_of(child);
+    assert!(st.success(), "hand failed: {st}\n{out}");
+    out
 }
 
 /// Waits (with a deadline) for a hand that may have had requests refused as over-budget (a hand
 /// whose moves were locked for a while asks, when it goes on, for a move long enough to cost more
 /// than the service's work budget per request); it exits 1 then. Any other failure fails the test.
-fn finish_allowing_over_budget(mut child: Child) -> String {
+fn finish_allowing_over_budget(child: Child) -> String {
+    let (st, out) = exit_of(child);
+    let only_budget = out.lines().filter(|l| l.contains("refused:")).all(|l| {
+        l.split("refused:")
+            .nth(1)
+            .unwrap_or("")
+            .split(',')
+            .all(|r| r.trim().ends_with("over-budget"))
+    });
+    assert!(
+        st.success() || (st.code() == Some(1) && out.contains("refused:") && only_budget),
+        "hand failed: {st}\n{out}"
+    );
+    out
+}
+
+/// Waits up to 120 s for a hand to exit; its exit status and stdout.
+fn exit_of(mut child: Child) -> (std::process::ExitStatus, String) {
     let deadline = Instant::now() + Duration::from_secs(120);
     loop {
         if let Some(st) = child.try_wait().unwrap() {
             let mut out = String::new();
             std::io::Read::read_to_string(child.stdout.as_mut().unwrap(), &mut out).unwrap();
-            let only_budget = out.lines().filter(|l| l.contains("refused:")).all(|l| {
-                l.split("refused:")
-                    .nth(1)
-                    .unwrap_or("")
-                    .split(',')
-                    .all(|r| r.trim().ends_with("over-budget"))
-            });
-            assert!(
-                st.success() || (st.code() == Some(1) && out.contains("refused:") && only_budget),
-                "hand failed: {st}\n{out}"
-            );
-            return out;
+            return (st, out);
         }
         if Instant::now() > deadline {
             let _ = child.kill();
