@@ -1221,10 +1221,15 @@ fn wrap_path(from: [f64; 3], (a, b): InstrumentEnds, w: &Wrap) -> Result<Vec<[f6
 /// Points of a wide loop's circle.
 const LOOP_POINTS: usize = 24;
 
+/// How many joints from the hand's end a tuck looks at for its loop. The search compares segment
+/// pairs (quadratic in what it walks), so on a long chain it stays near the end: a hand's loop lies
+/// within a few loops' worth of rope of its end, and the knot ropes are a few hundred links at most.
+pub const LOOP_SEARCH_JOINTS: usize = 1024;
+
 /// The loop nearest the end `joint` (0 or the last) of the rope `joints`, seen along `w` in the frame
-/// `(u, v, w)`: walking from the end, the first stretch of rope whose projection comes back across
-/// the rope walked before it (at least four links and twice `min_span` across, so that a kink is no
-/// loop). Returns the loop's joints.
+/// `(u, v, w)`: walking from the end (at most [`LOOP_SEARCH_JOINTS`] joints), the first stretch of
+/// rope whose projection comes back across the rope walked before it (at least four links and twice
+/// `min_span` across, so that a kink is no loop). Returns the loop's joints.
 fn find_loop(
     joints: &[[f64; 3]],
     joint: usize,
@@ -1237,10 +1242,16 @@ fn find_loop(
         return None;
     }
     let walk: Vec<[f64; 3]> = if joint == 0 {
-        joints.to_vec()
+        joints.iter().take(LOOP_SEARCH_JOINTS).copied().collect()
     } else {
-        joints.iter().rev().copied().collect()
+        joints
+            .iter()
+            .rev()
+            .take(LOOP_SEARCH_JOINTS)
+            .copied()
+            .collect()
     };
+    let n = walk.len();
     let mut flat: Vec<[f64; 2]> = walk.iter().map(|p| [dot(*p, u), dot(*p, v)]).collect();
     // The end's link reaches half a link past the end: a hand that closed its loop right above the
     // rope it crosses (the circle drawn to where it began) crosses it there.
@@ -1645,6 +1656,40 @@ mod tests {
         // loop yet.
         let open = looped_rope(3.0, 4.0);
         assert!(turn.targets_on(&open, 60, 0.05).is_err());
+    }
+
+    #[test]
+    fn a_tuck_on_a_long_chain_looks_only_near_the_hand() {
+        let turn = Turn {
+            hand: "B".into(),
+            chain: "long".into(),
+            joint: "head".into(),
+            throw: None,
+            wide_loop: None,
+            tuck: Some(Tuck {
+                outward: [1.0, 0.0, 0.0],
+                side: [0.0, 1.0, 0.0],
+                clearance: 1.0,
+                exit: 2.0,
+                handedness: Handedness::Right,
+            }),
+            wrap: None,
+            instrument: None,
+            waypoints: vec![],
+        };
+        // 65 536 joints leading in along −x, then the loop at the head: found.
+        let lead: Vec<[f64; 3]> = (0..65_536)
+            .map(|k| [k as f64 - 65_536.0, 0.0, 0.0])
+            .collect();
+        let rope: Vec<[f64; 3]> = lead.iter().copied().chain(looped_rope(3.0, -0.3)).collect();
+        assert!(turn.targets_on(&rope, rope.len() - 1, 0.05).is_ok());
+        // The same loop followed by more straight rope than the search walks (going on from the
+        // loop's end, away from it): seen from that end, no loop.
+        let mut far = looped_rope(3.0, -0.3);
+        let from = *far.last().unwrap();
+        far.extend((1..=LOOP_SEARCH_JOINTS).map(|k| [from[0] - k as f64, from[1], 5.0]));
+        let e = turn.targets_on(&far, far.len() - 1, 0.05).unwrap_err();
+        assert!(e.contains("no loop"), "{e}");
     }
 
     #[test]
