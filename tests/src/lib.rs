@@ -19,6 +19,8 @@ use std::time::Duration;
 
 pub use clients::process::START_TIMEOUT;
 
+pub mod knot_check;
+
 /// A prefix no other test (or test run) uses.
 pub fn unique_prefix() -> String {
     static N: AtomicU32 = AtomicU32::new(0);

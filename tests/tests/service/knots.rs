@@ -260,10 +260,38 @@ impl Watcher {
     }
 }
 
+/// The knot the identification names in `chain`, cross-checked: the knot determinant computed by the
+/// tests' own code from the same joints ([`tests::knot_check`], no code shared with the kernel) must
+/// be the named knot's (1 unknot, 3 trefoil, 9 square or granny), in most of its views.
 fn knot_of(svc: &Service, chain: &str) -> tractrix::knot::KnotReport {
     let mut c = svc.connect();
     let id = c.find_chain(chain).unwrap().unwrap();
-    clients::hand::knot_of(&mut c, id).unwrap()
+    let k = clients::hand::knot_of(&mut c, id).unwrap();
+    let joints: Vec<[f64; 3]> = c
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap()
+        .joints()
+        .iter()
+        .map(|q| [q.x, q.y, q.z])
+        .collect();
+    let expected = match k.kind {
+        KnotType::Unknot => Some(1),
+        KnotType::Trefoil => Some(3),
+        KnotType::Square | KnotType::Granny => Some(9),
+        _ => None,
+    };
+    let (det, views) = tests::knot_check::determinant(&joints);
+    if let Some(d) = expected {
+        assert_eq!(
+            det, d,
+            "{chain}: the identification says {k:?}, the tests' own determinant is {det} ({views} of 3 views)"
+        );
+        assert!(
+            views >= 2,
+            "{chain}: determinant {det} in {views} of 3 views"
+        );
+    }
+    k
 }
 
 fn assert_never_passed_through(checked: u64, min: f64, expected_states: u64) {
