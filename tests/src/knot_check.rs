@@ -173,9 +173,9 @@ fn det_mod(mut a: Vec<Vec<u64>>) -> u64 {
             if f == 0 {
                 continue;
             }
-            for k in col..n {
-                let x = mul(f, a[col][k]);
-                a[r][k] = (a[r][k] + P - x) % P;
+            let (top, rest) = a.split_at_mut(r);
+            for (x, p) in rest[0][col..].iter_mut().zip(&top[col][col..]) {
+                *x = (*x + P - mul(f, *p)) % P;
             }
         }
     }
