@@ -215,7 +215,7 @@ def _max_length_error(joints: list[list[float]], link_length: float) -> float:
 
 
 _HAND_LINE = re.compile(r"hand (\w+): (\d+) requests, (\d+) ok, (\d+) locked(?:, refused: (.*))?")
-_KNOT_LINE = re.compile(r"knot: (\w+)")
+_KNOT_LINE = re.compile(r"knot: ([\w-]+)")
 
 
 def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any]:

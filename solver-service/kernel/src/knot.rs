@@ -1,4 +1,5 @@
-//! Knot identification from a chain's geometry: unknot, trefoil, square, granny or other.
+//! Knot identification from a chain's geometry: unknot, trefoil, square, granny, double overhand or
+//! other.
 //!
 //! An open rope has no knot type until it is closed. The rope is closed through a point far away (three
 //! times the rope's radius from its centroid, so the closing arc stays clear of the knotted region), seen
@@ -14,6 +15,7 @@
 //! | trefoil (overhand) | `t + t³ − t⁴` | 3 | ±3 |
 //! | granny = trefoil # trefoil | `(t + t³ − t⁴)²` | 9 | ±6 |
 //! | square = trefoil # mirror | `(t + t³ − t⁴)(t⁻¹ + t⁻³ − t⁻⁴)` | 9 | 0 |
+//! | double overhand (5₂, the surgeon's first throw) | `t − t² + 2t³ − t⁴ + t⁵ − t⁶` | 7 | — |
 //!
 //! The determinant `|V(−1)|` alone cannot tell square from granny; the polynomial (or the writhe of a
 //! reduced diagram) can. Any other polynomial is "other".
@@ -40,6 +42,9 @@ pub enum KnotType {
     Square,
     /// The granny knot: two trefoils of the same hand in series.
     Granny,
+    /// The double overhand knot (the knot 5₂): an overhand whose end passes twice round, the first
+    /// throw of the surgeon's knot (the long end wrapped twice round the needle driver).
+    DoubleOverhand,
     /// Anything else (including diagrams too large to evaluate).
     Other,
 }
@@ -52,6 +57,7 @@ impl KnotType {
             KnotType::Trefoil => "trefoil",
             KnotType::Square => "square",
             KnotType::Granny => "granny",
+            KnotType::DoubleOverhand => "double-overhand",
             KnotType::Other => "other",
         }
     }
@@ -358,6 +364,8 @@ impl Diagram {
             KnotType::Granny
         } else if v == t.mul(&m) {
             KnotType::Square
+        } else if v == Laurent::five_two() || v == Laurent::five_two().mirror() {
+            KnotType::DoubleOverhand
         } else {
             KnotType::Other
         }
@@ -500,6 +508,10 @@ impl Laurent {
     /// The left- or right-handed trefoil (whichever `t + t³ − t⁴` is); its mirror is [`Laurent::mirror`].
     fn trefoil() -> Self {
         Laurent::from_t(1, &[1, 0, 1, -1])
+    }
+    /// The knot 5₂ (one chirality; the Knot Atlas gives the other, `t → 1/t`).
+    fn five_two() -> Self {
+        Laurent::from_t(1, &[1, -1, 2, -1, 1, -1])
     }
     fn mirror(&self) -> Self {
         let mut coef = self.coef.clone();

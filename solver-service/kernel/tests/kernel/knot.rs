@@ -178,3 +178,72 @@ fn perturbed_knots_keep_their_names() {
         }
     }
 }
+
+/// The closure of a braid on `strands` strands (generators `k` and `-k`: strands `k − 1` and `k`
+/// cross, the one moving outward passing over for `k` and under for `-k`), drawn round the z axis:
+/// slot `i` at radius `1.5 + i` and height `0.8 i` (a cone, so that no view sees the strands edge
+/// on), each generator over an equal arc of the circle, the crossing strands changing radius by a
+/// half cosine and rising or sinking by up to 0.5 more as they pass. The strand in
+/// slot 0 at angle 0 is followed round until it comes back (a knot when the braid's permutation is
+/// one cycle), then cut open at its left-most point with the ends run out as in [`open_out`].
+fn closed_braid(word: &[i32], strands: usize, per_generator: usize) -> Vec<V> {
+    let g = word.len();
+    let arc = std::f64::consts::TAU / g as f64;
+    let mut closed = Vec::new();
+    let mut slot = 0usize;
+    for _lap in 0..strands {
+        for (k, &w) in word.iter().enumerate() {
+            let lo = w.unsigned_abs() as usize - 1;
+            let (to, sign) = if slot == lo {
+                (lo + 1, if w > 0 { 1.0 } else { -1.0 })
+            } else if slot == lo + 1 {
+                (lo, if w > 0 { -1.0 } else { 1.0 })
+            } else {
+                (slot, 0.0)
+            };
+            for j in 0..per_generator {
+                let s = j as f64 / per_generator as f64;
+                let theta = arc * (k as f64 + s);
+                let blend = (1.0 - (std::f64::consts::PI * s).cos()) / 2.0;
+                let r = 1.5 + slot as f64 + (to as f64 - slot as f64) * blend;
+                let z = sign * 0.5 * (std::f64::consts::PI * s).sin() + 0.8 * (r - 1.5);
+                closed.push(V::new(r * theta.cos(), r * theta.sin(), z));
+            }
+            slot = to;
+        }
+        if slot == 0 {
+            break;
+        }
+    }
+    open_out(&closed, 0.0)
+}
+
+#[test]
+fn hand_built_double_overhand_and_its_mirror() {
+    // 5₂ as the closure of the three-strand braid σ₁³σ₂σ₁⁻¹σ₂ (the Knot Atlas's representative),
+    // and its mirror (every crossing the other way).
+    let five_two = closed_braid(&[1, 1, 1, 2, -1, 2], 3, 16);
+    let mirror = closed_braid(&[-1, -1, -1, -2, 1, -2], 3, 40);
+    check(&five_two, KnotType::DoubleOverhand, "5₂");
+    check(&mirror, KnotType::DoubleOverhand, "mirror 5₂");
+    let (a, b) = (identify(&five_two), identify(&mirror));
+    assert_eq!((a.determinant, b.determinant), (7, 7));
+    // No diagram of 5₂ has fewer than 5 crossings (Reidemeister I and II alone need not reach 5).
+    assert!(a.crossings >= 5 && b.crossings >= 5, "{a:?} {b:?}");
+    assert_eq!(a.writhe, -b.writhe, "mirrors have opposite writhe");
+    assert_eq!(a.jones.1, [1, -1, 2, -1, 1, -1]);
+    // Other closed braids are not called so: the trefoil (σ₁³), the cinquefoil 5₁ (σ₁⁵, the same
+    // determinant as no named knot: other) and the figure eight (σ₁σ₂⁻¹σ₁σ₂⁻¹, other).
+    check(&closed_braid(&[1, 1, 1], 2, 40), KnotType::Trefoil, "σ₁³");
+    check(
+        &closed_braid(&[1, 1, 1, 1, 1], 2, 40),
+        KnotType::Other,
+        "5₁",
+    );
+    check(&closed_braid(&[1, -2, 1, -2], 3, 40), KnotType::Other, "4₁");
+    let mut rng = Rng(0x5EED_52);
+    for draw in 0..20 {
+        let p = perturbed(&five_two, 0.1, &mut rng);
+        check(&p, KnotType::DoubleOverhand, &format!("5₂, draw {draw}"));
+    }
+}
