@@ -633,7 +633,8 @@ impl Script {
             }
             "square-held" => Some(two_hands_held(name, Handedness::Left)),
             "granny-held" => Some(two_hands_held(name, Handedness::Right)),
-            "instrument-tie" => Some(instrument_tie(name)),
+            "instrument-tie" => Some(instrument_tie(name, 1.0)),
+            "surgeons-tie" => Some(instrument_tie(name, 2.0)),
             "square-u" => Some(two_hands_u(name, Handedness::Right)),
             "granny-u" => Some(two_hands_u(name, Handedness::Left)),
             "wave" => Some(Script {
@@ -761,8 +762,11 @@ const HELD_TWO_RADIUS: f64 = 2.0;
 /// long end (the head), brings it over and winds it once round the driver's jaws, 3 units from the tip,
 /// and draws it off; B pulls the tail back along the driver's axis through the wrap (the driver riding
 /// with it, the wrap sliding off its tip onto the tail); A pulls its end away; then each draws its end
-/// out of the knot (five alternations).
-fn instrument_tie(name: &str) -> Script {
+/// out of the knot (five alternations). `wraps` is how many times A winds the long end round the
+/// driver: 1 (built-in `instrument-tie`, a half knot: the trefoil), or the surgeon's 2 (built-in
+/// `surgeons-tie`, which would make the double overhand; with these moves it does not: BENCHMARKS.md,
+/// knot success through the service).
+fn instrument_tie(name: &str, wraps: f64) -> Script {
     let hand = |h: &str| Turn {
         hand: h.into(),
         chain: "tie".into(),
@@ -803,7 +807,7 @@ fn instrument_tie(name: &str) -> Script {
                     instrument: 0,
                     at: 3.0,
                     radius: 2.2,
-                    turns: 1.0,
+                    turns: wraps,
                     pitch: 0.6,
                     handedness: Handedness::Right,
                 }),
@@ -891,6 +895,7 @@ pub const BUILTINS: &[&str] = &[
     "square-held",
     "granny-held",
     "instrument-tie",
+    "surgeons-tie",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.
