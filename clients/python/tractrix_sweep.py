@@ -506,7 +506,8 @@ def accuracy_summary(rows: list[dict[str, Any]]) -> str:
 
 
 def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", "collision", "method")) -> str:
-    """A Markdown table: per combination of ``by``, episodes, knots tied, errors, median µs per request,
+    """A Markdown table: per combination of ``by``, episodes, knots tied, the knots the identification
+    named (with how many episodes each), errors, median µs per request,
     locked and refused moves (a held rope pulled taut refuses what it cannot reach) and the largest
     link-length error (accuracy episodes: :func:`accuracy_summary`)."""
     if rows and all(r.get("kind") == "accuracy" for r in rows):
@@ -514,8 +515,8 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
     groups: dict[tuple, list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault(tuple(r.get(k) for k in by), []).append(r)
-    head = [*by, "episodes", "tied", "failed", "median hand wall time per request, µs", "locked moves",
-            "refused moves", "max link-length error"]
+    head = [*by, "episodes", "tied", "knots named", "failed", "median hand wall time per request, µs",
+            "locked moves", "refused moves", "max link-length error"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
 
     def median(xs):
@@ -528,9 +529,13 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
     for key in sorted(groups, key=order):
         g = groups[key]
         ok = [r for r in g if r.get("ok")]
+        named: dict[str, int] = {}
+        for r in ok:
+            named[r["knot"] or "none"] = named.get(r["knot"] or "none", 0) + 1
+        knots = ", ".join(f"{k} {n}" for k, n in sorted(named.items(), key=lambda kv: (-kv[1], kv[0])))
         lines.append(
             "| " + " | ".join(str(k) for k in key)
-            + f" | {len(g)} | {sum(1 for r in ok if r['tied'])}/{len(g)} | {len(g) - len(ok)}"
+            + f" | {len(g)} | {sum(1 for r in ok if r['tied'])}/{len(g)} | {knots} | {len(g) - len(ok)}"
             + f" | {median([r['us_per_request'] for r in ok]):.0f}"
             + f" | {sum(r['locked'] for r in ok)}"
             + f" | {sum(r['refused'] for r in ok)} of {sum(r['requests'] for r in ok)}"
