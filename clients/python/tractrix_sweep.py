@@ -76,6 +76,7 @@ import sys
 import tempfile
 import time
 import uuid
+from collections import Counter
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
@@ -529,9 +530,7 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
     for key in sorted(groups, key=order):
         g = groups[key]
         ok = [r for r in g if r.get("ok")]
-        named: dict[str, int] = {}
-        for r in ok:
-            named[r["knot"] or "none"] = named.get(r["knot"] or "none", 0) + 1
+        named = Counter(r["knot"] or "none" for r in ok)
         knots = ", ".join(f"{k} {n}" for k, n in sorted(named.items(), key=lambda kv: (-kv[1], kv[0])))
         lines.append(
             "| " + " | ".join(str(k) for k in key)
