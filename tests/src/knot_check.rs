@@ -8,10 +8,10 @@
 //! closure at infinity along the view); the crossings of the picture give the arcs between
 //! undercrossings, and each crossing a row of the Fox colouring matrix (twice the over-arc, minus the
 //! two under-arcs). Any minor of order `c − 1` of that matrix has the knot determinant `|Δ(−1)|` as
-//! its absolute value: 1 for the unknot, 3 for the trefoil, 5 for the figure eight and 5₁, 7 for 5₂
-//! (the double overhand) and 7₁, 9 for the square and the granny knots (the determinant does not tell
-//! those two apart). The minor is reduced modulo a large prime, exactly. Three views are taken and
-//! the value most of them give is returned, with how many agreed.
+//! its absolute value: 1 for the unknot, 3 for the trefoil, 5 for the figure eight and 5₁ (the double
+//! overhand), 7 for 5₂ and 7₁, 9 for the square and the granny knots (the determinant does not tell
+//! those two apart, nor 5₁ from the figure eight). The minor is reduced modulo a large prime,
+//! exactly. Three views are taken and the value most of them give is returned, with how many agreed.
 
 /// Views tried: rotations about z, then x, then z again (Euler angles, radians, generic).
 const VIEWS: [[f64; 3]; 3] = [[0.37, 0.91, 1.23], [1.71, 0.53, 2.29], [2.83, 1.37, 0.61]];

@@ -15,10 +15,16 @@
 //! | trefoil (overhand) | `t + t³ − t⁴` | 3 | ±3 |
 //! | granny = trefoil # trefoil | `(t + t³ − t⁴)²` | 9 | ±6 |
 //! | square = trefoil # mirror | `(t + t³ − t⁴)(t⁻¹ + t⁻³ − t⁻⁴)` | 9 | 0 |
-//! | double overhand (5₂, the surgeon's first throw) | `t − t² + 2t³ − t⁴ + t⁵ − t⁶` | 7 | — |
+//! | double overhand (5₁, the cinquefoil; the surgeon's first throw) | `t² + t⁴ − t⁵ + t⁶ − t⁷` | 5 | ±5 |
 //!
-//! The determinant `|V(−1)|` alone cannot tell square from granny; the polynomial (or the writhe of a
-//! reduced diagram) can. Any other polynomial is "other".
+//! The determinant `|V(−1)|` alone cannot tell square from granny, nor the double overhand from the
+//! figure eight (4₁, also 5); the polynomial can. Any other polynomial is "other" (the three-twist
+//! knot 5₂, for one, which an overhand with a twisted loop makes).
+//!
+//! The double overhand is the (2, 5) torus knot: the Knot Atlas (knot 5₁: "also known as the Double
+//! Overhand Knot") and Wikipedia ("Cinquefoil knot": "the closed version of the double overhand
+//! knot") both say so, and a coil of two turns round a strand, its ends joined past the strand's, is
+//! the closed 2-braid σ₁⁵ (four half-twists of the coil and the crossing that closes it).
 //!
 //! What is checked, exactly: the open rope is closed in six ways (six closure directions spread over the
 //! sphere), and each closed curve is named from one projection. A closed curve has one knot type, so
@@ -42,8 +48,9 @@ pub enum KnotType {
     Square,
     /// The granny knot: two trefoils of the same hand in series.
     Granny,
-    /// The double overhand knot (the knot 5₂): an overhand whose end passes twice round, the first
-    /// throw of the surgeon's knot (the long end wrapped twice round the needle driver).
+    /// The double overhand knot (the knot 5₁, the cinquefoil): an overhand whose end passes twice
+    /// round, the first throw of the surgeon's knot (the long end wrapped twice round the needle
+    /// driver).
     DoubleOverhand,
     /// Anything else (including diagrams too large to evaluate).
     Other,
@@ -364,7 +371,7 @@ impl Diagram {
             KnotType::Granny
         } else if v == t.mul(&m) {
             KnotType::Square
-        } else if v == Laurent::five_two() || v == Laurent::five_two().mirror() {
+        } else if v == Laurent::cinquefoil() || v == Laurent::cinquefoil().mirror() {
             KnotType::DoubleOverhand
         } else {
             KnotType::Other
@@ -509,9 +516,9 @@ impl Laurent {
     fn trefoil() -> Self {
         Laurent::from_t(1, &[1, 0, 1, -1])
     }
-    /// The knot 5₂ (one chirality; the Knot Atlas gives the other, `t → 1/t`).
-    fn five_two() -> Self {
-        Laurent::from_t(1, &[1, -1, 2, -1, 1, -1])
+    /// The knot 5₁, the (2, 5) torus knot (one chirality; Wikipedia gives the other, `t → 1/t`).
+    fn cinquefoil() -> Self {
+        Laurent::from_t(2, &[1, 0, 1, -1, 1, -1])
     }
     fn mirror(&self) -> Self {
         let mut coef = self.coef.clone();
