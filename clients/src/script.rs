@@ -758,16 +758,19 @@ const HELD_TWO_RADIUS: f64 = 2.0;
 
 /// The instrument tie of surgery on chain `tie` of `knots.toml` (the paper's rope stitched in at joint
 /// 16, the needle driver `driver` riding with the tail): hand B holds the short end's tail in the
-/// driver's jaws and carries the driver there, its axis rising away from the stitch; hand A holds the
-/// long end (the head), brings it over and winds it once round the driver's jaws, 3 units from the tip,
-/// and draws it off; B pulls the tail back along the driver's axis through the wrap (the driver riding
-/// with it, the wrap sliding off its tip onto the tail); A pulls its end away; then each draws its end
-/// out of the knot (five alternations). `wraps` is how many times A winds the long end round the
-/// driver: 1 (built-in `instrument-tie`, a half knot: the trefoil), or the surgeon's 2 (built-in
-/// `surgeons-tie`, which would make the double overhand; with these moves it does not: BENCHMARKS.md,
-/// knot success through the service).
+/// driver's jaws, lays the short end in a U and then turns the driver's axis along +x, its tip on the
+/// tail, so that the short end's last 3 units trail straight behind the tip; hand A holds the long
+/// end (the head), brings it over the stitch to the far side of the driver, level with it, and winds
+/// it round the driver's jaws 4 units from the tip, the coil progressing toward the tip (its lead-in
+/// on the side the tail leaves by); B pulls the tail along the driver's axis through the coil (the
+/// driver riding with it, the coil sliding off its tip onto the tail); then the hands draw their ends
+/// out of the knot, which tightens between them (eight turns, five changes of hand). Turning the
+/// driver after the U is laid keeps its body off the short end (turned first, it lay along the
+/// straight rope and B's first moves were locked). `wraps` is how many times A winds the long end
+/// round the driver: 1 (built-in `instrument-tie`, a half knot: the trefoil), or the surgeon's 2
+/// (built-in `surgeons-tie`: the double overhand, 5₁).
 fn instrument_tie(name: &str, wraps: f64) -> Script {
-    let hand = |h: &str| Turn {
+    let hand = |h: &str, waypoints: Vec<[f64; 3]>| Turn {
         hand: h.into(),
         chain: "tie".into(),
         joint: if h == "A" { "head" } else { "tail" }.into(),
@@ -776,64 +779,52 @@ fn instrument_tie(name: &str, wraps: f64) -> Script {
         tuck: None,
         wrap: None,
         instrument: None,
-        waypoints: vec![],
+        waypoints,
     };
-    let axis = [
-        std::f64::consts::FRAC_1_SQRT_2,
-        0.0,
-        std::f64::consts::FRAC_1_SQRT_2,
-    ];
+    let axis = [1.0, 0.0, 0.0];
     Script {
         name: name.into(),
         max_step: 0.05,
         grasp: true,
         turn: vec![
+            // The short end laid in a U, its last 3 units straight behind the tip along the axis.
+            hand(
+                "B",
+                vec![
+                    [3.0, -4.0, 1.0],
+                    [7.0, -2.0, 3.0],
+                    [7.0, 0.0, 3.0],
+                    [10.0, 0.0, 3.0],
+                ],
+            ),
+            // Then the driver's tip to the tail (it rode there with the tail), its axis along +x.
             Turn {
                 instrument: Some(InstrumentMove {
                     index: 0,
                     tip: [0.0; 3],
                     axis,
                 }),
-                ..hand("B")
+                ..hand("B", vec![])
             },
-            // Over the rope to the driver's side, then level with the wrap's centre, so that the wrap
-            // starts on the +y side of the driver.
-            Turn {
-                waypoints: vec![[-20.0, 6.0, 3.0], [-37.88, 6.0, 2.12]],
-                ..hand("A")
-            },
+            // The long end over the stitch to the far side of the driver, level with the coil.
+            hand("A", vec![[-12.0, 3.0, 2.0], [-26.0, 2.2, 3.0]]),
             Turn {
                 wrap: Some(Wrap {
                     instrument: 0,
-                    at: 3.0,
+                    at: 4.0,
                     radius: 2.2,
                     turns: wraps,
-                    pitch: 0.6,
+                    pitch: -0.6,
                     handedness: Handedness::Right,
                 }),
-                ..hand("A")
+                ..hand("A", vec![])
             },
-            Turn {
-                waypoints: vec![[2.5, 1.3, -0.9]],
-                ..hand("A")
-            },
-            Turn {
-                waypoints: vec![scale(axis, 10.0)],
-                ..hand("B")
-            },
-            Turn {
-                waypoints: vec![[6.0, -3.0, -1.5]],
-                ..hand("A")
-            },
+            // The tail pulled through the coil along the driver's axis.
+            hand("B", vec![scale(axis, 10.0)]),
             // Both ends drawn out of the knot, which tightens between them.
-            Turn {
-                waypoints: vec![scale(axis, 2.0)],
-                ..hand("B")
-            },
-            Turn {
-                waypoints: vec![[8.0, 0.0, 0.0]],
-                ..hand("A")
-            },
+            hand("A", vec![[-6.0, 3.0, -3.0]]),
+            hand("B", vec![[3.0, 0.0, 1.0]]),
+            hand("A", vec![[-6.0, 0.0, 0.0]]),
         ],
     }
 }
@@ -1703,7 +1694,8 @@ mod tests {
         let wrap = tie.turn.iter().find(|t| t.wrap.is_some()).unwrap().clone();
         let w = wrap.wrap.unwrap();
         // A driver along +z from (1, 2, 0): the hand's end at (10, 2, 3) starts the circle on the
-        // +x side, 3 up from the tip, winds once counter-clockwise seen along +z, rising by the pitch.
+        // +x side, `at` up from the tip, winds once counter-clockwise seen along +z, advancing along
+        // the axis by the pitch (negative: toward the tip).
         let rope: Vec<[f64; 3]> = (0..=10).map(|k| [k as f64, 2.0, 3.0]).collect();
         let driver = ([1.0, 2.0, 0.0], [1.0, 2.0, 14.0]);
         let p = wrap.targets_with(&rope, 10, &[driver], 0.05).unwrap();
@@ -1731,7 +1723,7 @@ mod tests {
 
         // The driver carried from where the scene parks it to the tail: its tip ends on the joint,
         // its axis along the script's, and no step moves any point more than the step.
-        let carry = &tie.turn[0];
+        let carry = tie.turn.iter().find(|t| t.instrument.is_some()).unwrap();
         let m = carry.instrument.unwrap();
         let park = (
             [0.0, -6.0, 0.0],

@@ -481,14 +481,25 @@ fn two_hands_tie_the_square_and_granny_on_the_papers_rope_both_ends_held() {
 }
 
 /// The instrument tie (issue 16, beyond the paper): on chain `tie` of `knots.toml` (the paper's rope
-/// stitched in at joint 16), hand B carries the needle driver (a capsule of radius 0.8 riding with the
-/// tail) to the short end's tail, hand A winds the long end round the driver's jaws, B pulls the tail
-/// back through the wrap along the driver, and the hands draw their ends out. The rope ends in a
-/// trefoil (the instrument tie's half knot); the driver ends where B's jaws have the tail; no
-/// published state lets the rope into the driver (the links it holds aside) or through itself; at
-/// most one end moves per state.
+/// stitched in at joint 16), hand B lays the short end and carries the needle driver (a capsule of
+/// radius 0.8 riding with the tail) to its tail, hand A winds the long end round the driver's jaws
+/// (once: a trefoil, the instrument tie's half knot), B pulls the tail through the coil along the
+/// driver, and the hands draw their ends out. The rope ends in a trefoil; the driver ends where B's
+/// jaws have the tail; no published state lets the rope into the driver (the links it holds aside) or
+/// through itself; at most one end moves per state; the recordings replay bit for bit.
 #[test]
 fn two_hands_tie_the_instrument_tie_with_a_needle_driver() {
+    instrument_tie("instrument-tie", KnotType::Trefoil, (3, 3));
+}
+
+/// The surgeon's instrument tie: the same moves with the long end wound twice round the driver. The
+/// rope ends in the double overhand (5₁: 5 crossings, determinant 5), the surgeon's first throw.
+#[test]
+fn two_hands_tie_the_surgeons_double_wrap_with_a_needle_driver() {
+    instrument_tie("surgeons-tie", KnotType::DoubleOverhand, (5, 5));
+}
+
+fn instrument_tie(script: &str, kind: KnotType, crossings_determinant: (u32, u64)) {
     let svc = knot_service();
     let id = svc.connect().find_chain("tie").unwrap().unwrap();
     // The links the driver holds: within its reach of the tail (its radius 0.8, half its length 7
@@ -501,17 +512,14 @@ fn two_hands_tie_the_instrument_tie_with_a_needle_driver() {
         .iter()
         .map(|h| {
             let r = rec(h).display().to_string();
-            hand(
-                &svc,
-                &["--builtin", "instrument-tie", "--hand", h, "--record", &r],
-            )
+            hand(&svc, &["--builtin", script, "--hand", h, "--record", &r])
         })
         .collect();
     for h in hands {
         finish_allowing_over_budget(h);
     }
     let seen = w.finish_all();
-    eprintln!("instrument tie: smallest gap to the driver {}", seen.gap);
+    eprintln!("{script}: smallest gap to the driver {}", seen.gap);
     assert_never_passed_through(seen.checked, seen.min, 1000);
     assert_eq!(seen.both_moved, 0, "a state moved both ends at once");
     assert!(seen.gap.is_finite(), "no state carried the driver");
@@ -521,8 +529,8 @@ fn two_hands_tie_the_instrument_tie_with_a_needle_driver() {
         -seen.gap
     );
     let k = knot_of(&svc, "tie");
-    assert_eq!(k.kind, KnotType::Trefoil, "{k:?}");
-    assert_eq!((k.crossings, k.determinant), (3, 3), "{k:?}");
+    assert_eq!(k.kind, kind, "{k:?}");
+    assert_eq!((k.crossings, k.determinant), crossings_determinant, "{k:?}");
     // The driver was carried: its tip is on the tail (B put it there and it rode with the tail),
     // far from where the scene parked it.
     let q = svc
