@@ -48,6 +48,15 @@ pub struct Record {
     pub axis: Option<[f64; 3]>,
 }
 
+impl Record {
+    /// Appends this record to a recording as one JSON line.
+    fn append_to(&self, w: &mut impl Write) -> anyhow::Result<()> {
+        serde_json::to_writer(&mut *w, self)?;
+        w.write_all(b"\n")?;
+        Ok(())
+    }
+}
+
 fn move_command() -> String {
     "move".into()
 }
@@ -344,8 +353,7 @@ fn hold(
             command: command.name().into(),
             axis: None,
         };
-        serde_json::to_writer(&mut *w, &rec)?;
-        w.write_all(b"\n")?;
+        rec.append_to(w)?;
     }
     Ok(())
 }
@@ -443,8 +451,7 @@ fn drive(
                         command: Command::Instrument.name().into(),
                         axis: Some(*axis),
                     };
-                    serde_json::to_writer(&mut *w, &r)?;
-                    w.write_all(b"\n")?;
+                    r.append_to(w)?;
                 }
             }
             if let Some(w) = record.as_mut() {
@@ -517,8 +524,7 @@ fn drive(
                     command: move_command(),
                     axis: None,
                 };
-                serde_json::to_writer(&mut *w, &r)?;
-                w.write_all(b"\n")?;
+                r.append_to(w)?;
             }
             if cfg.progress && (i + 1) % 500 == 0 {
                 eprintln!(
