@@ -635,6 +635,7 @@ impl Script {
             "granny-held" => Some(two_hands_held(name, Handedness::Right)),
             "instrument-tie" => Some(instrument_tie(name, 1.0)),
             "surgeons-tie" => Some(instrument_tie(name, 2.0)),
+            "surgeons-knot" => Some(surgeons_knot(name)),
             "square-u" => Some(two_hands_u(name, Handedness::Right)),
             "granny-u" => Some(two_hands_u(name, Handedness::Left)),
             "wave" => Some(Script {
@@ -829,6 +830,62 @@ fn instrument_tie(name: &str, wraps: f64) -> Script {
     }
 }
 
+/// The surgeon's knot by instrument tie on chain `tie`: the surgeon's first throw
+/// (`surgeons-tie`: the double overhand) and then a single throw the other way, also by the driver.
+/// B draws the tail out a little more (the first throw tightens), lifts it and carries it back over
+/// the knot to the long end's side, turns the driver to point away from the knot (through the
+/// vertical, so that its body sweeps no rope), and lowers it; the short end now runs from the knot
+/// straight into the driver's tip. A brings the long end up beside the driver from beyond the coil's
+/// place and winds it once round the jaws, 3 units from the tip, left-handed (the first throw's wrap
+/// seen in a mirror across the knot: the second throw the other way, which makes the surgeon's knot
+/// rather than its granny form); B pulls the tail through along the driver; the hands draw their ends
+/// apart. Eighteen turns, eleven changes of hand.
+fn surgeons_knot(name: &str) -> Script {
+    let mut script = instrument_tie(name, 2.0);
+    let hand = |h: &str, waypoints: Vec<[f64; 3]>| Turn {
+        hand: h.into(),
+        chain: "tie".into(),
+        joint: if h == "A" { "head" } else { "tail" }.into(),
+        throw: None,
+        wide_loop: None,
+        tuck: None,
+        wrap: None,
+        instrument: None,
+        waypoints,
+    };
+    let turn_driver = |axis| Turn {
+        instrument: Some(InstrumentMove {
+            index: 0,
+            tip: [0.0; 3],
+            axis,
+        }),
+        ..hand("B", vec![])
+    };
+    script.turn.extend([
+        hand("B", vec![[4.0, 0.0, -2.0]]),
+        hand("B", vec![[0.0, 0.0, 4.0], [-14.0, 0.0, 4.0]]),
+        turn_driver([0.0, 0.0, 1.0]),
+        turn_driver([-1.0, 0.0, 0.0]),
+        hand("B", vec![[0.0, 0.0, -3.0]]),
+        hand("A", vec![[5.0, -0.7, 2.0], [11.0, -1.5, 3.0]]),
+        Turn {
+            wrap: Some(Wrap {
+                instrument: 0,
+                at: 3.0,
+                radius: 2.2,
+                turns: 1.0,
+                pitch: -0.6,
+                handedness: Handedness::Left,
+            }),
+            ..hand("A", vec![])
+        },
+        hand("B", vec![[-5.0, 0.0, 0.0]]),
+        hand("A", vec![[6.0, 0.0, 0.0]]),
+        hand("B", vec![[-3.0, 0.0, 0.0]]),
+    ]);
+    script
+}
+
 /// The two-handed knots on a rope hanging in a U between the hands (A the tail, B the head), each
 /// hand holding its end throughout; six alternating turns: A throws (upward, away from the rope), B
 /// pulls its side out, A pulls back, B throws (`second`: mirrored for the square), A pulls, B pulls.
@@ -887,6 +944,7 @@ pub const BUILTINS: &[&str] = &[
     "granny-held",
     "instrument-tie",
     "surgeons-tie",
+    "surgeons-knot",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.

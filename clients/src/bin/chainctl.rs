@@ -38,7 +38,7 @@ enum Cmd {
     /// Move an instrument of the chain (`--joint` = its index in the chain's `instruments` list) to
     /// `--target` (its centre), turned to `--axis` (capsules), pushing the chain.
     Instrument,
-    /// Query the chain and name the knot tied in it (unknot, trefoil, square, granny, double-overhand, other).
+    /// Query the chain and name the knot tied in it (unknot, trefoil, square, granny, double-overhand, surgeons, other).
     Knot,
 }
 

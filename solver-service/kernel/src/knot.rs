@@ -1,5 +1,5 @@
-//! Knot identification from a chain's geometry: unknot, trefoil, square, granny, double overhand or
-//! other.
+//! Knot identification from a chain's geometry: unknot, trefoil, square, granny, double overhand,
+//! surgeon's knot or other.
 //!
 //! An open rope has no knot type until it is closed. The rope is closed through a point far away (three
 //! times the rope's radius from its centroid, so the closing arc stays clear of the knotted region), seen
@@ -16,9 +16,11 @@
 //! | granny = trefoil # trefoil | `(t + t³ − t⁴)²` | 9 | ±6 |
 //! | square = trefoil # mirror | `(t + t³ − t⁴)(t⁻¹ + t⁻³ − t⁻⁴)` | 9 | 0 |
 //! | double overhand (5₁, the cinquefoil; the surgeon's first throw) | `t² + t⁴ − t⁵ + t⁶ − t⁷` | 5 | ±5 |
+//! | surgeon's knot = double overhand # mirror trefoil | `(t² + t⁴ − t⁵ + t⁶ − t⁷)(t⁻¹ + t⁻³ − t⁻⁴)` | 15 | ±2 |
 //!
 //! The determinant `|V(−1)|` alone cannot tell square from granny, nor the double overhand from the
-//! figure eight (4₁, also 5); the polynomial can. Any other polynomial is "other" (the three-twist
+//! figure eight (4₁, also 5), nor the surgeon's knot from its granny form (the second throw the same
+//! way as the first: `5₁ # 3₁`, also 15) or the prime knot 7₄ (also 15); the polynomial can. Any other polynomial is "other" (the three-twist
 //! knot 5₂, for one, which an overhand with a twisted loop makes).
 //!
 //! The double overhand is the (2, 5) torus knot: the Knot Atlas (knot 5₁: "also known as the Double
@@ -52,6 +54,10 @@ pub enum KnotType {
     /// round, the first throw of the surgeon's knot (the long end wrapped twice round the needle
     /// driver).
     DoubleOverhand,
+    /// The surgeon's knot: a double overhand and a trefoil of the other hand in series (the square
+    /// knot with its first throw doubled; the surgeon's double throw, then a single throw the other
+    /// way).
+    Surgeons,
     /// Anything else (including diagrams too large to evaluate).
     Other,
 }
@@ -65,6 +71,7 @@ impl KnotType {
             KnotType::Square => "square",
             KnotType::Granny => "granny",
             KnotType::DoubleOverhand => "double-overhand",
+            KnotType::Surgeons => "surgeons",
             KnotType::Other => "other",
         }
     }
@@ -373,6 +380,9 @@ impl Diagram {
             KnotType::Square
         } else if v == Laurent::cinquefoil() || v == Laurent::cinquefoil().mirror() {
             KnotType::DoubleOverhand
+        } else if v == Laurent::cinquefoil().mul(&m) || v == Laurent::cinquefoil().mirror().mul(&t)
+        {
+            KnotType::Surgeons
         } else {
             KnotType::Other
         }
@@ -516,7 +526,8 @@ impl Laurent {
     fn trefoil() -> Self {
         Laurent::from_t(1, &[1, 0, 1, -1])
     }
-    /// The knot 5₁, the (2, 5) torus knot (one chirality; Wikipedia gives the other, `t → 1/t`).
+    /// The knot 5₁, the (2, 5) torus knot (one chirality; Wikipedia gives the other, `t → 1/t`): the
+    /// same hand as [`Laurent::trefoil`] (both the positive torus knots, all powers of `t` positive).
     fn cinquefoil() -> Self {
         Laurent::from_t(2, &[1, 0, 1, -1, 1, -1])
     }

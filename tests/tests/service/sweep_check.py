@@ -92,7 +92,7 @@ def main():
               f"{ep['id']}: counts {r}")
         check(r["seconds"] > 0 and r["us_per_request"] > 0, f"{ep['id']}: timings {r}")
         check(r["startup_s"] > 0, f"{ep['id']}: startup {r['startup_s']}")
-        check(r["knot"] in ("unknot", "trefoil", "square", "granny", "double-overhand", "other"), f"{ep['id']}: knot {r['knot']!r}")
+        check(r["knot"] in ("unknot", "trefoil", "square", "granny", "double-overhand", "surgeons", "other"), f"{ep['id']}: knot {r['knot']!r}")
         check(r["tied"] == (r["knot"] == ts.EXPECT[ep["script"]]), f"{ep['id']}: tied")
         check(0 <= r["length_error"] < 1e-9, f"{ep['id']}: length error {r['length_error']}")
     bad = on_disk["bad-links"]["error"]

@@ -252,3 +252,55 @@ fn hand_built_double_overhand_and_its_mirror() {
         check(&p, KnotType::DoubleOverhand, &format!("5₁, draw {draw}"));
     }
 }
+
+/// Two ropes in series: `b` placed to the right of `a`'s right end, joined by a straight run.
+fn in_series(a: Vec<V>, b: &[V]) -> Vec<V> {
+    let shift = *a.last().expect("a") - b[0] + V::new(5.0, 0.0, 0.0);
+    let mut rope = a;
+    rope.extend(b.iter().map(|p| p + shift));
+    rope
+}
+
+#[test]
+fn hand_built_surgeons_knot_and_its_granny_form() {
+    // The surgeon's knot: the double overhand (σ₁⁵ closed, as above) and then an overhand of the
+    // other hand along the same rope; with an overhand of the same hand it is the granny form
+    // (5₁ # 3₁), the same determinant 15 and another knot. Which overhand is of the other hand is
+    // not assumed: of the two compositions exactly one is the surgeon's, and it is the one whose
+    // crossings mostly cancel (writhe ±5 ∓ 3 = ±2; the granny form's is ±8).
+    let five_one = closed_braid(&[1, 1, 1, 1, 1], 2, 16);
+    let mut names = Vec::new();
+    for hand in [1.0, -1.0] {
+        let rope = in_series(five_one.clone(), &overhand(0.0, hand, 150));
+        let r = identify(&rope);
+        assert_eq!(r.determinant, 15, "{r:?}");
+        assert!(r.closures >= 5 && r.agreeing == r.closures, "{r:?}");
+        names.push((r.kind, r.writhe.abs()));
+    }
+    names.sort();
+    assert_eq!(names, [(KnotType::Surgeons, 2), (KnotType::Other, 8)]);
+    // And the mirror of all of it.
+    let mirror = closed_braid(&[-1, -1, -1, -1, -1], 2, 16);
+    let mut names = Vec::new();
+    for hand in [1.0, -1.0] {
+        let r = identify(&in_series(mirror.clone(), &overhand(0.0, hand, 150)));
+        names.push((r.kind, r.writhe.abs(), r.determinant));
+    }
+    names.sort();
+    assert_eq!(
+        names,
+        [(KnotType::Surgeons, 2, 15), (KnotType::Other, 8, 15)]
+    );
+    // Perturbed, it keeps its name; the square and granny of two trefoils are not called so.
+    let surgeons = [1.0, -1.0]
+        .into_iter()
+        .map(|hand| in_series(five_one.clone(), &overhand(0.0, hand, 150)))
+        .find(|rope| identify(rope).kind == KnotType::Surgeons)
+        .expect("one of the two");
+    let mut rng = Rng(0x5E_6E0);
+    for draw in 0..20 {
+        let p = perturbed(&surgeons, 0.1, &mut rng);
+        check(&p, KnotType::Surgeons, &format!("surgeon's, draw {draw}"));
+    }
+    check(&two_knots(1.0, -1.0), KnotType::Square, "square");
+}
