@@ -25,7 +25,8 @@ client and measures the link-length error here, from those joints. Knobs::
                  forms overhand-anchored (with anchors = [0]) and overhand-held (hand A holds the
                  tail), the two-handed knots with both ends held, square-held and granny-held, and
                  the instrument tie, instrument-tie, the surgeon's double wrap, surgeons-tie, and
-                 the surgeon's knot, surgeons-knot (all with driver = true; default overhand)
+                 the surgeon's knot, surgeons-knot, and the square knot by instrument tie,
+                 instrument-square (all with driver = true; default overhand)
     expect       the knot the script ties (default: trefoil for the overhands, square, granny)
     start        straight (along x from the origin) or u (hanging in a U: a circular arc between ends
                  0.3 length apart on the x axis, both pointing up, +y; the start of the U scripts)
@@ -108,12 +109,14 @@ EXPECT = {"overhand": "trefoil", "square": "square", "granny": "granny",
           "overhand-u": "trefoil", "square-u": "square", "granny-u": "granny",
           "overhand-wide": "trefoil", "overhand-anchored": "trefoil", "overhand-held": "trefoil",
           "square-held": "square", "granny-held": "granny", "instrument-tie": "trefoil",
-          "surgeons-tie": "double-overhand", "surgeons-knot": "surgeons"}
+          "surgeons-tie": "double-overhand", "surgeons-knot": "surgeons",
+          "instrument-square": "square"}
 HANDS = {"overhand": ["A"], "square": ["A", "B"], "granny": ["A", "B"],
          "overhand-u": ["A"], "square-u": ["A", "B"], "granny-u": ["A", "B"],
          "overhand-wide": ["A"], "overhand-anchored": ["A"], "overhand-held": ["A", "B"],
          "square-held": ["A", "B"], "granny-held": ["A", "B"], "instrument-tie": ["A", "B"],
-         "surgeons-tie": ["A", "B"], "surgeons-knot": ["A", "B"]}
+         "surgeons-tie": ["A", "B"], "surgeons-knot": ["A", "B"],
+         "instrument-square": ["A", "B"]}
 
 
 def episode_id(ep: dict[str, Any]) -> str:

@@ -635,7 +635,8 @@ impl Script {
             "granny-held" => Some(two_hands_held(name, Handedness::Right)),
             "instrument-tie" => Some(instrument_tie(name, 1.0)),
             "surgeons-tie" => Some(instrument_tie(name, 2.0)),
-            "surgeons-knot" => Some(surgeons_knot(name)),
+            "surgeons-knot" => Some(two_throw_tie(name, 2.0)),
+            "instrument-square" => Some(two_throw_tie(name, 1.0)),
             "square-u" => Some(two_hands_u(name, Handedness::Right)),
             "granny-u" => Some(two_hands_u(name, Handedness::Left)),
             "wave" => Some(Script {
@@ -830,18 +831,19 @@ fn instrument_tie(name: &str, wraps: f64) -> Script {
     }
 }
 
-/// The surgeon's knot by instrument tie on chain `tie`: the surgeon's first throw
-/// (`surgeons-tie`: the double overhand) and then a single throw the other way, also by the driver.
-/// B draws the tail out a little more (the first throw tightens), lifts it and carries it back over
-/// the knot to the long end's side, turns the driver to point away from the knot (through the
-/// vertical, so that its body sweeps no rope), and lowers it; the short end now runs from the knot
-/// straight into the driver's tip. A brings the long end up beside the driver from beyond the coil's
-/// place and winds it once round the jaws, 3 units from the tip, left-handed (the first throw's wrap
-/// seen in a mirror across the knot: the second throw the other way, which makes the surgeon's knot
-/// rather than its granny form); B pulls the tail through along the driver; the hands draw their ends
-/// apart. Eighteen turns, eleven changes of hand.
-fn surgeons_knot(name: &str) -> Script {
-    let mut script = instrument_tie(name, 2.0);
+/// Two throws by instrument tie on chain `tie`: the first throw of [`instrument_tie`] with `wraps`
+/// turns round the driver, then a single throw the other way, also by the driver: with 2 the
+/// surgeon's knot (built-in `surgeons-knot`: the double overhand, then the single throw), with 1 the
+/// square knot (built-in `instrument-square`). B draws the tail out a little more (the first throw
+/// tightens), lifts it and carries it back over the knot to the long end's side, turns the driver to
+/// point away from the knot (through the vertical, so that its body sweeps no rope), and lowers it;
+/// the short end now runs from the knot straight into the driver's tip. A brings the long end up
+/// beside the driver from beyond the coil's place and winds it once round the jaws, 3 units from the
+/// tip, left-handed (the first throw's wrap seen in a mirror across the knot: the second throw the
+/// other way, which makes the surgeon's or square knot rather than its granny form); B pulls the tail
+/// through along the driver; the hands draw their ends apart. Eighteen turns, eleven changes of hand.
+fn two_throw_tie(name: &str, wraps: f64) -> Script {
+    let mut script = instrument_tie(name, wraps);
     let hand = |h: &str, waypoints: Vec<[f64; 3]>| Turn {
         hand: h.into(),
         chain: "tie".into(),
@@ -945,6 +947,7 @@ pub const BUILTINS: &[&str] = &[
     "instrument-tie",
     "surgeons-tie",
     "surgeons-knot",
+    "instrument-square",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.

@@ -509,6 +509,13 @@ fn two_hands_tie_the_surgeons_knot_with_a_needle_driver() {
     instrument_tie("surgeons-knot", KnotType::Surgeons, 8..=u32::MAX, 15);
 }
 
+/// The square knot by instrument tie: the same two throws with one wrap in the first (determinant 9;
+/// no diagram of it has fewer than 6 crossings).
+#[test]
+fn two_hands_tie_the_square_knot_with_a_needle_driver() {
+    instrument_tie("instrument-square", KnotType::Square, 6..=u32::MAX, 9);
+}
+
 fn instrument_tie(
     script: &str,
     kind: KnotType,
