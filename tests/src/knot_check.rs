@@ -9,8 +9,8 @@
 //! undercrossings, and each crossing a row of the Fox colouring matrix (twice the over-arc, minus the
 //! two under-arcs). Any minor of order `c − 1` of that matrix has the knot determinant `|Δ(−1)|` as
 //! its absolute value: 1 for the unknot, 3 for the trefoil, 5 for the figure eight and 5₁ (the double
-//! overhand), 7 for 5₂ and 7₁, 9 for the square and the granny knots (the determinant does not tell
-//! those two apart, nor 5₁ from the figure eight). The minor is reduced modulo a large prime,
+//! overhand), 7 for 5₂ and 7₁, 9 for the square and the granny knots, 15 for the surgeon's knot (the
+//! determinant does not tell square from granny, nor 5₁ from the figure eight). The minor is reduced modulo a large prime,
 //! exactly. Three views are taken and the value most of them give is returned, with how many agreed.
 
 /// Views tried: rotations about z, then x, then z again (Euler angles, radians, generic).
@@ -251,6 +251,12 @@ mod tests {
         let square = in_series(&trefoil, &torus(2.0, 3.0, 200, true));
         assert_eq!(determinant(&square), (9, 3));
         assert_eq!(determinant(&in_series(&trefoil, &trefoil)), (9, 3));
+        // The surgeon's knot (5₁ and a mirror trefoil in series): 15.
+        let five = torus(2.0, 5.0, 300, false);
+        assert_eq!(
+            determinant(&in_series(&five, &torus(2.0, 3.0, 200, true))),
+            (15, 3)
+        );
         // An open rope: the trefoil cut open and its ends run far out; the same rope run straight.
         let mut open = trefoil.clone();
         let first = open[0];
