@@ -213,7 +213,8 @@ pub struct Tuck {
 /// `a`, to its end `b`): from where the end is, straight to the nearest point of a circle of `radius`
 /// about the axis `at` units from the tip, then `turns` times round it (`"right"`: counter-clockwise
 /// seen from the tip, looking along the axis), advancing `pitch` along the axis per turn so that the
-/// turns lie side by side. Where the instrument is is read from the service when the turn starts.
+/// turns lie side by side (a negative pitch winds toward the tip). Where the instrument is is read
+/// from the service when the turn starts.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Wrap {
