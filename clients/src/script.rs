@@ -841,8 +841,8 @@ fn instrument_tie(name: &str, wraps: f64) -> Script {
 /// the short end now runs from the knot straight into the driver's tip. A brings the long end up
 /// beside the driver from beyond the coil's place and winds it once round the jaws, 3 units from the
 /// tip, left-handed (the first throw's wrap seen in a mirror across the knot: the second throw the
-/// other way, which makes the surgeon's or square knot rather than its granny form); B pulls the tail
-/// through along the driver; the hands draw their ends apart. Eighteen turns, eleven changes of hand.
+/// other way, as the surgeon's and the square knot have it); B pulls the tail through along the
+/// driver; the hands draw their ends apart. Eighteen turns, eleven changes of hand.
 fn two_throw_tie(name: &str, wraps: f64) -> Script {
     let mut script = instrument_tie(name, wraps);
     let hand = |h: &str, waypoints: Vec<[f64; 3]>| Turn {
