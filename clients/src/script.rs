@@ -842,7 +842,7 @@ fn instrument_tie(name: &str, wraps: f64) -> Script {
 /// beside the driver from beyond the coil's place and winds it once round the jaws, 3 units from the
 /// tip, left-handed (the first throw's wrap seen in a mirror across the knot: the second throw the
 /// other way, as the surgeon's and the square knot have it); B pulls the tail through along the
-/// driver; the hands draw their ends apart. Eighteen turns, eleven changes of hand.
+/// driver; the hands draw their ends apart. Eighteen turns, ten changes of hand.
 fn two_throw_tie(name: &str, wraps: f64) -> Script {
     let mut script = instrument_tie(name, wraps);
     let hand = |h: &str, waypoints: Vec<[f64; 3]>| Turn {
