@@ -759,6 +759,22 @@ fn two_hands_held(name: &str, second: Handedness) -> Script {
 /// takes more than half the rope).
 const HELD_TWO_RADIUS: f64 = 2.0;
 
+/// A turn of the instrument tie on chain `tie` through `waypoints`: hand A moves the head (the long
+/// end), hand B the tail (the short end, in the driver's jaws).
+fn tie_turn(h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
+    Turn {
+        hand: h.into(),
+        chain: "tie".into(),
+        joint: if h == "A" { "head" } else { "tail" }.into(),
+        throw: None,
+        wide_loop: None,
+        tuck: None,
+        wrap: None,
+        instrument: None,
+        waypoints,
+    }
+}
+
 /// The instrument tie of surgery on chain `tie` of `knots.toml` (the paper's rope stitched in at joint
 /// 16, the needle driver `driver` riding with the tail): hand B holds the short end's tail in the
 /// driver's jaws, lays the short end in a U and then turns the driver's axis along +x, its tip on the
@@ -773,17 +789,7 @@ const HELD_TWO_RADIUS: f64 = 2.0;
 /// round the driver: 1 (built-in `instrument-tie`, a half knot: the trefoil), or the surgeon's 2
 /// (built-in `surgeons-tie`: the double overhand, 5₁).
 fn instrument_tie(name: &str, wraps: f64) -> Script {
-    let hand = |h: &str, waypoints: Vec<[f64; 3]>| Turn {
-        hand: h.into(),
-        chain: "tie".into(),
-        joint: if h == "A" { "head" } else { "tail" }.into(),
-        throw: None,
-        wide_loop: None,
-        tuck: None,
-        wrap: None,
-        instrument: None,
-        waypoints,
-    };
+    let hand = tie_turn;
     let axis = [1.0, 0.0, 0.0];
     Script {
         name: name.into(),
@@ -845,17 +851,7 @@ fn instrument_tie(name: &str, wraps: f64) -> Script {
 /// driver; the hands draw their ends apart. Eighteen turns, ten changes of hand.
 fn two_throw_tie(name: &str, wraps: f64) -> Script {
     let mut script = instrument_tie(name, wraps);
-    let hand = |h: &str, waypoints: Vec<[f64; 3]>| Turn {
-        hand: h.into(),
-        chain: "tie".into(),
-        joint: if h == "A" { "head" } else { "tail" }.into(),
-        throw: None,
-        wide_loop: None,
-        tuck: None,
-        wrap: None,
-        instrument: None,
-        waypoints,
-    };
+    let hand = tie_turn;
     let turn_driver = |axis| Turn {
         instrument: Some(InstrumentMove {
             index: 0,
