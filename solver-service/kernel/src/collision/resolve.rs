@@ -186,8 +186,9 @@ const RELAX_SWEEPS: usize = 64;
 /// rope only there; the reach that follows then starts from a pose that nearly closes and moves it
 /// little. Without it the reach re-solves the whole part from the push: on a coil wound round an
 /// instrument that moved joints far from the contact by more than the resolution's step limit, and
-/// the move locked: the built-in `surgeons-tie` then tied a trefoil instead of the double overhand
-/// (its second turn round the driver locked) and `instrument-tie` no knot, where with it both tie.
+/// the move locked: in a trial with the relaxation switched off, the built-in `surgeons-tie` tied a
+/// trefoil instead of the double overhand (its second turn round the driver locked) and
+/// `instrument-tie` no knot, where with it both tie (BENCHMARKS.md, knot success through the service).
 fn relax_lengths<T: Real, const D: usize>(p: &mut [Vector<T, D>], lengths: &[T])
 where
     Vector<T, D>: Embed3<T>,
