@@ -20,8 +20,9 @@
 //!
 //! The determinant `|V(−1)|` alone cannot tell square from granny, nor the double overhand from the
 //! figure eight (4₁, also 5), nor the surgeon's knot from its granny form (the second throw the same
-//! way as the first: `5₁ # 3₁`, also 15) or the prime knot 7₄ (also 15); the polynomial can. Any other polynomial is "other" (the three-twist
-//! knot 5₂, for one, which an overhand with a twisted loop makes).
+//! way as the first: `5₁ # 3₁`, also 15) or the prime knot 7₄ (also 15); the polynomial can. Any
+//! other polynomial is "other" (the three-twist knot 5₂, for one, which an overhand with a twisted
+//! loop makes).
 //!
 //! The double overhand is the (2, 5) torus knot: the Knot Atlas (knot 5₁: "also known as the Double
 //! Overhand Knot") and Wikipedia ("Cinquefoil knot": "the closed version of the double overhand
@@ -370,6 +371,7 @@ impl Diagram {
         };
         let t = Laurent::trefoil();
         let m = t.mirror();
+        let c = Laurent::cinquefoil();
         if v == Laurent::one() {
             KnotType::Unknot
         } else if v == t || v == m {
@@ -378,10 +380,9 @@ impl Diagram {
             KnotType::Granny
         } else if v == t.mul(&m) {
             KnotType::Square
-        } else if v == Laurent::cinquefoil() || v == Laurent::cinquefoil().mirror() {
+        } else if v == c || v == c.mirror() {
             KnotType::DoubleOverhand
-        } else if v == Laurent::cinquefoil().mul(&m) || v == Laurent::cinquefoil().mirror().mul(&t)
-        {
+        } else if v == c.mul(&m) || v == c.mirror().mul(&t) {
             KnotType::Surgeons
         } else {
             KnotType::Other
