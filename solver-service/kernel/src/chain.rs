@@ -41,6 +41,7 @@
 //! freely, exactly as without holds ([`crate::hold`]).
 
 use crate::fixed_base::ReachOptions;
+use crate::limits::{JointLimits, LimitError};
 use crate::link::{LinkStep, Method, follow_the_leader_step, step, tractrix_step};
 use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
 
@@ -95,6 +96,9 @@ pub struct MoveOutcome {
     pub contacts: u32,
     /// Fixed-base iterations spent on the sides that end at a held joint (0 without holds).
     pub held_iterations: u32,
+    /// Link steps turned back into their joint's limit (0 without limits): how often the move ran into
+    /// the chain's cones or ranges ([`crate::limits`]).
+    pub limited: u32,
 }
 
 /// Why a chain could not be built or moved. A failed move leaves the chain unchanged.
@@ -154,6 +158,17 @@ pub enum ChainError {
         /// Distance from the target when they ran out.
         residual: f64,
     },
+    /// A solve that the limits do not steer (a held side, a collision pass) left a joint beyond its limit
+    /// ([`crate::limits`]): the move is refused.
+    #[error("joint {joint} at {angle:.4} rad, {excess:.3e} rad beyond its limit")]
+    JointLimit {
+        /// The joint.
+        joint: usize,
+        /// Its angle (unsigned for a cone, signed for a range), radians.
+        angle: f64,
+        /// How far beyond the limit, radians.
+        excess: f64,
+    },
     /// Collision handling could not separate the links within its iteration limit: the chain is
     /// "locked" (section 4.2) and the move is refused.
     #[error(
@@ -181,6 +196,8 @@ pub struct Chain<T: Real, const D: usize> {
     min_length: T,
     /// Held joints, ascending, each with the prefix sum's state at it (positions restart there).
     pins: Vec<(usize, CompensatedSum<T, D>)>,
+    /// Joint limits ([`crate::limits`]); `None` costs nothing.
+    limits: Option<Box<JointLimits<T>>>,
 }
 
 impl<T: Real, const D: usize> Chain<T, D>
@@ -273,6 +290,7 @@ where
             lengths,
             min_length,
             pins: Vec::new(),
+            limits: None,
         }
     }
 
@@ -286,8 +304,51 @@ where
             self.lengths.copy_from_slice(&other.lengths);
             self.min_length = other.min_length;
             self.pins.clone_from(&other.pins);
+            self.limits.clone_from(&other.limits);
         } else {
             *self = other.clone();
+        }
+    }
+
+    /// Sets (or with `None` removes) the chain's joint limits ([`crate::limits`]): one entry per joint.
+    /// Moves from then on keep every joint within them; the present pose is not changed (see
+    /// [`Chain::limit_excess`]). Ranges need a planar chain.
+    pub fn set_limits(&mut self, limits: Option<JointLimits<T>>) -> Result<(), LimitError> {
+        if let Some(l) = &limits {
+            if l.joints() != self.links.len() + 1 {
+                return Err(LimitError::Count {
+                    given: l.joints(),
+                    joints: self.links.len() + 1,
+                });
+            }
+            if D != 2 && l.kind() == crate::limits::LimitKind::Range {
+                return Err(LimitError::RangeInSpace);
+            }
+        }
+        self.limits = limits.map(Box::new);
+        Ok(())
+    }
+
+    /// The chain's joint limits, if any.
+    pub fn joint_limits(&self) -> Option<&JointLimits<T>> {
+        self.limits.as_deref()
+    }
+
+    /// The joint farthest beyond its limit by more than `tol` radians: (joint, angle, excess); `None`
+    /// within the limits (or without any).
+    pub fn limit_excess(&self, tol: T) -> Option<(usize, T, T)> {
+        self.limits.as_ref().and_then(|l| l.worst(&self.links, tol))
+    }
+
+    /// [`Chain::limit_excess`] beyond [`LIMIT_TOLERANCE`] as the error a move reports.
+    pub(crate) fn check_limits(&self) -> Result<(), ChainError> {
+        match self.limit_excess(T::lit(LIMIT_TOLERANCE)) {
+            None => Ok(()),
+            Some((joint, angle, excess)) => Err(ChainError::JointLimit {
+                joint,
+                angle: angle.to_f64(),
+                excess: excess.to_f64(),
+            }),
         }
     }
 
@@ -577,10 +638,13 @@ where
         &mut self.links
     }
 
-    /// Link vectors (mutable) beside the nominal lengths, for solvers that rotate links in place.
-    pub(crate) fn links_and_lengths_mut(&mut self) -> (&mut [Vector<T, D>], &[T]) {
+    /// Link vectors (mutable) beside the nominal lengths and the joint limits, for solvers that place
+    /// links one after the other (and turn each back into its limit).
+    pub(crate) fn links_lengths_limits_mut(
+        &mut self,
+    ) -> (&mut [Vector<T, D>], &[T], Option<&JointLimits<T>>) {
         self.settle_origin();
-        (&mut self.links, &self.lengths)
+        (&mut self.links, &self.lengths, self.limits.as_deref())
     }
 
     /// How many substeps `opts` asks for when a joint moves by `delta`.
@@ -734,6 +798,25 @@ where
             return MoveOutcome::default();
         }
         let sd = delta / T::lit(k as f64);
+        if self.limits.is_some() {
+            // Substep after substep, each link turned back into its limit as it is stepped (no
+            // wavefront: a link's clamp needs the link before it at the same substep).
+            let mut clamps = 0u32;
+            let mut fallbacks = 0u32;
+            let n = self.links.len();
+            for _ in 0..k {
+                fallbacks = fallbacks
+                    .saturating_add(self.tail_side_limited(joint, &sd, method, 0, &mut clamps).0)
+                    .saturating_add(self.head_side_limited(joint, &sd, method, n, &mut clamps));
+            }
+            self.place_origin_from(joint, target);
+            return MoveOutcome {
+                substeps: k,
+                paper_fallbacks: fallbacks,
+                limited: clamps,
+                ..MoveOutcome::default()
+            };
+        }
         let fallbacks = if k == 1 {
             let (fb, _) = self.tail_side(joint, &sd, method, 0);
             let n = self.links.len();
@@ -845,6 +928,9 @@ where
     /// [`Chain::sweep_head_side`] leaving the datum alone (the caller places it).
     #[inline]
     fn head_side(&mut self, m: usize, s: &Vector<T, D>, method: Method, hi: usize) -> u32 {
+        if self.limits.is_some() {
+            return self.head_side_limited(m, s, method, hi, &mut 0);
+        }
         // One loop per method, the method chosen once per sweep rather than once per link.
         match method {
             Method::Tractrix => {
@@ -897,6 +983,9 @@ where
         method: Method,
         lo: usize,
     ) -> (u32, Vector<T, D>) {
+        if self.limits.is_some() {
+            return self.tail_side_limited(m, s, method, lo, &mut 0);
+        }
         match method {
             Method::Tractrix => {
                 self.tail_side_with(m, s, lo, |t, s, l| (tractrix_step(t, s, l), false))
@@ -929,7 +1018,97 @@ where
         }
         (fallbacks, shift)
     }
+
+    /// [`Chain::head_side`] with the chain's limits: link `i`, once stepped, is turned back into joint
+    /// `i`'s limit about link `i − 1` (already moved: the tail side's first link for an interior move).
+    /// Counts the links turned in `clamps`.
+    fn head_side_limited(
+        &mut self,
+        m: usize,
+        s: &Vector<T, D>,
+        method: Method,
+        hi: usize,
+        clamps: &mut u32,
+    ) -> u32 {
+        let Chain {
+            links,
+            lengths,
+            limits,
+            ..
+        } = self;
+        let Some(lim) = limits.as_deref() else {
+            return 0;
+        };
+        let mut fallbacks = 0u32;
+        let mut shift = *s;
+        for i in m..hi {
+            let (st, fb) = step(method, &links[i], &shift, lengths[i]);
+            let (mut link, mut tail_shift) = (st.link, st.tail_shift);
+            if i > 0
+                && let Some(c) =
+                    lim.clamp(i, &links[i - 1], lengths[i - 1], &link, lengths[i], false)
+            {
+                tail_shift += c - link;
+                link = c;
+                *clamps += 1;
+            }
+            links[i] = link;
+            shift = tail_shift;
+            fallbacks += fb as u32;
+        }
+        fallbacks
+    }
+
+    /// [`Chain::tail_side`] with the chain's limits: link `j`, once stepped, is turned back into joint
+    /// `j + 1`'s limit about link `j + 1` (the moved joint's own angle is left to the head side).
+    fn tail_side_limited(
+        &mut self,
+        m: usize,
+        s: &Vector<T, D>,
+        method: Method,
+        lo: usize,
+        clamps: &mut u32,
+    ) -> (u32, Vector<T, D>) {
+        let Chain {
+            links,
+            lengths,
+            limits,
+            ..
+        } = self;
+        let Some(lim) = limits.as_deref() else {
+            return (0, *s);
+        };
+        let mut fallbacks = 0u32;
+        let mut shift = *s;
+        for j in (lo..m).rev() {
+            let (st, fb) = step(method, &(-links[j]), &shift, lengths[j]);
+            let (mut link, mut tail_shift) = (st.link, st.tail_shift);
+            if j + 1 < m
+                && let Some(c) = lim.clamp(
+                    j + 1,
+                    &(-links[j + 1]),
+                    lengths[j + 1],
+                    &link,
+                    lengths[j],
+                    true,
+                )
+            {
+                tail_shift += c - link;
+                link = c;
+                *clamps += 1;
+            }
+            links[j] = -link;
+            shift = tail_shift;
+            fallbacks += fb as u32;
+        }
+        (fallbacks, shift)
+    }
 }
+
+/// Largest excess over a joint limit, in radians, that a move may leave where the limits are not steered
+/// link by link (held sides, collision passes, the closing two-link solutions); beyond it the move is
+/// refused ([`ChainError::JointLimit`]). A clamped link sits on its limit to a few ulps.
+pub const LIMIT_TOLERANCE: f64 = 1e-6;
 
 /// Most substeps one wavefront keeps in flight ([`Chain::move_joint`] with `k ≥ 2` substeps); more
 /// substeps run as several wavefronts. Two in flight already hide most of a step's latency on the

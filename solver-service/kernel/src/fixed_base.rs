@@ -197,6 +197,19 @@ where
         return Err(ReachError::Unreachable { nearest, residual });
     }
     let tol = opts.tolerance * chain.total_length();
+    // The reach hierarchy and the two-link closed form place links without the joint limits: with
+    // limits the tractrix passes (which honour them link by link) must converge on their own.
+    let limited = chain.joint_limits().is_some();
+    let unlimited_opts;
+    let opts = if limited {
+        unlimited_opts = ReachOptions {
+            hierarchy_after: 0,
+            ..*opts
+        };
+        &unlimited_opts
+    } else {
+        opts
+    };
     ws.backup.clear();
     ws.backup.extend_from_slice(chain.links());
     let backup_datum = chain.datum();
@@ -222,6 +235,10 @@ where
                 })
             }
         }
+    };
+    let result = match result {
+        Ok(o) if limited => chain.check_limits().map(|_| o).map_err(ReachError::Chain),
+        r => r,
     };
     if result.is_err() {
         chain.links_mut().copy_from_slice(&ws.backup);

@@ -44,10 +44,18 @@ where
             c.lengths()[m..held].iter().rev().copied().collect(),
         )
     };
-    Ok(Side {
-        held,
-        chain: Chain::from_raw_parts(base, links, lengths)?,
-    })
+    let mut chain = Chain::from_raw_parts(base, links, lengths)?;
+    if let Some(l) = c.joint_limits() {
+        let sub = if held < m {
+            l.sub(held, m, false)
+        } else {
+            l.sub(m, held, true)
+        };
+        chain
+            .set_limits(Some(sub))
+            .map_err(|_| ChainError::BadOption("limits of a held side"))?;
+    }
+    Ok(Side { held, chain })
 }
 
 /// Where `p` lies relative to the shell about `c` with radii `inner..=outer`: the nearest point of the
@@ -318,7 +326,8 @@ where
         }
     }
 
-    // Nothing can fail from here on: write the sides back.
+    // Nothing can fail from here on but the limits' final check: write the sides back.
+    let before = c.joint_limits().is_some().then(|| c.clone());
     let shift = (landed - m_now) / T::lit(k as f64);
     let mut fallbacks = 0u32;
     match (&tail, lo) {
@@ -347,6 +356,14 @@ where
     c.repin(m);
     if let Some(top) = hi {
         close_on(c, m, top);
+    }
+    if let Some(before) = before {
+        // The sides were solved within their own joints' limits; the held joints' and the moved
+        // joint's angles, and the closing two-link solution, are checked here.
+        if let Err(e) = c.check_limits() {
+            *c = before;
+            return Err(e);
+        }
     }
     Ok(MoveOutcome {
         substeps: k,

@@ -24,6 +24,8 @@
 //! * [`fixed_base`]: fixed-base manipulators, both of the paper's strategies, workspace checks.
 //! * [`hold`]: moves with held joints (anchors, grasps): each side up to a held joint solved as a
 //!   fixed-base chain.
+//! * [`limits`]: joint limits (cones, planar ranges, a rope's minimum bend radius), honoured link by
+//!   link as a sweep runs.
 //! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
 //! * [`angles`]: joint angles (eq. 15, relative rotations).
 //! * [`strands`]: many free strands at once (hair, fur, bundles), SIMD across strands, the substep
@@ -47,6 +49,7 @@ pub mod fixed_base;
 pub mod ground_truth;
 pub mod hold;
 pub mod knot;
+pub mod limits;
 pub mod link;
 pub mod math;
 #[cfg(feature = "reference")]
@@ -55,5 +58,6 @@ pub mod strands;
 
 pub use chain::{Chain, ChainError, MoveOptions, MoveOutcome, Substeps};
 pub use fixed_base::{ReachError, ReachOptions, ReachOutcome, ReachWorkspace, Strategy, reach};
+pub use limits::{JointLimits, LimitError, LimitKind};
 pub use link::{LinkStep, Method};
 pub use math::{Real, Vector};

@@ -100,7 +100,7 @@ where
             .iter()
             .fold(Vector3::zeros(), |a, l| a + l.to_3d());
         let mut rot = UnitQuaternion::<T>::identity();
-        let (links, lengths) = chain.links_and_lengths_mut();
+        let (links, lengths, _) = chain.links_lengths_limits_mut();
         for (l, &len) in links.iter_mut().zip(lengths) {
             let omega = r_from_head.cross(&y);
             r_from_head -= l.to_3d();

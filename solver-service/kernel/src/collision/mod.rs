@@ -348,6 +348,11 @@ where
             chain.translate_to(ws.pos[0]);
         }
         chain.repin(joint);
+        // Between held joints the passes re-solve the rope without steering the limits.
+        if let Err(e) = chain.check_limits() {
+            *chain = backup;
+            return Err(e);
+        }
     }
     Ok(outcome)
 }
@@ -443,6 +448,10 @@ where
         if !chain.is_held(0) {
             chain.translate_to(ws.pos[0]);
         }
+    }
+    if let Err(e) = chain.check_limits() {
+        *chain = backup;
+        return Err(e);
     }
     Ok(outcome)
 }
@@ -619,12 +628,26 @@ fn restraighten<T: Real, const D: usize>(
 ) where
     Vector<T, D>: Embed3<T>,
 {
-    let (links, lengths) = chain.links_and_lengths_mut();
+    let (links, lengths, limits) = chain.links_lengths_limits_mut();
     for i in m..links.len() {
         let d = pos[i + 1] - pos[i];
         let n = d.norm();
         if positive_finite(n) {
             links[i] = d * (lengths[i] / n);
+        }
+        // With limits each link is turned back into its joint's limit about the link before it.
+        if let Some(lim) = limits
+            && i > 0
+            && let Some(c) = lim.clamp(
+                i,
+                &links[i - 1],
+                lengths[i - 1],
+                &links[i],
+                lengths[i],
+                false,
+            )
+        {
+            links[i] = c;
         }
         pos[i + 1] = pos[i] + links[i];
     }
@@ -633,6 +656,19 @@ fn restraighten<T: Real, const D: usize>(
         let n = d.norm();
         if positive_finite(n) {
             links[i] = d * (lengths[i] / n);
+        }
+        if let Some(lim) = limits
+            && i + 1 < links.len()
+            && let Some(c) = lim.clamp(
+                i + 1,
+                &(-links[i + 1]),
+                lengths[i + 1],
+                &(-links[i]),
+                lengths[i],
+                true,
+            )
+        {
+            links[i] = -c;
         }
         pos[i] = pos[i + 1] - links[i];
     }

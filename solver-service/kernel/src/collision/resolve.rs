@@ -116,12 +116,25 @@ where
     }
     let (first, last) = (fixed[0], fixed[fixed.len() - 1]);
     {
-        let (links, lengths) = chain.links_and_lengths_mut();
+        let (links, lengths, limits) = chain.links_lengths_limits_mut();
         for i in last..n {
             let d = pos[i + 1] - pos[i];
             let len = d.norm();
             if positive_finite(len) {
                 links[i] = d * (lengths[i] / len);
+            }
+            if let Some(lim) = limits
+                && i > 0
+                && let Some(c) = lim.clamp(
+                    i,
+                    &links[i - 1],
+                    lengths[i - 1],
+                    &links[i],
+                    lengths[i],
+                    false,
+                )
+            {
+                links[i] = c;
             }
             pos[i + 1] = pos[i] + links[i];
         }
@@ -131,11 +144,31 @@ where
             if positive_finite(len) {
                 links[i] = d * (lengths[i] / len);
             }
+            if let Some(lim) = limits
+                && i + 1 < n
+                && let Some(c) = lim.clamp(
+                    i + 1,
+                    &(-links[i + 1]),
+                    lengths[i + 1],
+                    &(-links[i]),
+                    lengths[i],
+                    true,
+                )
+            {
+                links[i] = -c;
+            }
             pos[i] = pos[i + 1] - links[i];
         }
     }
+    // With limits the reach has no hierarchy to land exactly: a looser tolerance, the closing two-link
+    // solution below takes up the rest (and the move's final check the limits).
+    let limits = chain.joint_limits().cloned();
     let tight = ReachOptions {
-        tolerance: T::EPSILON * T::lit(64.0),
+        tolerance: if limits.is_some() {
+            T::lit(1e-9).max(T::EPSILON * T::lit(64.0))
+        } else {
+            T::EPSILON * T::lit(64.0)
+        },
         ..ReachOptions::default()
     };
     let mut ws = ReachWorkspace::default();
@@ -151,6 +184,11 @@ where
         let Ok(mut part) = Chain::from_parts(pos[a], links, lengths) else {
             return false;
         };
+        if let Some(l) = &limits
+            && part.set_limits(Some(l.sub(a, b, false))).is_err()
+        {
+            return false;
+        }
         let goal = pos[b];
         if reach(&mut part, &goal, &tight, &mut ws).is_err() {
             return false;

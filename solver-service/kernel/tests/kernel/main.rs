@@ -36,6 +36,7 @@ mod fixed_base;
 mod hold;
 mod instrument;
 mod knot;
+mod limits;
 mod link;
 mod strands;
 mod support;

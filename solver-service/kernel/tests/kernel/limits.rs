@@ -1,0 +1,340 @@
+//! Joint limits: cones, planar ranges and a rope's bend radius. Every angle and length here is computed
+//! by this file's own code from the published positions (no kernel helper), and every limited move is
+//! checked to keep every joint within its limit, the links at their lengths, the moved joint on its
+//! target; a move that never meets a limit is the unlimited move bit for bit; a held or colliding move
+//! that cannot keep the limits is refused and changes nothing; and the bend radius keeps a circling
+//! rope's loop open over the same length of rope at 40, 80 and 160 links.
+
+use crate::support::Rng;
+use nalgebra::{Vector2, Vector3};
+use proptest::prelude::*;
+use tractrix::collision::{
+    CollisionModel, CollisionOptions, CollisionWorkspace, move_joint_colliding,
+};
+use tractrix::{Chain, ChainError, JointLimits, LimitError, Method, MoveOptions, Substeps};
+
+/// The turn at each interior joint (radians, unsigned), from the published positions.
+fn turns3(c: &Chain<f64, 3>) -> Vec<f64> {
+    let p = c.positions();
+    p.windows(3)
+        .map(|w| {
+            let (a, b) = (w[1] - w[0], w[2] - w[1]);
+            let cos = a.dot(&b) / (a.norm() * b.norm());
+            let sin = a.cross(&b).norm() / (a.norm() * b.norm());
+            sin.atan2(cos)
+        })
+        .collect()
+}
+
+/// The signed turn at each interior joint of a planar chain (counter-clockwise positive).
+fn turns2(c: &Chain<f64, 2>) -> Vec<f64> {
+    let p = c.positions();
+    p.windows(3)
+        .map(|w| {
+            let (a, b) = (w[1] - w[0], w[2] - w[1]);
+            (a.x * b.y - a.y * b.x).atan2(a.dot(&b))
+        })
+        .collect()
+}
+
+fn length_error<const D: usize>(c: &Chain<f64, D>) -> f64
+where
+    nalgebra::SVector<f64, D>: tractrix::math::Embed3<f64>,
+{
+    let p = c.positions();
+    p.windows(2)
+        .zip(c.lengths())
+        .map(|(w, &l)| (((w[1] - w[0]).norm() - l) / l).abs())
+        .fold(0.0, f64::max)
+}
+
+/// A random rope whose turns are all within `max_turn`.
+fn rope_within(n: usize, len: f64, max_turn: f64, rng: &mut Rng) -> Chain<f64, 3> {
+    let mut p = vec![Vector3::zeros()];
+    let mut dir = Vector3::x();
+    for _ in 0..n {
+        let side = rng.dir3();
+        let perp = (side - dir * side.dot(&dir)).normalize();
+        let a = rng.range(0.0, max_turn * 0.95);
+        dir = (dir * a.cos() + perp * a.sin()).normalize();
+        p.push(p.last().unwrap() + dir * len);
+    }
+    Chain::from_points(&p).unwrap()
+}
+
+const TOL: f64 = 1e-9;
+
+fn opts(method: Method, k: u32) -> MoveOptions<f64> {
+    MoveOptions {
+        method,
+        substeps: Substeps::Fixed(k),
+        ..MoveOptions::default()
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// Free moves of any joint by any method keep every cone; lengths exact; the joint lands.
+    #[test]
+    fn free_moves_keep_every_cone(
+        seed in 0u64..100_000, n in 3usize..60, cone_deg in 5.0f64..120.0, m in 0usize..3,
+        k in 1u32..7, steps in 1usize..20, size in 0.01f64..3.0,
+    ) {
+        let mut rng = Rng(seed);
+        let cone = cone_deg.to_radians();
+        let mut c = rope_within(n, 1.0, cone, &mut rng);
+        c.set_limits(Some(JointLimits::cone(n, cone).unwrap())).unwrap();
+        let method = [Method::Tractrix, Method::FollowTheLeader, Method::TractrixPaper][m];
+        for _ in 0..steps {
+            let joint = match rng.below(3) { 0 => n, 1 => 0, _ => rng.below(n + 1) };
+            let target = c.joint(joint) + rng.dir3() * size;
+            c.move_joint(joint, target, &opts(method, k)).unwrap();
+            prop_assert!((c.joint(joint) - target).norm() < 1e-12 * (1.0 + target.norm()));
+            let worst = turns3(&c).into_iter().fold(0.0, f64::max);
+            prop_assert!(worst <= cone + TOL, "turn {worst} beyond cone {cone}");
+            prop_assert!(length_error(&c) < 1e-12);
+        }
+    }
+
+    /// Asymmetric revolute ranges of a planar chain: every signed turn stays in its range.
+    #[test]
+    fn planar_moves_keep_every_range(
+        seed in 0u64..100_000, n in 3usize..30, k in 1u32..5, steps in 1usize..30,
+    ) {
+        let mut rng = Rng(seed);
+        let lo: Vec<f64> = (0..=n).map(|_| -rng.range(0.05, 1.5)).collect();
+        let hi: Vec<f64> = (0..=n).map(|_| rng.range(0.0, 0.8)).collect();
+        let mut c = Chain::<f64, 2>::straight(n, 1.0, Vector2::zeros(), Vector2::x()).unwrap();
+        c.set_limits(Some(JointLimits::ranges(&lo, &hi).unwrap())).unwrap();
+        for _ in 0..steps {
+            let joint = match rng.below(3) { 0 => n, 1 => 0, _ => rng.below(n + 1) };
+            let target = c.joint(joint) + Vector2::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+            c.move_joint(joint, target, &opts(Method::Tractrix, k)).unwrap();
+            for (i, t) in turns2(&c).into_iter().enumerate() {
+                let j = i + 1;
+                prop_assert!(t <= hi[j] + TOL && t >= lo[j] - TOL,
+                    "joint {j}: {t} outside [{}, {}]", lo[j], hi[j]);
+            }
+            prop_assert!(length_error(&c) < 1e-12);
+        }
+    }
+
+    /// Moves with held joints are kept within the limits or refused with nothing changed.
+    #[test]
+    fn held_moves_keep_the_limits_or_change_nothing(
+        seed in 0u64..100_000, n in 4usize..30, cone_deg in 20.0f64..90.0, k in 1u32..4,
+        steps in 1usize..10,
+    ) {
+        let mut rng = Rng(seed);
+        let cone = cone_deg.to_radians();
+        let mut c = rope_within(n, 1.0, cone, &mut rng);
+        c.set_limits(Some(JointLimits::cone(n, cone).unwrap())).unwrap();
+        let held = rng.below(n + 1);
+        c.hold(held).unwrap();
+        let at = c.joint(held);
+        for _ in 0..steps {
+            let joint = (held + 1 + rng.below(n)) % (n + 1);
+            let target = c.joint(joint) + rng.dir3() * rng.range(0.01, 0.5);
+            let before = c.clone();
+            match c.move_joint(joint, target, &opts(Method::Tractrix, k)) {
+                Ok(_) => {
+                    let worst = turns3(&c).into_iter().fold(0.0, f64::max);
+                    prop_assert!(worst <= cone + 2e-6, "turn {worst} beyond cone {cone}");
+                    prop_assert!((c.joint(joint) - target).norm() < 1e-6);
+                    prop_assert!(length_error(&c) < 1e-12);
+                }
+                Err(_) => prop_assert_eq!(&c, &before),
+            }
+            prop_assert_eq!(c.joint(held), at);
+        }
+    }
+}
+
+/// A limit the moves never reach changes nothing: the same bits as the chain without limits.
+#[test]
+fn limits_never_met_are_the_unlimited_move_bit_for_bit() {
+    let mut rng = Rng(7);
+    for k in [1, 2, 3] {
+        for method in [
+            Method::Tractrix,
+            Method::FollowTheLeader,
+            Method::TractrixPaper,
+        ] {
+            let mut free = rope_within(30, 1.0, 0.3, &mut rng);
+            let mut limited = free.clone();
+            limited
+                .set_limits(Some(JointLimits::cone(30, std::f64::consts::PI).unwrap()))
+                .unwrap();
+            for _ in 0..200 {
+                let joint = rng.below(31);
+                let target = free.joint(joint) + rng.dir3() * 0.3;
+                let a = free.move_joint(joint, target, &opts(method, k)).unwrap();
+                let b = limited.move_joint(joint, target, &opts(method, k)).unwrap();
+                assert_eq!(b.limited, 0);
+                assert_eq!(a.substeps, b.substeps);
+                assert_eq!(free.links(), limited.links(), "k {k} {method:?}");
+                assert_eq!(free.positions(), limited.positions());
+            }
+        }
+    }
+}
+
+/// The cones of a bend radius: `2 atan(L / 2R)` at each joint, from the shorter link.
+#[test]
+fn bend_radius_cones_follow_the_link_lengths() {
+    let lengths = [1.0, 0.5, 0.5, 2.0];
+    let l = JointLimits::bend_radius(&lengths, 1.5).unwrap();
+    for (j, short) in [(1, 0.5), (2, 0.5), (3, 0.5)] {
+        let want = 2.0 * (short / 3.0f64).atan();
+        assert!((l.hi(j) - want).abs() < 1e-15, "joint {j}");
+    }
+    assert!(!l.limits(0) && !l.limits(4));
+}
+
+/// Bad limits are refused and change nothing.
+#[test]
+fn bad_limits_are_refused() {
+    let mut c = Chain::<f64, 3>::straight(4, 1.0, Vector3::zeros(), Vector3::x()).unwrap();
+    assert!(matches!(
+        c.set_limits(Some(JointLimits::cone(3, 0.5).unwrap())),
+        Err(LimitError::Count {
+            given: 4,
+            joints: 5
+        })
+    ));
+    assert!(matches!(
+        JointLimits::<f64>::cone(4, 4.0),
+        Err(LimitError::Value { .. })
+    ));
+    assert!(matches!(
+        JointLimits::<f64>::cone(4, f64::NAN),
+        Err(LimitError::Value { .. })
+    ));
+    assert!(matches!(
+        JointLimits::<f64>::bend_radius(&[1.0; 4], 0.0),
+        Err(LimitError::Value { .. })
+    ));
+    assert!(matches!(
+        JointLimits::<f64>::ranges(&[0.5; 5], &[0.1; 5]),
+        Err(LimitError::Value { .. })
+    ));
+    let range = JointLimits::ranges(&[-0.5; 5], &[0.5; 5]).unwrap();
+    assert_eq!(c.set_limits(Some(range)), Err(LimitError::RangeInSpace));
+    assert!(c.joint_limits().is_none());
+}
+
+/// The nearest any joint of the rope's last `rope_len` units comes to the centre of a circle of
+/// radius `r` that the head has gone round for `travel` units (in the plane z = 0).
+fn circle_gap(links: usize, rope_len: f64, r_min: Option<f64>, r: f64, travel: f64) -> f64 {
+    let len = rope_len / links as f64;
+    let mut c =
+        Chain::<f64, 3>::straight(links, len, Vector3::new(-rope_len, 0.0, 0.0), Vector3::x())
+            .unwrap();
+    if let Some(r_min) = r_min {
+        let lim = JointLimits::bend_radius(c.lengths(), r_min).unwrap();
+        c.set_limits(Some(lim)).unwrap();
+    }
+    let centre = Vector3::new(0.0, r, 0.0);
+    let steps = (travel / 0.05).ceil() as usize;
+    let o = MoveOptions {
+        substeps: Substeps::MaxStep(0.1),
+        ..MoveOptions::default()
+    };
+    for s in 1..=steps {
+        let a = s as f64 * travel / steps as f64 / r;
+        let target = centre + Vector3::new(a.sin() * r, -a.cos() * r, 0.0);
+        c.move_joint(links, target, &o).unwrap();
+    }
+    c.positions()
+        .iter()
+        .map(|p| (p - centre).norm())
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The loop a circling head lays keeps open with a bend radius, at every resolution: without one the
+/// rope spirals in toward the centre (nearer the finer the rope), with `R_min = 1.5` no joint comes
+/// within a unit of it at 40, 80 or 160 links (the gap is a length of rope, not a number of links).
+#[test]
+fn a_bend_radius_keeps_a_circling_loop_open_at_every_resolution() {
+    for links in [40, 80, 160] {
+        let free = circle_gap(links, 40.0, None, 2.0, 48.0);
+        let bent = circle_gap(links, 40.0, Some(1.5), 2.0, 48.0);
+        assert!(free < 0.5, "{links} links without a limit: gap {free}");
+        assert!(bent > 1.0, "{links} links with R_min 1.5: gap {bent}");
+    }
+}
+
+/// With collision and limits both, an accepted move keeps every cone and the clearance; a refused one
+/// changes nothing.
+#[test]
+fn colliding_moves_keep_the_cones() {
+    let mut rng = Rng(11);
+    let cone = 0.6;
+    for _ in 0..20 {
+        let mut c = rope_within(40, 1.0, cone, &mut rng);
+        c.set_limits(Some(JointLimits::cone(40, cone).unwrap()))
+            .unwrap();
+        let model = CollisionModel {
+            options: CollisionOptions {
+                thickness: 0.2,
+                ..CollisionOptions::default()
+            },
+            obstacles: Vec::new(),
+            holding: Vec::new(),
+        };
+        let mut ws = CollisionWorkspace::new();
+        for _ in 0..50 {
+            let target = c.head() + rng.dir3() * 0.5;
+            let before = c.clone();
+            match move_joint_colliding(
+                &mut c,
+                40,
+                target,
+                &opts(Method::Tractrix, 1),
+                &model,
+                &mut ws,
+            ) {
+                Ok(_) => {
+                    let worst = turns3(&c).into_iter().fold(0.0, f64::max);
+                    assert!(worst <= cone + TOL, "turn {worst}");
+                    assert!(length_error(&c) < 1e-12);
+                }
+                Err(ChainError::Locked { .. }) | Err(ChainError::JointLimit { .. }) => {
+                    assert_eq!(c, before)
+                }
+                Err(e) => panic!("{e}"),
+            }
+        }
+    }
+}
+
+/// A rope held at its tail and limited to R_min = 1.5 (cones of 2 atan(1/3), 37°) follows a hand
+/// that moves its head in small random steps: most moves are made (within the limits), not refused.
+#[test]
+fn a_held_rope_with_a_bend_radius_follows_small_moves() {
+    let mut rng = Rng(5);
+    let n = 40;
+    let mut c = rope_within(n, 1.0, 0.3, &mut rng);
+    let lim = JointLimits::bend_radius(c.lengths(), 1.5).unwrap();
+    c.set_limits(Some(lim)).unwrap();
+    c.hold(0).unwrap();
+    let (mut made, mut refused) = (0, 0);
+    for _ in 0..400 {
+        let target = c.head() + rng.dir3() * 0.1;
+        let before = c.clone();
+        match c.move_joint(n, target, &opts(Method::Tractrix, 1)) {
+            Ok(_) => {
+                made += 1;
+                let worst = turns3(&c).into_iter().fold(0.0, f64::max);
+                assert!(worst <= 2.0 * (1.0f64 / 3.0).atan() + 2e-6, "turn {worst}");
+            }
+            Err(_) => {
+                refused += 1;
+                assert_eq!(c, before);
+            }
+        }
+    }
+    eprintln!("held rope with a bend radius: {made} made, {refused} refused");
+    assert!(made >= 300, "{made} made, {refused} refused");
+}
