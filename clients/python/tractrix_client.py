@@ -45,7 +45,7 @@ STATUS = [
     "ok", "unknown-command", "unknown-chain", "joint-out-of-range", "non-finite", "bad-option",
     "bad-point-count", "unreachable", "not-converged", "too-many-substeps", "wrong-chain-kind",
     "off-plane", "persistence-failed", "internal", "locked", "too-far",
-    "over-budget",
+    "over-budget", "joint-limit",
 ]
 
 
@@ -111,7 +111,9 @@ class ResponseHeader(ctypes.Structure):
         ("name", ctypes.c_uint8 * 32),
         ("reason", ctypes.c_uint8 * 96),
         ("n_instruments", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32 * 7),
+        ("limits", ctypes.c_uint32),
+        ("limit_value", ctypes.c_double),
+        ("reserved", ctypes.c_uint32 * 4),
     ]
 
     @staticmethod
@@ -126,7 +128,8 @@ _LAYOUT = {
                          "request_id": 56, "max_step": 64, "tolerance": 72, "reserved": 80}),
     ResponseHeader: (288, {"status": 0, "n_joints": 12, "sequence": 32, "residual": 56,
                            "n_chains": 64, "n_links": 76, "n_held": 100, "max_step": 104, "name": 128,
-                           "reason": 160, "n_instruments": 256, "reserved": 260}),
+                           "reason": 160, "n_instruments": 256, "limits": 260,
+                           "limit_value": 264, "reserved": 272}),
 }
 for _t, (_size, _offsets) in _LAYOUT.items():
     assert ctypes.sizeof(_t) == _size, (_t, ctypes.sizeof(_t))

@@ -61,6 +61,13 @@
 #define TRACTRIX_COLLISION_SELF 1u
 #define TRACTRIX_COLLISION_OBSTACLES 2u
 #define TRACTRIX_COLLISION_PAPER_SPHERES 4u
+/* A describe's limits field: the chain's joint limits (limit_value: radius, cone angle in radians,
+ * widest cone, widest range width). */
+#define TRACTRIX_LIMITS_NONE 0u
+#define TRACTRIX_LIMITS_BEND_RADIUS 1u
+#define TRACTRIX_LIMITS_CONE 2u
+#define TRACTRIX_LIMITS_CONES 3u
+#define TRACTRIX_LIMITS_RANGES 4u
 
 #define TRACTRIX_TYPE_NAME_VEC3 "tractrix.v2.Vec3"
 #define TRACTRIX_TYPE_NAME_REQUESTHEADER "tractrix.v2.RequestHeader"
@@ -99,7 +106,8 @@ enum tractrix_status {
     TRACTRIX_INTERNAL = 13,
     TRACTRIX_LOCKED = 14,
     TRACTRIX_TOO_FAR = 15,
-    TRACTRIX_OVER_BUDGET = 16
+    TRACTRIX_OVER_BUDGET = 16,
+    TRACTRIX_JOINT_LIMIT = 17
 };
 
 /* RequestHeader.method, .precision, .substep_mode, .strategy; ResponseHeader.kind. */
@@ -165,7 +173,9 @@ typedef struct tractrix_ResponseHeader {
     uint8_t name[32]; /* offset 128 */
     uint8_t reason[96]; /* offset 160 */
     uint32_t n_instruments; /* offset 256 */
-    uint32_t reserved[7]; /* offset 260 */
+    uint32_t limits; /* offset 260 */
+    double limit_value; /* offset 264 */
+    uint32_t reserved[4]; /* offset 272 */
 } tractrix_ResponseHeader;
 
 /* 48 bytes, align 8. */
@@ -237,7 +247,9 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, thickness) == 120, "tra
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, name) == 128, "tractrix_ResponseHeader.name offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reason) == 160, "tractrix_ResponseHeader.reason offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_instruments) == 256, "tractrix_ResponseHeader.n_instruments offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 260, "tractrix_ResponseHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limits) == 260, "tractrix_ResponseHeader.limits offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limit_value) == 264, "tractrix_ResponseHeader.limit_value offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 272, "tractrix_ResponseHeader.reserved offset");
 
 TRACTRIX_STATIC_ASSERT(sizeof(tractrix_StateHeader) == 48, "tractrix_StateHeader size");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, sequence) == 0, "tractrix_StateHeader starts with sequence");

@@ -114,7 +114,9 @@
 //! | | name | 128 | `uint8_t[32]` |
 //! | | reason | 160 | `uint8_t[96]` |
 //! | | n_instruments | 256 | uint32_t |
-//! | | reserved | 260 | `uint32_t[7]` |
+//! | | limits | 260 | uint32_t |
+//! | | limit_value | 264 | double |
+//! | | reserved | 272 | `uint32_t[4]` |
 //! | StateHeader (48 B, align 8) | sequence | 0 | uint64_t |
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
@@ -131,7 +133,9 @@
 //! `tractrix.v2.ResponseHeader`, `tractrix.v2.StateHeader`.
 //!
 //! Versions: v1 had no instruments in payloads and no reserved tail in the response and state headers;
-//! v2 adds `n_instruments` (and the instruments' elements) and zeroed `reserved` words for later fields.
+//! v2 adds `n_instruments` (and the instruments' elements) and zeroed `reserved` words for later fields;
+//! `limits` and `limit_value` (a describe's joint limits, [`LIMITS_NONE`] and the rest) took three of
+//! them within v2 (a v2 peer that does not know them reads zeros: no limits).
 //!
 //! # Enumerations (all `uint32_t`)
 //!
@@ -449,6 +453,10 @@ pub enum Status {
     /// points, or links × substeps × iterations for a reach; `solver-service --budget`): refused before
     /// anything runs, the estimate in the reason, so that one client cannot hold the serving thread.
     OverBudget = 16,
+    /// A move would leave a joint beyond the chain's joint limits where the solve could not steer them
+    /// (a held side, a collision pass, the closing two-link solution): refused, the state unchanged. A
+    /// free move never is: its links are turned back into their limits as it runs.
+    JointLimit = 17,
 }
 
 impl Status {
@@ -471,6 +479,7 @@ impl Status {
             Status::Locked => "locked",
             Status::TooFar => "too-far",
             Status::OverBudget => "over-budget",
+            Status::JointLimit => "joint-limit",
         }
     }
 }
@@ -562,7 +571,7 @@ wire_enum_from_u32! {
     Command { Move, Path, Reach, Query, Reset, Describe, Snapshot, Grasp, Release, Instrument }
     Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
              Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
-             Internal, Locked, TooFar, OverBudget }
+             Internal, Locked, TooFar, OverBudget, JointLimit }
     WireMethod { Default, Tractrix, Paper, FollowTheLeader }
     Precision { Default, F64, F32 }
     SubstepMode { Default, Fixed, MaxStep }
@@ -697,9 +706,27 @@ pub struct ResponseHeader {
     /// Instruments after the held joints, [`INSTRUMENT_ELEMENTS`] elements each (every response that
     /// carries joints, for a chain whose scene gives it instruments).
     pub n_instruments: u32,
+    /// `describe`: the chain's joint limits, [`LIMITS_NONE`], [`LIMITS_BEND_RADIUS`],
+    /// [`LIMITS_CONE`], [`LIMITS_CONES`] or [`LIMITS_RANGES`]; 0 in other responses.
+    pub limits: u32,
+    /// `describe`: the bend radius (a length) for [`LIMITS_BEND_RADIUS`], the cone's angle (radians)
+    /// for [`LIMITS_CONE`], the widest cone for [`LIMITS_CONES`], the widest range's width for
+    /// [`LIMITS_RANGES`]; 0 otherwise.
+    pub limit_value: f64,
     /// Must be zero (room for later fields without a layout change).
-    pub reserved: [u32; 7],
+    pub reserved: [u32; 4],
 }
+
+/// A describe's [`ResponseHeader::limits`]: the chain has no joint limits.
+pub const LIMITS_NONE: u32 = 0;
+/// A rope's minimum bend radius, as a cone at each joint (`limit_value`: the radius).
+pub const LIMITS_BEND_RADIUS: u32 = 1;
+/// One cone at every joint (`limit_value`: its angle in radians).
+pub const LIMITS_CONE: u32 = 2;
+/// A cone per joint (`limit_value`: the widest, radians).
+pub const LIMITS_CONES: u32 = 3;
+/// Signed revolute ranges of a planar chain (`limit_value`: the widest range's width, radians).
+pub const LIMITS_RANGES: u32 = 4;
 
 impl Default for ResponseHeader {
     fn default() -> Self {
@@ -732,7 +759,9 @@ impl Default for ResponseHeader {
             name: [0; NAME_LEN],
             reason: [0; REASON_LEN],
             n_instruments: 0,
-            reserved: [0; 7],
+            limits: 0,
+            limit_value: 0.0,
+            reserved: [0; 4],
         }
     }
 }
@@ -950,7 +979,8 @@ wire_layout!(ResponseHeader, "tractrix.v2.ResponseHeader", size = 288, align = 8
     collision: "uint32_t" @ 88, substep_mode: "uint32_t" @ 92, substeps_default: "uint32_t" @ 96,
     n_held: "uint32_t" @ 100, max_step: "double" @ 104, total_length: "double" @ 112,
     thickness: "double" @ 120, name: "uint8_t[32]" @ 128, reason: "uint8_t[96]" @ 160,
-    n_instruments: "uint32_t" @ 256, reserved: "uint32_t[7]" @ 260,
+    n_instruments: "uint32_t" @ 256, limits: "uint32_t" @ 260, limit_value: "double" @ 264,
+    reserved: "uint32_t[4]" @ 272,
 ]);
 wire_layout!(StateHeader, "tractrix.v2.StateHeader", size = 48, align = 8, [
     sequence: "uint64_t" @ 0, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12, command: "uint32_t" @ 16,
@@ -1048,7 +1078,8 @@ mod tests {
         assert_eq!(Status::from_u32(14), Some(Status::Locked));
         assert_eq!(Status::from_u32(15), Some(Status::TooFar));
         assert_eq!(Status::from_u32(16), Some(Status::OverBudget));
-        assert_eq!(Status::from_u32(17), None);
+        assert_eq!(Status::from_u32(17), Some(Status::JointLimit));
+        assert_eq!(Status::from_u32(18), None);
         assert_eq!(WireMethod::from_u32(4), None);
         assert_eq!(Precision::from_u32(2), Some(Precision::F32));
     }

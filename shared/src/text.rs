@@ -272,6 +272,9 @@ pub struct TextResponse {
     /// The chain's instruments' poses.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub instruments: Vec<TextInstrument>,
+    /// A describe's joint limits in words ([`limits_text`]); empty otherwise.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub limits: String,
 }
 
 /// A held joint in a text response.
@@ -311,7 +314,20 @@ impl TextResponse {
                 .map(|(joint, anchor)| HeldJoint { joint, anchor })
                 .collect(),
             instruments: parts.instrument_poses().map(TextInstrument::from).collect(),
+            limits: limits_text(h.limits, h.limit_value),
         }
+    }
+}
+
+/// A describe's joint limits ([`ResponseHeader::limits`], `limit_value`) in words: `bend radius 1.5`,
+/// `cone 30°`, `cones up to 30°`, `ranges up to 90° wide`, or empty without limits.
+pub fn limits_text(limits: u32, value: f64) -> String {
+    match limits {
+        crate::LIMITS_BEND_RADIUS => format!("bend radius {value}"),
+        crate::LIMITS_CONE => format!("cone {:.3}°", value.to_degrees()),
+        crate::LIMITS_CONES => format!("cones up to {:.3}°", value.to_degrees()),
+        crate::LIMITS_RANGES => format!("ranges up to {:.3}° wide", value.to_degrees()),
+        _ => String::new(),
     }
 }
 

@@ -106,6 +106,11 @@ fn assertions() -> String {
             "COLLISION_PAPER_SPHERES",
             u64::from(shared::COLLISION_PAPER_SPHERES),
         ),
+        ("LIMITS_NONE", u64::from(shared::LIMITS_NONE)),
+        ("LIMITS_BEND_RADIUS", u64::from(shared::LIMITS_BEND_RADIUS)),
+        ("LIMITS_CONE", u64::from(shared::LIMITS_CONE)),
+        ("LIMITS_CONES", u64::from(shared::LIMITS_CONES)),
+        ("LIMITS_RANGES", u64::from(shared::LIMITS_RANGES)),
     ] {
         check(format!("TRACTRIX_{name} == {v}u"));
     }

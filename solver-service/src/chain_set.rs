@@ -229,6 +229,14 @@ where
     for &a in &spec.anchors {
         chain.hold(a as usize)?;
     }
+    if let Some(l) = &spec.limits {
+        let lim = l
+            .kernel::<T>()
+            .map_err(|_| ChainError::BadOption("the scene's joint limits"))?;
+        chain
+            .set_limits(Some(lim))
+            .map_err(|_| ChainError::BadOption("the scene's joint limits"))?;
+    }
     let collision = spec.collision.as_ref().map(|c| {
         let v = |q: &Vector3<f64>| point::<T, D>((*q).into());
         // The scene's obstacles, then its instruments (the kernel sees both as obstacles).

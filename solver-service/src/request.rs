@@ -283,6 +283,16 @@ impl From<ChainError> for Refusal {
                 r.residual = residual;
                 r
             }
+            ChainError::JointLimit {
+                joint,
+                angle,
+                excess,
+            } => refuse!(
+                JointLimit,
+                "joint {joint} would turn {:.3}°, {:.2e}° beyond its limit",
+                angle.to_degrees(),
+                excess.to_degrees()
+            ),
             e @ (ChainError::Empty | ChainError::BadLength { .. }) => refuse!(Internal, "{e}"),
         }
     }
@@ -718,6 +728,29 @@ pub fn finish(h: &mut ResponseHeader, residual: Residual, written: &[Vec3]) {
 /// The description fields of a chain.
 fn describe(spec: &ChainSpec, h: &mut ResponseHeader) {
     h.kind = spec.kind as u32;
+    (h.limits, h.limit_value) = match &spec.limits {
+        None => (shared::LIMITS_NONE, 0.0),
+        Some(l) => {
+            let inner = &l.hi[1..l.hi.len().saturating_sub(1)];
+            let widest = inner.iter().copied().fold(0.0f64, f64::max);
+            match (l.kind, l.min_bend_radius) {
+                (_, Some(r)) => (shared::LIMITS_BEND_RADIUS, r),
+                (tractrix::LimitKind::Cone, None) if inner.windows(2).all(|w| w[0] == w[1]) => {
+                    (shared::LIMITS_CONE, widest)
+                }
+                (tractrix::LimitKind::Cone, None) => (shared::LIMITS_CONES, widest),
+                (tractrix::LimitKind::Range, None) => (
+                    shared::LIMITS_RANGES,
+                    l.hi[1..]
+                        .iter()
+                        .zip(&l.lo[1..])
+                        .take(inner.len())
+                        .map(|(h, l)| h - l)
+                        .fold(0.0, f64::max),
+                ),
+            }
+        }
+    };
     h.dims = spec.dims;
     h.n_links = spec.lengths.len() as u32;
     h.precision = spec.precision as u32;

@@ -200,8 +200,14 @@ fn run(a: Args) -> Result<u8> {
                 } else {
                     String::new()
                 };
+                let limits = shared::text::limits_text(h.limits, h.limit_value);
+                let limits = if limits.is_empty() {
+                    String::new()
+                } else {
+                    format!(", limits: {limits}")
+                };
                 println!(
-                    "{c}: {:?} {} {}D, {} links{strands}, length {}, thickness {}, precision {}, method {}",
+                    "{c}: {:?} {} {}D, {} links{strands}, length {}, thickness {}, precision {}, method {}{limits}",
                     h.name_str(),
                     match shared::ChainKind::try_from(h.kind) {
                         Ok(shared::ChainKind::FixedBase) => "fixed-base",

@@ -30,6 +30,14 @@
 //! | `strategy` | `"translate-back"` \| `"two-link"` \| `"pull-back"` | `"translate-back"` | fixed-base strategy (also of a free chain's held sides) |
 //! | `tolerance` | number in (0, 0.1] | 1e-9 | fixed-base tolerance, fraction of the total length |
 //! | `max_iterations` | integer 1..=100000 | 1000 | fixed-base iteration limit |
+//! | `min_bend_radius` | positive length | – | a rope's bend radius: a cone `2·atan(L / 2R)` at each joint (`L` its shorter link) |
+//! | `max_bend` / `max_bends` | degrees in [0, 180] / list of `links + 1` | – | a cone at every joint / per joint (the ends' entries are ignored) |
+//! | `joint_range` / `joint_ranges` | `[lo, hi]` degrees / list of `links + 1` pairs | – | signed range of every joint / per joint; planar chains only |
+//!
+//! At most one of the limit fields (`tractrix::limits`): the angle at joint `j` is the turn from link
+//! `j` to link `j + 1` (0 where the chain runs straight; counter-clockwise positive in the plane), the
+//! two ends have none, and a fixed base's own angle is not limited. The initial pose must lie within
+//! them. Without a limit field a chain has none and costs nothing more.
 //!
 //! Static obstacles are `[[obstacle]]` tables: `name`, `shape = "sphere"` (`center`, `radius`),
 //! `"capsule"` (`a`, `b`, `radius`) or `"plane"` (`point`, `normal`: the free side). A chain lists the
@@ -75,7 +83,7 @@ use nalgebra::Vector3;
 use shared::{COLLISION_OBSTACLES, COLLISION_PAPER_SPHERES, COLLISION_SELF, ChainKind, Precision};
 use std::fmt;
 use tractrix::collision::{CollisionOptions, Obstacle, Scheme};
-use tractrix::{MoveOptions, ReachOptions};
+use tractrix::{JointLimits, LimitKind, MoveOptions, ReachOptions};
 
 /// The scene served when no file is given: the paper's rope, snake and planar manipulator.
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
@@ -150,6 +158,33 @@ pub struct ChainSpec {
     /// Joints held from the start and never released (`anchors`: a suture's end in tissue, a rope tied
     /// to a ring), ascending; free chains only.
     pub anchors: Vec<u32>,
+    /// Joint limits, only when the chain declares them.
+    pub limits: Option<LimitSpec>,
+}
+
+/// A chain's joint limits as its scene declares them, in radians, one entry per joint (the ends'
+/// unlimited).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LimitSpec {
+    /// Cones (spatial or planar) or signed ranges (planar).
+    pub kind: LimitKind,
+    /// Lower bounds (`−hi` for cones).
+    pub lo: Vec<f64>,
+    /// Upper bounds (a cone's half-angle).
+    pub hi: Vec<f64>,
+    /// The bend radius the cones came from, when they did.
+    pub min_bend_radius: Option<f64>,
+}
+
+impl LimitSpec {
+    /// The kernel's limits in the chain's scalar (validated when the scene was read).
+    pub fn kernel<T: tractrix::Real>(&self) -> Result<JointLimits<T>, tractrix::LimitError> {
+        let conv = |v: &[f64]| v.iter().map(|&a| T::lit(a)).collect::<Vec<T>>();
+        match self.kind {
+            LimitKind::Cone => JointLimits::cones(&conv(&self.hi)),
+            LimitKind::Range => JointLimits::ranges(&conv(&self.lo), &conv(&self.hi)),
+        }
+    }
 }
 
 impl ChainSpec {

@@ -89,6 +89,11 @@ pub(super) struct RawChain {
     pub tolerance: Field<f64>,
     pub max_iterations: Field<i64>,
     pub anchors: Field<Vec<i64>>,
+    pub min_bend_radius: Field<f64>,
+    pub max_bend: Field<f64>,
+    pub max_bends: Field<Vec<f64>>,
+    pub joint_range: Field<Vec<f64>>,
+    pub joint_ranges: Field<Vec<Vec<f64>>>,
 }
 
 /// 1-based line of a byte offset.

@@ -14,7 +14,8 @@
 //! * the latency client against the service, the raw echo and the Unix socket, and the bench driver
 //!   (`latency`);
 //! * SIGTERM and SIGINT in every wait mode, idle and under load, 20 times each (`signals`);
-//! * a hostile client beside a 1 kHz client (`hostile`).
+//! * a hostile client beside a 1 kHz client (`hostile`);
+//! * joint limits from the scene, kept by every published state (`limits`).
 
 mod bundles;
 mod c_api;
@@ -25,6 +26,7 @@ mod hostile;
 mod instruments;
 mod knots;
 mod latency;
+mod limits;
 mod python;
 mod signals;
 mod sweep;
