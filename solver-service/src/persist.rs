@@ -970,6 +970,17 @@ where
     let l: Vec<Vector<T, D>> = links.chunks_exact(D).map(v).collect();
     let mut chain =
         Chain::from_raw_parts(o, l, like.lengths().to_vec()).map_err(|e| e.to_string())?;
+    // The limits are the scene's; a stored pose beyond them did not come from this scene.
+    chain
+        .set_limits(like.joint_limits().cloned())
+        .map_err(|e| format!("joint limits: {e}"))?;
+    if let Some((j, angle, excess)) = chain.limit_excess(T::lit(tractrix::chain::LIMIT_TOLERANCE)) {
+        return Err(format!(
+            "joint {j} turns {:.4} rad, {:.2e} beyond the scene's limit",
+            angle.to_f64(),
+            excess.to_f64()
+        ));
+    }
     let mut pins = Vec::with_capacity(held.len());
     for (j, sum, carry) in held {
         if sum.len() != D || carry.len() != D {
@@ -1099,6 +1110,39 @@ mod tests {
         store.restore(&mut fresh).unwrap();
         assert!(datums(&set).iter().any(|b| b.0 > 0), "{:?}", datums(&set));
         assert_eq!(datums(&fresh), datums(&set));
+        assert_eq!(joints(&fresh), joints(&set));
+    }
+
+    /// A restored chain keeps its scene's joint limits: the next moves are limited as before the stop.
+    #[test]
+    fn a_restored_chain_keeps_its_limits() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = crate::scene::parse_scene(
+            "[[chain]]\nname = \"s\"\nlinks = 40\nlink_length = 0.5\nmin_bend_radius = 1.0\n",
+            "t.toml",
+        )
+        .unwrap();
+        let mut set = ChainSet::new(&scene).unwrap();
+        let req = RequestHeader::new(Command::Move, 0);
+        let _ = set.apply_wire(&req, &[Vec3::new(3.0, 6.0, 0.0)]);
+        let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+        store.snapshot(&set).unwrap();
+        drop(store);
+        let mut fresh = ChainSet::new(&scene).unwrap();
+        let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+        store.restore(&mut fresh).unwrap();
+        assert_eq!(joints(&fresh), joints(&set));
+        let limited = |set: &ChainSet| {
+            set.geometry()
+                .iter()
+                .map(|g| each_form!(g, g => g.chain.joint_limits().is_some()))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(limited(&fresh), vec![true]);
+        // The same sharp move on both: the same limited rope.
+        for s in [&mut set, &mut fresh] {
+            let _ = s.apply_wire(&req, &[Vec3::new(-5.0, 0.0, 4.0)]);
+        }
         assert_eq!(joints(&fresh), joints(&set));
     }
 
