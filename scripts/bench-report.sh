@@ -37,7 +37,7 @@ cargo build -q --release --bins
 if [ "$QUICK" = 1 ]; then
   export KERNEL_BENCH_SCALE=0.02 COLLISION_BENCH_ROUNDS=1 JOURNAL_BENCH_N=50 ACCURACY_BENCH_REPS=1
   export HOLDS_BENCH_ROUNDS=1 KNOT_BENCH_RUNS=1 KNOT_BENCH_LINKS=40
-  export LEAN_BENCH_SCALE=0.05 OVERHEAD_BENCH_SCALE=0.05 STRANDS_BENCH_SCALE=0.05
+  export LEAN_BENCH_SCALE=0.05 OVERHEAD_BENCH_SCALE=0.05 STRANDS_BENCH_SCALE=0.05 LIMITS_BENCH_SCALE=0.05
   LANG_ARGS="500 1"
   SWEEP_ARGS="4 1"
   LATENCY_ARGS="--samples 500 --warmup 100 --loaded-seconds 1"
@@ -103,6 +103,10 @@ block knots "KNOT_BENCH_RUNS=8 cargo bench -p clients --bench knots" \
   env KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-8}" cargo bench -q -p clients --bench knots
 block sweep "scripts/sweep-bench.sh scaling $SWEEP_ARGS" \
   scripts/sweep-bench.sh scaling $SWEEP_ARGS
+block knots-bend "KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS=4 cargo bench -p clients --bench knots" \
+  env KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-4}" cargo bench -q -p clients --bench knots
+block limits "cargo bench -p tractrix --bench limits" \
+  cargo bench -q -p tractrix --bench limits
 block sweep-knots "scripts/sweep-bench.sh knots" \
   scripts/sweep-bench.sh knots
 block sweep-accuracy "scripts/sweep-bench.sh accuracy" \

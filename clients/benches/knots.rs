@@ -36,7 +36,9 @@
 //! `R` until it has travelled more than the rope's length, in moves of 0.05; then the rope's distance
 //! from the circle's centre is read joint by joint behind the head (computed here).
 //! `KNOT_BENCH_RUNS` (default 6) sets the runs per cell, `KNOT_BENCH_LINKS` keeps one resolution and
-//! `KNOT_BENCH_DEBUG` prints the knot after every turn. Refused moves are counted and skipped, as a
+//! `KNOT_BENCH_DEBUG` prints the knot after every turn. `KNOT_BENCH_TABLES=bend` prints instead the
+//! knot table over resolution × bend radius (the rows' scripts on 40 to 320 links with R_min none, 1
+//! and 2: `tractrix::limits`) and the loop-survival table with R_min. Refused moves are counted and skipped, as a
 //! hand would skip them.
 
 use clients::script::{Handedness, Script, Throw, Tuck, Turn, WideLoop};
@@ -323,6 +325,8 @@ struct Outcome {
     moves: usize,
     /// Fixed-base iterations summed over the accepted moves.
     iterations: u64,
+    /// Time of each move (accepted or refused), ns.
+    times: Vec<f64>,
 }
 
 /// The starting rope: straight along x, or a U: a circular arc hanging between the ends, CHORD apart,
@@ -357,17 +361,24 @@ fn start_rope(n: usize, arc: bool) -> Chain<f64, 3> {
     Chain::from_points(&points).expect("rope")
 }
 
-/// Ties `knot` on `n` links as `ends` says; `radius` replaces the fed loops' radius.
+/// Ties `knot` on `n` links as `ends` says; `radius` replaces the fed loops' radius; `r_min` gives the
+/// rope a minimum bend radius (cones of `2 atan(L / 2 r_min)` at its joints, `tractrix::limits`).
+#[allow(clippy::too_many_arguments)]
 fn tie(
     n: usize,
     ends: Ends,
     knot: Knot,
     radius: Option<f64>,
     watch: bool,
+    r_min: Option<f64>,
     rng: &mut Rng,
 ) -> Outcome {
     let u = ends.u();
     let mut chain = start_rope(n, u);
+    if let Some(r) = r_min {
+        let lim = tractrix::JointLimits::bend_radius(chain.lengths(), r).expect("a bend radius");
+        chain.set_limits(Some(lim)).expect("limits for the rope");
+    }
     let model = CollisionModel {
         options: CollisionOptions {
             thickness: THICKNESS,
@@ -387,6 +398,7 @@ fn tie(
     }
     let (mut refused, mut moves) = (0, 0);
     let (mut iters, mut max_iters) = (0u64, 0u32);
+    let mut times = Vec::new();
     let phases = match ends {
         Ends::Wide => Knot::wide([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], rng),
         Ends::WideHeld | Ends::WideHeldPull => Knot::wide([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], rng),
@@ -410,7 +422,10 @@ fn tie(
         for t in turn.targets_on(&rope, joint, 0.05).unwrap_or_default() {
             moves += 1;
             let t = V::new(t[0], t[1], t[2]);
-            match move_joint_colliding(&mut chain, joint, t, &opts, &model, &mut ws) {
+            let clock = std::time::Instant::now();
+            let moved = move_joint_colliding(&mut chain, joint, t, &opts, &model, &mut ws);
+            times.push(clock.elapsed().as_nanos() as f64);
+            match moved {
                 Ok(o) => {
                     iters += o.held_iterations as u64;
                     max_iters = max_iters.max(o.held_iterations);
@@ -436,12 +451,13 @@ fn tie(
         refused,
         moves,
         iterations: iters,
+        times,
     }
 }
 
 /// The loop-survival table: for each link length and loop radius, how much rope behind the circling
-/// head keeps at least half the loop's radius.
-fn loop_survival() {
+/// head keeps at least half the loop's radius; with `bend`, also with bend radii of 1 and 1.5.
+fn loop_survival(bend: bool) {
     println!(
         "\nHow much of a drawn loop stays in the rope: the head of a free 40-unit rope circles at \
          radius *R* (moves of 0.05, tractrix, one substep) until it has travelled more than the \
@@ -450,15 +466,35 @@ fn loop_survival() {
          rope\" when none is); *in loops*: that length ÷ 2πR; *model*: 3R²/(4L), where a steady \
          tractrix puts it (each link's tail circles at r² − L² when its head circles at r).\n"
     );
-    println!("| link length L | links | R | rope until R/2 | in loops | model 3R²/(4L) |");
-    println!("|---:|---:|---:|---:|---:|---:|");
-    for n in [40usize, 80, 160] {
+    let r_mins: &[Option<f64>] = if bend {
+        println!(
+            "With a bend radius *R_min* (cones of 2·atan(L / 2R_min) at every joint, \
+             `tractrix::limits`) the rope cannot curl tighter than R_min behind the head.\n"
+        );
+        println!(
+            "| link length L | links | R | R_min | rope until R/2 | in loops | model 3R²/(4L) (no R_min) |"
+        );
+        println!("|---:|---:|---:|---:|---:|---:|---:|");
+        &[None, Some(1.0), Some(1.5)]
+    } else {
+        println!("| link length L | links | R | rope until R/2 | in loops | model 3R²/(4L) |");
+        println!("|---:|---:|---:|---:|---:|---:|");
+        &[None]
+    };
+    for (n, &r_min) in [40usize, 80, 160]
+        .into_iter()
+        .flat_map(|n| r_mins.iter().map(move |r| (n, r)))
+    {
         let l = LENGTH / n as f64;
         for r in [1.0f64, 2.0, 3.0, 4.0] {
             // The rope trails straight behind the head, which starts on the circle heading +y.
             let head = V::new(r, 0.0, 0.0);
             let mut chain =
                 Chain::straight(n, l, head - V::new(0.0, LENGTH, 0.0), V::y()).expect("rope");
+            if let Some(rm) = r_min {
+                let lim = tractrix::JointLimits::bend_radius(chain.lengths(), rm).expect("limits");
+                chain.set_limits(Some(lim)).expect("limits");
+            }
             let opts = MoveOptions::default();
             let loop_len = std::f64::consts::TAU * r;
             let turns = ((LENGTH + loop_len) / loop_len).ceil();
@@ -477,7 +513,12 @@ fn loop_survival() {
                 None => ("whole rope".into(), format!("> {:.2}", LENGTH / loop_len)),
             };
             let model = 0.75 * r * r / l;
-            println!("| {l} | {n} | {r} | {until} | {loops} | {model:.2} |");
+            if bend {
+                let rm = r_min.map_or("–".to_string(), |v| v.to_string());
+                println!("| {l} | {n} | {r} | {rm} | {until} | {loops} | {model:.2} |");
+            } else {
+                println!("| {l} | {n} | {r} | {until} | {loops} | {model:.2} |");
+            }
         }
     }
 }
@@ -515,7 +556,16 @@ fn fed_radius(runs: usize, only: Option<usize>) {
                 let mut rng = Rng(0xFED ^ (n as u64) << 8 ^ r.to_bits());
                 let ok = (0..runs)
                     .filter(|_| {
-                        tie(n, Ends::HeldFed, Knot::Overhand, Some(r), watch, &mut rng).knot
+                        tie(
+                            n,
+                            Ends::HeldFed,
+                            Knot::Overhand,
+                            Some(r),
+                            watch,
+                            None,
+                            &mut rng,
+                        )
+                        .knot
                             == KnotType::Trefoil
                     })
                     .count();
@@ -523,6 +573,59 @@ fn fed_radius(runs: usize, only: Option<usize>) {
             }
         }
         println!();
+    }
+}
+
+/// The knot table over the rope's resolution and its bend radius: the kernel-level scripts that tie on
+/// the paper's unit links (the free wide loop; the held fed loops of the overhand, square and granny),
+/// each on 40, 80, 160 and 320 links of the same 40-unit rope, without a bend radius and with R_min of
+/// 1 and 2 units: tied, refused, and the time per move.
+fn bend_radius_table(runs: usize, only: Option<usize>) {
+    println!(
+        "\nKnots over the rope's resolution and its bend radius *R_min* (the same 40-unit rope, 0.2 \
+         thick, capsule collision; the scripts of the rows above, perturbed as they are; {runs} runs \
+         per cell). *tied*: runs whose rope the identification names as the script's knot; *refused*: \
+         share of moves refused; *ms/move*: time per move (accepted or refused), median and p99 over \
+         every move of the cell's runs.\n"
+    );
+    println!("| script | R_min | links | tied | refused | ms/move p50 | ms/move p99 |");
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    let rows = [
+        ("overhand, free, wide loop", Ends::Wide, Knot::Overhand),
+        ("overhand, held, fed loop", Ends::HeldFed, Knot::Overhand),
+        ("square, held, fed loops", Ends::HeldFed, Knot::Square),
+        ("granny, held, fed loops", Ends::HeldFed, Knot::Granny),
+    ];
+    for (name, ends, knot) in rows {
+        for r_min in [None, Some(1.0), Some(2.0)] {
+            for n in [40usize, 80, 160, 320] {
+                if only.is_some_and(|o| o != n) {
+                    continue;
+                }
+                let mut rng = Rng(0xBE7D ^ (n as u64) << 8 ^ knot as u64);
+                let (mut ok, mut refused, mut moves) = (0, 0, 0);
+                let mut times = Vec::new();
+                let mut found = Vec::new();
+                for _ in 0..runs {
+                    let o = tie(n, ends, knot, None, false, r_min, &mut rng);
+                    ok += usize::from(o.knot == knot.expected());
+                    refused += o.refused;
+                    moves += o.moves;
+                    times.extend(o.times);
+                    found.push(o.knot.name());
+                }
+                eprintln!("{name}, R_min {r_min:?}, {n} links: {}", found.join(" "));
+                times.sort_by(|a, b| a.total_cmp(b));
+                let at = |p: f64| times[((times.len() - 1) as f64 * p).round() as usize] / 1e6;
+                println!(
+                    "| {name} | {} | {n} | {ok}/{runs} | {:.1} % | {:.3} | {:.3} |",
+                    r_min.map_or("–".to_string(), |v: f64| v.to_string()),
+                    100.0 * refused as f64 / moves.max(1) as f64,
+                    at(0.5),
+                    at(0.99)
+                );
+            }
+        }
     }
 }
 
@@ -535,6 +638,12 @@ fn main() {
     let only: Option<usize> = std::env::var("KNOT_BENCH_LINKS")
         .ok()
         .and_then(|s| s.parse().ok());
+    if std::env::var("KNOT_BENCH_TABLES").is_ok_and(|t| t == "bend") {
+        // The bend-radius tables only (BENCHMARKS' block `knots-bend`).
+        bend_radius_table(runs, only);
+        loop_survival(true);
+        return;
+    }
     println!(
         "Knots tied on a rope {LENGTH} units long and {THICKNESS} thick (capsule collision), {runs} \
          perturbed runs per cell. *tied*: runs whose rope the identification names as the script's \
@@ -574,7 +683,7 @@ fn main() {
                 let (mut ok, mut refused, mut moves, mut iterations) = (0, 0, 0, 0u64);
                 let mut found = Vec::new();
                 for _ in 0..runs {
-                    let o = tie(n, ends, knot, None, false, &mut rng);
+                    let o = tie(n, ends, knot, None, false, None, &mut rng);
                     ok += usize::from(o.knot == knot.expected());
                     refused += o.refused;
                     moves += o.moves;
@@ -597,5 +706,5 @@ fn main() {
         }
     }
     fed_radius(runs, only);
-    loop_survival();
+    loop_survival(false);
 }
