@@ -264,6 +264,7 @@ impl Knot {
     /// The script's phases, perturbed by `rng`, for the straight rope or the U.
     fn phases(self, u: bool, rng: &mut Rng) -> Vec<Phase> {
         let mut throw = |handedness, outward: [f64; 3], scale: f64, exit: f64| Throw {
+            lobe: false,
             handedness,
             outward: [
                 outward[0] + rng.range(-0.05, 0.05),

@@ -122,6 +122,17 @@ pub struct Throw {
     /// Straight run after the knot, along `outward`.
     #[serde(default)]
     pub exit: f64,
+    /// Enter the trefoil at a lobe's tip, where its tangent runs out of the knot, turned so that the
+    /// tangent points along `outward`; leave along the tangent at the lobe's other side, `exit` units
+    /// on. The path has no corner, so a rope with a bend radius at most the path's tightest bend
+    /// (about 1.29 × `scale`) can follow it (BENCHMARKS.md, "Knots over resolution and bend radius").
+    /// The default enters at the trefoil's point nearest the hand and turns away at the end.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub lobe: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 fn default_scale() -> f64 {
@@ -496,6 +507,7 @@ impl Script {
             outward,
             scale: 0.8,
             exit,
+            lobe: false,
         };
         let turn = |hand: &str, chain: &str, joint: &str, throw: Option<Throw>, waypoints| Turn {
             hand: hand.into(),
@@ -549,6 +561,29 @@ impl Script {
                         // The rope slides through the knot after the head: walking on 12 units
                         // brings the knot near the middle of the 40-unit rope.
                         exit: 12.0,
+                        lobe: false,
+                    }),
+                    vec![],
+                )],
+            }),
+            // A suture with a bend radius (chains `bend-80`, `bend-160`, `bend-320` of knots.toml: 40
+            // units, R_min 1.5): the head draws the trefoil entered at a lobe, a path with no corner
+            // (tightest bend about 1.55 units), then walks on 3 units. One script for every resolution
+            // from 80 links on (BENCHMARKS.md, "Knots over resolution and bend radius").
+            "overhand-bend" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: true,
+                turn: vec![turn(
+                    "A",
+                    "bend-80",
+                    "head",
+                    Some(Throw {
+                        handedness: Handedness::Left,
+                        outward: [1.0, 0.0, 0.0],
+                        scale: 1.2,
+                        exit: 3.0,
+                        lobe: true,
                     }),
                     vec![],
                 )],
@@ -591,6 +626,7 @@ impl Script {
                             outward: [0.0, 1.0, 0.0],
                             scale: 0.9,
                             exit: 6.0,
+                            lobe: false,
                         }),
                         vec![],
                     ),
@@ -894,6 +930,7 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
         outward: [0.0, 1.0, 0.0],
         scale: 0.45,
         exit: 3.0,
+        lobe: false,
     };
     let turn = |hand: &str, throw: Option<Throw>, waypoints: Vec<[f64; 3]>| Turn {
         hand: hand.into(),
@@ -931,6 +968,7 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
 pub const BUILTINS: &[&str] = &[
     "overhand",
     "overhand-wide",
+    "overhand-bend",
     "overhand-held",
     "overhand-anchored",
     "square",
@@ -1084,6 +1122,9 @@ impl Turn {
 
 /// The corners of a throw's path (400 points on the trefoil, then the exit).
 fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
+    if th.lobe {
+        return lobe_path(start, th);
+    }
     // A right-handed frame (u, v, u × v) turns the trefoil's own axes onto the throw's: a rotation, so
     // handedness is kept whatever the outward direction.
     let u = scale(th.outward, 1.0 / norm(th.outward));
@@ -1134,6 +1175,71 @@ fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
     out.push(away);
     if th.exit > 0.0 {
         out.push(add(away, scale(u, th.exit)));
+    }
+    out
+}
+
+/// A [`Throw`] with `lobe`: the trefoil from just past one lobe's tip round to just before it
+/// (parameter π + 0.2 to 3π − 0.2), turned so that the entering tangent points along `outward`, one
+/// unit ahead of the hand, then `exit` units on along the leaving tangent.
+fn lobe_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
+    let mirror = if th.handedness == Handedness::Right {
+        -1.0
+    } else {
+        1.0
+    };
+    let at = |t: f64| {
+        [
+            (t.sin() + 2.0 * (2.0 * t).sin()) * th.scale,
+            (t.cos() - 2.0 * (2.0 * t).cos()) * th.scale,
+            -(3.0 * t).sin() * th.scale * mirror,
+        ]
+    };
+    let tangent = |t: f64| {
+        let d = sub(at(t + 1e-6), at(t - 1e-6));
+        scale(d, 1.0 / norm(d))
+    };
+    let pi = std::f64::consts::PI;
+    let (t0, t1) = (pi + 0.2, 3.0 * pi - 0.2);
+    // The local frame (T, N, B) at the entry, T the tangent, onto the world's (u, w, −v): a rotation.
+    let t_local = tangent(t0);
+    let up = [0.0, 0.0, 1.0];
+    let n_local = {
+        let n = sub(up, scale(t_local, dot(up, t_local)));
+        scale(n, 1.0 / norm(n))
+    };
+    let b_local = cross(t_local, n_local);
+    let u = scale(th.outward, 1.0 / norm(th.outward));
+    let helper = if u[2].abs() < 0.9 {
+        [0.0, 0.0, 1.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let v = {
+        let c = cross(helper, u);
+        scale(c, 1.0 / norm(c))
+    };
+    let w = cross(u, v);
+    let origin = at(t0);
+    let world = |p: [f64; 3]| {
+        let q = sub(p, origin);
+        let local = [dot(q, t_local) + 1.0, dot(q, n_local), dot(q, b_local)];
+        add(
+            start,
+            add(
+                add(scale(u, local[0]), scale(w, local[1])),
+                scale(v, -local[2]),
+            ),
+        )
+    };
+    let n = 400;
+    let mut out: Vec<[f64; 3]> = (0..=n)
+        .map(|k| world(at(t0 + (t1 - t0) * k as f64 / n as f64)))
+        .collect();
+    if th.exit > 0.0 {
+        let last = *out.last().expect("points");
+        let dir = sub(world(add(at(t1), tangent(t1))), world(at(t1)));
+        out.push(add(last, scale(dir, th.exit)));
     }
     out
 }

@@ -83,12 +83,15 @@ fn exit_of(mut child: Child) -> (std::process::ExitStatus, String) {
 }
 
 /// Smallest distance between the axes of non-adjacent links (pairs whose joints are far apart are
-/// skipped: they cannot be closer than one thickness).
+/// skipped: they cannot be closer than one thickness). Links with less than a thickness of rope
+/// between them touch even on a straight rope, so they are not a pair here (links of `link` length:
+/// at least ⌈thickness / link⌉ links apart).
 fn clearance(p: &[V], link: f64) -> f64 {
     let reach = (2.0 * link + THICKNESS).powi(2);
+    let apart = ((THICKNESS / link) - 1e-9).ceil().max(1.0) as usize;
     let mut best = f64::INFINITY;
     for i in 0..p.len() - 1 {
-        for j in i + 2..p.len() - 1 {
+        for j in i + 1 + apart..p.len() - 1 {
             if (p[i] - p[j]).norm_squared() > reach {
                 continue;
             }
@@ -353,6 +356,48 @@ fn one_hand_ties_an_overhand_on_the_papers_forty_unit_links() {
     assert_eq!(k.kind, KnotType::Trefoil, "{k:?}");
     assert_eq!((k.crossings, k.determinant), (3, 3), "{k:?}");
     assert_knot_near_the_middle(&svc, id, 40);
+}
+
+/// A suture with a bend radius (issue 34): one script, `overhand-bend`, written in units of length,
+/// ties the overhand through the service on the same 40-unit rope in 80 and in 320 links (chains
+/// `bend-80` and `bend-320` of `knots.toml`, R_min 1.5). Every published state keeps the rope apart
+/// from itself; the final rope is a trefoil (the tests' own determinant agrees) and turns at no joint
+/// by more than the bend radius allows, `2·atan(L / 2R_min)`, computed here from the joints.
+#[test]
+fn one_script_ties_the_overhand_on_a_suture_with_a_bend_radius_at_80_and_320_links() {
+    let svc = knot_service();
+    for (chain, links) in [("bend-80", 80usize), ("bend-320", 320)] {
+        let len = 40.0 / links as f64;
+        let id = svc.connect().find_chain(chain).unwrap().unwrap();
+        let w = Watcher::start(&svc, id, len);
+        let out = finish(hand(
+            &svc,
+            &["--builtin", "overhand-bend", "--chain", chain],
+        ));
+        let (checked, min) = w.finish();
+        assert_never_passed_through(checked, min, 600);
+        let k = knot_of(&svc, chain);
+        assert_eq!(k.kind, KnotType::Trefoil, "{chain}: {k:?}\n{out}");
+        let joints: Vec<V> = svc
+            .connect()
+            .call(RequestHeader::new(Command::Query, id), &[])
+            .unwrap()
+            .joints()
+            .iter()
+            .map(|q| V::new(q.x, q.y, q.z))
+            .collect();
+        assert_eq!(joints.len(), links + 1);
+        let cone = 2.0 * (len / 3.0f64).atan();
+        for (j, w) in joints.windows(3).enumerate() {
+            let (a, b) = (w[1] - w[0], w[2] - w[1]);
+            let turn = a.cross(&b).norm().atan2(a.dot(&b));
+            assert!(
+                turn <= cone + 1e-6,
+                "{chain}: joint {} turns {turn}, beyond {cone}",
+                j + 1
+            );
+        }
+    }
 }
 
 /// Where the knot is: the links that touch a non-adjacent link (closer than twice the thickness),
