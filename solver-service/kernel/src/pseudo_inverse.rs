@@ -117,3 +117,183 @@ where
         residual,
     })
 }
+
+/// How the damped-least-squares baseline honours a planar chain's joint ranges (Korein & Badler,
+/// "Extensions for inequality constraints": a penalty function in the objective, or following the
+/// boundary once the solve runs into it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RangeHandling<T> {
+    /// The redundancy (the null space of the head's Jacobian) descends a penalty that grows without
+    /// bound at each range's ends, `Σ (hi − lo)² / (4 (hi − q)(q − lo))` (1 at the middle of a range),
+    /// scaled by `gain` (radians per iteration per unit of gradient). Nothing stops a step from
+    /// crossing a range: the penalty only steers away from the ends.
+    Penalty {
+        /// Step along the penalty's gradient, projected into the null space.
+        gain: T,
+    },
+    /// A joint that a step would carry beyond its range is put on the boundary and taken out of the
+    /// Jacobian (frozen) for as long as the head's error would push it further out; the others solve
+    /// the rest.
+    Boundary,
+}
+
+/// [`reach_dls`] for a planar chain with joint ranges (its [`crate::JointLimits`] of kind
+/// [`crate::LimitKind::Range`]; without limits this is the plain baseline with an explicit Jacobian).
+/// Joint `j`'s angle is the turn from link `j` to link `j + 1`, as [`crate::limits`] has it; the base's
+/// own angle is free. Unreachable targets (outside the unlimited workspace) and non-convergence are
+/// errors that leave the chain unchanged; a converged pose may lie beyond a range with
+/// [`RangeHandling::Penalty`] (the baseline is measured, not corrected).
+pub fn reach_dls_ranges<T: Real>(
+    chain: &mut Chain<T, 2>,
+    target: &Vector<T, 2>,
+    opts: &DlsOptions<T>,
+    handling: RangeHandling<T>,
+) -> Result<ReachOutcome<T>, ReachError<T, 2>> {
+    use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+    if !all_finite(target) {
+        return Err(ChainError::NonFinite.into());
+    }
+    let base = chain.origin();
+    let (nearest, residual) =
+        nearest_reachable(&base, chain.lengths(), target, &(chain.head() - base));
+    if residual > T::zero() {
+        return Err(ReachError::Unreachable { nearest, residual });
+    }
+    let n = chain.n_links();
+    let (lo, hi): (Vec<T>, Vec<T>) = match chain.joint_limits() {
+        Some(l) if l.kind() == crate::LimitKind::Range => {
+            (0..=n).map(|j| (l.lo(j), l.hi(j))).unzip()
+        }
+        _ => (vec![-T::pi(); n + 1], vec![T::pi(); n + 1]),
+    };
+    let backup: Vec<_> = chain.links().to_vec();
+    let backup_datum = chain.datum();
+    let total = chain.total_length();
+    let tol = opts.tolerance * total;
+    let max_step = opts.max_step * total;
+    let lambda2 = opts.damping * opts.damping;
+    let lengths = chain.lengths().to_vec();
+    // Absolute link angles; joint j's angle is a[j] − a[j − 1].
+    let mut a: Vec<T> = chain.links().iter().map(|l| l.y.atan2(l.x)).collect();
+    let mut frozen = vec![false; n];
+    let put = |chain: &mut Chain<T, 2>, a: &[T]| {
+        let (links, _, _) = chain.links_lengths_limits_mut();
+        for ((l, &ai), &len) in links.iter_mut().zip(a).zip(&lengths) {
+            *l = Vector2::new(ai.cos(), ai.sin()) * len;
+        }
+    };
+    for it in 0..opts.max_iterations {
+        let head = chain.head();
+        let mut e = target - head;
+        let en = e.norm();
+        if en <= tol {
+            return Ok(ReachOutcome {
+                iterations: it,
+                residual: en,
+            });
+        }
+        if en > max_step {
+            e *= max_step / en;
+        }
+        // Columns: pivot j (at joint j) turns links j.. : ẑ × (head − X_j).
+        let p = chain.positions();
+        let mut jac = DMatrix::<T>::zeros(2, n);
+        for j in 0..n {
+            if frozen[j] {
+                continue;
+            }
+            let r = head - p[j];
+            jac[(0, j)] = -r.y;
+            jac[(1, j)] = r.x;
+        }
+        let jjt: Matrix2<T> = {
+            let m = &jac * jac.transpose();
+            Matrix2::new(m[(0, 0)], m[(0, 1)], m[(1, 0)], m[(1, 1)])
+        } + Matrix2::identity() * lambda2;
+        let Some(inv) = jjt.try_inverse() else {
+            break;
+        };
+        let y = inv * e;
+        let mut dq: DVector<T> = jac.transpose() * DVector::from_column_slice(y.as_slice());
+        if let RangeHandling::Penalty { gain } = handling {
+            // Turning pivot j turns links j.. together: joint j's angle changes, no other joint's, so
+            // ∂H/∂(pivot j) = ∂H/∂q_j.
+            let mut grad = DVector::<T>::zeros(n);
+            for j in 1..n {
+                let q = wrap(a[j] - a[j - 1]);
+                let (l, h) = (lo[j], hi[j]);
+                if h - l >= T::two_pi() - T::lit(1e-12) {
+                    continue;
+                }
+                let w = (h - l) * (h - l);
+                let d = T::lit(4.0) * (h - q) * (q - l);
+                // dH/dq of w / d, d = 4(h − q)(q − l): −w·d'/d², d' = 4(h + l − 2q).
+                let dd = T::lit(4.0) * (h + l - T::lit(2.0) * q);
+                let g = if d > T::zero() {
+                    -w * dd / (d * d)
+                } else {
+                    // Beyond the range: push back toward the middle.
+                    (q - (h + l) * T::lit(0.5)).signum() * T::lit(1e6)
+                };
+                grad[j] += g;
+            }
+            let z = grad * (-gain);
+            // Null-space projection: z − Jᵀ (JJᵀ + λ²)⁻¹ J z.
+            let jz = &jac * &z;
+            let y2 = inv * Vector2::new(jz[0], jz[1]);
+            let back = jac.transpose() * DVector::from_column_slice(y2.as_slice());
+            dq += z - back;
+        }
+        for j in 0..n {
+            // Pivot j turns every link from j on.
+            for ak in a.iter_mut().skip(j) {
+                *ak += dq[j];
+            }
+        }
+        if handling == RangeHandling::Boundary {
+            // Joints carried beyond their ranges go back onto the boundary (turning the links beyond
+            // with them) and are frozen while the error pushes them out; a frozen joint whose pivot
+            // the unfrozen solve would turn back inside is released.
+            for j in 1..n {
+                let q = wrap(a[j] - a[j - 1]);
+                let clamped = q.max(lo[j]).min(hi[j]);
+                if clamped != q {
+                    let fix = clamped - q;
+                    for ak in a.iter_mut().skip(j) {
+                        *ak += fix;
+                    }
+                    frozen[j] = true;
+                } else if frozen[j] {
+                    let r = head - p[j];
+                    let push = -r.y * y.x + r.x * y.y;
+                    let inward =
+                        (q >= hi[j] && push < T::zero()) || (q <= lo[j] && push > T::zero());
+                    let strictly_inside = q < hi[j] && q > lo[j];
+                    if inward || strictly_inside {
+                        frozen[j] = false;
+                    }
+                }
+            }
+        }
+        put(chain, &a);
+    }
+    let residual = (chain.head() - target).norm();
+    chain.links_mut().copy_from_slice(&backup);
+    chain.place_origin_from(backup_datum.0, backup_datum.1);
+    Err(ReachError::NotConverged {
+        iterations: opts.max_iterations,
+        residual,
+    })
+}
+
+/// An angle wrapped into (−π, π].
+fn wrap<T: Real>(a: T) -> T {
+    let two_pi = T::two_pi();
+    let mut x = a % two_pi;
+    if x > T::pi() {
+        x -= two_pi;
+    } else if x <= -T::pi() {
+        x += two_pi;
+    }
+    x
+}

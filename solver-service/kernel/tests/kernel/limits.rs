@@ -338,3 +338,87 @@ fn a_held_rope_with_a_bend_radius_follows_small_moves() {
     eprintln!("held rope with a bend radius: {made} made, {refused} refused");
     assert!(made >= 300, "{made} made, {refused} refused");
 }
+
+/// Targets the planar arm (10 links of 0.2) reaches with every joint in [−60°, 30°]: the head of a
+/// pose drawn within the ranges (the base's own angle free).
+fn ranged_targets(n: usize, seed: u64) -> Vec<Vector2<f64>> {
+    let mut rng = Rng(seed);
+    (0..n)
+        .map(|_| {
+            let mut a = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+            let mut p = Vector2::zeros();
+            for j in 0..10 {
+                if j > 0 {
+                    a += rng.range(-60f64.to_radians(), 30f64.to_radians());
+                }
+                p += Vector2::new(a.cos(), a.sin()) * 0.2;
+            }
+            p
+        })
+        .collect()
+}
+
+/// The fixed-base reach with ranges (each of the paper's strategies) and Korein & Badler's
+/// boundary-following baseline never leave a solved pose beyond a range (signed angles computed here);
+/// the head lands within the tolerance; a refusal changes nothing. Most targets inside the limited
+/// workspace are reached.
+#[test]
+fn the_reach_with_ranges_never_leaves_a_range() {
+    use tractrix::pseudo_inverse::{DlsOptions, RangeHandling, reach_dls_ranges};
+    use tractrix::{ReachOptions, ReachWorkspace, Strategy, reach};
+    let (lo, hi) = (-60f64.to_radians(), 30f64.to_radians());
+    let targets = ranged_targets(200, 9);
+    for method in 0..4 {
+        let mut c = Chain::<f64, 2>::straight(10, 0.2, Vector2::zeros(), Vector2::x()).unwrap();
+        c.set_limits(Some(JointLimits::ranges(&[lo; 11], &[hi; 11]).unwrap()))
+            .unwrap();
+        let mut ws = ReachWorkspace::default();
+        let mut ok = 0;
+        for t in &targets {
+            let before = c.clone();
+            let r = match method {
+                0..=2 => {
+                    let strategy = [
+                        Strategy::TranslateBack,
+                        Strategy::PullBack,
+                        Strategy::TractrixTwoLink,
+                    ][method];
+                    let o = ReachOptions {
+                        strategy,
+                        ..ReachOptions::default()
+                    };
+                    reach(&mut c, t, &o, &mut ws).map(|_| ())
+                }
+                _ => reach_dls_ranges(&mut c, t, &DlsOptions::default(), RangeHandling::Boundary)
+                    .map(|_| ()),
+            };
+            match r {
+                Ok(()) => {
+                    ok += 1;
+                    assert!(
+                        (c.head() - t).norm() <= 2e-9 * 2.0,
+                        "method {method}: head off"
+                    );
+                    for (i, q) in turns2(&c).into_iter().enumerate() {
+                        assert!(
+                            q <= hi + 1e-9 && q >= lo - 1e-9,
+                            "method {method}: joint {} at {q}",
+                            i + 1
+                        );
+                    }
+                    assert!(length_error(&c) < 1e-12);
+                }
+                Err(_) => assert_eq!(c, before, "method {method}: a refusal changed the arm"),
+            }
+        }
+        eprintln!("method {method}: {ok} of {} reached", targets.len());
+        // Translate-back (0) and boundary following (3) reach nearly all; pull-back most; the
+        // two-link closed form, which ignores the ranges, is refused whenever it breaks one.
+        let want = [0.9, 0.75, 0.1, 0.9][method];
+        assert!(
+            ok as f64 >= want * targets.len() as f64,
+            "method {method}: {ok} of {} reached",
+            targets.len()
+        );
+    }
+}
