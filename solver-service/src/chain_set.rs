@@ -359,10 +359,14 @@ impl ChainSet {
                 // With held joints, each side up to a held joint iterates the fixed-base method: at
                 // most `hierarchy_after` tractrix passes, then the hierarchy's one pass.
                 let held = each_form!(&self.geometry[chain as usize], h => h.chain.held().any(|j| j != joint));
+                // With joint limits the hierarchy's pose is kept only when it lands within them, so
+                // the passes may run to `max_iterations`, each with a try of the hierarchy (two).
                 let passes = if held {
                     let h = &options.held;
                     let limit = if h.hierarchy_after == 0 {
                         h.max_iterations
+                    } else if spec.limits.is_some() {
+                        h.max_iterations.saturating_mul(2)
                     } else {
                         h.max_iterations.min(h.hierarchy_after.saturating_add(1))
                     };
@@ -434,9 +438,11 @@ impl ChainSet {
                 Ok(n.saturating_mul(substeps)
                     .saturating_mul(1 + carried as u64))
             }
+            // With joint limits each iteration also tries the hierarchy (a second pass).
             Request::Reach { ref options, .. } => Ok(n
                 .saturating_mul(u64::from(options.substeps.max(1)))
-                .saturating_mul(u64::from(options.max_iterations.max(1)))),
+                .saturating_mul(u64::from(options.max_iterations.max(1)))
+                .saturating_mul(if spec.limits.is_some() { 2 } else { 1 })),
             Request::Instrument {
                 index,
                 centre,

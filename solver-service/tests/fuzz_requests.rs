@@ -116,6 +116,7 @@ link_length = 0.5
 strategy = "two-link"
 max_substeps = 4
 max_iterations = 200
+max_bend = 30
 "#;
 
 const N_CHAINS: u32 = 8;

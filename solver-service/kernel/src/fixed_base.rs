@@ -198,18 +198,9 @@ where
     }
     let tol = opts.tolerance * chain.total_length();
     // The reach hierarchy and the two-link closed form place links without the joint limits: with
-    // limits the tractrix passes (which honour them link by link) must converge on their own.
+    // limits a hierarchy's pose is kept only when it lands within them ([`hierarchy_if_due`]), and
+    // the result is checked below.
     let limited = chain.joint_limits().is_some();
-    let unlimited_opts;
-    let opts = if limited {
-        unlimited_opts = ReachOptions {
-            hierarchy_after: 0,
-            ..*opts
-        };
-        &unlimited_opts
-    } else {
-        opts
-    };
     ws.backup.clear();
     ws.backup.extend_from_slice(chain.links());
     let backup_datum = chain.datum();
@@ -352,6 +343,25 @@ where
     Vector<T, D>: Embed3<T>,
 {
     if opts.hierarchy_after == 0 || it <= opts.hierarchy_after {
+        return None;
+    }
+    if chain.joint_limits().is_some() {
+        // The hierarchy places links without the limits: its pose is taken only when it lands within
+        // them; otherwise the tractrix pose stays and the iteration goes on.
+        let before = chain.links().to_vec();
+        reach_hierarchy(chain, target);
+        let landed = (chain.head() - target).norm();
+        // Within the limits to rounding, as a clamped link is (not merely within the tolerance a
+        // refusal allows): the hierarchy's pose must not sit a hair outside where the tractrix's sat on.
+        let strict = T::lit(1e-12).max(T::EPSILON * T::lit(64.0));
+        if landed <= tol && chain.limit_excess(strict).is_none() {
+            *residual = landed;
+            return Some(ReachOutcome {
+                iterations: it,
+                residual: landed,
+            });
+        }
+        chain.links_mut().copy_from_slice(&before);
         return None;
     }
     reach_hierarchy(chain, target);

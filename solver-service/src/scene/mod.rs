@@ -29,7 +29,7 @@
 //! | `max_substeps` | integer ≥ 1 | 65536 | a move needing more substeps is refused |
 //! | `strategy` | `"translate-back"` \| `"two-link"` \| `"pull-back"` | `"translate-back"` | fixed-base strategy (also of a free chain's held sides) |
 //! | `tolerance` | number in (0, 0.1] | 1e-9 | fixed-base tolerance, fraction of the total length |
-//! | `max_iterations` | integer 1..=100000 | 1000 | fixed-base iteration limit |
+//! | `max_iterations` | integer 1..=100000 | 1000 (64 with joint limits) | fixed-base iteration limit |
 //! | `min_bend_radius` | positive length | – | a rope's bend radius: a cone `2·atan(L / 2R)` at each joint (`L` its shorter link) |
 //! | `max_bend` / `max_bends` | degrees in [0, 180] / list of `links + 1` | – | a cone at every joint / per joint (the ends' entries are ignored) |
 //! | `joint_range` / `joint_ranges` | `[lo, hi]` degrees / list of `links + 1` pairs | – | signed range of every joint / per joint; planar chains only |

@@ -705,6 +705,22 @@ fn chain(
     let max_iterations = f.count_or(&c.max_iterations, "max_iterations", 1, 100_000, 1000)?;
     let collision = collision(&f, scheme, kind, thickness, obstacles, instruments)?;
     let limits = limits(&f, &points, &lengths)?;
+    // With joint limits the reach hierarchy cannot finish a slow iteration (its pose is kept only when
+    // it lands within them), so a held side may iterate to the limit, each pass with a try of the
+    // hierarchy: a smaller default keeps a held move within the service's budget.
+    let max_iterations = if c.max_iterations.is_none() && limits.is_some() {
+        LIMITED_MAX_ITERATIONS
+    } else {
+        max_iterations
+    };
+    let reach = ReachOptions {
+        strategy,
+        method,
+        substeps: 1,
+        tolerance,
+        max_iterations,
+        ..ReachOptions::default()
+    };
     Ok(ChainSpec {
         name: name.clone(),
         kind,
@@ -723,18 +739,15 @@ fn chain(
             method,
             substeps,
             max_substeps,
-            ..MoveOptions::default()
+            // The sides up to a held joint are solved with the chain's fixed-base options.
+            held: reach,
         },
-        reach: ReachOptions {
-            strategy,
-            method,
-            substeps: 1,
-            tolerance,
-            max_iterations,
-            ..ReachOptions::default()
-        },
+        reach,
     })
 }
+
+/// The default `max_iterations` of a chain with joint limits.
+const LIMITED_MAX_ITERATIONS: u32 = 64;
 
 /// The chain's joint limits (at most one of the limit fields), in radians; the initial pose must lie
 /// within them.
