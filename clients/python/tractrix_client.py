@@ -140,6 +140,15 @@ for _t, (_size, _offsets) in _LAYOUT.items():
 INSTRUMENT_ELEMENTS = 3
 
 
+LIMITS = {1: "bend-radius", 2: "cone", 3: "cones", 4: "ranges"}
+
+
+def limits(h: ResponseHeader) -> dict:
+    """A describe's joint limits: the kind and its value (a bend radius in length units; a cone's angle,
+    the widest cone or the widest range's width in radians)."""
+    return {"kind": LIMITS.get(h.limits, f"limits-{h.limits}"), "value": h.limit_value}
+
+
 def instruments(h: ResponseHeader, elements: list) -> list[dict]:
     """The chain's instruments in a response: each {"shape": "sphere" | "capsule", "a", "b", "radius"}
     (a sphere has a == b, its centre)."""
@@ -379,6 +388,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if a.cmd == "describe":
         out["name"] = _text(h.name)
         out["total_length"] = h.total_length
+        if h.limits:
+            out["limits"] = limits(h)
     if a.cmd == "reach":
         out["residual"] = h.residual
     print(json.dumps(out))
