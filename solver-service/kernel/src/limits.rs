@@ -302,6 +302,49 @@ impl<T: Real> JointLimits<T> {
     }
 }
 
+/// Turns link `i` of `links` back into its joint's limit, as a sweep outward from a fixed joint places
+/// it: toward the head (`head_side`) about link `i − 1` (joint `i`), toward the tail about link `i + 1`
+/// (joint `i + 1`). Nothing without limits or at an end. For solvers that place links one after the
+/// other (collision passes).
+pub(crate) fn turn_back<T: Real, const D: usize>(
+    limits: Option<&JointLimits<T>>,
+    links: &mut [Vector<T, D>],
+    lengths: &[T],
+    i: usize,
+    head_side: bool,
+) where
+    Vector<T, D>: Embed3<T>,
+{
+    let Some(lim) = limits else {
+        return;
+    };
+    if head_side {
+        if i > 0
+            && let Some(c) = lim.clamp(
+                i,
+                &links[i - 1],
+                lengths[i - 1],
+                &links[i],
+                lengths[i],
+                false,
+            )
+        {
+            links[i] = c;
+        }
+    } else if i + 1 < links.len()
+        && let Some(c) = lim.clamp(
+            i + 1,
+            &(-links[i + 1]),
+            lengths[i + 1],
+            &(-links[i]),
+            lengths[i],
+            true,
+        )
+    {
+        links[i] = -c;
+    }
+}
+
 /// A unit vector perpendicular to the unit `a` (in the plane for a planar chain), the same for the same `a`.
 fn perpendicular<T: Real, const D: usize>(a: &Vector<T, D>) -> Vector<T, D>
 where

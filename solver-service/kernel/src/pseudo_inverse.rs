@@ -53,15 +53,7 @@ pub fn reach_dls<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    if !all_finite(target) {
-        return Err(ChainError::NonFinite.into());
-    }
-    let base = chain.origin();
-    let (nearest, residual) =
-        nearest_reachable(&base, chain.lengths(), target, &(chain.head() - base));
-    if residual > T::zero() {
-        return Err(ReachError::Unreachable { nearest, residual });
-    }
+    check_target(chain, target)?;
     let backup: Vec<_> = chain.links().to_vec();
     let backup_datum = chain.datum();
     let total = chain.total_length();
@@ -109,13 +101,7 @@ where
             *l = Vector::<T, D>::from_3d(&(nl * (len / nl.norm())));
         }
     }
-    let residual = (chain.head() - target).norm();
-    chain.links_mut().copy_from_slice(&backup);
-    chain.place_origin_from(backup_datum.0, backup_datum.1);
-    Err(ReachError::NotConverged {
-        iterations: opts.max_iterations,
-        residual,
-    })
+    give_up(chain, target, &backup, backup_datum, opts.max_iterations)
 }
 
 /// How the damped-least-squares baseline honours a planar chain's joint ranges (Korein & Badler,
@@ -150,15 +136,7 @@ pub fn reach_dls_ranges<T: Real>(
     handling: RangeHandling<T>,
 ) -> Result<ReachOutcome<T>, ReachError<T, 2>> {
     use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
-    if !all_finite(target) {
-        return Err(ChainError::NonFinite.into());
-    }
-    let base = chain.origin();
-    let (nearest, residual) =
-        nearest_reachable(&base, chain.lengths(), target, &(chain.head() - base));
-    if residual > T::zero() {
-        return Err(ReachError::Unreachable { nearest, residual });
-    }
+    check_target(chain, target)?;
     let n = chain.n_links();
     let (lo, hi): (Vec<T>, Vec<T>) = match chain.joint_limits() {
         Some(l) if l.kind() == crate::LimitKind::Range => {
@@ -220,7 +198,7 @@ pub fn reach_dls_ranges<T: Real>(
             // ∂H/∂(pivot j) = ∂H/∂q_j.
             let mut grad = DVector::<T>::zeros(n);
             for j in 1..n {
-                let q = wrap(a[j] - a[j - 1]);
+                let q = crate::angles::wrap_angle(a[j] - a[j - 1]);
                 let (l, h) = (lo[j], hi[j]);
                 if h - l >= T::two_pi() - T::lit(1e-12) {
                     continue;
@@ -255,7 +233,7 @@ pub fn reach_dls_ranges<T: Real>(
             // with them) and are frozen while the error pushes them out; a frozen joint whose pivot
             // the unfrozen solve would turn back inside is released.
             for j in 1..n {
-                let q = wrap(a[j] - a[j - 1]);
+                let q = crate::angles::wrap_angle(a[j] - a[j - 1]);
                 let clamped = q.max(lo[j]).min(hi[j]);
                 if clamped != q {
                     let fix = clamped - q;
@@ -277,23 +255,45 @@ pub fn reach_dls_ranges<T: Real>(
         }
         put(chain, &a);
     }
-    let residual = (chain.head() - target).norm();
-    chain.links_mut().copy_from_slice(&backup);
-    chain.place_origin_from(backup_datum.0, backup_datum.1);
-    Err(ReachError::NotConverged {
-        iterations: opts.max_iterations,
-        residual,
-    })
+    give_up(chain, target, &backup, backup_datum, opts.max_iterations)
 }
 
-/// An angle wrapped into (−π, π].
-fn wrap<T: Real>(a: T) -> T {
-    let two_pi = T::two_pi();
-    let mut x = a % two_pi;
-    if x > T::pi() {
-        x -= two_pi;
-    } else if x <= -T::pi() {
-        x += two_pi;
+/// The checks both solvers start with: a finite target inside the (unlimited) workspace.
+fn check_target<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    target: &Vector<T, D>,
+) -> Result<(), ReachError<T, D>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if !all_finite(target) {
+        return Err(ChainError::NonFinite.into());
     }
-    x
+    let base = chain.origin();
+    let (nearest, residual) =
+        nearest_reachable(&base, chain.lengths(), target, &(chain.head() - base));
+    if residual > T::zero() {
+        return Err(ReachError::Unreachable { nearest, residual });
+    }
+    Ok(())
+}
+
+/// Puts the chain back as it was and reports how far off the last iteration left the head.
+fn give_up<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    target: &Vector<T, D>,
+    backup: &[Vector<T, D>],
+    datum: (usize, Vector<T, D>),
+    iterations: u32,
+) -> Result<ReachOutcome<T>, ReachError<T, D>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let residual = (chain.head() - target).norm();
+    chain.links_mut().copy_from_slice(backup);
+    chain.place_origin_from(datum.0, datum.1);
+    Err(ReachError::NotConverged {
+        iterations,
+        residual,
+    })
 }

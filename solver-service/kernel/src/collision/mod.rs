@@ -636,19 +636,7 @@ fn restraighten<T: Real, const D: usize>(
             links[i] = d * (lengths[i] / n);
         }
         // With limits each link is turned back into its joint's limit about the link before it.
-        if let Some(lim) = limits
-            && i > 0
-            && let Some(c) = lim.clamp(
-                i,
-                &links[i - 1],
-                lengths[i - 1],
-                &links[i],
-                lengths[i],
-                false,
-            )
-        {
-            links[i] = c;
-        }
+        crate::limits::turn_back(limits, links, lengths, i, true);
         pos[i + 1] = pos[i] + links[i];
     }
     for i in (0..m).rev() {
@@ -657,19 +645,7 @@ fn restraighten<T: Real, const D: usize>(
         if positive_finite(n) {
             links[i] = d * (lengths[i] / n);
         }
-        if let Some(lim) = limits
-            && i + 1 < links.len()
-            && let Some(c) = lim.clamp(
-                i + 1,
-                &(-links[i + 1]),
-                lengths[i + 1],
-                &(-links[i]),
-                lengths[i],
-                true,
-            )
-        {
-            links[i] = -c;
-        }
+        crate::limits::turn_back(limits, links, lengths, i, false);
         pos[i] = pos[i + 1] - links[i];
     }
 }

@@ -123,19 +123,7 @@ where
             if positive_finite(len) {
                 links[i] = d * (lengths[i] / len);
             }
-            if let Some(lim) = limits
-                && i > 0
-                && let Some(c) = lim.clamp(
-                    i,
-                    &links[i - 1],
-                    lengths[i - 1],
-                    &links[i],
-                    lengths[i],
-                    false,
-                )
-            {
-                links[i] = c;
-            }
+            crate::limits::turn_back(limits, links, lengths, i, true);
             pos[i + 1] = pos[i] + links[i];
         }
         for i in (0..first).rev() {
@@ -144,19 +132,7 @@ where
             if positive_finite(len) {
                 links[i] = d * (lengths[i] / len);
             }
-            if let Some(lim) = limits
-                && i + 1 < n
-                && let Some(c) = lim.clamp(
-                    i + 1,
-                    &(-links[i + 1]),
-                    lengths[i + 1],
-                    &(-links[i]),
-                    lengths[i],
-                    true,
-                )
-            {
-                links[i] = -c;
-            }
+            crate::limits::turn_back(limits, links, lengths, i, false);
             pos[i] = pos[i + 1] - links[i];
         }
     }
