@@ -252,6 +252,13 @@ fn ranged_reach() {
     );
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
     let targets = arm_targets(500, 0x7A);
+    let arm = |limited: bool| {
+        let mut c = Chain::<f64, 2>::straight(10, 0.2, Vector2::zeros(), Vector2::x()).unwrap();
+        if limited {
+            c.set_limits(Some(arm_limits())).unwrap();
+        }
+        c
+    };
     for (name, handling) in [
         (
             "DLS (pseudo-inverse), penalty",
@@ -263,38 +270,14 @@ fn ranged_reach() {
         ),
         ("DLS (pseudo-inverse)", None),
     ] {
-        let mut c = Chain::<f64, 2>::straight(10, 0.2, Vector2::zeros(), Vector2::x()).unwrap();
-        if handling.is_some() {
-            c.set_limits(Some(arm_limits())).unwrap();
-        }
         let opts = DlsOptions::default();
-        let (mut ok, mut iters, mut max_it, mut beyond) = (0, 0u64, 0u32, 0);
-        let mut times = Vec::new();
-        for t in &targets {
-            let s = Instant::now();
-            let r = reach_dls_ranges(
-                &mut c,
-                t,
-                &opts,
-                handling.unwrap_or(RangeHandling::Penalty { gain: 0.0 }),
-            );
-            times.push(s.elapsed().as_nanos() as f64);
-            if let Ok(o) = r {
-                ok += 1;
-                iters += o.iterations as u64;
-                max_it = max_it.max(o.iterations);
-                if worst_excess(&c) > 1e-9 {
-                    beyond += 1;
-                }
-            }
-        }
-        println!(
-            "| {name} | {} | {ok} | {} | {:.1} | {max_it} | {beyond} | {:.1} | {:.1} |",
-            if handling.is_some() { "yes" } else { "no" },
-            targets.len() - ok,
-            iters as f64 / ok.max(1) as f64,
-            pct(&mut times, 0.5) / 1e3,
-            pct(&mut times, 0.99) / 1e3
+        let handling_or_none = handling.unwrap_or(RangeHandling::Penalty { gain: 0.0 });
+        solve_all(
+            name,
+            handling.is_some(),
+            arm(handling.is_some()),
+            &targets,
+            |c, t| reach_dls_ranges(c, t, &opts, handling_or_none).map(|o| o.iterations),
         );
     }
     for (name, strategy) in [
@@ -303,40 +286,49 @@ fn ranged_reach() {
         ("two-link", Strategy::TractrixTwoLink),
     ] {
         for limited in [false, true] {
-            let mut c = Chain::<f64, 2>::straight(10, 0.2, Vector2::zeros(), Vector2::x()).unwrap();
-            if limited {
-                c.set_limits(Some(arm_limits())).unwrap();
-            }
             let opts = ReachOptions {
                 strategy,
                 ..ReachOptions::default()
             };
             let mut ws = ReachWorkspace::default();
-            let (mut ok, mut iters, mut max_it, mut beyond) = (0, 0u64, 0u32, 0);
-            let mut times = Vec::new();
-            for t in &targets {
-                let s = Instant::now();
-                let r = reach(&mut c, t, &opts, &mut ws);
-                times.push(s.elapsed().as_nanos() as f64);
-                if let Ok(o) = r {
-                    ok += 1;
-                    iters += o.iterations as u64;
-                    max_it = max_it.max(o.iterations);
-                    if worst_excess(&c) > 1e-9 {
-                        beyond += 1;
-                    }
-                }
-            }
-            println!(
-                "| {name} | {} | {ok} | {} | {:.1} | {max_it} | {beyond} | {:.1} | {:.1} |",
-                if limited { "yes" } else { "no" },
-                targets.len() - ok,
-                iters as f64 / ok.max(1) as f64,
-                pct(&mut times, 0.5) / 1e3,
-                pct(&mut times, 0.99) / 1e3
-            );
+            solve_all(name, limited, arm(limited), &targets, |c, t| {
+                reach(c, t, &opts, &mut ws).map(|o| o.iterations)
+            });
         }
     }
+}
+
+/// Solves the targets in sequence with `solve` (its iterations, or an error) and prints the row.
+fn solve_all<E>(
+    name: &str,
+    ranges: bool,
+    mut c: Chain<f64, 2>,
+    targets: &[Vector2<f64>],
+    mut solve: impl FnMut(&mut Chain<f64, 2>, &Vector2<f64>) -> Result<u32, E>,
+) {
+    let (mut ok, mut iters, mut max_it, mut beyond) = (0, 0u64, 0u32, 0);
+    let mut times = Vec::new();
+    for t in targets {
+        let s = Instant::now();
+        let r = solve(&mut c, t);
+        times.push(s.elapsed().as_nanos() as f64);
+        if let Ok(it) = r {
+            ok += 1;
+            iters += it as u64;
+            max_it = max_it.max(it);
+            if worst_excess(&c) > 1e-9 {
+                beyond += 1;
+            }
+        }
+    }
+    println!(
+        "| {name} | {} | {ok} | {} | {:.1} | {max_it} | {beyond} | {:.1} | {:.1} |",
+        if ranges { "yes" } else { "no" },
+        targets.len() - ok,
+        iters as f64 / ok.max(1) as f64,
+        pct(&mut times, 0.5) / 1e3,
+        pct(&mut times, 0.99) / 1e3
+    );
 }
 
 fn main() {
