@@ -644,14 +644,57 @@ pub fn replay(
 
 /// Queries chain `chain` and names the knot tied in it.
 pub fn knot_of(conn: &mut Connection, chain: u32) -> anyhow::Result<tractrix::knot::KnotReport> {
+    Ok(tractrix::knot::identify(&joints_of(conn, chain)?))
+}
+
+/// The chain's joints as the service has them now.
+fn joints_of(conn: &mut Connection, chain: u32) -> anyhow::Result<Vec<nalgebra::Vector3<f64>>> {
     let r = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
     anyhow::ensure!(r.is_ok(), "query refused: {}", r.header.reason_str());
-    let pts: Vec<_> = r
-        .joints()
+    Ok(r.joints()
         .iter()
         .map(|p| nalgebra::Vector3::new(p.x, p.y, p.z))
-        .collect();
-    Ok(tractrix::knot::identify(&pts))
+        .collect())
+}
+
+/// Cuts tried by [`series_of`].
+const SERIES_CUTS: usize = 24;
+
+/// Whether the chain's knot is two knots one after the other ([`tractrix::knot::in_series`]), for the
+/// knots of two throws (square, granny, surgeon's, other); `None` for the others.
+pub fn series_of(
+    conn: &mut Connection,
+    chain: u32,
+    knot: &tractrix::knot::KnotReport,
+) -> anyhow::Result<Option<Option<tractrix::knot::Series>>> {
+    use tractrix::knot::KnotType;
+    if matches!(
+        knot.kind,
+        KnotType::Unknot | KnotType::Trefoil | KnotType::DoubleOverhand
+    ) {
+        return Ok(None);
+    }
+    Ok(Some(tractrix::knot::in_series(
+        &joints_of(conn, chain)?,
+        SERIES_CUTS,
+    )))
+}
+
+/// One line saying how a two-throw knot lies along the rope, as the tools print it.
+pub fn series_line(s: &Option<tractrix::knot::Series>) -> String {
+    match s {
+        Some(s) => format!(
+            "in series: {} in joints 0..={} and {} from joint {} on: two knots one after the other, \
+             not one knot whose strands hold each other",
+            s.first.kind.name(),
+            s.cut,
+            s.second.kind.name(),
+            s.cut
+        ),
+        None => format!(
+            "in series: no: no cut of the {SERIES_CUTS} tried leaves a knot in each half (the strands hold each other)"
+        ),
+    }
 }
 
 /// One line describing a knot report, as the tools print it.

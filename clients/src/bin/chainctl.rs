@@ -241,9 +241,20 @@ fn run(a: Args) -> Result<u8> {
             bail!("which chain?");
         };
         let k = clients::hand::knot_of(&mut conn, id)?;
+        let series = clients::hand::series_of(&mut conn, id, &k)?;
         if a.json {
+            let series_json = match &series {
+                None => String::new(),
+                Some(None) => ",\"in_series\":null".to_string(),
+                Some(Some(s)) => format!(
+                    ",\"in_series\":{{\"cut\":{},\"first\":\"{}\",\"second\":\"{}\"}}",
+                    s.cut,
+                    s.first.kind.name(),
+                    s.second.kind.name()
+                ),
+            };
             println!(
-                "{{\"knot\":\"{}\",\"closures_agreeing\":{},\"closures\":{},\"crossings\":{},\"writhe\":{},\"determinant\":{}}}",
+                "{{\"knot\":\"{}\",\"closures_agreeing\":{},\"closures\":{},\"crossings\":{},\"writhe\":{},\"determinant\":{}{series_json}}}",
                 k.kind.name(),
                 k.agreeing,
                 k.closures,
@@ -253,6 +264,9 @@ fn run(a: Args) -> Result<u8> {
             );
         } else {
             println!("{}", clients::hand::knot_line(&k));
+            if let Some(s) = &series {
+                println!("{}", clients::hand::series_line(s));
+            }
         }
         return Ok(0);
     }

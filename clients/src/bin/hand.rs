@@ -14,7 +14,9 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use clients::hand::{HandConfig, knot_line, knot_of, read_records, replay, run_hand};
+use clients::hand::{
+    HandConfig, knot_line, knot_of, read_records, replay, run_hand, series_line, series_of,
+};
 use clients::render::{Frame, Polyline, View, write_frames_svg};
 use clients::script::{BUILTINS, Script};
 use clients::{ConnectOptions, Connection};
@@ -233,7 +235,11 @@ fn run(a: Args) -> Result<u8> {
                 let id = conn
                     .find_chain(&name)?
                     .with_context(|| format!("no chain {name:?}"))?;
-                println!("{}", knot_line(&knot_of(&mut conn, id)?));
+                let k = knot_of(&mut conn, id)?;
+                println!("{}", knot_line(&k));
+                if let Some(s) = series_of(&mut conn, id, &k)? {
+                    println!("{}", series_line(&s));
+                }
             }
             Ok(if r.refused.is_empty() { 0 } else { 1 })
         }

@@ -167,6 +167,50 @@ pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
     }
 }
 
+/// Two knots one after the other along the rope, found by [`in_series`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    /// The joint where the rope was cut (each half keeps it).
+    pub cut: usize,
+    /// The knot in joints `0..=cut`.
+    pub first: KnotReport,
+    /// The knot in joints `cut..`.
+    pub second: KnotReport,
+}
+
+/// Whether the rope's knot lies along it as two knots in series: a joint where the rope can be cut so
+/// that each half, closed away from the cut as [`identify`] closes a rope, is knotted by itself (two
+/// stoppers, one in each end, rather than one knot whose strands hold each other). The cuts tried are
+/// `cuts` joints spread evenly between a fifth and four fifths of the rope (at most one per joint); the
+/// first cut whose two halves are both knotted is returned, `None` when no cut tried makes two
+/// knots. A square or granny knot tied as a knot-tier ties it (the strands round each other) has no
+/// such cut: each half alone is unknotted. Each cut costs two identifications: a tool, not for the
+/// per-move path.
+pub fn in_series(points: &[Vector3<f64>], cuts: usize) -> Option<Series> {
+    let n = points.len();
+    if n < 8 || cuts == 0 {
+        return None;
+    }
+    let (lo, hi) = (n / 5, 4 * n / 5);
+    let mut last = usize::MAX;
+    for k in 0..cuts {
+        let cut = lo + (hi - lo) * k / cuts.max(2).saturating_sub(1).max(1);
+        if cut == last || cut >= n - 1 {
+            continue;
+        }
+        last = cut;
+        let first = identify(&points[..=cut]);
+        if matches!(first.kind, KnotType::Unknot) {
+            continue;
+        }
+        let second = identify(&points[cut..]);
+        if !matches!(second.kind, KnotType::Unknot) {
+            return Some(Series { cut, first, second });
+        }
+    }
+    None
+}
+
 /// Six closure directions spread over the sphere, none along an axis (ropes are often laid out along
 /// axes, and an axis-aligned closure would run along the rope).
 fn closure_directions() -> impl Iterator<Item = Vector3<f64>> {

@@ -477,7 +477,8 @@ fn the_overhand_is_tied_on_the_papers_rope_held_at_its_tail() {
 /// B's throw is a right trefoil; A's mirrors it for the square knot and repeats it for the granny.
 /// In every published state one end at most has moved (bit for bit) since the state before, so the
 /// hand that waits holds its end still while the other moves; no state lets the rope through itself;
-/// the knot, named by the identification, lies around the middle of the rope.
+/// the knot, named by the identification, lies around the middle of the rope. And it is what a
+/// knot-tier would call two overhands in series (issue 34): a cut leaves a trefoil in each half.
 #[test]
 fn two_hands_tie_the_square_and_granny_on_the_papers_rope_both_ends_held() {
     let svc = knot_service();
@@ -523,6 +524,36 @@ fn two_hands_tie_the_square_and_granny_on_the_papers_rope_both_ends_held() {
             assert!(k.writhe.abs() <= 2, "{script}: {k:?}");
         }
         assert_knot_near_the_middle(&svc, id, 40);
+        // What these scripts tie, as a knot-tier would see it (issue 34): two overhands one after the
+        // other, each hand's in its own end, not one knot whose strands hold each other. The tests'
+        // own determinant finds a cut with a trefoil (3) in each half, and the identification's
+        // `in_series` reports the same; a reef tied round itself would have neither.
+        let joints: Vec<[f64; 3]> = svc
+            .connect()
+            .call(RequestHeader::new(Command::Query, id), &[])
+            .unwrap()
+            .joints()
+            .iter()
+            .map(|q| [q.x, q.y, q.z])
+            .collect();
+        let own_cut = (8..=32).find(|&k| {
+            tests::knot_check::determinant(&joints[..=k]).0 == 3
+                && tests::knot_check::determinant(&joints[k..]).0 == 3
+        });
+        assert!(
+            own_cut.is_some(),
+            "{script}: no cut leaves a trefoil in each half"
+        );
+        let mut c = svc.connect();
+        let series = clients::hand::series_of(&mut c, id, &k).unwrap();
+        let Some(Some(s)) = series else {
+            panic!("{script}: the identification finds no two knots in series: {series:?}");
+        };
+        assert_eq!(
+            (s.first.kind, s.second.kind),
+            (KnotType::Trefoil, KnotType::Trefoil),
+            "{script}: {s:?}"
+        );
     }
 }
 

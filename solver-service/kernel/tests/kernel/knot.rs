@@ -293,3 +293,30 @@ fn hand_built_surgeons_knot_and_its_granny_form() {
     check(&two_knots(1.0, -1.0), KnotType::Square, "square");
     check(&two_knots(1.0, 1.0), KnotType::Granny, "granny");
 }
+
+/// The square and granny of two trefoils tied one after the other are found in series: a cut leaves
+/// a trefoil in each half (of the hands they were tied with); a single trefoil, the spiral and a
+/// straight rope have no such cut. (A reef tied round itself, whose halves are unknotted, is not built
+/// here; the check of a half is the same `identify`.)
+#[test]
+fn knots_in_series_are_found_and_single_knots_are_not() {
+    use tractrix::knot::in_series as series;
+    for (first, second) in [(1.0, -1.0), (1.0, 1.0), (-1.0, -1.0)] {
+        let rope = two_knots(first, second);
+        let s = series(&rope, 24).expect("two knots in series");
+        assert_eq!(s.first.kind, KnotType::Trefoil, "{s:?}");
+        assert_eq!(s.second.kind, KnotType::Trefoil, "{s:?}");
+        // The writhes say the hands: opposite for the square, equal for the granny.
+        assert_eq!(
+            s.first.writhe.signum() == s.second.writhe.signum(),
+            first == second,
+            "{s:?}"
+        );
+        // The cut lies between the two knots (each made of 150 samples plus its run-out).
+        assert!(s.cut > 100 && s.cut < rope.len() - 100, "cut at {}", s.cut);
+    }
+    assert!(series(&overhand(0.0, 1.0, 150), 24).is_none());
+    assert!(series(&unknotted_curl(300), 24).is_none());
+    let straight: Vec<V> = (0..60).map(|i| V::new(i as f64, 0.0, 0.0)).collect();
+    assert!(series(&straight, 24).is_none());
+}
