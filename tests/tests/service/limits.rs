@@ -258,3 +258,35 @@ fn bad_limits_in_a_scene_name_the_line_and_the_field() {
         assert!(e.contains("bad.toml:"), "{e}");
     }
 }
+
+/// A solve that does not steer the limits is refused when it would break one: the two-link strategy's
+/// closed form places the arm's first two links without the cones, so a reach whose elbow the cone
+/// forbids is refused as `joint-limit`, with the joint in the reason, and the arm is unchanged.
+#[test]
+fn a_reach_that_would_break_a_cone_is_refused() {
+    let scene = "[[chain]]\nname = \"arm\"\nkind = \"fixed-base\"\nlinks = 6\nlink_length = 0.5\n\
+                 strategy = \"two-link\"\nmax_bend = 20\n";
+    let svc = InProcess::start_scene(parse_scene(scene, "arm.toml").unwrap());
+    let mut c = svc.connect();
+    let head = shared::JOINT_HEAD;
+    let before = c.call(req(Command::Query, 0, head), &[]).unwrap();
+    let r = c
+        .call(req(Command::Reach, 0, head), &[Vec3::new(0.5, 1.0, 0.0)])
+        .unwrap();
+    assert_eq!(
+        Status::from_u32(r.header.status),
+        Some(Status::JointLimit),
+        "{}",
+        r.header.reason_str()
+    );
+    assert!(
+        r.header.reason_str().contains("joint"),
+        "{}",
+        r.header.reason_str()
+    );
+    let after = c.call(req(Command::Query, 0, head), &[]).unwrap();
+    assert_eq!(
+        after.payload, before.payload,
+        "a refused reach changed the arm"
+    );
+}

@@ -643,11 +643,16 @@ fn every_error_leaves_the_state_unchanged() {
     }
     // Every error status a request can cause is covered (PersistenceFailed and Internal need faults;
     // Locked needs a chain with collision, which the default scene has none of: the end-to-end test
-    // `tools::a_hand_driven_into_an_obstacle_is_locked_and_changes_nothing` covers it on its own scene).
+    // `tools::a_hand_driven_into_an_obstacle_is_locked_and_changes_nothing` covers it on its own scene;
+    // JointLimit needs a chain with joint limits: `limits::a_reach_that_would_break_a_cone_is_refused`).
     for s in Status::ALL {
         if !matches!(
             s,
-            Status::Ok | Status::PersistenceFailed | Status::Internal | Status::Locked
+            Status::Ok
+                | Status::PersistenceFailed
+                | Status::Internal
+                | Status::Locked
+                | Status::JointLimit
         ) {
             assert!(seen.contains(&(s as u32)), "no case for {s:?}");
         }
