@@ -169,6 +169,8 @@ pub fn nearest_reachable<T: Real, const D: usize>(
 #[derive(Clone, Debug, Default)]
 pub struct ReachWorkspace<T: Real, const D: usize> {
     backup: Vec<Vector<T, D>>,
+    /// The tractrix pose kept while a hierarchy's pose is tried against the joint limits.
+    trial: Vec<Vector<T, D>>,
 }
 
 /// Moves the head of the fixed-base `chain` to `target`, keeping joint 0 where it is.
@@ -205,10 +207,10 @@ where
     ws.backup.extend_from_slice(chain.links());
     let backup_datum = chain.datum();
     let result = match opts.strategy {
-        Strategy::TranslateBack => translate_back(chain, target, opts, tol, false),
-        Strategy::PullBack => translate_back(chain, target, opts, tol, true),
+        Strategy::TranslateBack => translate_back(chain, target, opts, tol, false, &mut ws.trial),
+        Strategy::PullBack => translate_back(chain, target, opts, tol, true, &mut ws.trial),
         Strategy::TractrixTwoLink if chain.n_links() >= 3 => {
-            tractrix_two_link(chain, target, opts, tol)
+            tractrix_two_link(chain, target, opts, tol, &mut ws.trial)
         }
         // With one or two links there is nothing for the tractrix to do: the closed form alone.
         Strategy::TractrixTwoLink => {
@@ -246,6 +248,7 @@ fn translate_back<T: Real, const D: usize>(
     opts: &ReachOptions<T>,
     tol: T,
     pull: bool,
+    trial: &mut Vec<Vector<T, D>>,
 ) -> Result<ReachOutcome<T>, ReachError<T, D>>
 where
     Vector<T, D>: Embed3<T>,
@@ -267,7 +270,7 @@ where
                 residual,
             });
         }
-        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual) {
+        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, trial) {
             return Ok(done);
         }
         // A chain lying straight along the line of the correction is pushed (or pulled) rigidly: an
@@ -297,6 +300,7 @@ fn tractrix_two_link<T: Real, const D: usize>(
     target: &Vector<T, D>,
     opts: &ReachOptions<T>,
     tol: T,
+    trial: &mut Vec<Vector<T, D>>,
 ) -> Result<ReachOutcome<T>, ReachError<T, D>>
 where
     Vector<T, D>: Embed3<T>,
@@ -311,7 +315,7 @@ where
                 residual,
             });
         }
-        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual) {
+        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, trial) {
             return Ok(done);
         }
         // Tractrix of links 3..n with the head moving straight to the target; joint 2 follows.
@@ -338,6 +342,7 @@ fn hierarchy_if_due<T: Real, const D: usize>(
     tol: T,
     it: u32,
     residual: &mut T,
+    trial: &mut Vec<Vector<T, D>>,
 ) -> Option<ReachOutcome<T>>
 where
     Vector<T, D>: Embed3<T>,
@@ -348,7 +353,8 @@ where
     if chain.joint_limits().is_some() {
         // The hierarchy places links without the limits: its pose is taken only when it lands within
         // them; otherwise the tractrix pose stays and the iteration goes on.
-        let before = chain.links().to_vec();
+        trial.clear();
+        trial.extend_from_slice(chain.links());
         reach_hierarchy(chain, target);
         let landed = (chain.head() - target).norm();
         // Within the limits to rounding, as a clamped link is (not merely within the tolerance a
@@ -361,7 +367,7 @@ where
                 residual: landed,
             });
         }
-        chain.links_mut().copy_from_slice(&before);
+        chain.links_mut().copy_from_slice(trial);
         return None;
     }
     reach_hierarchy(chain, target);
