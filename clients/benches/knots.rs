@@ -362,6 +362,22 @@ fn start_rope(n: usize, arc: bool) -> Chain<f64, 3> {
     Chain::from_points(&points).expect("rope")
 }
 
+/// The rope's collision (capsules of the rope's thickness) and, with `r_min`, its bend radius.
+fn rope_model(chain: &mut Chain<f64, 3>, r_min: Option<f64>) -> CollisionModel<f64, 3> {
+    if let Some(r) = r_min {
+        let lim = tractrix::JointLimits::bend_radius(chain.lengths(), r).expect("a bend radius");
+        chain.set_limits(Some(lim)).expect("limits for the rope");
+    }
+    CollisionModel {
+        options: CollisionOptions {
+            thickness: THICKNESS,
+            ..CollisionOptions::default()
+        },
+        obstacles: vec![],
+        holding: Vec::new(),
+    }
+}
+
 /// Ties `knot` on `n` links as `ends` says; `radius` replaces the fed loops' radius; `r_min` gives the
 /// rope a minimum bend radius (cones of `2 atan(L / 2 r_min)` at its joints, `tractrix::limits`).
 #[allow(clippy::too_many_arguments)]
@@ -376,18 +392,7 @@ fn tie(
 ) -> Outcome {
     let u = ends.u();
     let mut chain = start_rope(n, u);
-    if let Some(r) = r_min {
-        let lim = tractrix::JointLimits::bend_radius(chain.lengths(), r).expect("a bend radius");
-        chain.set_limits(Some(lim)).expect("limits for the rope");
-    }
-    let model = CollisionModel {
-        options: CollisionOptions {
-            thickness: THICKNESS,
-            ..CollisionOptions::default()
-        },
-        obstacles: vec![],
-        holding: Vec::new(),
-    };
+    let model = rope_model(&mut chain, r_min);
     let mut ws = CollisionWorkspace::new();
     let mut opts = MoveOptions::default();
     if ends.pull() {
@@ -664,18 +669,7 @@ fn tie_path(n: usize, r_min: Option<f64>, shape: PathShape, rng: &mut Rng) -> Ou
         tangent(t0),
     )
     .expect("rope");
-    if let Some(r) = r_min {
-        let lim = tractrix::JointLimits::bend_radius(chain.lengths(), r).expect("a bend radius");
-        chain.set_limits(Some(lim)).expect("limits for the rope");
-    }
-    let model = CollisionModel {
-        options: CollisionOptions {
-            thickness: THICKNESS,
-            ..CollisionOptions::default()
-        },
-        obstacles: vec![],
-        holding: Vec::new(),
-    };
+    let model = rope_model(&mut chain, r_min);
     let mut ws = CollisionWorkspace::new();
     let opts = MoveOptions::default();
     let (mut refused, mut times) = (0, Vec::with_capacity(path.len()));

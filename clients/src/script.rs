@@ -1125,19 +1125,7 @@ fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
     if th.lobe {
         return lobe_path(start, th);
     }
-    // A right-handed frame (u, v, u × v) turns the trefoil's own axes onto the throw's: a rotation, so
-    // handedness is kept whatever the outward direction.
-    let u = scale(th.outward, 1.0 / norm(th.outward));
-    let helper = if u[2].abs() < 0.9 {
-        [0.0, 0.0, 1.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let v = {
-        let c = cross(helper, u);
-        scale(c, 1.0 / norm(c))
-    };
-    let w = cross(u, v);
+    let [u, v, w] = throw_frame(th.outward);
     let mirror = if th.handedness == Handedness::Right {
         -1.0
     } else {
@@ -1179,6 +1167,22 @@ fn throw_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
     out
 }
 
+/// A throw's right-handed unit frame (u, v, u × v), u along `outward`: a rotation, so the trefoil's
+/// handedness is kept whatever the outward direction.
+fn throw_frame(outward: [f64; 3]) -> [[f64; 3]; 3] {
+    let u = scale(outward, 1.0 / norm(outward));
+    let helper = if u[2].abs() < 0.9 {
+        [0.0, 0.0, 1.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let v = {
+        let c = cross(helper, u);
+        scale(c, 1.0 / norm(c))
+    };
+    [u, v, cross(u, v)]
+}
+
 /// A [`Throw`] with `lobe`: the trefoil from just past one lobe's tip round to just before it
 /// (parameter π + 0.2 to 3π − 0.2), turned so that the entering tangent points along `outward`, one
 /// unit ahead of the hand, then `exit` units on along the leaving tangent.
@@ -1209,17 +1213,7 @@ fn lobe_path(start: [f64; 3], th: &Throw) -> Vec<[f64; 3]> {
         scale(n, 1.0 / norm(n))
     };
     let b_local = cross(t_local, n_local);
-    let u = scale(th.outward, 1.0 / norm(th.outward));
-    let helper = if u[2].abs() < 0.9 {
-        [0.0, 0.0, 1.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let v = {
-        let c = cross(helper, u);
-        scale(c, 1.0 / norm(c))
-    };
-    let w = cross(u, v);
+    let [u, v, w] = throw_frame(th.outward);
     let origin = at(t0);
     let world = |p: [f64; 3]| {
         let q = sub(p, origin);
