@@ -196,8 +196,9 @@ pub struct Chain<T: Real, const D: usize> {
     min_length: T,
     /// Held joints, ascending, each with the prefix sum's state at it (positions restart there).
     pins: Vec<(usize, CompensatedSum<T, D>)>,
-    /// Joint limits ([`crate::limits`]); `None` costs nothing.
-    limits: Option<Box<JointLimits<T>>>,
+    /// Joint limits ([`crate::limits`]); `None` costs nothing. Shared: they never change once set, so
+    /// a copy of the chain (the service's per-request backup) shares them instead of allocating.
+    limits: Option<std::sync::Arc<JointLimits<T>>>,
 }
 
 impl<T: Real, const D: usize> Chain<T, D>
@@ -325,7 +326,7 @@ where
                 return Err(LimitError::RangeInSpace);
             }
         }
-        self.limits = limits.map(Box::new);
+        self.limits = limits.map(std::sync::Arc::new);
         Ok(())
     }
 
