@@ -109,6 +109,9 @@ pub struct HandConfig {
     pub progress: bool,
     /// Key frames to keep per turn of this hand, evenly spaced, the last at the turn's end (0: none).
     pub frames_per_turn: usize,
+    /// The seed of a perturbed run (0: none) and the tremor's amplitude: every target this hand sends
+    /// is shaken by [`crate::script::Tremor`] (amplitude 0: not at all).
+    pub tremor: (u64, f64),
 }
 
 /// CRC-32 of joint positions, as recorded.
@@ -370,6 +373,11 @@ fn drive(
 ) -> anyhow::Result<()> {
     use anyhow::{Context, bail};
     let mut mine: Vec<usize> = Vec::new();
+    let mut tremor = crate::script::Tremor::new(
+        cfg.tremor.0,
+        &cfg.hand,
+        if cfg.tremor.0 == 0 { 0.0 } else { cfg.tremor.1 },
+    );
     for (k, turn) in cfg.script.turn.iter().enumerate() {
         if turn.hand != cfg.hand {
             if k > 0 {
@@ -481,6 +489,7 @@ fn drive(
         }
         let pacer = Pacer::new(cfg.rate_hz);
         for (i, t) in targets.iter().enumerate() {
+            let t = &tremor.apply(*t);
             pacer.wait(i);
             if conn.node().wait(Duration::ZERO).is_err() {
                 bail!("interrupted (SIGINT or SIGTERM)");

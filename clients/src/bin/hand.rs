@@ -91,10 +91,15 @@ enum Cmd {
         /// Do not hold them, whatever the script says: the hand only pushes its joint along.
         #[arg(long)]
         no_grasp: bool,
-        /// Perturb the script's throws and waypoints with this seed (every hand of a script must get
-        /// the same seed; 0: as written). See `Script::perturb`.
+        /// Perturb the script as a person's hand would, with this seed (every hand of a script must
+        /// get the same seed; 0: as written): sizes ±10 %, directions ±0.05, every waypoint moved by up
+        /// to 0.1 units, and a tremor of up to `--tremor` units on every step. See `Script::perturb`.
         #[arg(long, default_value_t = 0)]
         perturb: u64,
+        /// The tremor of a perturbed run: every target sent moved by a fresh random offset of up to
+        /// this many units (0: none; without `--perturb` none).
+        #[arg(long, default_value_t = clients::script::HAND_TREMOR)]
+        tremor: f64,
     },
     /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
     Replay {
@@ -150,6 +155,7 @@ fn run(a: Args) -> Result<u8> {
             grasp,
             no_grasp,
             perturb,
+            tremor,
         } => {
             let view = View::parse(&view).map_err(anyhow::Error::msg)?;
             if !(1..=32).contains(&frames) {
@@ -177,6 +183,9 @@ fn run(a: Args) -> Result<u8> {
                 }
             }
             script.check().map_err(anyhow::Error::msg)?;
+            if !(tremor.is_finite() && (0.0..=1.0).contains(&tremor)) {
+                bail!("--tremor must be 0 to 1 units");
+            }
             if !(rate.is_finite() && rate >= 0.0 && turn_timeout.is_finite() && turn_timeout > 0.0)
             {
                 bail!("--rate must be ≥ 0 and --turn-timeout positive");
@@ -190,6 +199,7 @@ fn run(a: Args) -> Result<u8> {
                 record,
                 progress: !quiet,
                 frames_per_turn: if svg.is_some() { frames } else { 0 },
+                tremor: (perturb, tremor),
             };
             let r = run_hand(&mut conn, &cfg)?;
             let refused: Vec<String> = r.refused.iter().map(|(n, c)| format!("{c} {n}")).collect();

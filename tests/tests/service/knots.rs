@@ -569,6 +569,21 @@ fn two_hands_tie_the_instrument_tie_with_a_needle_driver() {
     instrument_tie("instrument-tie", KnotType::Trefoil, 3..=3, 3);
 }
 
+/// The same script, unchanged, on the same suture cut into 160 links (chain `tie-160`: 0.25-unit
+/// links, stitched in 16 units from the tail, its own driver): the coil lies on the driver's jaws,
+/// which hold it open whatever the link length, and the rope ends in the same trefoil (issue 34).
+#[test]
+fn the_instrument_tie_script_ties_the_same_knot_at_160_links() {
+    instrument_tie_on(
+        "instrument-tie",
+        "tie-160",
+        0.25,
+        KnotType::Trefoil,
+        3..=3,
+        3,
+    );
+}
+
 /// The surgeon's instrument tie: the same moves with the long end wound twice round the driver. The
 /// rope ends in the double overhand (5₁: 5 crossings, determinant 5), the surgeon's first throw.
 #[test]
@@ -598,19 +613,44 @@ fn instrument_tie(
     crossings: std::ops::RangeInclusive<u32>,
     determinant: u64,
 ) {
+    instrument_tie_on(script, "tie", 1.0, kind, crossings, determinant);
+}
+
+/// [`instrument_tie`] on chain `chain` of `knots.toml`, whose links are `link` long.
+fn instrument_tie_on(
+    script: &str,
+    chain: &str,
+    link: f64,
+    kind: KnotType,
+    crossings: std::ops::RangeInclusive<u32>,
+    determinant: u64,
+) {
     let svc = knot_service();
-    let id = svc.connect().find_chain("tie").unwrap().unwrap();
+    let id = svc.connect().find_chain(chain).unwrap().unwrap();
     // The links the driver holds: within its reach of the tail (its radius 0.8, half its length 7
-    // and half the thickness 0.1, in unit links, rounded up, and one more: 9), checked here from
-    // the 10th on.
-    let w = Watcher::start_skipping(&svc, id, 1.0, 10);
+    // and half the thickness 0.1: 7.9 units, rounded up to links, and one more; 9 on unit links),
+    // checked here from the next on.
+    let skip = (7.9 / link).ceil() as usize + 2;
+    let w = Watcher::start_skipping(&svc, id, link, skip);
     let dir = tempfile::tempdir().unwrap();
     let rec = |h: &str| dir.path().join(format!("tie-{h}.jsonl"));
     let hands: Vec<Child> = ["A", "B"]
         .iter()
         .map(|h| {
             let r = rec(h).display().to_string();
-            hand(&svc, &["--builtin", script, "--hand", h, "--record", &r])
+            hand(
+                &svc,
+                &[
+                    "--builtin",
+                    script,
+                    "--hand",
+                    h,
+                    "--record",
+                    &r,
+                    "--chain",
+                    chain,
+                ],
+            )
         })
         .collect();
     for h in hands {
@@ -626,7 +666,7 @@ fn instrument_tie(
         "the rope entered the driver by {}",
         -seen.gap
     );
-    let k = knot_of(&svc, "tie");
+    let k = knot_of(&svc, chain);
     assert_eq!(k.kind, kind, "{k:?}");
     assert!(crossings.contains(&k.crossings), "{k:?}");
     assert_eq!(k.determinant, determinant, "{k:?}");
