@@ -24,7 +24,7 @@ case "${1:-}" in
     OUT=${2:-$TARGET/sweep-knots.parquet}
     rm -f "$OUT"
     "$PY" -m tractrix_sweep run clients/python/grids/knots.json --out "$OUT" --bin "$TARGET/release" \
-      --num-cpus 2 --no-progress --by script,start,anchors,grasp,length,links 2>"$RAY_TMPDIR/sweep-bench.log" || { tail -20 "$RAY_TMPDIR/sweep-bench.log" >&2; exit 1; }
+      --num-cpus 2 --no-progress --by script,start,anchors,grasp,passes,length,links 2>"$RAY_TMPDIR/sweep-bench.log" || { tail -20 "$RAY_TMPDIR/sweep-bench.log" >&2; exit 1; }
     "$PY" -m tractrix_sweep plot "$OUT" --x link_length --series script,anchors,grasp --out docs/sweep-knots.svg
     printf '\n![Knot success over link length, one line per script and holds](docs/sweep-knots.svg)\n'
     ;;

@@ -43,6 +43,8 @@ client and measures the link-length error here, from those joints. Knobs::
     driver       true: the scene has knots.toml's needle driver, riding with the tail (for
                  instrument-tie; default false)
     anchors      joints held by the scene for the whole episode, e.g. [0] (default none)
+    passes       collision passes per substep before the rope is locked (the scene's
+                 ``collision_iterations``; default 64, the service's)
     timeout      seconds the episode may take (default 300)
 
 Row columns: ``id``, every knob (as a string column ``knobs`` in JSON, plus the common ones as columns),
@@ -82,7 +84,7 @@ from pathlib import Path
 from typing import Any, Iterable, Sequence
 
 KNOBS = ("script", "start", "links", "length", "thickness", "collision", "method", "substeps", "max_step",
-         "seed", "anchors", "grasp", "driver")
+         "seed", "anchors", "grasp", "driver", "passes")
 # The knobs of an accuracy episode (the rest of KNOBS are null in its row).
 ACCURACY_KNOBS = ("method", "substeps", "scenario", "precision", "reps")
 DEFAULTS: dict[str, Any] = {
@@ -100,6 +102,7 @@ DEFAULTS: dict[str, Any] = {
     "grasp": None,
     "driver": False,
     "anchors": (),
+    "passes": 64,
     "timeout": 300.0,
     "scenario": "helix",
     "precision": "f64",
@@ -206,6 +209,7 @@ def _scene(ep: dict[str, Any]) -> str:
             f'collision = "{ep["collision"]}"',
             f'method = "{ep["method"]}"',
             f"substeps = {int(ep['substeps'])}",
+            f"collision_iterations = {int(ep['passes'])}",
             f"anchors = [{', '.join(str(int(j)) for j in ep['anchors'])}]",
             *(['instruments = ["driver"]'] if ep["driver"] else []),
             "",
@@ -390,7 +394,7 @@ def _schema():
             ("script", pa.string()), ("start", pa.string()), ("links", pa.int64()),
             ("length", pa.float64()), ("thickness", pa.float64()), ("collision", pa.string()), ("method", pa.string()),
             ("substeps", pa.int64()), ("max_step", pa.float64()), ("seed", pa.int64()),
-            ("anchors", pa.string()), ("grasp", pa.bool_()), ("driver", pa.bool_()),
+            ("anchors", pa.string()), ("grasp", pa.bool_()), ("driver", pa.bool_()), ("passes", pa.int64()),
             ("ok", pa.bool_()), ("error", pa.string()), ("knot", pa.string()), ("tied", pa.bool_()),
             ("requests", pa.int64()), ("moves_ok", pa.int64()), ("locked", pa.int64()),
             ("refused", pa.int64()), ("seconds", pa.float64()), ("us_per_request", pa.float64()),
