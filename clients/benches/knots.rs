@@ -24,8 +24,8 @@
 //!
 //! * *held, straight, fed loop*: the rope straight, both ends held; the overhand as the built-in
 //!   `overhand-anchored` draws it (one wide loop whose circle is fed toward the held tail, since the
-//!   held rope cannot slide after the hand, then a pull back); the two-handed knots as the built-ins
-//!   `square-held` and `granny-held` tie them (B's fed circle of radius 2 and a tuck that finds the
+//!   held rope cannot slide after the hand, then a pull back); the two-handed knots as the built-in
+//!   `overhands-held` ties them, an overhand in each end (B's fed circle of radius 2 and a tuck that finds the
 //!   loop where it lies, then A's, mirrored for the square; then the pulls in turn), perturbed as
 //!   `hand run --perturb` perturbs them.
 //!
@@ -100,7 +100,7 @@ enum Ends {
     WideHeldPull,
     /// Straight, both ends held, the knots as fed wide loops: the overhand of the built-in
     /// `overhand-anchored`/`overhand-held` (the head's loop fed toward the held tail, then a pull
-    /// back); the two-handed knots of `square-held`/`granny-held` (each hand's fed circle and a
+    /// back); the two-handed knots of `overhands-held` (each hand's fed circle and a
     /// tuck that watches the rope, then the pulls in turn).
     HeldFed,
 }
@@ -185,7 +185,7 @@ impl Knot {
 
     /// The fed wide loops on the straight rope held at both ends (`Ends::HeldFed`), perturbed by
     /// `rng` as the throws are.
-    /// `watch`: the overhand as one throw of `square-held` (the circle only, a tuck that watches the
+    /// `watch`: the overhand as one throw of `overhands-held` (the circle only, a tuck that watches the
     /// rope, a pull of 2) instead of the built-in's drawn tuck and pull.
     fn fed(self, radius: Option<f64>, watch: bool, rng: &mut Rng) -> Vec<Phase> {
         let builtin = Script::builtin("overhand-anchored").expect("a built-in");
@@ -239,12 +239,16 @@ impl Knot {
                 vec![circle, tuck, pull]
             }
             Knot::Overhand => vec![fed(true, l.handedness), pull_back(true)],
-            // The built-ins `square-held` and `granny-held`: each hand's fed circle and a tuck that
-            // finds the loop where it lies, then the pulls in turn; perturbed as the hands'
-            // `--perturb` does.
+            // The built-in `overhands-held` (the granny's with the second throw unmirrored): each
+            // hand's fed circle and a tuck that finds the loop where it lies, then the pulls in
+            // turn; perturbed as the hands' `--perturb` does.
             _ => {
-                let mut script = Script::builtin(&format!("{}-held", self.name()))
-                    .expect("a built-in held script");
+                let second = if self == Knot::Square {
+                    Handedness::Left
+                } else {
+                    Handedness::Right
+                };
+                let mut script = clients::script::overhands_held("overhands-held", second);
                 script.perturb(1 + (rng.unit() * 1e15) as u64);
                 script
                     .turn
@@ -543,7 +547,7 @@ fn fed_radius(runs: usize, only: Option<usize>) {
          built-in's is {own}), {runs} perturbed runs per cell, the end threaded two ways: *drawn*, \
          the built-in's tuck drawn where the circle was drawn, and a pull of {pull}; \
          *watching*, a tuck that finds the loop in the rope where it lies (`Tuck`; one throw of \
-         `square-held`), and a pull of 2. *circle 2πR*: the rope one loop takes, which a second \
+         `overhands-held`), and a pull of 2. *circle 2πR*: the rope one loop takes, which a second \
          throw (the two-handed knots) needs again.\n"
     );
     let sizes: Vec<usize> = [40usize, 80, 160]

@@ -42,6 +42,9 @@ client and measures the link-length error here, from those joints. Knobs::
     grasp        true / false: hands hold their joints (default: the script's)
     driver       true: the scene has knots.toml's needle driver, riding with the tail (for
                  instrument-tie; default false)
+    finger       true: the scene has knots.toml's finger of hand B (chain ``hands``: a capsule of
+                 radius 0.8 and length 6 riding with the tail), for square-held and granny-held
+                 (default false)
     anchors      joints held by the scene for the whole episode, e.g. [0] (default none)
     passes       collision passes per substep before the rope is locked (the scene's
                  ``collision_iterations``; default 64, the service's)
@@ -84,7 +87,7 @@ from pathlib import Path
 from typing import Any, Iterable, Sequence
 
 KNOBS = ("script", "start", "links", "length", "thickness", "collision", "method", "substeps", "max_step",
-         "seed", "anchors", "grasp", "driver", "passes")
+         "seed", "anchors", "grasp", "driver", "finger", "passes")
 # The knobs of an accuracy episode (the rest of KNOBS are null in its row).
 ACCURACY_KNOBS = ("method", "substeps", "scenario", "precision", "reps")
 DEFAULTS: dict[str, Any] = {
@@ -101,6 +104,7 @@ DEFAULTS: dict[str, Any] = {
     "seed": 0,
     "grasp": None,
     "driver": False,
+    "finger": False,
     "anchors": (),
     "passes": 64,
     "timeout": 300.0,
@@ -111,13 +115,15 @@ DEFAULTS: dict[str, Any] = {
 EXPECT = {"overhand": "trefoil", "square": "square", "granny": "granny",
           "overhand-u": "trefoil", "square-u": "square", "granny-u": "granny",
           "overhand-wide": "trefoil", "overhand-anchored": "trefoil", "overhand-held": "trefoil",
-          "square-held": "square", "granny-held": "granny", "instrument-tie": "trefoil",
+          "square-held": "square", "granny-held": "granny", "overhands-held": "square",
+          "instrument-tie": "trefoil", "instrument-granny": "granny",
           "surgeons-tie": "double-overhand", "surgeons-knot": "surgeons",
           "instrument-square": "square"}
 HANDS = {"overhand": ["A"], "square": ["A", "B"], "granny": ["A", "B"],
          "overhand-u": ["A"], "square-u": ["A", "B"], "granny-u": ["A", "B"],
          "overhand-wide": ["A"], "overhand-anchored": ["A"], "overhand-held": ["A", "B"],
-         "square-held": ["A", "B"], "granny-held": ["A", "B"], "instrument-tie": ["A", "B"],
+         "square-held": ["A", "B"], "granny-held": ["A", "B"], "overhands-held": ["A", "B"],
+         "instrument-tie": ["A", "B"], "instrument-granny": ["A", "B"],
          "surgeons-tie": ["A", "B"], "surgeons-knot": ["A", "B"],
          "instrument-square": ["A", "B"]}
 
@@ -197,9 +203,16 @@ def _scene(ep: dict[str, Any]) -> str:
          f"b = [{7 * math.sqrt(2)!r}, -6.0, {7 * math.sqrt(2)!r}]", "radius = 0.8", 'follows = "tail"', ""]
         if ep["driver"] else []
     )
+    # Hand B's finger of `knots.toml`'s chain `hands` (the two-handed knots tied round each other).
+    finger = (
+        ["[[instrument]]", 'name = "finger"', 'shape = "capsule"', "a = [0.0, -6.0, 0.0]",
+         f"b = [{3 * math.sqrt(2)!r}, -6.0, {3 * math.sqrt(2)!r}]", "radius = 0.8", 'follows = "tail"', ""]
+        if ep["finger"] else []
+    )
     return "\n".join(
         [
             *driver,
+            *finger,
             "[[chain]]",
             'name = "rope"',
             'kind = "free"',
@@ -212,6 +225,7 @@ def _scene(ep: dict[str, Any]) -> str:
             f"collision_iterations = {int(ep['passes'])}",
             f"anchors = [{', '.join(str(int(j)) for j in ep['anchors'])}]",
             *(['instruments = ["driver"]'] if ep["driver"] else []),
+            *(['instruments = ["finger"]'] if ep["finger"] else []),
             "",
         ]
     )
@@ -394,7 +408,8 @@ def _schema():
             ("script", pa.string()), ("start", pa.string()), ("links", pa.int64()),
             ("length", pa.float64()), ("thickness", pa.float64()), ("collision", pa.string()), ("method", pa.string()),
             ("substeps", pa.int64()), ("max_step", pa.float64()), ("seed", pa.int64()),
-            ("anchors", pa.string()), ("grasp", pa.bool_()), ("driver", pa.bool_()), ("passes", pa.int64()),
+            ("anchors", pa.string()), ("grasp", pa.bool_()), ("driver", pa.bool_()), ("finger", pa.bool_()),
+            ("passes", pa.int64()),
             ("ok", pa.bool_()), ("error", pa.string()), ("knot", pa.string()), ("tied", pa.bool_()),
             ("requests", pa.int64()), ("moves_ok", pa.int64()), ("locked", pa.int64()),
             ("refused", pa.int64()), ("seconds", pa.float64()), ("us_per_request", pa.float64()),

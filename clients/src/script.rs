@@ -34,8 +34,8 @@
 //! Some turns look at the rope before they move: a *tuck* (`tuck = { outward = [1, 0, 0], side =
 //! [0, 1, 0] }`, [`Tuck`]) finds the loop nearest the hand's end in the rope's joints when its turn
 //! starts and threads the end through it where it lies (after a wide loop with `tuck = false`, which
-//! draws the circle only: built-ins `square-held` and `granny-held`, the two-handed knots with both
-//! ends held); a *wrap* (`wrap = { instrument = 0, at = 3, radius = 1.1 }`, [`Wrap`]) winds the end
+//! draws the circle only: built-in `overhands-held`, an overhand in each end of a rope held at both
+//! ends); a *wrap* (`wrap = { instrument = 0, at = 3, radius = 1.1 }`, [`Wrap`]) winds the end
 //! round one of the chain's instruments where the service reports it. A turn with `instrument = {
 //! index = 0, tip = [0, 0, 0], axis = [1, 0, 1] }` ([`InstrumentMove`]) moves that instrument instead
 //! of the joint: its tip to the joint (plus `tip`), its axis along `axis` (built-in `instrument-tie`,
@@ -727,12 +727,15 @@ impl Script {
                     turn: turns,
                 })
             }
-            "square-held" => Some(two_hands_held(name, Handedness::Left)),
-            "granny-held" => Some(two_hands_held(name, Handedness::Right)),
-            "instrument-tie" => Some(instrument_tie(name, 1.0)),
-            "surgeons-tie" => Some(instrument_tie(name, 2.0)),
-            "surgeons-knot" => Some(two_throw_tie(name, 2.0)),
-            "instrument-square" => Some(two_throw_tie(name, 1.0)),
+            "overhands-held" => Some(overhands_held(name, Handedness::Left)),
+            // The two-handed knots tied round each other: B's finger takes the driver's part.
+            "square-held" => Some(two_throw_tie(name, "hands", 1.0, Handedness::Left)),
+            "granny-held" => Some(two_throw_tie(name, "hands", 1.0, Handedness::Right)),
+            "instrument-tie" => Some(instrument_tie(name, "tie", 1.0)),
+            "surgeons-tie" => Some(instrument_tie(name, "tie", 2.0)),
+            "surgeons-knot" => Some(two_throw_tie(name, "tie", 2.0, Handedness::Left)),
+            "instrument-square" => Some(two_throw_tie(name, "tie", 1.0, Handedness::Left)),
+            "instrument-granny" => Some(two_throw_tie(name, "tie", 1.0, Handedness::Right)),
             "square-u" => Some(two_hands_u(name, Handedness::Right)),
             "granny-u" => Some(two_hands_u(name, Handedness::Left)),
             "wave" => Some(Script {
@@ -776,16 +779,19 @@ fn held_loop() -> WideLoop {
 /// it jams (a jammed knot locks the hand's moves).
 const HELD_PULL: f64 = 8.0;
 
-/// The two-handed knots on the paper's rope (chain `paper`: 40 unit links, straight along +x), each
-/// end held by its hand for the whole script (A the tail, B the head), the hands moving alternately
-/// (six alternations). A first gives the rope slack: its end 4 units toward B, dipping aside and up
+/// Two overhands in series on the paper's rope (built-in `overhands-held`, chain `paper`: 40 unit
+/// links, straight along +x), each tied by one hand in its own end, each end held by its hand for the
+/// whole script (A the tail, B the head), the hands moving alternately (six alternations). The whole
+/// rope has the square knot's type (a connected sum of two mirror trefoils), but the strands do not
+/// hold each other: a cut between the knots leaves a trefoil in each half (issue 34); the reef and
+/// the granny tied round each other are [`two_throw_tie`]'s. A first gives the rope slack: its end 4 units toward B, dipping aside and up
 /// on the way (the rope between the knots would otherwise be taut after B's throw, and A's circle
 /// would drag B's knot until it jammed; a move straight along a straight rope only pushes it along,
 /// so the hand goes round). Each throw is a fed loop of radius 2 drawn by one hand (the circle only)
 /// and a tuck that watches the rope ([`Tuck`]: the end threaded through the loop where it lies); B
 /// throws first (a right trefoil), then A (`second`: `Left` mirrors it, a square knot; `Right`, a
 /// granny); then each hand pulls its end back along the rope by one unit, twice, in turn.
-fn two_hands_held(name: &str, second: Handedness) -> Script {
+pub fn overhands_held(name: &str, second: Handedness) -> Script {
     let hand = |h: &str| Turn {
         hand: h.into(),
         chain: "paper".into(),
@@ -863,10 +869,10 @@ const WRAP_RADIUS: f64 = 1.1;
 
 /// A turn of the instrument tie on chain `tie` through `waypoints`: hand A moves the head (the long
 /// end), hand B the tail (the short end, in the driver's jaws).
-fn tie_turn(h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
+fn tie_turn(chain: &str, h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
     Turn {
         hand: h.into(),
-        chain: "tie".into(),
+        chain: chain.into(),
         joint: if h == "A" { "head" } else { "tail" }.into(),
         throw: None,
         wide_loop: None,
@@ -890,8 +896,8 @@ fn tie_turn(h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
 /// straight rope and B's first moves were locked). `wraps` is how many times A winds the long end
 /// round the driver: 1 (built-in `instrument-tie`, a half knot: the trefoil), or the surgeon's 2
 /// (built-in `surgeons-tie`: the double overhand, 5₁).
-fn instrument_tie(name: &str, wraps: f64) -> Script {
-    let hand = tie_turn;
+fn instrument_tie(name: &str, chain: &str, wraps: f64) -> Script {
+    let hand = |h: &str, w| tie_turn(chain, h, w);
     let axis = [1.0, 0.0, 0.0];
     Script {
         name: name.into(),
@@ -940,20 +946,25 @@ fn instrument_tie(name: &str, wraps: f64) -> Script {
     }
 }
 
-/// Two throws by instrument tie on chain `tie`: the first throw of [`instrument_tie`] with `wraps`
-/// turns round the driver, then a single throw the other way, also by the driver: with 2 the
-/// surgeon's knot (built-in `surgeons-knot`: the double overhand, then the single throw), with 1 the
-/// square knot (built-in `instrument-square`). B draws the tail out a little more (the first throw
+/// Two throws by instrument tie on `chain` (`tie`, or `hands`, where B's finger is the instrument):
+/// the first throw of [`instrument_tie`] with `wraps` turns round the driver, then a single throw,
+/// also by the driver, wound `second`-handed: left, the other way, with 2 wraps the surgeon's knot
+/// (built-in `surgeons-knot`: the double overhand, then the single throw), with 1 the square knot
+/// (built-ins `instrument-square`, and `square-held` by hand); right, the same way, the granny
+/// (`instrument-granny`, `granny-held`). B draws the tail out a little more (the first throw
 /// tightens), lifts it and carries it back over the knot to the long end's side, turns the driver to
 /// point away from the knot (through the vertical, so that its body sweeps no rope), and lowers it;
 /// the short end now runs from the knot straight into the driver's tip. A brings the long end up
 /// beside the driver from beyond the coil's place and winds it once round the jaws, 3 units from the
 /// tip, left-handed (the first throw's wrap seen in a mirror across the knot: the second throw the
-/// other way, as the surgeon's and the square knot have it); B pulls the tail through along the
-/// driver; the hands draw their ends apart. Eighteen turns, ten changes of hand.
-fn two_throw_tie(name: &str, wraps: f64) -> Script {
-    let mut script = instrument_tie(name, wraps);
-    let hand = tie_turn;
+/// other way, as the surgeon's and the square knot have it), or right-handed for the granny, one
+/// and a half turns (A comes from the side a left-handed turn starts on: one right-handed turn from
+/// there ended short of the short end and the second throw was lost, a trefoil in every run tried at
+/// 40, 80 and 160 links); B pulls the tail through along the driver; the hands draw their ends
+/// apart. Eighteen turns, ten changes of hand.
+fn two_throw_tie(name: &str, chain: &str, wraps: f64, second: Handedness) -> Script {
+    let mut script = instrument_tie(name, chain, wraps);
+    let hand = |h: &str, w| tie_turn(chain, h, w);
     let turn_driver = |axis| Turn {
         instrument: Some(InstrumentMove {
             index: 0,
@@ -974,9 +985,9 @@ fn two_throw_tie(name: &str, wraps: f64) -> Script {
                 instrument: 0,
                 at: 3.0,
                 radius: WRAP_RADIUS,
-                turns: 1.0,
+                turns: if second == Handedness::Left { 1.0 } else { 1.5 },
                 pitch: -0.6,
-                handedness: Handedness::Left,
+                handedness: second,
             }),
             ..hand("A", vec![])
         },
@@ -1029,8 +1040,10 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
 /// each end. `overhand-wide` ties the overhand on the paper's rope (chain `paper` of `knots.toml`: 40
 /// unit links) with one wide loop; `overhand-held` ties it with the tail held by a second hand that
 /// does not move, `overhand-anchored` with the tail anchored by the scene (chain `suture`);
-/// `square-held` and `granny-held` tie the two-handed knots on it with each end held by its hand
-/// throughout, the hands taking turns.
+/// `overhands-held` ties an overhand in each end of it, each hand in its own end, both ends held
+/// throughout (two knots in series: the square knot's type, not a reef). `square-held` and
+/// `granny-held` tie the two-handed knots round each other (chain `hands`: the long end wound round
+/// B's finger, B's end drawn through), `instrument-granny` the granny by instrument tie.
 pub const BUILTINS: &[&str] = &[
     "overhand",
     "overhand-wide",
@@ -1045,10 +1058,12 @@ pub const BUILTINS: &[&str] = &[
     "granny-u",
     "square-held",
     "granny-held",
+    "overhands-held",
     "instrument-tie",
     "surgeons-tie",
     "surgeons-knot",
     "instrument-square",
+    "instrument-granny",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.

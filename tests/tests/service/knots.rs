@@ -471,22 +471,20 @@ fn the_overhand_is_tied_on_the_papers_rope_held_at_its_tail() {
     }
 }
 
-/// The two-handed knots on the paper's rope held at both ends (figure 6, issue 16): two hand
-/// processes on chain `paper` (40 unit links, 0.2 thick), A holding the tail and B the head for the
-/// whole script, moving alternately (six alternations: A gives slack, each throws, each pulls twice in turn).
-/// B's throw is a right trefoil; A's mirrors it for the square knot and repeats it for the granny.
+/// An overhand in each end of the paper's rope held at both ends (figure 6, issue 16; built-in
+/// `overhands-held`, once called `square-held`): two hand processes on chain `paper` (40 unit links,
+/// 0.2 thick), A holding the tail and B the head for the whole script, moving alternately (six
+/// alternations: A gives slack, each throws, each pulls twice in turn). B's throw is a right
+/// trefoil, A's mirrors it: the whole rope has the square knot's type.
 /// In every published state one end at most has moved (bit for bit) since the state before, so the
 /// hand that waits holds its end still while the other moves; no state lets the rope through itself;
 /// the knot, named by the identification, lies around the middle of the rope. And it is what a
 /// knot-tier would call two overhands in series (issue 34): a cut leaves a trefoil in each half.
 #[test]
-fn two_hands_tie_the_square_and_granny_on_the_papers_rope_both_ends_held() {
+fn two_hands_tie_an_overhand_in_each_end_of_the_papers_rope_both_ends_held() {
     let svc = knot_service();
     let id = svc.connect().find_chain("paper").unwrap().unwrap();
-    for (script, expected) in [
-        ("square-held", KnotType::Square),
-        ("granny-held", KnotType::Granny),
-    ] {
+    for (script, expected) in [("overhands-held", KnotType::Square)] {
         let mut c = svc.connect();
         assert!(
             c.call(RequestHeader::new(Command::Reset, id), &[])
@@ -518,11 +516,7 @@ fn two_hands_tie_the_square_and_granny_on_the_papers_rope_both_ends_held() {
         let k = knot_of(&svc, "paper");
         assert_eq!(k.kind, expected, "{script}: {k:?}");
         assert_eq!(k.determinant, 9, "{script}: {k:?}");
-        if expected == KnotType::Granny {
-            assert!(k.writhe.abs() >= 4, "{script}: {k:?}");
-        } else {
-            assert!(k.writhe.abs() <= 2, "{script}: {k:?}");
-        }
+        assert!(k.writhe.abs() <= 2, "{script}: {k:?}");
         assert_knot_near_the_middle(&svc, id, 40);
         // What these scripts tie, as a knot-tier would see it (issue 34): two overhands one after the
         // other, each hand's in its own end, not one knot whose strands hold each other. The tests'
@@ -567,6 +561,42 @@ fn two_hands_tie_the_square_and_granny_on_the_papers_rope_both_ends_held() {
 #[test]
 fn two_hands_tie_the_instrument_tie_with_a_needle_driver() {
     instrument_tie("instrument-tie", KnotType::Trefoil, 3..=3, 3);
+}
+
+/// The two-handed square and granny knots as a person ties them, the strands round each other
+/// (issue 34): chain `hands` of `knots.toml` (40 units held 16 from the tail, as over a post; hand B's
+/// finger, a capsule riding with the tail, where the instrument tie has the driver), A winding the
+/// long end round B's finger and B drawing its end through, twice; one script each (`square-held`,
+/// `granny-held`), at 40 and at 160 links (chain `hands-160`). The whole rope is the composite (the
+/// tests' own determinant 9; the square's writhe near 0, the granny's not), and no cut leaves a knot
+/// in each half, by the tests' own determinant and by the identification ([`instrument_tie_on`]); the
+/// finger, clearance, one-end-per-state and replay checks of the instrument tie.
+#[test]
+fn two_hands_tie_the_square_and_granny_round_each_other_at_40_and_160_links() {
+    for (script, kind) in [
+        ("square-held", KnotType::Square),
+        ("granny-held", KnotType::Granny),
+    ] {
+        for (chain, link) in [("hands", 1.0), ("hands-160", 0.25)] {
+            instrument_tie_on(script, chain, link, kind, 6..=u32::MAX, 9);
+        }
+    }
+}
+
+/// The granny knot by instrument tie (`instrument-granny`): the second throw wound the same way as the
+/// first, at 40 and 160 links; the same checks.
+#[test]
+fn two_hands_tie_the_granny_with_a_needle_driver_at_40_and_160_links() {
+    for (chain, link) in [("tie", 1.0), ("tie-160", 0.25)] {
+        instrument_tie_on(
+            "instrument-granny",
+            chain,
+            link,
+            KnotType::Granny,
+            6..=u32::MAX,
+            9,
+        );
+    }
 }
 
 /// The same script, unchanged, on the same suture cut into 160 links (chain `tie-160`: 0.25-unit
@@ -667,9 +697,36 @@ fn instrument_tie_on(
         -seen.gap
     );
     let k = knot_of(&svc, chain);
-    assert_eq!(k.kind, kind, "{k:?}");
-    assert!(crossings.contains(&k.crossings), "{k:?}");
-    assert_eq!(k.determinant, determinant, "{k:?}");
+    assert_eq!(k.kind, kind, "{chain}: {k:?}");
+    assert!(crossings.contains(&k.crossings), "{chain}: {k:?}");
+    assert_eq!(k.determinant, determinant, "{chain}: {k:?}");
+    match kind {
+        KnotType::Square => assert!(k.writhe.abs() <= 2, "{chain}: {k:?}"),
+        KnotType::Granny => assert!(k.writhe.abs() >= 4, "{chain}: {k:?}"),
+        _ => {}
+    }
+    // One knot whose strands hold each other, not knots in series: no cut of the rope leaves a knot
+    // in each half, by the tests' own determinant (every fourth joint from a tenth of the rope to
+    // nine tenths) and by the identification.
+    let joints: Vec<[f64; 3]> = svc
+        .connect()
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap()
+        .joints()
+        .iter()
+        .map(|q| [q.x, q.y, q.z])
+        .collect();
+    let n = joints.len() - 1;
+    let own_cut = (n / 10..=9 * n / 10).step_by(4).find(|&c| {
+        tests::knot_check::determinant(&joints[..=c]).0 > 1
+            && tests::knot_check::determinant(&joints[c..]).0 > 1
+    });
+    assert_eq!(own_cut, None, "{chain}: a cut leaves a knot in each half");
+    let series = clients::hand::series_of(&mut svc.connect(), id, &k).unwrap();
+    assert!(
+        matches!(series, None | Some(None)),
+        "{chain}: the identification finds knots in series: {series:?}"
+    );
     // The driver was carried: its tip is on the tail (B put it there and it rode with the tail),
     // far from where the scene parked it.
     let q = svc
