@@ -320,12 +320,23 @@ where
             ReachError::NotConverged {
                 iterations,
                 residual,
+                reached,
             } => {
-                let mut r = refuse!(
-                    NotConverged,
-                    "{iterations} iterations, residual {:.3e}",
-                    residual.to_f64()
-                );
+                let mut r = match reached.map(|p| p.to_3d()) {
+                    Some(n) => refuse!(
+                        NotConverged,
+                        "{iterations} iterations, residual {:.3e}; nearest reached ({:.6}, {:.6}, {:.6})",
+                        residual.to_f64(),
+                        n.x.to_f64(),
+                        n.y.to_f64(),
+                        n.z.to_f64()
+                    ),
+                    None => refuse!(
+                        NotConverged,
+                        "{iterations} iterations, residual {:.3e}",
+                        residual.to_f64()
+                    ),
+                };
                 r.iterations = iterations;
                 r.residual = residual.to_f64();
                 r

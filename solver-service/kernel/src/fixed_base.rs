@@ -117,6 +117,14 @@ pub enum ReachError<T: Real, const D: usize> {
         iterations: u32,
         /// Distance from the head to the target when they ran out.
         residual: T,
+        /// A point the chain can reach: the head of a pose the solve passed through that keeps every
+        /// joint within its limits (translate-back and pull-back: the nearest to the target of their
+        /// passes, turned about the base onto the line to the target; the other solvers: the last
+        /// pose). For a target outside a limited chain's
+        /// workspace (inside the unlimited one) this is the nearest point the solve found, which a
+        /// hand can ask for instead; `None` when the last pose broke a limit (the two-link closed
+        /// form ignores them).
+        reached: Option<Vector<T, D>>,
     },
     /// Bad input (non-finite target, bad options).
     #[error(transparent)]
@@ -225,12 +233,24 @@ where
                 Err(ReachError::NotConverged {
                     iterations: 1,
                     residual,
+                    reached: None,
                 })
             }
         }
     };
     let result = match result {
         Ok(o) if limited => chain.check_limits().map(|_| o).map_err(ReachError::Chain),
+        // Where the iterations left the head, if that pose is one the chain may take (unless the
+        // strategy kept a nearer one).
+        Err(ReachError::NotConverged {
+            iterations,
+            residual,
+            reached: None,
+        }) => Err(ReachError::NotConverged {
+            iterations,
+            residual,
+            reached: chain.check_limits().is_ok().then(|| chain.head()),
+        }),
         r => r,
     };
     if result.is_err() {
@@ -263,6 +283,10 @@ where
     };
     let mut residual = (chain.head() - target).norm();
     let mut last = residual;
+    // The nearest the head came to the target in a pose within the limits (each pass clamps, the
+    // translation turns nothing): what a refusal reports as reached.
+    let limited = chain.joint_limits().is_some();
+    let mut best = (residual, chain.head());
     for it in 1..=opts.max_iterations {
         if residual <= tol {
             return Ok(ReachOutcome {
@@ -291,8 +315,34 @@ where
         chain.translate_to(base);
         last = residual;
         residual = (chain.head() - target).norm();
+        if residual < best.0 && (!limited || chain.check_limits().is_ok()) {
+            best = (residual, chain.head());
+        }
     }
-    verdict(residual, tol, opts.max_iterations)
+    match verdict(residual, tol, opts.max_iterations) {
+        Err(ReachError::NotConverged {
+            iterations,
+            residual,
+            ..
+        }) => {
+            // The nearest pose found, turned about the base (whose own angle no limit constrains, so
+            // every joint stays within its limit) until its head lies on the line to the target: no
+            // farther from it, often nearer.
+            let (from, to) = (best.1 - base, target - &base);
+            let (r, d) = (from.norm(), to.norm());
+            let reached = if d > T::zero() && r > T::zero() {
+                base + to * (r / d)
+            } else {
+                best.1
+            };
+            Err(ReachError::NotConverged {
+                iterations,
+                residual,
+                reached: Some(reached),
+            })
+        }
+        r => r,
+    }
 }
 
 fn tractrix_two_link<T: Real, const D: usize>(
@@ -393,6 +443,7 @@ fn verdict<T: Real, const D: usize>(
         Err(ReachError::NotConverged {
             iterations,
             residual,
+            reached: None,
         })
     }
 }

@@ -243,6 +243,7 @@ where
         Err(ReachError::NotConverged {
             iterations,
             residual,
+            ..
         }) => Err(ChainError::HeldNotConverged {
             iterations,
             residual: residual.to_f64(),

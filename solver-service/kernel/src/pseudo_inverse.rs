@@ -290,10 +290,12 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let residual = (chain.head() - target).norm();
+    let reached = chain.check_limits().is_ok().then(|| chain.head());
     chain.links_mut().copy_from_slice(backup);
     chain.place_origin_from(datum.0, datum.1);
     Err(ReachError::NotConverged {
         iterations,
         residual,
+        reached,
     })
 }

@@ -290,3 +290,60 @@ fn a_reach_that_would_break_a_cone_is_refused() {
         "a refused reach changed the arm"
     );
 }
+
+/// A reach to a target outside a limited arm's workspace (10 planar links of 1, each joint within
+/// ±10°: the head cannot come nearer the base than about 8.8) is refused as `not-converged`, the arm
+/// unchanged, and the reason names a point the arm reaches: parsed here, within the limited workspace
+/// (its distance from the base between the curled arc's, computed here, and the arm's length) and no
+/// farther from the target than the nearest such point plus 5 % of the arm. (Asking for it from the
+/// straight arm is not guaranteed to converge: the limited reach's convergence near the workspace's
+/// boundary is an open item of issue 34.)
+#[test]
+fn a_reach_outside_the_limited_workspace_is_refused_with_a_point_the_arm_reaches() {
+    let scene = "[[chain]]\nname = \"arm\"\nkind = \"fixed-base\"\nspace = \"planar\"\nlinks = 10\n\
+                 link_length = 1.0\njoint_range = [-10, 10]\n";
+    let svc = InProcess::start_scene(parse_scene(scene, "arm.toml").unwrap());
+    let mut c = svc.connect();
+    let head = shared::JOINT_HEAD;
+    let before = c.call(req(Command::Query, 0, head), &[]).unwrap();
+    let (mut a, mut inner) = (0.0f64, [0.0f64; 2]);
+    for _ in 0..10 {
+        inner[0] += a.cos();
+        inner[1] += a.sin();
+        a += 10f64.to_radians();
+    }
+    let inner = inner[0].hypot(inner[1]);
+    let target = Vec3::new(2.5, 0.0, 0.0);
+    let r = c.call(req(Command::Reach, 0, head), &[target]).unwrap();
+    let reason = r.header.reason_str().to_string();
+    assert_eq!(
+        Status::from_u32(r.header.status),
+        Some(Status::NotConverged),
+        "{reason}"
+    );
+    let after = c.call(req(Command::Query, 0, head), &[]).unwrap();
+    assert_eq!(
+        after.payload, before.payload,
+        "a refused reach changed the arm"
+    );
+    let point = reason
+        .split("nearest reached (")
+        .nth(1)
+        .and_then(|s| s.split(')').next())
+        .unwrap_or_else(|| panic!("no point in {reason:?}"));
+    let p: Vec<f64> = point
+        .split(',')
+        .map(|x| x.trim().parse().unwrap())
+        .collect();
+    let from_base = p[0].hypot(p[1]);
+    assert!(
+        from_base >= inner - 1e-5 && from_base <= 10.0 + 1e-5,
+        "{reason}: {from_base} from the base, outside [{inner}, 10]"
+    );
+    let off = (p[0] - target.x).hypot(p[1] - target.y);
+    assert!(
+        off <= inner - 2.5 + 0.05 * 10.0,
+        "{reason}: {off} from the target; the workspace comes within {}",
+        inner - 2.5
+    );
+}

@@ -422,3 +422,60 @@ fn the_reach_with_ranges_never_leaves_a_range() {
         );
     }
 }
+
+/// A target inside the unlimited workspace but outside the limited one (a planar arm of 10 links of
+/// 0.2 whose joints turn at most 10° either way cannot bring its head nearer its base than the arc
+/// of all joints at 10°) is refused as not converged, with the arm unchanged and the point the solve
+/// reached: no farther from the target than the nearest point of the limited workspace (computed
+/// here: the curled arc's head distance, the base turning freely, less the target's distance), plus
+/// 5 % of the arm (the solve's nearest is a local one: 0.3–4 % here); and the point lies in the limited workspace (its distance from the base computed
+/// here).
+#[test]
+fn a_target_outside_the_limited_workspace_is_refused_with_a_point_the_arm_reaches() {
+    use tractrix::{ReachError, ReachOptions, ReachWorkspace, reach};
+    let lim = 10f64.to_radians();
+    let arm = || {
+        let mut c = Chain::<f64, 2>::straight(10, 0.2, Vector2::zeros(), Vector2::x()).unwrap();
+        c.set_limits(Some(JointLimits::ranges(&[-lim; 11], &[lim; 11]).unwrap()))
+            .unwrap();
+        c
+    };
+    // The nearest the head can come to the base: every joint turned 10° the same way.
+    let (mut a, mut head) = (0.0f64, Vector2::zeros());
+    for _ in 0..10 {
+        head += Vector2::new(a.cos(), a.sin()) * 0.2;
+        a += lim;
+    }
+    let inner = head.norm();
+    for target in [
+        Vector2::new(0.5, 0.0),
+        Vector2::new(-0.3, 0.9),
+        Vector2::new(0.0, -1.2),
+    ] {
+        let nearest = inner - target.norm();
+        assert!(nearest > 0.1, "the target is inside the limited workspace");
+        let mut c = arm();
+        let before = c.clone();
+        let mut ws = ReachWorkspace::default();
+        let r = reach(&mut c, &target, &ReachOptions::default(), &mut ws);
+        let Err(ReachError::NotConverged {
+            reached: Some(p), ..
+        }) = r
+        else {
+            panic!("{target:?}: {r:?}");
+        };
+        assert_eq!(c, before, "a refusal changed the arm");
+        let off = (p - target).norm();
+        assert!(
+            off <= nearest + 0.05 * 2.0,
+            "{target:?}: reached {p:?}, {off} from the target; the workspace comes within {nearest}"
+        );
+        // In the limited workspace: every head distance from the curled arc's to the straight
+        // arm's is reached (curling every joint alike from 0° to 10°), the base turning freely.
+        assert!(
+            p.norm() >= inner - 1e-9 && p.norm() <= 2.0 + 1e-9,
+            "{target:?}: reached {p:?} at {} from the base, outside [{inner}, 2]",
+            p.norm()
+        );
+    }
+}
