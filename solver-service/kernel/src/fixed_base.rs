@@ -328,7 +328,7 @@ where
             // The nearest pose found, turned about the base (whose own angle no limit constrains, so
             // every joint stays within its limit) until its head lies on the line to the target: no
             // farther from it, often nearer.
-            let (from, to) = (best.1 - base, target - &base);
+            let (from, to) = (best.1 - base, target - base);
             let (r, d) = (from.norm(), to.norm());
             let reached = if d > T::zero() && r > T::zero() {
                 base + to * (r / d)
