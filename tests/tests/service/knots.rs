@@ -267,17 +267,22 @@ impl Watcher {
 /// tests' own code from the same joints ([`tests::knot_check`], no code shared with the kernel) must
 /// be the named knot's (1 unknot, 3 trefoil, 5 double overhand, 9 square or granny), in most of its
 /// views.
-fn knot_of(svc: &Service, chain: &str) -> tractrix::knot::KnotReport {
-    let mut c = svc.connect();
-    let id = c.find_chain(chain).unwrap().unwrap();
-    let k = clients::hand::knot_of(&mut c, id).unwrap();
-    let joints: Vec<[f64; 3]> = c
+/// The joints of chain `id` now, as the service reports them.
+fn joints_of(svc: &Service, id: u32) -> Vec<[f64; 3]> {
+    svc.connect()
         .call(RequestHeader::new(Command::Query, id), &[])
         .unwrap()
         .joints()
         .iter()
         .map(|q| [q.x, q.y, q.z])
-        .collect();
+        .collect()
+}
+
+fn knot_of(svc: &Service, chain: &str) -> tractrix::knot::KnotReport {
+    let mut c = svc.connect();
+    let id = c.find_chain(chain).unwrap().unwrap();
+    let k = clients::hand::knot_of(&mut c, id).unwrap();
+    let joints = joints_of(svc, id);
     let expected = match k.kind {
         KnotType::Unknot => Some(1),
         KnotType::Trefoil => Some(3),
@@ -522,14 +527,7 @@ fn two_hands_tie_an_overhand_in_each_end_of_the_papers_rope_both_ends_held() {
         // other, each hand's in its own end, not one knot whose strands hold each other. The tests'
         // own determinant finds a cut with a trefoil (3) in each half, and the identification's
         // `in_series` reports the same; a reef tied round itself would have neither.
-        let joints: Vec<[f64; 3]> = svc
-            .connect()
-            .call(RequestHeader::new(Command::Query, id), &[])
-            .unwrap()
-            .joints()
-            .iter()
-            .map(|q| [q.x, q.y, q.z])
-            .collect();
+        let joints = joints_of(&svc, id);
         let own_cut = (8..=32).find(|&k| {
             tests::knot_check::determinant(&joints[..=k]).0 == 3
                 && tests::knot_check::determinant(&joints[k..]).0 == 3
@@ -708,14 +706,7 @@ fn instrument_tie_on(
     // One knot whose strands hold each other, not knots in series: no cut of the rope leaves a knot
     // in each half, by the tests' own determinant (every fourth joint from a tenth of the rope to
     // nine tenths) and by the identification.
-    let joints: Vec<[f64; 3]> = svc
-        .connect()
-        .call(RequestHeader::new(Command::Query, id), &[])
-        .unwrap()
-        .joints()
-        .iter()
-        .map(|q| [q.x, q.y, q.z])
-        .collect();
+    let joints = joints_of(&svc, id);
     let n = joints.len() - 1;
     let own_cut = (n / 10..=9 * n / 10).step_by(4).find(|&c| {
         tests::knot_check::determinant(&joints[..=c]).0 > 1
