@@ -784,8 +784,8 @@ const HELD_PULL: f64 = 8.0;
 /// whole script (A the tail, B the head), the hands moving alternately (six alternations). The whole
 /// rope has the square knot's type (a connected sum of two mirror trefoils), but the strands do not
 /// hold each other: a cut between the knots leaves a trefoil in each half (issue 34); the reef and
-/// the granny tied round each other are [`two_throw_tie`]'s. A first gives the rope slack: its end 4 units toward B, dipping aside and up
-/// on the way (the rope between the knots would otherwise be taut after B's throw, and A's circle
+/// the granny tied round each other are the built-ins `square-held` and `granny-held`. A first gives
+/// the rope slack: its end 4 units toward B, dipping aside and up on the way (the rope between the knots would otherwise be taut after B's throw, and A's circle
 /// would drag B's knot until it jammed; a move straight along a straight rope only pushes it along,
 /// so the hand goes round). Each throw is a fed loop of radius 2 drawn by one hand (the circle only)
 /// and a tuck that watches the rope ([`Tuck`]: the end threaded through the loop where it lies); B
