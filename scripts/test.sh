@@ -14,4 +14,6 @@ cargo build -p tractrix-client --lib --profile test
 scripts/python-venv.sh
 # Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames).
 scripts/system-packages.sh
-cargo test --workspace "$@"
+# Every test binary runs even when one fails (cargo stops at the first failing binary otherwise, and
+# the failures after it go unseen).
+cargo test --workspace --no-fail-fast "$@"
