@@ -120,10 +120,9 @@ pub enum ReachError<T: Real, const D: usize> {
         /// A point the chain can reach: the head of a pose the solve passed through that keeps every
         /// joint within its limits (translate-back and pull-back: the nearest to the target of their
         /// passes, turned about the base onto the line to the target; the other solvers: the last
-        /// pose). For a target outside a limited chain's
-        /// workspace (inside the unlimited one) this is the nearest point the solve found, which a
-        /// hand can ask for instead; `None` when the last pose broke a limit (the two-link closed
-        /// form ignores them).
+        /// pose). For a target outside a limited chain's workspace (inside the unlimited one) this is
+        /// the nearest point the solve found (a local nearest), which a hand can ask for instead;
+        /// `None` when the last pose broke a limit (the two-link closed form ignores them).
         reached: Option<Vector<T, D>>,
     },
     /// Bad input (non-finite target, bad options).
@@ -314,9 +313,10 @@ where
         }
         chain.translate_to(base);
         last = residual;
-        residual = (chain.head() - target).norm();
+        let head = chain.head();
+        residual = (head - target).norm();
         if residual < best.0 && (!limited || chain.check_limits().is_ok()) {
-            best = (residual, chain.head());
+            best = (residual, head);
         }
     }
     match verdict(residual, tol, opts.max_iterations) {
