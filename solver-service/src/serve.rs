@@ -2,7 +2,11 @@
 //! echo baseline waits exactly as the service does. Generic over the iceoryx2 service variant (`ipc` for
 //! processes, `local` for a test inside one process).
 //!
-//! One thread serves everything, in request order. For each request:
+//! One thread serves everything. Requests are served **round robin over clients** ([`Fair`]): every
+//! request waiting is taken into its client's queue, and each round serves at most one request per
+//! client, the client just served going to the back; a client that connects while others flood is
+//! served after at most one request of each of them. A client's own requests keep their order. Between
+//! any two requests the loop looks for signals and runs housekeeping (see below). For each request:
 //!
 //! 1. receive it (header + target slice, read in place in shared memory);
 //! 2. [`Handler::handle`] answers it: a response header, and whether the state changed;
@@ -22,6 +26,7 @@
 //! for SIGINT/SIGTERM and runs [`Handler::housekeeping`] (periodic snapshots) at least every
 //! [`CHECK_EVERY`], whatever the traffic.
 
+use iceoryx2::active_request::ActiveRequest;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
@@ -38,6 +43,7 @@ use shared::{
     SERVICE_BUNDLE_STATE, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER,
     StateHeader, Vec3, WaitMode, service_name,
 };
+use std::collections::VecDeque;
 use std::mem::MaybeUninit;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -328,6 +334,7 @@ where
 {
     // A small state sample's contents while its response is sent first (no allocation once warm).
     let mut scratch: Vec<Vec3> = Vec::new();
+    let mut fair = Fair::default();
     let mut checks = Checks {
         next: Instant::now() + CHECK_EVERY,
         stop: false,
@@ -336,7 +343,7 @@ where
     match opts.wait {
         WaitMode::Spin => {
             while !checks.stop {
-                if serve_pending(ports, handler, &mut scratch)? == 0 {
+                if serve_pending(ports, handler, &mut fair, &mut checks, &mut scratch)? == 0 {
                     std::hint::spin_loop();
                 }
                 checks.run(ports, handler);
@@ -365,9 +372,16 @@ where
                     Err(e) => return Err(format!("WaitSet: {e:?}")),
                 }
                 // Serve even without a notification: a polling client may not notify.
-                let served = serve_pending(ports, handler, &mut scratch)?;
-                if opts.wait == WaitMode::Hybrid && served > 0 {
-                    spin_while_busy(ports, handler, opts.spin_budget, &mut checks, &mut scratch)?;
+                let served = serve_pending(ports, handler, &mut fair, &mut checks, &mut scratch)?;
+                if opts.wait == WaitMode::Hybrid && served > 0 && !checks.stop {
+                    spin_while_busy(
+                        ports,
+                        handler,
+                        opts.spin_budget,
+                        &mut fair,
+                        &mut checks,
+                        &mut scratch,
+                    )?;
                 }
                 checks.next = Instant::now();
                 checks.run(ports, handler);
@@ -409,13 +423,14 @@ fn spin_while_busy<S: Service, H: Handler>(
     ports: &ServerPorts<S>,
     handler: &mut H,
     budget: Duration,
+    fair: &mut Fair<S>,
     checks: &mut Checks,
     scratch: &mut Vec<Vec3>,
 ) -> Result<(), String> {
     let mut last = Instant::now();
     loop {
         while last.elapsed() < budget {
-            if serve_pending(ports, handler, scratch)? > 0 {
+            if serve_pending(ports, handler, fair, checks, scratch)? > 0 {
                 last = Instant::now();
             } else {
                 std::hint::spin_loop();
@@ -429,7 +444,7 @@ fn spin_while_busy<S: Service, H: Handler>(
         // request that landed after the last poll has its notification dropped here, and would otherwise
         // wait for the next tick (the loaded latency bench caught it).
         let _ = ports.wake_listener.try_wait(|_| {});
-        if serve_pending(ports, handler, scratch)? == 0 {
+        if serve_pending(ports, handler, fair, checks, scratch)? == 0 || checks.stop {
             return Ok(());
         }
         last = Instant::now();
@@ -441,7 +456,8 @@ fn spin_while_busy<S: Service, H: Handler>(
 /// response before it is sent, which spares copying megabytes twice.
 pub const DEFER_STATE_UP_TO: usize = 1 << 16;
 
-/// Serves every request waiting; returns how many.
+/// Serves every request waiting, round robin over clients ([`Fair`]), with the checks between any two;
+/// returns how many (it stops early when the checks say stop).
 ///
 /// Two ways to write a response, by size. Up to [`DEFER_STATE_UP_TO`] elements (a chain): the
 /// elements are gathered into `scratch` by a tight loop, copied into the loaned response at once,
@@ -451,105 +467,180 @@ pub const DEFER_STATE_UP_TO: usize = 1 << 16;
 fn serve_pending<S: Service, H: Handler>(
     ports: &ServerPorts<S>,
     handler: &mut H,
+    fair: &mut Fair<S>,
+    checks: &mut Checks,
     scratch: &mut Vec<Vec3>,
 ) -> Result<usize, String> {
     let mut served = 0;
-    while let Some(req) = ports.server.receive().map_err(err("receive"))? {
+    loop {
+        while let Some(req) = ports.server.receive().map_err(err("receive"))? {
+            fair.push(req.origin().value(), req);
+        }
+        let Some(req) = fair.pop() else {
+            return Ok(served);
+        };
+        serve_one(ports, handler, req, scratch);
         served += 1;
-        let t0 = Instant::now();
-        let request = *req.user_header();
-        let Handled {
-            mut header,
-            changed,
-            bundle,
-        } = handler.handle(&request, req.payload());
-        if H::SOLVES {
-            header.solve_ns = t0.elapsed().as_nanos() as u64;
-        }
-        let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
-        let n = (header.n_joints + header.n_angles + header.n_held) as usize + inst;
-        let slot = match req.loan_slice_uninit(n) {
-            Ok(slot) => slot,
-            Err(e) => {
-                // Only possible if the scene outgrew the port, which `open` sizes for.
-                eprintln!("solver-service: cannot loan a response of {n} elements: {e:?}");
-                continue;
-            }
-        };
-        let small = n <= DEFER_STATE_UP_TO;
-        let mut resp = if small {
-            scratch.clear();
-            handler.gather(&header, scratch, n);
-            scratch.resize(n, Vec3::default());
-            slot.write_from_slice(scratch)
-        } else {
-            handler.feed(&header, Fill(slot))
-        };
-        handler.finish(&mut header, resp.payload());
-        *resp.user_header_mut() = header;
-        let stream = if bundle {
-            &ports.bundle_state
-        } else {
-            &ports.state
-        };
-        let publisher = stream.as_ref().filter(|_| changed);
-        // The sample: the response's joints, held joints and instruments (not its rotations).
-        let parts = shared::Parts::of_response(&header, resp.payload());
-        let (nj, na) = (parts.joints.len(), header.n_angles as usize);
-        let n_state = nj + parts.held.len() + parts.instruments.len();
-        let state_header = StateHeader {
-            sequence: header.sequence,
-            chain: header.chain,
-            n_joints: nj as u32,
-            command: request.command,
-            n_held: parts.held.len() as u32,
-            request_id: request.request_id,
-            n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize) as u32,
-            reserved: [0; 3],
-        };
-        let early = match publisher {
-            Some(p) if !small => {
-                let (joints, held, instruments) = (parts.joints, parts.held, parts.instruments);
-                state_sample(p, n_state, state_header, |s| {
-                    // One memcpy when there are only joints (a bundle), else element by element.
-                    if held.is_empty() && instruments.is_empty() {
-                        s.write_from_slice(joints)
-                    } else {
-                        let nh = held.len();
-                        s.write_from_fn(|i| {
-                            if i < nj {
-                                joints[i]
-                            } else if i < nj + nh {
-                                held[i - nj]
-                            } else {
-                                instruments.get(i - nj - nh).copied().unwrap_or_default()
-                            }
-                        })
-                    }
-                })
-            }
-            _ => None,
-        };
-        if let Err(e) = resp.send() {
-            eprintln!("solver-service: response not delivered: {e:?}");
-        }
-        ports.wake_client(request.listener_id());
-        drop(req);
-        let late = match publisher {
-            Some(p) if small => {
-                // The response's elements without its rotations.
-                scratch.drain(nj..nj + na);
-                state_sample(p, n_state, state_header, |s| s.write_from_slice(scratch))
-            }
-            _ => None,
-        };
-        if let Some(s) = early.or(late)
-            && let Err(e) = s.send()
-        {
-            eprintln!("solver-service: state not published: {e:?}");
+        checks.run(ports, handler);
+        if checks.stop {
+            return Ok(served);
         }
     }
-    Ok(served)
+}
+
+/// A request as the server receives it.
+type Request<S> = ActiveRequest<S, [Vec3], RequestHeader, [Vec3], ResponseHeader>;
+
+/// Requests received and not yet served, one queue per client (its port id), served round robin: the
+/// client served goes to the back of the ring, a new client joins at the back. At most
+/// `2 × MAX_CLIENTS` requests wait here (two in flight per client, enforced by iceoryx2).
+pub struct Fair<S: Service> {
+    ring: VecDeque<(u128, VecDeque<Request<S>>)>,
+}
+
+impl<S: Service> std::fmt::Debug for Fair<S> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Fair")
+            .field("clients", &self.ring.len())
+            .finish()
+    }
+}
+
+impl<S: Service> Default for Fair<S> {
+    fn default() -> Self {
+        Fair {
+            ring: VecDeque::new(),
+        }
+    }
+}
+
+impl<S: Service> Fair<S> {
+    fn push(&mut self, client: u128, req: Request<S>) {
+        fair_push(&mut self.ring, client, req);
+    }
+
+    fn pop(&mut self) -> Option<Request<S>> {
+        fair_pop(&mut self.ring)
+    }
+}
+
+/// Queues `item` behind its client's earlier ones; a client with nothing queued joins the ring at the back.
+fn fair_push<T>(ring: &mut VecDeque<(u128, VecDeque<T>)>, client: u128, item: T) {
+    match ring.iter_mut().find(|(c, _)| *c == client) {
+        Some((_, q)) => q.push_back(item),
+        None => ring.push_back((client, VecDeque::from([item]))),
+    }
+}
+
+/// The front client's oldest item; the client goes to the back if it has more, leaves the ring if not.
+fn fair_pop<T>(ring: &mut VecDeque<(u128, VecDeque<T>)>) -> Option<T> {
+    let (client, mut q) = ring.pop_front()?;
+    let item = q.pop_front();
+    if !q.is_empty() {
+        ring.push_back((client, q));
+    }
+    item
+}
+
+/// Answers one request, sends its response, wakes its client and publishes the change.
+fn serve_one<S: Service, H: Handler>(
+    ports: &ServerPorts<S>,
+    handler: &mut H,
+    req: Request<S>,
+    scratch: &mut Vec<Vec3>,
+) {
+    let t0 = Instant::now();
+    let request = *req.user_header();
+    let Handled {
+        mut header,
+        changed,
+        bundle,
+    } = handler.handle(&request, req.payload());
+    if H::SOLVES {
+        header.solve_ns = t0.elapsed().as_nanos() as u64;
+    }
+    let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
+    let n = (header.n_joints + header.n_angles + header.n_held) as usize + inst;
+    let slot = match req.loan_slice_uninit(n) {
+        Ok(slot) => slot,
+        Err(e) => {
+            // Only possible if the scene outgrew the port, which `open` sizes for.
+            eprintln!("solver-service: cannot loan a response of {n} elements: {e:?}");
+            return;
+        }
+    };
+    let small = n <= DEFER_STATE_UP_TO;
+    let mut resp = if small {
+        scratch.clear();
+        handler.gather(&header, scratch, n);
+        scratch.resize(n, Vec3::default());
+        slot.write_from_slice(scratch)
+    } else {
+        handler.feed(&header, Fill(slot))
+    };
+    handler.finish(&mut header, resp.payload());
+    *resp.user_header_mut() = header;
+    let stream = if bundle {
+        &ports.bundle_state
+    } else {
+        &ports.state
+    };
+    let publisher = stream.as_ref().filter(|_| changed);
+    // The sample: the response's joints, held joints and instruments (not its rotations).
+    let parts = shared::Parts::of_response(&header, resp.payload());
+    let (nj, na) = (parts.joints.len(), header.n_angles as usize);
+    let n_state = nj + parts.held.len() + parts.instruments.len();
+    let state_header = StateHeader {
+        sequence: header.sequence,
+        chain: header.chain,
+        n_joints: nj as u32,
+        command: request.command,
+        n_held: parts.held.len() as u32,
+        request_id: request.request_id,
+        n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize) as u32,
+        reserved: [0; 3],
+    };
+    let early = match publisher {
+        Some(p) if !small => {
+            let (joints, held, instruments) = (parts.joints, parts.held, parts.instruments);
+            state_sample(p, n_state, state_header, |s| {
+                // One memcpy when there are only joints (a bundle), else element by element.
+                if held.is_empty() && instruments.is_empty() {
+                    s.write_from_slice(joints)
+                } else {
+                    let nh = held.len();
+                    s.write_from_fn(|i| {
+                        if i < nj {
+                            joints[i]
+                        } else if i < nj + nh {
+                            held[i - nj]
+                        } else {
+                            instruments.get(i - nj - nh).copied().unwrap_or_default()
+                        }
+                    })
+                }
+            })
+        }
+        _ => None,
+    };
+    if let Err(e) = resp.send() {
+        eprintln!("solver-service: response not delivered: {e:?}");
+    }
+    ports.wake_client(request.listener_id());
+    drop(req);
+    let late = match publisher {
+        Some(p) if small => {
+            // The response's elements without its rotations.
+            scratch.drain(nj..nj + na);
+            state_sample(p, n_state, state_header, |s| s.write_from_slice(scratch))
+        }
+        _ => None,
+    };
+    if let Some(s) = early.or(late)
+        && let Err(e) = s.send()
+    {
+        eprintln!("solver-service: state not published: {e:?}");
+    }
 }
 
 /// A state sample of `n` elements written by `write`, with its header (`None`, reported, if the
@@ -572,5 +663,29 @@ fn state_sample<S: Service>(
             eprintln!("solver-service: cannot loan a state sample: {e:?}");
             None
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{fair_pop, fair_push};
+    use std::collections::VecDeque;
+
+    /// Two flooding clients (1, 2) with two requests each and a third (3) that arrives after them: the
+    /// third is served second-next, each client's requests keep their order, and a client that sends
+    /// again while queued stays in its place in the ring.
+    #[test]
+    fn the_ring_serves_one_request_per_client_per_round() {
+        let mut ring = VecDeque::new();
+        for (client, item) in [(1, "a1"), (1, "a2"), (2, "b1"), (2, "b2"), (3, "c1")] {
+            fair_push(&mut ring, client, item);
+        }
+        assert_eq!(fair_pop(&mut ring), Some("a1"));
+        fair_push(&mut ring, 1, "a3");
+        assert_eq!(fair_pop(&mut ring), Some("b1"));
+        assert_eq!(fair_pop(&mut ring), Some("c1"));
+        let rest: Vec<_> = std::iter::from_fn(|| fair_pop(&mut ring)).collect();
+        assert_eq!(rest, ["a2", "b2", "a3"]);
+        assert!(ring.is_empty());
     }
 }

@@ -99,3 +99,174 @@ fn a_hostile_client_cannot_take_the_service_from_a_1khz_client() {
         at(1.0)
     );
 }
+
+/// A flooding client of its own, on raw iceoryx2 ports: it keeps `in_flight` requests outstanding (the
+/// most the service allows a client is two), each a path of the budget's size on the rope, and wakes
+/// the service after each send. Counts its responses in `answered`; stops after `total` or at the first
+/// failure (the service gone).
+fn flood(prefix: &str, total: u64, answered: Arc<AtomicU64>, ready: Arc<AtomicU64>) {
+    use iceoryx2::prelude::*;
+    let cfg = shared::iceoryx_config(prefix).unwrap();
+    let node = NodeBuilder::new()
+        .config(&cfg)
+        .create::<ipc::Service>()
+        .unwrap();
+    let name = |s: &str| shared::service_name(s).unwrap();
+    let command = node
+        .service_builder(&name(shared::SERVICE_COMMAND))
+        .request_response::<[Vec3], [Vec3]>()
+        .request_user_header::<RequestHeader>()
+        .response_user_header::<shared::ResponseHeader>()
+        .open()
+        .unwrap();
+    let client = command
+        .client_builder()
+        .initial_max_slice_len(1250)
+        .create()
+        .unwrap();
+    let wake = node
+        .service_builder(&name(shared::SERVICE_WAKE_SERVER))
+        .event()
+        .open()
+        .unwrap()
+        .notifier_builder()
+        .create()
+        .unwrap();
+    let path: Vec<Vec3> = (0..1250)
+        .map(|k| {
+            let s = f64::from(k) / 1250.0;
+            Vec3::new(38.0 + (6.0 * s).cos(), (6.0 * s).sin(), 0.5 * s)
+        })
+        .collect();
+    // None once the service has gone.
+    let send = |i: u64| {
+        let mut req = client
+            .loan_slice_uninit(path.len())
+            .ok()?
+            .write_from_slice(&path);
+        let mut h = RequestHeader::new(Command::Path, 0);
+        h.request_id = i + 1;
+        *req.user_header_mut() = h;
+        let pending = req.send().ok()?;
+        let _ = wake.notify();
+        (pending.number_of_server_connections() > 0).then_some(pending)
+    };
+    let mut pending = std::collections::VecDeque::new();
+    let mut sent = 0;
+    while sent < 2 {
+        pending.push_back(send(sent).expect("the service is up"));
+        sent += 1;
+    }
+    ready.fetch_add(1, Ordering::SeqCst);
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while let Some(front) = pending.front() {
+        assert!(Instant::now() < deadline, "the flood did not end in 120 s");
+        match front.receive() {
+            Ok(Some(r)) => {
+                assert_eq!(
+                    r.user_header().status,
+                    Status::Ok as u32,
+                    "{}",
+                    r.user_header().reason_str()
+                );
+                drop(r);
+                pending.pop_front();
+                answered.fetch_add(1, Ordering::SeqCst);
+                if sent < total {
+                    match send(sent) {
+                        Some(p) => pending.push_back(p),
+                        None => return,
+                    }
+                    sent += 1;
+                }
+            }
+            Ok(None) if front.is_connected() => std::thread::sleep(Duration::from_micros(50)),
+            _ => return, // the service went away
+        }
+    }
+}
+
+/// Issue 35: two clients each keeping two budget-sized requests in flight cannot starve a client that
+/// connects after them (the serving loop takes one request per client per round), and SIGTERM ends the
+/// service in the middle of the flood. Counted in requests, not in time: the third client is answered
+/// while both flooders still have most of their requests to send (before round robin it waited for
+/// both floods to end), and after SIGTERM neither flood completes. The times are printed.
+#[test]
+fn two_flooding_clients_cannot_starve_a_third_or_delay_sigterm() {
+    const TOTAL: u64 = 200;
+    let mut svc = Service::start(&unique_prefix(), &["--no-persist"]);
+    let start_flood = |svc: &Service| {
+        let counters: Vec<_> = (0..2).map(|_| Arc::new(AtomicU64::new(0))).collect();
+        let ready = Arc::new(AtomicU64::new(0));
+        let threads: Vec<_> = counters
+            .iter()
+            .map(|answered| {
+                let (prefix, answered, ready) =
+                    (svc.prefix.clone(), answered.clone(), ready.clone());
+                std::thread::spawn(move || flood(&prefix, TOTAL, answered, ready))
+            })
+            .collect();
+        // Both flooding before the third connects.
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while counters.iter().any(|c| c.load(Ordering::SeqCst) < 2) {
+            assert!(Instant::now() < deadline, "the floods did not start");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        (counters, threads)
+    };
+    let (counters, threads) = start_flood(&svc);
+    let mut third = connect(&svc.prefix);
+    // Every flooding request is a change: the state's sequence counts them. Between the third client's
+    // send and its answer, the loop finishes the request in hand and serves at most one of each
+    // flooder's; the flooders may also have two answers each not yet read when the count is taken
+    // (the count lags the sequence). So at most 1 + 2 + 4 flooding requests come between; the least of
+    // three tries is taken, so that one preemption of this thread between the count and the send does
+    // not count against the service.
+    let mut between = Vec::new();
+    let mut waited = Vec::new();
+    for _ in 0..3 {
+        let before: u64 = counters.iter().map(|c| c.load(Ordering::SeqCst)).sum();
+        let t = Instant::now();
+        let r = third
+            .call(RequestHeader::new(Command::Query, 2), &[])
+            .unwrap();
+        waited.push(t.elapsed().as_secs_f64() * 1e3);
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        between.push(r.header.sequence.saturating_sub(before));
+    }
+    let done: Vec<u64> = counters.iter().map(|c| c.load(Ordering::SeqCst)).collect();
+    eprintln!(
+        "a third client during two floods: flooding requests served between its send and its answer \
+         {between:?}, round trips {waited:.1?} ms; the floods at {done:?} of {TOTAL}"
+    );
+    assert!(
+        between.iter().min().is_some_and(|&b| b <= 7),
+        "the third client waited for {between:?} flooding requests (at most 7 expected)"
+    );
+    assert!(
+        done.iter().all(|&d| d < TOTAL / 2),
+        "the third client waited for the floods: they had answered {done:?} of {TOTAL} each"
+    );
+    for th in threads {
+        th.join().expect("a flooder");
+    }
+    // SIGTERM in the middle of a flood.
+    let (counters, threads) = start_flood(&svc);
+    let t = Instant::now();
+    svc.signal("TERM");
+    let status = svc.wait_exit(Duration::from_secs(30));
+    let exited = t.elapsed();
+    for th in threads {
+        th.join().expect("a flooder");
+    }
+    let done: Vec<u64> = counters.iter().map(|c| c.load(Ordering::SeqCst)).collect();
+    eprintln!(
+        "SIGTERM during two floods: exited after {:.1} ms, the floods at {done:?} of {TOTAL}",
+        exited.as_secs_f64() * 1e3
+    );
+    assert!(status.success(), "{status:?}");
+    assert!(
+        done.iter().all(|&d| d < TOTAL / 2),
+        "SIGTERM waited for the floods: {done:?} of {TOTAL}"
+    );
+}
