@@ -37,6 +37,7 @@ JOINT_HEAD = 0xFFFFFFFF
 MAX_PATH_POINTS = 4096
 FLAG_ANGLES = 1
 FLAG_POSE = 2
+FLAG_TAKE_OVER = 4
 KIND = ["free", "fixed-base", "bundle"]
 
 CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
@@ -45,7 +46,7 @@ STATUS = [
     "ok", "unknown-command", "unknown-chain", "joint-out-of-range", "non-finite", "bad-option",
     "bad-point-count", "unreachable", "not-converged", "too-many-substeps", "wrong-chain-kind",
     "off-plane", "persistence-failed", "internal", "locked", "too-far",
-    "over-budget", "joint-limit",
+    "over-budget", "joint-limit", "held",
 ]
 
 

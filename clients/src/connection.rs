@@ -358,6 +358,12 @@ impl<S: Service> Connection<S> {
         }
     }
 
+    /// This connection's client port id: the owner the service names for the grasps it takes
+    /// (`held` refusals of other clients print it in hex).
+    pub fn client_id(&self) -> u128 {
+        self.client.id().value()
+    }
+
     /// Sends one request and copies the response out.
     pub fn call(&mut self, header: RequestHeader, points: &[Vec3]) -> Result<Reply, CallError> {
         self.call_with(header, points, |h, p| Reply {

@@ -42,6 +42,7 @@
 #define TRACTRIX_DEFAULT_PREFIX "tractrix_"
 #define TRACTRIX_MAX_LINKS 65536u
 #define TRACTRIX_MAX_HELD 64u
+#define TRACTRIX_MAX_GRASPS_PER_CLIENT 16u
 #define TRACTRIX_MAX_INSTRUMENTS 64u
 #define TRACTRIX_INSTRUMENT_ELEMENTS 3u
 #define TRACTRIX_MAX_RESPONSE_ELEMENTS \
@@ -54,6 +55,8 @@
 #define TRACTRIX_FLAG_ANGLES 1u
 /* A bundle's move by one rigid motion of its heads: points (t, rotation vector r); head_i = R(r) h0_i + t. */
 #define TRACTRIX_FLAG_POSE 2u
+/* Grasp, release, move, path, reset: take over the grasps of other clients the request touches. */
+#define TRACTRIX_FLAG_TAKE_OVER 4u
 #define TRACTRIX_MAX_BUNDLE_JOINTS 1048576u
 #define TRACTRIX_MAX_BUNDLE_STRANDS 131072u
 #define TRACTRIX_BUNDLE_STATE_BUFFER 2u
@@ -107,7 +110,8 @@ enum tractrix_status {
     TRACTRIX_LOCKED = 14,
     TRACTRIX_TOO_FAR = 15,
     TRACTRIX_OVER_BUDGET = 16,
-    TRACTRIX_JOINT_LIMIT = 17
+    TRACTRIX_JOINT_LIMIT = 17,
+    TRACTRIX_HELD = 18
 };
 
 /* RequestHeader.method, .precision, .substep_mode, .strategy; ResponseHeader.kind. */

@@ -151,7 +151,8 @@
 //! * `strategy` ([`WireStrategy`]): 0 default (translate back), 1 translate back, 2 tractrix + two-link,
 //!   3 pull-back (tractrix, then a tractrix pass pulling the base end back).
 //! * `flags`: bit 0 [`FLAG_ANGLES`] (reach and query: append joint rotations), bit 1 [`FLAG_POSE`] (a
-//!   bundle's move by one rigid motion of its heads).
+//!   bundle's move by one rigid motion of its heads), bit 2 [`FLAG_TAKE_OVER`] (grasp, release, move,
+//!   path, reset: take over another client's grasps).
 //! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base, 2 bundle. `collision`: bit 0 self, bit 1 obstacles.
 
 use bytemuck::{Pod, Zeroable};
@@ -163,6 +164,9 @@ pub mod unix_frame;
 
 /// Most held joints (anchors and grasps) one chain may have; a grasp beyond is refused.
 pub const MAX_HELD: u32 = 64;
+
+/// Most grasps one client may own on one chain, so that one client cannot take all [`MAX_HELD`] slots.
+pub const MAX_GRASPS_PER_CLIENT: u32 = 16;
 
 /// Most instruments a scene may declare (so at most this many on one chain).
 pub const MAX_INSTRUMENTS: u32 = 64;
@@ -223,6 +227,10 @@ pub const FLAG_ANGLES: u32 = 1;
 /// `t` then a rotation vector `r` (axis × angle, radians): strand `i`'s head goes to `R(r)·h0_i + t`,
 /// `h0_i` its head in the scene. Without the flag a bundle's move carries one target per strand.
 pub const FLAG_POSE: u32 = 2;
+/// Flag (grasp, release, move, path, reset of a free chain): take over the grasps of other clients that
+/// the request touches (without it such a request is refused with [`Status::Held`]). Anchors are the
+/// scene's and are never taken over.
+pub const FLAG_TAKE_OVER: u32 = 4;
 
 /// Most joints (strands × (links + 1)) of one bundle: 24 MiB per state sample in `Vec3`s.
 pub const MAX_BUNDLE_JOINTS: u32 = 1 << 20;
@@ -457,6 +465,9 @@ pub enum Status {
     /// (a held side, a collision pass, the closing two-link solution): refused, the state unchanged. A
     /// free move never is: its links are turned back into their limits as it runs.
     JointLimit = 17,
+    /// The joint is held by another client's grasp (release, move or reset without [`FLAG_TAKE_OVER`];
+    /// the reason names the owner), or is an anchor of the scene, which no client moves or releases.
+    Held = 18,
 }
 
 impl Status {
@@ -480,6 +491,7 @@ impl Status {
             Status::TooFar => "too-far",
             Status::OverBudget => "over-budget",
             Status::JointLimit => "joint-limit",
+            Status::Held => "held",
         }
     }
 }
@@ -571,7 +583,7 @@ wire_enum_from_u32! {
     Command { Move, Path, Reach, Query, Reset, Describe, Snapshot, Grasp, Release, Instrument }
     Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
              Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
-             Internal, Locked, TooFar, OverBudget, JointLimit }
+             Internal, Locked, TooFar, OverBudget, JointLimit, Held }
     WireMethod { Default, Tractrix, Paper, FollowTheLeader }
     Precision { Default, F64, F32 }
     SubstepMode { Default, Fixed, MaxStep }
@@ -1079,7 +1091,8 @@ mod tests {
         assert_eq!(Status::from_u32(15), Some(Status::TooFar));
         assert_eq!(Status::from_u32(16), Some(Status::OverBudget));
         assert_eq!(Status::from_u32(17), Some(Status::JointLimit));
-        assert_eq!(Status::from_u32(18), None);
+        assert_eq!(Status::from_u32(18), Some(Status::Held));
+        assert_eq!(Status::from_u32(19), None);
         assert_eq!(WireMethod::from_u32(4), None);
         assert_eq!(Precision::from_u32(2), Some(Precision::F32));
     }

@@ -79,6 +79,10 @@ fn assertions() -> String {
         ),
         ("MAX_PATH_POINTS", u64::from(shared::MAX_PATH_POINTS)),
         ("MAX_HELD", u64::from(shared::MAX_HELD)),
+        (
+            "MAX_GRASPS_PER_CLIENT",
+            u64::from(shared::MAX_GRASPS_PER_CLIENT),
+        ),
         ("MAX_INSTRUMENTS", u64::from(shared::MAX_INSTRUMENTS)),
         (
             "INSTRUMENT_ELEMENTS",
@@ -90,6 +94,7 @@ fn assertions() -> String {
         ("JOINT_HEAD", u64::from(shared::JOINT_HEAD)),
         ("FLAG_ANGLES", u64::from(shared::FLAG_ANGLES)),
         ("FLAG_POSE", u64::from(shared::FLAG_POSE)),
+        ("FLAG_TAKE_OVER", u64::from(shared::FLAG_TAKE_OVER)),
         ("MAX_BUNDLE_JOINTS", u64::from(shared::MAX_BUNDLE_JOINTS)),
         ("MAX_BUNDLE_STRANDS", u64::from(shared::MAX_BUNDLE_STRANDS)),
         ("BUNDLE_STATE_BUFFER", shared::BUNDLE_STATE_BUFFER as u64),

@@ -6,8 +6,11 @@
 
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
 use solver_service::chain_set::ChainSet;
+use solver_service::owners::LOCAL;
 use solver_service::persist::{JournalMode, Store};
 use solver_service::scene::default_scene;
+use solver_service::serve::answer;
+use solver_service::service::Solver;
 use std::time::Instant;
 
 fn pct(v: &mut [u64], p: f64) -> u64 {
@@ -37,16 +40,20 @@ fn main() {
             } else {
                 per_round
             };
-            let mut set = ChainSet::new(&default_scene()).expect("scene");
+            let set = ChainSet::new(&default_scene()).expect("scene");
             let mut store = Store::open(&dir.path().join(format!("{m}")), *mode).expect("store");
             store.snapshot(&set).expect("snapshot");
+            // The service's answer path without its store: the append is timed on its own.
+            let mut solver = Solver::new(set, None, std::time::Duration::ZERO);
             for i in 0..n {
                 let t = (round * n + i) as f64 * 0.01;
                 let p = [Vec3::new(40.0 + t.cos(), t.sin(), 0.1 * t)];
                 let t0 = Instant::now();
-                assert!(set.respond(&req, &p, &mut out).1);
+                assert!(answer(&mut solver, LOCAL, &req, &p, &mut out).1);
                 let t1 = Instant::now();
-                store.append(set.sequence(), &req, &p).expect("append");
+                store
+                    .append(solver.set().sequence(), &req, &p)
+                    .expect("append");
                 let t2 = Instant::now();
                 solve[m].push((t1 - t0).as_nanos() as u64);
                 append[m].push((t2 - t1).as_nanos() as u64);

@@ -75,7 +75,7 @@ impl<T: Real> Way<T> {
                     black_box(c.move_joint(n, to, o).expect("a move"));
                 }
                 Way::Handle(s, payload) => {
-                    let h = s.handle(&req, &[Vec3::new(p[0], p[1], p[2])]);
+                    let h = s.handle(0, &req, &[Vec3::new(p[0], p[1], p[2])]);
                     assert!(
                         h.changed,
                         "the service refused a move: {}",

@@ -32,7 +32,10 @@ use nalgebra::Vector3;
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
 use solver_service::bundle::Bundle;
 use solver_service::chain_set::ChainSet;
+use solver_service::owners::LOCAL;
 use solver_service::scene::parse_scene;
+use solver_service::serve::answer;
+use solver_service::service::Solver;
 use std::hint::black_box;
 use std::time::Instant;
 use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};
@@ -87,7 +90,8 @@ fn run<T: StrandReal + Send>(
     frames: usize,
 ) -> (Vec<Row>, f64, bool) {
     let h0 = heads::<T>();
-    let mut set = scene(precision);
+    let mut solver = Solver::new(scene(precision), None, std::time::Duration::ZERO);
+    let set = solver.set();
     let mut request = RequestHeader::new(Command::Move, 0);
     request.substep_mode = SubstepMode::Fixed as u32;
     request.substeps = k as u32;
@@ -166,13 +170,22 @@ fn run<T: StrandReal + Send>(
         }
         let t = Instant::now();
         for frame_targets in wire.chunks_exact(STRANDS) {
-            let o = set.apply_wire(&request, black_box(frame_targets)).unwrap();
+            let o = solver
+                .set_mut()
+                .apply_wire(&request, black_box(frame_targets))
+                .unwrap();
             assert!(o.changed);
         }
         times[5].push(t.elapsed().as_nanos() as f64 / work);
         let t = Instant::now();
         for frame_targets in wire.chunks_exact(STRANDS) {
-            let (h, _) = set.respond(&request, black_box(frame_targets), &mut out);
+            let (h, _) = answer(
+                &mut solver,
+                LOCAL,
+                &request,
+                black_box(frame_targets),
+                &mut out,
+            );
             assert_eq!(h.status, 0, "{}", h.reason_str());
             black_box(&out);
         }

@@ -1,8 +1,12 @@
 //! Batch mode: a file of requests (JSON lines, [`shared::text`]) applied to a scene without IPC, through
-//! the same handler as the service, with the resulting joints written as JSON lines or CSV. For scripts,
-//! regression files and debugging.
+//! the service's own answer path ([`crate::serve::answer`] over a [`Solver`]: decode, apply, persist,
+//! encode, the panic guard), with the resulting joints written as JSON lines or CSV. For scripts,
+//! regression files and debugging. Requests come from [`LOCAL`] (grasps unowned); without a store a
+//! `snapshot` is refused (`persistence-failed`), as the service refuses it under `--no-persist`.
 
-use crate::chain_set::ChainSet;
+use crate::owners::LOCAL;
+use crate::serve::answer;
+use crate::service::Solver;
 use shared::text::{TextRequest, TextResponse};
 use shared::{Status, Vec3};
 use std::io::{BufRead, Write};
@@ -32,7 +36,7 @@ pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// the batch with an error naming the line; a request the solver refuses is reported in the output (and
 /// counted) and the batch goes on.
 pub fn run_batch(
-    set: &mut ChainSet,
+    solver: &mut Solver,
     input: &mut dyn BufRead,
     out: &mut dyn Write,
     format: Format,
@@ -66,9 +70,9 @@ pub fn run_batch(
         let req: TextRequest =
             serde_json::from_str(text).map_err(|e| format!("{source}:{number}: {e}"))?;
         let (header, points) = req
-            .to_wire(&|name| set.find(name))
+            .to_wire(&|name| solver.set().find(name))
             .map_err(|e| format!("{source}:{number}: {e}"))?;
-        let (h, _) = set.respond(&header, &points, &mut payload);
+        let (h, _) = answer(solver, LOCAL, &header, &points, &mut payload);
         summary.requests += 1;
         let ok = h.status == Status::Ok as u32;
         if !ok {
@@ -113,12 +117,24 @@ pub fn run_batch(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::chain_set::ChainSet;
     use crate::scene::default_scene;
 
+    fn solver(set: ChainSet) -> Solver {
+        Solver::new(set, None, std::time::Duration::ZERO)
+    }
+
     /// Runs `input` as a batch and parses the JSON-lines output.
-    fn run_lines(set: &mut ChainSet, input: &str) -> (Summary, Vec<TextResponse>) {
+    fn run_lines(set: ChainSet, input: &str) -> (Summary, Vec<TextResponse>) {
         let mut out = Vec::new();
-        let s = run_batch(set, &mut input.as_bytes(), &mut out, Format::JsonLines, "t").unwrap();
+        let s = run_batch(
+            &mut solver(set),
+            &mut input.as_bytes(),
+            &mut out,
+            Format::JsonLines,
+            "t",
+        )
+        .unwrap();
         let lines = String::from_utf8(out)
             .unwrap()
             .lines()
@@ -129,20 +145,21 @@ mod tests {
 
     #[test]
     fn a_batch_moves_reaches_and_reports_refusals() {
-        let mut set = ChainSet::new(&default_scene()).unwrap();
+        let set = ChainSet::new(&default_scene()).unwrap();
         let input = r#"
 # comment lines and blank lines are skipped
 {"cmd":"move","chain":"rope","target":[40,5,0]}
 {"cmd":"reach","chain":"arm","target":[1.0,0.9],"angles":true}
 {"cmd":"reach","chain":"arm","target":[5.0,0.0]}
 {"cmd":"query","chain":"snake"}
+{"cmd":"snapshot"}
 "#;
-        let (s, lines) = run_lines(&mut set, input);
+        let (s, lines) = run_lines(set, input);
         assert_eq!(
             s,
             Summary {
-                requests: 4,
-                failed: 1
+                requests: 5,
+                failed: 2
             }
         );
         assert_eq!(lines[0].status, "ok");
@@ -152,6 +169,8 @@ mod tests {
         assert_eq!(lines[2].status, "unreachable");
         assert!(lines[2].joints.is_empty());
         assert_eq!(lines[3].sequence, 2);
+        // No store: a snapshot is refused, not answered ok without writing one.
+        assert_eq!(lines[4].status, "persistence-failed");
     }
 
     /// An f32 planar chain is served in f32: moves land within f32 rounding, a target that overflows
@@ -163,9 +182,9 @@ mod tests {
             "f32.toml",
         )
         .unwrap();
-        let mut set = ChainSet::new(&scene).unwrap();
+        let set = ChainSet::new(&scene).unwrap();
         let input = "{\"cmd\":\"move\",\"chain\":\"hair\",\"target\":[0.3,0.1],\"substeps\":16}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[1e39,0]}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[0,0],\"precision\":\"f64\"}\n";
-        let (s, lines) = run_lines(&mut set, input);
+        let (s, lines) = run_lines(set, input);
         assert_eq!(
             s,
             Summary {
@@ -191,10 +210,10 @@ mod tests {
 
     #[test]
     fn a_malformed_line_is_named() {
-        let mut set = ChainSet::new(&default_scene()).unwrap();
+        let set = ChainSet::new(&default_scene()).unwrap();
         let input = "{\"cmd\":\"query\",\"chain\":0}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[1,2,3,4]}\n";
         let e = run_batch(
-            &mut set,
+            &mut solver(set),
             &mut input.as_bytes(),
             &mut Vec::new(),
             Format::Csv,

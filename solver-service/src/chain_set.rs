@@ -10,6 +10,7 @@
 //!
 //! No I/O and no clock here: the service measures time and does the persistence around it.
 
+use crate::owners::{LOCAL, Owners};
 use crate::request::{self, Outcome, Refusal, Request, Residual, refuse};
 use crate::scene::{ChainSpec, Scene};
 use nalgebra::Vector3;
@@ -172,6 +173,8 @@ pub struct ChainSet {
     budget: u64,
     /// The chain and sequence before the last accepted change, while it can be undone.
     undo: Option<(u32, u64)>,
+    /// Who owns each grasp ([`crate::owners`]).
+    owners: Owners,
 }
 
 fn point<T: Real, const D: usize>(q: Vec3) -> Vector<T, D>
@@ -321,6 +324,7 @@ impl ChainSet {
             sequence: 0,
             budget: DEFAULT_BUDGET,
             undo: None,
+            owners: Owners::new(scene.chains.len()),
         })
     }
 
@@ -603,10 +607,38 @@ impl ChainSet {
         self.apply(&req)
     }
 
-    /// Applies a decoded request. A refusal changes nothing; an accepted change gets the next sequence
-    /// number and can be undone until the next request.
+    /// Applies a decoded request as [`LOCAL`] (batch mode, the journal's replay, tests): see
+    /// [`ChainSet::apply_for`].
     pub fn apply(&mut self, req: &Request<'_>) -> Result<Outcome, Refusal> {
+        self.apply_for(LOCAL, req)
+    }
+
+    /// Applies a decoded request of `client` (its port id; [`LOCAL`] for no client). A refusal changes
+    /// nothing; an accepted change gets the next sequence number and can be undone until the next
+    /// request. Grasps belong to their client ([`crate::owners`]).
+    pub fn apply_for(&mut self, client: u128, req: &Request<'_>) -> Result<Outcome, Refusal> {
         self.undo = None;
+        self.owners.begin();
+        self.owners.check(client, req)?;
+        let outcome = self.apply_checked(req)?;
+        if let Some(chain) = req.chain() {
+            self.owners
+                .record(client, req, &self.specs[chain as usize].anchors);
+        }
+        Ok(outcome)
+    }
+
+    /// Whether any grasp has an owner.
+    pub fn grasps_owned(&self) -> bool {
+        self.owners.any()
+    }
+
+    /// Leaves the grasps of clients for which `present` is false holding, unowned; returns how many.
+    pub fn forget_absent_owners(&mut self, present: impl Fn(u128) -> bool) -> usize {
+        self.owners.forget_absent(present)
+    }
+
+    fn apply_checked(&mut self, req: &Request<'_>) -> Result<Outcome, Refusal> {
         let work = self.estimate(req)?;
         if work > self.budget {
             return Err(refuse!(
@@ -747,26 +779,8 @@ impl ChainSet {
         if let Some((chain, sequence)) = self.undo.take() {
             each_form!(&mut self.geometry[chain as usize], h => h.swap_undo());
             self.sequence = sequence;
+            self.owners.undo();
         }
-    }
-
-    /// Decodes, applies and encodes one wire request, and writes the response's elements into `out`:
-    /// the path of batch mode, the Unix socket and the journal's replay (the service streams the
-    /// elements into shared memory instead). Returns the header and whether the state changed.
-    pub fn respond(
-        &mut self,
-        req: &RequestHeader,
-        points: &[Vec3],
-        out: &mut Vec<Vec3>,
-    ) -> (ResponseHeader, bool) {
-        let result = self.decode(req, points).and_then(|r| self.apply(&r));
-        let mut h = self.encode(req, &result);
-        out.clear();
-        self.elements(&h).feed(Extend(out));
-        if let Ok(o) = &result {
-            request::finish(&mut h, o.residual, out);
-        }
-        (h, result.is_ok_and(|o| o.changed))
     }
 
     /// The payload of a response: its chain's joints (tail first), then, with `n_angles`, one rotation
@@ -1061,16 +1075,6 @@ pub enum Elements<'a> {
     Spatial32(ChainElements<'a, f32, 3>),
     /// A bundle's joints.
     Bundle(crate::bundles::BundleElements<'a>),
-}
-
-/// Appends elements to a buffer.
-struct Extend<'a>(&'a mut Vec<Vec3>);
-
-impl crate::serve::ElementSink for Extend<'_> {
-    type Out = ();
-    fn take<I: Iterator<Item = Vec3>>(self, it: I) {
-        self.0.extend(it);
-    }
 }
 
 impl Elements<'_> {

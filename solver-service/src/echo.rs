@@ -15,7 +15,7 @@ pub struct Echo {
 impl Handler for Echo {
     const SOLVES: bool = false;
 
-    fn handle(&mut self, req: &RequestHeader, _points: &[Vec3]) -> Handled {
+    fn handle(&mut self, _client: u128, req: &RequestHeader, _points: &[Vec3]) -> Handled {
         Handled {
             header: ResponseHeader {
                 request_id: req.request_id,

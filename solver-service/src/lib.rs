@@ -17,6 +17,7 @@ pub mod bundle;
 pub mod bundles;
 pub mod chain_set;
 pub mod echo;
+pub mod owners;
 pub mod persist;
 pub mod request;
 pub mod scene;

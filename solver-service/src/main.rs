@@ -221,7 +221,8 @@ fn real_main(cli: Cli) -> Result<u8> {
                 u.socket.display()
             );
             let _ = std::io::stdout().flush();
-            solver_service::unix_socket::serve(&listener, &mut set, u.connections)?;
+            let mut solver = solver_service::service::Solver::new(set, None, Duration::ZERO);
+            solver_service::unix_socket::serve(&listener, &mut solver, u.connections)?;
             let _ = std::fs::remove_file(&u.socket);
             Ok(0)
         }
@@ -244,7 +245,8 @@ fn real_main(cli: Cli) -> Result<u8> {
                     std::fs::File::create(&b.out).with_context(|| b.out.display().to_string())?,
                 ))
             };
-            let s = run_batch(&mut set, &mut input, &mut out, format, &source)
+            let mut solver = solver_service::service::Solver::new(set, None, Duration::ZERO);
+            let s = run_batch(&mut solver, &mut input, &mut out, format, &source)
                 .map_err(anyhow::Error::msg)?;
             out.flush()?;
             eprintln!("{} requests, {} refused", s.requests, s.failed);

@@ -8,8 +8,8 @@
 
 use crate::scene::ChainSpec;
 use shared::{
-    ChainKind, Command, FLAG_ANGLES, JOINT_HEAD, MAX_PATH_POINTS, Precision, REASON_LEN,
-    RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+    ChainKind, Command, FLAG_ANGLES, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision,
+    REASON_LEN, RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use std::fmt::Write as _;
 use tractrix::math::Embed3;
@@ -33,6 +33,9 @@ pub enum Request<'a> {
         targets: &'a [Vec3],
         /// Method and substeps, defaults resolved.
         options: MoveOptions<f64>,
+        /// Move the joint even if another client grasps it, taking the grasp over
+        /// ([`shared::FLAG_TAKE_OVER`]).
+        take_over: bool,
     },
     /// Bring a fixed-base chain's head to `target`.
     Reach {
@@ -57,10 +60,12 @@ pub enum Request<'a> {
         /// Chain handle.
         chain: u32,
     },
-    /// Back to the scene's initial state.
+    /// Back to the scene's initial state (every grasp dropped).
     Reset {
         /// Chain handle.
         chain: u32,
+        /// Drop other clients' grasps too ([`shared::FLAG_TAKE_OVER`]).
+        take_over: bool,
     },
     /// Write a snapshot now (the service's business; the chain set only validates it).
     Snapshot,
@@ -70,6 +75,8 @@ pub enum Request<'a> {
         chain: u32,
         /// Joint index, resolved.
         joint: usize,
+        /// Take the grasp over if another client holds it ([`shared::FLAG_TAKE_OVER`]).
+        take_over: bool,
     },
     /// Let a grasped joint go.
     Release {
@@ -77,6 +84,8 @@ pub enum Request<'a> {
         chain: u32,
         /// Joint index, resolved.
         joint: usize,
+        /// Release another client's grasp ([`shared::FLAG_TAKE_OVER`]).
+        take_over: bool,
     },
     /// Move an instrument of the chain to a new pose, pushing the chain.
     Instrument {
@@ -110,7 +119,7 @@ impl Request<'_> {
             | Request::Reach { chain, .. }
             | Request::Query { chain, .. }
             | Request::Describe { chain }
-            | Request::Reset { chain }
+            | Request::Reset { chain, .. }
             | Request::Grasp { chain, .. }
             | Request::Release { chain, .. }
             | Request::Instrument { chain, .. } => Some(chain),
@@ -390,6 +399,19 @@ pub(crate) struct Checked {
     pub strategy: WireStrategy,
 }
 
+/// Refuses (`held`) a request that would release or move an anchor of the scene: anchors are the
+/// scene's (a suture's end in tissue), for every client.
+fn anchored(spec: &ChainSpec, joint: usize, what: &str) -> Result<(), Refusal> {
+    if spec.anchors.contains(&(joint as u32)) {
+        return Err(refuse!(
+            Held,
+            "joint {joint} of {:?} is an anchor of the scene, never {what}",
+            spec.name
+        ));
+    }
+    Ok(())
+}
+
 /// Checks what [`Checked`] holds.
 pub(crate) fn check_header(h: &RequestHeader, allowed: u32) -> Result<Checked, Refusal> {
     let command = Command::try_from(h.command)
@@ -437,7 +459,20 @@ pub fn decode<'a>(
         precision,
         substep_mode,
         strategy,
-    } = check_header(h, FLAG_ANGLES)?;
+    } = check_header(h, FLAG_ANGLES | FLAG_TAKE_OVER)?;
+    let take_over = h.flags & FLAG_TAKE_OVER != 0;
+    if take_over
+        && !matches!(
+            command,
+            Command::Grasp | Command::Release | Command::Move | Command::Path | Command::Reset
+        )
+    {
+        return Err(refuse!(
+            BadOption,
+            "flag take-over (4) is for grasp, release, move, path and reset, not {}",
+            command.name()
+        ));
+    }
     let expected = match command {
         Command::Move | Command::Reach => 1..=1,
         Command::Path => 1..=MAX_PATH_POINTS as usize,
@@ -567,17 +602,21 @@ pub fn decode<'a>(
                 ));
             }
             let joint = resolve_joint()?;
-            if command == Command::Release && spec.anchors.contains(&(joint as u32)) {
-                return Err(refuse!(
-                    BadOption,
-                    "joint {joint} of {:?} is an anchor of the scene, never released",
-                    spec.name
-                ));
+            if command == Command::Release {
+                anchored(spec, joint, "released")?;
             }
             Ok(if command == Command::Grasp {
-                Request::Grasp { chain, joint }
+                Request::Grasp {
+                    chain,
+                    joint,
+                    take_over,
+                }
             } else {
-                Request::Release { chain, joint }
+                Request::Release {
+                    chain,
+                    joint,
+                    take_over,
+                }
             })
         }
         Command::Move | Command::Path => {
@@ -589,6 +628,7 @@ pub fn decode<'a>(
                 ));
             }
             let joint = resolve_joint()?;
+            anchored(spec, joint, "moved")?;
             let substeps = match substep_mode {
                 SubstepMode::Default => spec.moves.substeps,
                 SubstepMode::Fixed if h.substeps == 0 => {
@@ -613,6 +653,7 @@ pub fn decode<'a>(
                     substeps,
                     ..spec.moves
                 },
+                take_over,
             })
         }
         Command::Reach => {
@@ -674,7 +715,7 @@ pub fn decode<'a>(
         }
         Command::Query => Ok(Request::Query { chain, angles }),
         Command::Describe => Ok(Request::Describe { chain }),
-        Command::Reset => Ok(Request::Reset { chain }),
+        Command::Reset => Ok(Request::Reset { chain, take_over }),
         Command::Snapshot => Ok(Request::Snapshot),
     }
 }

@@ -51,6 +51,8 @@ use std::time::{Duration, Instant};
 
 /// How often the loop looks for a termination request and runs housekeeping, under any traffic.
 pub const CHECK_EVERY: Duration = Duration::from_millis(1);
+/// How often the loop looks for clients that have gone, while the handler tracks clients.
+pub const CLIENTS_EVERY: Duration = Duration::from_millis(500);
 /// Longest sleep of the event and hybrid modes without a notification (a polling client may not
 /// notify; its request is served at the next tick).
 pub const TICK: Duration = Duration::from_millis(50);
@@ -75,7 +77,18 @@ pub struct ServerPorts<S: Service> {
     pub state: Option<Publisher<S, [Vec3], StateHeader>>,
     /// Every accepted change of a bundle (only for a scene with bundles).
     pub bundle_state: Option<Publisher<S, [Vec3], StateHeader>>,
+    /// The command service (its clients are listed to find grasp owners that have gone).
+    pub command: CommandService<S>,
 }
+
+/// The command service's port factory.
+pub type CommandService<S> = iceoryx2::service::port_factory::request_response::PortFactory<
+    S,
+    [Vec3],
+    RequestHeader,
+    [Vec3],
+    ResponseHeader,
+>;
 
 impl<S: Service> std::fmt::Debug for ServerPorts<S> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -168,7 +181,7 @@ impl<S: Service> ServerPorts<S> {
                 )
             })
             .transpose()?;
-        let server = node
+        let command = node
             .service_builder(&service_name(SERVICE_COMMAND)?)
             .request_response::<[Vec3], [Vec3]>()
             .request_user_header::<RequestHeader>()
@@ -180,7 +193,8 @@ impl<S: Service> ServerPorts<S> {
             .open_or_create()
             .map_err(err(
                 "cannot open or create the command service (a peer of another protocol version?)",
-            ))?
+            ))?;
+        let server = command
             .server_builder()
             // One response per request: the data segment holds fewer samples (a bundle's response
             // is megabytes).
@@ -198,6 +212,7 @@ impl<S: Service> ServerPorts<S> {
                 wake_notifier,
                 state,
                 bundle_state,
+                command,
             },
             stale,
         ))
@@ -292,8 +307,8 @@ pub trait Handler {
     /// Whether the response's `solve_ns` is the time [`Handler::handle`] took (the raw echo solves
     /// nothing and reports zero).
     const SOLVES: bool = true;
-    /// Answers one request.
-    fn handle(&mut self, req: &RequestHeader, points: &[Vec3]) -> Handled;
+    /// Answers one request of `client` (its iceoryx2 port id).
+    fn handle(&mut self, client: u128, req: &RequestHeader, points: &[Vec3]) -> Handled;
     /// The response's elements, in order (at least `n_joints + n_angles` of them).
     fn elements(&self, h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_;
     /// Hands [`Handler::elements`] to `sink` (a handler with several forms of elements picks one here).
@@ -309,6 +324,56 @@ pub trait Handler {
     fn finish(&mut self, _h: &mut ResponseHeader, _written: &[Vec3]) {}
     /// Runs at least every [`CHECK_EVERY`] (periodic snapshots); an error is reported, not fatal.
     fn housekeeping(&mut self, _now: Instant) {}
+    /// Whether the handler keeps anything per client (grasp owners): then the loop tells it, every
+    /// [`CLIENTS_EVERY`], which clients are present ([`Handler::clients_present`]).
+    fn tracks_clients(&self) -> bool {
+        false
+    }
+    /// The clients present now (`present(id)`); those absent lose what the handler kept for them.
+    fn clients_present(&mut self, _present: &dyn Fn(u128) -> bool) {}
+}
+
+/// Answers one request of `client` into `out` (the response's elements), the way the serving loop does
+/// (handle, time, gather, finish): the answer path of batch mode and the Unix socket. Returns the
+/// response header and whether the state changed.
+pub fn answer<H: Handler>(
+    handler: &mut H,
+    client: u128,
+    request: &RequestHeader,
+    points: &[Vec3],
+    out: &mut Vec<Vec3>,
+) -> (ResponseHeader, bool) {
+    let (
+        Handled {
+            mut header,
+            changed,
+            ..
+        },
+        n,
+    ) = handle_timed(handler, client, request, points);
+    out.clear();
+    handler.gather(&header, out, n);
+    out.resize(n, Vec3::default());
+    handler.finish(&mut header, out);
+    (header, changed)
+}
+
+/// [`Handler::handle`], its `solve_ns` measured, and the number of elements its response has.
+fn handle_timed<H: Handler>(
+    handler: &mut H,
+    client: u128,
+    request: &RequestHeader,
+    points: &[Vec3],
+) -> (Handled, usize) {
+    let t0 = Instant::now();
+    let mut handled = handler.handle(client, request, points);
+    let header = &mut handled.header;
+    if H::SOLVES {
+        header.solve_ns = t0.elapsed().as_nanos() as u64;
+    }
+    let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
+    let n = (header.n_joints + header.n_angles + header.n_held) as usize + inst;
+    (handled, n)
 }
 
 /// How the loop waits, and when it stops.
@@ -337,6 +402,7 @@ where
     let mut fair = Fair::default();
     let mut checks = Checks {
         next: Instant::now() + CHECK_EVERY,
+        clients_next: Instant::now() + CLIENTS_EVERY,
         stop: false,
         flag: opts.stop.clone(),
     };
@@ -394,6 +460,7 @@ where
 /// Termination and housekeeping, at least every [`CHECK_EVERY`].
 struct Checks {
     next: Instant,
+    clients_next: Instant,
     stop: bool,
     flag: Option<Arc<AtomicBool>>,
 }
@@ -415,6 +482,17 @@ impl Checks {
             self.stop = true;
         }
         handler.housekeeping(now);
+        if now >= self.clients_next && handler.tracks_clients() {
+            self.clients_next = now + CLIENTS_EVERY;
+            // A client killed with SIGKILL keeps its port until its node is cleaned up.
+            let _ = ports.node.try_cleanup_dead_nodes();
+            let mut present = Vec::new();
+            ports.command.dynamic_config().list_clients(|c| {
+                present.push(c.client_id.value());
+                CallbackProgression::Continue
+            });
+            handler.clients_present(&|id| present.contains(&id));
+        }
     }
 }
 
@@ -549,18 +627,15 @@ fn serve_one<S: Service, H: Handler>(
     req: Request<S>,
     scratch: &mut Vec<Vec3>,
 ) {
-    let t0 = Instant::now();
     let request = *req.user_header();
-    let Handled {
-        mut header,
-        changed,
-        bundle,
-    } = handler.handle(&request, req.payload());
-    if H::SOLVES {
-        header.solve_ns = t0.elapsed().as_nanos() as u64;
-    }
-    let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
-    let n = (header.n_joints + header.n_angles + header.n_held) as usize + inst;
+    let (
+        Handled {
+            mut header,
+            changed,
+            bundle,
+        },
+        n,
+    ) = handle_timed(handler, req.origin().value(), &request, req.payload());
     let slot = match req.loan_slice_uninit(n) {
         Ok(slot) => slot,
         Err(e) => {

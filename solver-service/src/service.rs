@@ -80,8 +80,20 @@ impl Solver {
         &self.set
     }
 
-    /// Decodes and applies a request, with the snapshot command and the journal around the chain set.
-    fn run(&mut self, header: &RequestHeader, points: &[Vec3]) -> Result<Outcome, Refusal> {
+    /// The chains, to change outside the answer path (benches, tests): nothing done through it is
+    /// journaled.
+    pub fn set_mut(&mut self) -> &mut ChainSet {
+        &mut self.set
+    }
+
+    /// Decodes and applies a request of `client`, with the snapshot command and the journal around the
+    /// chain set.
+    fn run(
+        &mut self,
+        client: u128,
+        header: &RequestHeader,
+        points: &[Vec3],
+    ) -> Result<Outcome, Refusal> {
         let req = self.set.decode(header, points)?;
         if matches!(req, Request::Snapshot) {
             let outcome = self.set.apply(&req)?;
@@ -98,17 +110,18 @@ impl Solver {
             };
         }
         let set = &mut self.set;
-        let outcome =
-            match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| set.apply(&req))) {
-                Ok(r) => r?,
-                Err(_) => {
-                    self.set.undo();
-                    return Err(refuse!(
-                        Internal,
-                        "internal error in the solver; state kept"
-                    ));
-                }
-            };
+        let outcome = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            set.apply_for(client, &req)
+        })) {
+            Ok(r) => r?,
+            Err(_) => {
+                self.set.undo();
+                return Err(refuse!(
+                    Internal,
+                    "internal error in the solver; state kept"
+                ));
+            }
+        };
         // A bundle's change is not persisted (see `crate::bundles`).
         if outcome.changed && !outcome.bundle {
             if let Some(store) = self.store.as_mut()
@@ -158,8 +171,8 @@ impl Solver {
 }
 
 impl Handler for Solver {
-    fn handle(&mut self, req: &RequestHeader, points: &[Vec3]) -> Handled {
-        let result = self.run(req, points);
+    fn handle(&mut self, client: u128, req: &RequestHeader, points: &[Vec3]) -> Handled {
+        let result = self.run(client, req, points);
         self.residual = result.as_ref().map_or(Residual::None, |o| o.residual);
         Handled {
             header: self.set.encode(req, &result),
@@ -186,6 +199,17 @@ impl Handler for Solver {
 
     fn housekeeping(&mut self, now: Instant) {
         self.snapshot_if_due(now);
+    }
+
+    fn tracks_clients(&self) -> bool {
+        self.set.grasps_owned()
+    }
+
+    fn clients_present(&mut self, present: &dyn Fn(u128) -> bool) {
+        let n = self.set.forget_absent_owners(present);
+        if n > 0 {
+            eprintln!("solver-service: {n} grasp(s) of clients that have gone now hold unowned");
+        }
     }
 }
 

@@ -1,27 +1,29 @@
 //! The same protocol over a Unix domain socket: a comparison transport for the latency bench (and for a
-//! peer that cannot map iceoryx2's shared memory). Same wire types, same [`ChainSet`], no persistence,
-//! one connection at a time, every wait a blocking read (the kernel wakes the server).
+//! peer that cannot map iceoryx2's shared memory). Same wire types, the service's own answer path
+//! ([`crate::serve::answer`] over a [`Solver`]), no persistence (a `snapshot` is refused), requests from
+//! [`LOCAL`], one connection at a time, every wait a blocking read (the kernel wakes the server).
 //!
 //! Framing: [`shared::unix_frame`]. A request with more than [`MAX_PATH_POINTS`] points or a non-zero pad
 //! gets a `bad-point-count` (`bad-option`) response and the connection is closed: the stream cannot be
 //! trusted after it.
 
-use crate::chain_set::ChainSet;
+use crate::owners::LOCAL;
+use crate::serve::answer;
+use crate::service::Solver;
 use shared::unix_frame::{REQUEST_PREFIX, frame_ok, split_request_prefix, write_response};
 use shared::{MAX_PATH_POINTS, ResponseHeader, Status, Vec3};
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
-use std::time::Instant;
 
 /// Serves connections one after another until the listener fails. Returns after `max_connections`
 /// connections if given (the tests and the bench use one).
 pub fn serve(
     listener: &UnixListener,
-    set: &mut ChainSet,
+    solver: &mut Solver,
     max_connections: Option<usize>,
 ) -> std::io::Result<()> {
     for (served, stream) in listener.incoming().enumerate() {
-        if let Err(e) = serve_connection(stream?, set) {
+        if let Err(e) = serve_connection(stream?, solver) {
             eprintln!("solver-service: unix socket connection ended: {e}");
         }
         if max_connections.is_some_and(|m| served + 1 >= m) {
@@ -32,7 +34,7 @@ pub fn serve(
 }
 
 /// Serves one connection until the peer closes it (`Ok`) or breaks the framing (`Err`).
-pub fn serve_connection(mut stream: UnixStream, set: &mut ChainSet) -> std::io::Result<()> {
+pub fn serve_connection(mut stream: UnixStream, solver: &mut Solver) -> std::io::Result<()> {
     let mut prefix = [0u8; REQUEST_PREFIX];
     let mut points: Vec<Vec3> = Vec::with_capacity(MAX_PATH_POINTS as usize);
     let mut out: Vec<u8> = Vec::new();
@@ -43,7 +45,6 @@ pub fn serve_connection(mut stream: UnixStream, set: &mut ChainSet) -> std::io::
             Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => return Ok(()),
             Err(e) => return Err(e),
         }
-        let t0 = Instant::now();
         let (header, n, pad) = split_request_prefix(&prefix);
         let mut h = ResponseHeader::default();
         if !frame_ok(n, pad) {
@@ -55,7 +56,7 @@ pub fn serve_connection(mut stream: UnixStream, set: &mut ChainSet) -> std::io::
             h.command = header.command;
             h.chain = header.chain;
             h.request_id = header.request_id;
-            h.sequence = set.sequence();
+            h.sequence = solver.set().sequence();
             h.set_reason(&format!(
                 "unix frame: {n} points (at most {MAX_PATH_POINTS}), pad {pad} (must be 0); closing"
             ));
@@ -67,8 +68,7 @@ pub fn serve_connection(mut stream: UnixStream, set: &mut ChainSet) -> std::io::
         }
         points.resize(n as usize, Vec3::default());
         stream.read_exact(bytemuck::cast_slice_mut(&mut points))?;
-        let (mut h, _) = set.respond(&header, &points, &mut elements);
-        h.solve_ns = t0.elapsed().as_nanos() as u64;
+        let (h, _) = answer(solver, LOCAL, &header, &points, &mut elements);
         write_response(&mut stream, &mut out, &h, elements.iter().copied())?;
     }
 }
@@ -76,18 +76,27 @@ pub fn serve_connection(mut stream: UnixStream, set: &mut ChainSet) -> std::io::
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::chain_set::ChainSet;
     use shared::unix_frame::{read_response, write_request};
     use shared::{Command, RequestHeader};
 
     #[test]
     fn a_move_over_the_socket_matches_the_same_move_in_process() {
         let scene = crate::scene::default_scene();
-        let mut served = ChainSet::new(&scene).unwrap();
-        let mut local = ChainSet::new(&scene).unwrap();
+        let mut served = Solver::new(
+            ChainSet::new(&scene).unwrap(),
+            None,
+            std::time::Duration::ZERO,
+        );
+        let mut local = Solver::new(
+            ChainSet::new(&scene).unwrap(),
+            None,
+            std::time::Duration::ZERO,
+        );
         let (a, mut b) = UnixStream::pair().unwrap();
         let server = std::thread::spawn(move || {
             let r = serve_connection(a, &mut served);
-            (r.is_err(), served.sequence())
+            (r.is_err(), served.set().sequence())
         });
         let req = RequestHeader::new(Command::Move, 0);
         let target = [Vec3::new(38.0, 3.0, 1.0)];
@@ -96,7 +105,7 @@ mod tests {
         write_request(&mut b, &mut buf, &req, &target).unwrap();
         let h = read_response(&mut b, &mut got).unwrap();
         let mut expected = Vec::new();
-        let (_, changed) = local.respond(&req, &target, &mut expected);
+        let (_, changed) = answer(&mut local, LOCAL, &req, &target, &mut expected);
         assert!(changed);
         assert_eq!(h.status, Status::Ok as u32);
         assert_eq!(h.n_joints, 41);

@@ -19,7 +19,10 @@
 use proptest::prelude::*;
 use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
 use solver_service::chain_set::ChainSet;
+use solver_service::owners::LOCAL;
 use solver_service::scene::parse_scene;
+use solver_service::serve::answer;
+use solver_service::service::Solver;
 
 /// Every chain form, with small substep and iteration limits so that no request can take long.
 const SCENE: &str = r#"
@@ -424,11 +427,12 @@ fn run_case(
     if !max_limits {
         set.set_budget(5_000);
     }
+    let mut solver = Solver::new(set, None, std::time::Duration::ZERO);
     let mut elements = Vec::new();
     for (req, points) in requests {
-        let before = snapshot(&set);
-        let seq = set.sequence();
-        let (h, changed) = set.respond(req, points, &mut elements);
+        let before = snapshot(solver.set());
+        let seq = solver.set().sequence();
+        let (h, changed) = answer(&mut solver, LOCAL, req, points, &mut elements);
         let Some(status) = Status::from_u32(h.status) else {
             return Err(TestCaseError::fail(format!(
                 "status {} is not a Status",
@@ -440,7 +444,7 @@ fn run_case(
         prop_assert_eq!(h.request_id, req.request_id);
         if status == Status::Ok {
             prop_assert!(h.reason_str().is_empty());
-            prop_assert_eq!(set.sequence(), seq + u64::from(changed));
+            prop_assert_eq!(solver.set().sequence(), seq + u64::from(changed));
             if req.command != Command::Snapshot as u32 && req.command != Command::Describe as u32 {
                 prop_assert_eq!(
                     elements.len(),
@@ -464,13 +468,13 @@ fn run_case(
                 "status {:?} without a reason",
                 status
             );
-            prop_assert_eq!(set.sequence(), seq);
+            prop_assert_eq!(solver.set().sequence(), seq);
             prop_assert!(
-                snapshot(&set) == before,
+                snapshot(solver.set()) == before,
                 "a refused request changed the state"
             );
         }
-        check_invariants(&set)?;
+        check_invariants(solver.set())?;
     }
     Ok(())
 }

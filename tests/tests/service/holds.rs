@@ -198,12 +198,35 @@ fn anchors_hold_from_the_start_and_holds_survive_kill_9() {
     let mut c = svc.connect();
     let q = c.call(req(Command::Query, 0, 0), &[]).unwrap();
     assert_eq!(q.held(), vec![(0, true)]);
-    let r = c.call(req(Command::Release, 0, 0), &[]).unwrap();
-    assert_eq!(Status::from_u32(r.header.status), Some(Status::BadOption));
-    assert!(
-        r.header.reason_str().contains("anchor"),
-        "{}",
-        r.header.reason_str()
+    // An anchor is the scene's: no client releases or moves it, take-over or not.
+    for (cmd, points, flags) in [
+        (Command::Release, vec![], 0),
+        (Command::Release, vec![], shared::FLAG_TAKE_OVER),
+        (Command::Move, vec![Vec3::new(0.0, 1.0, 0.0)], 0),
+        (
+            Command::Path,
+            vec![Vec3::new(0.0, 1.0, 0.0)],
+            shared::FLAG_TAKE_OVER,
+        ),
+    ] {
+        let mut h = req(cmd, 0, 0);
+        h.flags = flags;
+        let r = c.call(h, &points).unwrap();
+        assert_eq!(
+            Status::from_u32(r.header.status),
+            Some(Status::Held),
+            "{cmd:?}: {}",
+            r.header.reason_str()
+        );
+        assert!(
+            r.header.reason_str().contains("anchor"),
+            "{}",
+            r.header.reason_str()
+        );
+    }
+    assert_eq!(
+        c.call(req(Command::Query, 0, 0), &[]).unwrap().joints()[0],
+        q.joints()[0]
     );
     // A hand grasps the middle and moves the free end around it.
     assert!(c.call(req(Command::Grasp, 0, 20), &[]).unwrap().is_ok());
@@ -396,4 +419,112 @@ fn two_holding_hands_alternate_and_the_idle_hand_never_moves() {
     );
     let end = c.call(req(Command::Query, 0, 0), &[]).unwrap();
     assert_eq!(end.held(), vec![], "both hands let go");
+}
+
+/// Issue 35: a grasp belongs to the client that took it. Another client's release of it, move of that
+/// joint or reset of the chain is refused (`held`, the owner named) unless it takes the grasp over; one
+/// client owns at most `MAX_GRASPS_PER_CLIENT` grasps of a chain; when the owner's port goes, its grasps
+/// hold on, unowned, and any client may release them.
+#[test]
+fn grasps_belong_to_the_client_that_took_them() {
+    let svc = Service::start(&unique_prefix(), &["--no-persist"]);
+    let mut a = svc.connect();
+    let mut b = svc.connect();
+    let status = |r: &clients::Reply| Status::from_u32(r.header.status);
+    assert!(a.call(req(Command::Grasp, 0, 20), &[]).unwrap().is_ok());
+    let owner = format!("{:x}", a.client_id());
+    let before = b.call(req(Command::Query, 0, 0), &[]).unwrap();
+    for (cmd, joint, points) in [
+        (Command::Release, 20, vec![]),
+        (Command::Grasp, 20, vec![]),
+        (Command::Move, 20, vec![Vec3::new(20.0, 3.0, 0.0)]),
+        (Command::Path, 20, vec![Vec3::new(20.0, 3.0, 0.0)]),
+        (Command::Reset, 0, vec![]),
+    ] {
+        let r = b.call(req(cmd, 0, joint), &points).unwrap();
+        assert_eq!(
+            status(&r),
+            Some(Status::Held),
+            "{cmd:?}: {}",
+            r.header.reason_str()
+        );
+        assert!(
+            r.header.reason_str().contains(&owner),
+            "{cmd:?}: the reason {:?} does not name the owner {owner}",
+            r.header.reason_str()
+        );
+    }
+    let after = b.call(req(Command::Query, 0, 0), &[]).unwrap();
+    assert_eq!(
+        after.header.sequence, before.header.sequence,
+        "a refusal changed the state"
+    );
+    assert_eq!(after.held(), vec![(20, false)]);
+    // The owner moves what it holds, and moves the free end around it.
+    let r = a
+        .call(req(Command::Move, 0, 20), &[Vec3::new(20.0, 1.0, 0.0)])
+        .unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    let r = b
+        .call(req(Command::Move, 0, 40), &[Vec3::new(30.0, 8.0, 0.0)])
+        .unwrap();
+    assert!(
+        r.is_ok(),
+        "another joint is anyone's: {}",
+        r.header.reason_str()
+    );
+    // A flag takes it over: then the first client is the one refused.
+    let mut h = req(Command::Move, 0, 20);
+    h.flags = shared::FLAG_TAKE_OVER;
+    let r = b.call(h, &[Vec3::new(20.0, 2.0, 0.0)]).unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    let r = a.call(req(Command::Release, 0, 20), &[]).unwrap();
+    assert_eq!(status(&r), Some(Status::Held), "{}", r.header.reason_str());
+    assert!(
+        r.header
+            .reason_str()
+            .contains(&format!("{:x}", b.client_id()))
+    );
+    assert!(b.call(req(Command::Release, 0, 20), &[]).unwrap().is_ok());
+    // One client cannot take every hold slot of a chain.
+    let most = shared::MAX_GRASPS_PER_CLIENT;
+    for j in 0..most {
+        let r = a.call(req(Command::Grasp, 0, 1 + 2 * j), &[]).unwrap();
+        assert!(r.is_ok(), "grasp {j}: {}", r.header.reason_str());
+    }
+    let r = a.call(req(Command::Grasp, 0, 2), &[]).unwrap();
+    assert_eq!(
+        status(&r),
+        Some(Status::BadOption),
+        "{}",
+        r.header.reason_str()
+    );
+    assert!(
+        b.call(req(Command::Grasp, 0, 2), &[]).unwrap().is_ok(),
+        "another client may"
+    );
+    // The owner goes: its grasps hold on, unowned; any client may release them (the service looks
+    // for absent clients every half second: poll, with a deadline).
+    let held = b.call(req(Command::Query, 0, 0), &[]).unwrap().held();
+    assert_eq!(held.len(), most as usize + 1);
+    drop(a);
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let r = b.call(req(Command::Release, 0, 1), &[]).unwrap();
+        if r.is_ok() {
+            break;
+        }
+        assert_eq!(status(&r), Some(Status::Held), "{}", r.header.reason_str());
+        assert!(
+            Instant::now() < deadline,
+            "the gone client's grasps stayed owned"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let left = b.call(req(Command::Query, 0, 0), &[]).unwrap().held();
+    assert_eq!(
+        left.len(),
+        most as usize,
+        "the other grasps went on holding"
+    );
 }

@@ -644,7 +644,9 @@ fn every_error_leaves_the_state_unchanged() {
     // Every error status a request can cause is covered (PersistenceFailed and Internal need faults;
     // Locked needs a chain with collision, which the default scene has none of: the end-to-end test
     // `tools::a_hand_driven_into_an_obstacle_is_locked_and_changes_nothing` covers it on its own scene;
-    // JointLimit needs a chain with joint limits: `limits::a_reach_that_would_break_a_cone_is_refused`).
+    // JointLimit needs a chain with joint limits: `limits::a_reach_that_would_break_a_cone_is_refused`;
+    // Held needs an anchor or a second client's grasp: `holds::grasps_belong_to_the_client_that_took_them`
+    // and `holds::anchors_hold_from_the_start_and_holds_survive_kill_9`).
     for s in Status::ALL {
         if !matches!(
             s,
@@ -653,6 +655,7 @@ fn every_error_leaves_the_state_unchanged() {
                 | Status::Internal
                 | Status::Locked
                 | Status::JointLimit
+                | Status::Held
         ) {
             assert!(seen.contains(&(s as u32)), "no case for {s:?}");
         }

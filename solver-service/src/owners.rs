@@ -1,0 +1,169 @@
+//! Who holds which grasp (issue 35): a grasp belongs to the client that took it, named by its iceoryx2
+//! client port id. Another client's release of that joint, move of it or reset of the chain is refused
+//! with [`shared::Status::Held`], the owner in the reason, unless the request carries
+//! [`shared::FLAG_TAKE_OVER`] (then the grasps it touches become the requester's). One client owns at
+//! most [`shared::MAX_GRASPS_PER_CLIENT`] grasps of a chain, so the chain's [`shared::MAX_HELD`] slots
+//! cannot all be taken by one client.
+//!
+//! Unowned grasps ([`LOCAL`] as owner) are anyone's: those of batch mode, of a journal's replay (the
+//! owner is not journaled: after `--restore` every grasp is a clamp that any client may release or
+//! take), and those whose owner's port has gone ([`Owners::forget_absent`], run by the service while
+//! grasps are owned: a client that exits or dies leaves its grasps holding, unowned). Anchors are the
+//! scene's and are refused earlier, at decoding, for every client.
+//!
+//! Ownership is not part of the persisted state: it never changes a joint, only who may.
+
+use crate::request::{Refusal, Request, refuse};
+
+/// The requester of batch mode, the Unix socket and the journal's replay, and the owner of an unowned
+/// grasp.
+pub const LOCAL: u128 = 0;
+
+/// The owners of the grasps of every chain (anchors are not listed).
+#[derive(Debug, Clone, Default)]
+pub struct Owners {
+    /// Per chain: (joint, owner) for every owned grasp.
+    chains: Vec<Vec<(usize, u128)>>,
+    /// A chain's list before the last change, while it can be undone.
+    undo: Option<(usize, Vec<(usize, u128)>)>,
+}
+
+impl Owners {
+    /// No grasp owned, over `chains` chains.
+    pub fn new(chains: usize) -> Self {
+        Owners {
+            chains: vec![Vec::new(); chains],
+            undo: None,
+        }
+    }
+
+    fn owner(&self, chain: usize, joint: usize) -> u128 {
+        self.chains[chain]
+            .iter()
+            .find(|(j, _)| *j == joint)
+            .map_or(LOCAL, |(_, o)| *o)
+    }
+
+    /// Whether `client` may make `req` (before it runs): a refusal names the owner in the way.
+    pub fn check(&self, client: u128, req: &Request<'_>) -> Result<(), Refusal> {
+        let (chain, joint, take_over) = match *req {
+            Request::Grasp {
+                chain,
+                joint,
+                take_over,
+            }
+            | Request::Release {
+                chain,
+                joint,
+                take_over,
+            } => (chain as usize, Some(joint), take_over),
+            Request::Move {
+                chain,
+                joint,
+                take_over,
+                ..
+            } => (chain as usize, Some(joint), take_over),
+            Request::Reset { chain, take_over } => (chain as usize, None, take_over),
+            _ => return Ok(()),
+        };
+        let Some(list) = self.chains.get(chain) else {
+            return Ok(());
+        };
+        let other = |o: u128| o != LOCAL && o != client;
+        if !take_over {
+            let blocking = match joint {
+                Some(j) => Some(self.owner(chain, j))
+                    .filter(|&o| other(o))
+                    .map(|o| (j, o)),
+                None => list.iter().copied().find(|&(_, o)| other(o)),
+            };
+            if let Some((j, o)) = blocking {
+                return Err(refuse!(
+                    Held,
+                    "joint {j} is grasped by client {o:x}; flag take-over (4) takes it"
+                ));
+            }
+        }
+        if let (Request::Grasp { joint, .. }, true) = (req, client != LOCAL) {
+            let mine = list.iter().filter(|&&(_, o)| o == client).count();
+            if self.owner(chain, *joint) != client && mine >= shared::MAX_GRASPS_PER_CLIENT as usize
+            {
+                return Err(refuse!(
+                    BadOption,
+                    "this client owns {mine} grasps of the chain, the most one client may"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Records what an accepted `req` of `client` did to the grasps; `anchors` are never owned.
+    pub fn record(&mut self, client: u128, req: &Request<'_>, anchors: &[u32]) {
+        let (chain, change): (usize, Box<dyn Fn(&mut Vec<(usize, u128)>)>) = match *req {
+            Request::Grasp { chain, joint, .. } if !anchors.contains(&(joint as u32)) => (
+                chain as usize,
+                Box::new(move |l| {
+                    l.retain(|&(j, _)| j != joint);
+                    if client != LOCAL {
+                        l.push((joint, client));
+                    }
+                }),
+            ),
+            Request::Release { chain, joint, .. } => (
+                chain as usize,
+                Box::new(move |l| l.retain(|&(j, _)| j != joint)),
+            ),
+            Request::Move {
+                chain,
+                joint,
+                take_over: true,
+                ..
+            } => (
+                chain as usize,
+                Box::new(move |l| {
+                    for e in l.iter_mut().filter(|e| e.0 == joint) {
+                        e.1 = client;
+                    }
+                }),
+            ),
+            Request::Reset { chain, .. } => (chain as usize, Box::new(|l| l.clear())),
+            _ => {
+                self.undo = None;
+                return;
+            }
+        };
+        let Some(list) = self.chains.get_mut(chain) else {
+            return;
+        };
+        self.undo = Some((chain, list.clone()));
+        change(list);
+    }
+
+    /// Forgets the undo of the request before (a new request begins).
+    pub fn begin(&mut self) {
+        self.undo = None;
+    }
+
+    /// Undoes the last [`Owners::record`] (the change it followed was undone).
+    pub fn undo(&mut self) {
+        if let Some((chain, list)) = self.undo.take() {
+            self.chains[chain] = list;
+        }
+    }
+
+    /// Whether any grasp has an owner (the service then looks for owners that have gone).
+    pub fn any(&self) -> bool {
+        self.chains.iter().any(|l| !l.is_empty())
+    }
+
+    /// Leaves the grasps of clients for which `present` is false holding, unowned; returns how many.
+    pub fn forget_absent(&mut self, present: impl Fn(u128) -> bool) -> usize {
+        let mut n = 0;
+        for l in &mut self.chains {
+            let before = l.len();
+            l.retain(|&(_, o)| present(o));
+            n += before - l.len();
+        }
+        n
+    }
+}
