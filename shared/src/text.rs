@@ -19,8 +19,9 @@
 //! rigid motion `R(rotation)·h0 + target`. Unknown fields are an error.
 
 use crate::{
-    Command, FLAG_ANGLES, FLAG_POSE, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision,
-    RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+    Command, FLAG_ANGLES, FLAG_POSE, FLAG_TAKE_OVER, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS,
+    Parts, Precision, RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod,
+    WireStrategy,
 };
 use serde::{Deserialize, Serialize};
 
@@ -75,6 +76,9 @@ pub struct TextRequest {
     pub max_iterations: Option<u32>,
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub angles: bool,
+    /// Take over other clients' grasps ([`crate::FLAG_TAKE_OVER`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub take_over: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub request_id: Option<u64>,
 }
@@ -201,6 +205,9 @@ impl TextRequest {
         h.max_iterations = self.max_iterations.unwrap_or(0);
         if self.angles {
             h.flags |= FLAG_ANGLES;
+        }
+        if self.take_over {
+            h.flags |= FLAG_TAKE_OVER;
         }
         h.request_id = self.request_id.unwrap_or(0);
         let points = match command {

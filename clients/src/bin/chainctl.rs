@@ -89,6 +89,9 @@ struct Args {
     /// Also return joint rotations.
     #[arg(long)]
     angles: bool,
+    /// Grasp, release, move, path, reset: take over other clients' grasps (refused `held` without).
+    #[arg(long)]
+    take_over: bool,
     /// Print the response as one JSON object.
     #[arg(long)]
     json: bool,
@@ -295,6 +298,7 @@ fn run(a: Args) -> Result<u8> {
         tolerance: a.tolerance,
         max_iterations: a.max_iterations,
         angles: a.angles,
+        take_over: a.take_over,
         request_id: None,
     };
     let (header, points) = req.to_wire(&|_| None).map_err(anyhow::Error::msg)?;
