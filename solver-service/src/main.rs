@@ -89,6 +89,11 @@ struct ServeArgs {
     /// Start from the saved state (snapshot + journal) instead of the scene.
     #[arg(long)]
     restore: bool,
+    /// With a damaged journal (or one missing): restore the state before the damage, keep the damaged
+    /// files beside the new ones (damaged-<state>-*) and say what was dropped. Without it such a
+    /// restore is refused and no file is touched.
+    #[arg(long)]
+    restore_from_damaged: bool,
     /// Most work one request may cost, in link-steps (links × substeps × points; links × substeps ×
     /// iterations for a reach; about 80 ns each). Requests above it are refused as over-budget.
     #[arg(long, global = true, default_value_t = solver_service::chain_set::DEFAULT_BUDGET,
@@ -131,7 +136,7 @@ fn serve_config(a: &ServeArgs) -> Result<ServiceConfig> {
     if !(a.snapshot_every.is_finite() && a.snapshot_every >= 0.0) {
         bail!("--snapshot-every must be a number of seconds ≥ 0");
     }
-    if a.restore && a.no_persist {
+    if (a.restore || a.restore_from_damaged) && a.no_persist {
         bail!("--restore needs persistence; drop --no-persist");
     }
     shared::iceoryx_config(&a.prefix).map_err(anyhow::Error::msg)?;
@@ -143,7 +148,8 @@ fn serve_config(a: &ServeArgs) -> Result<ServiceConfig> {
         persistence: (!a.no_persist).then(|| Persistence {
             dir: a.state_dir.clone().unwrap_or_else(|| state_dir(&a.prefix)),
             journal: a.journal,
-            restore: a.restore,
+            restore: a.restore || a.restore_from_damaged,
+            from_damaged: a.restore_from_damaged,
             snapshot_every: Duration::from_secs_f64(a.snapshot_every),
         }),
     })

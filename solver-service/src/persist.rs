@@ -43,6 +43,14 @@ const SNAPSHOT_MAGIC_V2: u32 = 0x5452_5832; // "TRX2"
 /// The first format, without held joints: refused with a message.
 const SNAPSHOT_MAGIC_V1: u32 = 0x5452_5853; // "TRXS"
 const JOURNAL_MAGIC: [u8; 8] = *b"TRXJ\x01\0\0\0";
+/// A snapshot file since issue 35: this magic, the body's length (u64 LE), the CRC-32 of what follows
+/// it (u32 LE), flags (u32 LE: bit 0, a journal follows this snapshot), then the body (a [`Snapshot`] in
+/// bincode). Files without it are read as the older formats, unchecked.
+const SNAPSHOT_ENVELOPE: [u8; 8] = *b"TRXSNAP5";
+/// Bytes before the body: magic, length, CRC, flags.
+const ENVELOPE_BYTES: usize = 8 + 8 + 4 + 4;
+/// Envelope flag: the store was journaling when it wrote the snapshot, so a journal must follow it.
+const FLAG_JOURNAL_FOLLOWS: u32 = 1;
 /// Largest journal record (a full path request with its header).
 pub const MAX_RECORD_BYTES: usize = 256 + 32 * MAX_PATH_POINTS as usize;
 
@@ -163,7 +171,72 @@ fn upgrade(magic: u32, sequence: u64, chains: Vec<ChainSnapshotV3>) -> Snapshot 
     }
 }
 
-/// Decodes a snapshot of this format, of "TRX3" (datum at joint 0) or of "TRX2" (also without
+/// A decoded snapshot file.
+struct SnapshotFile {
+    snap: Snapshot,
+    /// False for the "TRX2" format (no instruments).
+    with_instruments: bool,
+    /// Whether a journal must follow it (`None`: an older file, which does not say).
+    journal_follows: Option<bool>,
+}
+
+/// Checks and opens a snapshot file's envelope ([`SNAPSHOT_ENVELOPE`]): its length and checksum.
+fn decode_snapshot_file(bytes: &[u8], path: &Path) -> Result<SnapshotFile, String> {
+    if !bytes.starts_with(&SNAPSHOT_ENVELOPE) {
+        let (snap, with_instruments) = decode_snapshot(bytes, path)?;
+        return Ok(SnapshotFile {
+            snap,
+            with_instruments,
+            journal_follows: None,
+        });
+    }
+    let damaged = |why: String| {
+        io(
+            path,
+            "damaged snapshot (start without --restore, or restore a copy)",
+            why,
+        )
+    };
+    if bytes.len() < ENVELOPE_BYTES {
+        return Err(damaged(format!(
+            "{} bytes, shorter than its header",
+            bytes.len()
+        )));
+    }
+    let word = |at: usize, n: usize| -> u64 {
+        bytes[at..at + n]
+            .iter()
+            .rev()
+            .fold(0u64, |v, &b| (v << 8) | u64::from(b))
+    };
+    let (len, crc, flags) = (word(8, 8), word(16, 4) as u32, word(20, 4) as u32);
+    let body = &bytes[ENVELOPE_BYTES..];
+    if len != body.len() as u64 {
+        return Err(damaged(format!(
+            "its header says {len} bytes of state, the file holds {}",
+            body.len()
+        )));
+    }
+    if crc32fast::hash(&bytes[20..]) != crc {
+        return Err(damaged("checksum mismatch".to_string()));
+    }
+    if flags & !FLAG_JOURNAL_FOLLOWS != 0 {
+        return Err(damaged(format!("unknown flags {flags:#x}")));
+    }
+    let (snap, with_instruments) = decode_snapshot(body, path)?;
+    if snap.magic != SNAPSHOT_MAGIC {
+        return Err(damaged(
+            "an older format inside the new envelope".to_string(),
+        ));
+    }
+    Ok(SnapshotFile {
+        snap,
+        with_instruments,
+        journal_follows: Some(flags & FLAG_JOURNAL_FOLLOWS != 0),
+    })
+}
+
+/// Decodes a snapshot body of this format, of "TRX3" (datum at joint 0) or of "TRX2" (also without
 /// instruments: the flag is then `false`).
 fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String> {
     // The magic number comes first in every format.
@@ -257,6 +330,8 @@ pub struct Restored {
     /// Bytes at the journal's end that did not form a whole record (a write cut by the crash; never
     /// acknowledged).
     pub dropped_tail_bytes: u64,
+    /// With `--restore-from-damaged`: what was dropped, and where the damaged files were kept.
+    pub damage: Option<String>,
 }
 
 fn io(path: &Path, what: &str, e: impl std::fmt::Display) -> String {
@@ -303,7 +378,7 @@ impl Store {
             // Reported to the caller of this snapshot; this one may still succeed.
             eprintln!("solver-service: a background snapshot failed: {e}");
         }
-        let (bytes, sequence) = encode_snapshot(set)?;
+        let (bytes, sequence) = encode_snapshot(set, self.mode != JournalMode::Off)?;
         self.rotate(sequence)?;
         write_snapshot_file(&self.dir, &bytes)?;
         self.written += 1;
@@ -328,7 +403,7 @@ impl Store {
         }
         remove_journals(&self.dir, u64::MAX)?;
         self.pending.clear();
-        let (bytes, _) = encode_snapshot(set)?;
+        let (bytes, _) = encode_snapshot(set, self.mode != JournalMode::Off)?;
         write_snapshot_file(&self.dir, &bytes)?;
         self.written += 1;
         self.start_journal(&self.journal_path())
@@ -342,7 +417,7 @@ impl Store {
         if self.writer.as_ref().is_some_and(|w| w.in_flight) {
             return Ok(false);
         }
-        let (bytes, sequence) = encode_snapshot(set)?;
+        let (bytes, sequence) = encode_snapshot(set, self.mode != JournalMode::Off)?;
         // After a failed snapshot the last segment is still pending; the journal goes on in one file
         // until a snapshot succeeds (at most one segment waits), unless it must be replaced (unsound).
         if self.pending.is_empty() || self.unsound.is_some() {
@@ -570,18 +645,48 @@ impl Store {
 
     /// Restores `set` (built from the same scene) from the snapshot and the journal, then compacts: a
     /// new snapshot of the restored state and an empty journal.
-    pub fn restore(&mut self, set: &mut ChainSet) -> Result<Restored, String> {
+    ///
+    /// A damaged snapshot is refused. A journal record that does not read is a torn tail only where a
+    /// crash can leave one: at the end of the file, incomplete, with no whole record after it (then it
+    /// was never acknowledged and is dropped, counted in `dropped_tail_bytes`). Anything else is damage:
+    /// restore refuses, saying where and how many whole records follow, and changes no file; with
+    /// `from_damaged` it restores the state before the damage, keeps the damaged files beside the new
+    /// ones (`damaged-<state>-<name>`) and says what it dropped. A journal missing after a snapshot that
+    /// says one follows is damage too.
+    pub fn restore(&mut self, set: &mut ChainSet, from_damaged: bool) -> Result<Restored, String> {
         let path = self.snapshot_path();
         let bound = snapshot_bound(set);
         let bytes = read_bounded(&path, bound)?;
-        let (snap, with_instruments) = decode_snapshot(&bytes, &path)?;
+        let SnapshotFile {
+            snap,
+            with_instruments,
+            journal_follows,
+        } = decode_snapshot_file(&bytes, &path)?;
         install(set, &snap, with_instruments)
             .map_err(|e| io(&path, "does not fit the scene", e))?;
         let mut restored = Restored {
             snapshot_sequence: snap.sequence,
             replayed: 0,
             dropped_tail_bytes: 0,
+            damage: None,
         };
+        let journal = self.journal_path();
+        if journal_follows == Some(true) && !journal.exists() && self.pending.is_empty() {
+            let why = io(
+                &journal,
+                "missing",
+                format!(
+                    "the snapshot (state {}) says a journal follows it; the changes after it are unknown",
+                    snap.sequence
+                ),
+            );
+            if !from_damaged {
+                return Err(format!(
+                    "{why}; --restore-from-damaged restores the snapshot alone"
+                ));
+            }
+            restored.damage = Some(format!("{why}: restored the snapshot alone"));
+        }
         // Records were accepted under the budget of their time: replay them whatever today's is.
         let budget = set.budget();
         set.set_budget(u64::MAX);
@@ -591,9 +696,41 @@ impl Store {
             .map(|&n| segment_path(&self.dir, n))
             .collect();
         files.push(self.journal_path());
-        for jpath in files.iter().filter(|p| p.exists()) {
+        let mut damaged: Vec<PathBuf> = Vec::new();
+        for (k, jpath) in files.iter().enumerate().filter(|(_, p)| p.exists()) {
             // (A failed replay ends the start-up, so the error path need not restore the budget.)
-            replay(jpath, set, &mut restored)?;
+            if let Err(damage) = replay(jpath, set, &mut restored) {
+                let later = files[k + 1..].iter().filter(|p| p.exists()).count();
+                let what = match later {
+                    0 => damage,
+                    n => format!("{damage}; {n} later journal file(s) are not replayed either"),
+                };
+                if !from_damaged {
+                    return Err(format!(
+                        "{what}. The files are kept as they are; --restore-from-damaged restores state {} \
+                         and drops the rest",
+                        set.sequence()
+                    ));
+                }
+                damaged.extend(files[k..].iter().filter(|p| p.exists()).cloned());
+                restored.damage = Some(what);
+                break;
+            }
+        }
+        // Kept before compaction deletes the journals: the evidence of what was dropped.
+        for f in &damaged {
+            let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("journal");
+            let keep = self.dir.join(format!("damaged-{}-{name}", set.sequence()));
+            std::fs::copy(f, &keep).map_err(|e| io(&keep, "cannot keep a damaged journal", e))?;
+        }
+        if !damaged.is_empty()
+            && let Some(d) = restored.damage.as_mut()
+        {
+            d.push_str(&format!(
+                "; restored state {}, the damaged file(s) kept as damaged-{}-*",
+                set.sequence(),
+                set.sequence()
+            ));
         }
         set.set_budget(budget);
         self.snapshot(set)?;
@@ -667,8 +804,9 @@ impl Drop for Writer {
     }
 }
 
-/// The state of `set` as snapshot bytes, and its sequence number.
-fn encode_snapshot(set: &ChainSet) -> Result<(Vec<u8>, u64), String> {
+/// The state of `set` as a snapshot file's bytes (envelope and body), and its sequence number;
+/// `journal` says whether a journal follows it.
+fn encode_snapshot(set: &ChainSet, journal: bool) -> Result<(Vec<u8>, u64), String> {
     let snap = Snapshot {
         magic: SNAPSHOT_MAGIC,
         sequence: set.sequence(),
@@ -692,8 +830,17 @@ fn encode_snapshot(set: &ChainSet) -> Result<(Vec<u8>, u64), String> {
             })
             .collect(),
     };
-    let bytes = bincode::serde::encode_to_vec(&snap, config())
+    let body = bincode::serde::encode_to_vec(&snap, config())
         .map_err(|e| format!("cannot encode the snapshot: {e}"))?;
+    let flags = if journal { FLAG_JOURNAL_FOLLOWS } else { 0 };
+    let mut bytes = Vec::with_capacity(ENVELOPE_BYTES + body.len());
+    bytes.extend_from_slice(&SNAPSHOT_ENVELOPE);
+    bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&[0; 4]);
+    bytes.extend_from_slice(&flags.to_le_bytes());
+    bytes.extend_from_slice(&body);
+    let crc = crc32fast::hash(&bytes[20..]);
+    bytes[16..20].copy_from_slice(&crc.to_le_bytes());
     Ok((bytes, set.sequence()))
 }
 
@@ -763,7 +910,9 @@ fn remove_journals(dir: &Path, sequence: u64) -> Result<(), String> {
 
 /// Replays the journal file `jpath` onto `set`, streamed record by record (memory is bounded by one
 /// record, whatever the journal's size). Records the state already holds are skipped; a gap is an
-/// error; a torn record ends the file (a write cut by a crash or a failed append, never acknowledged).
+/// error. A record that does not read ends the file: a torn tail ([`is_torn_tail`]: a write cut by a
+/// crash or a failed append, never acknowledged) is dropped and counted; anything else is damage, an
+/// error that says where and how many whole records follow.
 fn replay(jpath: &Path, set: &mut ChainSet, restored: &mut Restored) -> Result<(), String> {
     let file = File::open(jpath).map_err(|e| io(jpath, "cannot open", e))?;
     let file_len = file
@@ -773,14 +922,37 @@ fn replay(jpath: &Path, set: &mut ChainSet, restored: &mut Restored) -> Result<(
     let mut input = std::io::BufReader::new(file);
     let mut magic = [0u8; 8];
     if input.read_exact(&mut magic).is_err() || magic != JOURNAL_MAGIC {
-        return Err(io(jpath, "not a journal", "wrong magic number"));
+        return Err(io(
+            jpath,
+            "damaged journal",
+            format!("no journal header ({file_len} bytes)"),
+        ));
     }
     let mut at = 8u64;
     let mut body = Vec::new();
     while at < file_len {
         let Some((rec, len)) = next_record(&mut input, &mut body) else {
-            restored.dropped_tail_bytes += file_len - at;
-            break;
+            let mut f = File::open(jpath).map_err(|e| io(jpath, "cannot open", e))?;
+            if is_torn_tail(&mut f, at, file_len).map_err(|e| io(jpath, "cannot read", e))? {
+                restored.dropped_tail_bytes += file_len - at;
+                break;
+            }
+            let follow =
+                records_after(&mut f, at + 1, file_len).map_err(|e| io(jpath, "cannot read", e))?;
+            return Err(io(
+                jpath,
+                "damaged journal",
+                format!(
+                    "the record at byte {at} (after state {}) does not read; {}",
+                    set.sequence(),
+                    match follow {
+                        Some((first, n)) => format!(
+                            "{n} whole record(s) follow it, from byte {first}: acknowledged changes that would be lost"
+                        ),
+                        None => "no whole record follows it".to_string(),
+                    }
+                ),
+            ));
         };
         at += len;
         if rec.sequence <= set.sequence() {
@@ -815,6 +987,65 @@ fn replay(jpath: &Path, set: &mut ChainSet, restored: &mut Restored) -> Result<(
     Ok(())
 }
 
+/// Whether the bytes of `f` from `at` to `len`, where a record does not read, are what a crash during
+/// an append leaves: an incomplete header, a header whose body the file does not hold in full (and
+/// whose checksum does not fit what is there), or zeros (a file extended without its data), and no
+/// whole record after `at`. A complete record with a wrong checksum, a length beyond any record, or a
+/// whole record after it, is damage.
+fn is_torn_tail(f: &mut File, at: u64, len: u64) -> std::io::Result<bool> {
+    let rest = len - at;
+    if rest < 8 {
+        return Ok(true);
+    }
+    let mut head = [0u8; 8];
+    f.seek(SeekFrom::Start(at))?;
+    f.read_exact(&mut head)?;
+    let n = u32::from_le_bytes([head[0], head[1], head[2], head[3]]) as u64;
+    let crc = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
+    if rest > (8 + MAX_RECORD_BYTES) as u64 {
+        // No single record is this long: more than one was written after this point.
+        return Ok(false);
+    }
+    let mut tail = Vec::with_capacity(rest as usize - 8);
+    f.take(rest - 8).read_to_end(&mut tail)?;
+    if head.iter().chain(&tail).all(|&b| b == 0) {
+        return Ok(true);
+    }
+    let incomplete = n as usize <= MAX_RECORD_BYTES && 8 + n > rest;
+    Ok(incomplete && crc32fast::hash(&tail) != crc && records_after(f, at + 1, len)?.is_none())
+}
+
+/// The first whole record (length, checksum and decoding all right) at or after byte `from` of `f`,
+/// and how many whole records follow in a row from there (`None`: none). Scans byte by byte, a window
+/// at a time (memory bounded by the window and one record).
+fn records_after(f: &mut File, from: u64, len: u64) -> std::io::Result<Option<(u64, u64)>> {
+    const STEP: usize = 1 << 22;
+    let mut buf = Vec::new();
+    let mut start = from;
+    let mut record = Vec::new();
+    while start + 8 <= len {
+        let want = ((len - start) as usize).min(STEP + 8 + MAX_RECORD_BYTES);
+        buf.resize(want, 0);
+        f.seek(SeekFrom::Start(start))?;
+        f.read_exact(&mut buf)?;
+        for k in 0..want.min(STEP) {
+            let mut cursor = &buf[k..];
+            if next_record(&mut cursor, &mut record).is_some() {
+                let first = start + k as u64;
+                f.seek(SeekFrom::Start(first))?;
+                let mut input = std::io::BufReader::new(&mut *f);
+                let mut n = 0;
+                while next_record(&mut input, &mut record).is_some() {
+                    n += 1;
+                }
+                return Ok(Some((first, n)));
+            }
+        }
+        start += want.min(STEP) as u64;
+    }
+    Ok(None)
+}
+
 fn owner_only() -> OpenOptions {
     let mut o = OpenOptions::new();
     o.mode(0o600);
@@ -840,18 +1071,19 @@ fn read_bounded(path: &Path, bound: u64) -> Result<Vec<u8>, String> {
 
 /// The most bytes a snapshot of this scene can take (varint-encoded lengths are smaller).
 fn snapshot_bound(set: &ChainSet) -> u64 {
-    64 + set
-        .specs()
-        .iter()
-        .map(|s| {
-            128 + 9 * 8 * (s.lengths.len() as u64 + 1)
-                + s.name.len() as u64
-                + 16 * 8 * u64::from(shared::MAX_HELD)
-                + s.collision
-                    .as_ref()
-                    .map_or(0, |c| 16 + 64 * c.instruments.len() as u64)
-        })
-        .sum::<u64>()
+    64 + ENVELOPE_BYTES as u64
+        + set
+            .specs()
+            .iter()
+            .map(|s| {
+                128 + 9 * 8 * (s.lengths.len() as u64 + 1)
+                    + s.name.len() as u64
+                    + 16 * 8 * u64::from(shared::MAX_HELD)
+                    + s.collision
+                        .as_ref()
+                        .map_or(0, |c| 16 + 64 * c.instruments.len() as u64)
+            })
+            .sum::<u64>()
 }
 
 /// The next whole record of a journal stream and its length in bytes; `None` at a torn or corrupt
@@ -1075,7 +1307,7 @@ mod tests {
 
         let mut fresh = ChainSet::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
-        let r = store.restore(&mut fresh).unwrap();
+        let r = store.restore(&mut fresh, false).unwrap();
         assert_eq!(r.snapshot_sequence, 91);
         assert_eq!(r.replayed, 109);
         assert_eq!(r.dropped_tail_bytes, 6);
@@ -1107,7 +1339,7 @@ mod tests {
         drop(store);
         let mut fresh = ChainSet::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
-        store.restore(&mut fresh).unwrap();
+        store.restore(&mut fresh, false).unwrap();
         assert!(datums(&set).iter().any(|b| b.0 > 0), "{:?}", datums(&set));
         assert_eq!(datums(&fresh), datums(&set));
         assert_eq!(joints(&fresh), joints(&set));
@@ -1130,7 +1362,7 @@ mod tests {
         drop(store);
         let mut fresh = ChainSet::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
-        store.restore(&mut fresh).unwrap();
+        store.restore(&mut fresh, false).unwrap();
         assert_eq!(joints(&fresh), joints(&set));
         let limited = |set: &ChainSet| {
             set.geometry()
@@ -1215,7 +1447,7 @@ mod tests {
         let mut fresh = ChainSet::new(&scene).unwrap();
         let r = Store::open(dir.path(), JournalMode::Write)
             .unwrap()
-            .restore(&mut fresh)
+            .restore(&mut fresh, false)
             .unwrap();
         assert_eq!(r.dropped_tail_bytes, 0, "no torn bytes left behind");
         assert_eq!(fresh.sequence(), acknowledged);
@@ -1262,7 +1494,7 @@ mod tests {
             let mut fresh = ChainSet::new(&scene).unwrap();
             Store::open(copy.path(), JournalMode::Write)
                 .unwrap()
-                .restore(&mut fresh)
+                .restore(&mut fresh, false)
                 .unwrap_or_else(|e| panic!("{what}: {e}"));
             assert_eq!(fresh.sequence(), set.sequence(), "{what}");
             assert_eq!(joints(&fresh), joints(set), "{what}");
@@ -1280,7 +1512,7 @@ mod tests {
         }
         restores_to(dir.path(), &set, "rotated, no snapshot");
         // Step 2: the snapshot in place, its segment not yet deleted.
-        let (bytes, _) = encode_snapshot(&at_rotation).unwrap();
+        let (bytes, _) = encode_snapshot(&at_rotation, true).unwrap();
         write_snapshot_file(dir.path(), &bytes).unwrap();
         restores_to(dir.path(), &set, "snapshot written, segment kept");
         // The real thing, with changes while the writer works; at most one segment waits.
@@ -1327,7 +1559,7 @@ mod tests {
         let before = joints(&other_set);
         let e = Store::open(dir.path(), JournalMode::Off)
             .unwrap()
-            .restore(&mut other_set)
+            .restore(&mut other_set, false)
             .unwrap_err();
         assert!(e.contains("chains"), "{e}");
         assert_eq!(joints(&other_set), before);
@@ -1336,7 +1568,7 @@ mod tests {
         assert!(
             Store::open(dir.path(), JournalMode::Off)
                 .unwrap()
-                .restore(&mut set)
+                .restore(&mut set, false)
                 .is_err()
         );
     }

@@ -21,6 +21,8 @@ pub struct Persistence {
     pub journal: JournalMode,
     /// Restore the state from `dir` instead of starting from the scene.
     pub restore: bool,
+    /// Restore past a damaged journal (what is dropped is reported; see [`Store::restore`]).
+    pub from_damaged: bool,
     /// A snapshot after this long if the state changed (zero: only on shutdown and on command).
     pub snapshot_every: Duration,
 }
@@ -225,13 +227,18 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
     if let Some(p) = &cfg.persistence {
         let mut s = Store::open(&p.dir, p.journal)?;
         if p.restore {
-            let r = s.restore(&mut set)?;
+            let r = s.restore(&mut set, p.from_damaged)?;
+            if let Some(d) = &r.damage {
+                eprintln!("solver-service: restored past damage: {d}");
+            }
             restored_note = format!(
                 "; restored state {} (snapshot {} + {} journal records{})",
                 set.sequence(),
                 r.snapshot_sequence,
                 r.replayed,
-                if r.dropped_tail_bytes > 0 {
+                if r.damage.is_some() {
+                    ", past damage (see above)".to_string()
+                } else if r.dropped_tail_bytes > 0 {
                     format!(
                         ", {} unacknowledged tail bytes dropped",
                         r.dropped_tail_bytes

@@ -103,7 +103,7 @@ fn one_run(wait: &str, load: Load, sig: &str) -> Duration {
     let mut set = ChainSet::new(&default_scene()).unwrap();
     Store::open(&state, JournalMode::Off)
         .unwrap()
-        .restore(&mut set)
+        .restore(&mut set, false)
         .unwrap_or_else(|e| panic!("{wait} {load:?} {sig}: {e}"));
     assert_eq!(
         set.sequence(),
