@@ -485,6 +485,36 @@ impl ChainSet {
         }
     }
 
+    /// The first chain or bundle whose `describe` (the least a client asks of it) would be refused as
+    /// over the budget: its `links` line in the scene file and why. A service with one would start
+    /// and refuse every request to it; it is refused at start and by `check` instead.
+    pub fn unservable(&self) -> Option<(usize, String)> {
+        let over = |what: &str, name: &str, links: String, cost: u64| {
+            format!(
+                "{what} {name:?}: field `links`: {links}: a describe costs {cost} link-steps, over the \
+                 budget of {} (--budget): fewer links, or a larger --budget",
+                self.budget
+            )
+        };
+        for (i, spec) in self.specs.iter().enumerate() {
+            let cost = self
+                .estimate(&Request::Describe { chain: i as u32 })
+                .unwrap_or(u64::MAX);
+            if cost > self.budget {
+                let links = format!("{} links", spec.lengths.len());
+                return Some((spec.links_line, over("chain", &spec.name, links, cost)));
+            }
+        }
+        for b in &self.bundles {
+            let cost = b.spec.estimate(&crate::bundles::BundleOp::Describe);
+            if cost > self.budget {
+                let links = format!("{} strands of {} links", b.spec.strands, b.spec.links);
+                return Some((b.spec.links_line, over("bundle", &b.spec.name, links, cost)));
+            }
+        }
+        None
+    }
+
     /// Number of chains (bundles aside).
     pub fn len(&self) -> usize {
         self.specs.len()

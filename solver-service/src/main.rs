@@ -8,7 +8,7 @@ use shared::WaitMode;
 use solver_service::batch::{Format, run_batch};
 use solver_service::chain_set::ChainSet;
 use solver_service::persist::JournalMode;
-use solver_service::scene::{Scene, default_scene, load_scene};
+use solver_service::scene::{Scene, SceneError, default_scene, load_scene};
 use solver_service::serve::LoopOptions;
 use solver_service::service::{Persistence, ServiceConfig, run, run_echo};
 use std::io::Write;
@@ -178,12 +178,38 @@ fn ready(msg: &str) {
     let _ = std::io::stdout().flush();
 }
 
+/// The scene's chains with the budget set: every check a start makes (the scene's validation, building
+/// every chain, and every chain's `describe` within the budget), for `check` and for every door.
+fn chain_set(a: &ServeArgs) -> Result<ChainSet> {
+    let sc = scene(&a.scene)?;
+    let file = a
+        .scene
+        .as_ref()
+        .map_or(solver_service::scene::DEFAULT_SCENE_NAME.to_string(), |p| {
+            p.display().to_string()
+        });
+    let mut set = ChainSet::new(&sc).map_err(|e| SceneError {
+        file: file.clone(),
+        line: 0,
+        message: e,
+    })?;
+    set.set_budget(a.budget);
+    if let Some((line, message)) = set.unservable() {
+        return Err(SceneError {
+            file,
+            line,
+            message,
+        }
+        .into());
+    }
+    Ok(set)
+}
+
 fn real_main(cli: Cli) -> Result<u8> {
     match cli.command {
         None => {
             let cfg = serve_config(&cli.serve)?;
-            let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
-            set.set_budget(cli.serve.budget);
+            let set = chain_set(&cli.serve)?;
             run(&cfg, set, ready).map_err(anyhow::Error::msg)?;
             Ok(0)
         }
@@ -199,8 +225,8 @@ fn real_main(cli: Cli) -> Result<u8> {
             Ok(0)
         }
         Some(Cmd::Check) => {
-            let sc = scene(&cli.serve.scene)?;
-            for c in &sc.chains {
+            let set = chain_set(&cli.serve)?;
+            for c in set.specs() {
                 println!(
                     "{}: {:?}, {}D, {} links, total length {}, {:?}",
                     c.name,
@@ -214,8 +240,7 @@ fn real_main(cli: Cli) -> Result<u8> {
             Ok(0)
         }
         Some(Cmd::Unix(u)) => {
-            let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
-            set.set_budget(cli.serve.budget);
+            let set = chain_set(&cli.serve)?;
             if let Some(core) = cli.serve.pin {
                 shared::pin_current_thread(core).map_err(anyhow::Error::msg)?;
             }
@@ -234,8 +259,7 @@ fn real_main(cli: Cli) -> Result<u8> {
         }
         Some(Cmd::Batch(b)) => {
             let format = b.format;
-            let mut set = ChainSet::new(&scene(&cli.serve.scene)?).map_err(anyhow::Error::msg)?;
-            set.set_budget(cli.serve.budget);
+            let set = chain_set(&cli.serve)?;
             let source = b.requests.display().to_string();
             let mut input: Box<dyn std::io::BufRead> = if source == "-" {
                 Box::new(std::io::stdin().lock())

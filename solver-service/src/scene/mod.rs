@@ -129,6 +129,9 @@ impl std::error::Error for SceneError {}
 /// One chain of a validated scene, everything resolved into the kernel's types.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChainSpec {
+    /// Line of its `links` (or `points`) field in the scene file (errors found after validation point
+    /// there).
+    pub links_line: usize,
     /// Unique handle for clients (1..=31 bytes).
     pub name: String,
     /// Free (rope, snake) or fixed base (manipulator).
@@ -224,6 +227,8 @@ pub struct CollisionSpec {
 /// One bundle of a validated scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BundleSpec {
+    /// Line of its `links` field in the scene file (errors found after validation point there).
+    pub links_line: usize,
     /// Unique handle for clients (1..=31 bytes).
     pub name: String,
     /// Number of strands.
@@ -503,6 +508,32 @@ mod tests {
                 "2 lengths for 3 links",
             ),
             ("[[chain]]\nname = \"a\"\nlinks = 2\n[[chain\n", 4, ""),
+            // Issue 35: links the chain's arithmetic cannot carry (a square that over- or underflows).
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_lengths = [1.7e308, 1.0]\n",
+                4,
+                "`link_lengths`: link 0",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 4\nlink_length = 5e-324\n",
+                4,
+                "`link_length`: link 0",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 4\nlink_length = 1.0\nshape = \"arc\"\nradius = 1e308\n",
+                6,
+                "`radius`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 4\nprecision = \"f32\"\nlink_length = 1e300\n",
+                5,
+                "inf between its joints): f32",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 4\nprecision = \"f32\"\nlink_length = 1e-30\n",
+                5,
+                "f32 carries",
+            ),
         ];
         for (text, line, field) in cases {
             let e = parse_scene(text, "bad.toml").expect_err(text);

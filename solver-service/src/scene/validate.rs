@@ -328,7 +328,22 @@ fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
             ),
         ));
     }
+    if !representable(link_length, precision == Precision::F32) {
+        let span = b
+            .link_length
+            .as_ref()
+            .map(|l| l.span())
+            .unwrap_or(b.name.span());
+        return Err(f.err(
+            span,
+            "link_length",
+            format!("{link_length:e}: {}", unrepresentable(precision)),
+        ));
+    }
+    let links_span = b.links.as_ref().map(|l| l.span()).unwrap_or(b.name.span());
+    let links_line = (f.at)(links_span, String::new()).line;
     Ok(BundleSpec {
+        links_line,
         name,
         strands,
         links,
@@ -340,6 +355,30 @@ fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
         two_cores: b.two_cores.as_ref().is_none_or(|t| *t.get_ref()),
         max_coordinate,
     })
+}
+
+/// Whether a link of length `d` can be carried in the precision: positive, and its square a normal
+/// finite number (the kernel's norms square it), in f32 when `single`.
+fn representable(d: f64, single: bool) -> bool {
+    if single {
+        let x = d as f32;
+        x > 0.0 && (x * x).is_normal()
+    } else {
+        d > 0.0 && (d * d).is_normal()
+    }
+}
+
+fn unrepresentable(precision: Precision) -> String {
+    let (lo, hi, name) = if precision == Precision::F32 {
+        (
+            f32::MIN_POSITIVE.sqrt() as f64,
+            f32::MAX.sqrt() as f64,
+            "f32",
+        )
+    } else {
+        (f64::MIN_POSITIVE.sqrt(), f64::MAX.sqrt(), "f64")
+    };
+    format!("{name} carries links from {lo:.1e} to {hi:.1e} (their squares must be normal numbers)")
 }
 
 /// A 2- or 3-vector of finite numbers (`z = 0` when two are given).
@@ -609,6 +648,45 @@ fn chain(
         None,
     )?;
     let (points, lengths) = geometry(&f, shape)?;
+    // Every link as the chain's arithmetic will see it: a length whose square is a normal number.
+    let single = precision == Precision::F32;
+    for (i, w) in points.windows(2).enumerate() {
+        let d = if single {
+            let v = |p: &Vector3<f64>| p.map(|x| x as f32);
+            f64::from((v(&w[1]) - v(&w[0])).norm())
+        } else {
+            (w[1] - w[0]).norm()
+        };
+        if !representable(d, single) {
+            let (field, span) = [
+                ("points", c.points.as_ref().map(|x| x.span())),
+                ("radius", c.radius.as_ref().map(|x| x.span())),
+                ("link_lengths", c.link_lengths.as_ref().map(|x| x.span())),
+                ("link_length", c.link_length.as_ref().map(|x| x.span())),
+            ]
+            .into_iter()
+            .find_map(|(n, s)| Some((n, s?)))
+            .unwrap_or(("links", c.name.span()));
+            return Err(f.err(
+                span,
+                field,
+                format!(
+                    "link {i} (length {:e}, {d:e} between its joints): {}",
+                    lengths[i],
+                    unrepresentable(precision)
+                ),
+            ));
+        }
+    }
+    let links_line = (f.at)(
+        c.links
+            .as_ref()
+            .map(|l| l.span())
+            .or(c.points.as_ref().map(|p| p.span()))
+            .unwrap_or(c.name.span()),
+        String::new(),
+    )
+    .line;
     let anchors = match &c.anchors {
         None => Vec::new(),
         Some(a) => {
@@ -722,6 +800,7 @@ fn chain(
         ..ReachOptions::default()
     };
     Ok(ChainSpec {
+        links_line,
         name: name.clone(),
         kind,
         dims: f.dims,

@@ -899,6 +899,43 @@ fn batch_mode_writes_csv() {
     assert!(lines[42].starts_with("2,1,unreachable,2,error"));
 }
 
+/// Issue 35: `check` refuses what a start refuses, with the file and the line: here a chain whose
+/// `describe` alone would be over the budget (the start would refuse every request to it), accepted
+/// with a budget that allows it.
+#[test]
+fn check_refuses_what_a_start_refuses() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("long.toml");
+    std::fs::write(
+        &scene,
+        "[[chain]]\nname = \"long\"\nlinks = 60000\nlink_length = 1.0\n",
+    )
+    .unwrap();
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(bin("solver-service"))
+            .args(args)
+            .arg("--scene")
+            .arg(&scene)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let prefix = unique_prefix();
+    for args in [&["check"][..], &["--no-persist", "--prefix", &prefix]] {
+        let (code, err) = run(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("long.toml:3:") && err.contains("over the budget"),
+            "{args:?}: {err}"
+        );
+    }
+    let (code, err) = run(&["check", "--budget", "60001"]);
+    assert_eq!(code, Some(0), "{err}");
+}
+
 #[test]
 fn chainctl_fails_fast_without_a_service() {
     let t0 = Instant::now();
