@@ -146,13 +146,19 @@ pub fn nearest_reachable<T: Real, const D: usize>(
     fallback_dir: &Vector<T, D>,
 ) -> (Vector<T, D>, T) {
     let (inner, outer) = workspace_radii(lengths);
-    let v = target - base;
-    // Scaled: |v|² overflows beyond ~1.3e154 (f64), and the nearest point and residual came out as the
-    // base and infinity there.
-    let r = robust_norm(&v);
+    // Halved first: target − base and |v| overflow for targets near the largest numbers (1.3e308 on
+    // two axes), and the nearest point and residual came out as the base and infinity there. The
+    // direction comes from the halved vector scaled by its largest component; the distance saturates
+    // at the largest number.
+    let half = target * T::lit(0.5) - base * T::lit(0.5);
+    let m = half.amax();
+    let r = robust_norm(&half) * T::lit(2.0);
+    let r = if r.is_finite() { r } else { T::MAX };
     if r > outer {
-        (base + v * (outer / r), r - outer)
+        let dir = (half / m) / (half / m).norm();
+        (base + dir * outer, (r - outer).min(T::MAX))
     } else if r < inner {
+        let v = target - base;
         let dir = if r > T::zero() {
             v / r
         } else {

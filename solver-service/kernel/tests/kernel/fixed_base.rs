@@ -213,6 +213,27 @@ fn unreachable_targets_at_any_finite_distance_are_reported_finitely() {
         }
         assert_eq!(c, c0);
     }
+    // Issue 35: at (1.3e308, 1.3e308) the distance itself exceeds the largest f64: the residual
+    // saturates at f64::MAX (finite) and the nearest point is on the rim toward the target (the
+    // diagonal: 2/√2 on each axis, computed here by hand).
+    let corner = Vector2::new(1.3e308, 1.3e308);
+    match reach(
+        &mut c,
+        &corner,
+        &ReachOptions::default(),
+        &mut ReachWorkspace::default(),
+    ) {
+        Err(ReachError::Unreachable { nearest, residual }) => {
+            assert_eq!(residual, f64::MAX);
+            let rim = 2.0 / 2f64.sqrt();
+            assert!(
+                (nearest - Vector2::new(rim, rim)).norm() < 1e-12,
+                "nearest {nearest:?}"
+            );
+        }
+        other => panic!("expected Unreachable, got {other:?}"),
+    }
+    assert_eq!(c, c0);
 }
 
 /// The singular cases: a stretched-out chain pushed straight back along its axis (an exact collinear push
