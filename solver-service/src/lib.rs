@@ -23,4 +23,5 @@ pub mod request;
 pub mod scene;
 pub mod serve;
 pub mod service;
+pub mod shm;
 pub mod unix_socket;

@@ -190,6 +190,11 @@ impl<S: Service> ServerPorts<S> {
             .max_clients(MAX_CLIENTS)
             .max_nodes(MAX_CLIENTS + 4)
             .max_active_requests_per_client(2)
+            // One response per request, read before the next: a buffer of one and one borrowed
+            // response keep the server's data segment (reserved at start, `crate::shm`) at
+            // 16 × 4 × 3 responses instead of 16 × 4 × 5.
+            .max_response_buffer_size(1)
+            .max_borrowed_responses_per_pending_response(1)
             .open_or_create()
             .map_err(err(
                 "cannot open or create the command service (a peer of another protocol version?)",

@@ -254,6 +254,8 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
     }
     let (elements, joints) = set.response_sizes();
     let iox = shared::iceoryx_config(&cfg.prefix)?;
+    let shm = std::path::Path::new(crate::shm::SHM_DIR);
+    crate::shm::check_room(shm)?;
     let (ports, stale) = ServerPorts::<ipc::Service>::open(
         &iox,
         "tractrix-solver",
@@ -264,6 +266,7 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
     if stale > 0 {
         eprintln!("solver-service: cleaned the resources of {stale} dead process(es)");
     }
+    let (_, reserved) = crate::shm::reserve(shm, &cfg.prefix)?;
     let snapshot_every = cfg
         .persistence
         .as_ref()
@@ -275,10 +278,11 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
         n => format!(" and {n} bundles"),
     };
     ready(&format!(
-        "solver-service ready: {} chains{bundles}, prefix {}, wait {:?}{}",
+        "solver-service ready: {} chains{bundles}, prefix {}, wait {:?}, {:.1} MiB of shared memory reserved{}",
         solver.set.len(),
         cfg.prefix,
         cfg.wait,
+        reserved as f64 / f64::from(1 << 20),
         restored_note
     ));
     serve(
