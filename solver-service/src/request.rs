@@ -272,10 +272,8 @@ impl From<ChainError> for Refusal {
             } => {
                 let mut r = refuse!(
                     Unreachable,
-                    "{residual:.3e} out of reach of held joint {held}; nearest ({:.6}, {:.6}, {:.6})",
-                    nearest[0],
-                    nearest[1],
-                    nearest[2]
+                    "{residual:.3e} out of reach of held joint {held}; nearest {}",
+                    Point(nearest[0], nearest[1], nearest[2])
                 );
                 r.residual = residual;
                 r
@@ -307,6 +305,25 @@ impl From<ChainError> for Refusal {
     }
 }
 
+/// A point in a reason: `(x, y, z)`, six decimals.
+struct Point(f64, f64, f64);
+
+impl Point {
+    fn of<T: Real, const D: usize>(v: &Vector<T, D>) -> Self
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        let n = v.to_3d();
+        Point(n.x.to_f64(), n.y.to_f64(), n.z.to_f64())
+    }
+}
+
+impl std::fmt::Display for Point {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "({:.6}, {:.6}, {:.6})", self.0, self.1, self.2)
+    }
+}
+
 impl<T: Real, const D: usize> From<ReachError<T, D>> for Refusal
 where
     Vector<T, D>: Embed3<T>,
@@ -314,14 +331,11 @@ where
     fn from(e: ReachError<T, D>) -> Self {
         match e {
             ReachError::Unreachable { nearest, residual } => {
-                let n = nearest.to_3d();
                 let mut r = refuse!(
                     Unreachable,
-                    "{:.3e} outside the workspace; nearest ({:.6}, {:.6}, {:.6})",
+                    "{:.3e} outside the workspace; nearest {}",
                     residual.to_f64(),
-                    n.x.to_f64(),
-                    n.y.to_f64(),
-                    n.z.to_f64()
+                    Point::of(&nearest)
                 );
                 r.residual = residual.to_f64();
                 r
@@ -331,14 +345,12 @@ where
                 residual,
                 reached,
             } => {
-                let mut r = match reached.map(|p| p.to_3d()) {
+                let mut r = match reached {
                     Some(n) => refuse!(
                         NotConverged,
-                        "{iterations} iterations, residual {:.3e}; nearest reached ({:.6}, {:.6}, {:.6})",
+                        "{iterations} iterations, residual {:.3e}; nearest reached {}",
                         residual.to_f64(),
-                        n.x.to_f64(),
-                        n.y.to_f64(),
-                        n.z.to_f64()
+                        Point::of(&n)
                     ),
                     None => refuse!(
                         NotConverged,
