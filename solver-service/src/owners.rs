@@ -99,44 +99,39 @@ impl Owners {
 
     /// Records what an accepted `req` of `client` did to the grasps; `anchors` are never owned.
     pub fn record(&mut self, client: u128, req: &Request<'_>, anchors: &[u32]) {
-        let (chain, change): (usize, Box<dyn Fn(&mut Vec<(usize, u128)>)>) = match *req {
-            Request::Grasp { chain, joint, .. } if !anchors.contains(&(joint as u32)) => (
-                chain as usize,
-                Box::new(move |l| {
-                    l.retain(|&(j, _)| j != joint);
-                    if client != LOCAL {
-                        l.push((joint, client));
-                    }
-                }),
-            ),
-            Request::Release { chain, joint, .. } => (
-                chain as usize,
-                Box::new(move |l| l.retain(|&(j, _)| j != joint)),
-            ),
-            Request::Move {
+        let chain = match *req {
+            Request::Grasp { chain, joint, .. } if !anchors.contains(&(joint as u32)) => chain,
+            Request::Release { chain, .. }
+            | Request::Move {
                 chain,
-                joint,
                 take_over: true,
                 ..
-            } => (
-                chain as usize,
-                Box::new(move |l| {
-                    for e in l.iter_mut().filter(|e| e.0 == joint) {
-                        e.1 = client;
-                    }
-                }),
-            ),
-            Request::Reset { chain, .. } => (chain as usize, Box::new(|l| l.clear())),
+            }
+            | Request::Reset { chain, .. } => chain,
             _ => {
                 self.undo = None;
                 return;
             }
-        };
+        } as usize;
         let Some(list) = self.chains.get_mut(chain) else {
             return;
         };
         self.undo = Some((chain, list.clone()));
-        change(list);
+        match *req {
+            Request::Grasp { joint, .. } => {
+                list.retain(|&(j, _)| j != joint);
+                if client != LOCAL {
+                    list.push((joint, client));
+                }
+            }
+            Request::Release { joint, .. } => list.retain(|&(j, _)| j != joint),
+            Request::Move { joint, .. } => {
+                for e in list.iter_mut().filter(|e| e.0 == joint) {
+                    e.1 = client;
+                }
+            }
+            _ => list.clear(),
+        }
     }
 
     /// Forgets the undo of the request before (a new request begins).
