@@ -143,10 +143,27 @@ impl Service {
             .unwrap_or_else(|e| panic!("{e:#}"))
     }
 
-    /// `kill -9` and reap.
+    /// `kill -9` and reap, then remove what the dead service left in shared memory (its segments are
+    /// reserved, real memory: a restart under the same prefix would clean them, the tests restart
+    /// under new ones).
     pub fn kill9(mut self) {
         self.proc.kill9();
+        remove_dead(&self.prefix);
     }
+}
+
+/// Removes the resources of the dead processes of `prefix` (as a service starting there would).
+pub fn remove_dead(prefix: &str) {
+    use iceoryx2::prelude::*;
+    let Ok(cfg) = shared::iceoryx_config(prefix) else {
+        return;
+    };
+    let _ = Node::<ipc::Service>::list(&cfg, |state| {
+        if let NodeState::Dead(view) = state {
+            let _ = view.try_remove_stale_resources();
+        }
+        CallbackProgression::Continue
+    });
 }
 
 /// The service's serving loop and solver on the default scene (no persistence) in a thread of the test
