@@ -23,8 +23,9 @@
 //! sleeps on a WaitSet until a client's notification (no CPU when idle, one wake-up per request),
 //! `hybrid` sleeps like `event` but after each request spins for a short budget so a burst (a 1 kHz
 //! haptic loop) is served at spin latency while an idle service sleeps. In every mode the loop looks
-//! for SIGINT/SIGTERM and runs [`Handler::housekeeping`] (periodic snapshots) at least every
-//! [`CHECK_EVERY`], whatever the traffic.
+//! for SIGINT/SIGTERM and runs [`Handler::housekeeping`] (periodic snapshots) between any two requests
+//! once [`CHECK_EVERY`] has passed, whatever the traffic (a request in hand, bounded by the budget, is
+//! finished first).
 
 use iceoryx2::active_request::ActiveRequest;
 use iceoryx2::port::listener::Listener;
