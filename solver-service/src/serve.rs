@@ -580,6 +580,8 @@ type Request<S> = ActiveRequest<S, [Vec3], RequestHeader, [Vec3], ResponseHeader
 /// `2 × MAX_CLIENTS` requests wait here (two in flight per client, enforced by iceoryx2).
 pub struct Fair<S: Service> {
     ring: VecDeque<(u128, VecDeque<Request<S>>)>,
+    /// Emptied queues kept for the next client that joins: no allocation once warm.
+    spare: Vec<VecDeque<Request<S>>>,
 }
 
 impl<S: Service> std::fmt::Debug for Fair<S> {
@@ -594,33 +596,50 @@ impl<S: Service> Default for Fair<S> {
     fn default() -> Self {
         Fair {
             ring: VecDeque::new(),
+            spare: Vec::new(),
         }
     }
 }
 
 impl<S: Service> Fair<S> {
     fn push(&mut self, client: u128, req: Request<S>) {
-        fair_push(&mut self.ring, client, req);
+        fair_push(&mut self.ring, &mut self.spare, client, req);
     }
 
     fn pop(&mut self) -> Option<Request<S>> {
-        fair_pop(&mut self.ring)
+        fair_pop(&mut self.ring, &mut self.spare)
     }
 }
 
-/// Queues `item` behind its client's earlier ones; a client with nothing queued joins the ring at the back.
-fn fair_push<T>(ring: &mut VecDeque<(u128, VecDeque<T>)>, client: u128, item: T) {
+/// Queues `item` behind its client's earlier ones; a client with nothing queued joins the ring at the
+/// back, with a queue from `spare` if there is one.
+fn fair_push<T>(
+    ring: &mut VecDeque<(u128, VecDeque<T>)>,
+    spare: &mut Vec<VecDeque<T>>,
+    client: u128,
+    item: T,
+) {
     match ring.iter_mut().find(|(c, _)| *c == client) {
         Some((_, q)) => q.push_back(item),
-        None => ring.push_back((client, VecDeque::from([item]))),
+        None => {
+            let mut q = spare.pop().unwrap_or_default();
+            q.push_back(item);
+            ring.push_back((client, q));
+        }
     }
 }
 
-/// The front client's oldest item; the client goes to the back if it has more, leaves the ring if not.
-fn fair_pop<T>(ring: &mut VecDeque<(u128, VecDeque<T>)>) -> Option<T> {
+/// The front client's oldest item; the client goes to the back if it has more, leaves the ring if not
+/// (its queue kept in `spare`).
+fn fair_pop<T>(
+    ring: &mut VecDeque<(u128, VecDeque<T>)>,
+    spare: &mut Vec<VecDeque<T>>,
+) -> Option<T> {
     let (client, mut q) = ring.pop_front()?;
     let item = q.pop_front();
-    if !q.is_empty() {
+    if q.is_empty() {
+        spare.push(q);
+    } else {
         ring.push_back((client, q));
     }
     item
@@ -757,16 +776,18 @@ mod tests {
     /// again while queued stays in its place in the ring.
     #[test]
     fn the_ring_serves_one_request_per_client_per_round() {
-        let mut ring = VecDeque::new();
+        let (mut ring, mut spare) = (VecDeque::new(), Vec::new());
         for (client, item) in [(1, "a1"), (1, "a2"), (2, "b1"), (2, "b2"), (3, "c1")] {
-            fair_push(&mut ring, client, item);
+            fair_push(&mut ring, &mut spare, client, item);
         }
-        assert_eq!(fair_pop(&mut ring), Some("a1"));
-        fair_push(&mut ring, 1, "a3");
-        assert_eq!(fair_pop(&mut ring), Some("b1"));
-        assert_eq!(fair_pop(&mut ring), Some("c1"));
-        let rest: Vec<_> = std::iter::from_fn(|| fair_pop(&mut ring)).collect();
+        assert_eq!(fair_pop(&mut ring, &mut spare), Some("a1"));
+        fair_push(&mut ring, &mut spare, 1, "a3");
+        assert_eq!(fair_pop(&mut ring, &mut spare), Some("b1"));
+        assert_eq!(fair_pop(&mut ring, &mut spare), Some("c1"));
+        let rest: Vec<_> = std::iter::from_fn(|| fair_pop(&mut ring, &mut spare)).collect();
         assert_eq!(rest, ["a2", "b2", "a3"]);
         assert!(ring.is_empty());
+        // Every queue kept for reuse.
+        assert_eq!(spare.len(), 3);
     }
 }
