@@ -390,8 +390,9 @@ impl Store {
         self.written
     }
 
-    /// Starts from `set` and forgets the saved state: the old journals go first, then a snapshot, so a
-    /// crash in between leaves the old snapshot alone (never a new snapshot beside old records).
+    /// Starts from `set` and forgets the saved state: the old journals go first, then a new empty
+    /// journal, then the snapshot, so a crash in between leaves the old snapshot alone (never a new
+    /// snapshot beside old records).
     pub fn begin(&mut self, set: &ChainSet) -> Result<(), String> {
         if let Some(Err(e)) = self.wait_for_writer() {
             eprintln!("solver-service: a background snapshot failed: {e}");
@@ -403,10 +404,13 @@ impl Store {
         }
         remove_journals(&self.dir, u64::MAX)?;
         self.pending.clear();
+        // The new (empty) journal before the snapshot that says one follows it: a crash in between
+        // leaves the old snapshot and an empty journal, never a snapshot whose journal is missing.
+        self.start_journal(&self.journal_path())?;
         let (bytes, _) = encode_snapshot(set, self.mode != JournalMode::Off)?;
         write_snapshot_file(&self.dir, &bytes)?;
         self.written += 1;
-        self.start_journal(&self.journal_path())
+        Ok(())
     }
 
     /// Starts a snapshot of `set` without waiting for the disk: the state is encoded and the journal
