@@ -65,11 +65,11 @@ pub fn reserve_where(dir: &Path, pick: impl Fn(&str) -> bool) -> Result<(usize, 
             // Gone since listed (a client that left), or not ours to write: not the service's.
             Err(_) => continue,
         };
-        let len = f
+        let meta = f
             .metadata()
-            .map_err(|e| format!("{}: cannot stat: {e}", path.display()))?
-            .len();
-        if !f.metadata().is_ok_and(|m| m.is_file()) || len == 0 {
+            .map_err(|e| format!("{}: cannot stat: {e}", path.display()))?;
+        let len = meta.len();
+        if !meta.is_file() || len == 0 {
             continue;
         }
         rustix::fs::fallocate(&f, rustix::fs::FallocateFlags::empty(), 0, len).map_err(|e| {
