@@ -78,7 +78,12 @@ pub struct HandReport {
     pub skipped_turns: u64,
     /// Key frames: `(label, joints)`, kept when asked for ([`HandConfig::frames_per_turn`]).
     pub frames: Vec<(String, Vec<[f64; 3]>)>,
+    /// Moves refused as over-budget and sent again as two halves (not counted in `requests`).
+    pub splits: u64,
 }
+
+/// How deep a move refused as over-budget is split in halves (at most 2⁴ pieces).
+const SPLITS: u32 = 4;
 
 impl HandReport {
     /// Counts one request's answer by its status; returns the status's name.
@@ -488,52 +493,94 @@ fn drive(
                 .push((format!("{}: start", turn.chain), joints));
         }
         let pacer = Pacer::new(cfg.rate_hz);
+        // Where the joint is: the query's, then each accepted target (a refused move leaves it).
+        let mut at = rope[idx];
+        let mut told_budget = false;
         for (i, t) in targets.iter().enumerate() {
             let t = &tremor.apply(*t);
             pacer.wait(i);
             if conn.node().wait(Duration::ZERO).is_err() {
                 bail!("interrupted (SIGINT or SIGTERM)");
             }
-            let mut h = RequestHeader::new(Command::Move, chain);
-            h.joint = joint;
-            let sent = now_ns();
             let keep = cfg.frames_per_turn > 0
                 && ((i + 1) % every == 0 || i + 1 == targets.len())
                 && (i + 1) / every <= cfg.frames_per_turn;
-            let (status, seq, rid, dg, frame) =
-                conn.call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
-                    let n = (rh.n_joints as usize).min(pts.len());
-                    let frame: Option<Vec<[f64; 3]>> =
-                        keep.then(|| pts[..n].iter().map(|p| p.to_array()).collect());
-                    (
-                        rh.status,
-                        rh.sequence,
-                        rh.request_id,
-                        digest(&pts[..n]),
-                        frame,
-                    )
-                })?;
-            if let Some(f) = frame {
-                let label = format!("hand {}, turn {}, move {}", cfg.hand, k + 1, i + 1);
-                report.frames.push((label, f));
-            }
-            let name = report.tally(status);
-            if let Some(w) = record.as_mut() {
-                let r = Record {
-                    t_ns: sent,
-                    hand: cfg.hand.clone(),
-                    turn: k as u32,
-                    chain: turn.chain.clone(),
-                    joint,
-                    target: *t,
-                    request_id: rid,
-                    status: name.to_string(),
-                    sequence: seq,
-                    digest: dg,
-                    command: move_command(),
-                    axis: None,
-                };
-                r.append_to(w)?;
+            // A move refused as over-budget (more collision work than the service allows one
+            // request) is sent again as two halves from where the joint is, each split again if it
+            // must, at most `SPLITS` deep: the same path in smaller requests.
+            let mut pending = vec![(*t, 0u32)];
+            while let Some((t, depth)) = pending.pop() {
+                let mut h = RequestHeader::new(Command::Move, chain);
+                h.joint = joint;
+                let sent = now_ns();
+                let last = pending.is_empty();
+                let (status, seq, rid, dg, frame, (reason, stopped_at)) =
+                    conn.call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
+                        let n = (rh.n_joints as usize).min(pts.len());
+                        let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
+                            .then(|| pts[..n].iter().map(|p| p.to_array()).collect());
+                        (
+                            rh.status,
+                            rh.sequence,
+                            rh.request_id,
+                            digest(&pts[..n]),
+                            frame,
+                            (rh.reason_str(), rh.substeps),
+                        )
+                    })?;
+                // Halves help unless the work ran out in the first substep (a piece does
+                // fewer substeps); a rope jammed against itself spends every collision pass in
+                // one substep whatever the move's length, and splitting only repeats that.
+                let splittable = stopped_at != 1 && depth < SPLITS;
+                if status == Status::OverBudget as u32 && !splittable {
+                    // The rest of this target is given up, as after a lock.
+                    pending.clear();
+                    if !told_budget {
+                        told_budget = true;
+                        eprintln!(
+                            "hand {}: turn {}: a move is over the service's work budget (said once \
+                             per turn): {reason}",
+                            cfg.hand,
+                            k + 1
+                        );
+                    }
+                }
+                if status == Status::OverBudget as u32 && splittable {
+                    report.splits += 1;
+                    let mid = [
+                        0.5 * (at[0] + t[0]),
+                        0.5 * (at[1] + t[1]),
+                        0.5 * (at[2] + t[2]),
+                    ];
+                    pending.push((t, depth + 1));
+                    pending.push((mid, depth + 1));
+                } else {
+                    let name = report.tally(status);
+                    if status == Status::Ok as u32 {
+                        at = t;
+                    }
+                    if let Some(w) = record.as_mut() {
+                        Record {
+                            t_ns: sent,
+                            hand: cfg.hand.clone(),
+                            turn: k as u32,
+                            chain: turn.chain.clone(),
+                            joint,
+                            target: t,
+                            request_id: rid,
+                            status: name.to_string(),
+                            sequence: seq,
+                            digest: dg,
+                            command: move_command(),
+                            axis: None,
+                        }
+                        .append_to(w)?;
+                    }
+                }
+                if let Some(f) = frame {
+                    let label = format!("hand {}, turn {}, move {}", cfg.hand, k + 1, i + 1);
+                    report.frames.push((label, f));
+                }
             }
             if cfg.progress && (i + 1) % 500 == 0 {
                 eprintln!(

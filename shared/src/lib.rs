@@ -672,7 +672,8 @@ pub struct ResponseHeader {
     /// Reach iterations, or for a move on a chain with collision handling, the resolution passes that
     /// pushed links apart (summed over substeps).
     pub iterations: u32,
-    /// Substeps taken (all points of a path).
+    /// Substeps taken (all points of a path); for a move refused as `locked` or `over-budget` by
+    /// collision handling, the substep (1-based, of its segment) where it stopped.
     pub substeps: u32,
     /// Link steps where the paper's form was undefined and the closed form stood in.
     pub paper_fallbacks: u32,

@@ -175,6 +175,8 @@ pub struct ChainSet {
     undo: Option<(u32, u64)>,
     /// Who owns each grasp ([`crate::owners`]).
     owners: Owners,
+    /// The collision work the kernel's meter charged the last request, in link-steps.
+    last_work: u64,
 }
 
 fn point<T: Real, const D: usize>(q: Vec3) -> Vector<T, D>
@@ -325,13 +327,16 @@ impl ChainSet {
             budget: DEFAULT_BUDGET,
             undo: None,
             owners: Owners::new(scene.chains.len()),
+            last_work: 0,
         })
     }
 
     /// Sets the most work one request may cost, in link-steps (links × substeps × points for a move or
     /// a path, links × substeps × iterations for a reach). A request estimated above it is refused with
     /// `over-budget` before anything runs, so that one client cannot hold the serving thread. Collision
-    /// passes are bounded by the scene (`collision_iterations`), not by the request, and are not counted.
+    /// work (detection, passes, re-solves), which depends on the contacts met, is charged by the
+    /// kernel's meter as it is done ([`tractrix::collision::CollisionWorkspace::limit_work`]): a move
+    /// that would pass the budget is stopped there and refused `over-budget`, the chain unchanged.
     pub fn set_budget(&mut self, link_steps: u64) {
         self.budget = link_steps.max(1);
     }
@@ -341,7 +346,14 @@ impl ChainSet {
         self.budget
     }
 
-    /// The work a request will cost at most, in link-steps, collision passes aside: the substeps of a
+    /// The collision work the kernel's meter charged the last request (accepted or refused), in
+    /// link-steps: never more than the budget.
+    pub fn last_work(&self) -> u64 {
+        self.last_work
+    }
+
+    /// The work a request will cost at most, in link-steps, collision work aside (metered while it runs,
+    /// [`ChainSet::set_budget`]): the substeps of a
     /// move are counted from where the joint is now, as the kernel will count them. A move needing more
     /// substeps than its chain allows is refused here as the kernel would refuse it (`too-many-substeps`).
     pub fn estimate(&self, req: &Request<'_>) -> Result<u64, Refusal> {
@@ -366,15 +378,7 @@ impl ChainSet {
                 // With joint limits the hierarchy's pose is kept only when it lands within them, so
                 // the passes may run to `max_iterations`, each with a try of the hierarchy (two).
                 let passes = if held {
-                    let h = &options.held;
-                    let limit = if h.hierarchy_after == 0 {
-                        h.max_iterations
-                    } else if spec.limits.is_some() {
-                        h.max_iterations.saturating_mul(2)
-                    } else {
-                        h.max_iterations.min(h.hierarchy_after.saturating_add(1))
-                    };
-                    u64::from(limit.max(1))
+                    options.held.passes_bound(spec.limits.is_some())
                 } else {
                     1
                 };
@@ -669,6 +673,7 @@ impl ChainSet {
     }
 
     fn apply_checked(&mut self, req: &Request<'_>) -> Result<Outcome, Refusal> {
+        self.last_work = 0;
         let work = self.estimate(req)?;
         if work > self.budget {
             return Err(refuse!(
@@ -723,6 +728,13 @@ impl ChainSet {
             each_form!(&mut *g, h => h.arm_undo());
             self.undo = Some((chain, self.sequence));
         }
+        // Collision work depends on the contacts met, not known before: the kernel's meter charges
+        // every unit (sweeps, held solves, detection, passes, re-solves) before doing it and stops
+        // the request at the budget, the chain unchanged.
+        let budget = self.budget;
+        each_form!(&mut *g, h => if let Some((_, ws)) = h.collision.as_mut() {
+            ws.limit_work(budget);
+        });
         let result = match *req {
             Request::Move {
                 joint,
@@ -786,6 +798,8 @@ impl ChainSet {
         };
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
+        outcome.work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()));
+        self.last_work = outcome.work;
         match result {
             Ok(()) => {
                 if outcome.changed {

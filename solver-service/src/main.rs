@@ -95,10 +95,10 @@ struct ServeArgs {
     #[arg(long)]
     restore_from_damaged: bool,
     /// Most work one request may cost, in link-steps (links × substeps × points; links × substeps ×
-    /// iterations for a reach; about 80 ns each). Requests above it are refused as over-budget.
-    #[arg(long, global = true, default_value_t = solver_service::chain_set::DEFAULT_BUDGET,
-          value_parser = clap::value_parser!(u64).range(1..))]
-    budget: u64,
+    /// iterations for a reach; collision work metered as it runs; about 50–80 ns each). Requests
+    /// above it are refused as over-budget. Default: the scene's `budget`, else 50000.
+    #[arg(long, global = true, value_parser = clap::value_parser!(u64).range(1..))]
+    budget: Option<u64>,
     /// Seconds between snapshots while the state changes (0: only on shutdown and on command).
     #[arg(long, default_value_t = 10.0)]
     snapshot_every: f64,
@@ -193,7 +193,11 @@ fn chain_set(a: &ServeArgs) -> Result<ChainSet> {
         line: 0,
         message: e,
     })?;
-    set.set_budget(a.budget);
+    set.set_budget(
+        a.budget
+            .or(sc.budget)
+            .unwrap_or(solver_service::chain_set::DEFAULT_BUDGET),
+    );
     if let Some((line, message)) = set.unservable() {
         return Err(SceneError {
             file,

@@ -168,6 +168,9 @@ pub struct Outcome {
     pub describe: bool,
     /// Whether a bundle answered (its change goes to the bundle stream, not the journal).
     pub bundle: bool,
+    /// Link-steps the kernel's work meter charged (chains with collision; 0 otherwise, where the
+    /// estimate bounds the work by construction).
+    pub work: u64,
 }
 
 /// The distance between where a joint should be and where it is.
@@ -194,11 +197,14 @@ pub struct Refusal {
     /// Never [`Status::Ok`].
     pub status: Status,
     reason: [u8; REASON_LEN],
-    len: usize,
+    /// Bytes of `reason` used (below [`REASON_LEN`], which fits a byte).
+    len: u8,
     /// Reach: the residual reached (unreachable: the distance to the workspace).
     pub residual: f64,
     /// Reach: the iterations spent.
     pub iterations: u32,
+    /// A move stopped by collision handling (locked, over the budget): the substep where it stopped.
+    pub substeps: u32,
 }
 
 impl Refusal {
@@ -210,6 +216,7 @@ impl Refusal {
             len: 0,
             residual: 0.0,
             iterations: 0,
+            substeps: 0,
         };
         let _ = r.write_fmt(args);
         r
@@ -217,20 +224,27 @@ impl Refusal {
 
     /// The reason as text.
     pub fn reason(&self) -> &str {
-        std::str::from_utf8(&self.reason[..self.len]).unwrap_or("")
+        std::str::from_utf8(&self.reason[..usize::from(self.len)]).unwrap_or("")
     }
 }
+
+const _: () = assert!(
+    REASON_LEN <= u8::MAX as usize,
+    "a reason's length must fit a byte"
+);
 
 impl std::fmt::Write for Refusal {
     fn write_str(&mut self, s: &str) -> std::fmt::Result {
         for ch in s.chars() {
             let mut b = [0u8; 4];
             let e = ch.encode_utf8(&mut b).as_bytes();
-            if self.len + e.len() >= REASON_LEN {
+            let len = usize::from(self.len);
+            if len + e.len() >= REASON_LEN {
                 return Ok(());
             }
-            self.reason[self.len..self.len + e.len()].copy_from_slice(e);
-            self.len += e.len();
+            self.reason[len..len + e.len()].copy_from_slice(e);
+            // Below REASON_LEN (96): fits the byte.
+            self.len = (len + e.len()) as u8;
         }
         Ok(())
     }
@@ -261,10 +275,14 @@ impl From<ChainError> for Refusal {
                 substep,
                 iterations,
                 penetration,
-            } => refuse!(
-                Locked,
-                "links still {penetration:.2e} too close after {iterations} passes at substep {substep}"
-            ),
+            } => {
+                let mut r = refuse!(
+                    Locked,
+                    "links still {penetration:.2e} too close after {iterations} passes at substep {substep}"
+                );
+                r.substeps = substep;
+                r
+            }
             ChainError::HeldUnreachable {
                 held,
                 nearest,
@@ -300,6 +318,19 @@ impl From<ChainError> for Refusal {
                 angle.to_degrees(),
                 excess.to_degrees()
             ),
+            ChainError::OverWork {
+                substep,
+                work,
+                limit,
+            } => {
+                let mut r = refuse!(
+                    OverBudget,
+                    "collision work reached {work:.2e} link-steps at substep {substep}; the budget \
+                     is {limit:.2e} (--budget): a shorter move, or a larger --budget"
+                );
+                r.substeps = substep;
+                r
+            }
             e @ (ChainError::Empty | ChainError::BadLength { .. }) => refuse!(Internal, "{e}"),
         }
     }
@@ -773,6 +804,7 @@ pub fn encode(
             h.reason = r.reason;
             h.residual = r.residual;
             h.iterations = r.iterations;
+            h.substeps = r.substeps;
         }
     }
     h

@@ -412,6 +412,8 @@ fn check_invariants(set: &ChainSet) -> Result<(), TestCaseError> {
 struct Coverage {
     by_status: [u64; Status::ALL.len()],
     changed: u64,
+    /// The most collision work the meter charged one request.
+    metered: u64,
 }
 
 fn run_case(
@@ -441,6 +443,15 @@ fn run_case(
         };
         cov.by_status[status as usize] += 1;
         cov.changed += u64::from(changed);
+        // Collision work (detection, passes, re-solves) is metered by the kernel as it runs: never
+        // more than the budget, accepted or refused.
+        prop_assert!(
+            solver.set().last_work() <= solver.set().budget(),
+            "{} link-steps of collision work charged, budget {}",
+            solver.set().last_work(),
+            solver.set().budget()
+        );
+        cov.metered = cov.metered.max(solver.set().last_work());
         prop_assert_eq!(h.request_id, req.request_id);
         if status == Status::Ok {
             prop_assert!(h.reason_str().is_empty());
@@ -514,6 +525,10 @@ fn arbitrary_requests_never_break_the_state() {
         eprintln!("{:>20} {:>6}", s.name(), cov.by_status[s as usize]);
     }
     eprintln!("{:>20} {:>6} of {total}", "changed the state", cov.changed);
+    eprintln!(
+        "{:>20} {:>6} link-steps (most collision work charged one request)",
+        "metered", cov.metered
+    );
     // The run reached the kernel and changed chains often, and met every status a request can
     // cause (not PersistenceFailed and Internal, which need faults outside the handler).
     assert!(

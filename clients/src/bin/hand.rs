@@ -214,6 +214,12 @@ fn run(a: Args) -> Result<u8> {
                     format!(", refused: {}", refused.join(", "))
                 }
             );
+            if r.splits > 0 {
+                println!(
+                    "hand {hand}: {} moves over the service's work budget sent again in halves",
+                    r.splits
+                );
+            }
             if r.skipped_turns > 0 {
                 println!(
                     "hand {hand}: {} turns skipped (their path could not be made; see above)",

@@ -182,6 +182,19 @@ pub enum ChainError {
         /// Worst penetration left, in the chain's length unit.
         penetration: f64,
     },
+    /// Collision handling would have done more work than its limit allows
+    /// ([`crate::collision::CollisionWorkspace::limit_work`]): stopped before it, nothing moved.
+    #[error(
+        "collision work of {work} link-steps at substep {substep} would pass the limit of {limit}"
+    )]
+    OverWork {
+        /// 1-based substep at which the work ran out.
+        substep: u32,
+        /// Work charged when it stopped, in link-steps.
+        work: u64,
+        /// The limit.
+        limit: u64,
+    },
 }
 
 /// A chain of rigid links in `D` dimensions (see the module docs for the layout).

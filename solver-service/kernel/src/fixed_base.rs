@@ -88,6 +88,28 @@ impl<T: Real> Default for ReachOptions<T> {
     }
 }
 
+impl<T: Real> ReachOptions<T> {
+    /// The most tractrix passes over the chain (per substep) a fixed-base solve with these options
+    /// runs: `max_iterations`, or without limits (`limited` false) the `hierarchy_after` iterations and
+    /// the hierarchy's one pass when that comes first; with limits the hierarchy's pose is kept only
+    /// when it lands within them, so each of the `max_iterations` may also try it (two passes). What a
+    /// move with held joints is charged per side ([`crate::hold`]) and what the service's estimate
+    /// counts.
+    pub fn passes_bound(&self, limited: bool) -> u64 {
+        let passes = if self.hierarchy_after == 0 {
+            u64::from(self.max_iterations)
+        } else if limited {
+            u64::from(self.max_iterations).saturating_mul(2)
+        } else {
+            u64::from(
+                self.max_iterations
+                    .min(self.hierarchy_after.saturating_add(1)),
+            )
+        };
+        passes.max(1)
+    }
+}
+
 /// What a successful reach did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReachOutcome<T> {

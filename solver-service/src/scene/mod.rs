@@ -265,6 +265,10 @@ pub struct Scene {
     pub chains: Vec<ChainSpec>,
     /// The bundles, in declaration order (handle = number of chains + index).
     pub bundles: Vec<BundleSpec>,
+    /// The work one request may cost, in link-steps, when the scene says (top-level `budget`): a
+    /// scene whose ropes need more collision work per move than the default (fine ropes with many
+    /// collision passes) says so itself; `--budget` overrides it.
+    pub budget: Option<u64>,
 }
 
 /// Reads and validates a scene file.
@@ -543,6 +547,19 @@ mod tests {
         }
         let empty = parse_scene("", "empty.toml").unwrap_err();
         assert!(empty.message.contains("no [[chain]]"));
+        // The scene's budget: a positive count of link-steps, bounded.
+        let chain = "[[chain]]\nname = \"c\"\nlinks = 2\nlink_length = 1.0\n";
+        for bad in ["0", "-5", "2000000000000"] {
+            let text = format!("# budget\nbudget = {bad}\n{chain}");
+            let e = parse_scene(&text, "bad.toml").expect_err(&text);
+            assert_eq!(e.line, 2, "{e}");
+            assert!(e.message.contains("field `budget`"), "{e}");
+        }
+        let e = parse_scene(&format!("budget = 1.5\n{chain}"), "bad.toml").unwrap_err();
+        assert_eq!(e.line, 1, "{e}");
+        let ok = parse_scene(&format!("budget = 123456\n{chain}"), "ok.toml").unwrap();
+        assert_eq!(ok.budget, Some(123_456));
+        assert_eq!(parse_scene(chain, "ok.toml").unwrap().budget, None);
         let bundles: &[(&str, usize, &str)] = &[
             (
                 "[[bundle]]\nname = \"h\"\nstrands = 0\nlinks = 2\nlink_length = 1.0\n",

@@ -12,6 +12,8 @@ pub(super) type Field<T> = Option<Spanned<T>>;
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawScene {
+    /// The work one request may cost, in link-steps (top level, before any table).
+    pub budget: Field<i64>,
     #[serde(default)]
     pub chain: Vec<Spanned<RawChain>>,
     #[serde(default)]

@@ -1,6 +1,9 @@
 //! Validating a scene: raw tables into [`ChainSpec`]s of kernel types, every error with the file, the
 //! line and the field. Sizes are checked before anything is allocated.
 
+/// The largest `budget` a scene may set (about a minute of work at 50 ns per link-step).
+const MAX_BUDGET: i64 = 1_000_000_000;
+
 use super::read::{Field, RawBundle, RawChain, RawObstacle, RawScene, line_of};
 use super::{
     BundleSpec, ChainSpec, CollisionSpec, LimitSpec, MAX_INSTRUMENTS, MAX_OBSTACLES,
@@ -225,7 +228,27 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         }
         bundles.push(spec);
     }
-    Ok(Scene { chains, bundles })
+    let budget = match &raw.budget {
+        None => None,
+        Some(b) => {
+            let v = *b.get_ref();
+            if !(1..=MAX_BUDGET).contains(&v) {
+                return Err(at(
+                    b.span(),
+                    format!(
+                        "field `budget`: {v}: the work one request may cost, in link-steps, from 1 \
+                         to {MAX_BUDGET}"
+                    ),
+                ));
+            }
+            Some(v as u64)
+        }
+    };
+    Ok(Scene {
+        chains,
+        bundles,
+        budget,
+    })
 }
 
 /// One `[[bundle]]` table.

@@ -84,6 +84,21 @@ impl HashGrid {
         (h as u64 as usize) & self.mask
     }
 
+    /// How many entries the cells of link `i` hold (what a query of it scans).
+    pub(super) fn entries_around(&self, i: usize) -> u64 {
+        let (lo, hi) = (self.lo[i], self.hi[i]);
+        let mut total = 0u64;
+        for cx in lo[0]..=hi[0] {
+            for cy in lo[1]..=hi[1] {
+                for cz in lo[2]..=hi[2] {
+                    let h = self.slot([cx, cy, cz]);
+                    total += u64::from(self.starts[h + 1] - self.starts[h]);
+                }
+            }
+        }
+        total
+    }
+
     /// `true` the first time link `j` is seen while querying link `i`.
     #[inline]
     pub(super) fn first_visit(&mut self, j: usize, i: usize) -> bool {

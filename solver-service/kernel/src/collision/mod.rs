@@ -166,22 +166,141 @@ pub struct Holding {
     pub links: core::ops::Range<usize>,
 }
 
-/// Caller-owned buffers reused across moves: after the first move of a chain, a move with collision
-/// allocates nothing.
+/// Caller-owned buffers reused across moves (after the first move of a chain, a move with collision
+/// allocates nothing), and the work meter of the calls made with it ([`CollisionWorkspace::limit_work`]).
 #[derive(Clone, Debug, Default)]
 pub struct CollisionWorkspace<T: Real, const D: usize> {
     pos: Vec<Vector<T, D>>,
     backup_links: Vec<Vector<T, D>>,
     grid: HashGrid,
+    meter: Meter,
 }
 
 impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
-    /// An empty workspace (buffers grow on first use).
+    /// An empty workspace (buffers grow on first use), its work unlimited.
     pub fn new() -> Self {
-        CollisionWorkspace {
-            pos: Vec::new(),
-            backup_links: Vec::new(),
-            grid: HashGrid::default(),
+        CollisionWorkspace::default()
+    }
+
+    /// Limits the work of the calls that follow ([`move_joint_colliding`], [`push_by_obstacle`]), in
+    /// total, to `link_steps`, and starts counting from zero. The work is counted in link-steps, the
+    /// cost of one link following its tractrix once, and charged *before* it is done: every tractrix
+    /// sweep (one per link per substep), every held side's solve (its bound, [`ReachOptions::passes_bound`]),
+    /// and each collision pass's grid (two per link), candidate pairs (one per pair tested, one per
+    /// sixteen grid entries scanned; the paper's spheres all pairs at once), obstacles (one per link
+    /// each), re-straightening (one per link), relaxation sweeps (one per link) and re-solves (four per
+    /// link per iteration, the iterations capped by what is left). A call that would pass the limit
+    /// stops before it, leaves the chain unchanged and returns [`ChainError::OverWork`]; so the work
+    /// done never exceeds the limit, whatever the chain, the scene's `max_iterations` or the contacts.
+    ///
+    /// [`ReachOptions::passes_bound`]: crate::ReachOptions::passes_bound
+    pub fn limit_work(&mut self, link_steps: u64) {
+        self.meter = Meter {
+            limit: link_steps.saturating_mul(cost::LINK_STEP),
+            done: 0,
+        };
+    }
+
+    /// The work charged since the last [`CollisionWorkspace::limit_work`] (or since the workspace was
+    /// made), in link-steps (rounded up).
+    pub fn work(&self) -> u64 {
+        self.meter.done.div_ceil(cost::LINK_STEP)
+    }
+}
+
+/// What each unit of collision work is charged, in sixteenths of a link-step (one link following its
+/// tractrix once). Set from the time each takes beside a tractrix link-step, measured by
+/// `cargo bench -p clients --bench budget` (BENCHMARKS.md, "Work meter"), rounded up.
+pub(super) mod cost {
+    /// A link-step: one link of a tractrix sweep.
+    pub const LINK_STEP: u64 = 16;
+    /// Building the grid, per link.
+    pub const GRID_PER_LINK: u64 = 8;
+    /// One grid entry scanned while querying a link.
+    pub const ENTRY: u64 = 1;
+    /// One capsule pair tested (closest points of two segments).
+    pub const CAPSULE_PAIR: u64 = 6;
+    /// One pair of the paper's spheres tested.
+    pub const SPHERE_PAIR: u64 = 2;
+    /// One link tested against one obstacle.
+    pub const OBSTACLE_PER_LINK: u64 = 6;
+    /// Re-straightening, per link.
+    pub const RESTRAIGHTEN_PER_LINK: u64 = 4;
+    /// One relaxation sweep, per link.
+    pub const RELAX_PER_LINK: u64 = 3;
+    /// One iteration of a held part's re-solve, per link (up to three tractrix passes and a
+    /// translation).
+    pub const RESOLVE_PER_LINK: u64 = 4 * LINK_STEP;
+}
+
+/// The work of collision handling charged against a limit, in link-steps (see
+/// [`CollisionWorkspace::limit_work`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Meter {
+    limit: u64,
+    done: u64,
+}
+
+impl Default for Meter {
+    fn default() -> Self {
+        Meter {
+            limit: u64::MAX,
+            done: 0,
+        }
+    }
+}
+
+impl Meter {
+    /// Charges `units` before they are spent: `false` (and nothing charged) if they would pass the
+    /// limit.
+    #[inline]
+    pub(super) fn charge(&mut self, units: u64) -> bool {
+        match self.done.checked_add(units) {
+            Some(next) if next <= self.limit => {
+                self.done = next;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Gives back units charged but not spent.
+    pub(super) fn refund(&mut self, units: u64) {
+        self.done = self.done.saturating_sub(units);
+    }
+
+    /// What is left before the limit.
+    pub(super) fn left(&self) -> u64 {
+        self.limit - self.done
+    }
+
+    fn over(&self, substep: u32) -> ChainError {
+        ChainError::OverWork {
+            substep,
+            work: self.done.div_ceil(cost::LINK_STEP),
+            limit: self.limit / cost::LINK_STEP,
+        }
+    }
+}
+
+/// Why a resolution stopped short.
+pub(super) enum Stop<T> {
+    /// A contact that only fixed joints could resolve, or the passes ran out: the passes spent and the
+    /// worst penetration left.
+    Locked(u32, T),
+    /// The next unit of work would pass the meter's limit.
+    OverWork,
+}
+
+impl<T: Real> Stop<T> {
+    fn error(self, substep: u32, meter: &Meter) -> ChainError {
+        match self {
+            Stop::Locked(iterations, penetration) => ChainError::Locked {
+                substep,
+                iterations,
+                penetration: penetration.to_f64(),
+            },
+            Stop::OverWork => meter.over(substep),
         }
     }
 }
@@ -247,7 +366,13 @@ where
         substeps: k,
         ..MoveOutcome::default()
     };
+    let sweep = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
     for s in 1..=k {
+        if !ws.meter.charge(sweep) {
+            chain.links_mut().copy_from_slice(&ws.backup_links);
+            chain.place_origin_from(backup_datum.0, backup_datum.1);
+            return Err(ws.meter.over(s));
+        }
         outcome.paper_fallbacks =
             outcome
                 .paper_fallbacks
@@ -264,14 +389,10 @@ where
                     outcome.collision_iterations.saturating_add(iterations);
                 outcome.contacts = outcome.contacts.saturating_add(contacts);
             }
-            Err((iterations, penetration)) => {
+            Err(stop) => {
                 chain.links_mut().copy_from_slice(&ws.backup_links);
                 chain.place_origin_from(backup_datum.0, backup_datum.1);
-                return Err(ChainError::Locked {
-                    substep: s,
-                    iterations,
-                    penetration: penetration.to_f64(),
-                });
+                return Err(stop.error(s, &ws.meter));
             }
         }
         // The moved joint is where the hand put it: the datum (as after a plain move).
@@ -312,16 +433,28 @@ where
         ..MoveOutcome::default()
     };
     ws.pos.resize(chain.n_links() + 1, Vector::zeros());
+    // Each substep's move with holds is charged its bound (the passes its options allow) before it
+    // runs, and given back what its iterations did not use after.
+    let per_pass = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
+    let bound = opts.held.passes_bound(chain.joint_limits().is_some());
+    let held_cost = per_pass.saturating_mul(bound);
     for s in 1..=k {
         let hand = if s == k {
             target
         } else {
             start + sd * T::lit(s as f64)
         };
+        if !ws.meter.charge(held_cost) {
+            *chain = backup;
+            return Err(ws.meter.over(s));
+        }
         match crate::hold::move_held(chain, joint, hand, &one) {
             Ok(o) => {
                 outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(o.paper_fallbacks);
                 outcome.held_iterations = outcome.held_iterations.saturating_add(o.held_iterations);
+                // The iterations and the hierarchy's pass.
+                let used = u64::from(o.held_iterations).saturating_add(1).min(bound);
+                ws.meter.refund(per_pass.saturating_mul(bound - used));
             }
             Err(e) => {
                 *chain = backup;
@@ -335,13 +468,9 @@ where
                     outcome.collision_iterations.saturating_add(iterations);
                 outcome.contacts = outcome.contacts.saturating_add(contacts);
             }
-            Err((iterations, penetration)) => {
+            Err(stop) => {
                 *chain = backup;
-                return Err(ChainError::Locked {
-                    substep: s,
-                    iterations,
-                    penetration: penetration.to_f64(),
-                });
+                return Err(stop.error(s, &ws.meter));
             }
         }
         if !chain.is_held(0) {
@@ -423,12 +552,17 @@ where
         substeps: k,
         ..MoveOutcome::default()
     };
+    let placing = (chain.n_links() as u64).saturating_mul(cost::RESTRAIGHTEN_PER_LINK);
     for s in 1..=k {
         local.obstacles[which] = if s == k {
             *to
         } else {
             path.at(T::lit(s as f64 / k as f64))
         };
+        if !ws.meter.charge(placing) {
+            *chain = backup;
+            return Err(ws.meter.over(s));
+        }
         chain.write_positions(&mut ws.pos);
         match resolve(chain, m, rest, &local, ws) {
             Ok((iterations, contacts)) => {
@@ -436,13 +570,9 @@ where
                     outcome.collision_iterations.saturating_add(iterations);
                 outcome.contacts = outcome.contacts.saturating_add(contacts);
             }
-            Err((iterations, penetration)) => {
+            Err(stop) => {
                 *chain = backup;
-                return Err(ChainError::Locked {
-                    substep: s,
-                    iterations,
-                    penetration: penetration.to_f64(),
-                });
+                return Err(stop.error(s, &ws.meter));
             }
         }
         if !chain.is_held(0) {

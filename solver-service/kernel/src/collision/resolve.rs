@@ -7,8 +7,8 @@ use super::query::{
     lerp, unit_or_perpendicular,
 };
 use super::{
-    CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, Scheme, neighbour_span,
-    restraighten,
+    CollisionModel, CollisionOptions, CollisionWorkspace, Meter, Obstacle, Scheme, Stop, cost,
+    neighbour_span, restraighten,
 };
 use crate::chain::Chain;
 use crate::fixed_base::{ReachOptions, ReachWorkspace, reach};
@@ -16,15 +16,15 @@ use crate::math::{Embed3, Real, Vector, positive_finite};
 
 /// Resolution passes on `ws.pos` (positions of the chain after the sweep). The hand's joint `m` and the
 /// `held` joints (ascending, without `m`) never move; a contact that only they could resolve locks.
-/// Returns the passes that pushed something and the contacts pushed, or, when locked, the passes and
-/// the worst penetration.
+/// Returns the passes that pushed something and the contacts pushed, or why it stopped short. Every
+/// unit of work is charged to `ws`'s meter before it is done ([`CollisionWorkspace::limit_work`]).
 pub(super) fn resolve<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     m: usize,
     held: &[usize],
     model: &CollisionModel<T, D>,
     ws: &mut CollisionWorkspace<T, D>,
-) -> Result<(u32, u32), (u32, T)>
+) -> Result<(u32, u32), Stop<T>>
 where
     Vector<T, D>: Embed3<T>,
 {
@@ -33,7 +33,24 @@ where
     let mut iterations = 0u32;
     let use_grid = opts.self_collision && opts.scheme == Scheme::Capsules;
     let span = neighbour_span(chain.min_length(), opts.thickness);
+    let n = chain.n_links() as u64;
+    // What a pass costs before its pairs: the grid (two per link) or the paper's all pairs, and each
+    // obstacle against every link.
+    let detection = match (opts.self_collision, opts.scheme) {
+        (false, _) => 0,
+        (true, Scheme::Capsules) => n.saturating_mul(cost::GRID_PER_LINK),
+        (true, Scheme::PaperSpheres) => {
+            (n.saturating_mul(n.saturating_sub(1)) / 2).saturating_mul(cost::SPHERE_PAIR)
+        }
+    }
+    .saturating_add(
+        n.saturating_mul(model.obstacles.len() as u64)
+            .saturating_mul(cost::OBSTACLE_PER_LINK),
+    );
     loop {
+        if !ws.meter.charge(detection) {
+            return Err(Stop::OverWork);
+        }
         if use_grid {
             ws.grid.build(&ws.pos, opts.thickness * T::lit(0.5));
         }
@@ -44,12 +61,22 @@ where
             pushed: 0,
             worst: T::zero(),
             blocked: false,
+            out_of_work: false,
         };
         if opts.self_collision {
             match opts.scheme {
-                Scheme::Capsules => pass.capsules(&mut ws.pos, &mut ws.grid, opts.thickness, span),
+                Scheme::Capsules => pass.capsules(
+                    &mut ws.pos,
+                    &mut ws.grid,
+                    opts.thickness,
+                    span,
+                    &mut ws.meter,
+                ),
                 Scheme::PaperSpheres => pass.spheres(&mut ws.pos),
             }
+        }
+        if pass.out_of_work {
+            return Err(Stop::OverWork);
         }
         for (k, ob) in model.obstacles.iter().enumerate() {
             let held_links = model
@@ -61,26 +88,41 @@ where
         }
         if pass.blocked {
             // Only a held joint (or the hand) could give way: locked at once.
-            return Err((iterations, pass.worst));
+            return Err(Stop::Locked(iterations, pass.worst));
         }
         if pass.pushed == 0 {
             return Ok((iterations, contacts));
         }
         if iterations == opts.max_iterations {
-            return Err((iterations, pass.worst));
+            return Err(Stop::Locked(iterations, pass.worst));
         }
         iterations += 1;
         contacts = contacts.saturating_add(pass.pushed);
         if held.is_empty() {
+            if !ws
+                .meter
+                .charge(n.saturating_mul(cost::RESTRAIGHTEN_PER_LINK))
+            {
+                return Err(Stop::OverWork);
+            }
             restraighten(chain, m, &mut ws.pos);
         } else {
             // Between held joints the rope is re-solved as a whole; where it is nearly taut that can
             // pull a pushed strand back across what pushed it. No joint may move farther than a
             // substep may move the hand (half the smallest clearance): a rope that cannot give way
             // locks instead of tunnelling.
+            // The copy of the pushed positions, the outer parts and the check of how far joints moved.
+            if !ws
+                .meter
+                .charge(n.saturating_mul(3 * cost::RESTRAIGHTEN_PER_LINK))
+            {
+                return Err(Stop::OverWork);
+            }
             let pushed = ws.pos.clone();
-            if !restraighten_held(chain, m, held, &mut ws.pos) {
-                return Err((iterations, pass.worst));
+            match restraighten_held(chain, m, held, &mut ws.pos, &mut ws.meter) {
+                Restraightened::Done => {}
+                Restraightened::Failed => return Err(Stop::Locked(iterations, pass.worst)),
+                Restraightened::OutOfWork => return Err(Stop::OverWork),
             }
             let limit = super::smallest_clearance(chain, model) * T::lit(0.5);
             let limit2 = limit * limit;
@@ -89,7 +131,7 @@ where
                 .zip(ws.pos.iter())
                 .any(|(a, b)| (a - b).norm_squared() > limit2)
             {
-                return Err((iterations, pass.worst.max(limit)));
+                return Err(Stop::Locked(iterations, pass.worst.max(limit)));
             }
         }
     }
@@ -99,13 +141,15 @@ where
 /// (the hand and the held joints) follow the leader outward as without holds; each part between two
 /// fixed joints is first relaxed toward its lengths where it was pushed ([`relax_lengths`]), then
 /// solved as a fixed-base chain from that pose (the reach, finished by the hierarchy) so that it
-/// keeps its lengths exactly and meets both fixed joints. `false` if a part cannot.
+/// keeps its lengths exactly and meets both fixed joints. The relaxation's sweeps and the reach's
+/// iterations are charged to `meter` (the iterations capped by what is left).
 fn restraighten_held<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     m: usize,
     held: &[usize],
     pos: &mut [Vector<T, D>],
-) -> bool
+    meter: &mut Meter,
+) -> Restraightened
 where
     Vector<T, D>: Embed3<T>,
 {
@@ -154,20 +198,42 @@ where
             // One link between two fixed joints: nothing can move.
             continue;
         }
-        relax_lengths(&mut pos[a..=b], &chain.lengths()[a..b]);
+        if !relax_lengths(&mut pos[a..=b], &chain.lengths()[a..b], meter) {
+            return Restraightened::OutOfWork;
+        }
         let links: Vec<Vector<T, D>> = (a..b).map(|i| pos[i + 1] - pos[i]).collect();
         let lengths = chain.lengths()[a..b].to_vec();
         let Ok(mut part) = Chain::from_parts(pos[a], links, lengths) else {
-            return false;
+            return Restraightened::Failed;
         };
         if let Some(l) = &limits
             && part.set_limits(Some(l.sub(a, b, false))).is_err()
         {
-            return false;
+            return Restraightened::Failed;
         }
         let goal = pos[b];
-        if reach(&mut part, &goal, &tight, &mut ws).is_err() {
-            return false;
+        // Each iteration of the reach: up to three tractrix passes over the part and a translation.
+        let per_iteration = ((b - a) as u64).saturating_mul(cost::RESOLVE_PER_LINK);
+        let affordable = meter.left() / per_iteration;
+        let iterations = u64::from(tight.max_iterations).min(affordable) as u32;
+        if iterations == 0 {
+            return Restraightened::OutOfWork;
+        }
+        let capped = iterations < tight.max_iterations;
+        let charged = per_iteration * u64::from(iterations);
+        meter.charge(charged);
+        let opts = ReachOptions {
+            max_iterations: iterations,
+            ..tight
+        };
+        match reach(&mut part, &goal, &opts, &mut ws) {
+            Ok(o) => {
+                meter.refund(per_iteration * u64::from(iterations - o.iterations.min(iterations)))
+            }
+            Err(crate::fixed_base::ReachError::NotConverged { .. }) if capped => {
+                return Restraightened::OutOfWork;
+            }
+            Err(_) => return Restraightened::Failed,
         }
         chain.links_mut()[a..b].copy_from_slice(part.links());
         let links = chain.links_mut();
@@ -187,7 +253,16 @@ where
         links[b - 1] = l2;
         pos[b - 1] = pos[b - 2] + l1;
     }
-    true
+    Restraightened::Done
+}
+
+/// How [`restraighten_held`] ended.
+enum Restraightened {
+    Done,
+    /// A part could not be solved (the move locks).
+    Failed,
+    /// The meter ran out first.
+    OutOfWork,
 }
 
 /// Most sweeps of [`relax_lengths`].
@@ -196,23 +271,30 @@ const RELAX_SWEEPS: usize = 64;
 /// Relaxes the joints `p` of a part between two fixed joints (its first and last, which do not move)
 /// toward the link `lengths`: Gauss–Seidel projections of each link onto its length, sweeping
 /// forward and back, at most [`RELAX_SWEEPS`] sweeps or until every link is within 1e-10 of its
-/// length (relative). A push changes the lengths only near the contact, so the relaxation moves the
+/// length (relative), each sweep charged to `meter` first (`false` when it runs out). A push changes the lengths only near the contact, so the relaxation moves the
 /// rope only there; the reach that follows then starts from a pose that nearly closes and moves it
 /// little. Without it the reach re-solves the whole part from the push: on a coil wound round an
 /// instrument that moved joints far from the contact by more than the resolution's step limit, and
 /// the move locked: in a trial with the relaxation switched off, the built-in `surgeons-tie` tied a
 /// trefoil instead of the double overhand (its second turn round the driver locked) and
 /// `instrument-tie` no knot, where with it both tie (BENCHMARKS.md, knot success through the service).
-fn relax_lengths<T: Real, const D: usize>(p: &mut [Vector<T, D>], lengths: &[T])
+fn relax_lengths<T: Real, const D: usize>(
+    p: &mut [Vector<T, D>],
+    lengths: &[T],
+    meter: &mut Meter,
+) -> bool
 where
     Vector<T, D>: Embed3<T>,
 {
     let n = lengths.len();
     if n < 2 || p.len() != n + 1 {
-        return;
+        return true;
     }
     let goal = T::lit(1e-10);
     for sweep in 0..RELAX_SWEEPS {
+        if !meter.charge((n as u64).saturating_mul(cost::RELAX_PER_LINK)) {
+            return false;
+        }
         let mut worst = T::zero();
         for k in 0..n {
             let i = if sweep % 2 == 0 { k } else { n - 1 - k };
@@ -234,6 +316,7 @@ where
             break;
         }
     }
+    true
 }
 
 /// One resolution pass: contacts are pushed as they are found (Gauss–Seidel), each to its clearance
@@ -247,6 +330,8 @@ struct Pass<'a, T> {
     worst: T,
     /// A contact only fixed joints could resolve.
     blocked: bool,
+    /// The meter ran out during the pass (the pass stopped there).
+    out_of_work: bool,
 }
 
 impl<T: Real> Pass<'_, T> {
@@ -284,12 +369,19 @@ impl<T: Real> Pass<'_, T> {
         grid: &mut HashGrid,
         thickness: T,
         span: usize,
+        meter: &mut Meter,
     ) where
         Vector<T, D>: Embed3<T>,
     {
         let n = pos.len() - 1;
         for i in 0..n {
             let (lo, hi) = (grid.lo[i], grid.hi[i]);
+            // The entries this link's cells hold, scanned below (a rope piled into a few cells scans
+            // many).
+            if !meter.charge(grid.entries_around(i).saturating_mul(cost::ENTRY)) {
+                self.out_of_work = true;
+                return;
+            }
             for cx in lo[0]..=hi[0] {
                 for cy in lo[1]..=hi[1] {
                     for cz in lo[2]..=hi[2] {
@@ -298,6 +390,10 @@ impl<T: Real> Pass<'_, T> {
                             let j = grid.entries[e as usize] as usize;
                             if j <= i + span || !grid.first_visit(j, i) {
                                 continue;
+                            }
+                            if !meter.charge(cost::CAPSULE_PAIR) {
+                                self.out_of_work = true;
+                                return;
                             }
                             self.capsule_pair(pos, i, j, thickness);
                         }
@@ -511,7 +607,7 @@ mod tests {
                 .fold(0.0, f64::max)
         };
         let err_before = worst(&p);
-        relax_lengths(&mut p, &lengths);
+        assert!(relax_lengths(&mut p, &lengths, &mut Meter::default()));
         assert_eq!((p[0], p[n]), (first, last));
         let err_after = worst(&p);
         // An order of magnitude at least (about 70 times here): the reach that follows closes it.
@@ -529,7 +625,7 @@ mod tests {
             .map(|i| Vector3::new(1.5 * i as f64, 0.0, 0.0))
             .collect();
         let (first, last) = (p[0], p[n]);
-        relax_lengths(&mut p, &[1.0; 8]);
+        assert!(relax_lengths(&mut p, &[1.0; 8], &mut Meter::default()));
         assert_eq!((p[0], p[n]), (first, last));
         assert!(p.iter().all(|q| q.iter().all(|x| x.is_finite())));
     }

@@ -370,3 +370,155 @@ fn a_rope_thicker_than_its_links_is_not_locked_by_its_own_neighbours() {
         assert_eq!(out.contacts, 0, "move {k}");
     }
 }
+
+mod work_meter {
+    //! The work meter (issue 35): whatever the chain, the scheme, the passes a scene allows, the holds,
+    //! the obstacles and the move, the work a move or an instrument push is charged never passes the
+    //! limit it was given, and a move stopped by the limit leaves the chain exactly as it was.
+
+    use super::*;
+    use proptest::prelude::*;
+    use tractrix::collision::push_by_obstacle;
+    use tractrix::limits::JointLimits;
+
+    /// A rope piled into a zigzag of `n` links in a box of side `side` (contacts everywhere when the
+    /// box is small), from a seed.
+    fn pile(n: usize, len: f64, side: f64, seed: u64) -> Chain<f64, 3> {
+        let mut rng = Rng(seed);
+        let mut p = vec![Vector3::zeros()];
+        for _ in 0..n {
+            let last = *p.last().unwrap();
+            // A step of length `len` that stays within the box (tries, else any direction).
+            let mut next = last + rng.dir3() * len;
+            for _ in 0..16 {
+                if next.iter().all(|c| c.abs() <= side) {
+                    break;
+                }
+                next = last + rng.dir3() * len;
+            }
+            p.push(next);
+        }
+        Chain::from_points(&p).unwrap()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(96))]
+        #[test]
+        fn charged_work_never_passes_the_limit_and_a_stopped_move_changes_nothing(
+            seed in any::<u64>(),
+            n in 3usize..90,
+            side in 0.5f64..6.0,
+            paper in any::<bool>(),
+            passes in 1u32..2000,
+            limit in 1u64..40_000,
+            held in proptest::option::of(0usize..90),
+            ball in any::<bool>(),
+            cone in any::<bool>(),
+            reach in 0.05f64..3.0,
+        ) {
+            let mut chain = pile(n, 0.5, side, seed);
+            if let Some(h) = held.map(|h| h % n) {
+                chain.hold(h).unwrap();
+            }
+            if cone {
+                // Limits the pile already satisfies (the widest cone): turned back only where a
+                // solve would bend a joint right round.
+                let _ = chain.set_limits(Some(JointLimits::cone(n, 3.1).unwrap()));
+            }
+            let model = CollisionModel {
+                options: CollisionOptions {
+                    scheme: if paper { Scheme::PaperSpheres } else { Scheme::Capsules },
+                    thickness: 0.2,
+                    max_iterations: passes,
+                    ..CollisionOptions::default()
+                },
+                obstacles: if ball {
+                    vec![Obstacle::Sphere { center: Vector3::new(0.3, 0.2, 0.1), radius: 0.4 }]
+                } else {
+                    vec![]
+                },
+                holding: Vec::new(),
+            };
+            let mut ws = CollisionWorkspace::new();
+            let mut rng = Rng(seed ^ 0x5eed);
+            let joint = rng.below(n + 1);
+            let target = chain.joint(joint) + rng.dir3() * reach;
+            let before = chain.clone();
+            ws.limit_work(limit);
+            let r = move_joint_colliding(&mut chain, joint, target, &MoveOptions::default(), &model, &mut ws);
+            prop_assert!(ws.work() <= limit, "move: {} charged, limit {limit}", ws.work());
+            match r {
+                Err(ChainError::OverWork { work, limit: l, .. }) => {
+                    prop_assert_eq!(l, limit);
+                    prop_assert!(work <= limit);
+                    prop_assert_eq!(&chain, &before, "a move stopped by the meter changed the chain");
+                }
+                Err(_) => prop_assert_eq!(&chain, &before, "a refused move changed the chain"),
+                Ok(_) => {}
+            }
+            if ball {
+                let before = chain.clone();
+                ws.limit_work(limit);
+                let to = Obstacle::Sphere { center: Vector3::new(0.3, 0.2, 0.1) + rng.dir3() * reach, radius: 0.4 };
+                let r = push_by_obstacle(&mut chain, &model, 0, &to, 1 << 16, &mut ws);
+                prop_assert!(ws.work() <= limit, "push: {} charged, limit {limit}", ws.work());
+                if r.is_err() {
+                    prop_assert_eq!(&chain, &before, "a refused push changed the chain");
+                }
+            }
+        }
+    }
+
+    /// The meter stops what used to run unbounded: the paper's all-pairs spheres on a long chain
+    /// (O(n²) per pass) are refused before the first pass, having done no more than the limit; the
+    /// same move with the limit lifted is charged its pairs (so the refusal is the meter's, not an
+    /// accident of the move).
+    #[test]
+    fn all_pairs_on_a_long_chain_are_refused_before_the_pass_that_would_pass_the_limit() {
+        let n = 5_000;
+        let mut chain = Chain::<f64, 3>::straight(n, 1.0, Vector3::zeros(), Vector3::x()).unwrap();
+        let model = CollisionModel {
+            options: CollisionOptions {
+                scheme: Scheme::PaperSpheres,
+                max_iterations: 10_000,
+                ..CollisionOptions::default()
+            },
+            obstacles: vec![],
+            holding: Vec::new(),
+        };
+        let mut ws = CollisionWorkspace::new();
+        ws.limit_work(50_000);
+        let before = chain.clone();
+        let r = move_joint_colliding(
+            &mut chain,
+            n,
+            Vector3::new(n as f64, 0.1, 0.0),
+            &MoveOptions::default(),
+            &model,
+            &mut ws,
+        );
+        assert!(
+            matches!(r, Err(ChainError::OverWork { substep: 1, .. })),
+            "{r:?}"
+        );
+        assert!(ws.work() <= 50_000);
+        assert_eq!(chain, before);
+        // Unlimited: the pass is charged about n²/2 pairs (an eighth of a link-step each).
+        ws.limit_work(u64::MAX);
+        move_joint_colliding(
+            &mut chain,
+            n,
+            Vector3::new(n as f64, 0.1, 0.0),
+            &MoveOptions::default(),
+            &model,
+            &mut ws,
+        )
+        .unwrap();
+        let pairs = (n as u64) * (n as u64 - 1) / 2;
+        assert!(
+            ws.work() >= pairs / 8,
+            "{} charged for {pairs} pairs",
+            ws.work()
+        );
+    }
+}
