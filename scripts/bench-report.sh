@@ -93,6 +93,8 @@ block accuracy "cargo bench -p clients --bench accuracy" \
   cargo bench -q -p clients --bench accuracy
 block collision "cargo bench -p clients --bench collision" \
   cargo bench -q -p clients --bench collision
+block budget "cargo bench -p solver-service --bench budget" \
+  cargo bench -q -p solver-service --bench budget
 block journal "cargo bench -p solver-service --bench journal" \
   cargo bench -q -p solver-service --bench journal
 block languages "scripts/lang-latency.sh $LANG_ARGS" \
