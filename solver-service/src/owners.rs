@@ -84,9 +84,19 @@ impl Owners {
                 ));
             }
         }
-        if let (Request::Grasp { joint, .. }, true) = (req, client != LOCAL) {
+        // A grasp, or a move that takes another client's grasp over, would give the client one more.
+        let gains = match *req {
+            Request::Grasp { joint, .. } => Some(joint),
+            Request::Move {
+                joint,
+                take_over: true,
+                ..
+            } if other(self.owner(chain, joint)) => Some(joint),
+            _ => None,
+        };
+        if let (Some(joint), true) = (gains, client != LOCAL) {
             let mine = list.iter().filter(|&&(_, o)| o == client).count();
-            if self.owner(chain, *joint) != client && mine >= shared::MAX_GRASPS_PER_CLIENT as usize
+            if self.owner(chain, joint) != client && mine >= shared::MAX_GRASPS_PER_CLIENT as usize
             {
                 return Err(refuse!(
                     BadOption,
@@ -160,5 +170,67 @@ impl Owners {
             n += before - l.len();
         }
         n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shared::{MAX_GRASPS_PER_CLIENT, Status, Vec3};
+
+    fn grasp(joint: usize) -> Request<'static> {
+        Request::Grasp {
+            chain: 0,
+            joint,
+            take_over: false,
+        }
+    }
+
+    /// A move that takes another client's grasp over gives the mover one more grasp: it counts
+    /// against the cap like a grasp does, so taking over cannot raise a client past it.
+    #[test]
+    fn taking_a_grasp_over_by_a_move_counts_against_the_cap() {
+        let (a, b) = (0xa, 0xb);
+        let mut owners = Owners::new(1);
+        let cap = MAX_GRASPS_PER_CLIENT as usize;
+        for j in 0..cap {
+            owners.check(a, &grasp(j)).unwrap();
+            owners.record(a, &grasp(j), &[]);
+        }
+        owners.check(b, &grasp(40)).unwrap();
+        owners.record(b, &grasp(40), &[]);
+        let target = [Vec3::new(1.0, 0.0, 0.0)];
+        let take = Request::Move {
+            chain: 0,
+            joint: 40,
+            targets: &target,
+            options: tractrix::MoveOptions::default(),
+            take_over: true,
+        };
+        let e = owners.check(a, &take).unwrap_err();
+        assert_eq!(e.status, Status::BadOption, "{}", e.reason());
+        assert!(
+            e.reason().contains("the most one client may"),
+            "{}",
+            e.reason()
+        );
+        // A move of a joint it already owns, or a take-over below the cap, is allowed.
+        let own = Request::Move {
+            chain: 0,
+            joint: 0,
+            targets: &target,
+            options: tractrix::MoveOptions::default(),
+            take_over: true,
+        };
+        owners.check(a, &own).unwrap();
+        let release = Request::Release {
+            chain: 0,
+            joint: 0,
+            take_over: false,
+        };
+        owners.record(a, &release, &[]);
+        owners.check(a, &take).unwrap();
+        owners.record(a, &take, &[]);
+        assert_eq!(owners.owner(0, 40), a);
     }
 }
