@@ -100,11 +100,20 @@ fn a_hostile_client_cannot_take_the_service_from_a_1khz_client() {
     );
 }
 
-/// A flooding client of its own, on raw iceoryx2 ports: it keeps `in_flight` requests outstanding (the
-/// most the service allows a client is two), each a path of the budget's size on the rope, and wakes
-/// the service after each send. Counts its responses in `answered`; stops after `total` or at the first
-/// failure (the service gone).
-fn flood(prefix: &str, total: u64, answered: Arc<AtomicU64>, ready: Arc<AtomicU64>) {
+/// What a flooding client sends.
+#[derive(Clone, Copy)]
+enum Flood {
+    /// A path of the budget's size on the rope (chain 0).
+    Path,
+    /// A query of the bundle with this handle (its estimate about the budget, a response of
+    /// millions of bytes).
+    BundleQuery(u32),
+}
+
+/// A flooding client of its own, on raw iceoryx2 ports: it keeps two requests outstanding (the most
+/// the service allows a client), each `kind`, and wakes the service after each send. Counts its
+/// responses in `answered`; stops after `total` or at the first failure (the service gone).
+fn flood(prefix: &str, total: u64, answered: Arc<AtomicU64>, ready: Arc<AtomicU64>, kind: Flood) {
     use iceoryx2::prelude::*;
     let cfg = shared::iceoryx_config(prefix).unwrap();
     let node = NodeBuilder::new()
@@ -139,12 +148,16 @@ fn flood(prefix: &str, total: u64, answered: Arc<AtomicU64>, ready: Arc<AtomicU6
         })
         .collect();
     // None once the service has gone.
+    let (command, chain, points) = match kind {
+        Flood::Path => (Command::Path, 0, &path[..]),
+        Flood::BundleQuery(handle) => (Command::Query, handle, &path[..0]),
+    };
     let send = |i: u64| {
         let mut req = client
-            .loan_slice_uninit(path.len())
+            .loan_slice_uninit(points.len())
             .ok()?
-            .write_from_slice(&path);
-        let mut h = RequestHeader::new(Command::Path, 0);
+            .write_from_slice(points);
+        let mut h = RequestHeader::new(command, chain);
         h.request_id = i + 1;
         *req.user_header_mut() = h;
         let pending = req.send().ok()?;
@@ -203,7 +216,7 @@ fn two_flooding_clients_cannot_starve_a_third_or_delay_sigterm() {
             .map(|answered| {
                 let (prefix, answered, ready) =
                     (svc.prefix.clone(), answered.clone(), ready.clone());
-                std::thread::spawn(move || flood(&prefix, TOTAL, answered, ready))
+                std::thread::spawn(move || flood(&prefix, TOTAL, answered, ready, Flood::Path))
             })
             .collect();
         // Both flooding before the third connects.
@@ -269,4 +282,71 @@ fn two_flooding_clients_cannot_starve_a_third_or_delay_sigterm() {
         done.iter().all(|&d| d < TOTAL / 2),
         "SIGTERM waited for the floods: {done:?} of {TOTAL}"
     );
+}
+
+/// Issue 35, the same for a bundle: two clients each keeping two queries of a bundle in flight (each
+/// about the budget's estimate and 9 MB of response) cannot starve a client that connects after them.
+/// Counted in the flooders' answers: between the third client's send and its answer at most 7 of
+/// theirs are read (the request in hand, one of each per round, and the two of each that may have been
+/// served but not yet read when the count was taken); the least of three tries.
+#[test]
+fn two_clients_flooding_a_bundle_cannot_starve_a_third() {
+    const TOTAL: u64 = 120;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("bundle.toml");
+    // 8192 strands in 1024 blocks of 8, 48 links: a query is estimated at 49 152 link-steps.
+    std::fs::write(
+        &scene,
+        "[[chain]]\nname = \"rope\"\nlinks = 40\nlink_length = 1.0\n\n[[bundle]]\nname = \"hair\"\n\
+         strands = 8192\nlinks = 48\nlink_length = 0.1\n",
+    )
+    .unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &["--no-persist", "--scene", scene.to_str().unwrap()],
+    );
+    let counters: Vec<_> = (0..2).map(|_| Arc::new(AtomicU64::new(0))).collect();
+    let ready = Arc::new(AtomicU64::new(0));
+    let threads: Vec<_> = counters
+        .iter()
+        .map(|answered| {
+            let (prefix, answered, ready) = (svc.prefix.clone(), answered.clone(), ready.clone());
+            std::thread::spawn(move || {
+                flood(&prefix, TOTAL, answered, ready, Flood::BundleQuery(1))
+            })
+        })
+        .collect();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while counters.iter().any(|c| c.load(Ordering::SeqCst) < 2) {
+        assert!(Instant::now() < deadline, "the floods did not start");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let mut third = connect(&svc.prefix);
+    let mut between = Vec::new();
+    for _ in 0..3 {
+        let before: u64 = counters.iter().map(|c| c.load(Ordering::SeqCst)).sum();
+        let r = third
+            .call(RequestHeader::new(Command::Query, 0), &[])
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        let after: u64 = counters.iter().map(|c| c.load(Ordering::SeqCst)).sum();
+        between.push(after - before);
+    }
+    let done: Vec<u64> = counters.iter().map(|c| c.load(Ordering::SeqCst)).collect();
+    eprintln!(
+        "a third client during two bundle floods: flooding answers read between its send and its \
+         answer {between:?}; the floods at {done:?} of {TOTAL}"
+    );
+    assert!(
+        between.iter().min().is_some_and(|&b| b <= 7),
+        "the third client waited for {between:?} flooding requests (at most 7 expected)"
+    );
+    assert!(
+        done.iter().all(|&d| d < TOTAL / 2),
+        "the third client waited for the floods: they had answered {done:?} of {TOTAL} each"
+    );
+    drop(svc);
+    for th in threads {
+        th.join().expect("a flooder");
+    }
 }
