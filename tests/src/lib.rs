@@ -33,6 +33,39 @@ pub fn unique_prefix() -> String {
 
 /// Runs `cargo ARGS` (the cargo that runs the tests) and fails the test if the build fails: for what a
 /// test needs and the runner may not have built.
+/// Whether the system tool `tool` (a program on the PATH) or library (`lib…` in `ldconfig -p`) is here.
+pub fn system_has(tool: &str) -> bool {
+    let probe = if tool.starts_with("lib") {
+        format!("ldconfig -p | grep -q {tool}")
+    } else {
+        format!("command -v {tool}")
+    };
+    std::process::Command::new("sh")
+        .args(["-c", &probe])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// For a test that needs system packages (`scripts/system-packages.sh` installs them, as root or with
+/// sudo): `true` when every one of `needs` is here. Otherwise the test is skipped with one line on
+/// stderr, except under `CI=true`, where nothing may be skipped and the test fails.
+pub fn system_packages(test: &str, needs: &[&str]) -> bool {
+    let missing: Vec<&str> = needs.iter().copied().filter(|t| !system_has(t)).collect();
+    if missing.is_empty() {
+        return true;
+    }
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "{test}: {} missing, and CI=true skips nothing: run scripts/system-packages.sh as root",
+        missing.join(", ")
+    );
+    eprintln!(
+        "skipped {test}: {} missing (scripts/system-packages.sh installs them as root or with sudo)",
+        missing.join(", ")
+    );
+    false
+}
+
 pub fn cargo_build(args: &[&str]) {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let ok = Command::new(cargo)

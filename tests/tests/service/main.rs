@@ -28,6 +28,7 @@ mod knots;
 mod latency;
 mod limits;
 mod python;
+mod readme;
 mod signals;
 mod sweep;
 mod tools;

@@ -169,6 +169,9 @@ fn the_installed_python_package_has_chainctl_s_commands() {
 /// holds (midpoints computed here from a Rust client's query); four frames are rendered offscreen.
 #[test]
 fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
+    if !tests::system_packages("the MuJoCo loop's offscreen frames", &["libOSMesa"]) {
+        return;
+    }
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
     let frames = tempfile::tempdir().unwrap();
     let out = Process::new(python())
