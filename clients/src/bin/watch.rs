@@ -25,7 +25,7 @@ use clap::Parser;
 use clients::ToolArgs;
 use clients::cli::usage;
 use clients::render::{Frame, Polyline, View, write_frames_svg};
-use clients::viewer::{self, RerunView, Sink};
+use clients::viewer::{self, LimitView, RerunView, Sink};
 use shared::{ChainKind, Command, RequestHeader};
 use std::collections::HashMap;
 use std::io::Write;
@@ -83,6 +83,8 @@ struct ChainInfo {
     planar: bool,
     thickness: f64,
     free: bool,
+    /// Joint limits the view draws.
+    limit: Option<LimitView>,
     seen: u64,
     /// A bundle's strands: joints per strand (`links + 1`) and the link length.
     bundle: Option<(usize, f64)>,
@@ -122,6 +124,7 @@ fn run(a: Args) -> Result<u8> {
                 planar: d.header.dims == 2,
                 thickness: d.header.thickness,
                 free: d.header.kind == 0,
+                limit: LimitView::from_describe(d.header.limits, d.header.limit_value),
                 seen: 0,
                 bundle: (d.header.kind == ChainKind::Bundle as u32 && links > 0)
                     .then(|| (links + 1, d.header.total_length / links as f64)),
@@ -143,7 +146,7 @@ fn run(a: Args) -> Result<u8> {
         for (&c, info) in &chains {
             match (watched(info), info.bundle) {
                 (false, _) => {}
-                (true, None) => v.add_chain(c, &info.name, info.thickness, info.free),
+                (true, None) => v.add_chain(c, &info.name, info.thickness, info.free, info.limit),
                 (true, Some(_)) => v.add_bundle(c, &info.name),
             }
         }

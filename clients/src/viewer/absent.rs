@@ -18,7 +18,14 @@ impl RerunView {
         )
     }
     /// Unreachable (no value exists).
-    pub fn add_chain(&mut self, _chain: u32, _name: &str, _thickness: f64, _free: bool) {
+    pub fn add_chain(
+        &mut self,
+        _chain: u32,
+        _name: &str,
+        _thickness: f64,
+        _free: bool,
+        _limit: Option<super::LimitView>,
+    ) {
         match *self {}
     }
     /// Unreachable (no value exists).

@@ -18,6 +18,8 @@ struct ChainView {
     name: String,
     radius: f32,
     free: bool,
+    /// The limits drawn (joints at their limit), if any.
+    limit: Option<super::LimitView>,
     last_knot: Option<String>,
     knot_at: Option<Instant>,
     /// The latest joints not yet identified.
@@ -56,15 +58,23 @@ impl RerunView {
         })
     }
 
-    /// Declares a chain: its name, thickness (0 for a line) and whether it is free (knots are
-    /// identified on free chains only).
-    pub fn add_chain(&mut self, chain: u32, name: &str, thickness: f64, free: bool) {
+    /// Declares a chain: its name, thickness (0 for a line), whether it is free (knots are
+    /// identified on free chains only) and its joint limits (the joints at their limit are drawn).
+    pub fn add_chain(
+        &mut self,
+        chain: u32,
+        name: &str,
+        thickness: f64,
+        free: bool,
+        limit: Option<super::LimitView>,
+    ) {
         self.chains.insert(
             chain,
             ChainView {
                 name: name.to_owned(),
                 radius: (thickness / 2.0) as f32,
                 free,
+                limit,
                 last_knot: None,
                 knot_at: None,
                 unidentified: None,
@@ -188,6 +198,16 @@ impl RerunView {
                 .with_colors(colors)
                 .with_labels(labels),
         )?;
+        if let Some(limit) = c.limit {
+            let at = limit.at_limit(joints);
+            self.rec.log(
+                format!("{base}/at_limit"),
+                &Points3D::new(at.iter().map(|&j| pts[j]))
+                    .with_radii([held_radius])
+                    .with_colors([Color::from_rgb(230, 30, 30)])
+                    .with_labels(at.iter().map(|j| j.to_string())),
+            )?;
+        }
         for (k, inst) in instruments.iter().enumerate() {
             log_instrument(&self.rec, &format!("{base}/instruments/{k}"), inst)?;
         }

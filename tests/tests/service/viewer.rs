@@ -422,3 +422,72 @@ fn watch_draws_a_bundles_strands() {
         "the last state is not among the logged strips"
     );
 }
+
+/// Issue 34: the view draws the joints at their limit. A suture with a bend radius (`bend-80` of
+/// knots.toml: 80 links of 0.5, R_min 1.5) has its head led round a circle tighter than the radius
+/// allows; at the last state the recording's `at_limit` joints are exactly those this test finds
+/// turned to their cone `2·atan(L / 2R_min)` (angles computed here from the service's joints), and
+/// there are some.
+#[test]
+fn the_view_marks_the_joints_at_their_bend_limit() {
+    let scene = workspace().join("solver-service/scenes/knots.toml");
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--no-persist",
+            "--wait",
+            "event",
+            "--scene",
+            scene.to_str().unwrap(),
+        ],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let rrd = dir.path().join("bend.rrd");
+    const STEPS: usize = 40;
+    let (watch, rx) = start_watch(&svc.prefix, &rrd, STEPS, &["--chain", "bend-80"]);
+    let mut c = svc.connect();
+    let chain = c.find_chain("bend-80").unwrap().expect("bend-80");
+    for i in 0..STEPS {
+        // A circle of radius 0.8 about (38.5, 0.8): tighter than the bend radius of 1.5.
+        let a = i as f64 * 0.25;
+        let mut mv = RequestHeader::new(Command::Move, chain);
+        mv.joint = JOINT_HEAD;
+        let target = Vec3::new(38.5 + 0.8 * a.sin(), 0.8 - 0.8 * a.cos(), 0.0);
+        let r = c.call(mv, &[target]).unwrap();
+        assert!(r.is_ok(), "{:?}", r.header.reason_str());
+    }
+    let last = c
+        .call(RequestHeader::new(Command::Query, chain), &[])
+        .unwrap();
+    wait_for(watch, &rx);
+    // The test's own turn angles.
+    let p: Vec<[f64; 3]> = last.joints().iter().map(|q| [q.x, q.y, q.z]).collect();
+    let mut expected = Vec::new();
+    for j in 1..p.len() - 1 {
+        let u: Vec<f64> = (0..3).map(|k| p[j][k] - p[j - 1][k]).collect();
+        let v: Vec<f64> = (0..3).map(|k| p[j + 1][k] - p[j][k]).collect();
+        let (nu, nv) = (
+            u.iter().map(|x| x * x).sum::<f64>().sqrt(),
+            v.iter().map(|x| x * x).sum::<f64>().sqrt(),
+        );
+        let cos = u.iter().zip(&v).map(|(a, b)| a * b).sum::<f64>() / (nu * nv);
+        let turn = cos.clamp(-1.0, 1.0).acos();
+        let cone = 2.0 * (nu.min(nv) / 3.0).atan();
+        assert!(turn <= cone + 1e-9, "joint {j} beyond its cone");
+        if turn >= cone - 1e-6 {
+            expected.push(j.to_string());
+        }
+    }
+    assert!(!expected.is_empty(), "no joint reached the bend limit");
+    let v = read_rrd(&rrd);
+    let labels = v["/chains/bend-80/at_limit"]["values"]["labels"]
+        .as_array()
+        .expect("at_limit labels");
+    let (_, at_last) = labels
+        .iter()
+        .map(|e| (e[0].as_u64().unwrap(), e[1].clone()))
+        .max_by_key(|(s, _)| *s)
+        .unwrap();
+    let logged: Vec<String> = serde_json::from_value(at_last).unwrap();
+    assert_eq!(logged, expected);
+}
