@@ -388,6 +388,35 @@ impl<S: Service> Connection<S> {
         Ok(None)
     }
 
+    /// The names of the service's chains and bundles, in handle order.
+    pub fn chain_names(&mut self) -> Result<Vec<String>, CallError> {
+        let first = self.call(RequestHeader::new(Command::Describe, 0), &[])?;
+        let mut names = vec![first.header.name_str()];
+        for c in 1..first.header.n_chains {
+            names.push(
+                self.call(RequestHeader::new(Command::Describe, c), &[])?
+                    .header
+                    .name_str(),
+            );
+        }
+        Ok(names)
+    }
+
+    /// The handle of chain `name`; if the service has none, an error that lists the chains it has and
+    /// names the shipped scene that declares `name`, if one does.
+    pub fn require_chain(&mut self, name: &str) -> anyhow::Result<u32> {
+        if let Some(c) = self.find_chain(name)? {
+            return Ok(c);
+        }
+        let has = self.chain_names()?.join(", ");
+        let from = shipped_scene_of(name).map_or(String::new(), |scene| {
+            format!(
+                "; {scene} declares it: start the service with --scene solver-service/scenes/{scene}"
+            )
+        });
+        anyhow::bail!("the service has no chain {name:?} (it has {has}){from}")
+    }
+
     /// Subscribes to the state stream.
     pub fn subscribe(&self) -> Result<StateStream<S>, CallError> {
         self.subscribe_to(SERVICE_STATE)
@@ -443,4 +472,28 @@ impl<S: Service> StateStream<S> {
             .map_err(ipc("receive a state"))?
             .map(|s| read(s.user_header(), s.payload())))
     }
+}
+
+/// The shipped scene (`default.toml`, `knots.toml`, `hair.toml`) that declares a chain or bundle named
+/// `name`, by a plain reading of their `name = "..."` lines.
+pub fn shipped_scene_of(name: &str) -> Option<&'static str> {
+    const SCENES: [(&str, &str); 3] = [
+        (
+            "default.toml",
+            include_str!("../../solver-service/scenes/default.toml"),
+        ),
+        (
+            "knots.toml",
+            include_str!("../../solver-service/scenes/knots.toml"),
+        ),
+        (
+            "hair.toml",
+            include_str!("../../solver-service/scenes/hair.toml"),
+        ),
+    ];
+    let line = format!("name = {name:?}");
+    SCENES
+        .iter()
+        .find(|(_, text)| text.lines().any(|l| l.trim() == line))
+        .map(|(file, _)| *file)
 }

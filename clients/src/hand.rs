@@ -9,6 +9,7 @@
 
 use crate::connection::{CallError, Connection, Pacer, Svc, count_refusal, ipc};
 use crate::script::{InstrumentEnds, Script, parse_joint};
+use anyhow::Context as _;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::prelude::*;
@@ -205,7 +206,6 @@ impl Baton {
 
 /// Runs hand `cfg.hand` of `cfg.script` against a connected service.
 pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandReport> {
-    use anyhow::Context;
     let hands = cfg.script.hands();
     let me = hands.iter().position(|h| *h == cfg.hand).with_context(|| {
         format!(
@@ -229,9 +229,7 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
     // grasps, a clamp until `release`).
     if cfg.script.grasp {
         for turn in cfg.script.turn.iter().filter(|t| t.hand == cfg.hand) {
-            let chain = conn
-                .find_chain(&turn.chain)?
-                .with_context(|| format!("the service has no chain {:?}", turn.chain))?;
+            let chain = conn.require_chain(&turn.chain)?;
             let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
             if !grips.iter().any(|g| g.1 == chain && g.2 == joint) {
                 grips.push((turn.chain.clone(), chain, joint));
@@ -282,12 +280,9 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
 
 /// Waits (up to the turn timeout) until every joint the script's hands drive is held.
 fn wait_for_grips(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<()> {
-    use anyhow::Context;
     let mut wanted: Vec<(u32, u32)> = Vec::new();
     for turn in &cfg.script.turn {
-        let chain = conn
-            .find_chain(&turn.chain)?
-            .with_context(|| format!("the service has no chain {:?}", turn.chain))?;
+        let chain = conn.require_chain(&turn.chain)?;
         let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
         if !wanted.contains(&(chain, joint)) {
             wanted.push((chain, joint));
@@ -376,7 +371,7 @@ fn drive(
     record: &mut Option<std::io::BufWriter<std::fs::File>>,
     report: &mut HandReport,
 ) -> anyhow::Result<()> {
-    use anyhow::{Context, bail};
+    use anyhow::bail;
     let mut mine: Vec<usize> = Vec::new();
     let mut tremor = crate::script::Tremor::new(
         cfg.tremor.0,
@@ -397,9 +392,7 @@ fn drive(
                 .wait_all(&[k - 1], &mine, cfg.turn_timeout)
                 .map_err(anyhow::Error::msg)?;
         }
-        let chain = conn
-            .find_chain(&turn.chain)?
-            .with_context(|| format!("the service has no chain {:?}", turn.chain))?;
+        let chain = conn.require_chain(&turn.chain)?;
         let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
         let q = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
         let joints = q.joints();
@@ -610,7 +603,6 @@ fn drive(
 
 /// Reads recordings (JSON lines), each line checked.
 pub fn read_records(path: &std::path::Path) -> anyhow::Result<Vec<Record>> {
-    use anyhow::Context;
     let text = std::fs::read_to_string(path).with_context(|| format!("read {}", path.display()))?;
     text.lines()
         .enumerate()
@@ -642,14 +634,11 @@ pub fn replay(
     mut records: Vec<Record>,
     reset: bool,
 ) -> anyhow::Result<ReplayReport> {
-    use anyhow::Context;
     records.sort_by_key(|r| (r.sequence, r.t_ns));
     let mut chains: Vec<(String, u32)> = Vec::new();
     for r in &records {
         if !chains.iter().any(|c| c.0 == r.chain) {
-            let id = conn
-                .find_chain(&r.chain)?
-                .with_context(|| format!("the service has no chain {:?}", r.chain))?;
+            let id = conn.require_chain(&r.chain)?;
             chains.push((r.chain.clone(), id));
         }
     }

@@ -10,7 +10,7 @@
 //! minimises joint rates in the least-squares sense and spreads the motion over all joints.
 
 use crate::connection::Connection;
-use anyhow::{Context, bail};
+use anyhow::bail;
 use nalgebra::Vector2;
 use shared::{ChainKind, Command, RequestHeader, Status, Vec3};
 use std::time::Instant;
@@ -103,9 +103,7 @@ pub fn run_reach(conn: &mut Connection, cfg: &ReachConfig) -> anyhow::Result<Vec
     if !(cfg.tolerance.is_finite() && (0.0..=0.1).contains(&cfg.tolerance)) {
         bail!("tolerance must be in [0, 0.1] (a fraction of the chain's length)");
     }
-    let chain = conn
-        .find_chain(&cfg.chain)?
-        .with_context(|| format!("the service has no chain {:?}", cfg.chain))?;
+    let chain = conn.require_chain(&cfg.chain)?;
     let d = conn.call(RequestHeader::new(Command::Describe, chain), &[])?;
     if d.header.kind != ChainKind::FixedBase as u32 || d.header.dims != 2 {
         bail!(

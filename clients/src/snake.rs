@@ -10,7 +10,7 @@
 //! tractrix cuts corners by about `L²/(2R)` for links of length `L` on a bend of radius `R`).
 
 use crate::connection::{Connection, Pacer, count_refusal};
-use anyhow::{Context, bail};
+use anyhow::bail;
 use shared::{Command, RequestHeader, Status, Vec3};
 use std::time::{Duration, Instant};
 
@@ -237,9 +237,7 @@ pub fn run_snake(conn: &mut Connection, cfg: &SnakeConfig) -> anyhow::Result<Sna
     if cfg.length / cfg.step > MAX_CURVE_POINTS as f64 {
         bail!("length / step is more than {MAX_CURVE_POINTS} moves");
     }
-    let chain = conn
-        .find_chain(&cfg.chain)?
-        .with_context(|| format!("the service has no chain {:?}", cfg.chain))?;
+    let chain = conn.require_chain(&cfg.chain)?;
     let q = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
     if !q.is_ok() {
         bail!("query {:?}: {}", cfg.chain, q.header.reason_str());

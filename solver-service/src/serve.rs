@@ -207,9 +207,7 @@ impl<S: Service> ServerPorts<S> {
             .max_loaned_responses_per_request(1)
             .initial_max_slice_len(max_elements.max(1))
             .create()
-            .map_err(err(
-                "cannot create the server (is another solver-service running with this prefix?)",
-            ))?;
+            .map_err(err(ANOTHER))?;
         Ok((
             ServerPorts {
                 node,
@@ -240,6 +238,10 @@ impl<S: Service> ServerPorts<S> {
     }
 }
 
+/// What a start says when the prefix is taken.
+const ANOTHER: &str = "another solver-service already serves this prefix: stop it, or start this one \
+     with --prefix NAME (and give its clients the same --prefix, or TRACTRIX_IOX_PREFIX=NAME)";
+
 /// The publisher of a stream of accepted states (`service`): samples of up to `joints` elements, at
 /// most `subscribers` subscribers buffering `buffer` samples each, the oldest dropped on overflow.
 fn stream_publisher<S: Service>(
@@ -264,7 +266,14 @@ fn stream_publisher<S: Service>(
         .publisher_builder()
         .initial_max_slice_len(joints.max(1))
         .create()
-        .map_err(|e| format!("cannot create the {what}'s publisher: {e:?}"))
+        .map_err(|e| {
+            let e = format!("{e:?}");
+            if e.contains("ExceedsMaxSupportedPublishers") {
+                format!("{ANOTHER} (the {what} has its publisher already: {e})")
+            } else {
+                format!("cannot create the {what}'s publisher: {e}")
+            }
+        })
 }
 
 /// A handled request: the response header (`n_joints + n_angles` elements follow) and whether the state

@@ -90,9 +90,11 @@ def write_png(path: str, rgb: np.ndarray) -> None:
 
 
 def run(client: Client | None, chain: int, steps: int, rate: float, start,
-        frames: str | None = None) -> tuple[list, list]:
-    """The loop: `steps` steps at `rate` Hz; returns the step times (µs) and the capsule centres at
-    the end. With `frames`, four frames are rendered (outside the timed step) to that directory."""
+        frames: str | None = None) -> tuple[list, list, dict]:
+    """The loop: `steps` steps at `rate` Hz; returns the step times (µs), the capsule centres at the
+    end and, with the service, the times of its parts (µs): the service call alone and the posing
+    of the capsules from the joints. With `frames`, four frames are rendered (outside the timed step)
+    to that directory."""
     n_links = len(start) - 1
     model = mujoco.MjModel.from_xml_string(scene_xml(n_links, float(np.linalg.norm(
         np.subtract(start[1], start[0]))), 0.1))
@@ -102,6 +104,7 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
     place(data, first_link, joints)
     head = np.asarray(start[-1], dtype=float)
     times = []
+    parts = {"service_call": [], "posing": []}
     renderer = mujoco.Renderer(model, 360, 640) if frames else None
     shots = {steps * k // 4 + steps // 8 for k in range(4)}
     t0 = time.perf_counter()
@@ -116,9 +119,13 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
         hand = head + np.array([2.0 * (math.cos(a) - 1.0), 2.0 * math.sin(a), 0.5 * math.sin(2 * a)])
         data.mocap_pos[0] = hand
         if client is not None:
+            c = time.perf_counter_ns()
             h, elements = client.call("move", chain, [tuple(hand)], joint=JOINT_HEAD)
+            p = time.perf_counter_ns()
             joints = elements[:h.n_joints]
             place(data, first_link, joints)
+            parts["service_call"].append((p - c) / 1000.0)
+            parts["posing"].append((time.perf_counter_ns() - p) / 1000.0)
         mujoco.mj_step(model, data)
         times.append((time.perf_counter_ns() - s) / 1000.0)
         if renderer is not None and i in shots:
@@ -127,7 +134,7 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
     if renderer is not None:
         renderer.close()
     centres = data.geom_xpos[model.ngeom - n_links:].tolist()
-    return times, centres
+    return times, centres, parts
 
 
 def percentiles(times: list) -> dict:
@@ -148,10 +155,11 @@ def main() -> int:
     try:
         client = Client(prefix=a.prefix, wait_for_service=5.0)
         chain = client.find_chain(a.chain)
-        h, elements = client.call("query", chain)
+        # From the scene's rope, whatever an earlier run left.
+        h, elements = client.call("reset", chain)
         start = elements[:h.n_joints]
-        alone, _ = run(None, chain, a.steps, a.rate, start)
-        with_service, centres = run(client, chain, a.steps, a.rate, start, a.frames)
+        alone, _, _ = run(None, chain, a.steps, a.rate, start)
+        with_service, centres, parts = run(client, chain, a.steps, a.rate, start, a.frames)
     except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:
         print(e, file=sys.stderr)
         return 1
@@ -160,14 +168,19 @@ def main() -> int:
         "rate_hz": a.rate,
         "mujoco_alone": percentiles(alone),
         "mujoco_and_service": percentiles(with_service),
+        # Within a step with the service: the call alone (request, solve, response) and the posing of
+        # the capsules from the joints (Python).
+        "service_call": percentiles(parts["service_call"]),
+        "posing": percentiles(parts["posing"]),
         "capsule_centres": centres,
     }
     if a.json:
         print(json.dumps(result))
     else:
-        for k in ("mujoco_alone", "mujoco_and_service"):
+        for k in ("mujoco_alone", "mujoco_and_service", "service_call", "posing"):
             p = result[k]
-            print(f"{k}: step p50 {p['p50_us']:.1f} us, p99 {p['p99_us']:.1f} us, max {p['max_us']:.1f} us")
+            what = "step" if k.startswith("mujoco") else "within a step"
+            print(f"{k} ({what}): p50 {p['p50_us']:.1f} us, p99 {p['p99_us']:.1f} us, max {p['max_us']:.1f} us")
     return 0
 
 

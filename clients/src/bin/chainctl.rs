@@ -219,8 +219,8 @@ fn run(a: Args) -> Result<u8> {
                     },
                     h.dims,
                     h.n_links,
-                    h.total_length,
-                    h.thickness,
+                    short(h.total_length),
+                    short(h.thickness),
                     if h.precision == 2 { "f32" } else { "f64" },
                     shared::text::method_name(h.method)
                 );
@@ -233,10 +233,7 @@ fn run(a: Args) -> Result<u8> {
         None => bail!("which chain? (chainctl describe lists them)"),
         Some(s) => Some(match s.parse::<u32>() {
             Ok(i) => ChainRef::Index(i),
-            Err(_) => ChainRef::Index(
-                conn.find_chain(s)?
-                    .ok_or_else(|| anyhow::anyhow!("the service has no chain {s:?}"))?,
-            ),
+            Err(_) => ChainRef::Index(conn.require_chain(s)?),
         }),
     };
     if a.command == Cmd::Knot {
@@ -305,4 +302,11 @@ fn run(a: Args) -> Result<u8> {
     let r = conn.call(header, &points)?;
     print(&TextResponse::from_wire(&r.header, &r.payload), a.json)?;
     Ok(if r.is_ok() { 0 } else { 1 })
+}
+
+/// A length as a person reads it: 13 significant digits, so that the sum of ten links of 0.2 prints as
+/// 2, not 1.9999999999999998.
+fn short(x: f64) -> String {
+    let rounded: f64 = format!("{x:.12e}").parse().unwrap_or(x);
+    format!("{rounded}")
 }

@@ -201,11 +201,13 @@ fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
         assert_eq!(&png[16..24], &[0, 0, 2, 128, 0, 0, 1, 104], "640 x 360");
     }
-    assert!(v["mujoco_and_service"]["p50_us"].as_f64().unwrap() > 0.0);
+    for part in ["mujoco_and_service", "service_call", "posing"] {
+        assert!(v[part]["p50_us"].as_f64().unwrap() > 0.0, "{part}");
+    }
     let centres: Vec<[f64; 3]> = serde_json::from_value(v["capsule_centres"].clone()).unwrap();
     let mut c = svc.connect();
     let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
-    assert_eq!(q.header.sequence, 300, "one move per step");
+    assert_eq!(q.header.sequence, 301, "the reset, then one move per step");
     let j = q.joints();
     assert_eq!(centres.len(), j.len() - 1);
     for (i, m) in centres.iter().enumerate() {

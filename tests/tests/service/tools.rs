@@ -498,3 +498,58 @@ fn watch_writes_a_bundles_strands() {
         "a segment per link of every strand"
     );
 }
+
+/// Issue 37: a second service on a prefix another serves stops at once and says so, naming `--prefix`;
+/// the first one keeps serving.
+#[test]
+fn a_second_service_on_a_taken_prefix_says_so_and_names_the_option() {
+    let svc = default_service();
+    let second = Process::new(bin("solver-service"))
+        .args(["--prefix", &svc.prefix, "--no-persist"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (status, _, err) = finish(second, "a second solver-service");
+    assert_eq!(status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("another solver-service already serves this prefix")
+            && err.contains("--prefix"),
+        "{err}"
+    );
+    let mut c = svc.connect();
+    assert!(
+        c.call(RequestHeader::new(Command::Query, 0), &[])
+            .unwrap()
+            .is_ok()
+    );
+}
+
+/// Issue 37: a client asked for a chain the service does not have lists the chains it has and names
+/// the shipped scene that declares the one asked for.
+#[test]
+fn a_missing_chain_is_named_with_the_scene_that_declares_it() {
+    let svc = default_service();
+    for (tool, args) in [
+        (
+            "hand",
+            &[
+                "run",
+                "--builtin",
+                "instrument-tie",
+                "--hand",
+                "A",
+                "--quiet",
+            ][..],
+        ),
+        ("chainctl", &["query", "tie"][..]),
+    ] {
+        let (status, _, err) = finish(spawn(&svc, tool, args), tool);
+        assert!(!status.success(), "{tool}: {err}");
+        assert!(
+            err.contains("no chain \"tie\" (it has rope, snake, arm)")
+                && err.contains("knots.toml declares it"),
+            "{tool}: {err}"
+        );
+    }
+}
