@@ -146,3 +146,5 @@ for part in sorted(work.glob("*.md")):
 out.write_text(text)
 print(f"bench-report: {len(list(work.glob('*.md')))} blocks written to {out}", file=sys.stderr)
 EOF
+# The headline figures on top, read from the tables just written.
+python3 scripts/bench-summary.py "$OUT"

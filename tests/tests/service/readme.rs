@@ -255,3 +255,20 @@ fn the_readme_quick_start_of_every_language_moves_the_rope() {
     };
     assert_eq!(ran, expected);
 }
+
+/// BENCHMARKS.md's summary is what its tables give (`scripts/bench-summary.py --check`): no headline
+/// figure is typed by hand or left behind by a table regenerated since.
+#[test]
+fn the_benchmarks_summary_is_read_from_its_tables() {
+    let out = Process::new("python3")
+        .arg(root().join("scripts/bench-summary.py"))
+        .arg("--check")
+        .arg(root().join("BENCHMARKS.md"))
+        .output()
+        .expect("python3");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
