@@ -48,6 +48,8 @@ client and measures the link-length error here, from those joints. Knobs::
     anchors      joints held by the scene for the whole episode, e.g. [0] (default none)
     passes       collision passes per substep before the rope is locked (the scene's
                  ``collision_iterations``; default 64, the service's)
+    budget       the work one request may cost, in link-steps (the scene's ``budget``; default
+                 2000000, knots.toml's: collision work is metered against it)
     timeout      seconds the episode may take (default 300)
 
 Row columns: ``id``, every knob (as a string column ``knobs`` in JSON, plus the common ones as columns),
@@ -107,6 +109,7 @@ DEFAULTS: dict[str, Any] = {
     "finger": False,
     "anchors": (),
     "passes": 64,
+    "budget": 2_000_000,
     "timeout": 300.0,
     "scenario": "helix",
     "precision": "f64",
@@ -211,6 +214,8 @@ def _scene(ep: dict[str, Any]) -> str:
     )
     return "\n".join(
         [
+            f"budget = {int(ep['budget'])}",
+            "",
             *driver,
             *finger,
             "[[chain]]",
