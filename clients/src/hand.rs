@@ -314,7 +314,7 @@ fn wait_for_grips(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<()>
                 cfg.script.name
             );
         }
-        if conn.node().wait(Duration::from_millis(5)).is_err() {
+        if shared::stop_requested(conn.node(), Duration::from_millis(5)) {
             anyhow::bail!("interrupted (SIGINT or SIGTERM)");
         }
     }

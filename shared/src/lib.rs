@@ -243,6 +243,24 @@ pub const COLLISION_OBSTACLES: u32 = 2;
 /// Collision bit: the chain uses the paper's bounding spheres (section 4.2) instead of capsules.
 pub const COLLISION_PAPER_SPHERES: u32 = 4;
 
+/// Sleeps `d` on `node` and says whether SIGINT or SIGTERM asks the process to stop. A signal that only
+/// interrupts the sleep is not a stop: iceoryx2's `Node::wait` reports any interrupted sleep as
+/// `Interrupt`, so a process stopped and continued (Ctrl-Z then `fg`, a debugger, a frozen container)
+/// would otherwise quit when continued; after such an interruption the termination flag is asked
+/// again.
+pub fn stop_requested<S: iceoryx2::service::Service>(
+    node: &iceoryx2::node::Node<S>,
+    d: std::time::Duration,
+) -> bool {
+    match node.wait(d) {
+        Ok(()) => false,
+        Err(iceoryx2::node::NodeWaitFailure::TerminationRequest) => true,
+        Err(iceoryx2::node::NodeWaitFailure::Interrupt) => {
+            node.wait(std::time::Duration::ZERO).is_err()
+        }
+    }
+}
+
 /// The iceoryx2 configuration of one instance: the global configuration with `prefix` (a valid file-name
 /// prefix such as `tractrix_` or `kt1234_7_`). Processes see each other only with the same prefix.
 pub fn iceoryx_config(prefix: &str) -> Result<iceoryx2::config::Config, String> {

@@ -448,7 +448,15 @@ where
                     TICK,
                 );
                 match r {
-                    Ok(WaitSetRunResult::TerminationRequest | WaitSetRunResult::Interrupt) => break,
+                    Ok(WaitSetRunResult::TerminationRequest) => break,
+                    // An interrupted wait: SIGINT or SIGTERM (the termination flag says so), or a
+                    // signal that only woke it (SIGCONT after a stop: Ctrl-Z then `fg`), which is
+                    // not a reason to stop.
+                    Ok(WaitSetRunResult::Interrupt) => {
+                        if ports.node.wait(Duration::ZERO).is_err() {
+                            break;
+                        }
+                    }
                     Ok(_) => {}
                     Err(e) => return Err(format!("WaitSet: {e:?}")),
                 }

@@ -90,6 +90,9 @@ struct ChainInfo {
     bundle: Option<(usize, f64)>,
 }
 
+/// Missed ranges of sequence numbers listed at the end (all are counted).
+const MISSED_RANGES: usize = 50;
+
 /// How often the Rerun view times a `query` round trip.
 const PROBE_EVERY: Duration = Duration::from_millis(100);
 
@@ -176,6 +179,10 @@ fn run(a: Args) -> Result<u8> {
         .duration
         .map(|d| Instant::now() + Duration::from_secs_f64(d));
     let (mut states, mut frames, mut missed, mut duplicated) = (0u64, 0u64, 0u64, 0u64);
+    // Which states of the chains' stream were missed: ranges of sequence numbers (the first
+    // `MISSED_RANGES` kept, all counted).
+    let mut missed_ranges: Vec<(u64, u64)> = Vec::new();
+    let mut missed_range_count = 0u64;
     // Link lengths per chain, read off the first state seen (lengths never change), and the largest
     // relative deviation from them in any later state.
     let mut lengths: HashMap<u32, Vec<f64>> = HashMap::new();
@@ -225,6 +232,12 @@ fn run(a: Args) -> Result<u8> {
             if let Some(prev) = last {
                 if h.sequence > prev + 1 {
                     missed += h.sequence - prev - 1;
+                    if !from_bundles {
+                        missed_range_count += 1;
+                        if missed_ranges.len() < MISSED_RANGES {
+                            missed_ranges.push((prev + 1, h.sequence - 1));
+                        }
+                    }
                     if let (Some(v), false) = (&mut rr, from_bundles) {
                         v.missed(h.sequence, missed)?;
                     }
@@ -319,8 +332,8 @@ fn run(a: Args) -> Result<u8> {
         if deadline.is_some_and(|d| Instant::now() >= d) {
             break;
         }
-        // Returns an error on SIGINT / SIGTERM.
-        if conn.node().wait(Duration::from_millis(1)).is_err() {
+        // SIGINT / SIGTERM (not a stop and continue).
+        if shared::stop_requested(conn.node(), Duration::from_millis(1)) {
             break;
         }
     }
@@ -340,6 +353,28 @@ fn run(a: Args) -> Result<u8> {
         "watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps), \
          {duplicated} duplicated, link length error {length_error:.1e}"
     );
+    if missed_range_count > 0 {
+        let shown: Vec<String> = missed_ranges
+            .iter()
+            .map(|&(a, b)| {
+                if a == b {
+                    a.to_string()
+                } else {
+                    format!("{a}-{b}")
+                }
+            })
+            .collect();
+        let more = missed_range_count - missed_ranges.len() as u64;
+        eprintln!(
+            "watch: missed states (sequence numbers): {}{}",
+            shown.join(", "),
+            if more > 0 {
+                format!(" and {more} more ranges")
+            } else {
+                String::new()
+            }
+        );
+    }
     Ok(0)
 }
 

@@ -230,3 +230,25 @@ fn periodic_snapshots_happen_under_traffic() {
         "the journal reached {longest_journal} bytes for {i} requests"
     );
 }
+
+/// A service stopped and continued (Ctrl-Z then `fg`, a debugger, a frozen container) keeps serving: the
+/// wake-up that continuing causes is not a termination request (iceoryx2 reports any interrupted wait
+/// alike). In every wait mode: continued, it answers a query, then SIGTERM still ends it cleanly.
+#[test]
+fn a_service_stopped_and_continued_keeps_serving() {
+    for mode in ["event", "hybrid", "spin"] {
+        let mut svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", mode]);
+        svc.signal("STOP");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        svc.signal("CONT");
+        let mut c = svc.connect();
+        let r = c
+            .call(shared::RequestHeader::new(shared::Command::Query, 0), &[])
+            .unwrap_or_else(|e| panic!("{mode}: no answer after SIGCONT: {e}"));
+        assert!(r.is_ok(), "{mode}");
+        drop(c);
+        svc.signal("TERM");
+        let st = svc.wait_exit(std::time::Duration::from_secs(30));
+        assert!(st.success(), "{mode}: {st:?}");
+    }
+}

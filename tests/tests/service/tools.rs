@@ -553,3 +553,76 @@ fn a_missing_chain_is_named_with_the_scene_that_declares_it() {
         );
     }
 }
+
+/// Issue 37: a subscriber that falls behind is told exactly which states it missed. `watch` is stopped
+/// (SIGSTOP) while 200 moves are made, so its buffer of 64 keeps the last 64; resumed, it reads them and
+/// 10 more, and says it missed the first 136, as one range of sequence numbers.
+#[test]
+fn watch_names_the_states_it_missed() {
+    let svc = default_service();
+    let mut c = svc.connect();
+    let s0 = c
+        .call(RequestHeader::new(Command::Query, 0), &[])
+        .unwrap()
+        .header
+        .sequence;
+    let mut watch = Process::new(bin("watch"))
+        .args(["--prefix", &svc.prefix, "--chain", "rope", "--count", "74"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let rx = tests::stderr_lines(&mut watch);
+    let line = rx
+        .recv_timeout(Duration::from_secs(30))
+        .expect("watch listens");
+    assert!(line.contains("listening"), "{line}");
+    let signal = |sig: &str| {
+        let st = Process::new("kill")
+            .args([sig, &watch.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(st.success());
+    };
+    signal("-STOP");
+    let mut mv = |i: usize| {
+        let mut h = RequestHeader::new(Command::Move, 0);
+        h.joint = shared::JOINT_HEAD;
+        let a = i as f64 * 0.05;
+        let r = c
+            .call(h, &[Vec3::new(38.0 + a.cos(), a.sin(), 0.0)])
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+    };
+    for i in 0..200 {
+        mv(i);
+    }
+    signal("-CONT");
+    for i in 200..210 {
+        mv(i);
+    }
+    let deadline = Instant::now() + TOOL_TIMEOUT;
+    let status = loop {
+        if let Some(st) = watch.try_wait().unwrap() {
+            break st;
+        }
+        if Instant::now() > deadline {
+            let _ = watch.kill();
+            panic!("watch did not finish within {TOOL_TIMEOUT:?}");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert!(status.success());
+    // The reader thread ends with the pipe: wait for its last lines.
+    let mut said: Vec<String> = Vec::new();
+    while let Ok(l) = rx.recv_timeout(Duration::from_secs(10)) {
+        said.push(l);
+    }
+    let expected = format!(
+        "watch: missed states (sequence numbers): {}-{}",
+        s0 + 1,
+        s0 + 136
+    );
+    assert!(said.iter().any(|l| l == &expected), "{said:?}");
+    assert!(said.iter().any(|l| l.contains("136 missed")), "{said:?}");
+}
