@@ -489,6 +489,7 @@ fn drive(
         // Where the joint is: the query's, then each accepted target (a refused move leaves it).
         let mut at = rope[idx];
         let mut told_budget = false;
+        let mut told_locked = false;
         for (i, t) in targets.iter().enumerate() {
             let t = &tremor.apply(*t);
             pacer.wait(i);
@@ -537,6 +538,14 @@ fn drive(
                             k + 1
                         );
                     }
+                }
+                if status == Status::Locked as u32 && !told_locked && cfg.progress {
+                    told_locked = true;
+                    eprintln!(
+                        "hand {}: turn {}: a move locked (said once per turn): {reason}",
+                        cfg.hand,
+                        k + 1
+                    );
                 }
                 if status == Status::OverBudget as u32 && splittable {
                     report.splits += 1;

@@ -265,7 +265,9 @@ enum Restraightened {
     OutOfWork,
 }
 
-/// Most sweeps of [`relax_lengths`].
+/// Fewest sweeps [`relax_lengths`] may take before giving up; a part of `n` links gets up to
+/// `max(RELAX_SWEEPS, 2n)` (a correction crosses the part once per sweep, and a long taut part needs
+/// many crossings).
 const RELAX_SWEEPS: usize = 64;
 
 /// Relaxes the joints `p` of a part between two fixed joints (its first and last, which do not move)
@@ -291,7 +293,7 @@ where
         return true;
     }
     let goal = T::lit(1e-10);
-    for sweep in 0..RELAX_SWEEPS {
+    for sweep in 0..RELAX_SWEEPS.max(2 * n) {
         if !meter.charge((n as u64).saturating_mul(cost::RELAX_PER_LINK)) {
             return false;
         }
