@@ -349,10 +349,7 @@ fn run(a: Args) -> Result<u8> {
         eprintln!("watch: {} states sent to Rerun", v.logged());
         v.finish()?;
     }
-    eprintln!(
-        "watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps), \
-         {duplicated} duplicated, link length error {length_error:.1e}"
-    );
+    // The ranges first: the summary stays the last line (the load run reads it).
     if missed_range_count > 0 {
         let shown: Vec<String> = missed_ranges
             .iter()
@@ -375,6 +372,10 @@ fn run(a: Args) -> Result<u8> {
             }
         );
     }
+    eprintln!(
+        "watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps), \
+         {duplicated} duplicated, link length error {length_error:.1e}"
+    );
     Ok(0)
 }
 
