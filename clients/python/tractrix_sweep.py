@@ -22,8 +22,9 @@ client and measures the link-length error here, from those joints. Knobs::
 
     script       built-in script: overhand, square, granny, their U forms overhand-u, square-u,
                  granny-u, overhand-wide (one wide loop: the overhand on unit links), or its held
-                 forms overhand-anchored (with anchors = [0]) and overhand-held (hand A holds the
-                 tail), the two-handed knots with both ends held, square-held and granny-held, and
+                 form overhand-anchored (with anchors = [0]), the overhand by hand round B's finger,
+                 overhand-held (finger = true), the two-handed knots tied round each other,
+                 square-held and granny-held (finger = true), and
                  the instrument tie, instrument-tie, the surgeon's double wrap, surgeons-tie, and
                  the surgeon's knot, surgeons-knot, and the square knot by instrument tie,
                  instrument-square (all with driver = true; default overhand)

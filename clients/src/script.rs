@@ -28,8 +28,8 @@
 //! is the overhand the paper's coarse rope keeps: one loop wide enough to survive behind the hand
 //! until the end is tucked through it ([`WideLoop`]; built-in `overhand-wide` on 40 unit links). On a
 //! rope held at its other end the loop is *fed* (`feed = 1`): the hand draws back toward the hold by as
-//! much circle as it has drawn, since a held rope cannot slide after it (built-ins `overhand-anchored`
-//! and `overhand-held`); `handedness = "left"` mirrors it.
+//! much circle as it has drawn, since a held rope cannot slide after it (built-in `overhand-anchored`);
+//! `handedness = "left"` mirrors it.
 //!
 //! Some turns look at the rope before they move: a *tuck* (`tuck = { outward = [1, 0, 0], side =
 //! [0, 1, 0] }`, [`Tuck`]) finds the loop nearest the hand's end in the rope's joints when its turn
@@ -692,41 +692,24 @@ impl Script {
                     turn("A", "rope", "head", None, vec![[4.0, 0.0, 0.0]]),
                 ],
             }),
-            // The paper's rope with its tail held: by the idle hand A (chain `paper`) or by the
-            // scene (chain `suture`, anchored). The head's hand draws the wide loop feeding rope
-            // toward the hold, tucks, then pulls the knot snug back along the rope.
-            "overhand-held" | "overhand-anchored" => {
-                let chain = if name == "overhand-held" {
-                    "paper"
-                } else {
-                    "suture"
-                };
-                // The hand that ties: B beside the holding hand A, else A (the default hand).
-                let mut turns = Vec::new();
-                let ties = if name == "overhand-held" {
-                    turns.push(turn("A", chain, "tail", None, vec![]));
-                    "B"
-                } else {
-                    "A"
-                };
-                turns.push(Turn {
-                    wide_loop: Some(held_loop()),
-                    ..turn(ties, chain, "head", None, vec![])
-                });
-                turns.push(turn(
-                    ties,
-                    chain,
-                    "head",
-                    None,
-                    vec![[-HELD_PULL, 0.0, 0.0]],
-                ));
-                Some(Script {
-                    name: name.into(),
-                    max_step: 0.05,
-                    grasp: true,
-                    turn: turns,
-                })
-            }
+            // The paper's rope with its tail anchored by the scene (chain `suture`): the head's hand
+            // draws the wide loop feeding rope toward the anchor, tucks, then pulls the knot snug
+            // back along the rope (tuned to unit links).
+            "overhand-anchored" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: true,
+                turn: vec![
+                    Turn {
+                        wide_loop: Some(held_loop()),
+                        ..turn("A", "suture", "head", None, vec![])
+                    },
+                    turn("A", "suture", "head", None, vec![[-HELD_PULL, 0.0, 0.0]]),
+                ],
+            }),
+            // The overhand with both ends held, tied by hand round B's finger (chain `hands`): the
+            // first throw of `square-held`, one script at every resolution.
+            "overhand-held" => Some(instrument_tie(name, "hands", 1.0)),
             "overhands-held" => Some(overhands_held(name, Handedness::Left)),
             // The two-handed knots tied round each other: B's finger takes the driver's part.
             "square-held" => Some(two_throw_tie(name, "hands", 1.0, Handedness::Left)),
@@ -1038,8 +1021,9 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
 /// Names accepted by [`Script::builtin`]. The `-u` scripts start from a rope hanging in a U (see
 /// BENCHMARKS.md, knots): `overhand-u` with the tail held, `square-u` and `granny-u` with one hand on
 /// each end. `overhand-wide` ties the overhand on the paper's rope (chain `paper` of `knots.toml`: 40
-/// unit links) with one wide loop; `overhand-held` ties it with the tail held by a second hand that
-/// does not move, `overhand-anchored` with the tail anchored by the scene (chain `suture`);
+/// unit links) with one wide loop; `overhand-anchored` with the tail anchored by the scene (chain
+/// `suture`), and `overhand-held` with both ends held, by hand round B's finger (chain `hands`, the
+/// first throw of `square-held`);
 /// `overhands-held` ties an overhand in each end of it, each hand in its own end, both ends held
 /// throughout (two knots in series: the square knot's type, not a reef). `square-held` and
 /// `granny-held` tie the two-handed knots round each other (chain `hands`: the long end wound round

@@ -226,8 +226,8 @@ pub(super) mod cost {
     pub const OBSTACLE_PER_LINK: u64 = 6;
     /// Re-straightening, per link.
     pub const RESTRAIGHTEN_PER_LINK: u64 = 4;
-    /// One relaxation sweep, per link.
-    pub const RELAX_PER_LINK: u64 = 3;
+    /// One iteration of the relaxation (a fast projection: a tridiagonal solve), per link.
+    pub const RELAX_PER_LINK: u64 = 8;
     /// One iteration of a held part's re-solve, per link (up to three tractrix passes and a
     /// translation).
     pub const RESOLVE_PER_LINK: u64 = 4 * LINK_STEP;
