@@ -850,6 +850,18 @@ const HELD_TWO_RADIUS: f64 = 2.0;
 /// the jaws and untied (BENCHMARKS.md, "Knots through the service at every resolution").
 const WRAP_RADIUS: f64 = 1.1;
 
+/// Where the surgeon's double wrap starts (units from the driver's tip) and how far it advances toward
+/// the tip per turn. On the frictionless jaws the rope just behind the winding hand slides along the
+/// driver toward the tip, farther the finer the rope (after one turn started 4 from the tip, the
+/// rope on the jaws reached 3.3 from the tip at 80 links, 0.9 at 160). Wound 0.6 per turn from 4
+/// units, the first turn slid past the place of the second, the lead-in crossed over the coil, and
+/// the tail drawn through it tied 5₂ instead of the double overhand 5₁ at 160 and 320 links, in every
+/// run (BENCHMARKS.md, "Knot success through the service"). Started 10 from the tip and advancing
+/// 4.5 per turn, each turn is laid nearer the tip than the last one slid to, at every resolution
+/// from 40 to 320 links (perturbation seeds 1 to 5, tried as scripts before this was built in).
+const DOUBLE_WRAP_AT: f64 = 10.0;
+const DOUBLE_WRAP_PITCH: f64 = -4.5;
+
 /// A turn of the instrument tie on chain `tie` through `waypoints`: hand A moves the head (the long
 /// end), hand B the tail (the short end, in the driver's jaws).
 fn tie_turn(chain: &str, h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
@@ -871,8 +883,8 @@ fn tie_turn(chain: &str, h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
 /// driver's jaws, lays the short end in a U and then turns the driver's axis along +x, its tip on the
 /// tail, so that the short end's last 3 units trail straight behind the tip; hand A holds the long
 /// end (the head), brings it over the stitch to the far side of the driver, level with it, and winds
-/// it round the driver's jaws 4 units from the tip, the coil progressing toward the tip (its lead-in
-/// on the side the tail leaves by); B pulls the tail along the driver's axis through the coil (the
+/// it round the driver's jaws 4 units from the tip (the double wrap from 10, [`DOUBLE_WRAP_AT`]), the
+/// coil progressing toward the tip (its lead-in on the side the tail leaves by); B pulls the tail along the driver's axis through the coil (the
 /// driver riding with it, the coil sliding off its tip onto the tail); then the hands draw their ends
 /// out of the knot, which tightens between them (eight turns, five changes of hand). Turning the
 /// driver after the U is laid keeps its body off the short end (turned first, it lay along the
@@ -911,10 +923,10 @@ fn instrument_tie(name: &str, chain: &str, wraps: f64) -> Script {
             Turn {
                 wrap: Some(Wrap {
                     instrument: 0,
-                    at: 4.0,
+                    at: if wraps > 1.0 { DOUBLE_WRAP_AT } else { 4.0 },
                     radius: WRAP_RADIUS,
                     turns: wraps,
-                    pitch: -0.6,
+                    pitch: if wraps > 1.0 { DOUBLE_WRAP_PITCH } else { -0.6 },
                     handedness: Handedness::Right,
                 }),
                 ..hand("A", vec![])
