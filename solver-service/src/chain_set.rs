@@ -798,8 +798,7 @@ impl ChainSet {
         };
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
-        outcome.work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()));
-        self.last_work = outcome.work;
+        self.last_work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()));
         match result {
             Ok(()) => {
                 if outcome.changed {

@@ -168,9 +168,6 @@ pub struct Outcome {
     pub describe: bool,
     /// Whether a bundle answered (its change goes to the bundle stream, not the journal).
     pub bundle: bool,
-    /// Link-steps the kernel's work meter charged (chains with collision; 0 otherwise, where the
-    /// estimate bounds the work by construction).
-    pub work: u64,
 }
 
 /// The distance between where a joint should be and where it is.

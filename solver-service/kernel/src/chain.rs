@@ -813,16 +813,18 @@ where
         }
         let sd = delta / T::lit(k as f64);
         if self.limits.is_some() {
-            // Substep after substep, each link turned back into its limit as it is stepped (no
-            // wavefront: a link's clamp needs the link before it at the same substep).
+            // Each link turned back into its limit as it is stepped: one substep, or several as
+            // wavefronts (a link's clamp needs the link before it at the same substep, which the
+            // wavefront has at hand: [`wave_limited`]).
             let mut clamps = 0u32;
-            let mut fallbacks = 0u32;
-            let n = self.links.len();
-            for _ in 0..k {
-                fallbacks = fallbacks
-                    .saturating_add(self.tail_side_limited(joint, &sd, method, 0, &mut clamps).0)
-                    .saturating_add(self.head_side_limited(joint, &sd, method, n, &mut clamps));
-            }
+            let fallbacks = if k == 1 {
+                let n = self.links.len();
+                self.tail_side_limited(joint, &sd, method, 0, &mut clamps)
+                    .0
+                    .saturating_add(self.head_side_limited(joint, &sd, method, n, &mut clamps))
+            } else {
+                self.waves_limited(joint, &sd, k, method, &mut clamps)
+            };
             self.place_origin_from(joint, target);
             return MoveOutcome {
                 substeps: k,
@@ -879,6 +881,67 @@ where
             fallbacks = fallbacks
                 .saturating_add(wave::<T, D, true, F>(tail, tail_lengths, s, w, &f))
                 .saturating_add(wave::<T, D, false, F>(head, head_lengths, s, w, &f));
+            left -= w;
+        }
+        fallbacks
+    }
+
+    /// [`Chain::waves`] with the chain's limits ([`wave_limited`]): each side as wavefronts of up to
+    /// [`MAX_WAVE`] substeps, the tail side first, which hands the head side its first link (the one
+    /// beside the moved joint) after each substep: the head side's first link is turned back into the
+    /// moved joint's limit about it, as substep after substep does. Counts the links turned in
+    /// `clamps`; returns the paper-form fallbacks.
+    fn waves_limited(
+        &mut self,
+        m: usize,
+        s: &Vector<T, D>,
+        k: u32,
+        method: Method,
+        clamps: &mut u32,
+    ) -> u32 {
+        let Chain {
+            links,
+            lengths,
+            limits,
+            ..
+        } = self;
+        let Some(lim) = limits.as_deref() else {
+            return 0;
+        };
+        let (tail, head) = links.split_at_mut(m);
+        let (tail_lengths, head_lengths) = lengths.split_at(m);
+        let f = |t: &Vector<T, D>, s: &Vector<T, D>, l: T| step(method, t, s, l);
+        let mut across = Across {
+            links: [Vector::zeros(); MAX_WAVE],
+            length: tail_lengths.last().copied().unwrap_or_else(T::one),
+        };
+        let mut fallbacks = 0u32;
+        let mut left = k as usize;
+        while left > 0 {
+            let w = left.min(MAX_WAVE);
+            let side = |links, lengths, offset| LimitedSide {
+                links,
+                lengths,
+                offset,
+                lim,
+            };
+            fallbacks = fallbacks
+                .saturating_add(wave_limited::<T, D, true, _>(
+                    side(&mut *tail, tail_lengths, 0),
+                    s,
+                    w,
+                    &f,
+                    &mut across,
+                    clamps,
+                ))
+                .saturating_add(wave_limited::<T, D, false, _>(
+                    side(&mut *head, head_lengths, m),
+                    s,
+                    w,
+                    &f,
+                    &mut across,
+                    clamps,
+                ));
             left -= w;
         }
         fallbacks
@@ -1206,6 +1269,110 @@ where
                 let (st, fb) = f(l, lane, len);
                 *l = st.link;
                 *lane = st.tail_shift;
+                fallbacks += fb as u32;
+            }
+        }
+    }
+    fallbacks
+}
+
+/// One side of a limited chain for [`wave_limited`]: its links and lengths, the chain index of its
+/// first link, the chain's limits.
+struct LimitedSide<'a, T: Real, const D: usize> {
+    links: &'a mut [Vector<T, D>],
+    lengths: &'a [T],
+    offset: usize,
+    lim: &'a JointLimits<T>,
+}
+
+/// The tail side's link beside the moved joint after each substep of a wave, and its length: the head
+/// side's first link is turned back into the moved joint's limit about it.
+struct Across<T: Real, const D: usize> {
+    links: [Vector<T, D>; MAX_WAVE],
+    length: T,
+}
+
+/// [`wave`] with joint limits: each link, once stepped, is turned back into its limit about its
+/// neighbour toward the moved joint at the same substep (as [`Chain::head_side_limited`] and
+/// [`Chain::tail_side_limited`] do substep after substep). The substeps in flight run in ascending
+/// order along a diagonal, so when substep `j` steps a link its neighbour still holds substep `j`'s
+/// step (substep `j + 1` reaches it later in the same diagonal): the same operations on the same
+/// inputs, equal bit for bit. The tail side (`REV`) writes `across` (its link beside the moved joint
+/// after each substep); the head side reads it for its first link. Returns the fallbacks.
+#[inline(always)]
+fn wave_limited<T: Real, const D: usize, const REV: bool, F>(
+    side: LimitedSide<'_, T, D>,
+    s: &Vector<T, D>,
+    w: usize,
+    f: &F,
+    across: &mut Across<T, D>,
+    clamps: &mut u32,
+) -> u32
+where
+    F: Fn(&Vector<T, D>, &Vector<T, D>, T) -> (LinkStep<T, D>, bool),
+    Vector<T, D>: Embed3<T>,
+{
+    let LimitedSide {
+        links,
+        lengths,
+        offset,
+        lim,
+    } = side;
+    let n = links.len();
+    if n == 0 {
+        return 0;
+    }
+    let mut lanes = [*s; MAX_WAVE];
+    let mut fallbacks = 0u32;
+    for d in 0..n + w - 1 {
+        let lo = d.saturating_sub(n - 1);
+        let hi = d.min(w - 1);
+        for j in lo..=hi {
+            let along = d - j;
+            if REV {
+                let i = n - 1 - along;
+                let (st, fb) = f(&(-links[i]), &lanes[j], lengths[i]);
+                let (mut link, mut shift) = (st.link, st.tail_shift);
+                if i + 1 < n
+                    && let Some(c) = lim.clamp(
+                        offset + i + 1,
+                        &(-links[i + 1]),
+                        lengths[i + 1],
+                        &link,
+                        lengths[i],
+                        true,
+                    )
+                {
+                    shift += c - link;
+                    link = c;
+                    *clamps += 1;
+                }
+                links[i] = -link;
+                if along == 0 {
+                    across.links[j] = links[i];
+                }
+                lanes[j] = shift;
+                fallbacks += fb as u32;
+            } else {
+                let i = along;
+                let (st, fb) = f(&links[i], &lanes[j], lengths[i]);
+                let (mut link, mut shift) = (st.link, st.tail_shift);
+                if offset + i > 0 {
+                    let (prev, prev_len) = if i > 0 {
+                        (links[i - 1], lengths[i - 1])
+                    } else {
+                        (across.links[j], across.length)
+                    };
+                    if let Some(c) =
+                        lim.clamp(offset + i, &prev, prev_len, &link, lengths[i], false)
+                    {
+                        shift += c - link;
+                        link = c;
+                        *clamps += 1;
+                    }
+                }
+                links[i] = link;
+                lanes[j] = shift;
                 fallbacks += fb as u32;
             }
         }
