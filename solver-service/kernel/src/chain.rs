@@ -1327,11 +1327,11 @@ where
     for d in 0..n + w - 1 {
         let lo = d.saturating_sub(n - 1);
         let hi = d.min(w - 1);
-        for j in lo..=hi {
+        for (j, lane) in lanes.iter_mut().enumerate().take(hi + 1).skip(lo) {
             let along = d - j;
             if REV {
                 let i = n - 1 - along;
-                let (st, fb) = f(&(-links[i]), &lanes[j], lengths[i]);
+                let (st, fb) = f(&(-links[i]), lane, lengths[i]);
                 let (mut link, mut shift) = (st.link, st.tail_shift);
                 if i + 1 < n
                     && let Some(c) = lim.clamp(
@@ -1351,11 +1351,11 @@ where
                 if along == 0 {
                     across.links[j] = links[i];
                 }
-                lanes[j] = shift;
+                *lane = shift;
                 fallbacks += fb as u32;
             } else {
                 let i = along;
-                let (st, fb) = f(&links[i], &lanes[j], lengths[i]);
+                let (st, fb) = f(&links[i], lane, lengths[i]);
                 let (mut link, mut shift) = (st.link, st.tail_shift);
                 if offset + i > 0 {
                     let (prev, prev_len) = if i > 0 {
@@ -1372,7 +1372,7 @@ where
                     }
                 }
                 links[i] = link;
-                lanes[j] = shift;
+                *lane = shift;
                 fallbacks += fb as u32;
             }
         }
