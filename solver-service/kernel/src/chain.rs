@@ -822,6 +822,10 @@ where
                 self.tail_side_limited(joint, &sd, method, 0, &mut clamps)
                     .0
                     .saturating_add(self.head_side_limited(joint, &sd, method, n, &mut clamps))
+            } else if method == Method::Tractrix
+                && self.simd_waves_limited(joint, &sd, k, &mut clamps)
+            {
+                0
             } else {
                 self.waves_limited(joint, &sd, k, method, &mut clamps)
             };
@@ -945,6 +949,49 @@ where
             left -= w;
         }
         fallbacks
+    }
+
+    /// [`Chain::simd_waves`] for a limited chain (cones: a spatial chain in f64 or f32): the lanes
+    /// step as there, each stepped link turned back into its limit
+    /// ([`crate::strands::chain_wave_limited`]); `false` (nothing changed) for other chains and for
+    /// fewer than [`SIMD_FROM`] substeps.
+    fn simd_waves_limited(&mut self, m: usize, s: &Vector<T, D>, k: u32, clamps: &mut u32) -> bool {
+        use std::any::Any;
+        if (k as usize) < SIMD_FROM {
+            return false;
+        }
+        let Chain {
+            links,
+            lengths,
+            limits,
+            ..
+        } = self;
+        let Some(lim) = limits.as_deref() else {
+            return false;
+        };
+        let links: &mut dyn Any = links;
+        let lengths: &dyn Any = lengths;
+        let s: &dyn Any = s;
+        let lim: &dyn Any = lim;
+        if let (Some(l), Some(len), Some(s), Some(lim)) = (
+            links.downcast_mut::<Vec<nalgebra::Vector3<f64>>>(),
+            lengths.downcast_ref::<Vec<f64>>(),
+            s.downcast_ref::<nalgebra::Vector3<f64>>(),
+            lim.downcast_ref::<JointLimits<f64>>(),
+        ) {
+            simd_side_waves_limited(l, len, lim, m, *s, k, clamps);
+            return true;
+        }
+        if let (Some(l), Some(len), Some(s), Some(lim)) = (
+            links.downcast_mut::<Vec<nalgebra::Vector3<f32>>>(),
+            lengths.downcast_ref::<Vec<f32>>(),
+            s.downcast_ref::<nalgebra::Vector3<f32>>(),
+            lim.downcast_ref::<JointLimits<f32>>(),
+        ) {
+            simd_side_waves_limited(l, len, lim, m, *s, k, clamps);
+            return true;
+        }
+        false
     }
 
     /// The closed-form tractrix's `k` substeps of `s` with SIMD across the steps in flight, for a
@@ -1221,6 +1268,83 @@ fn simd_side_waves<T: crate::strands::StrandReal>(
         } else {
             wave::<T, 3, true, _>(tail, tail_lengths, &s, w, &step);
             wave::<T, 3, false, _>(head, head_lengths, &s, w, &step);
+        }
+        left -= w;
+    }
+}
+
+/// [`simd_side_waves`] for a limited chain: both sides of a move of joint `m`, the tail side first,
+/// which hands the head side its link beside the moved joint after each substep; SIMD for waves of at
+/// least [`SIMD_FROM`], the scalar [`wave_limited`] for a shorter last one.
+fn simd_side_waves_limited<T: crate::strands::StrandReal>(
+    links: &mut [nalgebra::Vector3<T>],
+    lengths: &[T],
+    lim: &JointLimits<T>,
+    m: usize,
+    s: nalgebra::Vector3<T>,
+    k: u32,
+    clamps: &mut u32,
+) {
+    use crate::strands::{CHAIN_WAVE, WaveLimits, chain_wave_limited};
+    let (tail, head) = links.split_at_mut(m);
+    let (tail_lengths, head_lengths) = lengths.split_at(m);
+    let across_len = tail_lengths.last().copied().unwrap_or_else(T::one);
+    let mut across = [nalgebra::Vector3::zeros(); CHAIN_WAVE];
+    let step =
+        |t: &nalgebra::Vector3<T>, s: &nalgebra::Vector3<T>, l: T| (tractrix_step(t, s, l), false);
+    let mut left = k as usize;
+    while left > 0 {
+        let w = left.min(CHAIN_WAVE);
+        if w >= SIMD_FROM {
+            for (tail_side, offset) in [(true, 0), (false, m)] {
+                let side: &mut [nalgebra::Vector3<T>] = if tail_side { tail } else { head };
+                let side_lengths = if tail_side {
+                    tail_lengths
+                } else {
+                    head_lengths
+                };
+                chain_wave_limited(
+                    side,
+                    side_lengths,
+                    s,
+                    w,
+                    tail_side,
+                    WaveLimits {
+                        lim,
+                        offset,
+                        across: &mut across,
+                        across_len,
+                        clamps,
+                    },
+                );
+            }
+        } else {
+            let mut a = Across {
+                links: [nalgebra::Vector3::zeros(); MAX_WAVE],
+                length: across_len,
+            };
+            let side = |links, lengths, offset| LimitedSide {
+                links,
+                lengths,
+                offset,
+                lim,
+            };
+            wave_limited::<T, 3, true, _>(
+                side(&mut *tail, tail_lengths, 0),
+                &s,
+                w,
+                &step,
+                &mut a,
+                clamps,
+            );
+            wave_limited::<T, 3, false, _>(
+                side(&mut *head, head_lengths, m),
+                &s,
+                w,
+                &step,
+                &mut a,
+                clamps,
+            );
         }
         left -= w;
     }

@@ -181,6 +181,12 @@ impl<T: Real> JointLimits<T> {
         self.hi[j]
     }
 
+    /// The cosines of the cones (one per joint; `None` for ranges): a link `v` after `prev` is within
+    /// joint `j`'s cone when `prev · v ≥ cos[j] · |prev| · |v|` ([`JointLimits::clamp`]'s test).
+    pub(crate) fn cone_cosines(&self) -> Option<&[T]> {
+        (self.kind == LimitKind::Cone).then_some(&self.cos_hi[..])
+    }
+
     /// Whether joint `j` is limited at all (a cone below `π`, a range narrower than the circle).
     pub fn limits(&self, j: usize) -> bool {
         j > 0 && j + 1 < self.hi.len() && (self.hi[j] < T::pi() || self.lo[j] > -T::pi())

@@ -301,6 +301,7 @@ pub fn chain_wave<T: StrandReal>(
         s,
         w: w.clamp(1, CHAIN_WAVE),
         tail_side,
+        limits: None,
     };
     match simd {
         Simd::Best => pulp::Arch::new().dispatch(op),
@@ -308,18 +309,59 @@ pub fn chain_wave<T: StrandReal>(
     }
 }
 
-struct ChainWave<'a, T> {
+/// The joint limits of one side of a chain for [`chain_wave_limited`].
+pub(crate) struct WaveLimits<'a, T: Real> {
+    /// The chain's limits (cones).
+    pub lim: &'a crate::limits::JointLimits<T>,
+    /// The chain index of the side's first link.
+    pub offset: usize,
+    /// The tail side's link beside the moved joint after each substep of the wave (as the chain
+    /// stores it), written by the tail side and read by the head side for its first link; and its
+    /// length.
+    pub across: &'a mut [Vector3<T>; CHAIN_WAVE],
+    pub across_len: T,
+    /// Links turned back into their limit.
+    pub clamps: &'a mut u32,
+}
+
+/// [`chain_wave`] with joint limits: each link, once its lane has stepped it, is turned back into its
+/// joint's limit about its neighbour toward the moved joint at the same substep (the neighbour still
+/// holds that substep's step: the lane that steps it next writes it back only after the diagonal), as
+/// [`crate::chain::Chain::move_joint`] does for a limited chain substep after substep. The lanes'
+/// steps are [`chain_wave`]'s (the exponential from a polynomial); the turns are the scalar
+/// [`crate::limits::JointLimits::clamp`].
+pub(crate) fn chain_wave_limited<T: StrandReal>(
+    links: &mut [Vector3<T>],
+    lengths: &[T],
+    s: Vector3<T>,
+    w: usize,
+    tail_side: bool,
+    limits: WaveLimits<'_, T>,
+) {
+    let op = ChainWave {
+        links,
+        lengths,
+        s,
+        w: w.clamp(1, CHAIN_WAVE),
+        tail_side,
+        limits: Some(limits),
+    };
+    pulp::Arch::new().dispatch(op);
+}
+
+struct ChainWave<'a, 'b, T: Real> {
     links: &'a mut [Vector3<T>],
     lengths: &'a [T],
     s: Vector3<T>,
     w: usize,
     tail_side: bool,
+    limits: Option<WaveLimits<'b, T>>,
 }
 
-impl<T: StrandReal> pulp::WithSimd for ChainWave<'_, T> {
+impl<T: StrandReal> pulp::WithSimd for ChainWave<'_, '_, T> {
     type Output = ();
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) {
+    fn with_simd<S: pulp::Simd>(mut self, _: S) {
         let n = self.links.len();
         if n == 0 || self.lengths.len() != n {
             return;
@@ -358,6 +400,61 @@ impl<T: StrandReal> pulp::WithSimd for ChainWave<'_, T> {
                     let j = b * LANES + l;
                     if j < lo || j > hi {
                         shift[b].set(l, keep.get(l));
+                    }
+                }
+            }
+            if let Some(lim) = self.limits.as_mut() {
+                let cosines = lim.lim.cone_cosines();
+                for j in lo..=hi {
+                    let (b, l) = (j / LANES, j % LANES);
+                    let along = d - j;
+                    let v = t[b].get(l);
+                    // Within its cone (the clamp's own first test, here without the call): unturned.
+                    let within = |prev: &Vector3<T>, prev_len: T, joint: usize| {
+                        cosines.is_some_and(|c| prev.dot(&v) >= c[joint] * prev_len * len[b][l])
+                    };
+                    let turned = if rev {
+                        let i = n - 1 - along;
+                        if i + 1 < n
+                            && !within(
+                                &(-self.links[i + 1]),
+                                self.lengths[i + 1],
+                                lim.offset + i + 1,
+                            )
+                        {
+                            lim.lim.clamp(
+                                lim.offset + i + 1,
+                                &(-self.links[i + 1]),
+                                self.lengths[i + 1],
+                                &v,
+                                len[b][l],
+                                true,
+                            )
+                        } else {
+                            None
+                        }
+                    } else if lim.offset + along > 0 {
+                        let (prev, prev_len) = if along > 0 {
+                            (self.links[along - 1], self.lengths[along - 1])
+                        } else {
+                            (lim.across[j], lim.across_len)
+                        };
+                        if within(&prev, prev_len, lim.offset + along) {
+                            None
+                        } else {
+                            lim.lim
+                                .clamp(lim.offset + along, &prev, prev_len, &v, len[b][l], false)
+                        }
+                    } else {
+                        None
+                    };
+                    if let Some(c) = turned {
+                        shift[b].set(l, shift[b].get(l) + (c - v));
+                        t[b].set(l, c);
+                        *lim.clamps += 1;
+                    }
+                    if rev && along == 0 {
+                        lim.across[j] = -t[b].get(l);
                     }
                 }
             }

@@ -187,7 +187,8 @@ proptest! {
     /// the whole chain, each link turned back into its limit about its neighbour toward the moved
     /// joint as it is stepped (the order written here: the tail side, then the head side, whose first
     /// link turns about the tail side's), however the kernel schedules them (from two substeps on, as
-    /// wavefronts). Cones on a spatial rope and ranges on a planar chain, every method.
+    /// wavefronts; the closed form on a spatial chain from `SIMD_FROM` substeps with SIMD lanes, to
+    /// 1e-12 of a link). Cones on a spatial rope and ranges on a planar chain, every method.
     #[test]
     fn limited_substeps_in_any_order_give_the_sequential_result(
         seed in 0u64..100_000, n in 1usize..50, cone_deg in 5.0f64..120.0, m in 0usize..3,
@@ -214,8 +215,17 @@ proptest! {
             let target = c.joint(joint) + rng.dir3() * size;
             let want = sequential_limited(&c, joint, target, k, method);
             let out = c.move_joint(joint, target, &opts(method, k)).unwrap();
-            prop_assert_eq!((out.limited, out.paper_fallbacks), (want.1, want.2));
-            prop_assert_eq!(c.links(), &want.0[..], "n {}, joint {}, k {}", n, joint, k);
+            let simd = method == Method::Tractrix && k as usize >= tractrix::chain::SIMD_FROM;
+            if simd {
+                // The SIMD lanes take the exponential from a polynomial: the links agree to 1e-12 of
+                // a link, and a link that close to its limit may be turned in one and not the other.
+                for (i, (a, b)) in c.links().iter().zip(&want.0).enumerate() {
+                    prop_assert!((a - b).norm() <= 1e-12, "link {} of {}, joint {}, k {}: {} vs {}", i, n, joint, k, a, b);
+                }
+            } else {
+                prop_assert_eq!((out.limited, out.paper_fallbacks), (want.1, want.2));
+                prop_assert_eq!(c.links(), &want.0[..], "n {}, joint {}, k {}", n, joint, k);
+            }
         }
     }
 
