@@ -14,6 +14,22 @@ cargo build -p tractrix-client --lib --profile test
 scripts/python-venv.sh
 # Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames).
 scripts/system-packages.sh
+# TRACTRIX_TEST_LOAD=N runs the tests beside N busy-spinning processes, a CPU hog at normal priority (CI
+# runs the suite beside two, one per core: no test may need an idle machine).
+load=${TRACTRIX_TEST_LOAD:-0}
+if ! [[ "$load" =~ ^[0-8]$ ]]; then
+  echo "TRACTRIX_TEST_LOAD=$load: expected a number of spinning processes from 0 to 8" >&2
+  exit 2
+fi
+hogs=()
+if [ "$load" -gt 0 ]; then
+  for _ in $(seq "$load"); do
+    bash -c 'while :; do :; done' &
+    hogs+=($!)
+  done
+  trap 'kill "${hogs[@]}" 2>/dev/null || true' EXIT
+  echo "== the tests beside $load busy-spinning processes (TRACTRIX_TEST_LOAD=$load)"
+fi
 # Every test binary runs even when one fails (cargo stops at the first failing binary otherwise, and
 # the failures after it go unseen).
 cargo test --workspace --no-fail-fast "$@"
