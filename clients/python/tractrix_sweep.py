@@ -56,7 +56,7 @@ client and measures the link-length error here, from those joints. Knobs::
 Row columns: ``id``, every knob (as a string column ``knobs`` in JSON, plus the common ones as columns),
 ``ok`` (no error), ``error``, ``knot`` (the name the identification gave), ``tied`` (``knot`` equals
 ``expect``), ``requests``, ``moves_ok``, ``locked``, ``refused``, ``seconds`` (the hands' wall time),
-``us_per_request``, ``length_error`` (largest relative link-length error of the final state, computed here),
+``us_per_request``, ``rt_p50_us`` and ``rt_p99_us`` (the round trips of both hands' requests, from ``hand --timings``), ``length_error`` (largest relative link-length error of the final state, computed here),
 ``startup_s`` (the service's start until it answered), ``worker`` (host and pid that ran it).
 
 Binaries: ``bin_dir`` (or ``$TRACTRIX_BIN``) must hold ``solver-service``, ``hand`` and ``episode`` on every worker
@@ -265,6 +265,8 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
         "refused": 0,
         "seconds": math.nan,
         "us_per_request": math.nan,
+        "rt_p50_us": math.nan,
+        "rt_p99_us": math.nan,
         "length_error": math.nan,
         "startup_s": math.nan,
         "worker": f"{socket.gethostname()}:{os.getpid()}",
@@ -322,7 +324,7 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
         for h in hands:
             with open(tmp / f"hand-{h}.out", "w") as out, open(tmp / f"hand-{h}.err", "w") as err:
                 procs.append(subprocess.Popen(
-                    [str(bins / "hand"), *hand_args, "--hand", h]
+                    [str(bins / "hand"), *hand_args, "--hand", h, "--timings", str(tmp / f"hand-{h}.us")]
                     + (["--identify", "rope"] if h == hands[-1] else []),
                     stdout=out, stderr=err,
                 ))
@@ -353,6 +355,11 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
                 row["knot"] = k.group(1)
         if row["requests"]:
             row["us_per_request"] = row["seconds"] * 1e6 / row["requests"]
+        # Every move and instrument request's round trip, as the hands waited for it (`hand --timings`).
+        trips = sorted(float(x) for h in hands for x in (tmp / f"hand-{h}.us").read_text().split())
+        if trips:
+            row["rt_p50_us"] = trips[(len(trips) - 1) // 2]
+            row["rt_p99_us"] = trips[min(len(trips) - 1, math.ceil(0.99 * len(trips)) - 1)]
         h, points = client.call("query", 0)
         joints = points[: h.n_joints]
         start = _start_points(ep)
@@ -419,6 +426,7 @@ def _schema():
             ("ok", pa.bool_()), ("error", pa.string()), ("knot", pa.string()), ("tied", pa.bool_()),
             ("requests", pa.int64()), ("moves_ok", pa.int64()), ("locked", pa.int64()),
             ("refused", pa.int64()), ("seconds", pa.float64()), ("us_per_request", pa.float64()),
+            ("rt_p50_us", pa.float64()), ("rt_p99_us", pa.float64()),
             ("length_error", pa.float64()), ("startup_s", pa.float64()), ("worker", pa.string()),
             ("kind", pa.string()), ("scenario", pa.string()), ("precision", pa.string()),
             ("reps", pa.int64()), ("moves", pa.int64()), ("us_per_move", pa.float64()),
@@ -536,7 +544,8 @@ def accuracy_summary(rows: list[dict[str, Any]]) -> str:
 
 def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", "collision", "method")) -> str:
     """A Markdown table: per combination of ``by``, episodes, knots tied, the knots the identification
-    named (with how many episodes each), errors, median µs per request,
+    named (with how many episodes each), errors, the round trip of the hands' requests (each episode's
+    p50 and p99 over both hands' requests; the medians over the episodes),
     locked and refused moves (a held rope pulled taut refuses what it cannot reach) and the largest
     link-length error (accuracy episodes: :func:`accuracy_summary`)."""
     if rows and all(r.get("kind") == "accuracy" for r in rows):
@@ -544,7 +553,9 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
     groups: dict[tuple, list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault(tuple(r.get(k) for k in by), []).append(r)
-    head = [*by, "episodes", "tied", "knots named", "failed", "median hand wall time per request, µs",
+    head = [*by, "episodes", "tied", "knots named", "failed",
+            "request round trip p50, ms (median over episodes)",
+            "request round trip p99, ms (median over episodes)",
             "locked moves", "refused moves", "max link-length error"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
 
@@ -563,7 +574,8 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
         lines.append(
             "| " + " | ".join(str(k) for k in key)
             + f" | {len(g)} | {sum(1 for r in ok if r['tied'])}/{len(g)} | {knots} | {len(g) - len(ok)}"
-            + f" | {median([r['us_per_request'] for r in ok]):.0f}"
+            + f" | {median([r.get('rt_p50_us', math.nan) for r in ok]) / 1e3:.2f}"
+            + f" | {median([r.get('rt_p99_us', math.nan) for r in ok]) / 1e3:.2f}"
             + f" | {sum(r['locked'] for r in ok)}"
             + f" | {sum(r['refused'] for r in ok)} of {sum(r['requests'] for r in ok)}"
             + f" | {max([r['length_error'] for r in ok], default=math.nan):.1e} |"

@@ -81,14 +81,20 @@ pub struct HandReport {
     pub frames: Vec<(String, Vec<[f64; 3]>)>,
     /// Moves refused as over-budget and sent again as two halves (not counted in `requests`).
     pub splits: u64,
+    /// The round trip of every counted request (move or instrument), µs: from the call to the
+    /// response read, as the hand waits for it.
+    pub round_trips_us: Vec<f64>,
 }
 
 /// How deep a move refused as over-budget is split in halves (at most 2⁴ pieces).
 const SPLITS: u32 = 4;
 
 impl HandReport {
-    /// Counts one request's answer by its status; returns the status's name.
-    fn tally(&mut self, status: u32) -> &'static str {
+    /// Counts one request's answer by its status and its round trip (since `called`); returns the
+    /// status's name.
+    fn tally(&mut self, status: u32, called: Instant) -> &'static str {
+        self.round_trips_us
+            .push(called.elapsed().as_secs_f64() * 1e6);
         self.requests += 1;
         let name = Status::from_u32(status).map_or("unknown", |s| s.name());
         match Status::from_u32(status) {
@@ -430,6 +436,7 @@ fn drive(
                 let mut h = RequestHeader::new(Command::Instrument, chain);
                 h.joint = m.index;
                 let sent = now_ns();
+                let called = Instant::now();
                 let (status, seq, rid, dg) = conn.call_with(
                     h,
                     &[
@@ -441,7 +448,7 @@ fn drive(
                         (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
                     },
                 )?;
-                let name = report.tally(status);
+                let name = report.tally(status, called);
                 if let Some(w) = record.as_mut() {
                     let r = Record {
                         t_ns: sent,
@@ -507,6 +514,7 @@ fn drive(
                 let mut h = RequestHeader::new(Command::Move, chain);
                 h.joint = joint;
                 let sent = now_ns();
+                let called = Instant::now();
                 let last = pending.is_empty();
                 let (status, seq, rid, dg, frame, (reason, stopped_at)) =
                     conn.call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
@@ -557,7 +565,7 @@ fn drive(
                     pending.push((t, depth + 1));
                     pending.push((mid, depth + 1));
                 } else {
-                    let name = report.tally(status);
+                    let name = report.tally(status, called);
                     if status == Status::Ok as u32 {
                         at = t;
                     }

@@ -100,6 +100,10 @@ enum Cmd {
         /// this many units (0: none; without `--perturb` none).
         #[arg(long, default_value_t = clients::script::HAND_TREMOR)]
         tremor: f64,
+        /// Write the round trip of every move and instrument request, µs, one per line, to this file
+        /// (the knot sweep's time per request).
+        #[arg(long)]
+        timings: Option<PathBuf>,
     },
     /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
     Replay {
@@ -156,6 +160,7 @@ fn run(a: Args) -> Result<u8> {
             no_grasp,
             perturb,
             tremor,
+            timings,
         } => {
             let view = View::parse(&view).map_err(anyhow::Error::msg)?;
             if !(1..=32).contains(&frames) {
@@ -214,6 +219,14 @@ fn run(a: Args) -> Result<u8> {
                     format!(", refused: {}", refused.join(", "))
                 }
             );
+            if let Some(path) = &timings {
+                let text: String = r
+                    .round_trips_us
+                    .iter()
+                    .map(|t| format!("{t:.1}\n"))
+                    .collect();
+                std::fs::write(path, text).with_context(|| format!("write {}", path.display()))?;
+            }
             if r.splits > 0 {
                 println!(
                     "hand {hand}: {} moves over the service's work budget sent again in halves",
