@@ -188,7 +188,7 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     /// sweep (one per link per substep), every held side's solve (its bound, [`ReachOptions::passes_bound`]),
     /// and each collision pass's grid (two per link), candidate pairs (one per pair tested, one per
     /// sixteen grid entries scanned; the paper's spheres all pairs at once), obstacles (one per link
-    /// each), re-straightening (one per link), relaxation sweeps (one per link) and re-solves (four per
+    /// each), re-straightening (one per link), relaxation iterations (half a link-step per link) and re-solves (four per
     /// link per iteration, the iterations capped by what is left). A call that would pass the limit
     /// stops before it, leaves the chain unchanged and returns [`ChainError::OverWork`]; so the work
     /// done never exceeds the limit, whatever the chain, the scene's `max_iterations` or the contacts.
@@ -226,7 +226,9 @@ pub(super) mod cost {
     pub const OBSTACLE_PER_LINK: u64 = 6;
     /// Re-straightening, per link.
     pub const RESTRAIGHTEN_PER_LINK: u64 = 4;
-    /// One iteration of the relaxation (a fast projection: a tridiagonal solve), per link.
+    /// One iteration of the relaxation (a fast projection: a tridiagonal solve), per link: set from
+    /// its arithmetic (a square root and three divisions per link, about half a link-step's), not
+    /// timed alone; the budget bench times whole requests against their budget.
     pub const RELAX_PER_LINK: u64 = 8;
     /// One iteration of a held part's re-solve, per link (up to three tractrix passes and a
     /// translation).

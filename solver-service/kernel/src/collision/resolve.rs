@@ -265,7 +265,8 @@ enum Restraightened {
     OutOfWork,
 }
 
-/// Most Newton iterations [`relax_lengths`] takes; from a pushed pose it meets its goal in two to four.
+/// Most Newton iterations [`relax_lengths`] takes (near a solution each iteration about squares the
+/// error; a part that cannot meet its lengths stops as soon as an iteration gains nothing).
 const RELAX_ITERATIONS: usize = 12;
 
 /// Relaxes the joints `p` of a part between two fixed joints (its first and last, which do not move)
