@@ -435,6 +435,8 @@ impl<S: Service> Connection<S> {
             .user_header::<StateHeader>()
             .open()
             .map_err(ipc("open the state stream"))?;
+        // The subscriber's buffer is as deep as the service offers (iceoryx2's default: the
+        // service's `subscriber_max_buffer_size`, `solver-service --state-buffer`).
         Ok(StateStream {
             subscriber: svc
                 .subscriber_builder()

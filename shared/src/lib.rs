@@ -185,6 +185,13 @@ pub const SERVICE_WAKE_SERVER: &str = "tractrix/wake-server";
 pub const SERVICE_WAKE_CLIENT: &str = "tractrix/wake-client";
 /// Publish-subscribe stream of the bundles' accepted states (only for a scene with bundles).
 pub const SERVICE_BUNDLE_STATE: &str = "tractrix/bundle-state";
+/// Samples a subscriber of [`SERVICE_STATE`] may buffer unless the service is started with a deeper
+/// buffer (`solver-service --state-buffer N`): a subscriber that falls further behind loses the oldest
+/// and sees a gap in the sequence numbers.
+pub const STATE_BUFFER: usize = 64;
+/// The deepest state buffer a service may offer (`--state-buffer`): 4096 samples, seconds of two
+/// hands at full speed.
+pub const MAX_STATE_BUFFER: usize = 4096;
 /// Samples a subscriber of [`SERVICE_BUNDLE_STATE`] buffers (a bundle's sample is megabytes: the
 /// stream keeps the newest few, not a history).
 pub const BUNDLE_STATE_BUFFER: usize = 2;

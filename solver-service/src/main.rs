@@ -102,6 +102,12 @@ struct ServeArgs {
     /// Seconds between snapshots while the state changes (0: only on shutdown and on command).
     #[arg(long, default_value_t = 10.0)]
     snapshot_every: f64,
+    /// States each subscriber of the state stream may buffer before it loses the oldest (a recorder
+    /// that must miss nothing: up to 4096; shared memory grows with it, 16 subscribers × this × the
+    /// largest chain's state).
+    #[arg(long, default_value_t = shared::STATE_BUFFER as u32,
+          value_parser = clap::value_parser!(u32).range(1..=shared::MAX_STATE_BUFFER as i64))]
+    state_buffer: u32,
 }
 
 #[derive(Args, Debug)]
@@ -152,6 +158,7 @@ fn serve_config(a: &ServeArgs) -> Result<ServiceConfig> {
             from_damaged: a.restore_from_damaged,
             snapshot_every: Duration::from_secs_f64(a.snapshot_every),
         }),
+        state_buffer: a.state_buffer as usize,
     })
 }
 

@@ -101,14 +101,16 @@ impl<S: Service> std::fmt::Debug for ServerPorts<S> {
 
 impl<S: Service> ServerPorts<S> {
     /// Creates the node `name` with `iox` and opens (or creates) the services: responses of up to
-    /// `max_elements` elements, a state stream of up to `state_joints` joints if given, and a bundle
-    /// stream of up to `bundle_joints` joints if given. Resources
+    /// `max_elements` elements, a state stream of up to `state_joints` joints if given (each subscriber
+    /// may buffer `state_buffer` samples), and a bundle stream of up to `bundle_joints` joints if
+    /// given. Resources
     /// of a dead predecessor (kill -9, power cut) are cleaned first; the count is returned.
     pub fn open(
         iox: &iceoryx2::config::Config,
         name: &str,
         max_elements: usize,
         state_joints: Option<usize>,
+        state_buffer: usize,
         bundle_joints: Option<usize>,
     ) -> Result<(Self, usize), String> {
         let mut stale = 0;
@@ -162,7 +164,7 @@ impl<S: Service> ServerPorts<S> {
                     &node,
                     SERVICE_STATE,
                     MAX_CLIENTS,
-                    64,
+                    state_buffer,
                     joints,
                     "state stream",
                 )

@@ -40,6 +40,8 @@ pub struct ServiceConfig {
     pub pin: Option<usize>,
     /// Snapshots and journal, or none.
     pub persistence: Option<Persistence>,
+    /// Samples each subscriber of the state stream may buffer ([`shared::STATE_BUFFER`] by default).
+    pub state_buffer: usize,
 }
 
 /// The solver: the chain set, the store, and the residual the next response completes.
@@ -261,6 +263,7 @@ pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Resu
         "tractrix-solver",
         elements,
         Some(joints),
+        cfg.state_buffer,
         set.bundle_stream_size(),
     )?;
     if stale > 0 {
@@ -318,7 +321,7 @@ pub fn run_echo(
     }
     let iox = shared::iceoryx_config(prefix)?;
     let (ports, _) =
-        ServerPorts::<ipc::Service>::open(&iox, "tractrix-echo", elements as usize, None, None)?;
+        ServerPorts::<ipc::Service>::open(&iox, "tractrix-echo", elements as usize, None, 1, None)?;
     ready(&format!(
         "solver-service echo ready: {elements} elements, prefix {prefix}, wait {:?}",
         opts.wait

@@ -239,6 +239,7 @@ impl InProcess {
                     "tractrix-solver-in-process",
                     elements,
                     Some(joints),
+                    shared::STATE_BUFFER,
                     set.bundle_stream_size(),
                 )?;
                 let mut solver = Solver::new(set, None, Duration::ZERO);

@@ -554,6 +554,78 @@ fn a_missing_chain_is_named_with_the_scene_that_declares_it() {
     }
 }
 
+/// Issue 37: a recorder that must miss nothing. The service is started with `--state-buffer 512`;
+/// `watch` is stopped (SIGSTOP) while 300 moves are made, far more than the default buffer of 64;
+/// resumed, it reads all 300 and 10 more, and says it missed none.
+#[test]
+fn watch_misses_nothing_beside_a_deep_state_buffer() {
+    let svc = Service::start(
+        &unique_prefix(),
+        &["--wait", "event", "--no-persist", "--state-buffer", "512"],
+    );
+    let mut c = svc.connect();
+    let mut watch = Process::new(bin("watch"))
+        .args(["--prefix", &svc.prefix, "--chain", "rope", "--count", "310"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let rx = tests::stderr_lines(&mut watch);
+    let line = rx
+        .recv_timeout(Duration::from_secs(30))
+        .expect("watch listens");
+    assert!(line.contains("listening"), "{line}");
+    let signal = |sig: &str| {
+        let st = Process::new("kill")
+            .args([sig, &watch.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(st.success());
+    };
+    signal("-STOP");
+    let mut mv = |i: usize| {
+        let mut h = RequestHeader::new(Command::Move, 0);
+        h.joint = shared::JOINT_HEAD;
+        let a = i as f64 * 0.05;
+        let r = c
+            .call(h, &[Vec3::new(38.0 + a.cos(), a.sin(), 0.0)])
+            .unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+    };
+    for i in 0..300 {
+        mv(i);
+    }
+    signal("-CONT");
+    for i in 300..310 {
+        mv(i);
+    }
+    let deadline = Instant::now() + TOOL_TIMEOUT;
+    let status = loop {
+        if let Some(st) = watch.try_wait().unwrap() {
+            break st;
+        }
+        if Instant::now() > deadline {
+            let _ = watch.kill();
+            panic!("watch did not finish within {TOOL_TIMEOUT:?}");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert!(status.success());
+    let mut said: Vec<String> = Vec::new();
+    while let Ok(l) = rx.recv_timeout(Duration::from_secs(10)) {
+        said.push(l);
+    }
+    assert!(
+        said.iter()
+            .any(|l| l.contains("310 states") && l.contains(" 0 missed")),
+        "{said:?}"
+    );
+    assert!(
+        !said.iter().any(|l| l.contains("missed states")),
+        "{said:?}"
+    );
+}
+
 /// Issue 37: a subscriber that falls behind is told exactly which states it missed. `watch` is stopped
 /// (SIGSTOP) while 200 moves are made, so its buffer of 64 keeps the last 64; resumed, it reads them and
 /// 10 more, and says it missed the first 136, as one range of sequence numbers.
