@@ -10,6 +10,9 @@ cargo build --workspace --bins --profile test
 cargo build -p clients --features rerun --bin watch --profile viewer
 # The C library (libtractrix_client.so and .a) that the C and C++ examples link against.
 cargo build -p tractrix-client --lib --profile test
+# The Rust quick start (`--example hello`), built here, once: two tests run it at once, and one building
+# it while the other started it failed under load ("Permission denied" executing the half-written file).
+cargo build -p clients --example hello --profile test
 # The Python client's venv (PyPI wheel iceoryx2==0.10.0) for the end-to-end test of the Python client.
 scripts/python-venv.sh
 # Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames).
