@@ -3,7 +3,8 @@
 #   scripts/sweep-bench.sh scaling [EPISODES] [ROUNDS]   # episodes/s with 1 and 2 workers; cost of one episode
 #   scripts/sweep-bench.sh knots [OUT.parquet]           # knot success over script × resolution (grid file
 #                                                        # clients/python/grids/knots.json), through the service;
-#                                                        # also draws docs/sweep-knots.svg
+#                                                        # also draws docs/sweep-knots.svg; SWEEP_RESUME=1
+#                                                        # resumes a stopped sweep if no code changed since
 #   scripts/sweep-bench.sh accuracy [OUT.parquet]        # speed against accuracy (grid file
 #                                                        # clients/python/grids/accuracy.json), episodes of
 #                                                        # the `episode` binary
@@ -22,7 +23,17 @@ case "${1:-}" in
     ;;
   knots)
     OUT=${2:-$TARGET/sweep-knots.parquet}
-    rm -f "$OUT"
+    # SWEEP_RESUME=1 goes on with a sweep that stopped (a session ended): the episodes already in OUT are
+    # kept, but only when no code an episode runs has changed since the sweep began (the commit in
+    # OUT.commit, and nothing uncommitted); otherwise the sweep starts again.
+    code=(solver-service/kernel/src solver-service/src shared/src clients/src clients/python/tractrix_sweep.py clients/python/grids/knots.json)
+    if [ "${SWEEP_RESUME:-0}" = 1 ] && [ -f "$OUT" ] && [ -f "$OUT.commit" ] \
+      && git diff --quiet "$(cat "$OUT.commit")" HEAD -- "${code[@]}" && git diff --quiet HEAD -- "${code[@]}"; then
+      echo "sweep-bench: resuming $OUT, begun at commit $(cat "$OUT.commit")" >&2
+    else
+      rm -f "$OUT"
+      git rev-parse --short HEAD > "$OUT.commit"
+    fi
     "$PY" -m tractrix_sweep run clients/python/grids/knots.json --out "$OUT" --bin "$TARGET/release" \
       --num-cpus 2 --no-progress --by script,start,anchors,grasp,passes,length,links 2>"$RAY_TMPDIR/sweep-bench.log" || { tail -20 "$RAY_TMPDIR/sweep-bench.log" >&2; exit 1; }
     "$PY" -m tractrix_sweep plot "$OUT" --x link_length --series script,anchors,grasp --out docs/sweep-knots.svg

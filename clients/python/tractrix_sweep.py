@@ -312,8 +312,11 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
         client = tractrix_client.Client(prefix=prefix, wait_for_service=30.0)
         client.call("query", 0)
         row["startup_s"] = time.monotonic() - t0
+        # A hand waits for the other hand's turn as long as the episode may take: a long rope's turn
+        # on a busy machine took more than the hand's default 120 s (surgeons-knot at 320 links).
         hand_args = ["run", "--builtin", script, "--chain", "rope", "--quiet",
-                     "--perturb", str(int(ep["seed"])), "--prefix", prefix]
+                     "--perturb", str(int(ep["seed"])), "--prefix", prefix,
+                     "--turn-timeout", str(float(ep["timeout"]))]
         if ep["max_step"] is not None:
             hand_args += ["--max-step", str(float(ep["max_step"]))]
         if ep["grasp"] is not None:
