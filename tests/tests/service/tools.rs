@@ -563,58 +563,7 @@ fn watch_misses_nothing_beside_a_deep_state_buffer() {
         &unique_prefix(),
         &["--wait", "event", "--no-persist", "--state-buffer", "512"],
     );
-    let mut c = svc.connect();
-    let mut watch = Process::new(bin("watch"))
-        .args(["--prefix", &svc.prefix, "--chain", "rope", "--count", "310"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let rx = tests::stderr_lines(&mut watch);
-    let line = rx
-        .recv_timeout(Duration::from_secs(30))
-        .expect("watch listens");
-    assert!(line.contains("listening"), "{line}");
-    let signal = |sig: &str| {
-        let st = Process::new("kill")
-            .args([sig, &watch.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(st.success());
-    };
-    signal("-STOP");
-    let mut mv = |i: usize| {
-        let mut h = RequestHeader::new(Command::Move, 0);
-        h.joint = shared::JOINT_HEAD;
-        let a = i as f64 * 0.05;
-        let r = c
-            .call(h, &[Vec3::new(38.0 + a.cos(), a.sin(), 0.0)])
-            .unwrap();
-        assert!(r.is_ok(), "{}", r.header.reason_str());
-    };
-    for i in 0..300 {
-        mv(i);
-    }
-    signal("-CONT");
-    for i in 300..310 {
-        mv(i);
-    }
-    let deadline = Instant::now() + TOOL_TIMEOUT;
-    let status = loop {
-        if let Some(st) = watch.try_wait().unwrap() {
-            break st;
-        }
-        if Instant::now() > deadline {
-            let _ = watch.kill();
-            panic!("watch did not finish within {TOOL_TIMEOUT:?}");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
-    assert!(status.success());
-    let mut said: Vec<String> = Vec::new();
-    while let Ok(l) = rx.recv_timeout(Duration::from_secs(10)) {
-        said.push(l);
-    }
+    let said = watch_stopped_while_moving(&svc, 300, 310);
     assert!(
         said.iter()
             .any(|l| l.contains("310 states") && l.contains(" 0 missed")),
@@ -632,14 +581,30 @@ fn watch_misses_nothing_beside_a_deep_state_buffer() {
 #[test]
 fn watch_names_the_states_it_missed() {
     let svc = default_service();
-    let mut c = svc.connect();
-    let s0 = c
+    let s0 = svc
+        .connect()
         .call(RequestHeader::new(Command::Query, 0), &[])
         .unwrap()
         .header
         .sequence;
+    let said = watch_stopped_while_moving(&svc, 200, 74);
+    let expected = format!(
+        "watch: missed states (sequence numbers): {}-{}",
+        s0 + 1,
+        s0 + 136
+    );
+    assert!(said.iter().any(|l| l == &expected), "{said:?}");
+    assert!(said.iter().any(|l| l.contains("136 missed")), "{said:?}");
+}
+
+/// Starts `watch --count count` on the rope, stops it (SIGSTOP) while `stopped` moves of the rope's
+/// head are made, continues it and makes 10 more; returns what `watch` wrote to its standard error
+/// once it has finished (within [`TOOL_TIMEOUT`]).
+fn watch_stopped_while_moving(svc: &Service, stopped: usize, count: usize) -> Vec<String> {
+    let mut c = svc.connect();
     let mut watch = Process::new(bin("watch"))
-        .args(["--prefix", &svc.prefix, "--chain", "rope", "--count", "74"])
+        .args(["--prefix", &svc.prefix, "--chain", "rope", "--count"])
+        .arg(count.to_string())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
@@ -666,11 +631,11 @@ fn watch_names_the_states_it_missed() {
             .unwrap();
         assert!(r.is_ok(), "{}", r.header.reason_str());
     };
-    for i in 0..200 {
+    for i in 0..stopped {
         mv(i);
     }
     signal("-CONT");
-    for i in 200..210 {
+    for i in stopped..stopped + 10 {
         mv(i);
     }
     let deadline = Instant::now() + TOOL_TIMEOUT;
@@ -690,11 +655,5 @@ fn watch_names_the_states_it_missed() {
     while let Ok(l) = rx.recv_timeout(Duration::from_secs(10)) {
         said.push(l);
     }
-    let expected = format!(
-        "watch: missed states (sequence numbers): {}-{}",
-        s0 + 1,
-        s0 + 136
-    );
-    assert!(said.iter().any(|l| l == &expected), "{said:?}");
-    assert!(said.iter().any(|l| l.contains("136 missed")), "{said:?}");
+    said
 }
