@@ -469,6 +469,11 @@ impl<T: Real> Pass<'_, T> {
         Vector<T, D>: Embed3<T>,
     {
         let (a0, a1, b0, b1) = (pos[i], pos[i + 1], pos[j], pos[j + 1]);
+        // Most candidates from the grid's cells are farther apart than the clearance along some
+        // axis: no closest points needed (the pair could not violate it).
+        if boxes_apart(&a0, &a1, &b0, &b1, c) {
+            return;
+        }
         let (s, t) = closest_params_segment_segment(&a0, &a1, &b0, &b1);
         let d = lerp(&a0, &a1, s) - lerp(&b0, &b1, t);
         let dist = d.norm();
@@ -595,6 +600,9 @@ impl<T: Real> Pass<'_, T> {
                     (s, *normal, link_r - da.min(db), link_r)
                 }
                 (Scheme::Capsules, Obstacle::Sphere { center, radius }) => {
+                    if boxes_apart(&a, &b, center, center, link_r + *radius) {
+                        continue;
+                    }
                     let s = closest_param_point_segment(center, &a, &b);
                     let p = lerp(&a, &b, s);
                     let (n, dist, r) = away_from(ob, &p, &(b - a));
@@ -609,6 +617,9 @@ impl<T: Real> Pass<'_, T> {
                         radius,
                     },
                 ) => {
+                    if boxes_apart(&a, &b, oa, ob_b, link_r + *radius) {
+                        continue;
+                    }
                     let (s, t) = closest_params_segment_segment(&a, &b, oa, ob_b);
                     let d = lerp(&a, &b, s) - lerp(oa, ob_b, t);
                     let dist = d.norm();
@@ -637,6 +648,23 @@ impl<T: Real> Pass<'_, T> {
             self.pushed += 1;
         }
     }
+}
+
+/// `true` when the bounding boxes of segments `a0`–`a1` and `b0`–`b1` are more than `gap` apart along
+/// some axis (then the segments are too).
+#[inline]
+fn boxes_apart<T: Real, const D: usize>(
+    a0: &Vector<T, D>,
+    a1: &Vector<T, D>,
+    b0: &Vector<T, D>,
+    b1: &Vector<T, D>,
+    gap: T,
+) -> bool {
+    (0..D).any(|k| {
+        let (alo, ahi) = (a0[k].min(a1[k]), a0[k].max(a1[k]));
+        let (blo, bhi) = (b0[k].min(b1[k]), b0[k].max(b1[k]));
+        blo - ahi > gap || alo - bhi > gap
+    })
 }
 
 #[cfg(test)]
