@@ -27,6 +27,13 @@
 //! turns only as much as needed for the goal to lie in the workspace of the links beyond it, and the last
 //! two links are solved in closed form; one O(n) pass, exact for a reachable goal.
 //!
+//! With joint limits the hierarchy places links without them, so its pose is kept only when it lands
+//! within them. When it does not, the solve is finished once by Korein & Badler's boundary following
+//! ([`crate::boundary`]: damped least squares over the joints' rotations, a joint at its limit frozen
+//! while the error pushes it out), started from the pose the solve began with; when that does not
+//! arrive either, the tractrix iteration goes on to `max_iterations`. A long rope bent to its limit
+//! needs it: the tractrix piles the bends at their limit near the moved end and stalls.
+//!
 //! Before iterating, the target is checked against the workspace: an annulus (plane) or spherical shell
 //! (space) with outer radius `Σ Lᵢ` and inner radius `max(0, 2 max Lᵢ − Σ Lᵢ)` (Korein & Badler's reach
 //! hierarchy: the goal must lie in `W[1]`). An unreachable target is an error that names the nearest
@@ -92,14 +99,22 @@ impl<T: Real> ReachOptions<T> {
     /// The most tractrix passes over the chain (per substep) a fixed-base solve with these options
     /// runs: `max_iterations`, or without limits (`limited` false) the `hierarchy_after` iterations and
     /// the hierarchy's one pass when that comes first; with limits the hierarchy's pose is kept only
-    /// when it lands within them, so each of the `max_iterations` may also try it (two passes). What a
+    /// when it lands within them, so each of the `max_iterations` may also try it (two passes), and
+    /// once boundary following's iterations are added ([`crate::boundary`]). What a
     /// move with held joints is charged per side ([`crate::hold`]) and what the service's estimate
     /// counts.
     pub fn passes_bound(&self, limited: bool) -> u64 {
         let passes = if self.hierarchy_after == 0 {
             u64::from(self.max_iterations)
         } else if limited {
-            u64::from(self.max_iterations).saturating_mul(2)
+            let boundary = if self.hierarchy_after < self.max_iterations {
+                u64::from(crate::boundary::ITERATIONS) * crate::boundary::PASSES_PER_ITERATION
+            } else {
+                0
+            };
+            u64::from(self.max_iterations)
+                .saturating_mul(2)
+                .saturating_add(boundary)
         } else {
             u64::from(
                 self.max_iterations
@@ -206,6 +221,8 @@ pub struct ReachWorkspace<T: Real, const D: usize> {
     backup: Vec<Vector<T, D>>,
     /// The tractrix pose kept while a hierarchy's pose is tried against the joint limits.
     trial: Vec<Vector<T, D>>,
+    /// Boundary following's storage (limited chains).
+    boundary: crate::boundary::Scratch<T, D>,
 }
 
 /// Moves the head of the fixed-base `chain` to `target`, keeping joint 0 where it is.
@@ -242,10 +259,10 @@ where
     ws.backup.extend_from_slice(chain.links());
     let backup_datum = chain.datum();
     let result = match opts.strategy {
-        Strategy::TranslateBack => translate_back(chain, target, opts, tol, false, &mut ws.trial),
-        Strategy::PullBack => translate_back(chain, target, opts, tol, true, &mut ws.trial),
+        Strategy::TranslateBack => translate_back(chain, target, opts, tol, false, ws),
+        Strategy::PullBack => translate_back(chain, target, opts, tol, true, ws),
         Strategy::TractrixTwoLink if chain.n_links() >= 3 => {
-            tractrix_two_link(chain, target, opts, tol, &mut ws.trial)
+            tractrix_two_link(chain, target, opts, tol, ws)
         }
         // With one or two links there is nothing for the tractrix to do: the closed form alone.
         Strategy::TractrixTwoLink => {
@@ -295,7 +312,7 @@ fn translate_back<T: Real, const D: usize>(
     opts: &ReachOptions<T>,
     tol: T,
     pull: bool,
-    trial: &mut Vec<Vector<T, D>>,
+    ws: &mut ReachWorkspace<T, D>,
 ) -> Result<ReachOutcome<T>, ReachError<T, D>>
 where
     Vector<T, D>: Embed3<T>,
@@ -321,7 +338,7 @@ where
                 residual,
             });
         }
-        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, trial) {
+        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, ws) {
             return Ok(done);
         }
         // A chain lying straight along the line of the correction is pushed (or pulled) rigidly: an
@@ -378,7 +395,7 @@ fn tractrix_two_link<T: Real, const D: usize>(
     target: &Vector<T, D>,
     opts: &ReachOptions<T>,
     tol: T,
-    trial: &mut Vec<Vector<T, D>>,
+    ws: &mut ReachWorkspace<T, D>,
 ) -> Result<ReachOutcome<T>, ReachError<T, D>>
 where
     Vector<T, D>: Embed3<T>,
@@ -393,7 +410,7 @@ where
                 residual,
             });
         }
-        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, trial) {
+        if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, ws) {
             return Ok(done);
         }
         // Tractrix of links 3..n with the head moving straight to the target; joint 2 follows.
@@ -420,7 +437,7 @@ fn hierarchy_if_due<T: Real, const D: usize>(
     tol: T,
     it: u32,
     residual: &mut T,
-    trial: &mut Vec<Vector<T, D>>,
+    ws: &mut ReachWorkspace<T, D>,
 ) -> Option<ReachOutcome<T>>
 where
     Vector<T, D>: Embed3<T>,
@@ -430,7 +447,9 @@ where
     }
     if chain.joint_limits().is_some() {
         // The hierarchy places links without the limits: its pose is taken only when it lands within
-        // them; otherwise the tractrix pose stays and the iteration goes on.
+        // them; otherwise, once, boundary following ([`crate::boundary`]); otherwise the tractrix
+        // pose stays and the iteration goes on.
+        let trial = &mut ws.trial;
         trial.clear();
         trial.extend_from_slice(chain.links());
         reach_hierarchy(chain, target);
@@ -446,6 +465,21 @@ where
             });
         }
         chain.links_mut().copy_from_slice(trial);
+        if it == opts.hierarchy_after + 1 {
+            // From the pose the solve started from: the tractrix iterations have piled bends at
+            // their limits near the moved end, where boundary following finds them frozen (from
+            // there a 1000-link rope bent to its limit refused 1 to 4 moves of 300; from the start 0).
+            chain.links_mut().copy_from_slice(&ws.backup);
+            if let Some(o) = crate::boundary::follow_boundary(chain, target, tol, &mut ws.boundary)
+            {
+                *residual = o.residual;
+                return Some(ReachOutcome {
+                    iterations: it,
+                    residual: o.residual,
+                });
+            }
+            chain.links_mut().copy_from_slice(&ws.trial);
+        }
         return None;
     }
     reach_hierarchy(chain, target);

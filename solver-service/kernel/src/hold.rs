@@ -4,7 +4,8 @@
 //! joint form a fixed-base chain whose base is that held joint and whose end is `m`; it is solved by the
 //! paper's fixed-base method ([`crate::fixed_base::reach`]: tractrix passes with `m` moving straight to
 //! the target, each followed by a rigid translation back to the base, finished by Korein & Badler's reach
-//! hierarchy when the iteration is slow), and nothing beyond the held joint moves. A side with no held
+//! hierarchy when the iteration is slow, or for a limited chain by boundary following when the
+//! hierarchy's pose breaks a limit), and nothing beyond the held joint moves. A side with no held
 //! joint follows `m` freely, dragged along the straight segment from where `m` was to where it lands,
 //! exactly as a move without holds. With held joints on both sides, the tail side is solved first and the
 //! head side reaches the end the tail side found, to a tolerance of a few ulps, so the links between

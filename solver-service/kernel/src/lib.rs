@@ -42,6 +42,7 @@
 #![deny(missing_docs)]
 
 pub mod angles;
+mod boundary;
 pub mod chain;
 pub mod collision;
 pub mod fixed_base;

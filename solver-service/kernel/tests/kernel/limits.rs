@@ -448,6 +448,99 @@ fn a_held_rope_with_a_bend_radius_follows_small_moves() {
     assert!(made >= 300, "{made} made, {refused} refused");
 }
 
+/// A long rope (1000 links of 0.04, R_min = 1.5) held at its tail, lying straight, whose head a hand
+/// walks inward in random steps of 0.1 (a straight rope pushed along itself first, then 10 units of
+/// slack): each move's pull has to be taken up along the whole rope. The tractrix iteration alone
+/// piled the bends at their limit near the moved end (145 joints) and stalled: it made 4 of these 300
+/// moves. With boundary following (Korein & Badler) as its finish, at most 1 in 100 is refused.
+#[test]
+fn a_long_held_straight_rope_with_a_bend_radius_follows_a_hand_walking_in() {
+    let c = Chain::<f64, 3>::straight(1000, 0.04, Vector3::zeros(), Vector3::x()).unwrap();
+    let (made, _) = held_walk(c, 300, Some(30.0));
+    assert!(made >= 297, "{made} of 300 made");
+}
+
+/// The same rope coiled into a helix whose every turn is at its limit (a hair inside), held at its
+/// tail, its head walked in random steps of 0.1: every pull must open some turns and may close none
+/// beyond the cone, so the joints at the limit that a step would bend further are frozen while the
+/// others take it up. The tractrix iteration alone made none of these 300 moves.
+#[test]
+fn a_long_held_rope_coiled_to_its_bend_radius_follows_a_wandering_hand() {
+    let (n, len) = (1000, 0.04);
+    let cone = 2.0 * (len / 3.0f64).atan();
+    let alpha: f64 = 0.05;
+    // Directions at a fixed slope alpha, turning by theta about z: the angle between consecutive
+    // links is acos(cos²α cos θ + sin²α), set to the cone less a billionth.
+    let want = cone * (1.0 - 1e-9);
+    let theta = ((want.cos() - alpha.sin().powi(2)) / alpha.cos().powi(2)).acos();
+    let mut q = vec![Vector3::zeros()];
+    for k in 0..n {
+        let a = k as f64 * theta;
+        let d = Vector3::new(a.cos() * alpha.cos(), a.sin() * alpha.cos(), alpha.sin());
+        q.push(q[k] + d * len);
+    }
+    let c = Chain::from_points(&q).unwrap();
+    let worst = turns3(&c).into_iter().fold(0.0, f64::max);
+    assert!(
+        worst > cone * (1.0 - 1e-6) && worst <= cone,
+        "the coil's turn {worst}"
+    );
+    let (made, at_limit) = held_walk(c, 300, None);
+    assert!(made >= 297, "{made} of 300 made");
+    assert!(
+        at_limit > 100,
+        "only {at_limit} joints stayed at their limit"
+    );
+}
+
+/// Walks the head of `c` (its tail held, limited to R_min = 1.5) in `steps` random steps of 0.1,
+/// drawn back toward the hold beyond `pull_in` of it; checks every made move (every turn within the
+/// cone, computed here; lengths; the head on its target; the hold) and every refusal (nothing
+/// changed). Returns the moves made and the most joints at their limit after one.
+fn held_walk(mut c: Chain<f64, 3>, steps: usize, pull_in: Option<f64>) -> (usize, usize) {
+    let n = c.n_links();
+    let len = c.lengths()[0];
+    let cone = 2.0 * (len / 3.0).atan();
+    c.set_limits(Some(JointLimits::bend_radius(c.lengths(), 1.5).unwrap()))
+        .unwrap();
+    c.hold(0).unwrap();
+    let hold = c.joint(0);
+    let mut rng = Rng(0xB0);
+    let mut p = c.head();
+    let (mut made, mut refused, mut at_limit) = (0, 0, 0usize);
+    // Held sides iterate at most 64 times, a limited chain's default in a scene.
+    let mut o = opts(Method::Tractrix, 1);
+    o.held.max_iterations = 64;
+    for _ in 0..steps {
+        let mut d = rng.dir3();
+        if let Some(r) = pull_in
+            && (p - hold).norm() > r
+        {
+            d -= (p - hold).normalize() * 1.5;
+        }
+        p += d.normalize() * 0.1;
+        let before = c.clone();
+        match c.move_joint(n, p, &o) {
+            Ok(_) => {
+                made += 1;
+                let turns = turns3(&c);
+                let worst = turns.iter().copied().fold(0.0, f64::max);
+                assert!(worst <= cone + TOL, "turn {worst} over the cone {cone}");
+                at_limit = at_limit.max(turns.iter().filter(|&&t| t > cone - 1e-6).count());
+                assert!(length_error(&c) < 1e-12);
+                assert!((c.head() - p).norm() < 1e-6, "head off its target");
+                assert_eq!(c.joint(0), hold, "the hold moved");
+            }
+            Err(_) => {
+                refused += 1;
+                assert_eq!(c, before, "a refusal changed the rope");
+            }
+        }
+    }
+    eprintln!("held walk: {made} made, {refused} refused, at most {at_limit} joints at the limit");
+    (made, at_limit)
+}
+
 /// Targets the planar arm (10 links of 0.2) reaches with every joint in [−60°, 30°]: the head of a
 /// pose drawn within the ranges (the base's own angle free).
 fn ranged_targets(n: usize, seed: u64) -> Vec<Vector2<f64>> {
