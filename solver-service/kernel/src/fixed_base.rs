@@ -28,10 +28,11 @@
 //! two links are solved in closed form; one O(n) pass, exact for a reachable goal.
 //!
 //! With joint limits the hierarchy places links without them, so its pose is kept only when it lands
-//! within them. When it does not, the solve is finished once by Korein & Badler's boundary following
+//! within them. A limited solve is finished, once, by Korein & Badler's boundary following
 //! ([`crate::boundary`]: damped least squares over the joints' rotations, a joint at its limit frozen
-//! while the error pushes it out), started from the pose the solve began with; when that does not
-//! arrive either, the tractrix iteration goes on to `max_iterations`. A long rope bent to its limit
+//! while the error pushes it out), started from the pose the solve began with, when translate-back or
+//! pull-back has stalled twice or the hierarchy's pose breaks a limit; when that does not arrive
+//! either, the tractrix iteration goes on to `max_iterations`. A long rope bent to its limit
 //! needs it: the tractrix piles the bends at their limit near the moved end and stalls.
 //!
 //! Before iterating, the target is checked against the workspace: an annulus (plane) or spherical shell
@@ -100,21 +101,18 @@ impl<T: Real> ReachOptions<T> {
     /// runs: `max_iterations`, or without limits (`limited` false) the `hierarchy_after` iterations and
     /// the hierarchy's one pass when that comes first; with limits the hierarchy's pose is kept only
     /// when it lands within them, so each of the `max_iterations` may also try it (two passes), and
-    /// once boundary following's iterations are added ([`crate::boundary`]). What a
+    /// boundary following runs once ([`crate::boundary`]). What a
     /// move with held joints is charged per side ([`crate::hold`]) and what the service's estimate
     /// counts.
     pub fn passes_bound(&self, limited: bool) -> u64 {
         let passes = if self.hierarchy_after == 0 {
             u64::from(self.max_iterations)
         } else if limited {
-            let boundary = if self.hierarchy_after < self.max_iterations {
-                u64::from(crate::boundary::ITERATIONS) * crate::boundary::PASSES_PER_ITERATION
-            } else {
-                0
-            };
             u64::from(self.max_iterations)
                 .saturating_mul(2)
-                .saturating_add(boundary)
+                .saturating_add(
+                    u64::from(crate::boundary::ITERATIONS) * crate::boundary::PASSES_PER_ITERATION,
+                )
         } else {
             u64::from(
                 self.max_iterations
@@ -223,6 +221,8 @@ pub struct ReachWorkspace<T: Real, const D: usize> {
     trial: Vec<Vector<T, D>>,
     /// Boundary following's storage (limited chains).
     boundary: crate::boundary::Scratch<T, D>,
+    /// Whether this solve has tried boundary following (once per solve).
+    boundary_tried: bool,
 }
 
 /// Moves the head of the fixed-base `chain` to `target`, keeping joint 0 where it is.
@@ -257,6 +257,7 @@ where
     let limited = chain.joint_limits().is_some();
     ws.backup.clear();
     ws.backup.extend_from_slice(chain.links());
+    ws.boundary_tried = false;
     let backup_datum = chain.datum();
     let result = match opts.strategy {
         Strategy::TranslateBack => translate_back(chain, target, opts, tol, false, ws),
@@ -331,6 +332,7 @@ where
     // translation turns nothing): what a refusal reports as reached.
     let limited = chain.joint_limits().is_some();
     let mut best = (residual, chain.head());
+    let mut stalls = 0u32;
     for it in 1..=opts.max_iterations {
         if residual <= tol {
             return Ok(ReachOutcome {
@@ -346,6 +348,15 @@ where
         // residual stops shrinking, the head takes a detour sideways (half the correction) so the
         // chain buckles; the motion is still a tractrix, only along a bent head path.
         let stalled = it > 1 && residual > last * T::lit(0.9);
+        // A limited chain whose iteration has stalled twice is finished by boundary following:
+        // the tractrix has piled bends at their limit and passes each correction on.
+        stalls += u32::from(stalled);
+        if limited
+            && stalls >= 2
+            && let Some(done) = boundary_once(chain, target, tol, it, ws)
+        {
+            return Ok(done);
+        }
         if stalled {
             let err = target - chain.head();
             let side = perpendicular(&err) * (err.norm() * T::lit(0.5));
@@ -465,22 +476,11 @@ where
             });
         }
         chain.links_mut().copy_from_slice(trial);
-        if it == opts.hierarchy_after + 1 {
-            // From the pose the solve started from: the tractrix iterations have piled bends at
-            // their limits near the moved end, where boundary following finds them frozen (from
-            // there a 1000-link rope bent to its limit refused 1 to 4 moves of 300; from the start 0).
-            chain.links_mut().copy_from_slice(&ws.backup);
-            if let Some(o) = crate::boundary::follow_boundary(chain, target, tol, &mut ws.boundary)
-            {
-                *residual = o.residual;
-                return Some(ReachOutcome {
-                    iterations: it,
-                    residual: o.residual,
-                });
-            }
-            chain.links_mut().copy_from_slice(&ws.trial);
+        let done = boundary_once(chain, target, tol, it, ws);
+        if let Some(o) = done {
+            *residual = o.residual;
         }
-        return None;
+        return done;
     }
     reach_hierarchy(chain, target);
     *residual = (chain.head() - target).norm();
@@ -488,6 +488,40 @@ where
         iterations: it,
         residual: *residual,
     })
+}
+
+/// Boundary following ([`crate::boundary`]) for a limited chain, once per solve: from the pose the
+/// solve started from (the tractrix iterations have piled bends at their limits near the moved end,
+/// where boundary following finds them frozen: from there a 1000-link rope bent to its limit refused
+/// 1 to 4 moves of 300, from the start none). When it does not arrive, the chain is put back where the
+/// iteration had it.
+fn boundary_once<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    target: &Vector<T, D>,
+    tol: T,
+    it: u32,
+    ws: &mut ReachWorkspace<T, D>,
+) -> Option<ReachOutcome<T>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if ws.boundary_tried {
+        return None;
+    }
+    ws.boundary_tried = true;
+    ws.trial.clear();
+    ws.trial.extend_from_slice(chain.links());
+    chain.links_mut().copy_from_slice(&ws.backup);
+    match crate::boundary::follow_boundary(chain, target, tol, &mut ws.boundary) {
+        Some(o) => Some(ReachOutcome {
+            iterations: it,
+            residual: o.residual,
+        }),
+        None => {
+            chain.links_mut().copy_from_slice(&ws.trial);
+            None
+        }
+    }
 }
 
 /// The result after the last allowed iteration.
