@@ -371,7 +371,7 @@ where
         last = residual;
         let head = chain.head();
         residual = (head - target).norm();
-        if residual < best.0 && (!limited || chain.check_limits().is_ok()) {
+        if residual < best.0 {
             best = (residual, head);
         }
     }

@@ -78,6 +78,9 @@ pub struct JointLimits<T> {
     /// `cos(hi)` and `sin(hi)` (cones: the check is one dot product against `cos`).
     cos_hi: Vec<T>,
     sin_hi: Vec<T>,
+    /// `cos(lo)` and `sin(lo)` (ranges: the check is two cross products, no arctangent).
+    cos_lo: Vec<T>,
+    sin_lo: Vec<T>,
 }
 
 impl<T: Real> JointLimits<T> {
@@ -152,12 +155,16 @@ impl<T: Real> JointLimits<T> {
     fn build(kind: LimitKind, lo: Vec<T>, hi: Vec<T>) -> Self {
         let cos_hi = hi.iter().map(|a| a.cos()).collect();
         let sin_hi = hi.iter().map(|a| a.sin()).collect();
+        let cos_lo = lo.iter().map(|a| a.cos()).collect();
+        let sin_lo = lo.iter().map(|a| a.sin()).collect();
         JointLimits {
             kind,
             lo,
             hi,
             cos_hi,
             sin_hi,
+            cos_lo,
+            sin_lo,
         }
     }
 
@@ -259,7 +266,32 @@ impl<T: Real> JointLimits<T> {
                 };
                 let p3 = prev.to_3d();
                 let v3 = v.to_3d();
-                let theta = p3.cross(&v3).z.atan2(p3.dot(&v3));
+                let (c, s) = (p3.dot(&v3), p3.cross(&v3).z);
+                // Inside without an arctangent: the turn's direction (c, s) lies on the arc from lo
+                // to hi, tested against the bounds' directions by cross products (an arc of at most
+                // π is the meet of two half-planes, a longer one the complement of the arc beyond).
+                let ((lc, ls), (hc, hs)) = if flip {
+                    (
+                        (self.cos_hi[j], -self.sin_hi[j]),
+                        (self.cos_lo[j], -self.sin_lo[j]),
+                    )
+                } else {
+                    (
+                        (self.cos_lo[j], self.sin_lo[j]),
+                        (self.cos_hi[j], self.sin_hi[j]),
+                    )
+                };
+                let after_lo = lc * s - ls * c;
+                let before_hi = c * hs - s * hc;
+                let inside = if hi - lo <= T::pi() {
+                    after_lo >= T::zero() && before_hi >= T::zero()
+                } else {
+                    !(after_lo < T::zero() && before_hi < T::zero())
+                };
+                if inside {
+                    return None;
+                }
+                let theta = s.atan2(c);
                 if theta >= lo && theta <= hi {
                     return None;
                 }
