@@ -17,7 +17,11 @@
 //! CSV columns: `sequence,chain,command,request_id,joint,x,y,z`, one row per joint (a bundle's joints
 //! numbered strand after strand, each strand tail first: joint `s·(links + 1) + j`), numbers printed
 //! so they read back bit for bit. A gap in `sequence`
-//! (a viewer too slow for its buffer) is counted and reported at the end. Stops after `--count` states,
+//! (a viewer too slow for its buffer) is counted and reported at the end. The streams are read on a
+//! thread of their own that only copies each state into a queue (up to [`QUEUE`] states), so writing a
+//! recording, CSV or frames never keeps `watch` from reading: it falls behind only when that thread
+//! does not get the CPU for as long as the service fills the subscriber's buffer
+//! (`solver-service --state-buffer`). Stops after `--count` states,
 //! after `--duration` seconds, or on Ctrl-C. Exit codes: 0 ok, 1 failure, 2 usage.
 
 use anyhow::{Context, Result};
@@ -30,6 +34,9 @@ use shared::{ChainKind, Command, RequestHeader};
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, TryRecvError};
 use std::time::{Duration, Instant};
 
 #[derive(Parser, Debug)]
@@ -155,13 +162,10 @@ fn run(a: Args) -> Result<u8> {
         }
     }
     let mut probe_at = Instant::now();
-    let stream = conn.subscribe()?;
     // The bundles' stream, only when a bundle is watched (it exists only in a scene with bundles).
-    let bundle_stream = if chains.values().any(|i| i.bundle.is_some() && watched(i)) {
-        Some(conn.subscribe_bundles()?)
-    } else {
-        None
-    };
+    let bundles = chains.values().any(|i| i.bundle.is_some() && watched(i));
+    let reader = Reader::start(a.service.clone(), bundles)?;
+
     let mut csv: Option<Box<dyn Write>> = match &a.csv {
         Some(p) if p.as_os_str() == "-" => Some(Box::new(std::io::stdout().lock())),
         Some(p) => Some(Box::new(std::io::BufWriter::new(
@@ -193,35 +197,14 @@ fn run(a: Args) -> Result<u8> {
         (first.header.kind != ChainKind::Bundle as u32).then_some(first.header.sequence);
     // A bundle's sequence counts its own changes: the last seen per bundle, from its description.
     let mut last_bundle_seq = bundle_seq_at_start;
-    // Frames are drawn when the stream is idle (drawing takes about a millisecond; a subscriber's buffer
-    // holds 64 states), at most one per idle turn, and all at the end.
+    // Frames are drawn when the queue is empty (drawing takes about a millisecond, while the reader
+    // thread goes on reading), at most one per idle turn, and all at the end.
     let mut pending = std::collections::VecDeque::new();
     eprintln!("watch: listening (Ctrl-C to stop)");
     'outer: loop {
         // Drain what is waiting, then sleep a millisecond: a viewer need not spin.
         loop {
-            let read = |h: &shared::StateHeader, pts: &[shared::Vec3]| {
-                let parts = shared::Parts::of_state(h, pts);
-                (
-                    *h,
-                    parts
-                        .joints
-                        .iter()
-                        .map(|p| p.to_array())
-                        .collect::<Vec<_>>(),
-                    parts.held_joints().collect::<Vec<_>>(),
-                    parts.instrument_poses().collect::<Vec<_>>(),
-                )
-            };
-            // The chains' stream first, then the bundles'.
-            let (got, from_bundles) = match stream.try_next(read)? {
-                Some(g) => (Some(g), false),
-                None => match &bundle_stream {
-                    Some(b) => (b.try_next(read)?, true),
-                    None => (None, false),
-                },
-            };
-            let Some((h, joints, held, instruments)) = got else {
+            let Some((h, joints, held, instruments, from_bundles)) = reader.try_next()? else {
                 break;
             };
             let last = if from_bundles {
@@ -377,6 +360,145 @@ fn run(a: Args) -> Result<u8> {
          {duplicated} duplicated, link length error {length_error:.1e}"
     );
     Ok(0)
+}
+
+/// What the reader thread hands over: one state, owned (header, joints, held joints, instrument
+/// poses, whether it came from the bundles' stream), or why reading failed.
+type Read = (
+    shared::StateHeader,
+    Vec<[f64; 3]>,
+    Vec<(u32, bool)>,
+    Vec<shared::InstrumentPose>,
+    bool,
+);
+
+/// States the reader thread may hold for the writer: beyond, it waits (and the subscriber's own buffer
+/// fills, then the service's overflow drops the oldest, which `watch` counts as missed). About 1 KB per
+/// state of a 40-link rope.
+const QUEUE: usize = 16_384;
+
+/// How long the reader sleeps when both streams are empty (not a spin: the core stays free).
+const READER_IDLE: Duration = Duration::from_micros(200);
+
+/// The thread that reads the state stream into a queue; dropped, it is stopped and joined.
+struct Reader {
+    rx: Option<Receiver<Result<Read, String>>>,
+    stop: Arc<AtomicBool>,
+    handle: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Reader {
+    /// The next state read, if one is waiting.
+    fn try_next(&self) -> Result<Option<Read>> {
+        match self.rx.as_ref().map(|rx| rx.try_recv()) {
+            Some(Ok(Ok(r))) => Ok(Some(r)),
+            Some(Ok(Err(e))) => Err(anyhow::anyhow!(e)),
+            Some(Err(TryRecvError::Empty)) => Ok(None),
+            Some(Err(TryRecvError::Disconnected)) | None => {
+                anyhow::bail!("the reader thread ended")
+            }
+        }
+    }
+
+    /// Starts the thread that reads the state stream (and the bundles' when `bundles`) on a
+    /// connection of its own (iceoryx2's ports stay on the thread that made them); returns once it
+    /// subscribed, so every state published after this returns is read.
+    fn start(service: ToolArgs, bundles: bool) -> Result<Reader> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop_reader = stop.clone();
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Read, String>>(QUEUE);
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel::<Result<(), String>>();
+        let reader = std::thread::Builder::new()
+            .name("watch-reader".into())
+            .spawn(move || {
+                let setup = || -> Result<_> {
+                    let conn = service.connect()?;
+                    let stream = conn.subscribe()?;
+                    let bundle_stream = if bundles {
+                        Some(conn.subscribe_bundles()?)
+                    } else {
+                        None
+                    };
+                    Ok((conn, stream, bundle_stream))
+                };
+                let (_conn, stream, bundle_stream) = match setup() {
+                    Ok(x) => {
+                        let _ = ready_tx.send(Ok(()));
+                        x
+                    }
+                    Err(e) => {
+                        let _ = ready_tx.send(Err(format!("{e:#}")));
+                        return;
+                    }
+                };
+                let read = |h: &shared::StateHeader, pts: &[shared::Vec3]| {
+                    let parts = shared::Parts::of_state(h, pts);
+                    (
+                        *h,
+                        parts
+                            .joints
+                            .iter()
+                            .map(|p| p.to_array())
+                            .collect::<Vec<_>>(),
+                        parts.held_joints().collect::<Vec<_>>(),
+                        parts.instrument_poses().collect::<Vec<_>>(),
+                    )
+                };
+                while !stop_reader.load(Ordering::Relaxed) {
+                    // The chains' stream first, then the bundles'.
+                    let got = match stream.try_next(read) {
+                        Ok(Some(g)) => Ok(Some((g, false))),
+                        Ok(None) => match &bundle_stream {
+                            Some(b) => b.try_next(read).map(|g| g.map(|g| (g, true))),
+                            None => Ok(None),
+                        },
+                        Err(e) => Err(e),
+                    };
+                    match got {
+                        Ok(Some(((h, joints, held, instruments), from_bundles))) => {
+                            if tx
+                                .send(Ok((h, joints, held, instruments, from_bundles)))
+                                .is_err()
+                            {
+                                return;
+                            }
+                        }
+                        Ok(None) => std::thread::sleep(READER_IDLE),
+                        Err(e) => {
+                            let _ = tx.send(Err(e.to_string()));
+                            return;
+                        }
+                    }
+                }
+            })
+            .context("start the reader thread")?;
+        match ready_rx.recv() {
+            Ok(Ok(())) => Ok(Reader {
+                rx: Some(rx),
+                stop,
+                handle: Some(reader),
+            }),
+            Ok(Err(e)) => {
+                let _ = reader.join();
+                Err(anyhow::anyhow!(e))
+            }
+            Err(_) => {
+                let _ = reader.join();
+                anyhow::bail!("the reader thread ended before it subscribed")
+            }
+        }
+    }
+}
+
+impl Drop for Reader {
+    fn drop(&mut self) {
+        // Told to stop, and its queue gone (it may be waiting on a full one).
+        self.stop.store(true, Ordering::Relaxed);
+        self.rx.take();
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
 }
 
 /// A frame to draw: chain name, sequence, view, joints, planar, joints per polyline (a bundle's

@@ -42,7 +42,7 @@
 #![deny(missing_docs)]
 
 pub mod angles;
-mod boundary;
+pub mod boundary;
 pub mod chain;
 pub mod collision;
 pub mod fixed_base;
