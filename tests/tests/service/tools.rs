@@ -184,7 +184,12 @@ fn reach_runs_the_tractrix_and_the_pseudo_inverse_and_plots_both() {
 
 #[test]
 fn watch_writes_every_state_as_csv_and_frames() {
-    let svc = default_service();
+    // Subscribers buffer more states than the 240 the snake makes: "every state" cannot depend on
+    // how soon `watch` gets the CPU.
+    let svc = Service::start(
+        &unique_prefix(),
+        &["--wait", "event", "--no-persist", "--state-buffer", "512"],
+    );
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("states.csv");
     let frames = dir.path().join("frames");
@@ -224,7 +229,11 @@ fn watch_writes_every_state_as_csv_and_frames() {
         std::thread::sleep(Duration::from_millis(10));
     };
     assert!(st.success());
-    let summary: Vec<String> = rx.try_iter().collect();
+    // The pipe's reader thread forwards the last lines and ends with the pipe: wait for it.
+    let mut summary: Vec<String> = Vec::new();
+    while let Ok(l) = rx.recv_timeout(Duration::from_secs(10)) {
+        summary.push(l);
+    }
     assert!(
         summary
             .iter()
@@ -432,7 +441,10 @@ fn watch_writes_a_bundles_strands() {
         assert!(Instant::now() < deadline, "watch did not stop");
         std::thread::sleep(Duration::from_millis(10));
     };
-    let said: Vec<String> = rx.try_iter().collect();
+    let mut said: Vec<String> = Vec::new();
+    while let Ok(l) = rx.recv_timeout(Duration::from_secs(10)) {
+        said.push(l);
+    }
     assert!(st.success(), "{said:?}");
     assert!(
         said.iter()
