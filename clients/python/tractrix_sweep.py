@@ -566,8 +566,21 @@ def summary(rows: list[dict[str, Any]], by: Sequence[str] = ("script", "links", 
         xs = sorted(x for x in xs if x is not None and not math.isnan(x))
         return xs[len(xs) // 2] if xs else math.nan
 
-    def order(key):  # numbers as numbers (40 before 160), then text
-        return tuple((0, x, "") if isinstance(x, (int, float)) else (1, 0, str(x)) for x in key)
+    def order(key):  # numbers as numbers (40 before 160), lists of them likewise ([16] before [128]), then text
+        def one(x):
+            if isinstance(x, bool) or x is None:
+                return (2, 0, str(x))
+            if isinstance(x, (int, float)):
+                return (0, x, ())
+            if isinstance(x, str) and x.startswith("["):  # a list as the Parquet file keeps it
+                try:
+                    x = json.loads(x)
+                except ValueError:
+                    return (2, 0, x)
+            if isinstance(x, (list, tuple)):
+                return (1, 0, tuple(one(v) for v in x))
+            return (2, 0, str(x))
+        return tuple(one(x) for x in key)
 
     for key in sorted(groups, key=order):
         g = groups[key]
