@@ -170,29 +170,16 @@ where
     let n = links.len();
     let mut any = false;
     let mut r = Vector3::<T>::zeros();
-    let near = T::lit(1e-3);
+    // Within a thousandth of a radian of a bound.
+    let margin = T::lit(1e-3);
+    let near = (margin.cos(), margin.sin());
     for j in (1..n).rev() {
         r += links[j].to_3d();
         if !limits.limits(j) {
             continue;
         }
         let (a, b) = (links[j - 1].to_3d(), links[j].to_3d());
-        // Turning link j (and the links beyond) by ω changes the joint's angle at the rate
-        // d(angle) = ω · (a × b) / |a × b| for a cone (unsigned), ω_z for a range (signed).
-        let omega = r.cross(y);
-        let c = a.cross(&b);
-        let cn = c.norm();
-        let angle = cn.atan2(a.dot(&b));
-        let pushed = match limits.kind() {
-            crate::LimitKind::Cone => {
-                angle >= limits.hi(j) - near && cn > T::zero() && omega.dot(&c) > T::zero()
-            }
-            crate::LimitKind::Range => {
-                let signed = c.z.atan2(a.dot(&b));
-                (signed >= limits.hi(j) - near && omega.z > T::zero())
-                    || (signed <= limits.lo(j) + near && omega.z < T::zero())
-            }
-        };
+        let pushed = limits.pushed_out(j, &a, &b, &r.cross(y), near);
         if pushed {
             frozen[j] = true;
             any = true;

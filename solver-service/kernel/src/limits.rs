@@ -291,20 +291,56 @@ impl<T: Real> JointLimits<T> {
                 if inside {
                     return None;
                 }
-                let theta = s.atan2(c);
-                if theta >= lo && theta <= hi {
-                    return None;
-                }
-                let two_pi = T::two_pi();
-                let dist = |a: T| {
-                    let d = (theta - a).abs() % two_pi;
-                    d.min(two_pi - d)
+                // Outside: onto the nearer bound (the larger cosine to the turn's direction), the
+                // link before turned by it.
+                let (bc, bs) = if c * hc + s * hs >= c * lc + s * ls {
+                    (hc, hs)
+                } else {
+                    (lc, ls)
                 };
-                let bound = if dist(hi) <= dist(lo) { hi } else { lo };
                 let a = p3 / prev_len;
-                let (s, c) = bound.sin_cos();
-                let r = nalgebra::Vector3::new(c * a.x - s * a.y, s * a.x + c * a.y, T::zero());
+                let r = nalgebra::Vector3::new(bc * a.x - bs * a.y, bs * a.x + bc * a.y, T::zero());
                 Some(Vector::<T, D>::from_3d(&(r * len)))
+            }
+        }
+    }
+
+    /// Whether turning link `b` (after link `a`, at joint `j`) by the small rotation `omega` would
+    /// take the joint's angle further out at a bound it lies within `margin` radians of (boundary
+    /// following's test, [`crate::boundary`]), the margin given by its cosine and sine. No
+    /// arctangent: the bounds' cosines and sines, turned by the margin.
+    pub(crate) fn pushed_out(
+        &self,
+        j: usize,
+        a: &nalgebra::Vector3<T>,
+        b: &nalgebra::Vector3<T>,
+        omega: &nalgebra::Vector3<T>,
+        (cm, sm): (T, T),
+    ) -> bool {
+        let cross = a.cross(b);
+        let (c, s) = (a.dot(b), cross.z);
+        match self.kind {
+            LimitKind::Cone => {
+                // Opening (ω · (a × b) > 0) at an angle θ ≥ hi − margin: sin(θ − φ) ≥ 0 with
+                // φ = hi − margin, both in [0, π].
+                let cn = cross.norm();
+                if cn <= T::zero() || omega.dot(&cross) <= T::zero() {
+                    return false;
+                }
+                let (ch, sh) = (self.cos_hi[j], self.sin_hi[j]);
+                let (cf, sf) = (ch * cm + sh * sm, sh * cm - ch * sm);
+                cn * cf - c * sf >= T::zero()
+            }
+            LimitKind::Range => {
+                // The signed turn (c, s) within margin of a bound, on the arc from bound − margin
+                // to bound + margin (two half-planes), and ω turning it outward.
+                let near = |bc: T, bs: T| {
+                    let (c0, s0) = (bc * cm + bs * sm, bs * cm - bc * sm);
+                    let (c1, s1) = (bc * cm - bs * sm, bs * cm + bc * sm);
+                    c0 * s - s0 * c >= T::zero() && c * s1 - s * c1 >= T::zero()
+                };
+                (omega.z > T::zero() && near(self.cos_hi[j], self.sin_hi[j]))
+                    || (omega.z < T::zero() && near(self.cos_lo[j], self.sin_lo[j]))
             }
         }
     }
