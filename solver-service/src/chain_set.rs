@@ -376,8 +376,8 @@ impl ChainSet {
                 // most `hierarchy_after` tractrix passes, then the hierarchy's one pass.
                 let held = each_form!(&self.geometry[chain as usize], h => h.chain.held().any(|j| j != joint));
                 // With joint limits the hierarchy's pose is kept only when it lands within them, so
-                // the passes may run to `max_iterations`, each with a try of the hierarchy (two),
-                // and boundary following's once (`ReachOptions::passes_bound`).
+                // the passes may run to `max_iterations`, each with a try of the hierarchy (two);
+                // boundary following takes its passes from these (`ReachOptions::passes_bound`).
                 let passes = if held {
                     options.held.passes_bound(spec.limits.is_some())
                 } else {

@@ -100,19 +100,15 @@ impl<T: Real> ReachOptions<T> {
     /// The most tractrix passes over the chain (per substep) a fixed-base solve with these options
     /// runs: `max_iterations`, or without limits (`limited` false) the `hierarchy_after` iterations and
     /// the hierarchy's one pass when that comes first; with limits the hierarchy's pose is kept only
-    /// when it lands within them, so each of the `max_iterations` may also try it (two passes), and
-    /// boundary following runs once ([`crate::boundary`]). What a
+    /// when it lands within them, so each of the `max_iterations` may also try it (two passes);
+    /// boundary following ([`crate::boundary`]) takes its passes from the same budget. What a
     /// move with held joints is charged per side ([`crate::hold`]) and what the service's estimate
     /// counts.
     pub fn passes_bound(&self, limited: bool) -> u64 {
         let passes = if self.hierarchy_after == 0 {
             u64::from(self.max_iterations)
         } else if limited {
-            u64::from(self.max_iterations)
-                .saturating_mul(2)
-                .saturating_add(
-                    u64::from(crate::boundary::ITERATIONS) * crate::boundary::PASSES_PER_ITERATION,
-                )
+            u64::from(self.max_iterations).saturating_mul(2)
         } else {
             u64::from(
                 self.max_iterations
@@ -223,6 +219,9 @@ pub struct ReachWorkspace<T: Real, const D: usize> {
     boundary: crate::boundary::Scratch<T, D>,
     /// Whether this solve has tried boundary following (once per solve).
     boundary_tried: bool,
+    /// Iterations of the solve's budget that boundary following used and the loop has not yet
+    /// skipped.
+    boundary_charge: u32,
 }
 
 /// Moves the head of the fixed-base `chain` to `target`, keeping joint 0 where it is.
@@ -258,6 +257,7 @@ where
     ws.backup.clear();
     ws.backup.extend_from_slice(chain.links());
     ws.boundary_tried = false;
+    ws.boundary_charge = 0;
     let backup_datum = chain.datum();
     let result = match opts.strategy {
         Strategy::TranslateBack => translate_back(chain, target, opts, tol, false, ws),
@@ -333,7 +333,9 @@ where
     let limited = chain.joint_limits().is_some();
     let mut best = (residual, chain.head());
     let mut stalls = 0u32;
-    for it in 1..=opts.max_iterations {
+    let mut it = 0;
+    while it < opts.max_iterations {
+        it += 1;
         if residual <= tol {
             return Ok(ReachOutcome {
                 iterations: it - 1,
@@ -342,6 +344,10 @@ where
         }
         if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, ws) {
             return Ok(done);
+        }
+        it = it.saturating_add(std::mem::take(&mut ws.boundary_charge));
+        if it > opts.max_iterations {
+            break;
         }
         // A chain lying straight along the line of the correction is pushed (or pulled) rigidly: an
         // exact collinear push moves the base as far as the head and the iteration stalls. When the
@@ -353,9 +359,14 @@ where
         stalls += u32::from(stalled);
         if limited
             && stalls >= 2
-            && let Some(done) = boundary_once(chain, target, tol, it, ws)
+            && let Some(done) = boundary_once(chain, target, tol, it, opts.max_iterations, ws)
         {
             return Ok(done);
+        }
+        // What boundary following spent comes off the iterations left.
+        it = it.saturating_add(std::mem::take(&mut ws.boundary_charge));
+        if it > opts.max_iterations {
+            break;
         }
         if stalled {
             let err = target - chain.head();
@@ -414,7 +425,9 @@ where
     let n = chain.n_links();
     let k = T::lit(opts.substeps as f64);
     let mut residual = (chain.head() - target).norm();
-    for it in 1..=opts.max_iterations {
+    let mut it = 0;
+    while it < opts.max_iterations {
+        it += 1;
         if residual <= tol {
             return Ok(ReachOutcome {
                 iterations: it - 1,
@@ -423,6 +436,10 @@ where
         }
         if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, ws) {
             return Ok(done);
+        }
+        it = it.saturating_add(std::mem::take(&mut ws.boundary_charge));
+        if it > opts.max_iterations {
+            break;
         }
         // Tractrix of links 3..n with the head moving straight to the target; joint 2 follows.
         let s = (target - chain.head()) / k;
@@ -476,7 +493,7 @@ where
             });
         }
         chain.links_mut().copy_from_slice(trial);
-        let done = boundary_once(chain, target, tol, it, ws);
+        let done = boundary_once(chain, target, tol, it, opts.max_iterations, ws);
         if let Some(o) = done {
             *residual = o.residual;
         }
@@ -493,26 +510,33 @@ where
 /// Boundary following ([`crate::boundary`]) for a limited chain, once per solve: from the pose the
 /// solve started from (the tractrix iterations have piled bends at their limits near the moved end,
 /// where boundary following finds them frozen: from there a 1000-link rope bent to its limit refused
-/// 1 to 4 moves of 300, from the start none). When it does not arrive, the chain is put back where the
-/// iteration had it.
+/// 1 to 4 moves of 300, from the start none). It may use the passes of the iterations left after
+/// iteration `it` of `max_iterations` (two per iteration, as [`ReachOptions::passes_bound`] counts
+/// them); what it used is left in `ws.boundary_charge`, in iterations, for the loop to skip. When it
+/// does not arrive, the chain is put back where the iteration had it.
 fn boundary_once<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     target: &Vector<T, D>,
     tol: T,
     it: u32,
+    max_iterations: u32,
     ws: &mut ReachWorkspace<T, D>,
 ) -> Option<ReachOutcome<T>>
 where
     Vector<T, D>: Embed3<T>,
 {
-    if ws.boundary_tried {
+    let per = crate::boundary::PASSES_PER_ITERATION;
+    let cap = max_iterations.saturating_sub(it).saturating_mul(2) / per;
+    if ws.boundary_tried || cap == 0 {
         return None;
     }
     ws.boundary_tried = true;
     ws.trial.clear();
     ws.trial.extend_from_slice(chain.links());
     chain.links_mut().copy_from_slice(&ws.backup);
-    match crate::boundary::follow_boundary(chain, target, tol, &mut ws.boundary) {
+    let (done, ran) = crate::boundary::follow_boundary(chain, target, tol, cap, &mut ws.boundary);
+    ws.boundary_charge = (ran.saturating_mul(per)).div_ceil(2);
+    match done {
         Some(o) => Some(ReachOutcome {
             iterations: it,
             residual: o.residual,
