@@ -241,7 +241,8 @@ fn ranged_reach() {
          last pose, tolerance 1e-9 of the arm's length, at most 1000 iterations. *beyond a range*: \
          solved poses with a joint more than 1e-9 rad outside [{LO}°, {HI}°], computed here from the \
          joints. With ranges the reach hierarchy's pose (it places links without them) is kept only \
-         when it lands within them. The \
+         when it lands within them, and a solve that stalls is finished by boundary following (its \
+         passes come off the solve's budget of iterations; *iterations* counts the tractrix's). The \
          baselines of Korein & Badler: damped least squares (damping 1e-3, steps of at most 5 % of the \
          arm's length, 10 000 iterations) with a penalty on the ranges in the null space (gain 0.01), \
          or following the boundary (a joint that runs into its range is held there while the error \

@@ -333,8 +333,9 @@ where
     let limited = chain.joint_limits().is_some();
     let mut best = (residual, chain.head());
     let mut stalls = 0u32;
-    let mut it = 0;
-    while it < opts.max_iterations {
+    // Iterations so far, and how many the budget allows (boundary following takes its share).
+    let (mut it, mut limit) = (0, opts.max_iterations);
+    while it < limit {
         it += 1;
         if residual <= tol {
             return Ok(ReachOutcome {
@@ -345,8 +346,8 @@ where
         if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, ws) {
             return Ok(done);
         }
-        it = it.saturating_add(std::mem::take(&mut ws.boundary_charge));
-        if it > opts.max_iterations {
+        limit = limit.saturating_sub(std::mem::take(&mut ws.boundary_charge));
+        if it >= limit {
             break;
         }
         // A chain lying straight along the line of the correction is pushed (or pulled) rigidly: an
@@ -364,8 +365,8 @@ where
             return Ok(done);
         }
         // What boundary following spent comes off the iterations left.
-        it = it.saturating_add(std::mem::take(&mut ws.boundary_charge));
-        if it > opts.max_iterations {
+        limit = limit.saturating_sub(std::mem::take(&mut ws.boundary_charge));
+        if it >= limit {
             break;
         }
         if stalled {
@@ -425,8 +426,9 @@ where
     let n = chain.n_links();
     let k = T::lit(opts.substeps as f64);
     let mut residual = (chain.head() - target).norm();
-    let mut it = 0;
-    while it < opts.max_iterations {
+    // Iterations so far, and how many the budget allows (boundary following takes its share).
+    let (mut it, mut limit) = (0, opts.max_iterations);
+    while it < limit {
         it += 1;
         if residual <= tol {
             return Ok(ReachOutcome {
@@ -437,8 +439,8 @@ where
         if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, ws) {
             return Ok(done);
         }
-        it = it.saturating_add(std::mem::take(&mut ws.boundary_charge));
-        if it > opts.max_iterations {
+        limit = limit.saturating_sub(std::mem::take(&mut ws.boundary_charge));
+        if it >= limit {
             break;
         }
         // Tractrix of links 3..n with the head moving straight to the target; joint 2 follows.
@@ -512,7 +514,8 @@ where
 /// where boundary following finds them frozen: from there a 1000-link rope bent to its limit refused
 /// 1 to 4 moves of 300, from the start none). It may use the passes of the iterations left after
 /// iteration `it` of `max_iterations` (two per iteration, as [`ReachOptions::passes_bound`] counts
-/// them); what it used is left in `ws.boundary_charge`, in iterations, for the loop to skip. When it
+/// them); what it used is left in `ws.boundary_charge`, in iterations, for the loop to take off its
+/// limit. When it
 /// does not arrive, the chain is put back where the iteration had it.
 fn boundary_once<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
