@@ -30,6 +30,7 @@
 //! | `strategy` | `"translate-back"` \| `"two-link"` \| `"pull-back"` | `"translate-back"` | fixed-base strategy (also of a free chain's held sides) |
 //! | `tolerance` | number in (0, 0.1] | 1e-9 | fixed-base tolerance, fraction of the total length |
 //! | `max_iterations` | integer 1..=100000 | 1000 (64 with joint limits) | fixed-base iteration limit |
+//! | `hierarchy_after` | integer 0..=100000 | 16 | fixed-base iterations before Korein & Badler's reach hierarchy finishes (0: never; also of a free chain's held sides); smaller is faster and places more of the pose by the hierarchy (BENCHMARKS.md, "What joint limits cost") |
 //! | `min_bend_radius` | positive length | – | a rope's bend radius: a cone `2·atan(L / 2R)` at each joint (`L` its shorter link) |
 //! | `max_bend` / `max_bends` | degrees in [0, 180] / list of `links + 1` | – | a cone at every joint / per joint (the ends' entries are ignored) |
 //! | `joint_range` / `joint_ranges` | `[lo, hi]` degrees / list of `links + 1` pairs | – | signed range of every joint / per joint; planar chains only |
@@ -313,6 +314,23 @@ mod tests {
         assert_eq!(s.chains[2].kind, ChainKind::FixedBase);
         assert_eq!(s.chains[2].dims, 2);
         assert_eq!(s.chains[2].lengths, vec![0.2; 10]);
+    }
+
+    #[test]
+    fn hierarchy_after_reaches_the_reach_and_the_held_sides() {
+        let text = "[[chain]]\nname = \"a\"\nlinks = 4\nlink_length = 1.0\nhierarchy_after = 4\n";
+        let s = parse_scene(text, "t.toml").unwrap();
+        assert_eq!(s.chains[0].reach.hierarchy_after, 4);
+        assert_eq!(s.chains[0].moves.held.hierarchy_after, 4);
+        let s = parse_scene(
+            "[[chain]]\nname = \"a\"\nlinks = 4\nlink_length = 1.0\n",
+            "t.toml",
+        )
+        .unwrap();
+        assert_eq!(
+            s.chains[0].reach.hierarchy_after, 16,
+            "the kernel's default"
+        );
     }
 
     #[test]

@@ -90,6 +90,7 @@ pub(super) struct RawChain {
     pub strategy: Field<String>,
     pub tolerance: Field<f64>,
     pub max_iterations: Field<i64>,
+    pub hierarchy_after: Field<i64>,
     pub anchors: Field<Vec<i64>>,
     pub min_bend_radius: Field<f64>,
     pub max_bend: Field<f64>,

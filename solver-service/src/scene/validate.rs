@@ -804,6 +804,13 @@ fn chain(
         None => 1e-9,
     };
     let max_iterations = f.count_or(&c.max_iterations, "max_iterations", 1, 100_000, 1000)?;
+    let hierarchy_after = f.count_or(
+        &c.hierarchy_after,
+        "hierarchy_after",
+        0,
+        100_000,
+        ReachOptions::<f64>::default().hierarchy_after,
+    )?;
     let collision = collision(&f, scheme, kind, thickness, obstacles, instruments)?;
     let limits = limits(&f, &points, &lengths)?;
     // With joint limits the reach hierarchy cannot finish a slow iteration (its pose is kept only when
@@ -820,7 +827,7 @@ fn chain(
         substeps: 1,
         tolerance,
         max_iterations,
-        ..ReachOptions::default()
+        hierarchy_after,
     };
     Ok(ChainSpec {
         links_line,
