@@ -84,7 +84,7 @@ fn one_run(wait: &str, load: Load, sig: &str) -> Duration {
         let t0 = Instant::now();
         while last_acked.load(Ordering::Relaxed) < 20 {
             assert!(
-                t0.elapsed() < Duration::from_secs(10),
+                t0.elapsed() < Duration::from_secs(60),
                 "the client made no progress"
             );
             std::thread::sleep(Duration::from_millis(1));
