@@ -625,6 +625,50 @@ fn the_reach_with_ranges_never_leaves_a_range() {
     }
 }
 
+/// A spatial fixed-base chain (20 links of 0.1) with a cone of 20° at every joint reaches the heads of
+/// random poses within its cones, in sequence from the last pose, by translate-back and pull-back:
+/// no solved pose has a joint beyond its cone (angles computed here), the head lands within the
+/// tolerance, the base stays, a refusal changes nothing, and at least 9 in 10 are reached.
+#[test]
+fn the_spatial_reach_with_cones_never_leaves_a_cone() {
+    use tractrix::{ReachOptions, ReachWorkspace, Strategy, reach};
+    let cone = 20f64.to_radians();
+    let mut rng = Rng(21);
+    let targets: Vec<Vector3<f64>> = (0..200)
+        .map(|_| rope_within(20, 0.1, cone, &mut rng).head())
+        .collect();
+    for strategy in [Strategy::TranslateBack, Strategy::PullBack] {
+        let mut c = Chain::<f64, 3>::straight(20, 0.1, Vector3::zeros(), Vector3::x()).unwrap();
+        c.set_limits(Some(JointLimits::cone(20, cone).unwrap()))
+            .unwrap();
+        let opts = ReachOptions {
+            strategy,
+            ..ReachOptions::default()
+        };
+        let mut ws = ReachWorkspace::default();
+        let mut ok = 0;
+        for t in &targets {
+            let before = c.clone();
+            match reach(&mut c, t, &opts, &mut ws) {
+                Ok(_) => {
+                    ok += 1;
+                    assert!(
+                        (c.head() - t).norm() <= 2e-9 * 2.0,
+                        "{strategy:?}: head off"
+                    );
+                    let worst = turns3(&c).into_iter().fold(0.0, f64::max);
+                    assert!(worst <= cone + TOL, "{strategy:?}: a turn of {worst}");
+                    assert!(length_error(&c) < 1e-12);
+                    assert_eq!(c.joint(0), Vector3::zeros(), "{strategy:?}: the base moved");
+                }
+                Err(_) => assert_eq!(c, before, "{strategy:?}: a refusal changed the chain"),
+            }
+        }
+        eprintln!("{strategy:?} with cones: {ok} of {} reached", targets.len());
+        assert!(ok >= 180, "{strategy:?}: {ok} of {} reached", targets.len());
+    }
+}
+
 /// A target inside the unlimited workspace but outside the limited one (a planar arm of 10 links of
 /// 0.2 whose joints turn at most 10° either way cannot bring its head nearer its base than the arc
 /// of all joints at 10°) is refused as not converged, with the arm unchanged and the point the solve
