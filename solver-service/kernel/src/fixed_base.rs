@@ -28,7 +28,7 @@
 //! two links are solved in closed form; one O(n) pass, exact for a reachable goal.
 //!
 //! With joint limits the hierarchy places links without them, so its pose is kept only when it lands
-//! within them. A limited solve is finished, once, by Korein & Badler's boundary following
+//! within them. A limited solve by translate-back or pull-back is finished, once, by Korein & Badler's boundary following
 //! ([`crate::boundary`]: damped least squares over the joints' rotations, a joint at its limit frozen
 //! while the error pushes it out), started from the pose the solve began with, when translate-back or
 //! pull-back has stalled twice or the hierarchy's pose breaks a limit; when that does not arrive
@@ -495,6 +495,11 @@ where
             });
         }
         chain.links_mut().copy_from_slice(trial);
+        // Not for the two-link strategy: its closed form ignores the limits by design, and a pose
+        // that breaks one is refused as such.
+        if opts.strategy == Strategy::TractrixTwoLink {
+            return None;
+        }
         let done = boundary_once(chain, target, tol, it, opts.max_iterations, ws);
         if let Some(o) = done {
             *residual = o.residual;
