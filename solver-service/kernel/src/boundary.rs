@@ -44,8 +44,7 @@ pub(crate) struct Scratch<T: Real, const D: usize> {
 /// Moves the head of the fixed-base, limited `chain` to within `tol` of `target` by boundary
 /// following, from its current pose, in at most `max_iterations` iterations. With the iterations it
 /// ran: `Some` when it arrived (every joint within its limit); otherwise `None` and the chain is where
-/// the last accepted step left it (within its limits, nearer the target than it started); the caller
-/// restores it.
+/// the last accepted step left it (within its limits); the caller restores it.
 pub(crate) fn follow_boundary<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     target: &Vector<T, D>,
@@ -56,7 +55,7 @@ pub(crate) fn follow_boundary<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    let Some(limits) = chain.joint_limits().cloned() else {
+    let Some(limits) = chain.shared_limits() else {
         return (None, 0);
     };
     let n = chain.n_links();

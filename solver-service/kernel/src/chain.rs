@@ -348,6 +348,12 @@ where
         self.limits.as_deref()
     }
 
+    /// The chain's joint limits as their shared handle (a count, not a copy), for solvers that hold
+    /// them while they change the links.
+    pub(crate) fn shared_limits(&self) -> Option<std::sync::Arc<JointLimits<T>>> {
+        self.limits.clone()
+    }
+
     /// The joint farthest beyond its limit by more than `tol` radians: (joint, angle, excess); `None`
     /// within the limits (or without any).
     pub fn limit_excess(&self, tol: T) -> Option<(usize, T, T)> {
