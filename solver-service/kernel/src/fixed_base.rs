@@ -28,12 +28,14 @@
 //! two links are solved in closed form; one O(n) pass, exact for a reachable goal.
 //!
 //! With joint limits the hierarchy places links without them, so its pose is kept only when it lands
-//! within them. A limited solve by translate-back or pull-back is finished, once, by Korein & Badler's boundary following
-//! ([`crate::boundary`]: damped least squares over the joints' rotations, a joint at its limit frozen
-//! while the error pushes it out), started from the pose the solve began with, when translate-back or
-//! pull-back has stalled twice or the hierarchy's pose breaks a limit; when that does not arrive
-//! either, the tractrix iteration goes on to `max_iterations`. A long rope bent to its limit
-//! needs it: the tractrix piles the bends at their limit near the moved end and stalls.
+//! within them. A limited solve by translate-back or pull-back is finished, once, by Korein &
+//! Badler's boundary following ([`crate::boundary`]: damped least squares over the joints' rotations,
+//! a joint at its limit frozen while the error pushes it out), started from the pose the solve began
+//! with, when the iteration has stalled twice or the hierarchy's pose breaks a limit; its passes come
+//! off the iterations left, and when it does not arrive the tractrix iteration goes on. A long rope
+//! bent to its limit needs it: the tractrix piles the bends at their limit near the moved end and
+//! stalls. (The two-link strategy's closed form ignores the limits by design: a pose of it that
+//! breaks one is refused.)
 //!
 //! Before iterating, the target is checked against the workspace: an annulus (plane) or spherical shell
 //! (space) with outer radius `Σ Lᵢ` and inner radius `max(0, 2 max Lᵢ − Σ Lᵢ)` (Korein & Badler's reach
@@ -426,10 +428,8 @@ where
     let n = chain.n_links();
     let k = T::lit(opts.substeps as f64);
     let mut residual = (chain.head() - target).norm();
-    // Iterations so far, and how many the budget allows (boundary following takes its share).
-    let (mut it, mut limit) = (0, opts.max_iterations);
-    while it < limit {
-        it += 1;
+    // (Boundary following is not tried here: nothing is taken off the iterations.)
+    for it in 1..=opts.max_iterations {
         if residual <= tol {
             return Ok(ReachOutcome {
                 iterations: it - 1,
@@ -438,10 +438,6 @@ where
         }
         if let Some(done) = hierarchy_if_due(chain, target, opts, tol, it, &mut residual, ws) {
             return Ok(done);
-        }
-        limit = limit.saturating_sub(std::mem::take(&mut ws.boundary_charge));
-        if it >= limit {
-            break;
         }
         // Tractrix of links 3..n with the head moving straight to the target; joint 2 follows.
         let s = (target - chain.head()) / k;
@@ -520,8 +516,7 @@ where
 /// 1 to 4 moves of 300, from the start none). It may use the passes of the iterations left after
 /// iteration `it` of `max_iterations` (two per iteration, as [`ReachOptions::passes_bound`] counts
 /// them); what it used is left in `ws.boundary_charge`, in iterations, for the loop to take off its
-/// limit. When it
-/// does not arrive, the chain is put back where the iteration had it.
+/// limit. When it does not arrive, the chain is put back where the iteration had it.
 fn boundary_once<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     target: &Vector<T, D>,
