@@ -188,10 +188,12 @@ impl<T: Real> JointLimits<T> {
         self.hi[j]
     }
 
-    /// The cosines of the cones (one per joint; `None` for ranges): a link `v` after `prev` is within
-    /// joint `j`'s cone when `prev · v ≥ cos[j] · |prev| · |v|` ([`JointLimits::clamp`]'s test).
-    pub(crate) fn cone_cosines(&self) -> Option<&[T]> {
-        (self.kind == LimitKind::Cone).then_some(&self.cos_hi[..])
+    /// The cosines and sines of the cones (one per joint; `None` for ranges): a link `v` after `prev`
+    /// is within joint `j`'s cone when `prev · v ≥ cos[j] · |prev| · |v|`, and [`JointLimits::clamp`]
+    /// turns it onto the cone by `cos[j]` and `sin[j]` (for the SIMD lanes of [`crate::strands`],
+    /// which compute the same test and turn).
+    pub(crate) fn cone_terms(&self) -> Option<(&[T], &[T])> {
+        (self.kind == LimitKind::Cone).then_some((&self.cos_hi[..], &self.sin_hi[..]))
     }
 
     /// Whether joint `j` is limited at all (a cone below `π`, a range narrower than the circle).

@@ -404,57 +404,78 @@ impl<T: StrandReal> pulp::WithSimd for ChainWave<'_, '_, T> {
                 }
             }
             if let Some(lim) = self.limits.as_mut() {
-                let cosines = lim.lim.cone_cosines();
-                for j in lo..=hi {
-                    let (b, l) = (j / LANES, j % LANES);
-                    let along = d - j;
-                    let v = t[b].get(l);
-                    // Within its cone (the clamp's own first test, here without the call): unturned.
-                    let within = |prev: &Vector3<T>, prev_len: T, joint: usize| {
-                        cosines.is_some_and(|c| prev.dot(&v) >= c[joint] * prev_len * len[b][l])
-                    };
-                    let turned = if rev {
-                        let i = n - 1 - along;
-                        if i + 1 < n
-                            && !within(
-                                &(-self.links[i + 1]),
-                                self.lengths[i + 1],
-                                lim.offset + i + 1,
-                            )
-                        {
-                            lim.lim.clamp(
-                                lim.offset + i + 1,
-                                &(-self.links[i + 1]),
-                                self.lengths[i + 1],
-                                &v,
-                                len[b][l],
-                                true,
-                            )
-                        } else {
-                            None
+                let Some((cosines, sines)) = lim.lim.cone_terms() else {
+                    return;
+                };
+                for b in lo / LANES..=hi / LANES {
+                    // Each lane's link toward the moved joint at the same substep (the neighbour
+                    // still holds it: written back only after the diagonal), its length and its
+                    // joint's cone; a lane not in flight, or whose link has no joint before it, has
+                    // no cone (cosine −MAX: always within).
+                    let mut prev = Block::splat(Vector3::zeros());
+                    let mut prev_len = [T::one(); LANES];
+                    let (mut cos, mut sin) = ([-T::MAX; LANES], [T::zero(); LANES]);
+                    let mut joint = [usize::MAX; LANES];
+                    for l in 0..LANES {
+                        let j = b * LANES + l;
+                        if j < lo || j > hi {
+                            continue;
                         }
-                    } else if lim.offset + along > 0 {
-                        let (prev, prev_len) = if along > 0 {
-                            (self.links[along - 1], self.lengths[along - 1])
+                        let along = d - j;
+                        let (p, pl, jt) = if rev {
+                            let i = n - 1 - along;
+                            if i + 1 >= n {
+                                continue;
+                            }
+                            (-self.links[i + 1], self.lengths[i + 1], lim.offset + i + 1)
                         } else {
-                            (lim.across[j], lim.across_len)
+                            if lim.offset + along == 0 {
+                                continue;
+                            }
+                            if along > 0 {
+                                (
+                                    self.links[along - 1],
+                                    self.lengths[along - 1],
+                                    lim.offset + along,
+                                )
+                            } else {
+                                (lim.across[j], lim.across_len, lim.offset + along)
+                            }
                         };
-                        if within(&prev, prev_len, lim.offset + along) {
-                            None
-                        } else {
-                            lim.lim
-                                .clamp(lim.offset + along, &prev, prev_len, &v, len[b][l], false)
-                        }
-                    } else {
-                        None
-                    };
-                    if let Some(c) = turned {
-                        shift[b].set(l, shift[b].get(l) + (c - v));
-                        t[b].set(l, c);
-                        *lim.clamps += 1;
+                        prev.set(l, p);
+                        prev_len[l] = pl;
+                        cos[l] = cosines[jt];
+                        sin[l] = sines[jt];
+                        joint[l] = jt;
                     }
-                    if rev && along == 0 {
-                        lim.across[j] = -t[b].get(l);
+                    let (turn, out, odd) = cone_lanes(&prev, &prev_len, &t[b], &len[b], &cos, &sin);
+                    for l in 0..LANES {
+                        let j = b * LANES + l;
+                        if out[l] {
+                            // Folded straight back (no side to turn toward): the scalar clamp
+                            // picks its fixed side.
+                            let c = if odd[l] {
+                                lim.lim
+                                    .clamp(
+                                        joint[l],
+                                        &prev.get(l),
+                                        prev_len[l],
+                                        &t[b].get(l),
+                                        len[b][l],
+                                        false,
+                                    )
+                                    .unwrap_or_else(|| t[b].get(l))
+                            } else {
+                                turn.get(l)
+                            };
+                            let v = t[b].get(l);
+                            shift[b].set(l, shift[b].get(l) + (c - v));
+                            t[b].set(l, c);
+                            *lim.clamps += 1;
+                        }
+                        if rev && j >= lo && j <= hi && d - j == 0 {
+                            lim.across[j] = -t[b].get(l);
+                        }
                     }
                 }
             }
@@ -464,6 +485,43 @@ impl<T: StrandReal> pulp::WithSimd for ChainWave<'_, '_, T> {
             }
         }
     }
+}
+
+/// [`crate::limits::JointLimits::clamp`] for cones, lane by lane without branches: link `v` after
+/// `prev` (lengths `len`, `prev_len`) turned onto its joint's cone (`cos`, `sin` of the cone's angle)
+/// about `prev`, in the plane of the two. Returns the turned links, which lanes were outside their cone
+/// (`prev · v < cos · |prev| · |v|`, the clamp's own test), and which of those have no plane to turn
+/// in (`v` within rounding of `prev`'s line: the caller leaves them to the scalar clamp).
+#[inline(always)]
+fn cone_lanes<T: Real>(
+    prev: &Block<T>,
+    prev_len: &[T; LANES],
+    v: &Block<T>,
+    len: &[T; LANES],
+    cos: &[T; LANES],
+    sin: &[T; LANES],
+) -> (Block<T>, [bool; LANES], [bool; LANES]) {
+    let mut turn = *v;
+    let (mut out, mut odd) = ([false; LANES], [false; LANES]);
+    let tiny = T::EPSILON * T::lit(16.0);
+    for l in 0..LANES {
+        let (px, py, pz) = (prev.x[l], prev.y[l], prev.z[l]);
+        let (vx, vy, vz) = (v.x[l], v.y[l], v.z[l]);
+        let d = px * vx + py * vy + pz * vz;
+        let outside = !(d >= cos[l] * prev_len[l] * len[l]);
+        let (ax, ay, az) = (px / prev_len[l], py / prev_len[l], pz / prev_len[l]);
+        let along = ax * vx + ay * vy + az * vz;
+        let (wx, wy, wz) = (vx - ax * along, vy - ay * along, vz - az * along);
+        let pn = (wx * wx + wy * wy + wz * wz).sqrt();
+        let flat = !(pn > len[l] * tiny);
+        let (c, s) = (cos[l], sin[l]);
+        turn.x[l] = (ax * c + wx / pn * s) * len[l];
+        turn.y[l] = (ay * c + wy / pn * s) * len[l];
+        turn.z[l] = (az * c + wz / pn * s) * len[l];
+        out[l] = outside;
+        odd[l] = outside && flat;
+    }
+    (turn, out, odd)
 }
 
 /// `substeps` substeps of `sub` for one block's links (head end first), as wavefronts of up to
