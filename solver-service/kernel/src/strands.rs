@@ -508,12 +508,15 @@ fn cone_lanes<T: Real>(
         let (px, py, pz) = (prev.x[l], prev.y[l], prev.z[l]);
         let (vx, vy, vz) = (v.x[l], v.y[l], v.z[l]);
         let d = px * vx + py * vy + pz * vz;
-        let outside = !(d >= cos[l] * prev_len[l] * len[l]);
+        // Written so that NaN is outside, as the clamp's own test has it.
+        let within = d >= cos[l] * prev_len[l] * len[l];
+        let outside = !within;
         let (ax, ay, az) = (px / prev_len[l], py / prev_len[l], pz / prev_len[l]);
         let along = ax * vx + ay * vy + az * vz;
         let (wx, wy, wz) = (vx - ax * along, vy - ay * along, vz - az * along);
         let pn = (wx * wx + wy * wy + wz * wz).sqrt();
-        let flat = !(pn > len[l] * tiny);
+        let turnable = pn > len[l] * tiny;
+        let flat = !turnable;
         let (c, s) = (cos[l], sin[l]);
         turn.x[l] = (ax * c + wx / pn * s) * len[l];
         turn.y[l] = (ay * c + wy / pn * s) * len[l];
