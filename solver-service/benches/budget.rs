@@ -17,9 +17,9 @@
 use nalgebra::Vector3;
 use shared::{Command, RequestHeader, Status, Vec3};
 use solver_service::chain_set::ChainSet;
-use solver_service::scene::parse_scene;
 use std::time::Instant;
 use tractrix::{Chain, MoveOptions, Substeps};
+use world::scene::parse_scene;
 
 /// A small xorshift generator: the same moves every run.
 struct Rng(u64);

@@ -8,10 +8,10 @@ use shared::{Command, RequestHeader, SubstepMode, Vec3};
 use solver_service::chain_set::ChainSet;
 use solver_service::owners::LOCAL;
 use solver_service::persist::{JournalMode, Store};
-use solver_service::scene::default_scene;
 use solver_service::serve::answer;
 use solver_service::service::Solver;
 use std::time::Instant;
+use world::scene::default_scene;
 
 fn pct(v: &mut [u64], p: f64) -> u64 {
     v.sort_unstable();

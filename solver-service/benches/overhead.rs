@@ -18,12 +18,12 @@
 use nalgebra::Vector3;
 use shared::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Vec3};
 use solver_service::chain_set::ChainSet;
-use solver_service::scene::parse_scene;
 use solver_service::serve::Handler;
 use solver_service::service::Solver;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
+use world::scene::parse_scene;
 
 /// Moves per timed batch are chosen so that a batch is about this many link-steps.
 const BATCH_WORK: usize = 200_000;

@@ -9,7 +9,7 @@
 //! * *strands, SIMD*: the same sweep on the best instructions the CPU has (run-time detection);
 //! * *strands, SIMD, 2 threads spawned per frame*: the state cut in two halves, one swept on a scoped
 //!   thread spawned for the frame and one on the caller (the spawn is timed with the frame);
-//! * *bundle on two cores (the service's)*: `solver_service::bundle::Bundle`, the halves owned by the
+//! * *bundle on two cores (the service's)*: `world::two_cores::Bundle`, the halves owned by the
 //!   caller and by a helper thread that sleeps between frames (its wake-up is timed with the frame);
 //! * *service: decode + move*: the same move as a wire request to a scene's `[[bundle]]`
 //!   (`ChainSet::apply_wire`: the request checked, the wire targets converted, the bundle moved), what
@@ -30,10 +30,8 @@
 
 use nalgebra::Vector3;
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
-use solver_service::bundle::Bundle;
 use solver_service::chain_set::ChainSet;
 use solver_service::owners::LOCAL;
-use solver_service::scene::parse_scene;
 use solver_service::serve::answer;
 use solver_service::service::Solver;
 use std::hint::black_box;
@@ -41,6 +39,8 @@ use std::time::Instant;
 use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};
 use tractrix::strands::{Simd, StrandReal, Strands, best_simd};
 use tractrix::{Chain, MoveOptions, Real, Substeps};
+use world::scene::parse_scene;
+use world::two_cores::Bundle;
 
 const STRANDS: usize = 10_000;
 const LINKS: usize = 20;

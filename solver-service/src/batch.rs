@@ -118,7 +118,7 @@ pub fn run_batch(
 mod tests {
     use super::*;
     use crate::chain_set::ChainSet;
-    use crate::scene::default_scene;
+    use world::scene::default_scene;
 
     fn solver(set: ChainSet) -> Solver {
         Solver::new(set, None, std::time::Duration::ZERO)
@@ -177,7 +177,7 @@ mod tests {
     /// f32 is refused (too far: beyond 2¹² links), asking for f64 is refused.
     #[test]
     fn an_f32_planar_chain_is_served_in_f32() {
-        let scene = crate::scene::parse_scene(
+        let scene = world::scene::parse_scene(
             "[[chain]]\nname = \"hair\"\nspace = \"planar\"\nprecision = \"f32\"\nlinks = 20\nlink_length = 0.01\nshape = \"arc\"\nradius = 0.1\n",
             "f32.toml",
         )

@@ -9,15 +9,15 @@
 //!
 //! No I/O and no clock here.
 
-use crate::bundle::Bundle;
 use crate::request::{Checked, Refusal, check_header, refuse};
-use crate::scene::BundleSpec;
 use nalgebra::{Rotation3, Vector3};
 use shared::{
     ChainKind, Command, FLAG_POSE, JOINT_HEAD, Precision, RequestHeader, ResponseHeader,
     SubstepMode, Vec3, WireMethod,
 };
 use tractrix::strands::{LANES, StrandReal, Strands};
+use world::scene::BundleSpec;
+use world::two_cores::Bundle;
 
 /// What a request asks of a bundle, checked.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -70,7 +70,7 @@ pub fn decode<'a>(
         ..
     } = check_header(h, FLAG_POSE)?;
     let name = &spec.name;
-    if precision != Precision::Default && precision != spec.precision {
+    if precision != Precision::Default && precision != crate::wire::precision(spec.precision) {
         return Err(refuse!(
             BadOption,
             "bundle {name:?} is stored in another precision"
@@ -131,13 +131,13 @@ pub fn decode<'a>(
             }
             let substeps = match substep_mode {
                 SubstepMode::Default => spec.substeps,
-                SubstepMode::Fixed if (1..=spec.max_substeps()).contains(&h.substeps) => h.substeps,
+                SubstepMode::Fixed if (1..=max_substeps(spec)).contains(&h.substeps) => h.substeps,
                 SubstepMode::Fixed => {
                     return Err(refuse!(
                         BadOption,
                         "substeps {} outside 1..={}",
                         h.substeps,
-                        spec.max_substeps()
+                        max_substeps(spec)
                     ));
                 }
                 SubstepMode::MaxStep => {
@@ -166,40 +166,38 @@ pub fn decode<'a>(
     }
 }
 
-impl BundleSpec {
-    /// Most substeps a move may ask for.
-    pub fn max_substeps(&self) -> u32 {
-        crate::scene::MAX_SUBSTEPS_LIMIT
-    }
+/// Most substeps a move of a bundle may ask for.
+pub fn max_substeps(_spec: &BundleSpec) -> u32 {
+    world::scene::MAX_SUBSTEPS_LIMIT
+}
 
-    /// The work of `op` in block-steps (one block of [`LANES`] strands' links following once; about
-    /// as long as one link-step of a chain), for the service's budget.
-    pub fn estimate(&self, op: &BundleOp<'_>) -> u64 {
-        let blocks = u64::from(self.strands).div_ceil(LANES as u64);
-        let links = u64::from(self.links);
-        match *op {
-            BundleOp::Heads { substeps, .. } | BundleOp::Pose { substeps, .. } => blocks
-                .saturating_mul(links)
-                .saturating_mul(u64::from(substeps)),
-            _ => blocks.saturating_mul(links),
-        }
+/// The work of `op` on the bundle `spec` in block-steps (one block of [`LANES`] strands' links
+/// following once; about as long as one link-step of a chain), for the service's budget.
+pub fn estimate(spec: &BundleSpec, op: &BundleOp<'_>) -> u64 {
+    let blocks = u64::from(spec.strands).div_ceil(LANES as u64);
+    let links = u64::from(spec.links);
+    match *op {
+        BundleOp::Heads { substeps, .. } | BundleOp::Pose { substeps, .. } => blocks
+            .saturating_mul(links)
+            .saturating_mul(u64::from(substeps)),
+        _ => blocks.saturating_mul(links),
     }
+}
 
-    /// The description fields of a response.
-    pub fn describe(&self, h: &mut ResponseHeader) {
-        h.kind = ChainKind::Bundle as u32;
-        h.dims = 3;
-        h.n_links = self.links;
-        h.precision = self.precision as u32;
-        h.method = WireMethod::Tractrix as u32;
-        h.collision = 0;
-        h.substep_mode = SubstepMode::Fixed as u32;
-        h.substeps_default = self.substeps;
-        h.max_step = 0.0;
-        h.total_length = f64::from(self.links) * self.link_length;
-        h.thickness = 0.0;
-        h.set_name(&self.name);
-    }
+/// The description fields of a response for the bundle `spec`.
+pub fn describe(spec: &BundleSpec, h: &mut ResponseHeader) {
+    h.kind = ChainKind::Bundle as u32;
+    h.dims = 3;
+    h.n_links = spec.links;
+    h.precision = crate::wire::precision(spec.precision) as u32;
+    h.method = WireMethod::Tractrix as u32;
+    h.collision = 0;
+    h.substep_mode = SubstepMode::Fixed as u32;
+    h.substeps_default = spec.substeps;
+    h.max_step = 0.0;
+    h.total_length = f64::from(spec.links) * spec.link_length;
+    h.thickness = 0.0;
+    h.set_name(&spec.name);
 }
 
 /// A bundle's strands in one precision.
@@ -258,7 +256,7 @@ impl Live {
     pub fn new(spec: &BundleSpec) -> Result<Self, String> {
         Ok(Live {
             form: match spec.precision {
-                Precision::F32 => Form::F32(state(spec)?),
+                world::scene::Precision::F32 => Form::F32(state(spec)?),
                 _ => Form::F64(state(spec)?),
             },
             spec: spec.clone(),

@@ -12,15 +12,15 @@
 
 use crate::owners::{LOCAL, Owners};
 use crate::request::{self, Outcome, Refusal, Request, Residual, refuse};
-use crate::scene::{ChainSpec, Scene};
 use nalgebra::Vector3;
-use shared::{Precision, RequestHeader, ResponseHeader, Vec3};
+use shared::{RequestHeader, ResponseHeader, Vec3};
 use tractrix::angles::rotation_between;
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, move_joint_colliding,
 };
 use tractrix::math::{CompensatedSum, Embed3, Real, Vector};
 use tractrix::{Chain, ChainError, MoveOptions, MoveOutcome, ReachOptions, ReachWorkspace, reach};
+use world::scene::{ChainSpec, Scene};
 
 /// A chain in the precision and dimension its scene declared, with its scene state (for reset) and the
 /// buffers its requests reuse (allocated once).
@@ -196,7 +196,7 @@ where
 
 /// The links each following instrument holds: those within its reach of the joint it follows (its
 /// radius, plus half its length for a capsule, in shortest links, and one more on each side).
-fn holding(spec: &ChainSpec, c: &crate::scene::CollisionSpec) -> Vec<tractrix::collision::Holding> {
+fn holding(spec: &ChainSpec, c: &world::scene::CollisionSpec) -> Vec<tractrix::collision::Holding> {
     let n = spec.lengths.len();
     c.instruments
         .iter()
@@ -306,9 +306,9 @@ impl ChainSet {
         let mut geometry = Vec::with_capacity(scene.chains.len());
         for spec in &scene.chains {
             let g = match (spec.dims, spec.precision) {
-                (2, Precision::F32) => held(spec).map(Geometry::Planar32),
+                (2, world::scene::Precision::F32) => held(spec).map(Geometry::Planar32),
                 (2, _) => held(spec).map(Geometry::Planar64),
-                (_, Precision::F32) => held(spec).map(Geometry::Spatial32),
+                (_, world::scene::Precision::F32) => held(spec).map(Geometry::Spatial32),
                 _ => held(spec).map(Geometry::Spatial64),
             }
             .map_err(|e| format!("chain {:?}: {e}", spec.name))?;
@@ -358,7 +358,7 @@ impl ChainSet {
     /// substeps than its chain allows is refused here as the kernel would refuse it (`too-many-substeps`).
     pub fn estimate(&self, req: &Request<'_>) -> Result<u64, Refusal> {
         if let Request::Bundle { index, op, .. } = req {
-            return Ok(self.bundles[*index].spec.estimate(op));
+            return Ok(crate::bundles::estimate(&self.bundles[*index].spec, op));
         }
         let Some(chain) = req.chain() else {
             return Ok(0);
@@ -511,7 +511,7 @@ impl ChainSet {
             }
         }
         for b in &self.bundles {
-            let cost = b.spec.estimate(&crate::bundles::BundleOp::Describe);
+            let cost = crate::bundles::estimate(&b.spec, &crate::bundles::BundleOp::Describe);
             if cost > self.budget {
                 let links = format!("{} strands of {} links", b.spec.strands, b.spec.links);
                 return Some((b.spec.links_line, over("bundle", &b.spec.name, links, cost)));
@@ -631,7 +631,7 @@ impl ChainSet {
         if let (Ok(o), Some((_, b))) = (result, bundle)
             && o.describe
         {
-            b.spec.describe(&mut h);
+            crate::bundles::describe(&b.spec, &mut h);
         }
         h
     }

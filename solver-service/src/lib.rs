@@ -1,27 +1,28 @@
 //! The tractrix solver service: a long-running process that holds the chains of a scene and answers
 //! "move this point of the chain to P" over iceoryx2 shared memory. The numbers come from the I/O-free
-//! kernel crate [`tractrix`]; this crate is everything around it.
+//! kernel crate [`tractrix`], the chains' model from the wire-free crate [`world`] (scenes, the
+//! bundles' two-core helper); this crate is the doors around them.
 //!
-//! * [`scene`]: scene files (read, validate, shapes) into [`scene::ChainSpec`]s of kernel types;
+//! * [`scene_file`]: reading a scene file, which [`world::scene`] parses and validates;
+//! * [`wire`]: the world's enums as the wire numbers them, the bounds checked against the wire's;
 //! * [`request`]: the typed request path (`decode` → [`chain_set::ChainSet::apply`] → `encode`);
 //! * [`chain_set`]: the chains of a scene, flat, addressed by handle, and the one owner of rollback;
 //! * [`serve`]: the one serving loop (generic over the iceoryx2 service variant) and its ports;
 //! * [`service`]: the solver as a [`serve::Handler`], with persistence and shutdown;
 //! * [`echo`]: the raw echo, the latency bench's baseline, served by the same loop;
 //! * [`persist`]: snapshots and the journal (the only bincode user);
-//! * [`bundle`]: many strands (hair, fur) swept on both cores;
 //! * [`batch`], [`unix_socket`]: the same requests from a file and over a Unix socket.
 
 pub mod batch;
-pub mod bundle;
 pub mod bundles;
 pub mod chain_set;
 pub mod echo;
 pub mod owners;
 pub mod persist;
 pub mod request;
-pub mod scene;
+pub mod scene_file;
 pub mod serve;
 pub mod service;
 pub mod shm;
 pub mod unix_socket;
+pub mod wire;

@@ -8,13 +8,14 @@ use shared::WaitMode;
 use solver_service::batch::{Format, run_batch};
 use solver_service::chain_set::ChainSet;
 use solver_service::persist::JournalMode;
-use solver_service::scene::{Scene, SceneError, default_scene, load_scene};
+use solver_service::scene_file::load_scene;
 use solver_service::serve::LoopOptions;
 use solver_service::service::{Persistence, ServiceConfig, run, run_echo};
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
+use world::scene::{Scene, SceneError, default_scene};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -168,9 +169,7 @@ fn main() -> ExitCode {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("solver-service: {e:#}");
-            if e.downcast_ref::<solver_service::scene::SceneError>()
-                .is_some()
-            {
+            if e.downcast_ref::<world::scene::SceneError>().is_some() {
                 ExitCode::from(2)
             } else {
                 ExitCode::FAILURE
@@ -192,7 +191,7 @@ fn chain_set(a: &ServeArgs) -> Result<ChainSet> {
     let file = a
         .scene
         .as_ref()
-        .map_or(solver_service::scene::DEFAULT_SCENE_NAME.to_string(), |p| {
+        .map_or(world::scene::DEFAULT_SCENE_NAME.to_string(), |p| {
             p.display().to_string()
         });
     let mut set = ChainSet::new(&sc).map_err(|e| SceneError {

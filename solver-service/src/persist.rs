@@ -823,7 +823,7 @@ fn encode_snapshot(set: &ChainSet, journal: bool) -> Result<(Vec<u8>, u64), Stri
                 ChainSnapshot {
                     name: spec.name.clone(),
                     dims: spec.dims,
-                    precision: spec.precision as u32,
+                    precision: crate::wire::precision(spec.precision) as u32,
                     lengths: spec.lengths.clone(),
                     origin,
                     links,
@@ -1140,7 +1140,10 @@ fn install(set: &mut ChainSet, snap: &Snapshot, with_instruments: bool) -> Resul
     // Check everything before changing anything.
     let mut built = Vec::with_capacity(set.len());
     for ((d, geometry), s) in set.specs().iter().zip(set.geometry()).zip(&snap.chains) {
-        if s.name != d.name || s.dims != d.dims || s.precision != d.precision as u32 {
+        if s.name != d.name
+            || s.dims != d.dims
+            || s.precision != crate::wire::precision(d.precision) as u32
+        {
             return Err(format!(
                 "chain {:?} ({}D) in the snapshot, {:?} ({}D) in the scene",
                 s.name, s.dims, d.name, d.dims
@@ -1247,8 +1250,8 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::default_scene;
     use shared::{Command, JOINT_HEAD};
+    use world::scene::default_scene;
 
     fn joints(set: &ChainSet) -> Vec<u64> {
         (0..set.len() as u32)
@@ -1353,7 +1356,7 @@ mod tests {
     #[test]
     fn a_restored_chain_keeps_its_limits() {
         let dir = tempfile::tempdir().unwrap();
-        let scene = crate::scene::parse_scene(
+        let scene = world::scene::parse_scene(
             "[[chain]]\nname = \"s\"\nlinks = 40\nlink_length = 0.5\nmin_bend_radius = 1.0\n",
             "t.toml",
         )
@@ -1554,7 +1557,7 @@ mod tests {
             .unwrap()
             .snapshot(&set)
             .unwrap();
-        let other = crate::scene::parse_scene(
+        let other = world::scene::parse_scene(
             "[[chain]]\nname = \"rope\"\nlinks = 40\nlink_length = 0.5\n",
             "o.toml",
         )

@@ -6,16 +6,16 @@
 //!
 //! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
 
-use crate::scene::ChainSpec;
 use shared::{
-    ChainKind, Command, FLAG_ANGLES, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision,
-    REASON_LEN, RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+    Command, FLAG_ANGLES, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, REASON_LEN,
+    RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use std::fmt::Write as _;
 use tractrix::math::Embed3;
 use tractrix::{
     ChainError, Method, MoveOptions, ReachError, ReachOptions, Real, Strategy, Substeps, Vector,
 };
+use world::scene::{ChainKind, ChainSpec};
 
 /// Highest `max_iterations` a reach request may ask for.
 pub const MAX_REACH_ITERATIONS: u32 = 100_000;
@@ -540,12 +540,12 @@ pub fn decode<'a>(
             chains.len()
         )
     })?;
-    if precision != Precision::Default && precision != spec.precision {
+    if precision != Precision::Default && precision != crate::wire::precision(spec.precision) {
         return Err(refuse!(
             BadOption,
             "chain {:?} is stored in {}",
             spec.name,
-            if spec.precision == Precision::F32 {
+            if spec.precision == world::scene::Precision::F32 {
                 "f32"
             } else {
                 "f64"
@@ -820,7 +820,7 @@ pub fn finish(h: &mut ResponseHeader, residual: Residual, written: &[Vec3]) {
 
 /// The description fields of a chain.
 fn describe(spec: &ChainSpec, h: &mut ResponseHeader) {
-    h.kind = spec.kind as u32;
+    h.kind = crate::wire::kind(spec.kind) as u32;
     (h.limits, h.limit_value) = match &spec.limits {
         None => (shared::LIMITS_NONE, 0.0),
         Some(l) => {
@@ -846,9 +846,9 @@ fn describe(spec: &ChainSpec, h: &mut ResponseHeader) {
     };
     h.dims = spec.dims;
     h.n_links = spec.lengths.len() as u32;
-    h.precision = spec.precision as u32;
+    h.precision = crate::wire::precision(spec.precision) as u32;
     h.method = method_to_wire(spec.moves.method) as u32;
-    h.collision = spec.collision_bits();
+    h.collision = crate::wire::collision_bits(spec);
     match spec.moves.substeps {
         Substeps::Fixed(k) => {
             h.substep_mode = SubstepMode::Fixed as u32;

@@ -82,7 +82,7 @@ mod tests {
 
     #[test]
     fn a_move_over_the_socket_matches_the_same_move_in_process() {
-        let scene = crate::scene::default_scene();
+        let scene = world::scene::default_scene();
         let mut served = Solver::new(
             ChainSet::new(&scene).unwrap(),
             None,

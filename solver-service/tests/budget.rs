@@ -6,7 +6,7 @@
 
 use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
 use solver_service::chain_set::{ChainSet, DEFAULT_BUDGET};
-use solver_service::scene::parse_scene;
+use world::scene::parse_scene;
 
 fn joints(set: &ChainSet, chain: u32) -> Vec<Vec3> {
     let n = set.specs()[chain as usize].lengths.len() + 1;

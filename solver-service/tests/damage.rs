@@ -6,8 +6,8 @@
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
 use solver_service::chain_set::ChainSet;
 use solver_service::persist::{JournalMode, Store};
-use solver_service::scene::{Scene, parse_scene};
 use std::path::Path;
+use world::scene::{Scene, parse_scene};
 
 fn scene() -> Scene {
     parse_scene(

@@ -20,9 +20,9 @@ use proptest::prelude::*;
 use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
 use solver_service::chain_set::ChainSet;
 use solver_service::owners::LOCAL;
-use solver_service::scene::parse_scene;
 use solver_service::serve::answer;
 use solver_service::service::Solver;
+use world::scene::parse_scene;
 
 /// Every chain form, with small substep and iteration limits so that no request can take long.
 const SCENE: &str = r#"
@@ -133,10 +133,7 @@ fn scene_text(max_limits: bool) -> String {
         .lines()
         .map(|l| {
             if l.starts_with("max_substeps") {
-                format!(
-                    "max_substeps = {}",
-                    solver_service::scene::MAX_SUBSTEPS_LIMIT
-                )
+                format!("max_substeps = {}", world::scene::MAX_SUBSTEPS_LIMIT)
             } else if l.starts_with("max_iterations") {
                 "max_iterations = 100000".to_string()
             } else if l.starts_with("collision_iterations") {
@@ -347,7 +344,7 @@ fn check_invariants(set: &ChainSet) -> Result<(), TestCaseError> {
         // chain's precision at each position's magnitude (positions are compensated prefix sums, the
         // link vectors keep their lengths to an ulp). The bound is that, not a fraction of the length
         // growing with the distance from the origin (issue 15).
-        let eps = if spec.precision == shared::Precision::F32 {
+        let eps = if spec.precision == world::scene::Precision::F32 {
             f64::from(f32::EPSILON)
         } else {
             f64::EPSILON

@@ -6,7 +6,6 @@ use clients::process::Proc;
 use clients::{ClientWait, ConnectOptions, Connection};
 use iceoryx2::prelude::local;
 use solver_service::chain_set::ChainSet;
-use solver_service::scene::{Scene, default_scene};
 use solver_service::serve::{LoopOptions, ServerPorts, serve};
 use solver_service::service::Solver;
 use std::path::{Path, PathBuf};
@@ -16,6 +15,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
+use world::scene::{Scene, default_scene};
 
 pub use clients::process::START_TIMEOUT;
 

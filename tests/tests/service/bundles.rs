@@ -5,9 +5,9 @@
 
 use clients::Connection;
 use shared::{ChainKind, Command, FLAG_POSE, RequestHeader, Status, SubstepMode, Vec3, WireMethod};
-use solver_service::scene::parse_scene;
 use std::time::{Duration, Instant};
 use tests::InProcess;
+use world::scene::parse_scene;
 
 const STRANDS: usize = 3001;
 const LINKS: usize = 20;

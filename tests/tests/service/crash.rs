@@ -11,12 +11,12 @@
 use clients::{ClientWait, ConnectOptions, Connection};
 use shared::{Command, RequestHeader, Status, Vec3};
 use solver_service::chain_set::ChainSet;
-use solver_service::scene::default_scene;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use tests::{Service, unique_prefix};
+use world::scene::default_scene;
 
 /// Every chain's joints as bits, and the sequence number, from the mirror.
 fn mirror_state(set: &ChainSet) -> (Vec<u64>, u64) {

@@ -4,8 +4,8 @@
 //! from the response's joints), links keep their lengths, and a refused request changes nothing.
 
 use shared::{Command, RequestHeader, Status, Vec3};
-use solver_service::scene::parse_scene;
 use tests::InProcess;
+use world::scene::parse_scene;
 
 const SCENE: &str = r#"
 [[chain]]

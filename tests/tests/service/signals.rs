@@ -15,11 +15,11 @@ use clients::{ClientWait, ConnectOptions, Connection};
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
 use solver_service::chain_set::ChainSet;
 use solver_service::persist::{JournalMode, Store};
-use solver_service::scene::default_scene;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 use tests::{Service, unique_prefix};
+use world::scene::default_scene;
 
 /// How long a signalled service may take to exit, final snapshot included, before it counts as running
 /// on (the bug this guards against never exited at all).

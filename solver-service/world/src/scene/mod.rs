@@ -81,13 +81,12 @@ mod shapes;
 mod validate;
 
 use nalgebra::Vector3;
-use shared::{COLLISION_OBSTACLES, COLLISION_PAPER_SPHERES, COLLISION_SELF, ChainKind, Precision};
 use std::fmt;
-use tractrix::collision::{CollisionOptions, Obstacle, Scheme};
+use tractrix::collision::{CollisionOptions, Obstacle};
 use tractrix::{JointLimits, LimitKind, MoveOptions, ReachOptions};
 
 /// The scene served when no file is given: the paper's rope, snake and planar manipulator.
-pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
+pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/default.toml");
 /// Name under which the default scene is reported in errors.
 pub const DEFAULT_SCENE_NAME: &str = "<default scene>";
 /// Largest scene file read (bytes).
@@ -127,6 +126,24 @@ impl fmt::Display for SceneError {
 
 impl std::error::Error for SceneError {}
 
+/// What a chain is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ChainKind {
+    /// A rope, suture or snake: every joint free.
+    Free,
+    /// A manipulator whose joint 0 is fixed.
+    FixedBase,
+}
+
+/// The arithmetic and storage of a chain or bundle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Precision {
+    /// Double precision.
+    F64,
+    /// Single precision.
+    F32,
+}
+
 /// One chain of a validated scene, everything resolved into the kernel's types.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChainSpec {
@@ -149,7 +166,7 @@ pub struct ChainSpec {
     pub total_length: f64,
     /// The shortest link (the unit of `max_step`).
     pub shortest: f64,
-    /// Largest coordinate a target of this chain may have ([`shared::max_coordinate`]).
+    /// Largest coordinate a target of this chain may have ([`crate::sizes::max_coordinate`]).
     pub max_coordinate: f64,
     /// Diameter, for collision and pictures.
     pub thickness: f64,
@@ -191,27 +208,6 @@ impl LimitSpec {
     }
 }
 
-impl ChainSpec {
-    /// The wire's collision bits (`shared::COLLISION_*`).
-    pub fn collision_bits(&self) -> u32 {
-        self.collision.as_ref().map_or(0, |s| {
-            (if s.options.self_collision {
-                COLLISION_SELF
-            } else {
-                0
-            }) | (if s.obstacles.is_empty() && s.instruments.is_empty() {
-                0
-            } else {
-                COLLISION_OBSTACLES
-            }) | (if s.options.scheme == Scheme::PaperSpheres {
-                COLLISION_PAPER_SPHERES
-            } else {
-                0
-            })
-        })
-    }
-}
-
 /// A chain's collision handling as its scene declares it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CollisionSpec {
@@ -248,7 +244,7 @@ pub struct BundleSpec {
     pub substeps: u32,
     /// Whether a large move may use a second thread.
     pub two_cores: bool,
-    /// Largest coordinate a target may have ([`shared::max_coordinate`]).
+    /// Largest coordinate a target may have ([`crate::sizes::max_coordinate`]).
     pub max_coordinate: f64,
 }
 
@@ -270,25 +266,6 @@ pub struct Scene {
     /// scene whose ropes need more collision work per move than the default (fine ropes with many
     /// collision passes) says so itself; `--budget` overrides it.
     pub budget: Option<u64>,
-}
-
-/// Reads and validates a scene file.
-pub fn load_scene(path: &std::path::Path) -> Result<Scene, SceneError> {
-    let file = path.display().to_string();
-    let whole = |message: String| SceneError {
-        file: file.clone(),
-        line: 0,
-        message,
-    };
-    let meta = std::fs::metadata(path).map_err(|e| whole(format!("cannot read: {e}")))?;
-    if meta.len() > MAX_SCENE_BYTES {
-        return Err(whole(format!(
-            "{} bytes; a scene file may have at most {MAX_SCENE_BYTES}",
-            meta.len()
-        )));
-    }
-    let text = std::fs::read_to_string(path).map_err(|e| whole(format!("cannot read: {e}")))?;
-    parse_scene(&text, &file)
 }
 
 /// The embedded default scene.

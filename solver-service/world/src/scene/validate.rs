@@ -9,10 +9,12 @@ use super::{
     BundleSpec, ChainSpec, CollisionSpec, LimitSpec, MAX_INSTRUMENTS, MAX_OBSTACLES,
     MAX_SCENE_BUNDLE_JOINTS, MAX_SCENE_LINKS, MAX_SUBSTEPS_LIMIT, Scene, SceneError, shapes,
 };
-use nalgebra::Vector3;
-use shared::{
-    ChainKind, MAX_BUNDLE_JOINTS, MAX_BUNDLE_STRANDS, MAX_CHAINS, MAX_LINKS, NAME_LEN, Precision,
+use super::{ChainKind, Precision};
+use crate::sizes::{
+    MAX_BUNDLE_JOINTS, MAX_BUNDLE_STRANDS, MAX_CHAINS, MAX_HELD, MAX_LINKS, MAX_NAME_BYTES,
+    max_coordinate,
 };
+use nalgebra::Vector3;
 use std::ops::Range;
 use toml::Spanned;
 use tractrix::collision::{CollisionOptions, Obstacle, Scheme};
@@ -36,9 +38,9 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
     if raw.chain.is_empty() && raw.bundle.is_empty() {
         return Err(whole("the scene declares no [[chain]] and no [[bundle]]"));
     }
-    if raw.chain.len() > MAX_CHAINS as usize {
+    if raw.chain.len() > MAX_CHAINS {
         return Err(at(
-            raw.chain[MAX_CHAINS as usize].span(),
+            raw.chain[MAX_CHAINS].span(),
             format!(
                 "{} chains; a scene may have at most {MAX_CHAINS}",
                 raw.chain.len()
@@ -195,9 +197,9 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         }
         chains.push(spec);
     }
-    if chains.len() + raw.bundle.len() > MAX_CHAINS as usize {
+    if chains.len() + raw.bundle.len() > MAX_CHAINS {
         return Err(at(
-            raw.bundle[MAX_CHAINS as usize - chains.len()].span(),
+            raw.bundle[MAX_CHAINS - chains.len()].span(),
             format!(
                 "{} chains and {} bundles; a scene may have at most {MAX_CHAINS} in all",
                 chains.len(),
@@ -267,11 +269,11 @@ fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
         b.strands.as_ref().ok_or_else(|| need("strands"))?,
         "strands",
         1,
-        i64::from(MAX_BUNDLE_STRANDS),
+        MAX_BUNDLE_STRANDS as i64,
     )?;
     let links_field = b.links.as_ref().ok_or_else(|| need("links"))?;
-    let links = f.count(links_field, "links", 1, i64::from(MAX_BUNDLE_JOINTS) - 1)?;
-    if (strands as usize) * (links as usize + 1) > MAX_BUNDLE_JOINTS as usize {
+    let links = f.count(links_field, "links", 1, MAX_BUNDLE_JOINTS as i64 - 1)?;
+    if (strands as usize) * (links as usize + 1) > MAX_BUNDLE_JOINTS {
         return Err(f.err(
             links_field.span(),
             "links",
@@ -304,7 +306,7 @@ fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
         &b.columns,
         "columns",
         1,
-        i64::from(MAX_BUNDLE_STRANDS),
+        MAX_BUNDLE_STRANDS as i64,
         (f64::from(strands).sqrt().ceil() as u32).max(1),
     )?;
     let hang = match &b.hang {
@@ -331,7 +333,7 @@ fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
         .collect();
     // Every joint must stay where the precision can carry the link lengths.
     let reach = f64::from(links) * link_length;
-    let max_coordinate = shared::max_coordinate(link_length, precision == Precision::F32);
+    let max_coordinate = max_coordinate(link_length, precision == Precision::F32);
     let far = heads
         .iter()
         .map(|h| h.abs().max() + reach)
@@ -484,16 +486,17 @@ struct Fields<'a, R = RawChain> {
 }
 
 impl<R> Fields<'_, R> {
-    /// The table's name: 1..`NAME_LEN` bytes, no control characters.
+    /// The table's name: 1..=`MAX_NAME_BYTES` bytes, no control characters.
     fn check_name(&self, span: Range<usize>) -> Result<(), SceneError> {
         let name = self.name;
-        if name.is_empty() || name.len() >= NAME_LEN || name.chars().any(|ch| ch.is_control()) {
+        if name.is_empty() || name.len() > MAX_NAME_BYTES || name.chars().any(|ch| ch.is_control())
+        {
             return Err(self.err(
                 span,
                 "name",
                 format!(
                     "{name:?} must have 1..={} bytes and no control characters",
-                    NAME_LEN - 1
+                    MAX_NAME_BYTES
                 ),
             ));
         }
@@ -734,14 +737,11 @@ fn chain(
             }
             v.sort_unstable();
             v.dedup();
-            if v.len() != a.get_ref().len() || v.len() > shared::MAX_HELD as usize {
+            if v.len() != a.get_ref().len() || v.len() > MAX_HELD {
                 return Err(f.err(
                     a.span(),
                     "anchors",
-                    format!(
-                        "anchors must be distinct joints, at most {}",
-                        shared::MAX_HELD
-                    ),
+                    format!("anchors must be distinct joints, at most {}", MAX_HELD),
                 ));
             }
             v
@@ -750,7 +750,7 @@ fn chain(
     // Free chains must start where positions can hold their link lengths (requests beyond that are
     // refused as too far; a chain that starts there could never be moved).
     let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
-    let max_coordinate = shared::max_coordinate(shortest, precision == Precision::F32);
+    let max_coordinate = max_coordinate(shortest, precision == Precision::F32);
     let far = points.iter().fold(0.0f64, |m, p| m.max(p.amax()));
     if kind == ChainKind::Free && far > max_coordinate {
         let span = c.base.as_ref().map(|b| b.span()).unwrap_or(c.name.span());
@@ -1042,7 +1042,7 @@ fn geometry(f: &Fields<'_>, shape: Shape) -> Result<(Vec<Vector3<f64>>, Vec<f64>
             }
         }
         let n = pts.get_ref().len();
-        if !(2..=MAX_LINKS as usize + 1).contains(&n) {
+        if !(2..=MAX_LINKS + 1).contains(&n) {
             return Err(f.err(
                 pts.span(),
                 "points",

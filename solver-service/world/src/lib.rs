@@ -1,0 +1,14 @@
+//! The world of a solver service: the chains a scene declares, wire-free. No wire types, no iceoryx2,
+//! no bincode and no clock: the service (`solver-service`) decodes requests into calls of this crate
+//! and encodes what they return; a Rust simulator may use it without a service.
+//!
+//! * [`scene`]: scene text (read, validate, shapes) into [`scene::ChainSpec`]s and
+//!   [`scene::BundleSpec`]s of kernel types, every error with its line and field;
+//! * [`sizes`]: the bounds on everything a scene or a request may ask for;
+//! * [`two_cores`]: many strands (hair, fur) swept on both cores.
+//!
+//! The numbers come from the I/O-free kernel crate [`tractrix`].
+
+pub mod scene;
+pub mod sizes;
+pub mod two_cores;
