@@ -15,7 +15,7 @@
 //! time is in the column beside. `BUDGET_BENCH_MOVES` (default 60) sets the moves per chain.
 
 use nalgebra::Vector3;
-use shared::{Command, RequestHeader, Status, Vec3};
+use shared::{Command, RequestHeader, Vec3};
 use solver_service::chain_set::ChainSet;
 use std::time::Instant;
 use tractrix::{Chain, MoveOptions, Substeps};
@@ -144,9 +144,9 @@ fn main() {
                     }
                     Err(e) => {
                         refused_ms.push(ms);
-                        match e.status {
-                            Status::OverBudget => over += 1,
-                            Status::Locked => locked += 1,
+                        match e.cause {
+                            world::refusal::Cause::OverBudget => over += 1,
+                            world::refusal::Cause::Locked => locked += 1,
                             _ => {}
                         }
                     }

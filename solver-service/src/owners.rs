@@ -176,7 +176,7 @@ impl Owners {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use shared::{MAX_GRASPS_PER_CLIENT, Status, Vec3};
+    use shared::{MAX_GRASPS_PER_CLIENT, Vec3};
 
     fn grasp(joint: usize) -> Request<'static> {
         Request::Grasp {
@@ -208,7 +208,7 @@ mod tests {
             take_over: true,
         };
         let e = owners.check(a, &take).unwrap_err();
-        assert_eq!(e.status, Status::BadOption, "{}", e.reason());
+        assert_eq!(e.cause, world::refusal::Cause::BadOption, "{}", e.reason());
         assert!(
             e.reason().contains("the most one client may"),
             "{}",

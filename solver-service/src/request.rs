@@ -7,14 +7,10 @@
 //! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
 
 use shared::{
-    Command, FLAG_ANGLES, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, REASON_LEN,
-    RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+    Command, FLAG_ANGLES, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader,
+    ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
-use std::fmt::Write as _;
-use tractrix::math::Embed3;
-use tractrix::{
-    ChainError, Method, MoveOptions, ReachError, ReachOptions, Real, Strategy, Substeps, Vector,
-};
+use tractrix::{Method, MoveOptions, ReachOptions, Strategy, Substeps};
 use world::scene::{ChainKind, ChainSpec};
 
 /// Highest `max_iterations` a reach request may ask for.
@@ -188,212 +184,8 @@ pub enum Residual {
     },
 }
 
-/// A refused request: the status, what was wrong, and how far a reach got.
-#[derive(Debug, Clone)]
-pub struct Refusal {
-    /// Never [`Status::Ok`].
-    pub status: Status,
-    reason: [u8; REASON_LEN],
-    /// Bytes of `reason` used (below [`REASON_LEN`], which fits a byte).
-    len: u8,
-    /// Reach: the residual reached (unreachable: the distance to the workspace).
-    pub residual: f64,
-    /// Reach: the iterations spent.
-    pub iterations: u32,
-    /// A move stopped by collision handling (locked, over the budget): the substep where it stopped.
-    pub substeps: u32,
-}
-
-impl Refusal {
-    /// A refusal with a reason formatted into the fixed buffer (cut at [`REASON_LEN`] − 1 bytes).
-    pub fn new(status: Status, args: std::fmt::Arguments<'_>) -> Self {
-        let mut r = Refusal {
-            status,
-            reason: [0; REASON_LEN],
-            len: 0,
-            residual: 0.0,
-            iterations: 0,
-            substeps: 0,
-        };
-        let _ = r.write_fmt(args);
-        r
-    }
-
-    /// The reason as text.
-    pub fn reason(&self) -> &str {
-        std::str::from_utf8(&self.reason[..usize::from(self.len)]).unwrap_or("")
-    }
-}
-
-const _: () = assert!(
-    REASON_LEN <= u8::MAX as usize,
-    "a reason's length must fit a byte"
-);
-
-impl std::fmt::Write for Refusal {
-    fn write_str(&mut self, s: &str) -> std::fmt::Result {
-        for ch in s.chars() {
-            let mut b = [0u8; 4];
-            let e = ch.encode_utf8(&mut b).as_bytes();
-            let len = usize::from(self.len);
-            if len + e.len() >= REASON_LEN {
-                return Ok(());
-            }
-            self.reason[len..len + e.len()].copy_from_slice(e);
-            // Below REASON_LEN (96): fits the byte.
-            self.len = (len + e.len()) as u8;
-        }
-        Ok(())
-    }
-}
-
-macro_rules! refuse {
-    ($status:ident, $($fmt:tt)*) => {
-        $crate::request::Refusal::new(shared::Status::$status, format_args!($($fmt)*))
-    };
-}
-pub(crate) use refuse;
-
-impl From<ChainError> for Refusal {
-    fn from(e: ChainError) -> Self {
-        match e {
-            ChainError::NonFinite => {
-                refuse!(NonFinite, "target does not fit the chain's precision")
-            }
-            ChainError::JointOutOfRange { joint, last } => {
-                refuse!(JointOutOfRange, "joint {joint} (the chain has 0..={last})")
-            }
-            ChainError::TooManySubsteps { required, limit } => refuse!(
-                TooManySubsteps,
-                "the move needs {required} substeps; the chain allows {limit}"
-            ),
-            ChainError::BadOption(s) => refuse!(BadOption, "{s}"),
-            ChainError::Locked {
-                substep,
-                iterations,
-                penetration,
-            } => {
-                let mut r = refuse!(
-                    Locked,
-                    "links still {penetration:.2e} too close after {iterations} passes at substep {substep}"
-                );
-                r.substeps = substep;
-                r
-            }
-            ChainError::HeldUnreachable {
-                held,
-                nearest,
-                residual,
-            } => {
-                let mut r = refuse!(
-                    Unreachable,
-                    "{residual:.3e} out of reach of held joint {held}; nearest {}",
-                    Point(nearest[0], nearest[1], nearest[2])
-                );
-                r.residual = residual;
-                r
-            }
-            ChainError::HeldNotConverged {
-                iterations,
-                residual,
-            } => {
-                let mut r = refuse!(
-                    NotConverged,
-                    "held side: {iterations} iterations, residual {residual:.3e}"
-                );
-                r.iterations = iterations;
-                r.residual = residual;
-                r
-            }
-            ChainError::JointLimit {
-                joint,
-                angle,
-                excess,
-            } => refuse!(
-                JointLimit,
-                "joint {joint} would turn {:.3}°, {:.2e}° beyond its limit",
-                angle.to_degrees(),
-                excess.to_degrees()
-            ),
-            ChainError::OverWork {
-                substep,
-                work,
-                limit,
-            } => {
-                let mut r = refuse!(
-                    OverBudget,
-                    "collision work reached {work:.2e} link-steps at substep {substep}; the budget \
-                     is {limit:.2e} (--budget): a shorter move, or a larger --budget"
-                );
-                r.substeps = substep;
-                r
-            }
-            e @ (ChainError::Empty | ChainError::BadLength { .. }) => refuse!(Internal, "{e}"),
-        }
-    }
-}
-
-/// A point in a reason: `(x, y, z)`, six decimals.
-struct Point(f64, f64, f64);
-
-impl Point {
-    fn of<T: Real, const D: usize>(v: &Vector<T, D>) -> Self
-    where
-        Vector<T, D>: Embed3<T>,
-    {
-        let n = v.to_3d();
-        Point(n.x.to_f64(), n.y.to_f64(), n.z.to_f64())
-    }
-}
-
-impl std::fmt::Display for Point {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "({:.6}, {:.6}, {:.6})", self.0, self.1, self.2)
-    }
-}
-
-impl<T: Real, const D: usize> From<ReachError<T, D>> for Refusal
-where
-    Vector<T, D>: Embed3<T>,
-{
-    fn from(e: ReachError<T, D>) -> Self {
-        match e {
-            ReachError::Unreachable { nearest, residual } => {
-                let mut r = refuse!(
-                    Unreachable,
-                    "{:.3e} outside the workspace; nearest {}",
-                    residual.to_f64(),
-                    Point::of(&nearest)
-                );
-                r.residual = residual.to_f64();
-                r
-            }
-            ReachError::NotConverged {
-                iterations,
-                residual,
-                reached,
-            } => {
-                let mut r = match reached {
-                    Some(n) => refuse!(
-                        NotConverged,
-                        "{iterations} iterations, residual {:.3e}; nearest reached {}",
-                        residual.to_f64(),
-                        Point::of(&n)
-                    ),
-                    None => refuse!(
-                        NotConverged,
-                        "{iterations} iterations, residual {:.3e}",
-                        residual.to_f64()
-                    ),
-                };
-                r.iterations = iterations;
-                r.residual = residual.to_f64();
-                r
-            }
-            ReachError::Chain(e) => e.into(),
-        }
-    }
-}
+pub use world::refusal::Refusal;
+pub(crate) use world::refuse;
 
 /// The kernel method a wire method asks for (`None`: the chain's default).
 pub fn method_from_wire(m: WireMethod) -> Option<Method> {
@@ -797,8 +589,8 @@ pub fn encode(
             }
         }
         Err(r) => {
-            h.status = r.status as u32;
-            h.reason = r.reason;
+            h.status = crate::wire::status(r.cause) as u32;
+            h.reason = crate::wire::reason(r);
             h.residual = r.residual;
             h.iterations = r.iterations;
             h.substeps = r.substeps;

@@ -3,6 +3,7 @@
 
 use shared::{COLLISION_OBSTACLES, COLLISION_PAPER_SPHERES, COLLISION_SELF};
 use tractrix::collision::Scheme;
+use world::refusal::{Cause, MAX_REASON_BYTES, Refusal};
 use world::scene::{ChainKind, ChainSpec, Precision};
 use world::sizes;
 
@@ -14,7 +15,41 @@ const _: () = {
     assert!(sizes::MAX_HELD == shared::MAX_HELD as usize);
     assert!(sizes::MAX_BUNDLE_JOINTS == shared::MAX_BUNDLE_JOINTS as usize);
     assert!(sizes::MAX_BUNDLE_STRANDS == shared::MAX_BUNDLE_STRANDS as usize);
+    assert!(MAX_REASON_BYTES == shared::REASON_LEN - 1);
 };
+
+/// The wire's status of a refusal's cause (the same name).
+pub fn status(c: Cause) -> shared::Status {
+    use shared::Status as S;
+    match c {
+        Cause::UnknownCommand => S::UnknownCommand,
+        Cause::UnknownChain => S::UnknownChain,
+        Cause::JointOutOfRange => S::JointOutOfRange,
+        Cause::NonFinite => S::NonFinite,
+        Cause::BadOption => S::BadOption,
+        Cause::BadPointCount => S::BadPointCount,
+        Cause::Unreachable => S::Unreachable,
+        Cause::NotConverged => S::NotConverged,
+        Cause::TooManySubsteps => S::TooManySubsteps,
+        Cause::WrongChainKind => S::WrongChainKind,
+        Cause::OffPlane => S::OffPlane,
+        Cause::PersistenceFailed => S::PersistenceFailed,
+        Cause::Internal => S::Internal,
+        Cause::Locked => S::Locked,
+        Cause::TooFar => S::TooFar,
+        Cause::OverBudget => S::OverBudget,
+        Cause::JointLimit => S::JointLimit,
+        Cause::Held => S::Held,
+    }
+}
+
+/// A refusal's reason in the wire's NUL-padded field.
+pub fn reason(r: &Refusal) -> [u8; shared::REASON_LEN] {
+    let mut out = [0; shared::REASON_LEN];
+    let text = r.reason().as_bytes();
+    out[..text.len()].copy_from_slice(text);
+    out
+}
 
 /// A chain's kind as the wire numbers it.
 pub fn kind(k: ChainKind) -> shared::ChainKind {
@@ -61,6 +96,49 @@ mod tests {
         assert_eq!(kind(ChainKind::FixedBase) as u32, 1);
         assert_eq!(precision(Precision::F64) as u32, 1);
         assert_eq!(precision(Precision::F32) as u32, 2);
+    }
+
+    #[test]
+    fn every_status_but_ok_is_the_cause_of_its_name() {
+        let causes = [
+            Cause::UnknownCommand,
+            Cause::UnknownChain,
+            Cause::JointOutOfRange,
+            Cause::NonFinite,
+            Cause::BadOption,
+            Cause::BadPointCount,
+            Cause::Unreachable,
+            Cause::NotConverged,
+            Cause::TooManySubsteps,
+            Cause::WrongChainKind,
+            Cause::OffPlane,
+            Cause::PersistenceFailed,
+            Cause::Internal,
+            Cause::Locked,
+            Cause::TooFar,
+            Cause::OverBudget,
+            Cause::JointLimit,
+            Cause::Held,
+        ];
+        let wire: Vec<_> = causes.iter().map(|&c| status(c)).collect();
+        for (c, s) in causes.iter().zip(&wire) {
+            assert_eq!(format!("{c:?}"), format!("{s:?}"));
+        }
+        let others: Vec<_> = shared::Status::ALL
+            .into_iter()
+            .filter(|s| *s != shared::Status::Ok)
+            .collect();
+        assert_eq!(wire, others, "every status but ok, in wire order");
+    }
+
+    #[test]
+    fn a_reason_fills_the_wire_s_field_with_a_nul_left() {
+        let long = "é".repeat(80);
+        let r = world::refuse!(BadOption, "{long}");
+        let field = reason(&r);
+        assert!(r.reason().len() <= MAX_REASON_BYTES);
+        assert_eq!(&field[..r.reason().len()], r.reason().as_bytes());
+        assert_eq!(field[shared::REASON_LEN - 1], 0);
     }
 
     #[test]

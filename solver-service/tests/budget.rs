@@ -4,7 +4,7 @@
 //! (Counted in link-steps by the kernel's meter, never timed: BENCHMARKS "Every request inside its
 //! budget" has the times.)
 
-use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
+use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
 use solver_service::chain_set::{ChainSet, DEFAULT_BUDGET};
 use world::scene::parse_scene;
 
@@ -32,7 +32,7 @@ fn all_pairs_on_fifty_thousand_links_are_refused_over_budget_and_change_nothing(
     h.joint = JOINT_HEAD;
     let r = set.apply_wire(&h, &[Vec3::new(50_000.0, 0.1, 0.0)]);
     let e = r.expect_err("over the budget");
-    assert_eq!(e.status, Status::OverBudget, "{}", e.reason());
+    assert_eq!(e.cause, world::refusal::Cause::OverBudget, "{}", e.reason());
     assert!(e.reason().contains("collision work"), "{}", e.reason());
     assert!(set.last_work() <= DEFAULT_BUDGET, "{}", set.last_work());
     assert_eq!(joints(&set, 0), before);
@@ -74,7 +74,7 @@ fn moves_into_the_knot_scenes_ropes_are_never_charged_more_than_the_budget() {
                     set.last_work()
                 );
                 if let Err(e) = r {
-                    if e.status == Status::OverBudget {
+                    if e.cause == world::refusal::Cause::OverBudget {
                         refused += 1;
                     }
                     assert_eq!(joints(&set, chain), now, "{name}: {}", e.reason());
