@@ -6,11 +6,11 @@
 
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
 use solver_service::chain_set::ChainSet;
-use solver_service::owners::LOCAL;
 use solver_service::persist::{JournalMode, Store};
 use solver_service::serve::answer;
 use solver_service::service::Solver;
 use std::time::Instant;
+use world::owners::LOCAL;
 use world::scene::default_scene;
 
 fn pct(v: &mut [u64], p: f64) -> u64 {

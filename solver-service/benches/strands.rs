@@ -31,7 +31,6 @@
 use nalgebra::Vector3;
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
 use solver_service::chain_set::ChainSet;
-use solver_service::owners::LOCAL;
 use solver_service::serve::answer;
 use solver_service::service::Solver;
 use std::hint::black_box;
@@ -39,6 +38,7 @@ use std::time::Instant;
 use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};
 use tractrix::strands::{Simd, StrandReal, Strands, best_simd};
 use tractrix::{Chain, MoveOptions, Real, Substeps};
+use world::owners::LOCAL;
 use world::scene::parse_scene;
 use world::two_cores::Bundle;
 

@@ -4,12 +4,12 @@
 //! regression files and debugging. Requests come from [`LOCAL`] (grasps unowned); without a store a
 //! `snapshot` is refused (`persistence-failed`), as the service refuses it under `--no-persist`.
 
-use crate::owners::LOCAL;
 use crate::serve::answer;
 use crate::service::Solver;
 use shared::text::{TextRequest, TextResponse};
 use shared::{Status, Vec3};
 use std::io::{BufRead, Write};
+use world::owners::LOCAL;
 
 /// Output format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

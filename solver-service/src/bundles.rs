@@ -12,49 +12,14 @@
 use crate::request::{Checked, Refusal, check_header, refuse};
 use nalgebra::{Rotation3, Vector3};
 use shared::{
-    ChainKind, Command, FLAG_POSE, JOINT_HEAD, Precision, RequestHeader, ResponseHeader,
-    SubstepMode, Vec3, WireMethod,
+    ChainKind, FLAG_POSE, JOINT_HEAD, Precision, RequestHeader, ResponseHeader, SubstepMode, Vec3,
+    WireMethod,
 };
 use tractrix::strands::{LANES, StrandReal, Strands};
 use world::scene::BundleSpec;
 use world::two_cores::Bundle;
 
-/// What a request asks of a bundle, checked.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum BundleOp<'a> {
-    /// Every strand's head to its own target, in `substeps` substeps.
-    Heads {
-        /// One target per strand, finite and in range.
-        targets: &'a [Vec3],
-        /// Substeps, ≥ 1.
-        substeps: u32,
-    },
-    /// Every head by one rigid motion of the scene's heads: `R(rotation)·h0 + translation`.
-    Pose {
-        /// Translation.
-        translation: Vec3,
-        /// Rotation vector (axis × angle, radians).
-        rotation: Vec3,
-        /// Substeps, ≥ 1.
-        substeps: u32,
-    },
-    /// The joints.
-    Query,
-    /// The description and the joints.
-    Describe,
-    /// Back to the scene's strands.
-    Reset,
-}
-
-impl BundleOp<'_> {
-    /// Whether an accepted request of this kind changes the bundle.
-    pub fn changes_state(&self) -> bool {
-        matches!(
-            self,
-            BundleOp::Heads { .. } | BundleOp::Pose { .. } | BundleOp::Reset
-        )
-    }
-}
+pub use world::command::BundleOp;
 
 /// Checks a request addressed to bundle `spec`. Nothing is changed.
 pub fn decode<'a>(
@@ -62,6 +27,8 @@ pub fn decode<'a>(
     points: &'a [Vec3],
     spec: &BundleSpec,
 ) -> Result<BundleOp<'a>, Refusal> {
+    // The wire's points are the world's, borrowed as they lie (the same three f64s).
+    let points: &'a [world::command::Point] = bytemuck::cast_slice(points);
     let Checked {
         command,
         method,
@@ -77,13 +44,13 @@ pub fn decode<'a>(
         ));
     }
     let pose = h.flags & FLAG_POSE != 0;
-    if pose && command != Command::Move {
+    if pose && command != shared::Command::Move {
         return Err(refuse!(BadOption, "FLAG_POSE is for a bundle's move"));
     }
     let want = match command {
-        Command::Move if pose => 2,
-        Command::Move => spec.strands as usize,
-        Command::Query | Command::Describe | Command::Reset => 0,
+        shared::Command::Move if pose => 2,
+        shared::Command::Move => spec.strands as usize,
+        shared::Command::Query | shared::Command::Describe | shared::Command::Reset => 0,
         other => {
             return Err(refuse!(
                 WrongChainKind,
@@ -101,7 +68,7 @@ pub fn decode<'a>(
         ));
     }
     for (i, p) in points.iter().enumerate() {
-        if !p.is_finite() {
+        if !p.iter().all(|c| c.is_finite()) {
             return Err(refuse!(NonFinite, "point {i} is not finite"));
         }
         let far = p.x.abs().max(p.y.abs()).max(p.z.abs());
@@ -115,7 +82,7 @@ pub fn decode<'a>(
         }
     }
     match command {
-        Command::Move => {
+        shared::Command::Move => {
             if h.joint != JOINT_HEAD && h.joint != spec.links {
                 return Err(refuse!(
                     JointOutOfRange,
@@ -160,8 +127,8 @@ pub fn decode<'a>(
                 }
             })
         }
-        Command::Query => Ok(BundleOp::Query),
-        Command::Describe => Ok(BundleOp::Describe),
+        shared::Command::Query => Ok(BundleOp::Query),
+        shared::Command::Describe => Ok(BundleOp::Describe),
         _ => Ok(BundleOp::Reset),
     }
 }
@@ -306,7 +273,7 @@ fn apply<T: StrandReal + Send>(
     spec: &BundleSpec,
     op: &BundleOp<'_>,
 ) -> Result<u32, Refusal> {
-    let v = |p: Vec3| Vector3::new(T::lit(p.x), T::lit(p.y), T::lit(p.z));
+    let v = |p: world::command::Point| Vector3::new(T::lit(p.x), T::lit(p.y), T::lit(p.z));
     let substeps = match *op {
         BundleOp::Heads { targets, substeps } => {
             s.targets.clear();
@@ -331,7 +298,7 @@ fn apply<T: StrandReal + Send>(
                         spec.max_coordinate
                     ));
                 }
-                s.targets.push(v(Vec3::new(p.x, p.y, p.z)));
+                s.targets.push(v(world::command::Point::new(p.x, p.y, p.z)));
             }
             substeps
         }

@@ -2,7 +2,7 @@
 //! chain handle), in exactly the form the scene declared (planar or spatial, f64 or f32), with collision
 //! structures only where the scene declares collision.
 //!
-//! [`ChainSet::apply`] runs a decoded [`Request`] and is atomic: a refusal changes nothing, and the last
+//! [`ChainSet::apply`] runs a decoded [`Command`] and is atomic: a refusal changes nothing, and the last
 //! accepted change can be undone ([`ChainSet::undo`], for a journal write that failed). The set owns that
 //! rollback, and nothing else does. [`ChainSet::elements`] streams the joints (and joint rotations)
 //! straight into the caller's buffer: the service writes them into the loaned shared-memory response,
@@ -10,8 +10,7 @@
 //!
 //! No I/O and no clock here: the service measures time and does the persistence around it.
 
-use crate::owners::{LOCAL, Owners};
-use crate::request::{self, Outcome, Refusal, Request, Residual, refuse};
+use crate::request::{self, Answer, Command, Point, Refusal, Residual, refuse};
 use nalgebra::Vector3;
 use shared::{RequestHeader, ResponseHeader, Vec3};
 use tractrix::angles::rotation_between;
@@ -20,6 +19,7 @@ use tractrix::collision::{
 };
 use tractrix::math::{CompensatedSum, Embed3, Real, Vector};
 use tractrix::{Chain, ChainError, MoveOptions, MoveOutcome, ReachOptions, ReachWorkspace, reach};
+use world::owners::{LOCAL, Owners};
 use world::scene::{ChainSpec, Scene};
 
 /// A chain in the precision and dimension its scene declared, with its scene state (for reset) and the
@@ -173,17 +173,25 @@ pub struct ChainSet {
     budget: u64,
     /// The chain and sequence before the last accepted change, while it can be undone.
     undo: Option<(u32, u64)>,
-    /// Who owns each grasp ([`crate::owners`]).
+    /// Who owns each grasp ([`world::owners`]).
     owners: Owners,
     /// The collision work the kernel's meter charged the last request, in link-steps.
     last_work: u64,
 }
 
-fn point<T: Real, const D: usize>(q: Vec3) -> Vector<T, D>
+fn point<T: Real, const D: usize>(q: Point) -> Vector<T, D>
 where
     Vector<T, D>: Embed3<T>,
 {
     Embed3::from_3d(&Vector3::new(T::lit(q.x), T::lit(q.y), T::lit(q.z)))
+}
+
+fn to_point<T: Real, const D: usize>(v: &Vector<T, D>) -> Point
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let v = v.to_3d();
+    Point::new(v.x.to_f64(), v.y.to_f64(), v.z.to_f64())
 }
 
 fn to_wire<T: Real, const D: usize>(v: &Vector<T, D>) -> Vec3
@@ -227,7 +235,7 @@ fn held<T: Real, const D: usize>(spec: &ChainSpec) -> Result<Held<T, D>, ChainEr
 where
     Vector<T, D>: Embed3<T>,
 {
-    let p: Vec<Vector<T, D>> = spec.points.iter().map(|q| point((*q).into())).collect();
+    let p: Vec<Vector<T, D>> = spec.points.iter().map(|q| point(*q)).collect();
     let links: Vec<_> = p.windows(2).map(|w| w[1] - w[0]).collect();
     let lengths: Vec<T> = spec.lengths.iter().map(|&l| T::lit(l)).collect();
     let mut chain = Chain::from_parts(p[0], links, lengths)?;
@@ -243,7 +251,7 @@ where
             .map_err(|_| ChainError::BadOption("the scene's joint limits"))?;
     }
     let collision = spec.collision.as_ref().map(|c| {
-        let v = |q: &Vector3<f64>| point::<T, D>((*q).into());
+        let v = |q: &Vector3<f64>| point::<T, D>(*q);
         // The scene's obstacles, then its instruments (the kernel sees both as obstacles).
         let convert = |o: &Obstacle<f64, 3>| match o {
             Obstacle::Sphere { center, radius } => Obstacle::Sphere {
@@ -356,8 +364,8 @@ impl ChainSet {
     /// [`ChainSet::set_budget`]): the substeps of a
     /// move are counted from where the joint is now, as the kernel will count them. A move needing more
     /// substeps than its chain allows is refused here as the kernel would refuse it (`too-many-substeps`).
-    pub fn estimate(&self, req: &Request<'_>) -> Result<u64, Refusal> {
-        if let Request::Bundle { index, op, .. } = req {
+    pub fn estimate(&self, req: &Command<'_>) -> Result<u64, Refusal> {
+        if let Command::Bundle { index, op, .. } = req {
             return Ok(crate::bundles::estimate(&self.bundles[*index].spec, op));
         }
         let Some(chain) = req.chain() else {
@@ -366,7 +374,7 @@ impl ChainSet {
         let spec = &self.specs[chain as usize];
         let n = spec.lengths.len() as u64;
         match *req {
-            Request::Move {
+            Command::Move {
                 joint,
                 targets,
                 ref options,
@@ -410,8 +418,7 @@ impl ChainSet {
                 }
                 let mut substeps = 0u64;
                 // Where the joint is now: one walk along the chain, for the substeps that depend on it.
-                let mut from: Vec3 =
-                    each_form!(&self.geometry[chain as usize], h => to_wire(&h.chain.joint(joint)));
+                let mut from: Point = each_form!(&self.geometry[chain as usize], h => to_point(&h.chain.joint(joint)));
                 for t in targets {
                     let d =
                         ((t.x - from.x).powi(2) + (t.y - from.y).powi(2) + (t.z - from.z).powi(2))
@@ -448,11 +455,11 @@ impl ChainSet {
                     .saturating_mul(1 + carried as u64))
             }
             // With joint limits each iteration also tries the hierarchy (a second pass).
-            Request::Reach { ref options, .. } => Ok(n
+            Command::Reach { ref options, .. } => Ok(n
                 .saturating_mul(u64::from(options.substeps.max(1)))
                 .saturating_mul(u64::from(options.max_iterations.max(1)))
                 .saturating_mul(if spec.limits.is_some() { 2 } else { 1 })),
-            Request::Instrument {
+            Command::Instrument {
                 index,
                 centre,
                 axis,
@@ -481,12 +488,12 @@ impl ChainSet {
                 }
                 Ok(n.saturating_mul(k as u64))
             }
-            Request::Query { .. }
-            | Request::Describe { .. }
-            | Request::Reset { .. }
-            | Request::Grasp { .. }
-            | Request::Release { .. } => Ok(n),
-            Request::Snapshot | Request::Bundle { .. } => Ok(0),
+            Command::Query { .. }
+            | Command::Describe { .. }
+            | Command::Reset { .. }
+            | Command::Grasp { .. }
+            | Command::Release { .. } => Ok(n),
+            Command::Snapshot | Command::Bundle { .. } => Ok(0),
         }
     }
 
@@ -503,7 +510,7 @@ impl ChainSet {
         };
         for (i, spec) in self.specs.iter().enumerate() {
             let cost = self
-                .estimate(&Request::Describe { chain: i as u32 })
+                .estimate(&Command::Describe { chain: i as u32 })
                 .unwrap_or(u64::MAX);
             if cost > self.budget {
                 let links = format!("{} links", spec.lengths.len());
@@ -597,11 +604,11 @@ impl ChainSet {
         &self,
         h: &RequestHeader,
         points: &'a [Vec3],
-    ) -> Result<Request<'a>, Refusal> {
+    ) -> Result<Command<'a>, Refusal> {
         if h.command != shared::Command::Snapshot as u32
             && let Some((index, b)) = self.bundle_of(h.chain)
         {
-            return crate::bundles::decode(h, points, &b.spec).map(|op| Request::Bundle {
+            return crate::bundles::decode(h, points, &b.spec).map(|op| Command::Bundle {
                 handle: h.chain,
                 index,
                 op,
@@ -623,7 +630,7 @@ impl ChainSet {
 
     /// The response header of a request: from its outcome or its refusal ([`request::encode`]), with
     /// a bundle's sequence and description.
-    pub fn encode(&self, req: &RequestHeader, result: &Result<Outcome, Refusal>) -> ResponseHeader {
+    pub fn encode(&self, req: &RequestHeader, result: &Result<Answer, Refusal>) -> ResponseHeader {
         let bundle = self.bundle_of(req.chain);
         let sequence = bundle.map_or(self.sequence, |(_, b)| b.sequence);
         let mut h = request::encode(req, result, sequence, &self.specs);
@@ -637,21 +644,21 @@ impl ChainSet {
     }
 
     /// Decodes and applies a wire request (the journal's replay, tests).
-    pub fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Outcome, Refusal> {
+    pub fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Answer, Refusal> {
         let req = self.decode(h, points)?;
         self.apply(&req)
     }
 
     /// Applies a decoded request as [`LOCAL`] (batch mode, the journal's replay, tests): see
     /// [`ChainSet::apply_for`].
-    pub fn apply(&mut self, req: &Request<'_>) -> Result<Outcome, Refusal> {
+    pub fn apply(&mut self, req: &Command<'_>) -> Result<Answer, Refusal> {
         self.apply_for(LOCAL, req)
     }
 
     /// Applies a decoded request of `client` (its port id; [`LOCAL`] for no client). A refusal changes
     /// nothing; an accepted change gets the next sequence number and can be undone until the next
-    /// request. Grasps belong to their client ([`crate::owners`]).
-    pub fn apply_for(&mut self, client: u128, req: &Request<'_>) -> Result<Outcome, Refusal> {
+    /// request. Grasps belong to their client ([`world::owners`]).
+    pub fn apply_for(&mut self, client: u128, req: &Command<'_>) -> Result<Answer, Refusal> {
         self.undo = None;
         self.owners.begin();
         self.owners.check(client, req)?;
@@ -673,7 +680,7 @@ impl ChainSet {
         self.owners.forget_absent(present)
     }
 
-    fn apply_checked(&mut self, req: &Request<'_>) -> Result<Outcome, Refusal> {
+    fn apply_checked(&mut self, req: &Command<'_>) -> Result<Answer, Refusal> {
         self.last_work = 0;
         let work = self.estimate(req)?;
         if work > self.budget {
@@ -683,28 +690,28 @@ impl ChainSet {
                 self.budget as f64
             ));
         }
-        if let Request::Bundle { handle, index, op } = *req {
+        if let Command::Bundle { handle, index, op } = *req {
             let b = &mut self.bundles[index];
             let substeps = b.apply(&op)?;
-            return Ok(Outcome {
+            return Ok(Answer {
                 chain: Some(handle),
                 changed: op.changes_state(),
                 joints: b.spec.joints() as u32,
                 substeps,
                 describe: op == crate::bundles::BundleOp::Describe,
                 bundle: true,
-                ..Outcome::default()
+                ..Answer::default()
             });
         }
         let Some(chain) = req.chain() else {
-            return Ok(Outcome::default());
+            return Ok(Answer::default());
         };
         let n_links = self.specs[chain as usize].lengths.len() as u32;
         let g = &mut self.geometry[chain as usize];
         let held_now = each_form!(&*g, h => h.chain.held().len());
         // A grasp of a held joint and a release of a free one are accepted and change nothing.
         let changes = match *req {
-            Request::Grasp { joint, .. } => {
+            Command::Grasp { joint, .. } => {
                 let held = each_form!(&*g, h => h.chain.is_held(joint));
                 if !held && held_now >= shared::MAX_HELD as usize {
                     return Err(refuse!(
@@ -715,14 +722,14 @@ impl ChainSet {
                 }
                 !held
             }
-            Request::Release { joint, .. } => each_form!(&*g, h => h.chain.is_held(joint)),
+            Command::Release { joint, .. } => each_form!(&*g, h => h.chain.is_held(joint)),
             _ => req.changes_state(),
         };
-        let mut outcome = Outcome {
+        let mut outcome = Answer {
             chain: Some(chain),
             changed: changes,
             joints: n_links + 1,
-            ..Outcome::default()
+            ..Answer::default()
         };
         if outcome.changed {
             // Armed before the kernel runs, so that a panic inside it can be undone too.
@@ -737,7 +744,7 @@ impl ChainSet {
             ws.limit_work(budget);
         });
         let result = match *req {
-            Request::Move {
+            Command::Move {
                 joint,
                 targets,
                 ref options,
@@ -751,7 +758,7 @@ impl ChainSet {
                     target: targets[targets.len() - 1],
                 };
             }),
-            Request::Reach {
+            Command::Reach {
                 target,
                 ref options,
                 angles,
@@ -761,15 +768,15 @@ impl ChainSet {
                 outcome.residual = Residual::Known(res);
                 outcome.angles = if angles { n_links } else { 0 };
             }),
-            Request::Query { angles, .. } => {
+            Command::Query { angles, .. } => {
                 outcome.angles = if angles { n_links } else { 0 };
                 Ok(())
             }
-            Request::Describe { .. } => {
+            Command::Describe { .. } => {
                 outcome.describe = true;
                 Ok(())
             }
-            Request::Reset { .. } => {
+            Command::Reset { .. } => {
                 each_form!(&mut *g, h => {
                     h.chain.copy_from(&h.initial);
                     let initial = std::mem::take(&mut h.instruments_initial);
@@ -778,7 +785,7 @@ impl ChainSet {
                 });
                 Ok(())
             }
-            Request::Instrument {
+            Command::Instrument {
                 index,
                 centre,
                 axis,
@@ -789,13 +796,13 @@ impl ChainSet {
                     outcome.substeps = m.substeps;
                     outcome.iterations = m.collision_iterations;
                 }),
-            Request::Grasp { joint, .. } => {
+            Command::Grasp { joint, .. } => {
                 each_form!(&mut *g, h => h.chain.hold(joint)).map_err(Refusal::from)
             }
-            Request::Release { joint, .. } => each_form!(&mut *g, h => h.chain.release(joint))
+            Command::Release { joint, .. } => each_form!(&mut *g, h => h.chain.release(joint))
                 .map(|_| ())
                 .map_err(Refusal::from),
-            Request::Snapshot | Request::Bundle { .. } => Ok(()),
+            Command::Snapshot | Command::Bundle { .. } => Ok(()),
         };
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
@@ -881,8 +888,8 @@ impl ChainSet {
 /// The instrument `from` moved to `centre` (and, for a capsule, turned to `axis`), its size kept.
 fn instrument_pose<T: Real, const D: usize>(
     from: &Obstacle<T, D>,
-    centre: Vec3,
-    axis: Option<Vec3>,
+    centre: Point,
+    axis: Option<Point>,
 ) -> Obstacle<T, D>
 where
     Vector<T, D>: Embed3<T>,
@@ -908,8 +915,8 @@ where
 /// plus the arc its axis's end sweeps), in f64.
 fn instrument_travel<T: Real, const D: usize>(
     from: &Obstacle<T, D>,
-    centre: Vec3,
-    axis: Option<Vec3>,
+    centre: Point,
+    axis: Option<Point>,
 ) -> f64
 where
     Vector<T, D>: Embed3<T>,
@@ -937,7 +944,7 @@ where
 fn move_and_carry<T: Real, const D: usize>(
     g: &mut Held<T, D>,
     joint: usize,
-    targets: &[Vec3],
+    targets: &[Point],
     opts: &MoveOptions<f64>,
 ) -> Result<MoveOutcome, Refusal>
 where
@@ -999,8 +1006,8 @@ where
 fn push_instrument<T: Real, const D: usize>(
     g: &mut Held<T, D>,
     index: usize,
-    centre: Vec3,
-    axis: Option<Vec3>,
+    centre: Point,
+    axis: Option<Point>,
     max_substeps: u32,
 ) -> Result<MoveOutcome, Refusal>
 where
@@ -1019,7 +1026,7 @@ where
 fn move_held<T: Real, const D: usize>(
     g: &mut Held<T, D>,
     joint: usize,
-    targets: &[Vec3],
+    targets: &[Point],
     opts: &MoveOptions<f64>,
 ) -> Result<MoveOutcome, Refusal>
 where
@@ -1082,7 +1089,7 @@ where
 /// A reach on one fixed-base chain: iterations and residual.
 fn reach_held<T: Real, const D: usize>(
     g: &mut Held<T, D>,
-    target: Vec3,
+    target: Point,
     opts: &ReachOptions<f64>,
 ) -> Result<(u32, f64), Refusal>
 where

@@ -17,7 +17,6 @@ pub mod batch;
 pub mod bundles;
 pub mod chain_set;
 pub mod echo;
-pub mod owners;
 pub mod persist;
 pub mod request;
 pub mod scene_file;

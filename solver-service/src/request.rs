@@ -1,13 +1,13 @@
-//! The typed request path: [`decode`] turns a wire request into a [`Request`] (every field checked, every
+//! The typed request path: [`decode`] turns a wire request into a [`Command`] (every field checked, every
 //! wire enum through `TryFrom`, every default resolved against the chain's [`ChainSpec`]) or a
-//! [`Refusal`]; [`ChainSet::apply`](crate::chain_set::ChainSet::apply) turns a `Request` into an
-//! [`Outcome`] or a `Refusal`; [`encode`] is the one place that turns either into a response header.
+//! [`Refusal`]; [`ChainSet::apply`](crate::chain_set::ChainSet::apply) turns a `Command` into an
+//! [`Answer`] or a `Refusal`; [`encode`] is the one place that turns either into a response header.
 //! Kernel errors become refusals by `From`.
 //!
 //! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
 
 use shared::{
-    Command, FLAG_ANGLES, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader,
+    FLAG_ANGLES, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader,
     ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use tractrix::{Method, MoveOptions, ReachOptions, Strategy, Substeps};
@@ -16,174 +16,7 @@ use world::scene::{ChainKind, ChainSpec};
 /// Highest `max_iterations` a reach request may ask for.
 pub const MAX_REACH_ITERATIONS: u32 = 100_000;
 
-/// A decoded request: everything checked and resolved, ready for the kernel.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Request<'a> {
-    /// Move `joint` through `targets` (one for a move, several for a path).
-    Move {
-        /// Chain handle.
-        chain: u32,
-        /// Joint index, resolved (the head is `n_links`).
-        joint: usize,
-        /// Target points, all finite, in range and in the chain's plane.
-        targets: &'a [Vec3],
-        /// Method and substeps, defaults resolved.
-        options: MoveOptions<f64>,
-        /// Move the joint even if another client grasps it, taking the grasp over
-        /// ([`shared::FLAG_TAKE_OVER`]).
-        take_over: bool,
-    },
-    /// Bring a fixed-base chain's head to `target`.
-    Reach {
-        /// Chain handle.
-        chain: u32,
-        /// The target.
-        target: Vec3,
-        /// Strategy, method, tolerance and limits, defaults resolved.
-        options: ReachOptions<f64>,
-        /// Append joint rotations to the response.
-        angles: bool,
-    },
-    /// The current joints.
-    Query {
-        /// Chain handle.
-        chain: u32,
-        /// Append joint rotations to the response.
-        angles: bool,
-    },
-    /// The chain's description and joints.
-    Describe {
-        /// Chain handle.
-        chain: u32,
-    },
-    /// Back to the scene's initial state (every grasp dropped).
-    Reset {
-        /// Chain handle.
-        chain: u32,
-        /// Drop other clients' grasps too ([`shared::FLAG_TAKE_OVER`]).
-        take_over: bool,
-    },
-    /// Write a snapshot now (the service's business; the chain set only validates it).
-    Snapshot,
-    /// Hold `joint` where it is (a hand's grasp).
-    Grasp {
-        /// Chain handle (a free chain).
-        chain: u32,
-        /// Joint index, resolved.
-        joint: usize,
-        /// Take the grasp over if another client holds it ([`shared::FLAG_TAKE_OVER`]).
-        take_over: bool,
-    },
-    /// Let a grasped joint go.
-    Release {
-        /// Chain handle (a free chain).
-        chain: u32,
-        /// Joint index, resolved.
-        joint: usize,
-        /// Release another client's grasp ([`shared::FLAG_TAKE_OVER`]).
-        take_over: bool,
-    },
-    /// Move an instrument of the chain to a new pose, pushing the chain.
-    Instrument {
-        /// Chain handle (a chain that lists the instrument).
-        chain: u32,
-        /// The instrument's index in the chain's `instruments` list.
-        index: usize,
-        /// New centre.
-        centre: Vec3,
-        /// New axis direction (capsules; not normalised).
-        axis: Option<Vec3>,
-        /// Substep limit (the chain's).
-        max_substeps: u32,
-    },
-    /// A command to a bundle ([`crate::bundles`]).
-    Bundle {
-        /// Wire handle (after the chains').
-        handle: u32,
-        /// Index among the scene's bundles.
-        index: usize,
-        /// What to do.
-        op: crate::bundles::BundleOp<'a>,
-    },
-}
-
-impl Request<'_> {
-    /// The chain the request addresses (`None` for a snapshot).
-    pub fn chain(&self) -> Option<u32> {
-        match *self {
-            Request::Move { chain, .. }
-            | Request::Reach { chain, .. }
-            | Request::Query { chain, .. }
-            | Request::Describe { chain }
-            | Request::Reset { chain, .. }
-            | Request::Grasp { chain, .. }
-            | Request::Release { chain, .. }
-            | Request::Instrument { chain, .. } => Some(chain),
-            Request::Snapshot | Request::Bundle { .. } => None,
-        }
-    }
-
-    /// Whether an accepted request of this kind changes the state.
-    pub fn changes_state(&self) -> bool {
-        matches!(
-            self,
-            Request::Move { .. }
-                | Request::Reach { .. }
-                | Request::Reset { .. }
-                | Request::Grasp { .. }
-                | Request::Release { .. }
-                | Request::Instrument { .. }
-        ) || matches!(self, Request::Bundle { op, .. } if op.changes_state())
-    }
-}
-
-/// What an accepted request did.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Outcome {
-    /// The chain (`None` for a snapshot).
-    pub chain: Option<u32>,
-    /// Whether the state changed (a new sequence number; journaled and published).
-    pub changed: bool,
-    /// Joints in the response.
-    pub joints: u32,
-    /// Joint rotations in the response.
-    pub angles: u32,
-    /// Held joints in the response (after the joints and rotations).
-    pub held: u32,
-    /// Instruments in the response (after the held joints).
-    pub instruments: u32,
-    /// Substeps taken (moves).
-    pub substeps: u32,
-    /// Paper-form substeps that fell back to the closed form.
-    pub paper_fallbacks: u32,
-    /// Reach iterations, or collision passes of a move.
-    pub iterations: u32,
-    /// How the residual is known.
-    pub residual: Residual,
-    /// Whether the response carries the chain's description.
-    pub describe: bool,
-    /// Whether a bundle answered (its change goes to the bundle stream, not the journal).
-    pub bundle: bool,
-}
-
-/// The distance between where a joint should be and where it is.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub enum Residual {
-    /// Not applicable (zero on the wire).
-    #[default]
-    None,
-    /// Known from the kernel (a reach).
-    Known(f64),
-    /// `joint` should be at `target`: measured on the joints as written into the response, so no extra
-    /// pass over the chain ([`finish`]).
-    Landing {
-        /// Joint index.
-        joint: usize,
-        /// Where it was sent.
-        target: Vec3,
-    },
-}
-
+pub use world::command::{Answer, Command, Point, Residual};
 pub use world::refusal::Refusal;
 pub(crate) use world::refuse;
 
@@ -224,7 +57,7 @@ fn wire_enum<E: TryFrom<u32, Error = u32>>(v: u32, field: &str, range: &str) -> 
 /// the flags (`allowed` bits), every wire enumeration and every float option.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Checked {
-    pub command: Command,
+    pub command: shared::Command,
     pub method: WireMethod,
     pub precision: Precision,
     pub substep_mode: SubstepMode,
@@ -246,7 +79,7 @@ fn anchored(spec: &ChainSpec, joint: usize, what: &str) -> Result<(), Refusal> {
 
 /// Checks what [`Checked`] holds.
 pub(crate) fn check_header(h: &RequestHeader, allowed: u32) -> Result<Checked, Refusal> {
-    let command = Command::try_from(h.command)
+    let command = shared::Command::try_from(h.command)
         .map_err(|c| refuse!(UnknownCommand, "command {c} is not one of 1..=10"))?;
     if h.reserved != [0, 0] {
         return Err(refuse!(BadOption, "reserved fields must be zero"));
@@ -284,7 +117,9 @@ pub fn decode<'a>(
     h: &RequestHeader,
     points: &'a [Vec3],
     chains: &[ChainSpec],
-) -> Result<Request<'a>, Refusal> {
+) -> Result<Command<'a>, Refusal> {
+    // The wire's points are the world's, borrowed as they lie (the same three f64s).
+    let points: &'a [Point] = bytemuck::cast_slice(points);
     let Checked {
         command,
         method,
@@ -296,7 +131,11 @@ pub fn decode<'a>(
     if take_over
         && !matches!(
             command,
-            Command::Grasp | Command::Release | Command::Move | Command::Path | Command::Reset
+            shared::Command::Grasp
+                | shared::Command::Release
+                | shared::Command::Move
+                | shared::Command::Path
+                | shared::Command::Reset
         )
     {
         return Err(refuse!(
@@ -306,9 +145,9 @@ pub fn decode<'a>(
         ));
     }
     let expected = match command {
-        Command::Move | Command::Reach => 1..=1,
-        Command::Path => 1..=MAX_PATH_POINTS as usize,
-        Command::Instrument => 1..=2,
+        shared::Command::Move | shared::Command::Reach => 1..=1,
+        shared::Command::Path => 1..=MAX_PATH_POINTS as usize,
+        shared::Command::Instrument => 1..=2,
         _ => 0..=0,
     };
     if !expected.contains(&points.len()) {
@@ -321,8 +160,8 @@ pub fn decode<'a>(
             points.len()
         ));
     }
-    if command == Command::Snapshot {
-        return Ok(Request::Snapshot);
+    if command == shared::Command::Snapshot {
+        return Ok(Command::Snapshot);
     }
     let chain = h.chain;
     let spec = chains.get(chain as usize).ok_or_else(|| {
@@ -345,7 +184,7 @@ pub fn decode<'a>(
         ));
     }
     for (i, p) in points.iter().enumerate() {
-        if !p.is_finite() {
+        if !p.iter().all(|c| c.is_finite()) {
             return Err(refuse!(NonFinite, "point {i} is not finite"));
         }
         let far = p.x.abs().max(p.y.abs()).max(p.z.abs());
@@ -381,7 +220,7 @@ pub fn decode<'a>(
         }
     };
     match command {
-        Command::Instrument => {
+        shared::Command::Instrument => {
             let list = spec
                 .collision
                 .as_ref()
@@ -417,7 +256,7 @@ pub fn decode<'a>(
                     ));
                 }
             }
-            Ok(Request::Instrument {
+            Ok(Command::Instrument {
                 chain,
                 index: h.joint as usize,
                 centre: points[0],
@@ -425,7 +264,7 @@ pub fn decode<'a>(
                 max_substeps: spec.moves.max_substeps,
             })
         }
-        Command::Grasp | Command::Release => {
+        shared::Command::Grasp | shared::Command::Release => {
             if spec.kind == ChainKind::FixedBase {
                 return Err(refuse!(
                     WrongChainKind,
@@ -434,24 +273,24 @@ pub fn decode<'a>(
                 ));
             }
             let joint = resolve_joint()?;
-            if command == Command::Release {
+            if command == shared::Command::Release {
                 anchored(spec, joint, "released")?;
             }
-            Ok(if command == Command::Grasp {
-                Request::Grasp {
+            Ok(if command == shared::Command::Grasp {
+                Command::Grasp {
                     chain,
                     joint,
                     take_over,
                 }
             } else {
-                Request::Release {
+                Command::Release {
                     chain,
                     joint,
                     take_over,
                 }
             })
         }
-        Command::Move | Command::Path => {
+        shared::Command::Move | shared::Command::Path => {
             if spec.kind == ChainKind::FixedBase {
                 return Err(refuse!(
                     WrongChainKind,
@@ -476,7 +315,7 @@ pub fn decode<'a>(
                 }
                 SubstepMode::MaxStep => Substeps::MaxStep(h.max_step),
             };
-            Ok(Request::Move {
+            Ok(Command::Move {
                 chain,
                 joint,
                 targets: points,
@@ -488,7 +327,7 @@ pub fn decode<'a>(
                 take_over,
             })
         }
-        Command::Reach => {
+        shared::Command::Reach => {
             if spec.kind != ChainKind::FixedBase {
                 return Err(refuse!(
                     WrongChainKind,
@@ -531,7 +370,7 @@ pub fn decode<'a>(
                     ));
                 }
             };
-            Ok(Request::Reach {
+            Ok(Command::Reach {
                 chain,
                 target: points[0],
                 options: ReachOptions {
@@ -545,10 +384,10 @@ pub fn decode<'a>(
                 angles,
             })
         }
-        Command::Query => Ok(Request::Query { chain, angles }),
-        Command::Describe => Ok(Request::Describe { chain }),
-        Command::Reset => Ok(Request::Reset { chain, take_over }),
-        Command::Snapshot => Ok(Request::Snapshot),
+        shared::Command::Query => Ok(Command::Query { chain, angles }),
+        shared::Command::Describe => Ok(Command::Describe { chain }),
+        shared::Command::Reset => Ok(Command::Reset { chain, take_over }),
+        shared::Command::Snapshot => Ok(Command::Snapshot),
     }
 }
 
@@ -557,7 +396,7 @@ pub fn decode<'a>(
 /// once the joints are written.
 pub fn encode(
     req: &RequestHeader,
-    result: &Result<Outcome, Refusal>,
+    result: &Result<Answer, Refusal>,
     sequence: u64,
     chains: &[ChainSpec],
 ) -> ResponseHeader {

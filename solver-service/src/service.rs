@@ -5,7 +5,7 @@
 
 use crate::chain_set::ChainSet;
 use crate::persist::{JournalMode, Store};
-use crate::request::{self, Outcome, Refusal, Request, Residual, refuse};
+use crate::request::{self, Answer, Command, Refusal, Residual, refuse};
 use crate::serve::{Handled, Handler, LoopOptions, ServerPorts, serve};
 use iceoryx2::prelude::ipc;
 use shared::{RequestHeader, ResponseHeader, Vec3, WaitMode};
@@ -97,9 +97,9 @@ impl Solver {
         client: u128,
         header: &RequestHeader,
         points: &[Vec3],
-    ) -> Result<Outcome, Refusal> {
+    ) -> Result<Answer, Refusal> {
         let req = self.set.decode(header, points)?;
-        if matches!(req, Request::Snapshot) {
+        if matches!(req, Command::Snapshot) {
             let outcome = self.set.apply(&req)?;
             return match self.store.as_mut().map(|s| s.snapshot(&self.set)) {
                 Some(Ok(())) => {

@@ -7,13 +7,13 @@
 //! gets a `bad-point-count` (`bad-option`) response and the connection is closed: the stream cannot be
 //! trusted after it.
 
-use crate::owners::LOCAL;
 use crate::serve::answer;
 use crate::service::Solver;
 use shared::unix_frame::{REQUEST_PREFIX, frame_ok, split_request_prefix, write_response};
 use shared::{MAX_PATH_POINTS, ResponseHeader, Status, Vec3};
 use std::io::{Read, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
+use world::owners::LOCAL;
 
 /// Serves connections one after another until the listener fails. Returns after `max_connections`
 /// connections if given (the tests and the bench use one).

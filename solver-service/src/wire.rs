@@ -13,6 +13,7 @@ const _: () = {
     assert!(sizes::MAX_LINKS == shared::MAX_LINKS as usize);
     assert!(sizes::MAX_NAME_BYTES == shared::NAME_LEN - 1);
     assert!(sizes::MAX_HELD == shared::MAX_HELD as usize);
+    assert!(sizes::MAX_GRASPS_PER_CLIENT == shared::MAX_GRASPS_PER_CLIENT as usize);
     assert!(sizes::MAX_BUNDLE_JOINTS == shared::MAX_BUNDLE_JOINTS as usize);
     assert!(sizes::MAX_BUNDLE_STRANDS == shared::MAX_BUNDLE_STRANDS as usize);
     assert!(MAX_REASON_BYTES == shared::REASON_LEN - 1);

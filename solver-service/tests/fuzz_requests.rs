@@ -19,9 +19,9 @@
 use proptest::prelude::*;
 use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
 use solver_service::chain_set::ChainSet;
-use solver_service::owners::LOCAL;
 use solver_service::serve::answer;
 use solver_service::service::Solver;
+use world::owners::LOCAL;
 use world::scene::parse_scene;
 
 /// Every chain form, with small substep and iteration limits so that no request can take long.

@@ -4,12 +4,16 @@
 //!
 //! * [`scene`]: scene text (read, validate, shapes) into [`scene::ChainSpec`]s and
 //!   [`scene::BundleSpec`]s of kernel types, every error with its line and field;
+//! * [`command`]: what the world is asked ([`command::Command`]) and answers ([`command::Answer`]);
+//! * [`owners`]: who holds which grasp;
 //! * [`refusal`]: why a command was refused, allocation-free;
 //! * [`sizes`]: the bounds on everything a scene or a request may ask for;
 //! * [`two_cores`]: many strands (hair, fur) swept on both cores.
 //!
 //! The numbers come from the I/O-free kernel crate [`tractrix`].
 
+pub mod command;
+pub mod owners;
 pub mod refusal;
 pub mod scene;
 pub mod sizes;

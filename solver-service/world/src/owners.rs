@@ -1,8 +1,8 @@
 //! Who holds which grasp (issue 35): a grasp belongs to the client that took it, named by its iceoryx2
 //! client port id. Another client's release of that joint, move of it or reset of the chain is refused
-//! with [`shared::Status::Held`], the owner in the reason, unless the request carries
-//! [`shared::FLAG_TAKE_OVER`] (then the grasps it touches become the requester's). One client owns at
-//! most [`shared::MAX_GRASPS_PER_CLIENT`] grasps of a chain, so the chain's [`shared::MAX_HELD`] slots
+//! as [`crate::refusal::Cause::Held`], the owner in the reason, unless the command takes the grasp
+//! over (then the grasps it touches become the requester's). One client owns at most
+//! [`MAX_GRASPS_PER_CLIENT`] grasps of a chain, so the chain's [`crate::sizes::MAX_HELD`] slots
 //! cannot all be taken by one client.
 //!
 //! Unowned grasps ([`LOCAL`] as owner) are anyone's: those of batch mode, of a journal's replay (the
@@ -13,7 +13,10 @@
 //!
 //! Ownership is not part of the persisted state: it never changes a joint, only who may.
 
-use crate::request::{Refusal, Request, refuse};
+use crate::command::Command;
+use crate::refusal::Refusal;
+use crate::refuse;
+use crate::sizes::MAX_GRASPS_PER_CLIENT;
 
 /// The requester of batch mode, the Unix socket and the journal's replay, and the owner of an unowned
 /// grasp.
@@ -45,25 +48,25 @@ impl Owners {
     }
 
     /// Whether `client` may make `req` (before it runs): a refusal names the owner in the way.
-    pub fn check(&self, client: u128, req: &Request<'_>) -> Result<(), Refusal> {
+    pub fn check(&self, client: u128, req: &Command<'_>) -> Result<(), Refusal> {
         let (chain, joint, take_over) = match *req {
-            Request::Grasp {
+            Command::Grasp {
                 chain,
                 joint,
                 take_over,
             }
-            | Request::Release {
+            | Command::Release {
                 chain,
                 joint,
                 take_over,
             } => (chain as usize, Some(joint), take_over),
-            Request::Move {
+            Command::Move {
                 chain,
                 joint,
                 take_over,
                 ..
             } => (chain as usize, Some(joint), take_over),
-            Request::Reset { chain, take_over } => (chain as usize, None, take_over),
+            Command::Reset { chain, take_over } => (chain as usize, None, take_over),
             _ => return Ok(()),
         };
         let Some(list) = self.chains.get(chain) else {
@@ -86,8 +89,8 @@ impl Owners {
         }
         // A grasp, or a move that takes another client's grasp over, would give the client one more.
         let gains = match *req {
-            Request::Grasp { joint, .. } => Some(joint),
-            Request::Move {
+            Command::Grasp { joint, .. } => Some(joint),
+            Command::Move {
                 joint,
                 take_over: true,
                 ..
@@ -96,8 +99,7 @@ impl Owners {
         };
         if let (Some(joint), true) = (gains, client != LOCAL) {
             let mine = list.iter().filter(|&&(_, o)| o == client).count();
-            if self.owner(chain, joint) != client && mine >= shared::MAX_GRASPS_PER_CLIENT as usize
-            {
+            if self.owner(chain, joint) != client && mine >= MAX_GRASPS_PER_CLIENT {
                 return Err(refuse!(
                     BadOption,
                     "this client owns {mine} grasps of the chain, the most one client may"
@@ -108,16 +110,16 @@ impl Owners {
     }
 
     /// Records what an accepted `req` of `client` did to the grasps; `anchors` are never owned.
-    pub fn record(&mut self, client: u128, req: &Request<'_>, anchors: &[u32]) {
+    pub fn record(&mut self, client: u128, req: &Command<'_>, anchors: &[u32]) {
         let chain = match *req {
-            Request::Grasp { chain, joint, .. } if !anchors.contains(&(joint as u32)) => chain,
-            Request::Release { chain, .. }
-            | Request::Move {
+            Command::Grasp { chain, joint, .. } if !anchors.contains(&(joint as u32)) => chain,
+            Command::Release { chain, .. }
+            | Command::Move {
                 chain,
                 take_over: true,
                 ..
             }
-            | Request::Reset { chain, .. } => chain,
+            | Command::Reset { chain, .. } => chain,
             _ => {
                 self.undo = None;
                 return;
@@ -128,14 +130,14 @@ impl Owners {
         };
         self.undo = Some((chain, list.clone()));
         match *req {
-            Request::Grasp { joint, .. } => {
+            Command::Grasp { joint, .. } => {
                 list.retain(|&(j, _)| j != joint);
                 if client != LOCAL {
                     list.push((joint, client));
                 }
             }
-            Request::Release { joint, .. } => list.retain(|&(j, _)| j != joint),
-            Request::Move { joint, .. } => {
+            Command::Release { joint, .. } => list.retain(|&(j, _)| j != joint),
+            Command::Move { joint, .. } => {
                 for e in list.iter_mut().filter(|e| e.0 == joint) {
                     e.1 = client;
                 }
@@ -176,10 +178,10 @@ impl Owners {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use shared::{MAX_GRASPS_PER_CLIENT, Vec3};
+    use crate::command::Point;
 
-    fn grasp(joint: usize) -> Request<'static> {
-        Request::Grasp {
+    fn grasp(joint: usize) -> Command<'static> {
+        Command::Grasp {
             chain: 0,
             joint,
             take_over: false,
@@ -192,15 +194,15 @@ mod tests {
     fn taking_a_grasp_over_by_a_move_counts_against_the_cap() {
         let (a, b) = (0xa, 0xb);
         let mut owners = Owners::new(1);
-        let cap = MAX_GRASPS_PER_CLIENT as usize;
+        let cap = MAX_GRASPS_PER_CLIENT;
         for j in 0..cap {
             owners.check(a, &grasp(j)).unwrap();
             owners.record(a, &grasp(j), &[]);
         }
         owners.check(b, &grasp(40)).unwrap();
         owners.record(b, &grasp(40), &[]);
-        let target = [Vec3::new(1.0, 0.0, 0.0)];
-        let take = Request::Move {
+        let target = [Point::new(1.0, 0.0, 0.0)];
+        let take = Command::Move {
             chain: 0,
             joint: 40,
             targets: &target,
@@ -208,14 +210,14 @@ mod tests {
             take_over: true,
         };
         let e = owners.check(a, &take).unwrap_err();
-        assert_eq!(e.cause, world::refusal::Cause::BadOption, "{}", e.reason());
+        assert_eq!(e.cause, crate::refusal::Cause::BadOption, "{}", e.reason());
         assert!(
             e.reason().contains("the most one client may"),
             "{}",
             e.reason()
         );
         // A move of a joint it already owns, or a take-over below the cap, is allowed.
-        let own = Request::Move {
+        let own = Command::Move {
             chain: 0,
             joint: 0,
             targets: &target,
@@ -223,7 +225,7 @@ mod tests {
             take_over: true,
         };
         owners.check(a, &own).unwrap();
-        let release = Request::Release {
+        let release = Command::Release {
             chain: 0,
             joint: 0,
             take_over: false,

@@ -1,0 +1,214 @@
+//! Commands to the world and what they answer: a [`Command`] is a request with every field checked
+//! and every default resolved against its chain (the door that decodes it does that); the world
+//! applies it and returns an [`Answer`] or a [`crate::refusal::Refusal`]. Points are
+//! [`Point`]s, which a door may borrow from its own buffers (the service from shared memory).
+
+use tractrix::{MoveOptions, ReachOptions};
+
+/// A point or vector in the world's coordinates (planar chains: `z = 0`).
+pub type Point = nalgebra::Vector3<f64>;
+
+/// A command: everything checked and resolved, ready for the kernel.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command<'a> {
+    /// Move `joint` through `targets` (one for a move, several for a path).
+    Move {
+        /// Chain handle.
+        chain: u32,
+        /// Joint index, resolved (the head is `n_links`).
+        joint: usize,
+        /// Target points, all finite, in range and in the chain's plane.
+        targets: &'a [Point],
+        /// Method and substeps, defaults resolved.
+        options: MoveOptions<f64>,
+        /// Move the joint even if another client grasps it, taking the grasp over
+        /// (the wire's `FLAG_TAKE_OVER`).
+        take_over: bool,
+    },
+    /// Bring a fixed-base chain's head to `target`.
+    Reach {
+        /// Chain handle.
+        chain: u32,
+        /// The target.
+        target: Point,
+        /// Strategy, method, tolerance and limits, defaults resolved.
+        options: ReachOptions<f64>,
+        /// Append joint rotations to the response.
+        angles: bool,
+    },
+    /// The current joints.
+    Query {
+        /// Chain handle.
+        chain: u32,
+        /// Append joint rotations to the response.
+        angles: bool,
+    },
+    /// The chain's description and joints.
+    Describe {
+        /// Chain handle.
+        chain: u32,
+    },
+    /// Back to the scene's initial state (every grasp dropped).
+    Reset {
+        /// Chain handle.
+        chain: u32,
+        /// Drop other clients' grasps too (the wire's `FLAG_TAKE_OVER`).
+        take_over: bool,
+    },
+    /// Write a snapshot now (the service's business; the chain set only validates it).
+    Snapshot,
+    /// Hold `joint` where it is (a hand's grasp).
+    Grasp {
+        /// Chain handle (a free chain).
+        chain: u32,
+        /// Joint index, resolved.
+        joint: usize,
+        /// Take the grasp over if another client holds it (the wire's `FLAG_TAKE_OVER`).
+        take_over: bool,
+    },
+    /// Let a grasped joint go.
+    Release {
+        /// Chain handle (a free chain).
+        chain: u32,
+        /// Joint index, resolved.
+        joint: usize,
+        /// Release another client's grasp (the wire's `FLAG_TAKE_OVER`).
+        take_over: bool,
+    },
+    /// Move an instrument of the chain to a new pose, pushing the chain.
+    Instrument {
+        /// Chain handle (a chain that lists the instrument).
+        chain: u32,
+        /// The instrument's index in the chain's `instruments` list.
+        index: usize,
+        /// New centre.
+        centre: Point,
+        /// New axis direction (capsules; not normalised).
+        axis: Option<Point>,
+        /// Substep limit (the chain's).
+        max_substeps: u32,
+    },
+    /// A command to a bundle.
+    Bundle {
+        /// Wire handle (after the chains').
+        handle: u32,
+        /// Index among the scene's bundles.
+        index: usize,
+        /// What to do.
+        op: BundleOp<'a>,
+    },
+}
+
+impl Command<'_> {
+    /// The chain the request addresses (`None` for a snapshot).
+    pub fn chain(&self) -> Option<u32> {
+        match *self {
+            Command::Move { chain, .. }
+            | Command::Reach { chain, .. }
+            | Command::Query { chain, .. }
+            | Command::Describe { chain }
+            | Command::Reset { chain, .. }
+            | Command::Grasp { chain, .. }
+            | Command::Release { chain, .. }
+            | Command::Instrument { chain, .. } => Some(chain),
+            Command::Snapshot | Command::Bundle { .. } => None,
+        }
+    }
+
+    /// Whether an accepted request of this kind changes the state.
+    pub fn changes_state(&self) -> bool {
+        matches!(
+            self,
+            Command::Move { .. }
+                | Command::Reach { .. }
+                | Command::Reset { .. }
+                | Command::Grasp { .. }
+                | Command::Release { .. }
+                | Command::Instrument { .. }
+        ) || matches!(self, Command::Bundle { op, .. } if op.changes_state())
+    }
+}
+
+/// What an accepted command did: what its answer holds.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Answer {
+    /// The chain (`None` for a snapshot).
+    pub chain: Option<u32>,
+    /// Whether the state changed (a new sequence number; journaled and published).
+    pub changed: bool,
+    /// Joints in the response.
+    pub joints: u32,
+    /// Joint rotations in the response.
+    pub angles: u32,
+    /// Held joints in the response (after the joints and rotations).
+    pub held: u32,
+    /// Instruments in the response (after the held joints).
+    pub instruments: u32,
+    /// Substeps taken (moves).
+    pub substeps: u32,
+    /// Paper-form substeps that fell back to the closed form.
+    pub paper_fallbacks: u32,
+    /// Reach iterations, or collision passes of a move.
+    pub iterations: u32,
+    /// How the residual is known.
+    pub residual: Residual,
+    /// Whether the response carries the chain's description.
+    pub describe: bool,
+    /// Whether a bundle answered (its change goes to the bundle stream, not the journal).
+    pub bundle: bool,
+}
+
+/// The distance between where a joint should be and where it is.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Residual {
+    /// Not applicable (zero on the wire).
+    #[default]
+    None,
+    /// Known from the kernel (a reach).
+    Known(f64),
+    /// `joint` should be at `target`: measured on the joints as written into the response, so no extra
+    /// pass over the chain (by the door that writes it).
+    Landing {
+        /// Joint index.
+        joint: usize,
+        /// Where it was sent.
+        target: Point,
+    },
+}
+
+/// What a command asks of a bundle, checked.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BundleOp<'a> {
+    /// Every strand's head to its own target, in `substeps` substeps.
+    Heads {
+        /// One target per strand, finite and in range.
+        targets: &'a [Point],
+        /// Substeps, ≥ 1.
+        substeps: u32,
+    },
+    /// Every head by one rigid motion of the scene's heads: `R(rotation)·h0 + translation`.
+    Pose {
+        /// Translation.
+        translation: Point,
+        /// Rotation vector (axis × angle, radians).
+        rotation: Point,
+        /// Substeps, ≥ 1.
+        substeps: u32,
+    },
+    /// The joints.
+    Query,
+    /// The description and the joints.
+    Describe,
+    /// Back to the scene's strands.
+    Reset,
+}
+
+impl BundleOp<'_> {
+    /// Whether an accepted request of this kind changes the bundle.
+    pub fn changes_state(&self) -> bool {
+        matches!(
+            self,
+            BundleOp::Heads { .. } | BundleOp::Pose { .. } | BundleOp::Reset
+        )
+    }
+}
