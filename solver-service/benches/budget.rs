@@ -3,7 +3,7 @@
 //!
 //! `cargo bench -p solver-service --bench budget` loads `default.toml` and `knots.toml` (with the
 //! budget a start gives each: the scene's `budget`, else the default) and, for every chain with
-//! collision handling, sends moves through the service's request handler (`ChainSet::apply_wire`:
+//! collision handling, sends moves through the service's request handler (`World::apply_wire`:
 //! decode, estimate, the kernel with its meter, the undo copy), each timed: a random joint sent to where
 //! another joint of the rope is, or a short random step, so that most moves push into the rope.
 //!
@@ -16,9 +16,10 @@
 
 use nalgebra::Vector3;
 use shared::{Command, RequestHeader, Vec3};
-use solver_service::chain_set::ChainSet;
+use solver_service::request::WireWorld;
 use std::time::Instant;
 use tractrix::{Chain, MoveOptions, Substeps};
+use world::World;
 use world::scene::parse_scene;
 
 /// A small xorshift generator: the same moves every run.
@@ -97,10 +98,8 @@ fn main() {
     let mut worst_ratio: f64 = 0.0;
     for (file, text) in scenes {
         let scene = parse_scene(text, file).expect("a shipped scene");
-        let mut set = ChainSet::new(&scene).expect("chains");
-        let budget = scene
-            .budget
-            .unwrap_or(solver_service::chain_set::DEFAULT_BUDGET);
+        let mut set = World::new(&scene).expect("chains");
+        let budget = scene.budget.unwrap_or(world::chains::DEFAULT_BUDGET);
         set.set_budget(budget);
         for chain in 0..set.len() as u32 {
             let spec = &set.specs()[chain as usize];
@@ -114,7 +113,7 @@ fn main() {
             let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ u64::from(chain + 1));
             let (mut ok_ms, mut refused_ms) = (Vec::new(), Vec::new());
             let (mut over, mut locked, mut most) = (0usize, 0usize, 0u64);
-            let mut joints = Vec::new();
+            let mut joints: Vec<Vec3> = Vec::new();
             for _ in 0..moves {
                 joints.clear();
                 set.elements_of(chain, false)

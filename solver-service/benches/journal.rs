@@ -5,11 +5,11 @@
 //! `kill -9`) and fsynced (survives power loss): median, p99 and max over interleaved rounds.
 
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
-use solver_service::chain_set::ChainSet;
 use solver_service::persist::{JournalMode, Store};
 use solver_service::serve::answer;
 use solver_service::service::Solver;
 use std::time::Instant;
+use world::World;
 use world::owners::LOCAL;
 use world::scene::default_scene;
 
@@ -40,7 +40,7 @@ fn main() {
             } else {
                 per_round
             };
-            let set = ChainSet::new(&default_scene()).expect("scene");
+            let set = World::new(&default_scene()).expect("scene");
             let mut store = Store::open(&dir.path().join(format!("{m}")), *mode).expect("store");
             store.snapshot(&set).expect("snapshot");
             // The service's answer path without its store: the append is timed on its own.
@@ -65,7 +65,7 @@ fn main() {
     println!(
         "Head moves of the default rope (40 links, 8 substeps), {rounds} rounds interleaving the modes, \
          {per_round} requests per round ({} with fsync); \"solve\" is the whole request path without IPC \
-         (`ChainSet::respond`), \"append\" the journal record written after it:\n",
+         (`World::respond`), \"append\" the journal record written after it:\n",
         per_round / 10
     );
     println!(

@@ -17,12 +17,12 @@
 
 use nalgebra::Vector3;
 use shared::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Vec3};
-use solver_service::chain_set::ChainSet;
 use solver_service::serve::Handler;
 use solver_service::service::Solver;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
+use world::World;
 use world::scene::parse_scene;
 
 /// Moves per timed batch are chosen so that a batch is about this many link-steps.
@@ -133,7 +133,7 @@ fn rows<T: Real>(precision: &str, scale: f64) {
         let sc = parse_scene(&text, "overhead.toml").expect("the bench's scene");
         let solver = || {
             Box::new(Solver::new(
-                ChainSet::new(&sc).expect("a chain set"),
+                World::new(&sc).expect("a chain set"),
                 None,
                 Duration::from_secs(3600),
             ))

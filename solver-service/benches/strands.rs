@@ -12,11 +12,11 @@
 //! * *bundle on two cores (the service's)*: `world::two_cores::Bundle`, the halves owned by the
 //!   caller and by a helper thread that sleeps between frames (its wake-up is timed with the frame);
 //! * *service: decode + move*: the same move as a wire request to a scene's `[[bundle]]`
-//!   (`ChainSet::apply_wire`: the request checked, the wire targets converted, the bundle moved), what
+//!   (`World::apply_wire`: the request checked, the wire targets converted, the bundle moved), what
 //!   the service reports as `solve_ns`;
 //! * *service: decode + move + response payload*: the same, plus writing the response's joints (all
 //!   strands × (links + 1), as the serving loop writes them into shared memory) into a buffer
-//!   (`ChainSet::respond`).
+//!   (`World::respond`).
 //!
 //! After the run the strands' joints are compared with the chains' (*max joint difference*, links),
 //! and the SIMD state with the baseline and two-core states (bit for bit).
@@ -30,7 +30,7 @@
 
 use nalgebra::Vector3;
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
-use solver_service::chain_set::ChainSet;
+use solver_service::request::WireWorld;
 use solver_service::serve::answer;
 use solver_service::service::Solver;
 use std::hint::black_box;
@@ -38,6 +38,7 @@ use std::time::Instant;
 use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};
 use tractrix::strands::{Simd, StrandReal, Strands, best_simd};
 use tractrix::{Chain, MoveOptions, Real, Substeps};
+use world::World;
 use world::owners::LOCAL;
 use world::scene::parse_scene;
 use world::two_cores::Bundle;
@@ -72,12 +73,12 @@ struct Row {
 }
 
 /// The bench's strands as a scene's bundle: the same grid, links and hanging direction.
-fn scene(precision: &str) -> ChainSet {
+fn scene(precision: &str) -> World {
     let text = format!(
         "[[bundle]]\nname = \"hair\"\nstrands = {STRANDS}\nlinks = {LINKS}\nlink_length = 0.1\n\
          columns = 100\nspacing = 0.3\nhang = [0, -1, 0]\nprecision = \"{precision}\"\n"
     );
-    let mut set = ChainSet::new(&parse_scene(&text, "bench").unwrap()).unwrap();
+    let mut set = World::new(&parse_scene(&text, "bench").unwrap()).unwrap();
     // Four substeps are 100,000 block-steps, over the service's default budget (`--budget`).
     set.set_budget(u64::MAX);
     set

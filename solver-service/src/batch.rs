@@ -117,15 +117,15 @@ pub fn run_batch(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain_set::ChainSet;
+    use world::World;
     use world::scene::default_scene;
 
-    fn solver(set: ChainSet) -> Solver {
+    fn solver(set: World) -> Solver {
         Solver::new(set, None, std::time::Duration::ZERO)
     }
 
     /// Runs `input` as a batch and parses the JSON-lines output.
-    fn run_lines(set: ChainSet, input: &str) -> (Summary, Vec<TextResponse>) {
+    fn run_lines(set: World, input: &str) -> (Summary, Vec<TextResponse>) {
         let mut out = Vec::new();
         let s = run_batch(
             &mut solver(set),
@@ -145,7 +145,7 @@ mod tests {
 
     #[test]
     fn a_batch_moves_reaches_and_reports_refusals() {
-        let set = ChainSet::new(&default_scene()).unwrap();
+        let set = World::new(&default_scene()).unwrap();
         let input = r#"
 # comment lines and blank lines are skipped
 {"cmd":"move","chain":"rope","target":[40,5,0]}
@@ -182,7 +182,7 @@ mod tests {
             "f32.toml",
         )
         .unwrap();
-        let set = ChainSet::new(&scene).unwrap();
+        let set = World::new(&scene).unwrap();
         let input = "{\"cmd\":\"move\",\"chain\":\"hair\",\"target\":[0.3,0.1],\"substeps\":16}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[1e39,0]}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[0,0],\"precision\":\"f64\"}\n";
         let (s, lines) = run_lines(set, input);
         assert_eq!(
@@ -210,7 +210,7 @@ mod tests {
 
     #[test]
     fn a_malformed_line_is_named() {
-        let set = ChainSet::new(&default_scene()).unwrap();
+        let set = World::new(&default_scene()).unwrap();
         let input = "{\"cmd\":\"query\",\"chain\":0}\n{\"cmd\":\"move\",\"chain\":0,\"target\":[1,2,3,4]}\n";
         let e = run_batch(
             &mut solver(set),

@@ -5,8 +5,8 @@
 //!
 //! * [`scene_file`]: reading a scene file, which [`world::scene`] parses and validates;
 //! * [`wire`]: the world's enums as the wire numbers them, the bounds checked against the wire's;
-//! * [`request`]: the typed request path (`decode` → [`chain_set::ChainSet::apply`] → `encode`);
-//! * [`chain_set`]: the chains of a scene, flat, addressed by handle, and the one owner of rollback;
+//! * [`request`]: the typed request path (`decode` → [`world::World::apply`] → `encode`);
+//! * [`bundles`]: the wire's door to the scene's bundles;
 //! * [`serve`]: the one serving loop (generic over the iceoryx2 service variant) and its ports;
 //! * [`service`]: the solver as a [`serve::Handler`], with persistence and shutdown;
 //! * [`echo`]: the raw echo, the latency bench's baseline, served by the same loop;
@@ -15,7 +15,6 @@
 
 pub mod batch;
 pub mod bundles;
-pub mod chain_set;
 pub mod echo;
 pub mod persist;
 pub mod request;

@@ -6,7 +6,6 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use shared::WaitMode;
 use solver_service::batch::{Format, run_batch};
-use solver_service::chain_set::ChainSet;
 use solver_service::persist::JournalMode;
 use solver_service::scene_file::load_scene;
 use solver_service::serve::LoopOptions;
@@ -15,6 +14,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
+use world::World;
 use world::scene::{Scene, SceneError, default_scene};
 
 #[derive(Parser, Debug)]
@@ -186,7 +186,7 @@ fn ready(msg: &str) {
 
 /// The scene's chains with the budget set: every check a start makes (the scene's validation, building
 /// every chain, and every chain's `describe` within the budget), for `check` and for every door.
-fn chain_set(a: &ServeArgs) -> Result<ChainSet> {
+fn world(a: &ServeArgs) -> Result<World> {
     let sc = scene(&a.scene)?;
     let file = a
         .scene
@@ -194,7 +194,7 @@ fn chain_set(a: &ServeArgs) -> Result<ChainSet> {
         .map_or(world::scene::DEFAULT_SCENE_NAME.to_string(), |p| {
             p.display().to_string()
         });
-    let mut set = ChainSet::new(&sc).map_err(|e| SceneError {
+    let mut set = World::new(&sc).map_err(|e| SceneError {
         file: file.clone(),
         line: 0,
         message: e,
@@ -202,7 +202,7 @@ fn chain_set(a: &ServeArgs) -> Result<ChainSet> {
     set.set_budget(
         a.budget
             .or(sc.budget)
-            .unwrap_or(solver_service::chain_set::DEFAULT_BUDGET),
+            .unwrap_or(world::chains::DEFAULT_BUDGET),
     );
     if let Some((line, message)) = set.unservable() {
         return Err(SceneError {
@@ -219,7 +219,7 @@ fn real_main(cli: Cli) -> Result<u8> {
     match cli.command {
         None => {
             let cfg = serve_config(&cli.serve)?;
-            let set = chain_set(&cli.serve)?;
+            let set = world(&cli.serve)?;
             run(&cfg, set, ready).map_err(anyhow::Error::msg)?;
             Ok(0)
         }
@@ -235,7 +235,7 @@ fn real_main(cli: Cli) -> Result<u8> {
             Ok(0)
         }
         Some(Cmd::Check) => {
-            let set = chain_set(&cli.serve)?;
+            let set = world(&cli.serve)?;
             for c in set.specs() {
                 println!(
                     "{}: {:?}, {}D, {} links, total length {}, {:?}",
@@ -250,7 +250,7 @@ fn real_main(cli: Cli) -> Result<u8> {
             Ok(0)
         }
         Some(Cmd::Unix(u)) => {
-            let set = chain_set(&cli.serve)?;
+            let set = world(&cli.serve)?;
             if let Some(core) = cli.serve.pin {
                 shared::pin_current_thread(core).map_err(anyhow::Error::msg)?;
             }
@@ -269,7 +269,7 @@ fn real_main(cli: Cli) -> Result<u8> {
         }
         Some(Cmd::Batch(b)) => {
             let format = b.format;
-            let set = chain_set(&cli.serve)?;
+            let set = world(&cli.serve)?;
             let source = b.requests.display().to_string();
             let mut input: Box<dyn std::io::BufRead> = if source == "-" {
                 Box::new(std::io::stdin().lock())

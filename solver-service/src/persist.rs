@@ -25,7 +25,7 @@
 //! cost of one `fdatasync` per request. Sizes read back are bounded: a snapshot by the scene's size, a
 //! record by [`MAX_RECORD_BYTES`].
 
-use crate::chain_set::{ChainSet, each_form};
+use crate::request::WireWorld;
 use serde::{Deserialize, Serialize};
 use shared::{MAX_PATH_POINTS, RequestHeader, Vec3};
 use std::fs::{File, OpenOptions};
@@ -34,6 +34,7 @@ use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use tractrix::Chain;
 use tractrix::math::{Embed3, Real, Vector};
+use world::{World, each_form};
 
 const SNAPSHOT_MAGIC: u32 = 0x5452_5834; // "TRX4": held joints, instrument poses and the datum joint
 /// The third format: no datum joint (read; the datum is joint 0, at the stored origin).
@@ -373,7 +374,7 @@ impl Store {
 
     /// Writes a snapshot of `set` on this thread (after any snapshot the writer thread has in hand),
     /// then drops the journal it covers. Used at start-up, on the `snapshot` command and at shutdown.
-    pub fn snapshot(&mut self, set: &ChainSet) -> Result<(), String> {
+    pub fn snapshot(&mut self, set: &World) -> Result<(), String> {
         if let Some(Err(e)) = self.wait_for_writer() {
             // Reported to the caller of this snapshot; this one may still succeed.
             eprintln!("solver-service: a background snapshot failed: {e}");
@@ -393,7 +394,7 @@ impl Store {
     /// Starts from `set` and forgets the saved state: the old journals go first, then a new empty
     /// journal, then the snapshot, so a crash in between leaves the old snapshot alone (never a new
     /// snapshot beside old records).
-    pub fn begin(&mut self, set: &ChainSet) -> Result<(), String> {
+    pub fn begin(&mut self, set: &World) -> Result<(), String> {
         if let Some(Err(e)) = self.wait_for_writer() {
             eprintln!("solver-service: a background snapshot failed: {e}");
         }
@@ -417,7 +418,7 @@ impl Store {
     /// rotated here (microseconds); the writer thread writes, syncs and renames the snapshot, then deletes
     /// the journal segments it covers. `Ok(false)`: the previous one is still being written (try later).
     /// Its outcome comes back through [`Store::finished`].
-    pub fn snapshot_in_background(&mut self, set: &ChainSet) -> Result<bool, String> {
+    pub fn snapshot_in_background(&mut self, set: &World) -> Result<bool, String> {
         if self.writer.as_ref().is_some_and(|w| w.in_flight) {
             return Ok(false);
         }
@@ -657,7 +658,7 @@ impl Store {
     /// `from_damaged` it restores the state before the damage, keeps the damaged files beside the new
     /// ones (`damaged-<state>-<name>`) and says what it dropped. A journal missing after a snapshot that
     /// says one follows is damage too.
-    pub fn restore(&mut self, set: &mut ChainSet, from_damaged: bool) -> Result<Restored, String> {
+    pub fn restore(&mut self, set: &mut World, from_damaged: bool) -> Result<Restored, String> {
         let path = self.snapshot_path();
         let bound = snapshot_bound(set);
         let bytes = read_bounded(&path, bound)?;
@@ -810,7 +811,7 @@ impl Drop for Writer {
 
 /// The state of `set` as a snapshot file's bytes (envelope and body), and its sequence number;
 /// `journal` says whether a journal follows it.
-fn encode_snapshot(set: &ChainSet, journal: bool) -> Result<(Vec<u8>, u64), String> {
+fn encode_snapshot(set: &World, journal: bool) -> Result<(Vec<u8>, u64), String> {
     let snap = Snapshot {
         magic: SNAPSHOT_MAGIC,
         sequence: set.sequence(),
@@ -917,7 +918,7 @@ fn remove_journals(dir: &Path, sequence: u64) -> Result<(), String> {
 /// error. A record that does not read ends the file: a torn tail ([`is_torn_tail`]: a write cut by a
 /// crash or a failed append, never acknowledged) is dropped and counted; anything else is damage, an
 /// error that says where and how many whole records follow.
-fn replay(jpath: &Path, set: &mut ChainSet, restored: &mut Restored) -> Result<(), String> {
+fn replay(jpath: &Path, set: &mut World, restored: &mut Restored) -> Result<(), String> {
     let file = File::open(jpath).map_err(|e| io(jpath, "cannot open", e))?;
     let file_len = file
         .metadata()
@@ -1074,7 +1075,7 @@ fn read_bounded(path: &Path, bound: u64) -> Result<Vec<u8>, String> {
 }
 
 /// The most bytes a snapshot of this scene can take (varint-encoded lengths are smaller).
-fn snapshot_bound(set: &ChainSet) -> u64 {
+fn snapshot_bound(set: &World) -> u64 {
     64 + ENVELOPE_BYTES as u64
         + set
             .specs()
@@ -1129,7 +1130,7 @@ where
     (origin, links, held, (b as u32, f(&at)))
 }
 
-fn install(set: &mut ChainSet, snap: &Snapshot, with_instruments: bool) -> Result<(), String> {
+fn install(set: &mut World, snap: &Snapshot, with_instruments: bool) -> Result<(), String> {
     if snap.chains.len() != set.len() {
         return Err(format!(
             "{} chains, the scene has {}",
@@ -1253,7 +1254,7 @@ mod tests {
     use shared::{Command, JOINT_HEAD};
     use world::scene::default_scene;
 
-    fn joints(set: &ChainSet) -> Vec<u64> {
+    fn joints(set: &World) -> Vec<u64> {
         (0..set.len() as u32)
             .flat_map(|c| set.elements_of(c, true).collect::<Vec<_>>())
             .flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
@@ -1266,7 +1267,7 @@ mod tests {
     fn snapshot_plus_journal_restores_bit_for_bit() {
         let dir = tempfile::tempdir().unwrap();
         let scene = default_scene();
-        let mut set = ChainSet::new(&scene).unwrap();
+        let mut set = World::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.snapshot(&set).unwrap();
         for i in 0..200u32 {
@@ -1312,7 +1313,7 @@ mod tests {
         f.write_all(&[200, 0, 0, 0, 1, 2]).unwrap();
         drop(f);
 
-        let mut fresh = ChainSet::new(&scene).unwrap();
+        let mut fresh = World::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         let r = store.restore(&mut fresh, false).unwrap();
         assert_eq!(r.snapshot_sequence, 91);
@@ -1335,7 +1336,7 @@ mod tests {
     fn a_snapshot_keeps_the_datum_joints() {
         let dir = tempfile::tempdir().unwrap();
         let scene = default_scene();
-        let mut set = ChainSet::new(&scene).unwrap();
+        let mut set = World::new(&scene).unwrap();
         // The free chains' heads (a fixed-base arm refuses a move: its datum stays joint 0).
         for c in 0..set.len() as u32 {
             let req = RequestHeader::new(Command::Move, c);
@@ -1344,7 +1345,7 @@ mod tests {
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.snapshot(&set).unwrap();
         drop(store);
-        let mut fresh = ChainSet::new(&scene).unwrap();
+        let mut fresh = World::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.restore(&mut fresh, false).unwrap();
         assert!(datums(&set).iter().any(|b| b.0 > 0), "{:?}", datums(&set));
@@ -1361,17 +1362,17 @@ mod tests {
             "t.toml",
         )
         .unwrap();
-        let mut set = ChainSet::new(&scene).unwrap();
+        let mut set = World::new(&scene).unwrap();
         let req = RequestHeader::new(Command::Move, 0);
         let _ = set.apply_wire(&req, &[Vec3::new(3.0, 6.0, 0.0)]);
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.snapshot(&set).unwrap();
         drop(store);
-        let mut fresh = ChainSet::new(&scene).unwrap();
+        let mut fresh = World::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.restore(&mut fresh, false).unwrap();
         assert_eq!(joints(&fresh), joints(&set));
-        let limited = |set: &ChainSet| {
+        let limited = |set: &World| {
             set.geometry()
                 .iter()
                 .map(|g| each_form!(g, g => g.chain.joint_limits().is_some()))
@@ -1386,7 +1387,7 @@ mod tests {
     }
 
     /// Each chain's datum joint and the bits of its position.
-    fn datums(set: &ChainSet) -> Vec<(usize, Vec<u64>)> {
+    fn datums(set: &World) -> Vec<(usize, Vec<u64>)> {
         set.geometry()
             .iter()
             .map(|g| {
@@ -1406,7 +1407,7 @@ mod tests {
     fn a_failed_append_never_hides_later_acknowledged_changes() {
         let dir = tempfile::tempdir().unwrap();
         let scene = default_scene();
-        let mut set = ChainSet::new(&scene).unwrap();
+        let mut set = World::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.snapshot(&set).unwrap();
         let (mut acknowledged, mut refused) = (0, 0);
@@ -1451,7 +1452,7 @@ mod tests {
         assert_eq!(set.sequence(), acknowledged);
         let expected = joints(&set);
         drop(store);
-        let mut fresh = ChainSet::new(&scene).unwrap();
+        let mut fresh = World::new(&scene).unwrap();
         let r = Store::open(dir.path(), JournalMode::Write)
             .unwrap()
             .restore(&mut fresh, false)
@@ -1471,17 +1472,17 @@ mod tests {
     fn a_background_snapshot_is_restorable_at_every_step() {
         let dir = tempfile::tempdir().unwrap();
         let scene = default_scene();
-        let mut set = ChainSet::new(&scene).unwrap();
+        let mut set = World::new(&scene).unwrap();
         let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
         store.begin(&set).unwrap();
-        let change = |set: &mut ChainSet, store: &mut Store, i: u32| {
+        let change = |set: &mut World, store: &mut Store, i: u32| {
             let t = f64::from(i) * 0.21;
             let req = RequestHeader::new(Command::Move, 0);
             let p = [Vec3::new(38.0 + t.cos(), t.sin(), 0.1 * t)];
             assert!(set.apply_wire(&req, &p).unwrap().changed);
             store.append(set.sequence(), &req, &p).unwrap();
         };
-        let restores_to = |from: &Path, set: &ChainSet, what: &str| {
+        let restores_to = |from: &Path, set: &World, what: &str| {
             // The writer thread may rename or delete files while they are copied: what vanished
             // after the listing is skipped, and snapshot.bin is copied last, so the copy is a state a
             // crash could leave (a segment is deleted only once the snapshot covering it is in place).
@@ -1498,7 +1499,7 @@ mod tests {
                     Err(e) => panic!("copy {n:?}: {e}"),
                 }
             }
-            let mut fresh = ChainSet::new(&scene).unwrap();
+            let mut fresh = World::new(&scene).unwrap();
             Store::open(copy.path(), JournalMode::Write)
                 .unwrap()
                 .restore(&mut fresh, false)
@@ -1552,7 +1553,7 @@ mod tests {
     #[test]
     fn a_snapshot_of_another_scene_is_refused_and_changes_nothing() {
         let dir = tempfile::tempdir().unwrap();
-        let mut set = ChainSet::new(&default_scene()).unwrap();
+        let mut set = World::new(&default_scene()).unwrap();
         Store::open(dir.path(), JournalMode::Off)
             .unwrap()
             .snapshot(&set)
@@ -1562,7 +1563,7 @@ mod tests {
             "o.toml",
         )
         .unwrap();
-        let mut other_set = ChainSet::new(&other).unwrap();
+        let mut other_set = World::new(&other).unwrap();
         let before = joints(&other_set);
         let e = Store::open(dir.path(), JournalMode::Off)
             .unwrap()

@@ -3,14 +3,15 @@
 //! snapshot is written every `snapshot_every` while the state changes, on `snapshot` requests and on
 //! shutdown.
 
-use crate::chain_set::ChainSet;
 use crate::persist::{JournalMode, Store};
-use crate::request::{self, Answer, Command, Refusal, Residual, refuse};
+use crate::request::{self, Answer, Command, Refusal, Residual, WireWorld, refuse};
 use crate::serve::{Handled, Handler, LoopOptions, ServerPorts, serve};
 use iceoryx2::prelude::ipc;
 use shared::{RequestHeader, ResponseHeader, Vec3, WaitMode};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
+use world::World;
+use world::chains::Elements;
 
 /// Persistence settings.
 #[derive(Debug, Clone)]
@@ -46,7 +47,7 @@ pub struct ServiceConfig {
 
 /// The solver: the chain set, the store, and the residual the next response completes.
 pub struct Solver {
-    set: ChainSet,
+    set: World,
     store: Option<Store>,
     dirty_since_snapshot: bool,
     snapshot_every: Duration,
@@ -67,7 +68,7 @@ impl std::fmt::Debug for Solver {
 
 impl Solver {
     /// A solver over `set`, persisting into `store` if given.
-    pub fn new(set: ChainSet, store: Option<Store>, snapshot_every: Duration) -> Self {
+    pub fn new(set: World, store: Option<Store>, snapshot_every: Duration) -> Self {
         Solver {
             set,
             store,
@@ -80,13 +81,13 @@ impl Solver {
     }
 
     /// The chains.
-    pub fn set(&self) -> &ChainSet {
+    pub fn set(&self) -> &World {
         &self.set
     }
 
     /// The chains, to change outside the answer path (benches, tests): nothing done through it is
     /// journaled.
-    pub fn set_mut(&mut self) -> &mut ChainSet {
+    pub fn set_mut(&mut self) -> &mut World {
         &mut self.set
     }
 
@@ -186,11 +187,19 @@ impl Handler for Solver {
     }
 
     fn elements(&self, h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_ {
-        self.set.elements(h)
+        self.set.elements(h).map(Vec3::from)
     }
 
     fn feed<K: crate::serve::ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out {
-        self.set.elements(h).feed(sink)
+        // The form is picked once per response, not per element.
+        match self.set.elements(h) {
+            Elements::Empty => sink.take(std::iter::empty()),
+            Elements::Planar64(e) => sink.take(e.map(Vec3::from)),
+            Elements::Spatial64(e) => sink.take(e.map(Vec3::from)),
+            Elements::Planar32(e) => sink.take(e.map(Vec3::from)),
+            Elements::Spatial32(e) => sink.take(e.map(Vec3::from)),
+            Elements::Bundle(e) => sink.take(e.map(Vec3::from)),
+        }
     }
 
     fn gather(&self, h: &ResponseHeader, out: &mut Vec<Vec3>, n: usize) {
@@ -219,7 +228,7 @@ impl Handler for Solver {
 
 /// Serves `set` until SIGINT or SIGTERM; then writes a last snapshot. `ready` is called once the ports
 /// are open (the binary prints a line that scripts and tests wait for).
-pub fn run(cfg: &ServiceConfig, set: ChainSet, ready: impl FnOnce(&str)) -> Result<(), String> {
+pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<(), String> {
     if let Some(core) = cfg.pin {
         shared::pin_current_thread(core)?;
     }

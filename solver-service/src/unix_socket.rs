@@ -76,23 +76,15 @@ pub fn serve_connection(mut stream: UnixStream, solver: &mut Solver) -> std::io:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain_set::ChainSet;
     use shared::unix_frame::{read_response, write_request};
     use shared::{Command, RequestHeader};
+    use world::World;
 
     #[test]
     fn a_move_over_the_socket_matches_the_same_move_in_process() {
         let scene = world::scene::default_scene();
-        let mut served = Solver::new(
-            ChainSet::new(&scene).unwrap(),
-            None,
-            std::time::Duration::ZERO,
-        );
-        let mut local = Solver::new(
-            ChainSet::new(&scene).unwrap(),
-            None,
-            std::time::Duration::ZERO,
-        );
+        let mut served = Solver::new(World::new(&scene).unwrap(), None, std::time::Duration::ZERO);
+        let mut local = Solver::new(World::new(&scene).unwrap(), None, std::time::Duration::ZERO);
         let (a, mut b) = UnixStream::pair().unwrap();
         let server = std::thread::spawn(move || {
             let r = serve_connection(a, &mut served);

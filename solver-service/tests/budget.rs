@@ -5,10 +5,11 @@
 //! budget" has the times.)
 
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
-use solver_service::chain_set::{ChainSet, DEFAULT_BUDGET};
+use solver_service::request::WireWorld;
+use world::chains::{DEFAULT_BUDGET, World};
 use world::scene::parse_scene;
 
-fn joints(set: &ChainSet, chain: u32) -> Vec<Vec3> {
+fn joints(set: &World, chain: u32) -> Vec<Vec3> {
     let n = set.specs()[chain as usize].lengths.len() + 1;
     let mut out = Vec::new();
     set.elements_of(chain, false).gather_into(&mut out, n);
@@ -25,7 +26,7 @@ fn all_pairs_on_fifty_thousand_links_are_refused_over_budget_and_change_nothing(
         "long.toml",
     )
     .unwrap();
-    let mut set = ChainSet::new(&scene).unwrap();
+    let mut set = World::new(&scene).unwrap();
     set.set_budget(DEFAULT_BUDGET);
     let before = joints(&set, 0);
     let mut h = RequestHeader::new(Command::Move, 0);
@@ -49,7 +50,7 @@ fn moves_into_the_knot_scenes_ropes_are_never_charged_more_than_the_budget() {
     let own = scene.budget.expect("knots.toml declares its budget");
     let mut refused = 0;
     for budget in [own, own / 10] {
-        let mut set = ChainSet::new(&scene).unwrap();
+        let mut set = World::new(&scene).unwrap();
         set.set_budget(budget);
         for name in ["tie-160", "hands-160", "reef"] {
             let chain = set.find(name).unwrap();

@@ -4,9 +4,10 @@
 //! damage`); with `--restore-from-damaged` every journal flip restores a state that was acknowledged.
 
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
-use solver_service::chain_set::ChainSet;
 use solver_service::persist::{JournalMode, Store};
+use solver_service::request::WireWorld;
 use std::path::Path;
+use world::World;
 use world::scene::{Scene, parse_scene};
 
 fn scene() -> Scene {
@@ -18,7 +19,7 @@ fn scene() -> Scene {
 }
 
 /// Every joint's bits, the held joints and the sequence: the whole state a client can see.
-fn state(set: &ChainSet) -> (Vec<u64>, u64) {
+fn state(set: &World) -> (Vec<u64>, u64) {
     let bits = set
         .elements_with(0, true, true, false)
         .collect::<Vec<_>>()
@@ -64,7 +65,7 @@ struct Saved {
 
 fn saved() -> Saved {
     let dir = tempfile::tempdir().unwrap();
-    let mut set = ChainSet::new(&scene()).unwrap();
+    let mut set = World::new(&scene()).unwrap();
     let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
     store.begin(&set).unwrap();
     let mut states = vec![state(&set)];
@@ -115,7 +116,7 @@ fn restore(
         std::fs::write(dir.join("journal.bin"), j).unwrap();
     }
     let before = files(dir);
-    let mut set = ChainSet::new(&scene()).unwrap();
+    let mut set = World::new(&scene()).unwrap();
     let mut store = Store::open(dir, JournalMode::Write).unwrap();
     match store.restore(&mut set, from_damaged) {
         Ok(_) => Ok(state(&set)),

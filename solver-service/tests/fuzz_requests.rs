@@ -1,4 +1,4 @@
-//! A proptest-driven fuzzer of the request handler ([`ChainSet::apply`], what the service runs on every
+//! A proptest-driven fuzzer of the request handler ([`World::apply`], what the service runs on every
 //! request it receives): sequences of requests whose header bytes are arbitrary or mutated from a valid
 //! request field by field (NaN, ±inf, ±0, subnormals, 1e308, `u32::MAX`, random bits), with arbitrary
 //! target points, against a scene holding every chain form (planar and spatial, f64 and f32, free and
@@ -18,9 +18,9 @@
 
 use proptest::prelude::*;
 use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
-use solver_service::chain_set::ChainSet;
 use solver_service::serve::answer;
 use solver_service::service::Solver;
+use world::World;
 use world::owners::LOCAL;
 use world::scene::parse_scene;
 
@@ -317,7 +317,7 @@ fn request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
 
 /// Every chain's joints as bits.
 /// Every chain's joints and held joints, and its instruments' poses, as bits.
-fn snapshot(set: &ChainSet) -> Vec<Vec<[u64; 3]>> {
+fn snapshot(set: &World) -> Vec<Vec<[u64; 3]>> {
     (0..set.len() as u32)
         .map(|c| {
             let mut v: Vec<[u64; 3]> = set
@@ -331,9 +331,9 @@ fn snapshot(set: &ChainSet) -> Vec<Vec<[u64; 3]>> {
         .collect()
 }
 
-fn check_invariants(set: &ChainSet) -> Result<(), TestCaseError> {
+fn check_invariants(set: &World) -> Result<(), TestCaseError> {
     for (c, spec) in set.specs().iter().enumerate() {
-        let joints: Vec<Vec3> = set.elements_of(c as u32, false).collect();
+        let joints: Vec<Vec3> = set.elements_of(c as u32, false).map(Vec3::from).collect();
         prop_assert_eq!(joints.len(), spec.lengths.len() + 1);
         prop_assert!(
             joints.iter().all(|j| j.is_finite()),
@@ -383,7 +383,10 @@ fn check_invariants(set: &ChainSet) -> Result<(), TestCaseError> {
         };
         for parts in 0..8u32 {
             let (a, h, i) = (parts & 1 != 0, parts & 2 != 0, parts & 4 != 0);
-            let all: Vec<Vec3> = set.elements_with(c as u32, a, h, i).collect();
+            let all: Vec<Vec3> = set
+                .elements_with(c as u32, a, h, i)
+                .map(Vec3::from)
+                .collect();
             for n in [all.len(), all.len() / 2, 1, 0] {
                 let mut got = vec![Vec3::new(7.0, 7.0, 7.0)];
                 set.elements_with(c as u32, a, h, i)
@@ -419,7 +422,7 @@ fn run_case(
 ) -> Result<(), TestCaseError> {
     let max_limits = std::env::var("FUZZ_LIMITS").is_ok_and(|v| v == "max");
     let scene = parse_scene(&scene_text(max_limits), "fuzz.toml").expect("fuzz scene");
-    let mut set = ChainSet::new(&scene).expect("chain set");
+    let mut set = World::new(&scene).expect("chain set");
     // A budget the fuzzer's own requests reach (long paths, many reach iterations), so the over-budget
     // refusal is exercised like every other; the scene's substep caps keep the rest under it. With the
     // limits at their maximum, the service's own default budget is what bounds the work.

@@ -5,7 +5,6 @@
 use clients::process::Proc;
 use clients::{ClientWait, ConnectOptions, Connection};
 use iceoryx2::prelude::local;
-use solver_service::chain_set::ChainSet;
 use solver_service::serve::{LoopOptions, ServerPorts, serve};
 use solver_service::service::Solver;
 use std::path::{Path, PathBuf};
@@ -15,6 +14,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
+use world::World;
 use world::scene::{Scene, default_scene};
 
 pub use clients::process::START_TIMEOUT;
@@ -231,7 +231,7 @@ impl InProcess {
         let thread = {
             let (prefix, stop) = (prefix.clone(), stop.clone());
             std::thread::spawn(move || -> Result<(), String> {
-                let set = ChainSet::new(&scene)?;
+                let set = World::new(&scene)?;
                 let iox = shared::iceoryx_config(&prefix)?;
                 let (elements, joints) = set.response_sizes();
                 let (ports, _) = ServerPorts::<local::Service>::open(

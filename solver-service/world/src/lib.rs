@@ -4,6 +4,8 @@
 //!
 //! * [`scene`]: scene text (read, validate, shapes) into [`scene::ChainSpec`]s and
 //!   [`scene::BundleSpec`]s of kernel types, every error with its line and field;
+//! * [`chains`]: the [`World`]: every chain and bundle of a scene, by handle; apply (atomic) and undo;
+//! * [`bundles`]: the scene's bundles at run time;
 //! * [`command`]: what the world is asked ([`command::Command`]) and answers ([`command::Answer`]);
 //! * [`owners`]: who holds which grasp;
 //! * [`refusal`]: why a command was refused, allocation-free;
@@ -12,6 +14,10 @@
 //!
 //! The numbers come from the I/O-free kernel crate [`tractrix`].
 
+pub use chains::World;
+
+pub mod bundles;
+pub mod chains;
 pub mod command;
 pub mod owners;
 pub mod refusal;

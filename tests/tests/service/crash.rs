@@ -3,23 +3,24 @@
 //! fills up. After each, a restore holds every acknowledged change and nothing else.
 //!
 //! The expected state comes from a mirror: the test applies every request it sends to a
-//! [`ChainSet`] of its own (the kernel is deterministic, so the mirror matches the service bit for bit;
+//! [`World`] of its own (the kernel is deterministic, so the mirror matches the service bit for bit;
 //! each response is checked against it). A request whose response was lost with the process may or may
 //! not have reached the journal before the kill: the restored state is the last acknowledged one, or
 //! the one that request produces, and nothing else.
 
 use clients::{ClientWait, ConnectOptions, Connection};
 use shared::{Command, RequestHeader, Status, Vec3};
-use solver_service::chain_set::ChainSet;
+use solver_service::request::WireWorld;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use tests::{Service, unique_prefix};
+use world::World;
 use world::scene::default_scene;
 
 /// Every chain's joints as bits, and the sequence number, from the mirror.
-fn mirror_state(set: &ChainSet) -> (Vec<u64>, u64) {
+fn mirror_state(set: &World) -> (Vec<u64>, u64) {
     let bits = (0..set.len() as u32)
         .flat_map(|c| set.elements_of(c, false).collect::<Vec<_>>())
         .flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
@@ -107,10 +108,10 @@ fn connect(svc: &Service, call_timeout: Duration) -> Connection {
 /// flight at the kill applied (when its response was lost).
 fn stream_until_killed(
     c: &mut Connection,
-    mirror: &mut ChainSet,
+    mirror: &mut World,
     next: &mut u64,
     killed: &AtomicBool,
-) -> Option<ChainSet> {
+) -> Option<World> {
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
         assert!(Instant::now() < deadline, "the service was never killed");
@@ -155,7 +156,7 @@ fn kill_9_at_random_points_loses_no_acknowledged_change() {
     let dir = tempfile::tempdir().unwrap();
     let state_dir = dir.path().join("state");
     let d = state_dir.to_str().unwrap();
-    let mut mirror = ChainSet::new(&default_scene()).unwrap();
+    let mut mirror = World::new(&default_scene()).unwrap();
     let chains = mirror.len() as u32;
     let mut next = 0u64;
     let (mut acknowledged_only, mut with_lost_response) = (0, 0);
@@ -296,7 +297,7 @@ fn a_full_file_system_refuses_changes_and_loses_no_acknowledged_one() {
         ],
     );
     let mut c = connect(&svc, Duration::from_secs(10));
-    let mut mirror = ChainSet::new(&default_scene()).unwrap();
+    let mut mirror = World::new(&default_scene()).unwrap();
     let chains = mirror.len() as u32;
     let filler = fill(&fs.path);
     // Appends go on into the journal's last page, then fail.

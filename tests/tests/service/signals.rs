@@ -13,12 +13,12 @@
 
 use clients::{ClientWait, ConnectOptions, Connection};
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
-use solver_service::chain_set::ChainSet;
 use solver_service::persist::{JournalMode, Store};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 use tests::{Service, unique_prefix};
+use world::World;
 use world::scene::default_scene;
 
 /// How long a signalled service may take to exit, final snapshot included, before it counts as running
@@ -100,7 +100,7 @@ fn one_run(wait: &str, load: Load, sig: &str) -> Duration {
     }
     assert!(status.success(), "{wait} {load:?} {sig}: {status:?}");
     // The final snapshot holds the last state a client was told about.
-    let mut set = ChainSet::new(&default_scene()).unwrap();
+    let mut set = World::new(&default_scene()).unwrap();
     Store::open(&state, JournalMode::Off)
         .unwrap()
         .restore(&mut set, false)

@@ -249,6 +249,11 @@ pub struct BundleSpec {
 }
 
 impl BundleSpec {
+    /// Most substeps a move of the bundle may ask for.
+    pub fn max_substeps(&self) -> u32 {
+        MAX_SUBSTEPS_LIMIT
+    }
+
     /// Joints of all strands: strands × (links + 1).
     pub fn joints(&self) -> usize {
         self.strands as usize * (self.links as usize + 1)

@@ -1,26 +1,27 @@
-//! The chains of a running scene: one flat [`Chain`] per scene chain, addressed by its index (the wire's
-//! chain handle), in exactly the form the scene declared (planar or spatial, f64 or f32), with collision
-//! structures only where the scene declares collision.
+//! The chains of a running scene, the [`World`]: one flat [`Chain`] per scene chain, addressed by its
+//! index (the wire's chain handle), in exactly the form the scene declared (planar or spatial, f64 or
+//! f32), with collision structures only where the scene declares collision; then the scene's bundles.
 //!
-//! [`ChainSet::apply`] runs a decoded [`Command`] and is atomic: a refusal changes nothing, and the last
-//! accepted change can be undone ([`ChainSet::undo`], for a journal write that failed). The set owns that
-//! rollback, and nothing else does. [`ChainSet::elements`] streams the joints (and joint rotations)
-//! straight into the caller's buffer: the service writes them into the loaned shared-memory response,
-//! batch mode and the Unix socket into their output.
+//! [`World::apply`] runs a [`Command`] and is atomic: a refusal changes nothing, and the last accepted
+//! change can be undone ([`World::undo`], for a journal write that failed). The world owns that
+//! rollback, and nothing else does. [`World::elements_for`] streams the joints (and joint rotations,
+//! held joints, instruments) straight into the caller's buffer: the service writes them into the
+//! loaned shared-memory response, batch mode and the Unix socket into their output.
 //!
 //! No I/O and no clock here: the service measures time and does the persistence around it.
 
-use crate::request::{self, Answer, Command, Point, Refusal, Residual, refuse};
+use crate::command::{Answer, BundleOp, Command, Point, Residual};
+use crate::owners::{LOCAL, Owners};
+use crate::refusal::Refusal;
+use crate::refuse;
+use crate::scene::{ChainSpec, Scene};
 use nalgebra::Vector3;
-use shared::{RequestHeader, ResponseHeader, Vec3};
 use tractrix::angles::rotation_between;
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, move_joint_colliding,
 };
 use tractrix::math::{CompensatedSum, Embed3, Real, Vector};
 use tractrix::{Chain, ChainError, MoveOptions, MoveOutcome, ReachOptions, ReachWorkspace, reach};
-use world::owners::{LOCAL, Owners};
-use world::scene::{ChainSpec, Scene};
 
 /// A chain in the precision and dimension its scene declared, with its scene state (for reset) and the
 /// buffers its requests reuse (allocated once).
@@ -30,7 +31,7 @@ pub struct Held<T: Real, const D: usize> {
     pub chain: Chain<T, D>,
     /// The scene's state (reset).
     pub initial: Chain<T, D>,
-    /// The state before the last change ([`ChainSet::undo`]).
+    /// The state before the last change ([`World::undo`]).
     before: Chain<T, D>,
     ws: ReachWorkspace<T, D>,
     /// Collision model and buffers, only for chains whose scene declares collision.
@@ -62,7 +63,7 @@ where
             .as_mut()
             .map_or(&mut [][..], |(m, _)| &mut m.obstacles[at..])
     }
-    /// Remembers the state for [`ChainSet::undo`] (no allocation once warm).
+    /// Remembers the state for [`World::undo`] (no allocation once warm).
     fn arm_undo(&mut self) {
         self.before.copy_from(&self.chain);
         if let Some((m, _)) = &self.collision {
@@ -143,27 +144,33 @@ pub enum Geometry {
     Spatial32(Held<f32, 3>),
 }
 
-/// Runs `$body` with `$h` bound to the [`Held`] of whichever form `$g` is.
+/// Runs `$body` with `$h` bound to the [`Held`] of whichever form `$g` is (a
+/// [`Geometry`](crate::chains::Geometry)).
+#[macro_export]
 macro_rules! each_form {
     ($g:expr, $h:ident => $body:expr) => {
         match $g {
-            $crate::chain_set::Geometry::Planar64($h) => $body,
-            $crate::chain_set::Geometry::Spatial64($h) => $body,
-            $crate::chain_set::Geometry::Planar32($h) => $body,
-            $crate::chain_set::Geometry::Spatial32($h) => $body,
+            $crate::chains::Geometry::Planar64($h) => $body,
+            $crate::chains::Geometry::Spatial64($h) => $body,
+            $crate::chains::Geometry::Planar32($h) => $body,
+            $crate::chains::Geometry::Spatial32($h) => $body,
         }
     };
 }
-pub(crate) use each_form;
+pub use crate::each_form;
+
+/// Elements of an instrument's pose in a payload: a sphere's centre twice, then `(radius, 0, 0)`; a
+/// capsule's `a`, its `b`, then `(radius, 1, 0)` (the wire's `InstrumentPose`).
+pub const INSTRUMENT_ELEMENTS: usize = 3;
 
 /// The work a request may cost by default, in link-steps (one link following its tractrix once, about
-/// 80 ns here): about 4 ms. See [`ChainSet::set_budget`].
+/// 80 ns here): about 4 ms. See [`World::set_budget`].
 pub const DEFAULT_BUDGET: u64 = 50_000;
 
 /// Every chain and bundle of a scene, the state sequence number, and the undo record of the last
 /// change.
 #[derive(Debug, Clone)]
-pub struct ChainSet {
+pub struct World {
     specs: Vec<ChainSpec>,
     geometry: Vec<Geometry>,
     /// The bundles, handles `specs.len()..`: not persisted, not in `sequence` (each counts its own).
@@ -173,7 +180,7 @@ pub struct ChainSet {
     budget: u64,
     /// The chain and sequence before the last accepted change, while it can be undone.
     undo: Option<(u32, u64)>,
-    /// Who owns each grasp ([`world::owners`]).
+    /// Who owns each grasp ([`crate::owners`]).
     owners: Owners,
     /// The collision work the kernel's meter charged the last request, in link-steps.
     last_work: u64,
@@ -194,17 +201,9 @@ where
     Point::new(v.x.to_f64(), v.y.to_f64(), v.z.to_f64())
 }
 
-fn to_wire<T: Real, const D: usize>(v: &Vector<T, D>) -> Vec3
-where
-    Vector<T, D>: Embed3<T>,
-{
-    let v = v.to_3d();
-    Vec3::new(v.x.to_f64(), v.y.to_f64(), v.z.to_f64())
-}
-
 /// The links each following instrument holds: those within its reach of the joint it follows (its
 /// radius, plus half its length for a capsule, in shortest links, and one more on each side).
-fn holding(spec: &ChainSpec, c: &world::scene::CollisionSpec) -> Vec<tractrix::collision::Holding> {
+fn holding(spec: &ChainSpec, c: &crate::scene::CollisionSpec) -> Vec<tractrix::collision::Holding> {
     let n = spec.lengths.len();
     c.instruments
         .iter()
@@ -308,15 +307,15 @@ where
     Ok(h)
 }
 
-impl ChainSet {
+impl World {
     /// Builds the chains a scene declares (and nothing else).
     pub fn new(scene: &Scene) -> Result<Self, String> {
         let mut geometry = Vec::with_capacity(scene.chains.len());
         for spec in &scene.chains {
             let g = match (spec.dims, spec.precision) {
-                (2, world::scene::Precision::F32) => held(spec).map(Geometry::Planar32),
+                (2, crate::scene::Precision::F32) => held(spec).map(Geometry::Planar32),
                 (2, _) => held(spec).map(Geometry::Planar64),
-                (_, world::scene::Precision::F32) => held(spec).map(Geometry::Spatial32),
+                (_, crate::scene::Precision::F32) => held(spec).map(Geometry::Spatial32),
                 _ => held(spec).map(Geometry::Spatial64),
             }
             .map_err(|e| format!("chain {:?}: {e}", spec.name))?;
@@ -327,7 +326,7 @@ impl ChainSet {
             .iter()
             .map(crate::bundles::Live::new)
             .collect::<Result<_, _>>()?;
-        Ok(ChainSet {
+        Ok(World {
             specs: scene.chains.clone(),
             geometry,
             bundles,
@@ -361,7 +360,7 @@ impl ChainSet {
     }
 
     /// The work a request will cost at most, in link-steps, collision work aside (metered while it runs,
-    /// [`ChainSet::set_budget`]): the substeps of a
+    /// [`World::set_budget`]): the substeps of a
     /// move are counted from where the joint is now, as the kernel will count them. A move needing more
     /// substeps than its chain allows is refused here as the kernel would refuse it (`too-many-substeps`).
     pub fn estimate(&self, req: &Command<'_>) -> Result<u64, Refusal> {
@@ -518,7 +517,7 @@ impl ChainSet {
             }
         }
         for b in &self.bundles {
-            let cost = crate::bundles::estimate(&b.spec, &crate::bundles::BundleOp::Describe);
+            let cost = crate::bundles::estimate(&b.spec, &BundleOp::Describe);
             if cost > self.budget {
                 let links = format!("{} strands of {} links", b.spec.strands, b.spec.links);
                 return Some((b.spec.links_line, over("bundle", &b.spec.name, links, cost)));
@@ -535,12 +534,12 @@ impl ChainSet {
     pub fn is_empty(&self) -> bool {
         self.specs.is_empty()
     }
-    /// The bundles, by handle − [`ChainSet::len`].
+    /// The bundles, by handle − [`World::len`].
     pub fn bundles(&self) -> &[crate::bundles::Live] {
         &self.bundles
     }
     /// The bundle a handle addresses, and its index.
-    fn bundle_of(&self, handle: u32) -> Option<(usize, &crate::bundles::Live)> {
+    pub fn bundle_of(&self, handle: u32) -> Option<(usize, &crate::bundles::Live)> {
         let i = (handle as usize).checked_sub(self.specs.len())?;
         self.bundles.get(i).map(|b| (i, b))
     }
@@ -557,7 +556,7 @@ impl ChainSet {
         &self.geometry
     }
     /// Replaces every chain's state and the sequence (a restored snapshot, checked by the caller).
-    pub(crate) fn install(&mut self, geometry: Vec<Geometry>, sequence: u64) {
+    pub fn install(&mut self, geometry: Vec<Geometry>, sequence: u64) {
         self.geometry = geometry;
         self.sequence = sequence;
         self.undo = None;
@@ -588,8 +587,8 @@ impl ChainSet {
         let mut most = (1, 1);
         for (spec, g) in self.specs.iter().zip(&self.geometry) {
             let links = spec.lengths.len();
-            let tail = shared::MAX_HELD as usize
-                + shared::INSTRUMENT_ELEMENTS as usize * each_form!(g, h => h.instruments().len());
+            let tail = crate::sizes::MAX_HELD
+                + INSTRUMENT_ELEMENTS * each_form!(g, h => h.instruments().len());
             most.0 = most.0.max(2 * links + 1 + tail);
             most.1 = most.1.max(links + 1 + tail);
         }
@@ -599,65 +598,15 @@ impl ChainSet {
         most
     }
 
-    /// Checks a wire request against the scene ([`request::decode`]).
-    pub fn decode<'a>(
-        &self,
-        h: &RequestHeader,
-        points: &'a [Vec3],
-    ) -> Result<Command<'a>, Refusal> {
-        if h.command != shared::Command::Snapshot as u32
-            && let Some((index, b)) = self.bundle_of(h.chain)
-        {
-            return crate::bundles::decode(h, points, &b.spec).map(|op| Command::Bundle {
-                handle: h.chain,
-                index,
-                op,
-            });
-        }
-        let total = self.specs.len() + self.bundles.len();
-        if h.chain as usize >= total
-            && h.command != shared::Command::Snapshot as u32
-            && shared::Command::try_from(h.command).is_ok()
-        {
-            return Err(refuse!(
-                UnknownChain,
-                "chain {} (the scene has 0..{total})",
-                h.chain
-            ));
-        }
-        request::decode(h, points, &self.specs)
-    }
-
-    /// The response header of a request: from its outcome or its refusal ([`request::encode`]), with
-    /// a bundle's sequence and description.
-    pub fn encode(&self, req: &RequestHeader, result: &Result<Answer, Refusal>) -> ResponseHeader {
-        let bundle = self.bundle_of(req.chain);
-        let sequence = bundle.map_or(self.sequence, |(_, b)| b.sequence);
-        let mut h = request::encode(req, result, sequence, &self.specs);
-        h.n_chains = (self.specs.len() + self.bundles.len()) as u32;
-        if let (Ok(o), Some((_, b))) = (result, bundle)
-            && o.describe
-        {
-            crate::bundles::describe(&b.spec, &mut h);
-        }
-        h
-    }
-
-    /// Decodes and applies a wire request (the journal's replay, tests).
-    pub fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Answer, Refusal> {
-        let req = self.decode(h, points)?;
-        self.apply(&req)
-    }
-
     /// Applies a decoded request as [`LOCAL`] (batch mode, the journal's replay, tests): see
-    /// [`ChainSet::apply_for`].
+    /// [`World::apply_for`].
     pub fn apply(&mut self, req: &Command<'_>) -> Result<Answer, Refusal> {
         self.apply_for(LOCAL, req)
     }
 
     /// Applies a decoded request of `client` (its port id; [`LOCAL`] for no client). A refusal changes
     /// nothing; an accepted change gets the next sequence number and can be undone until the next
-    /// request. Grasps belong to their client ([`world::owners`]).
+    /// request. Grasps belong to their client ([`crate::owners`]).
     pub fn apply_for(&mut self, client: u128, req: &Command<'_>) -> Result<Answer, Refusal> {
         self.undo = None;
         self.owners.begin();
@@ -698,7 +647,7 @@ impl ChainSet {
                 changed: op.changes_state(),
                 joints: b.spec.joints() as u32,
                 substeps,
-                describe: op == crate::bundles::BundleOp::Describe,
+                describe: op == BundleOp::Describe,
                 bundle: true,
                 ..Answer::default()
             });
@@ -713,7 +662,7 @@ impl ChainSet {
         let changes = match *req {
             Command::Grasp { joint, .. } => {
                 let held = each_form!(&*g, h => h.chain.is_held(joint));
-                if !held && held_now >= shared::MAX_HELD as usize {
+                if !held && held_now >= crate::sizes::MAX_HELD {
                     return Err(refuse!(
                         BadOption,
                         "chain {:?} already holds {held_now} joints, the most there may be",
@@ -834,17 +783,21 @@ impl ChainSet {
         }
     }
 
-    /// The payload of a response: its chain's joints (tail first), then, with `n_angles`, one rotation
-    /// vector per joint (joint 0: from +x to link 1; joint i: from link i to link i+1). Written in order,
-    /// with no intermediate buffer. An error response (or an unknown chain) yields nothing.
-    pub fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
-        if h.n_joints + h.n_angles + h.n_held + h.n_instruments == 0 {
-            return Elements::Empty;
-        }
-        if let Some((_, b)) = self.bundle_of(h.chain) {
+    /// The payload of an answer about `handle`: a chain's joints (tail first), then with `angles` one
+    /// rotation vector per joint (joint 0: from +x to link 1; joint i: from link i to link i+1), its
+    /// held joints with `held`, its instruments with `instruments`; a bundle's joints. Written in
+    /// order, with no intermediate buffer; nothing for an unknown handle.
+    pub fn elements_for(
+        &self,
+        handle: u32,
+        angles: bool,
+        held: bool,
+        instruments: bool,
+    ) -> Elements<'_> {
+        if let Some((_, b)) = self.bundle_of(handle) {
             return Elements::Bundle(b.elements());
         }
-        self.elements_with(h.chain, h.n_angles > 0, h.n_held > 0, h.n_instruments > 0)
+        self.elements_with(handle, angles, held, instruments)
     }
 
     /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).
@@ -854,7 +807,7 @@ impl ChainSet {
 
     /// A chain's joints, its rotations with `angles`, its held joints with `held` (index, 1 for an
     /// anchor and 0 for a grasp, 0), its instruments with `instruments` (the wire's three elements
-    /// each, [`shared::InstrumentPose`]).
+    /// each: [`INSTRUMENT_ELEMENTS`]).
     pub fn elements_with(
         &self,
         chain: u32,
@@ -883,7 +836,7 @@ impl ChainSet {
     }
 }
 
-/// A move or a path on one chain. The chain may be left moved on a refusal: [`ChainSet::apply`]
+/// A move or a path on one chain. The chain may be left moved on a refusal: [`World::apply`]
 /// restores it.
 /// The instrument `from` moved to `centre` (and, for a capsule, turned to `axis`), its size kept.
 fn instrument_pose<T: Real, const D: usize>(
@@ -1129,39 +1082,24 @@ pub enum Elements<'a> {
 }
 
 impl Elements<'_> {
-    /// Hands the elements to `sink` as the concrete iterator of their form (one dispatch per
-    /// response instead of one per element).
-    pub fn feed<K: crate::serve::ElementSink>(self, sink: K) -> K::Out {
-        match self {
-            Elements::Empty => sink.take(std::iter::empty()),
-            Elements::Planar64(e) => sink.take(e),
-            Elements::Spatial64(e) => sink.take(e),
-            Elements::Planar32(e) => sink.take(e),
-            Elements::Spatial32(e) => sink.take(e),
-            Elements::Bundle(e) => sink.take(e),
-        }
-    }
-}
-
-impl Elements<'_> {
     /// Appends the first `n` elements to `out` (a chain's joints by one tight loop:
     /// [`ChainElements::gather_into`]).
-    pub fn gather_into(self, out: &mut Vec<Vec3>, n: usize) {
+    pub fn gather_into<P: From<Point>>(self, out: &mut Vec<P>, n: usize) {
         match self {
             Elements::Empty => {}
             Elements::Planar64(e) => e.gather_into(out, n),
             Elements::Spatial64(e) => e.gather_into(out, n),
             Elements::Planar32(e) => e.gather_into(out, n),
             Elements::Spatial32(e) => e.gather_into(out, n),
-            Elements::Bundle(e) => out.extend(e.take(n)),
+            Elements::Bundle(e) => out.extend(e.take(n).map(P::from)),
         }
     }
 }
 
 impl Iterator for Elements<'_> {
-    type Item = Vec3;
+    type Item = Point;
     #[inline]
-    fn next(&mut self) -> Option<Vec3> {
+    fn next(&mut self) -> Option<Point> {
         match self {
             Elements::Empty => None,
             Elements::Planar64(e) => e.next(),
@@ -1253,13 +1191,13 @@ where
     /// Appends the first `n` elements to `out`, the same as `out.extend(self.take(n))`: the joints by
     /// one tight loop (the sum's state kept in registers, held joints restarting it), the rest one
     /// at a time.
-    pub fn gather_into(mut self, out: &mut Vec<Vec3>, n: usize) {
+    pub fn gather_into<P: From<Point>>(mut self, out: &mut Vec<P>, n: usize) {
         out.reserve(n);
         let start = out.len();
         let links = self.chain.links();
         let joints = (links.len() + 1).min(n);
         if self.at == 0 && joints > 0 {
-            out.extend(self.next());
+            out.extend(self.next().map(P::from));
             let mut acc = self.acc;
             for (i, l) in links[..joints - 1]
                 .iter()
@@ -1272,13 +1210,13 @@ where
                     self.restart_at(i);
                     acc = self.acc;
                 }
-                out.push(to_wire(&acc.value()));
+                out.push(P::from(to_point(&acc.value())));
             }
             self.acc = acc;
             self.at = joints;
         }
         let done = out.len() - start;
-        out.extend(self.take(n - done));
+        out.extend(self.take(n - done).map(P::from));
     }
 }
 
@@ -1286,23 +1224,23 @@ impl<T: Real, const D: usize> Iterator for ChainElements<'_, T, D>
 where
     Vector<T, D>: Embed3<T>,
 {
-    type Item = Vec3;
+    type Item = Point;
     #[inline]
-    fn next(&mut self) -> Option<Vec3> {
+    fn next(&mut self) -> Option<Point> {
         let links = self.chain.links();
         let n = links.len();
         let i = self.at;
         self.at += 1;
         if i == 0 {
             if self.restart_at(0) {
-                return Some(to_wire(&self.acc.value()));
+                return Some(to_point(&self.acc.value()));
             }
-            return Some(to_wire(&self.origin));
+            return Some(to_point(&self.origin));
         }
         if i <= n {
             self.acc.add(&links[i - 1]);
             self.restart_at(i);
-            return Some(to_wire(&self.acc.value()));
+            return Some(to_point(&self.acc.value()));
         }
         let k = i - n - 1;
         if k < self.rotations {
@@ -1314,20 +1252,20 @@ where
             };
             return Some(if D == 2 {
                 let theta = (a.x * b.y - a.y * b.x).atan2(a.dot(&b));
-                Vec3::new(0.0, 0.0, theta.to_f64())
+                Point::new(0.0, 0.0, theta.to_f64())
             } else {
                 let r = rotation_between(&a, &b).scaled_axis();
-                Vec3::new(r.x.to_f64(), r.y.to_f64(), r.z.to_f64())
+                Point::new(r.x.to_f64(), r.y.to_f64(), r.z.to_f64())
             });
         }
         let k = k - self.rotations;
         if k < self.held {
             let (j, _) = self.chain.held_state(k)?;
             let anchor = self.anchors.contains(&(j as u32));
-            return Some(Vec3::new(j as f64, if anchor { 1.0 } else { 0.0 }, 0.0));
+            return Some(Point::new(j as f64, if anchor { 1.0 } else { 0.0 }, 0.0));
         }
         let k = k - self.held;
-        let per = shared::INSTRUMENT_ELEMENTS as usize;
+        let per = INSTRUMENT_ELEMENTS;
         let Some(o) = self.instruments.get(k / per) else {
             self.at = i;
             return None;
@@ -1336,8 +1274,8 @@ where
     }
 }
 
-/// Element `e` (0, 1 or 2) of an instrument's pose on the wire ([`shared::InstrumentPose`]).
-fn instrument_element<T: Real, const D: usize>(o: &Obstacle<T, D>, e: usize) -> Vec3
+/// Element `e` (0, 1 or 2) of an instrument's pose ([`INSTRUMENT_ELEMENTS`]).
+fn instrument_element<T: Real, const D: usize>(o: &Obstacle<T, D>, e: usize) -> Point
 where
     Vector<T, D>: Embed3<T>,
 {
@@ -1345,11 +1283,11 @@ where
         Obstacle::Sphere { center, radius } => (center, center, radius, false),
         Obstacle::Capsule { a, b, radius } => (a, b, radius, true),
         // Never an instrument (the scene declares spheres and capsules only).
-        Obstacle::HalfSpace { .. } => return Vec3::default(),
+        Obstacle::HalfSpace { .. } => return Point::zeros(),
     };
     match e {
-        0 => to_wire(&a),
-        1 => to_wire(&b),
-        _ => Vec3::new(radius.to_f64(), if capsule { 1.0 } else { 0.0 }, 0.0),
+        0 => to_point(&a),
+        1 => to_point(&b),
+        _ => Point::new(radius.to_f64(), if capsule { 1.0 } else { 0.0 }, 0.0),
     }
 }
