@@ -17,8 +17,8 @@ use world::scene::{ChainKind, ChainSpec};
 pub const MAX_REACH_ITERATIONS: u32 = 100_000;
 
 use world::World;
-use world::chains::Elements;
 pub use world::command::{Answer, Command, Point, Residual};
+use world::elements::Elements;
 pub use world::refusal::Refusal;
 pub(crate) use world::refuse;
 

@@ -291,7 +291,7 @@ pub struct Handled {
 }
 
 /// Takes a response's elements as one concrete iterator, so that a handler whose elements come in
-/// several forms ([`world::chains::Elements`]) picks the form once per response, not per element.
+/// several forms ([`world::elements::Elements`]) picks the form once per response, not per element.
 pub trait ElementSink {
     /// What taking the elements gives.
     type Out;

@@ -11,7 +11,7 @@ use shared::{RequestHeader, ResponseHeader, Vec3, WaitMode};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use world::World;
-use world::chains::Elements;
+use world::elements::Elements;
 
 /// Persistence settings.
 #[derive(Debug, Clone)]

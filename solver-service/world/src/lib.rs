@@ -5,6 +5,9 @@
 //! * [`scene`]: scene text (read, validate, shapes) into [`scene::ChainSpec`]s and
 //!   [`scene::BundleSpec`]s of kernel types, every error with its line and field;
 //! * [`chains`]: the [`World`]: every chain and bundle of a scene, by handle; apply (atomic) and undo;
+//! * [`form`]: a chain at run time in its scene's form ([`form::LiveChain`], [`form::Geometry`]);
+//! * [`moves`]: what a command does to one chain (moves, paths, instruments, reaches);
+//! * [`elements`]: the payload of an answer, streamed into the caller's buffer;
 //! * [`bundles`]: the scene's bundles at run time;
 //! * [`command`]: what the world is asked ([`command::Command`]) and answers ([`command::Answer`]);
 //! * [`owners`]: who holds which grasp;
@@ -19,6 +22,9 @@ pub use chains::World;
 pub mod bundles;
 pub mod chains;
 pub mod command;
+pub mod elements;
+pub mod form;
+pub mod moves;
 pub mod owners;
 pub mod refusal;
 pub mod scene;

@@ -1,0 +1,270 @@
+//! A chain at run time in the form its scene declared ([`LiveChain`], in one of the four
+//! [`Geometry`] forms: planar or spatial, f64 or f32), with its scene state, its undo state, its
+//! collision structures and instruments, and the buffers its commands reuse; built from a
+//! [`ChainSpec`] when the world is built.
+
+use crate::command::Point;
+use crate::scene::ChainSpec;
+use nalgebra::Vector3;
+use tractrix::collision::{CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle};
+use tractrix::math::{Embed3, Real, Vector};
+use tractrix::{Chain, ChainError, ReachWorkspace};
+
+/// A chain in the precision and dimension its scene declared, with its scene state (for reset) and the
+/// buffers its requests reuse (allocated once).
+#[derive(Debug, Clone)]
+pub struct LiveChain<T: Real, const D: usize> {
+    /// The current state.
+    pub chain: Chain<T, D>,
+    /// The scene's state (reset).
+    pub initial: Chain<T, D>,
+    /// The state before the last change ([`World::undo`]).
+    pub(crate) before: Chain<T, D>,
+    pub(crate) ws: ReachWorkspace<T, D>,
+    /// Collision model and buffers, only for chains whose scene declares collision.
+    pub(crate) collision: Option<(CollisionModel<T, D>, CollisionWorkspace<T, D>)>,
+    /// A path's targets in the chain's type (bounded by `MAX_PATH_POINTS`, kept between requests).
+    pub(crate) targets: Vec<Vector<T, D>>,
+    /// The chain's instruments: where they start in the collision model's obstacles (after the static
+    /// ones), their scene poses (reset) and their poses before the last change (undo).
+    pub(crate) instruments_at: usize,
+    pub(crate) instruments_initial: Vec<Obstacle<T, D>>,
+    pub(crate) instruments_before: Vec<Obstacle<T, D>>,
+    /// For each instrument, the joint it rides with (scene `follows`).
+    pub(crate) follows: Vec<Option<usize>>,
+}
+
+impl<T: Real, const D: usize> LiveChain<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    /// The instruments' current poses.
+    pub fn instruments(&self) -> &[Obstacle<T, D>] {
+        self.collision
+            .as_ref()
+            .map_or(&[][..], |(m, _)| &m.obstacles[self.instruments_at..])
+    }
+    pub(crate) fn instruments_mut(&mut self) -> &mut [Obstacle<T, D>] {
+        let at = self.instruments_at;
+        self.collision
+            .as_mut()
+            .map_or(&mut [][..], |(m, _)| &mut m.obstacles[at..])
+    }
+    /// Remembers the state for [`World::undo`] (no allocation once warm).
+    pub(crate) fn arm_undo(&mut self) {
+        self.before.copy_from(&self.chain);
+        if let Some((m, _)) = &self.collision {
+            // Same length every time: no allocation once warm.
+            self.instruments_before.clear();
+            self.instruments_before
+                .extend_from_slice(&m.obstacles[self.instruments_at..]);
+        }
+    }
+    /// Puts back the state [`LiveChain::arm_undo`] remembered.
+    pub(crate) fn swap_undo(&mut self) {
+        std::mem::swap(&mut self.chain, &mut self.before);
+        let before = std::mem::take(&mut self.instruments_before);
+        let now = self.instruments_mut();
+        if now.len() == before.len() {
+            now.copy_from_slice(&before);
+        }
+        self.instruments_before = before;
+    }
+    /// The instruments' poses as numbers (a sphere: its centre; a capsule: `a` then `b`), for a snapshot.
+    pub fn instrument_numbers(&self) -> Vec<Vec<f64>> {
+        self.instruments()
+            .iter()
+            .map(|o| {
+                let pts: Vec<Vector<T, D>> = match o {
+                    Obstacle::Sphere { center, .. } => vec![*center],
+                    Obstacle::Capsule { a, b, .. } => vec![*a, *b],
+                    Obstacle::HalfSpace { .. } => vec![],
+                };
+                pts.iter()
+                    .flat_map(|p| p.iter().map(|x| x.to_f64()).collect::<Vec<_>>())
+                    .collect()
+            })
+            .collect()
+    }
+    /// Sets the instruments' poses from [`LiveChain::instrument_numbers`] (a restored snapshot).
+    pub fn set_instrument_numbers(&mut self, poses: &[Vec<f64>]) -> Result<(), String> {
+        if poses.len() != self.instruments().len() {
+            return Err(format!(
+                "{} instrument poses for {} instruments",
+                poses.len(),
+                self.instruments().len()
+            ));
+        }
+        for (o, nums) in self.instruments_mut().iter_mut().zip(poses) {
+            let pt = |k: usize| -> Result<Vector<T, D>, String> {
+                let v = nums.get(k * D..(k + 1) * D).ok_or("a pose is too short")?;
+                let p = Vector::<T, D>::from_iterator(v.iter().map(|&x| T::lit(x)));
+                if tractrix::math::all_finite(&p) {
+                    Ok(p)
+                } else {
+                    Err("a pose is not finite".into())
+                }
+            };
+            match o {
+                Obstacle::Sphere { center, .. } if nums.len() == D => *center = pt(0)?,
+                Obstacle::Capsule { a, b, .. } if nums.len() == 2 * D => {
+                    *a = pt(0)?;
+                    *b = pt(1)?;
+                }
+                _ => return Err("an instrument's pose does not fit its shape".into()),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One of the four chain forms.
+#[derive(Debug, Clone)]
+pub enum Geometry {
+    /// Planar, f64.
+    Planar64(LiveChain<f64, 2>),
+    /// Spatial, f64.
+    Spatial64(LiveChain<f64, 3>),
+    /// Planar, f32.
+    Planar32(LiveChain<f32, 2>),
+    /// Spatial, f32.
+    Spatial32(LiveChain<f32, 3>),
+}
+
+/// Runs `$body` with `$h` bound to the [`LiveChain`] of whichever form `$g` is (a
+/// [`Geometry`](crate::form::Geometry)).
+#[macro_export]
+macro_rules! each_form {
+    ($g:expr, $h:ident => $body:expr) => {
+        match $g {
+            $crate::form::Geometry::Planar64($h) => $body,
+            $crate::form::Geometry::Spatial64($h) => $body,
+            $crate::form::Geometry::Planar32($h) => $body,
+            $crate::form::Geometry::Spatial32($h) => $body,
+        }
+    };
+}
+pub use crate::each_form;
+
+pub(crate) fn point<T: Real, const D: usize>(q: Point) -> Vector<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    Embed3::from_3d(&Vector3::new(T::lit(q.x), T::lit(q.y), T::lit(q.z)))
+}
+
+pub(crate) fn to_point<T: Real, const D: usize>(v: &Vector<T, D>) -> Point
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let v = v.to_3d();
+    Point::new(v.x.to_f64(), v.y.to_f64(), v.z.to_f64())
+}
+
+/// The links each following instrument holds: those within its reach of the joint it follows (its
+/// radius, plus half its length for a capsule, in shortest links, and one more on each side).
+fn holding(spec: &ChainSpec, c: &crate::scene::CollisionSpec) -> Vec<tractrix::collision::Holding> {
+    let n = spec.lengths.len();
+    c.instruments
+        .iter()
+        .zip(&c.follows)
+        .enumerate()
+        .filter_map(|(k, ((_, o), f))| {
+            let j = (*f)? as usize;
+            let extent = match o {
+                Obstacle::Sphere { radius, .. } => *radius,
+                Obstacle::Capsule { a, b, radius } => radius + 0.5 * (b - a).norm(),
+                Obstacle::HalfSpace { .. } => 0.0,
+            };
+            let reach = ((extent + 0.5 * c.options.thickness) / spec.shortest).ceil();
+            let reach = if reach.is_finite() {
+                reach as usize + 1
+            } else {
+                n
+            };
+            Some(tractrix::collision::Holding {
+                obstacle: c.obstacles.len() + k,
+                links: j.saturating_sub(reach)..(j + reach).min(n),
+            })
+        })
+        .collect()
+}
+
+pub(crate) fn build<T: Real, const D: usize>(
+    spec: &ChainSpec,
+) -> Result<LiveChain<T, D>, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let p: Vec<Vector<T, D>> = spec.points.iter().map(|q| point(*q)).collect();
+    let links: Vec<_> = p.windows(2).map(|w| w[1] - w[0]).collect();
+    let lengths: Vec<T> = spec.lengths.iter().map(|&l| T::lit(l)).collect();
+    let mut chain = Chain::from_parts(p[0], links, lengths)?;
+    for &a in &spec.anchors {
+        chain.hold(a as usize)?;
+    }
+    if let Some(l) = &spec.limits {
+        let lim = l
+            .kernel::<T>()
+            .map_err(|_| ChainError::BadOption("the scene's joint limits"))?;
+        chain
+            .set_limits(Some(lim))
+            .map_err(|_| ChainError::BadOption("the scene's joint limits"))?;
+    }
+    let collision = spec.collision.as_ref().map(|c| {
+        let v = |q: &Vector3<f64>| point::<T, D>(*q);
+        // The scene's obstacles, then its instruments (the kernel sees both as obstacles).
+        let convert = |o: &Obstacle<f64, 3>| match o {
+            Obstacle::Sphere { center, radius } => Obstacle::Sphere {
+                center: v(center),
+                radius: T::lit(*radius),
+            },
+            Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
+                a: v(a),
+                b: v(b),
+                radius: T::lit(*radius),
+            },
+            Obstacle::HalfSpace { point, normal } => Obstacle::HalfSpace {
+                point: v(point),
+                normal: v(normal),
+            },
+        };
+        let obstacles: Vec<Obstacle<T, D>> = c
+            .obstacles
+            .iter()
+            .chain(c.instruments.iter().map(|(_, o)| o))
+            .map(convert)
+            .collect();
+        let o = &c.options;
+        let model = CollisionModel {
+            options: CollisionOptions {
+                scheme: o.scheme,
+                self_collision: o.self_collision,
+                thickness: T::lit(o.thickness),
+                max_iterations: o.max_iterations,
+                tolerance: T::lit(o.tolerance),
+            },
+            obstacles,
+            holding: holding(spec, c),
+        };
+        (model, CollisionWorkspace::new())
+    });
+    let instruments_at = spec.collision.as_ref().map_or(0, |c| c.obstacles.len());
+    let mut h = LiveChain {
+        initial: chain.clone(),
+        before: chain.clone(),
+        chain,
+        ws: ReachWorkspace::default(),
+        collision,
+        targets: Vec::new(),
+        instruments_at,
+        instruments_initial: Vec::new(),
+        instruments_before: Vec::new(),
+        follows: spec.collision.as_ref().map_or_else(Vec::new, |c| {
+            c.follows.iter().map(|f| f.map(|j| j as usize)).collect()
+        }),
+    };
+    h.instruments_initial = h.instruments().to_vec();
+    h.instruments_before = h.instruments_initial.clone();
+    Ok(h)
+}
