@@ -1,8 +1,10 @@
 //! Snapshots and the journal: nothing acknowledged is lost. The only module that touches bincode.
 //!
-//! * A **snapshot** is the whole state (every chain's joint 0 and link vectors, bit for bit, and the
-//!   sequence number), written to a temporary file, synced and renamed over `snapshot.bin`, so a crash
-//!   leaves either the old or the new snapshot, never half of one.
+//! * A **snapshot** is the world's whole state ([`world::state::State`]: every chain's joint 0 and
+//!   link vectors, bit for bit, its holds, instruments and datum joint, and the sequence number) in
+//!   one format (a snapshot of an earlier version is refused by name), written to a temporary file,
+//!   synced and renamed over `snapshot.bin`, so a crash leaves either the old or the new snapshot,
+//!   never half of one.
 //! * The **journal** `journal.bin` holds every accepted state-changing request since that snapshot, each
 //!   record `[u32 length][u32 crc32][bincode record]`, appended *before* the response is sent. Replaying
 //!   it through the same handler reproduces the state bit for bit (the kernel is deterministic).
@@ -32,17 +34,19 @@ use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
-use tractrix::Chain;
-use tractrix::math::{Embed3, Real, Vector};
-use world::{World, each_form};
+use world::World;
+use world::state::State;
 
-const SNAPSHOT_MAGIC: u32 = 0x5452_5834; // "TRX4": held joints, instrument poses and the datum joint
-/// The third format: no datum joint (read; the datum is joint 0, at the stored origin).
-const SNAPSHOT_MAGIC_V3: u32 = 0x5452_5833; // "TRX3"
-/// The second format: held joints, no instruments (read; instruments start at the scene's poses).
-const SNAPSHOT_MAGIC_V2: u32 = 0x5452_5832; // "TRX2"
-/// The first format, without held joints: refused with a message.
-const SNAPSHOT_MAGIC_V1: u32 = 0x5452_5853; // "TRXS"
+/// The snapshot body's format: the magic number, then the world's [`State`] ("TRX5").
+const SNAPSHOT_MAGIC: u32 = 0x5452_5835; // "TRX5"
+/// Formats of earlier versions, refused with a message (their state is not read: start without
+/// `--restore`).
+const OLDER_SNAPSHOTS: [(u32, &str); 4] = [
+    (0x5452_5834, "TRX4"),
+    (0x5452_5833, "TRX3"),
+    (0x5452_5832, "TRX2"),
+    (0x5452_5853, "TRXS"),
+];
 const JOURNAL_MAGIC: [u8; 8] = *b"TRXJ\x01\0\0\0";
 /// A snapshot file since issue 35: this magic, the body's length (u64 LE), the CRC-32 of what follows
 /// it (u32 LE), flags (u32 LE: bit 0, a journal follows this snapshot), then the body (a [`Snapshot`] in
@@ -71,125 +75,27 @@ pub enum JournalMode {
     Fsync,
 }
 
-#[derive(Debug, Serialize, Deserialize)]
-struct ChainSnapshot {
-    name: String,
-    dims: u32,
-    precision: u32,
-    lengths: Vec<f64>,
-    origin: Vec<f64>,
-    links: Vec<f64>,
-    /// Held joints: index, and the prefix sum's state there (sum, then carry).
-    held: Vec<(u32, Vec<f64>, Vec<f64>)>,
-    /// The chain's instruments' poses (a sphere's centre; a capsule's `a` then `b`).
-    instruments: Vec<Vec<f64>>,
-    /// The datum joint (the last moved one) and its position: the next move of it starts there.
-    datum: (u32, Vec<f64>),
-}
-
-/// [`ChainSnapshot`] of the "TRX3" format (no datum joint).
-#[derive(Debug, Deserialize)]
-struct ChainSnapshotV3 {
-    name: String,
-    dims: u32,
-    precision: u32,
-    lengths: Vec<f64>,
-    origin: Vec<f64>,
-    links: Vec<f64>,
-    held: Vec<(u32, Vec<f64>, Vec<f64>)>,
-    instruments: Vec<Vec<f64>>,
-}
-
-#[derive(Debug, Deserialize)]
-struct SnapshotV3 {
-    magic: u32,
-    sequence: u64,
-    chains: Vec<ChainSnapshotV3>,
-}
-
+/// A snapshot body: the format's magic number, then the world's state.
 #[derive(Debug, Serialize, Deserialize)]
 struct Snapshot {
     magic: u32,
-    sequence: u64,
-    chains: Vec<ChainSnapshot>,
-}
-
-/// [`ChainSnapshot`] of the "TRX2" format (no instruments).
-#[derive(Debug, Deserialize)]
-struct ChainSnapshotV2 {
-    name: String,
-    dims: u32,
-    precision: u32,
-    lengths: Vec<f64>,
-    origin: Vec<f64>,
-    links: Vec<f64>,
-    held: Vec<(u32, Vec<f64>, Vec<f64>)>,
-}
-
-#[derive(Debug, Deserialize)]
-struct SnapshotV2 {
-    magic: u32,
-    sequence: u64,
-    chains: Vec<ChainSnapshotV2>,
-}
-
-impl From<ChainSnapshotV2> for ChainSnapshotV3 {
-    /// A "TRX2" chain has no instrument poses: they start where the scene puts them.
-    fn from(c: ChainSnapshotV2) -> Self {
-        ChainSnapshotV3 {
-            name: c.name,
-            dims: c.dims,
-            precision: c.precision,
-            lengths: c.lengths,
-            origin: c.origin,
-            links: c.links,
-            held: c.held,
-            instruments: Vec::new(),
-        }
-    }
-}
-
-/// A snapshot of the older formats in this one: each chain's datum is joint 0, at the stored origin.
-fn upgrade(magic: u32, sequence: u64, chains: Vec<ChainSnapshotV3>) -> Snapshot {
-    let chains = chains
-        .into_iter()
-        .map(|c| ChainSnapshot {
-            name: c.name,
-            dims: c.dims,
-            precision: c.precision,
-            lengths: c.lengths,
-            datum: (0, c.origin.clone()),
-            origin: c.origin,
-            links: c.links,
-            held: c.held,
-            instruments: c.instruments,
-        })
-        .collect();
-    Snapshot {
-        magic,
-        sequence,
-        chains,
-    }
+    state: State,
 }
 
 /// A decoded snapshot file.
 struct SnapshotFile {
     snap: Snapshot,
-    /// False for the "TRX2" format (no instruments).
-    with_instruments: bool,
-    /// Whether a journal must follow it (`None`: an older file, which does not say).
-    journal_follows: Option<bool>,
+    /// Whether a journal must follow it.
+    journal_follows: bool,
 }
 
 /// Checks and opens a snapshot file's envelope ([`SNAPSHOT_ENVELOPE`]): its length and checksum.
 fn decode_snapshot_file(bytes: &[u8], path: &Path) -> Result<SnapshotFile, String> {
     if !bytes.starts_with(&SNAPSHOT_ENVELOPE) {
-        let (snap, with_instruments) = decode_snapshot(bytes, path)?;
-        return Ok(SnapshotFile {
-            snap,
-            with_instruments,
-            journal_follows: None,
-        });
+        // A file of an earlier version (no envelope) is named by its format; anything else is not a
+        // snapshot.
+        decode_snapshot(bytes, path)?;
+        return Err(io(path, "not a snapshot", "no envelope"));
     }
     let damaged = |why: String| {
         io(
@@ -224,53 +130,39 @@ fn decode_snapshot_file(bytes: &[u8], path: &Path) -> Result<SnapshotFile, Strin
     if flags & !FLAG_JOURNAL_FOLLOWS != 0 {
         return Err(damaged(format!("unknown flags {flags:#x}")));
     }
-    let (snap, with_instruments) = decode_snapshot(body, path)?;
-    if snap.magic != SNAPSHOT_MAGIC {
-        return Err(damaged(
-            "an older format inside the new envelope".to_string(),
-        ));
-    }
+    let snap = decode_snapshot(body, path)?;
     Ok(SnapshotFile {
         snap,
-        with_instruments,
-        journal_follows: Some(flags & FLAG_JOURNAL_FOLLOWS != 0),
+        journal_follows: flags & FLAG_JOURNAL_FOLLOWS != 0,
     })
 }
 
-/// Decodes a snapshot body of this format, of "TRX3" (datum at joint 0) or of "TRX2" (also without
-/// instruments: the flag is then `false`).
-fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<(Snapshot, bool), String> {
+/// Decodes a snapshot body of this format; one of an earlier version is refused by its name (one
+/// format, no upgrade ladder: docs/service.md, "Persistence").
+fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<Snapshot, String> {
     // The magic number comes first in every format.
     let (magic, _): (u32, usize) = bincode::serde::decode_from_slice(bytes, config())
         .map_err(|e| io(path, "not a snapshot", e))?;
-    match magic {
-        SNAPSHOT_MAGIC => {
-            let (snap, _): (Snapshot, usize) = bincode::serde::decode_from_slice(bytes, config())
-                .map_err(|e| io(path, "not a snapshot", e))?;
-            Ok((snap, true))
-        }
-        SNAPSHOT_MAGIC_V3 => {
-            let (old, _): (SnapshotV3, usize) = bincode::serde::decode_from_slice(bytes, config())
-                .map_err(|e| io(path, "not a snapshot", e))?;
-            Ok((upgrade(old.magic, old.sequence, old.chains), true))
-        }
-        SNAPSHOT_MAGIC_V2 => {
-            let (old, _): (SnapshotV2, usize) = bincode::serde::decode_from_slice(bytes, config())
-                .map_err(|e| io(path, "not a snapshot", e))?;
-            let chains = old.chains.into_iter().map(ChainSnapshotV3::from).collect();
-            Ok((upgrade(old.magic, old.sequence, chains), false))
-        }
-        SNAPSHOT_MAGIC_V1 => Err(io(
+    if let Some((_, name)) = OLDER_SNAPSHOTS.iter().find(|(m, _)| *m == magic) {
+        return Err(io(
             path,
             "not a snapshot of this version",
-            "written by a version without held joints; start without --restore",
-        )),
-        _ => Err(io(
+            format!(
+                "format {name}, written by an earlier version; start without --restore (the state \
+                 of an earlier version is not read)"
+            ),
+        ));
+    }
+    if magic != SNAPSHOT_MAGIC {
+        return Err(io(
             path,
             "not a snapshot of this version",
             "wrong magic number",
-        )),
+        ));
     }
+    let (snap, _): (Snapshot, usize) = bincode::serde::decode_from_slice(bytes, config())
+        .map_err(|e| io(path, "not a snapshot", e))?;
+    Ok(snap)
 }
 
 #[derive(Debug, Serialize)]
@@ -664,25 +556,24 @@ impl Store {
         let bytes = read_bounded(&path, bound)?;
         let SnapshotFile {
             snap,
-            with_instruments,
             journal_follows,
         } = decode_snapshot_file(&bytes, &path)?;
-        install(set, &snap, with_instruments)
+        set.restore(&snap.state)
             .map_err(|e| io(&path, "does not fit the scene", e))?;
         let mut restored = Restored {
-            snapshot_sequence: snap.sequence,
+            snapshot_sequence: snap.state.sequence,
             replayed: 0,
             dropped_tail_bytes: 0,
             damage: None,
         };
         let journal = self.journal_path();
-        if journal_follows == Some(true) && !journal.exists() && self.pending.is_empty() {
+        if journal_follows && !journal.exists() && self.pending.is_empty() {
             let why = io(
                 &journal,
                 "missing",
                 format!(
                     "the snapshot (state {}) says a journal follows it; the changes after it are unknown",
-                    snap.sequence
+                    snap.state.sequence
                 ),
             );
             if !from_damaged {
@@ -814,26 +705,7 @@ impl Drop for Writer {
 fn encode_snapshot(set: &World, journal: bool) -> Result<(Vec<u8>, u64), String> {
     let snap = Snapshot {
         magic: SNAPSHOT_MAGIC,
-        sequence: set.sequence(),
-        chains: set
-            .specs()
-            .iter()
-            .zip(set.geometry())
-            .map(|(spec, g)| {
-                let (origin, links, held, datum) = each_form!(g, g => raw_parts(&g.chain));
-                ChainSnapshot {
-                    name: spec.name.clone(),
-                    dims: spec.dims,
-                    precision: crate::wire::precision(spec.precision) as u32,
-                    lengths: spec.lengths.clone(),
-                    origin,
-                    links,
-                    held,
-                    instruments: each_form!(g, g => g.instrument_numbers()),
-                    datum,
-                }
-            })
-            .collect(),
+        state: set.state(),
     };
     let body = bincode::serde::encode_to_vec(&snap, config())
         .map_err(|e| format!("cannot encode the snapshot: {e}"))?;
@@ -1111,147 +983,12 @@ fn next_record(input: &mut impl Read, buf: &mut Vec<u8>) -> Option<(Record, u64)
     (used == n && rec.points.len() <= MAX_PATH_POINTS as usize).then_some((rec, 8 + n as u64))
 }
 
-type HeldParts = Vec<(u32, Vec<f64>, Vec<f64>)>;
-
-type DatumPart = (u32, Vec<f64>);
-
-fn raw_parts<T: Real, const D: usize>(c: &Chain<T, D>) -> (Vec<f64>, Vec<f64>, HeldParts, DatumPart)
-where
-    Vector<T, D>: Embed3<T>,
-{
-    let f = |v: &Vector<T, D>| v.iter().map(|x| x.to_f64()).collect::<Vec<f64>>();
-    let origin = f(&c.origin());
-    let links = c.links().iter().flat_map(f).collect();
-    let held = c
-        .held_raw()
-        .map(|(j, sum, carry)| (j as u32, f(&sum), f(&carry)))
-        .collect();
-    let (b, at) = c.datum();
-    (origin, links, held, (b as u32, f(&at)))
-}
-
-fn install(set: &mut World, snap: &Snapshot, with_instruments: bool) -> Result<(), String> {
-    if snap.chains.len() != set.len() {
-        return Err(format!(
-            "{} chains, the scene has {}",
-            snap.chains.len(),
-            set.len()
-        ));
-    }
-    // Check everything before changing anything.
-    let mut built = Vec::with_capacity(set.len());
-    for ((d, geometry), s) in set.specs().iter().zip(set.geometry()).zip(&snap.chains) {
-        if s.name != d.name
-            || s.dims != d.dims
-            || s.precision != crate::wire::precision(d.precision) as u32
-        {
-            return Err(format!(
-                "chain {:?} ({}D) in the snapshot, {:?} ({}D) in the scene",
-                s.name, s.dims, d.name, d.dims
-            ));
-        }
-        if s.lengths.len() != d.lengths.len()
-            || s.lengths
-                .iter()
-                .zip(&d.lengths)
-                .any(|(a, b)| a.to_bits() != b.to_bits())
-        {
-            return Err(format!(
-                "chain {:?}: link lengths differ from the scene",
-                d.name
-            ));
-        }
-        if let Some(a) = d
-            .anchors
-            .iter()
-            .find(|&&a| !s.held.iter().any(|h| h.0 == a))
-        {
-            return Err(format!(
-                "chain {:?}: the scene anchors joint {a}, the snapshot does not hold it",
-                d.name
-            ));
-        }
-        let mut g = geometry.clone();
-        each_form!(&mut g, h => {
-            h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held, &s.datum).map_err(|m| format!("chain {:?}: {m}", d.name))?;
-            if with_instruments {
-                h.set_instrument_numbers(&s.instruments).map_err(|m| format!("chain {:?}: {m}", d.name))?;
-            }
-        });
-        built.push(g);
-    }
-    set.install(built, snap.sequence);
-    Ok(())
-}
-
-fn rebuild<T: Real, const D: usize>(
-    like: &Chain<T, D>,
-    origin: &[f64],
-    links: &[f64],
-    held: &HeldParts,
-    datum: &DatumPart,
-) -> Result<Chain<T, D>, String>
-where
-    Vector<T, D>: Embed3<T>,
-{
-    let n = like.n_links();
-    if origin.len() != D || links.len() != n * D {
-        return Err(format!("{} link numbers, expected {}", links.len(), n * D));
-    }
-    if held.len() > shared::MAX_HELD as usize {
-        return Err(format!(
-            "{} held joints, at most {}",
-            held.len(),
-            shared::MAX_HELD
-        ));
-    }
-    let v = |c: &[f64]| Vector::<T, D>::from_iterator(c.iter().map(|&x| T::lit(x)));
-    let o = v(origin);
-    let l: Vec<Vector<T, D>> = links.chunks_exact(D).map(v).collect();
-    let mut chain =
-        Chain::from_raw_parts(o, l, like.lengths().to_vec()).map_err(|e| e.to_string())?;
-    // The limits are the scene's; a stored pose beyond them did not come from this scene.
-    chain
-        .set_limits(like.joint_limits().cloned())
-        .map_err(|e| format!("joint limits: {e}"))?;
-    if let Some((j, angle, excess)) = chain.limit_excess(T::lit(tractrix::chain::LIMIT_TOLERANCE)) {
-        return Err(format!(
-            "joint {j} turns {:.4} rad, {:.2e} beyond the scene's limit",
-            angle.to_f64(),
-            excess.to_f64()
-        ));
-    }
-    let mut pins = Vec::with_capacity(held.len());
-    for (j, sum, carry) in held {
-        if sum.len() != D || carry.len() != D {
-            return Err(format!("held joint {j}: {} coordinates", sum.len()));
-        }
-        pins.push((*j as usize, v(sum), v(carry)));
-    }
-    chain
-        .set_held_raw(&pins)
-        .map_err(|e| format!("held joints: {e}"))?;
-    if datum.1.len() != D {
-        return Err(format!("datum joint: {} coordinates", datum.1.len()));
-    }
-    let (b, at) = (datum.0 as usize, v(&datum.1));
-    // The datum must put joint 0 where the stored origin is (the parts came from this chain).
-    let mut probe = chain.clone();
-    probe
-        .set_datum(b, at)
-        .map_err(|e| format!("datum joint {b}: {e}"))?;
-    let extent = chain.total_length() + o.norm();
-    let tol = T::EPSILON.sqrt() * (T::one() + extent);
-    if (probe.origin() - o).norm() > tol {
-        return Err(format!("datum joint {b} is not where the links put it"));
-    }
-    Ok(probe)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use shared::{Command, JOINT_HEAD};
+    use tractrix::Real;
+    use world::each_form;
     use world::scene::default_scene;
 
     fn joints(set: &World) -> Vec<u64> {
@@ -1259,6 +996,44 @@ mod tests {
             .flat_map(|c| set.elements_of(c, true).collect::<Vec<_>>())
             .flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
             .collect()
+    }
+
+    /// A snapshot of an earlier version's format (with or without the envelope) is refused by
+    /// name, and nothing changes: one format, no upgrade ladder.
+    #[test]
+    fn a_snapshot_of_an_earlier_format_is_refused_by_name() {
+        let scene = default_scene();
+        for (magic, name) in OLDER_SNAPSHOTS {
+            for envelope in [false, true] {
+                let dir = tempfile::tempdir().unwrap();
+                // The magic number, then a few words of an old body.
+                let mut body = bincode::serde::encode_to_vec(magic, config()).unwrap();
+                body.extend_from_slice(&[7; 40]);
+                let bytes = if envelope {
+                    let mut b = Vec::new();
+                    b.extend_from_slice(&SNAPSHOT_ENVELOPE);
+                    b.extend_from_slice(&(body.len() as u64).to_le_bytes());
+                    b.extend_from_slice(&[0; 8]);
+                    b.extend_from_slice(&body);
+                    let crc = crc32fast::hash(&b[20..]);
+                    b[16..20].copy_from_slice(&crc.to_le_bytes());
+                    b
+                } else {
+                    body
+                };
+                std::fs::write(dir.path().join("snapshot.bin"), &bytes).unwrap();
+                let mut set = World::new(&scene).unwrap();
+                let before = joints(&set);
+                let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
+                let e = store.restore(&mut set, false).unwrap_err();
+                assert!(
+                    e.contains(name) && e.contains("start without --restore"),
+                    "{name}, envelope {envelope}: {e}"
+                );
+                assert_eq!(joints(&set), before);
+                assert_eq!(set.sequence(), 0);
+            }
+        }
     }
 
     /// Snapshot in the middle, journal after it, a torn record at the end: the restore holds exactly

@@ -12,6 +12,7 @@
 //! * [`command`]: what the world is asked ([`command::Command`]) and answers ([`command::Answer`]);
 //! * [`owners`]: who holds which grasp;
 //! * [`refusal`]: why a command was refused, allocation-free;
+//! * [`state`]: the world's state as one value ([`World::state`], [`World::restore`]);
 //! * [`sizes`]: the bounds on everything a scene or a request may ask for;
 //! * [`two_cores`]: many strands (hair, fur) swept on both cores.
 //!
@@ -29,4 +30,5 @@ pub mod owners;
 pub mod refusal;
 pub mod scene;
 pub mod sizes;
+pub mod state;
 pub mod two_cores;

@@ -136,7 +136,7 @@ pub enum ChainKind {
 }
 
 /// The arithmetic and storage of a chain or bundle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Precision {
     /// Double precision.
     F64,
