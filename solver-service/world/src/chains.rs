@@ -296,7 +296,7 @@ impl World {
         &self.geometry
     }
     /// Replaces every chain's state and the sequence (a restored snapshot, checked by the caller).
-    pub fn install(&mut self, geometry: Vec<Geometry>, sequence: u64) {
+    pub(crate) fn install(&mut self, geometry: Vec<Geometry>, sequence: u64) {
         self.geometry = geometry;
         self.sequence = sequence;
         self.undo = None;
