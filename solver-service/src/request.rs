@@ -185,6 +185,33 @@ pub fn decode<'a>(
             }
         ));
     }
+    check_points(points, spec)?;
+    let at = At {
+        h,
+        spec,
+        method: method_from_wire(method),
+        take_over,
+    };
+    match command {
+        shared::Command::Instrument => instrument(&at, points),
+        shared::Command::Grasp | shared::Command::Release => grasp(&at, command),
+        shared::Command::Move | shared::Command::Path => move_or_path(&at, points, substep_mode),
+        shared::Command::Reach => reach(&at, points, substep_mode, strategy),
+        shared::Command::Query => Ok(Command::Query {
+            chain: h.chain,
+            angles: h.flags & FLAG_ANGLES != 0,
+        }),
+        shared::Command::Describe => Ok(Command::Describe { chain: h.chain }),
+        shared::Command::Reset => Ok(Command::Reset {
+            chain: h.chain,
+            take_over,
+        }),
+        shared::Command::Snapshot => Ok(Command::Snapshot),
+    }
+}
+
+/// Every point finite, within the chain's coordinate range (free chains) and in its plane (planar).
+fn check_points(points: &[Point], spec: &ChainSpec) -> Result<(), Refusal> {
     for (i, p) in points.iter().enumerate() {
         if !p.iter().all(|c| c.is_finite()) {
             return Err(refuse!(NonFinite, "point {i} is not finite"));
@@ -205,192 +232,233 @@ pub fn decode<'a>(
             ));
         }
     }
-    let n_links = spec.lengths.len();
-    let angles = h.flags & FLAG_ANGLES != 0;
-    let method = method_from_wire(method);
-    let resolve_joint = || {
-        if h.joint == JOINT_HEAD {
+    Ok(())
+}
+
+/// What every command's decoding needs: the request, its chain, the method it asks for and whether it
+/// takes grasps over.
+struct At<'h> {
+    h: &'h RequestHeader,
+    spec: &'h ChainSpec,
+    method: Option<Method>,
+    take_over: bool,
+}
+
+impl At<'_> {
+    /// The joint the request names, resolved (the head is `n_links`).
+    fn joint(&self) -> Result<usize, Refusal> {
+        let n_links = self.spec.lengths.len();
+        if self.h.joint == JOINT_HEAD {
             Ok(n_links)
-        } else if h.joint as usize <= n_links {
-            Ok(h.joint as usize)
+        } else if self.h.joint as usize <= n_links {
+            Ok(self.h.joint as usize)
         } else {
             Err(refuse!(
                 JointOutOfRange,
                 "joint {} (the chain has 0..={n_links})",
-                h.joint
+                self.h.joint
             ))
         }
-    };
-    match command {
-        shared::Command::Instrument => {
-            let list = spec
-                .collision
-                .as_ref()
-                .map_or(&[][..], |c| c.instruments.as_slice());
-            let Some((name, shape)) = list.get(h.joint as usize) else {
-                return Err(refuse!(
-                    BadOption,
-                    "instrument {} (chain {:?} has {} instruments)",
-                    h.joint,
-                    spec.name,
-                    list.len()
-                ));
-            };
-            let capsule = matches!(shape, tractrix::collision::Obstacle::Capsule { .. });
-            let want = if capsule { 2 } else { 1 };
-            if points.len() != want {
-                return Err(refuse!(
-                    BadPointCount,
-                    "instrument {name:?} is a {}: {want} point{} ({}), got {}",
-                    if capsule { "capsule" } else { "sphere" },
-                    if want == 1 { "" } else { "s" },
-                    if capsule { "centre, axis" } else { "centre" },
-                    points.len()
-                ));
-            }
-            let axis = capsule.then(|| points[1]);
-            if let Some(a) = axis {
-                let n = (a.x * a.x + a.y * a.y + a.z * a.z).sqrt();
-                if !(n > 0.0 && n.is_finite()) {
-                    return Err(refuse!(
-                        BadOption,
-                        "instrument {name:?}: the axis must be a non-zero vector"
-                    ));
-                }
-            }
-            Ok(Command::Instrument {
-                chain,
-                index: h.joint as usize,
-                centre: points[0],
-                axis,
-                max_substeps: spec.moves.max_substeps,
-            })
-        }
-        shared::Command::Grasp | shared::Command::Release => {
-            if spec.kind == ChainKind::FixedBase {
-                return Err(refuse!(
-                    WrongChainKind,
-                    "chain {:?} has a fixed base: grasps are for free chains",
-                    spec.name
-                ));
-            }
-            let joint = resolve_joint()?;
-            if command == shared::Command::Release {
-                anchored(spec, joint, "released")?;
-            }
-            Ok(if command == shared::Command::Grasp {
-                Command::Grasp {
-                    chain,
-                    joint,
-                    take_over,
-                }
-            } else {
-                Command::Release {
-                    chain,
-                    joint,
-                    take_over,
-                }
-            })
-        }
-        shared::Command::Move | shared::Command::Path => {
-            if spec.kind == ChainKind::FixedBase {
-                return Err(refuse!(
-                    WrongChainKind,
-                    "chain {:?} has a fixed base: use reach",
-                    spec.name
-                ));
-            }
-            let joint = resolve_joint()?;
-            anchored(spec, joint, "moved")?;
-            let substeps = match substep_mode {
-                SubstepMode::Default => spec.moves.substeps,
-                SubstepMode::Fixed if h.substeps == 0 => {
-                    return Err(refuse!(BadOption, "substeps must be at least 1"));
-                }
-                SubstepMode::Fixed => Substeps::Fixed(h.substeps),
-                SubstepMode::MaxStep if h.max_step <= 0.0 => {
-                    return Err(refuse!(
-                        BadOption,
-                        "max_step {:e} must be positive",
-                        h.max_step
-                    ));
-                }
-                SubstepMode::MaxStep => Substeps::MaxStep(h.max_step),
-            };
-            Ok(Command::Move {
-                chain,
-                joint,
-                targets: points,
-                options: MoveOptions {
-                    method: method.unwrap_or(spec.moves.method),
-                    substeps,
-                    ..spec.moves
-                },
-                take_over,
-            })
-        }
-        shared::Command::Reach => {
-            if spec.kind != ChainKind::FixedBase {
-                return Err(refuse!(
-                    WrongChainKind,
-                    "chain {:?} is free: use move",
-                    spec.name
-                ));
-            }
-            if substep_mode != SubstepMode::Default {
-                return Err(refuse!(
-                    BadOption,
-                    "reach takes `substeps` per pass; substep_mode must be 0"
-                ));
-            }
-            if h.substeps > spec.moves.max_substeps {
-                return Err(refuse!(
-                    BadOption,
-                    "substeps {} above the chain's limit {}",
-                    h.substeps,
-                    spec.moves.max_substeps
-                ));
-            }
-            let tolerance = if h.tolerance == 0.0 {
-                spec.reach.tolerance
-            } else if !(h.tolerance > 0.0 && h.tolerance <= 0.1) {
-                return Err(refuse!(
-                    BadOption,
-                    "tolerance {:e} is outside (0, 0.1]",
-                    h.tolerance
-                ));
-            } else {
-                h.tolerance
-            };
-            let max_iterations = match h.max_iterations {
-                0 => spec.reach.max_iterations,
-                m if m <= MAX_REACH_ITERATIONS => m,
-                m => {
-                    return Err(refuse!(
-                        BadOption,
-                        "max_iterations {m} is above {MAX_REACH_ITERATIONS}"
-                    ));
-                }
-            };
-            Ok(Command::Reach {
-                chain,
-                target: points[0],
-                options: ReachOptions {
-                    strategy: strategy_from_wire(strategy).unwrap_or(spec.reach.strategy),
-                    method: method.unwrap_or(spec.reach.method),
-                    substeps: h.substeps.max(1),
-                    tolerance,
-                    max_iterations,
-                    hierarchy_after: spec.reach.hierarchy_after,
-                },
-                angles,
-            })
-        }
-        shared::Command::Query => Ok(Command::Query { chain, angles }),
-        shared::Command::Describe => Ok(Command::Describe { chain }),
-        shared::Command::Reset => Ok(Command::Reset { chain, take_over }),
-        shared::Command::Snapshot => Ok(Command::Snapshot),
     }
+}
+
+/// An instrument's new pose: its centre, and a capsule's axis.
+fn instrument<'a>(at: &At<'_>, points: &'a [Point]) -> Result<Command<'a>, Refusal> {
+    let At { h, spec, .. } = *at;
+    let chain = h.chain;
+    let list = spec
+        .collision
+        .as_ref()
+        .map_or(&[][..], |c| c.instruments.as_slice());
+    let Some((name, shape)) = list.get(h.joint as usize) else {
+        return Err(refuse!(
+            BadOption,
+            "instrument {} (chain {:?} has {} instruments)",
+            h.joint,
+            spec.name,
+            list.len()
+        ));
+    };
+    let capsule = matches!(shape, tractrix::collision::Obstacle::Capsule { .. });
+    let want = if capsule { 2 } else { 1 };
+    if points.len() != want {
+        return Err(refuse!(
+            BadPointCount,
+            "instrument {name:?} is a {}: {want} point{} ({}), got {}",
+            if capsule { "capsule" } else { "sphere" },
+            if want == 1 { "" } else { "s" },
+            if capsule { "centre, axis" } else { "centre" },
+            points.len()
+        ));
+    }
+    let axis = capsule.then(|| points[1]);
+    if let Some(a) = axis {
+        let n = (a.x * a.x + a.y * a.y + a.z * a.z).sqrt();
+        if !(n > 0.0 && n.is_finite()) {
+            return Err(refuse!(
+                BadOption,
+                "instrument {name:?}: the axis must be a non-zero vector"
+            ));
+        }
+    }
+    Ok(Command::Instrument {
+        chain,
+        index: h.joint as usize,
+        centre: points[0],
+        axis,
+        max_substeps: spec.moves.max_substeps,
+    })
+}
+
+/// A grasp or a release of one joint of a free chain (an anchor is never released).
+fn grasp(at: &At<'_>, command: shared::Command) -> Result<Command<'static>, Refusal> {
+    let At {
+        h, spec, take_over, ..
+    } = *at;
+    let chain = h.chain;
+    if spec.kind == ChainKind::FixedBase {
+        return Err(refuse!(
+            WrongChainKind,
+            "chain {:?} has a fixed base: grasps are for free chains",
+            spec.name
+        ));
+    }
+    let joint = at.joint()?;
+    if command == shared::Command::Release {
+        anchored(spec, joint, "released")?;
+    }
+    Ok(if command == shared::Command::Grasp {
+        Command::Grasp {
+            chain,
+            joint,
+            take_over,
+        }
+    } else {
+        Command::Release {
+            chain,
+            joint,
+            take_over,
+        }
+    })
+}
+
+/// A move or a path of one joint of a free chain (an anchor is never moved), its substeps resolved.
+fn move_or_path<'a>(
+    at: &At<'_>,
+    points: &'a [Point],
+    substep_mode: SubstepMode,
+) -> Result<Command<'a>, Refusal> {
+    let At {
+        h,
+        spec,
+        method,
+        take_over,
+    } = *at;
+    let chain = h.chain;
+    if spec.kind == ChainKind::FixedBase {
+        return Err(refuse!(
+            WrongChainKind,
+            "chain {:?} has a fixed base: use reach",
+            spec.name
+        ));
+    }
+    let joint = at.joint()?;
+    anchored(spec, joint, "moved")?;
+    let substeps = match substep_mode {
+        SubstepMode::Default => spec.moves.substeps,
+        SubstepMode::Fixed if h.substeps == 0 => {
+            return Err(refuse!(BadOption, "substeps must be at least 1"));
+        }
+        SubstepMode::Fixed => Substeps::Fixed(h.substeps),
+        SubstepMode::MaxStep if h.max_step <= 0.0 => {
+            return Err(refuse!(
+                BadOption,
+                "max_step {:e} must be positive",
+                h.max_step
+            ));
+        }
+        SubstepMode::MaxStep => Substeps::MaxStep(h.max_step),
+    };
+    Ok(Command::Move {
+        chain,
+        joint,
+        targets: points,
+        options: MoveOptions {
+            method: method.unwrap_or(spec.moves.method),
+            substeps,
+            ..spec.moves
+        },
+        take_over,
+    })
+}
+
+/// A fixed-base reach, its strategy, tolerance and iteration limit resolved.
+fn reach<'a>(
+    at: &At<'_>,
+    points: &'a [Point],
+    substep_mode: SubstepMode,
+    strategy: WireStrategy,
+) -> Result<Command<'a>, Refusal> {
+    let At {
+        h, spec, method, ..
+    } = *at;
+    let chain = h.chain;
+    let angles = h.flags & FLAG_ANGLES != 0;
+    if spec.kind != ChainKind::FixedBase {
+        return Err(refuse!(
+            WrongChainKind,
+            "chain {:?} is free: use move",
+            spec.name
+        ));
+    }
+    if substep_mode != SubstepMode::Default {
+        return Err(refuse!(
+            BadOption,
+            "reach takes `substeps` per pass; substep_mode must be 0"
+        ));
+    }
+    if h.substeps > spec.moves.max_substeps {
+        return Err(refuse!(
+            BadOption,
+            "substeps {} above the chain's limit {}",
+            h.substeps,
+            spec.moves.max_substeps
+        ));
+    }
+    let tolerance = if h.tolerance == 0.0 {
+        spec.reach.tolerance
+    } else if !(h.tolerance > 0.0 && h.tolerance <= 0.1) {
+        return Err(refuse!(
+            BadOption,
+            "tolerance {:e} is outside (0, 0.1]",
+            h.tolerance
+        ));
+    } else {
+        h.tolerance
+    };
+    let max_iterations = match h.max_iterations {
+        0 => spec.reach.max_iterations,
+        m if m <= MAX_REACH_ITERATIONS => m,
+        m => {
+            return Err(refuse!(
+                BadOption,
+                "max_iterations {m} is above {MAX_REACH_ITERATIONS}"
+            ));
+        }
+    };
+    Ok(Command::Reach {
+        chain,
+        target: points[0],
+        options: ReachOptions {
+            strategy: strategy_from_wire(strategy).unwrap_or(spec.reach.strategy),
+            method: method.unwrap_or(spec.reach.method),
+            substeps: h.substeps.max(1),
+            tolerance,
+            max_iterations,
+            hierarchy_after: spec.reach.hierarchy_after,
+        },
+        angles,
+    })
 }
 
 /// The response header of a request: from its outcome or its refusal. `sequence` is the state after it;
