@@ -197,7 +197,7 @@ fn world(a: &ServeArgs) -> Result<World> {
     let mut set = World::new(&sc).map_err(|e| SceneError {
         file: file.clone(),
         line: 0,
-        message: e,
+        message: e.to_string(),
     })?;
     set.set_budget(
         a.budget

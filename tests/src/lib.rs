@@ -231,7 +231,7 @@ impl InProcess {
         let thread = {
             let (prefix, stop) = (prefix.clone(), stop.clone());
             std::thread::spawn(move || -> Result<(), String> {
-                let set = World::new(&scene)?;
+                let set = World::new(&scene).map_err(|e| e.to_string())?;
                 let iox = shared::iceoryx_config(&prefix)?;
                 let (elements, joints) = set.response_sizes();
                 let (ports, _) = ServerPorts::<local::Service>::open(

@@ -5,6 +5,7 @@
 //! [`Live::apply`] runs a [`BundleOp`], atomically: a refused command changes nothing. Bundles are not
 //! persisted (their state is megabytes per move); each counts its own changes in [`Live::sequence`].
 
+use crate::chains::BuildError;
 use crate::command::{BundleOp, Point};
 use crate::refusal::Refusal;
 use crate::refuse;
@@ -54,7 +55,7 @@ pub struct Live {
     pub sequence: u64,
 }
 
-fn state<T: StrandReal + Send>(spec: &BundleSpec) -> Result<State<T>, String> {
+fn state<T: StrandReal + Send>(spec: &BundleSpec) -> Result<State<T>, BuildError> {
     let v = |p: &Vector3<f64>| Vector3::new(T::lit(p.x), T::lit(p.y), T::lit(p.z));
     let heads: Vec<Vector3<T>> = spec.heads.iter().map(v).collect();
     let initial = Strands::straight(
@@ -63,12 +64,13 @@ fn state<T: StrandReal + Send>(spec: &BundleSpec) -> Result<State<T>, String> {
         T::lit(spec.link_length),
         v(&spec.hang),
     )
-    .map_err(|e| format!("bundle {:?}: {e}", spec.name))?;
-    let bundle = Bundle::new(initial.clone(), spec.two_cores).map_err(|e| {
-        format!(
-            "bundle {:?}: cannot start its helper thread: {e}",
-            spec.name
-        )
+    .map_err(|source| BuildError::Bundle {
+        name: spec.name.clone(),
+        source,
+    })?;
+    let bundle = Bundle::new(initial.clone(), spec.two_cores).map_err(|e| BuildError::Helper {
+        name: spec.name.clone(),
+        why: e.to_string(),
     })?;
     Ok(State {
         bundle,
@@ -79,7 +81,7 @@ fn state<T: StrandReal + Send>(spec: &BundleSpec) -> Result<State<T>, String> {
 
 impl Live {
     /// Builds the strands `spec` declares.
-    pub fn new(spec: &BundleSpec) -> Result<Self, String> {
+    pub fn new(spec: &BundleSpec) -> Result<Self, BuildError> {
         Ok(Live {
             form: match spec.precision {
                 crate::scene::Precision::F32 => Form::F32(state(spec)?),

@@ -24,6 +24,36 @@ use crate::refuse;
 use crate::scene::{ChainSpec, Scene};
 use tractrix::ChainError;
 
+/// Why a scene's world could not be built (a validated scene builds; these are the kernel's last
+/// word and the operating system's).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    /// A chain the kernel refuses.
+    #[error("chain {name:?}: {source}")]
+    Chain {
+        /// The chain.
+        name: String,
+        /// The kernel's reason.
+        source: ChainError,
+    },
+    /// A bundle the kernel refuses.
+    #[error("bundle {name:?}: {source}")]
+    Bundle {
+        /// The bundle.
+        name: String,
+        /// The kernel's reason.
+        source: tractrix::strands::StrandsError,
+    },
+    /// A bundle whose helper thread could not start.
+    #[error("bundle {name:?}: cannot start its helper thread: {why}")]
+    Helper {
+        /// The bundle.
+        name: String,
+        /// The operating system's reason.
+        why: String,
+    },
+}
+
 /// The work a request may cost by default, in link-steps (one link following its tractrix once, about
 /// 80 ns here): about 4 ms. See [`World::set_budget`].
 pub const DEFAULT_BUDGET: u64 = 50_000;
@@ -49,7 +79,7 @@ pub struct World {
 
 impl World {
     /// Builds the chains a scene declares (and nothing else).
-    pub fn new(scene: &Scene) -> Result<Self, String> {
+    pub fn new(scene: &Scene) -> Result<Self, BuildError> {
         let mut geometry = Vec::with_capacity(scene.chains.len());
         for spec in &scene.chains {
             let g = match (spec.dims, spec.precision) {
@@ -58,7 +88,10 @@ impl World {
                 (_, crate::scene::Precision::F32) => build(spec).map(Geometry::Spatial32),
                 _ => build(spec).map(Geometry::Spatial64),
             }
-            .map_err(|e| format!("chain {:?}: {e}", spec.name))?;
+            .map_err(|source| BuildError::Chain {
+                name: spec.name.clone(),
+                source,
+            })?;
             geometry.push(g);
         }
         let bundles = scene

@@ -87,22 +87,21 @@ where
             .collect()
     }
     /// Sets the instruments' poses from [`LiveChain::instrument_numbers`] (a restored snapshot).
-    pub fn set_instrument_numbers(&mut self, poses: &[Vec<f64>]) -> Result<(), String> {
+    pub fn set_instrument_numbers(&mut self, poses: &[Vec<f64>]) -> Result<(), PoseError> {
         if poses.len() != self.instruments().len() {
-            return Err(format!(
-                "{} instrument poses for {} instruments",
-                poses.len(),
-                self.instruments().len()
-            ));
+            return Err(PoseError::Count {
+                got: poses.len(),
+                want: self.instruments().len(),
+            });
         }
         for (o, nums) in self.instruments_mut().iter_mut().zip(poses) {
-            let pt = |k: usize| -> Result<Vector<T, D>, String> {
-                let v = nums.get(k * D..(k + 1) * D).ok_or("a pose is too short")?;
+            let pt = |k: usize| -> Result<Vector<T, D>, PoseError> {
+                let v = nums.get(k * D..(k + 1) * D).ok_or(PoseError::Shape)?;
                 let p = Vector::<T, D>::from_iterator(v.iter().map(|&x| T::lit(x)));
                 if tractrix::math::all_finite(&p) {
                     Ok(p)
                 } else {
-                    Err("a pose is not finite".into())
+                    Err(PoseError::NonFinite)
                 }
             };
             match o {
@@ -111,11 +110,30 @@ where
                     *a = pt(0)?;
                     *b = pt(1)?;
                 }
-                _ => return Err("an instrument's pose does not fit its shape".into()),
+                _ => return Err(PoseError::Shape),
             }
         }
         Ok(())
     }
+}
+
+/// Why instrument poses were not set (those before the one at fault may be: set them on a copy).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PoseError {
+    /// Another number of poses than the chain has instruments.
+    #[error("{got} instrument poses for {want} instruments")]
+    Count {
+        /// Poses given.
+        got: usize,
+        /// Instruments of the chain.
+        want: usize,
+    },
+    /// Numbers that do not fit the instrument's shape (a sphere's centre; a capsule's two ends).
+    #[error("an instrument's pose does not fit its shape")]
+    Shape,
+    /// A number that is not finite.
+    #[error("an instrument's pose is not finite")]
+    NonFinite,
 }
 
 /// One of the four chain forms.

@@ -171,7 +171,7 @@ impl World {
             let mut g = geometry.clone();
             each_form!(&mut g, h => {
                 h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held, &s.datum).map_err(pose)?;
-                h.set_instrument_numbers(&s.instruments).map_err(pose)?;
+                h.set_instrument_numbers(&s.instruments).map_err(|e| pose(e.to_string()))?;
             });
             built.push(g);
         }

@@ -19,6 +19,17 @@ pub const TWO_CORES_FROM: usize = 50_000;
 
 type Job<T> = (Strands<T>, usize);
 
+/// Why a move of a bundle's strands was not made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MoveError {
+    /// The targets or substeps (nothing changed).
+    #[error(transparent)]
+    Strands(#[from] StrandsError),
+    /// The helper thread died mid-move (a kernel bug) with half of the strands.
+    #[error("the strands helper thread died with half of the strands")]
+    HelperDied,
+}
+
 #[derive(Debug)]
 struct Helper<T> {
     to: Option<SyncSender<Job<T>>>,
@@ -130,28 +141,25 @@ impl<T: StrandReal + Send> Bundle<T> {
     }
 
     /// Moves every strand's head to its target in `substeps` substeps. On error nothing changes.
-    pub fn move_heads(&mut self, targets: &[Vector3<T>], substeps: usize) -> Result<(), String> {
+    pub fn move_heads(&mut self, targets: &[Vector3<T>], substeps: usize) -> Result<(), MoveError> {
         if targets.len() != self.n_strands {
             return Err(StrandsError::TargetCount {
                 got: targets.len(),
                 want: self.n_strands,
             }
-            .to_string());
+            .into());
         }
         if substeps == 0 {
-            return Err(StrandsError::NoSubsteps.to_string());
+            return Err(StrandsError::NoSubsteps.into());
         }
         let (mine, theirs) = targets.split_at(self.split);
-        self.first.stage(mine).map_err(|e| e.to_string())?;
+        self.first.stage(mine)?;
         let Some(mut second) = self.second.take() else {
             if self.helper.is_some() {
                 // Only after the helper died mid-move (a kernel bug): its half went with it.
-                return Err("the strands helper thread died with half of the strands".into());
+                return Err(MoveError::HelperDied);
             }
-            return self
-                .first
-                .sweep_staged(substeps, self.simd)
-                .map_err(|e| e.to_string());
+            return Ok(self.first.sweep_staged(substeps, self.simd)?);
         };
         if let Err(e) = second.stage(theirs) {
             self.second = Some(second);
@@ -159,7 +167,7 @@ impl<T: StrandReal + Send> Bundle<T> {
                 StrandsError::NonFinite(i) => StrandsError::NonFinite(i + self.split),
                 e => e,
             }
-            .to_string());
+            .into());
         }
         let sent = match self.helper.as_ref().and_then(|h| h.to.as_ref()) {
             Some(to) => to.send((second, substeps)).map_err(|e| e.0.0),
@@ -170,9 +178,7 @@ impl<T: StrandReal + Send> Bundle<T> {
             self.helper = None;
             let r = second.sweep_staged(substeps, self.simd);
             self.second = Some(second);
-            return r
-                .and_then(|()| self.first.sweep_staged(substeps, self.simd))
-                .map_err(|e| e.to_string());
+            return Ok(r.and_then(|()| self.first.sweep_staged(substeps, self.simd))?);
         }
         let mine = self.first.sweep_staged(substeps, self.simd);
         // Returns when the helper answers, or at once with an error if it has died (its sender drops).
@@ -180,9 +186,9 @@ impl<T: StrandReal + Send> Bundle<T> {
         match back {
             Some(Ok((half, r))) => {
                 self.second = Some(half);
-                r.and(mine).map_err(|e| e.to_string())
+                Ok(r.and(mine)?)
             }
-            _ => Err("the strands helper thread died with half of the strands".into()),
+            _ => Err(MoveError::HelperDied),
         }
     }
 
@@ -283,7 +289,7 @@ mod tests {
             })
             .collect();
         let e = two.move_heads(&bad, 1).unwrap_err();
-        assert!(e.contains("2999"), "{e}");
+        assert_eq!(e, MoveError::Strands(StrandsError::NonFinite(2999)), "{e}");
         assert!(two.move_heads(&heads[1..], 1).is_err());
         for (i, b) in before.iter().enumerate() {
             let mut v = Vec::new();
