@@ -142,6 +142,23 @@ mod tests {
         assert_eq!(field[shared::REASON_LEN - 1], 0);
     }
 
+    /// The kernel names its methods once (scenes take those names); the wire's text form parses the
+    /// same names to the wire's numbers for them.
+    #[test]
+    fn every_method_has_the_kernel_s_name_on_the_wire() {
+        for m in tractrix::Method::ALL {
+            assert_eq!(
+                shared::text::parse_method(m.name()),
+                Ok(crate::request::method_to_wire(m)),
+                "{m:?}"
+            );
+            assert_eq!(
+                shared::text::method_name(crate::request::method_to_wire(m) as u32),
+                m.name()
+            );
+        }
+    }
+
     #[test]
     fn the_largest_coordinate_is_the_wire_s() {
         for (l, f32_chain) in [(1.0, false), (1.0, true), (0.013, false), (7.5, true)] {

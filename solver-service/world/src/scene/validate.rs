@@ -633,16 +633,9 @@ fn chain(
         &[("f64", Precision::F64), ("f32", Precision::F32)],
         Precision::F64,
     )?;
-    let method = f.choice(
-        &c.method,
-        "method",
-        &[
-            ("tractrix", Method::Tractrix),
-            ("paper", Method::TractrixPaper),
-            ("ftl", Method::FollowTheLeader),
-        ],
-        Method::Tractrix,
-    )?;
+    // The kernel's names of its methods (the wire's text form spells the same; the service checks).
+    let methods = Method::ALL.map(|m| (m.name(), m));
+    let method = f.choice(&c.method, "method", &methods, Method::Tractrix)?;
     let strategy = f.choice(
         &c.strategy,
         "strategy",
