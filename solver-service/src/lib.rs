@@ -4,9 +4,8 @@
 //! bundles' two-core helper); this crate is the doors around them.
 //!
 //! * [`scene_file`]: reading a scene file, which [`world::scene`] parses and validates;
-//! * [`wire`]: the world's enums as the wire numbers them, the bounds checked against the wire's;
-//! * [`request`]: the typed request path (`decode` → [`world::World::apply`] → `encode`);
-//! * [`bundles`]: the wire's door to the scene's bundles;
+//! * [`wire`]: the wire's door: [`wire::request`] decodes into a [`world::command::Command`],
+//!   [`world::World::apply`] answers, [`wire::request`] encodes; [`wire::bundle`] for bundles;
 //! * [`serve`]: the one serving loop (generic over the iceoryx2 service variant) and its ports;
 //! * [`service`]: the solver as a [`serve::Handler`], with persistence and shutdown;
 //! * [`echo`]: the raw echo, the latency bench's baseline, served by the same loop;
@@ -14,10 +13,8 @@
 //! * [`batch`], [`unix_socket`]: the same requests from a file and over a Unix socket.
 
 pub mod batch;
-pub mod bundles;
 pub mod echo;
 pub mod persist;
-pub mod request;
 pub mod scene_file;
 pub mod serve;
 pub mod service;

@@ -4,8 +4,8 @@
 //! shutdown.
 
 use crate::persist::{JournalMode, Store};
-use crate::request::{self, Answer, Command, Refusal, Residual, WireWorld, refuse};
 use crate::serve::{Handled, Handler, LoopOptions, ServerPorts, serve};
+use crate::wire::request::{self, Answer, Command, Refusal, Residual, WireWorld, refuse};
 use iceoryx2::prelude::ipc;
 use shared::{RequestHeader, ResponseHeader, Vec3, WaitMode};
 use std::path::PathBuf;

@@ -570,7 +570,7 @@ fn describe(spec: &ChainSpec, h: &mut ResponseHeader) {
 /// The wire's door to a [`World`]: requests decoded against its scene, answers encoded with its
 /// sequence numbers, payloads read from it.
 pub trait WireWorld {
-    /// Checks a wire request against the scene ([`decode`], [`crate::bundles::decode`]).
+    /// Checks a wire request against the scene ([`decode`], [`crate::wire::bundle::decode`]).
     fn decode<'a>(&self, h: &RequestHeader, points: &'a [Vec3]) -> Result<Command<'a>, Refusal>;
     /// The response header of a request: from its answer or its refusal ([`encode`]), with a
     /// bundle's sequence and description.
@@ -586,7 +586,7 @@ impl WireWorld for World {
         if h.command != shared::Command::Snapshot as u32
             && let Some((index, b)) = self.bundle_of(h.chain)
         {
-            return crate::bundles::decode(h, points, &b.spec).map(|op| Command::Bundle {
+            return crate::wire::bundle::decode(h, points, &b.spec).map(|op| Command::Bundle {
                 handle: h.chain,
                 index,
                 op,
@@ -614,7 +614,7 @@ impl WireWorld for World {
         if let (Ok(o), Some((_, b))) = (result, bundle)
             && o.describe
         {
-            crate::bundles::describe(&b.spec, &mut h);
+            crate::wire::bundle::describe(&b.spec, &mut h);
         }
         h
     }

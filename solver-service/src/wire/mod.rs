@@ -1,5 +1,10 @@
-//! Between the world and the wire: the world's enums as the wire numbers them, and the bounds the
-//! wire states to clients checked against the ones the world enforces.
+//! The wire's door to the world: [`request`] decodes a request header and its points into a
+//! [`world::command::Command`] (or a refusal) and encodes an answer or a refusal into a response
+//! header; [`bundle`] does the same for bundles; here, the world's enums as the wire numbers them,
+//! and the bounds the wire states to clients checked against the ones the world enforces.
+
+pub mod bundle;
+pub mod request;
 
 use shared::{COLLISION_OBSTACLES, COLLISION_PAPER_SPHERES, COLLISION_SELF};
 use tractrix::collision::Scheme;
@@ -149,11 +154,11 @@ mod tests {
         for m in tractrix::Method::ALL {
             assert_eq!(
                 shared::text::parse_method(m.name()),
-                Ok(crate::request::method_to_wire(m)),
+                Ok(crate::wire::request::method_to_wire(m)),
                 "{m:?}"
             );
             assert_eq!(
-                shared::text::method_name(crate::request::method_to_wire(m) as u32),
+                shared::text::method_name(crate::wire::request::method_to_wire(m) as u32),
                 m.name()
             );
         }

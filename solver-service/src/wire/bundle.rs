@@ -2,7 +2,7 @@
 //! against a [`BundleSpec`] into a [`BundleOp`] (which [`world::bundles::Live::apply`] runs), and
 //! [`describe`] writes a bundle's description into a response.
 
-use crate::request::{Checked, Refusal, check_header, refuse};
+use crate::wire::request::{Checked, Refusal, check_header, refuse};
 use shared::{
     ChainKind, FLAG_POSE, JOINT_HEAD, Precision, RequestHeader, ResponseHeader, SubstepMode, Vec3,
     WireMethod,
