@@ -16,7 +16,7 @@
 
 use nalgebra::Vector3;
 use shared::{Command, RequestHeader, Vec3};
-use solver_service::wire::request::WireWorld;
+use solver_service::wire::WireWorld;
 use std::time::Instant;
 use tractrix::{Chain, MoveOptions, Substeps};
 use world::World;

@@ -32,7 +32,7 @@ use nalgebra::Vector3;
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
 use solver_service::serve::answer;
 use solver_service::service::Solver;
-use solver_service::wire::request::WireWorld;
+use solver_service::wire::WireWorld;
 use std::hint::black_box;
 use std::time::Instant;
 use tractrix::ground_truth::{GroundTruthOptions, follow_path, helix};

@@ -27,7 +27,7 @@
 //! cost of one `fdatasync` per request. Sizes read back are bounded: a snapshot by the scene's size, a
 //! record by [`MAX_RECORD_BYTES`].
 
-use crate::wire::request::WireWorld;
+use crate::wire::WireWorld;
 use serde::{Deserialize, Serialize};
 use shared::{MAX_PATH_POINTS, RequestHeader, Vec3};
 use std::fs::{File, OpenOptions};

@@ -5,7 +5,8 @@
 
 use crate::persist::{JournalMode, Store};
 use crate::serve::{Handled, Handler, LoopOptions, ServerPorts, serve};
-use crate::wire::request::{self, Answer, Command, Refusal, Residual, WireWorld, refuse};
+use crate::wire::WireWorld;
+use crate::wire::request::{self, Answer, Command, Refusal, Residual, refuse};
 use iceoryx2::prelude::ipc;
 use shared::{RequestHeader, ResponseHeader, Vec3, WaitMode};
 use std::path::PathBuf;

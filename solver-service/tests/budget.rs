@@ -5,7 +5,7 @@
 //! budget" has the times.)
 
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
-use solver_service::wire::request::WireWorld;
+use solver_service::wire::WireWorld;
 use world::chains::{DEFAULT_BUDGET, World};
 use world::scene::parse_scene;
 

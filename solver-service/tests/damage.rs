@@ -5,7 +5,7 @@
 
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
 use solver_service::persist::{JournalMode, Store};
-use solver_service::wire::request::WireWorld;
+use solver_service::wire::WireWorld;
 use std::path::Path;
 use world::World;
 use world::scene::{Scene, parse_scene};

@@ -22,7 +22,6 @@
 //! the step then aims half the error sideways, so the rope bows, as the tractrix iteration's detour.
 
 use crate::chain::Chain;
-use crate::fixed_base::ReachOutcome;
 use crate::limits::JointLimits;
 use crate::math::{Embed3, Real, Vector};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -43,15 +42,15 @@ pub(crate) struct Scratch<T: Real, const D: usize> {
 
 /// Moves the head of the fixed-base, limited `chain` to within `tol` of `target` by boundary
 /// following, from its current pose, in at most `max_iterations` iterations. With the iterations it
-/// ran: `Some` when it arrived (every joint within its limit); otherwise `None` and the chain is where
-/// the last accepted step left it (within its limits); the caller restores it.
+/// ran: `Some(residual)` when it arrived (every joint within its limit); otherwise `None` and the
+/// chain is where the last accepted step left it (within its limits); the caller restores it.
 pub(crate) fn follow_boundary<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     target: &Vector<T, D>,
     tol: T,
     max_iterations: u32,
     scratch: &mut Scratch<T, D>,
-) -> (Option<ReachOutcome<T>>, u32)
+) -> (Option<T>, u32)
 where
     Vector<T, D>: Embed3<T>,
 {
@@ -121,11 +120,7 @@ where
             }
         }
     }
-    let done = (residual <= tol).then_some(ReachOutcome {
-        iterations: ran,
-        residual,
-    });
-    (done, ran)
+    ((residual <= tol).then_some(residual), ran)
 }
 
 /// `y = (J Jᵀ + λ² I)⁻¹ e` over the joints not frozen (pivot `j` at joint `j` turns links `j..`).

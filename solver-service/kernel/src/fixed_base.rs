@@ -540,9 +540,9 @@ where
     let (done, ran) = crate::boundary::follow_boundary(chain, target, tol, cap, &mut ws.boundary);
     ws.boundary_charge = (ran.saturating_mul(per)).div_ceil(2);
     match done {
-        Some(o) => Some(ReachOutcome {
+        Some(residual) => Some(ReachOutcome {
             iterations: it,
-            residual: o.residual,
+            residual,
         }),
         None => {
             chain.links_mut().copy_from_slice(&ws.trial);

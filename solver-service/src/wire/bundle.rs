@@ -2,11 +2,13 @@
 //! against a [`BundleSpec`] into a [`BundleOp`] (which [`world::bundles::Live::apply`] runs), and
 //! [`describe`] writes a bundle's description into a response.
 
-use crate::wire::request::{Checked, Refusal, check_header, refuse};
+use crate::wire::header::{Checked, check_header};
 use shared::{
     ChainKind, FLAG_POSE, JOINT_HEAD, Precision, RequestHeader, ResponseHeader, SubstepMode, Vec3,
     WireMethod,
 };
+use world::refusal::Refusal;
+use world::refuse;
 use world::scene::BundleSpec;
 
 pub use world::command::BundleOp;

@@ -4,7 +4,11 @@
 //! and the bounds the wire states to clients checked against the ones the world enforces.
 
 pub mod bundle;
+pub mod door;
+pub mod header;
 pub mod request;
+
+pub use door::WireWorld;
 
 use shared::{COLLISION_OBSTACLES, COLLISION_PAPER_SPHERES, COLLISION_SELF};
 use tractrix::collision::Scheme;

@@ -16,9 +16,8 @@ use world::scene::{ChainKind, ChainSpec};
 /// Highest `max_iterations` a reach request may ask for.
 pub const MAX_REACH_ITERATIONS: u32 = 100_000;
 
-use world::World;
+use crate::wire::header::{Checked, check_header};
 pub use world::command::{Answer, Command, Point, Residual};
-use world::elements::Elements;
 pub use world::refusal::Refusal;
 pub(crate) use world::refuse;
 
@@ -51,21 +50,6 @@ pub fn strategy_from_wire(s: WireStrategy) -> Option<Strategy> {
     }
 }
 
-fn wire_enum<E: TryFrom<u32, Error = u32>>(v: u32, field: &str, range: &str) -> Result<E, Refusal> {
-    E::try_from(v).map_err(|v| refuse!(BadOption, "{field} {v} is not one of {range}"))
-}
-
-/// The header fields every command checks, whatever it addresses: the command, the reserved words,
-/// the flags (`allowed` bits), every wire enumeration and every float option.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Checked {
-    pub command: shared::Command,
-    pub method: WireMethod,
-    pub precision: Precision,
-    pub substep_mode: SubstepMode,
-    pub strategy: WireStrategy,
-}
-
 /// Refuses (`held`) a request that would release or move an anchor of the scene: anchors are the
 /// scene's (a suture's end in tissue), for every client.
 fn anchored(spec: &ChainSpec, joint: usize, what: &str) -> Result<(), Refusal> {
@@ -77,41 +61,6 @@ fn anchored(spec: &ChainSpec, joint: usize, what: &str) -> Result<(), Refusal> {
         ));
     }
     Ok(())
-}
-
-/// Checks what [`Checked`] holds.
-pub(crate) fn check_header(h: &RequestHeader, allowed: u32) -> Result<Checked, Refusal> {
-    let command = shared::Command::try_from(h.command)
-        .map_err(|c| refuse!(UnknownCommand, "command {c} is not one of 1..=10"))?;
-    if h.reserved != [0, 0] {
-        return Err(refuse!(BadOption, "reserved fields must be zero"));
-    }
-    if h.flags & !allowed != 0 {
-        return Err(refuse!(
-            BadOption,
-            "unknown flag bits {:#x}",
-            h.flags & !allowed
-        ));
-    }
-    let method: WireMethod = wire_enum(h.method, "method", "0..=3")?;
-    let precision: Precision = wire_enum(h.precision, "precision", "0..=2")?;
-    let substep_mode: SubstepMode = wire_enum(h.substep_mode, "substep_mode", "0..=2")?;
-    let strategy: WireStrategy = wire_enum(h.strategy, "strategy", "0..=3")?;
-    // Every float option is checked, whether or not the command uses it: NonFinite means what it says
-    // for any field.
-    if !h.max_step.is_finite() {
-        return Err(refuse!(NonFinite, "max_step is not finite"));
-    }
-    if !h.tolerance.is_finite() {
-        return Err(refuse!(NonFinite, "tolerance is not finite"));
-    }
-    Ok(Checked {
-        command,
-        method,
-        precision,
-        substep_mode,
-        strategy,
-    })
 }
 
 /// Checks a request against the scene's chains and resolves its defaults. Nothing is changed.
@@ -565,69 +514,4 @@ fn describe(spec: &ChainSpec, h: &mut ResponseHeader) {
     h.total_length = spec.total_length;
     h.thickness = spec.thickness;
     h.set_name(&spec.name);
-}
-
-/// The wire's door to a [`World`]: requests decoded against its scene, answers encoded with its
-/// sequence numbers, payloads read from it.
-pub trait WireWorld {
-    /// Checks a wire request against the scene ([`decode`], [`crate::wire::bundle::decode`]).
-    fn decode<'a>(&self, h: &RequestHeader, points: &'a [Vec3]) -> Result<Command<'a>, Refusal>;
-    /// The response header of a request: from its answer or its refusal ([`encode`]), with a
-    /// bundle's sequence and description.
-    fn encode(&self, req: &RequestHeader, result: &Result<Answer, Refusal>) -> ResponseHeader;
-    /// Decodes and applies a wire request (the journal's replay, tests).
-    fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Answer, Refusal>;
-    /// The payload a response header announces (nothing for an error response).
-    fn elements(&self, h: &ResponseHeader) -> Elements<'_>;
-}
-
-impl WireWorld for World {
-    fn decode<'a>(&self, h: &RequestHeader, points: &'a [Vec3]) -> Result<Command<'a>, Refusal> {
-        if h.command != shared::Command::Snapshot as u32
-            && let Some((index, b)) = self.bundle_of(h.chain)
-        {
-            return crate::wire::bundle::decode(h, points, &b.spec).map(|op| Command::Bundle {
-                handle: h.chain,
-                index,
-                op,
-            });
-        }
-        let total = self.specs().len() + self.bundles().len();
-        if h.chain as usize >= total
-            && h.command != shared::Command::Snapshot as u32
-            && shared::Command::try_from(h.command).is_ok()
-        {
-            return Err(refuse!(
-                UnknownChain,
-                "chain {} (the scene has 0..{total})",
-                h.chain
-            ));
-        }
-        decode(h, points, self.specs())
-    }
-
-    fn encode(&self, req: &RequestHeader, result: &Result<Answer, Refusal>) -> ResponseHeader {
-        let bundle = self.bundle_of(req.chain);
-        let sequence = bundle.map_or(self.sequence(), |(_, b)| b.sequence);
-        let mut h = encode(req, result, sequence, self.specs());
-        h.n_chains = (self.specs().len() + self.bundles().len()) as u32;
-        if let (Ok(o), Some((_, b))) = (result, bundle)
-            && o.describe
-        {
-            crate::wire::bundle::describe(&b.spec, &mut h);
-        }
-        h
-    }
-
-    fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Answer, Refusal> {
-        let req = self.decode(h, points)?;
-        self.apply(&req)
-    }
-
-    fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
-        if h.n_joints + h.n_angles + h.n_held + h.n_instruments == 0 {
-            return Elements::Empty;
-        }
-        self.elements_for(h.chain, h.n_angles > 0, h.n_held > 0, h.n_instruments > 0)
-    }
 }

@@ -5,7 +5,7 @@
 //! [`Live::apply`] runs a [`BundleOp`], atomically: a refused command changes nothing. Bundles are not
 //! persisted (their state is megabytes per move); each counts its own changes in [`Live::sequence`].
 
-use crate::chains::BuildError;
+use crate::build::BuildError;
 use crate::command::{BundleOp, Point};
 use crate::refusal::Refusal;
 use crate::refuse;

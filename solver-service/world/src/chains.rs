@@ -11,6 +11,7 @@
 //!
 //! No I/O and no clock here: the service measures time and does the persistence around it.
 
+use crate::build::BuildError;
 use crate::command::Point;
 use crate::command::{Answer, BundleOp, Command, Residual};
 use crate::each_form;
@@ -23,36 +24,6 @@ use crate::refusal::Refusal;
 use crate::refuse;
 use crate::scene::{ChainSpec, Scene};
 use tractrix::ChainError;
-
-/// Why a scene's world could not be built (a validated scene builds; these are the kernel's last
-/// word and the operating system's).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum BuildError {
-    /// A chain the kernel refuses.
-    #[error("chain {name:?}: {source}")]
-    Chain {
-        /// The chain.
-        name: String,
-        /// The kernel's reason.
-        source: ChainError,
-    },
-    /// A bundle the kernel refuses.
-    #[error("bundle {name:?}: {source}")]
-    Bundle {
-        /// The bundle.
-        name: String,
-        /// The kernel's reason.
-        source: tractrix::strands::StrandsError,
-    },
-    /// A bundle whose helper thread could not start.
-    #[error("bundle {name:?}: cannot start its helper thread: {why}")]
-    Helper {
-        /// The bundle.
-        name: String,
-        /// The operating system's reason.
-        why: String,
-    },
-}
 
 /// The work a request may cost by default, in link-steps (one link following its tractrix once, about
 /// 80 ns here): about 4 ms. See [`World::set_budget`].

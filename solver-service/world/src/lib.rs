@@ -8,6 +8,7 @@
 //! * [`form`]: a chain at run time in its scene's form ([`form::LiveChain`], [`form::Geometry`]);
 //! * [`moves`]: what a command does to one chain (moves, paths, instruments, reaches);
 //! * [`elements`]: the payload of an answer, streamed into the caller's buffer;
+//! * [`build`]: why a scene's world could not be built;
 //! * [`bundles`]: the scene's bundles at run time;
 //! * [`command`]: what the world is asked ([`command::Command`]) and answers ([`command::Answer`]);
 //! * [`owners`]: who holds which grasp;
@@ -20,6 +21,7 @@
 
 pub use chains::World;
 
+pub mod build;
 pub mod bundles;
 pub mod chains;
 pub mod command;

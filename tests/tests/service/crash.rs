@@ -10,7 +10,7 @@
 
 use clients::{ClientWait, ConnectOptions, Connection};
 use shared::{Command, RequestHeader, Status, Vec3};
-use solver_service::wire::request::WireWorld;
+use solver_service::wire::WireWorld;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
