@@ -17,6 +17,9 @@ cargo build -p clients --example hello --profile test
 scripts/python-venv.sh
 # Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames).
 scripts/system-packages.sh
+# The test binaries, built before any CPU hog starts: the hog loads the tests, not the compiler (built
+# beside two hogs, they took 6 of the 21 minutes of a CI run).
+cargo test --workspace --no-run "$@"
 # TRACTRIX_TEST_LOAD=N runs the tests beside N busy-spinning processes, a CPU hog at normal priority (CI
 # runs the suite beside two, one per core: no test may need an idle machine).
 load=${TRACTRIX_TEST_LOAD:-0}
