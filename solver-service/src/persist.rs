@@ -65,6 +65,64 @@ fn config() -> Config {
 }
 
 /// How the journal is written.
+/// What went wrong with the state directory. Every error names the file or the directory, and says
+/// what a user can do where there is something to do.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PersistError {
+    /// A file or directory could not be read, written, synced or renamed, or does not read as what it
+    /// should be (another format, damage, another scene's state).
+    #[error("{}: {what}: {why}", path.display())]
+    File {
+        /// The file or directory.
+        path: PathBuf,
+        /// What was being done, or what the file turned out to be.
+        what: String,
+        /// Why.
+        why: String,
+    },
+    /// The state or a journal record could not be encoded.
+    #[error("cannot encode {what}: {why}")]
+    Encode {
+        /// A snapshot or a journal record.
+        what: &'static str,
+        /// The encoder's reason.
+        why: String,
+    },
+    /// Too many journal segments wait for a snapshot: no more are started.
+    #[error("{}: {segments} journal segments wait for a snapshot; no more are started", dir.display())]
+    Backlog {
+        /// The state directory.
+        dir: PathBuf,
+        /// Segments waiting.
+        segments: usize,
+    },
+    /// A journal write failed and the journal was cut back to its last whole record.
+    #[error("journal write failed ({why}); cut back to its last whole record")]
+    WriteFailed {
+        /// The write's error.
+        why: String,
+    },
+    /// A journal write failed and so did the cut back: the journal is unsound from here.
+    #[error("journal write failed: {why}")]
+    CutFailed {
+        /// Both errors.
+        why: String,
+    },
+    /// The journal is unsound: every change is refused until a snapshot starts a new journal.
+    #[error("the journal is unsound ({why}): changes are refused until a snapshot succeeds")]
+    Unsound {
+        /// Why it became unsound.
+        why: String,
+    },
+    /// The snapshot writer thread could not start, or has ended.
+    #[error("{0}")]
+    Writer(String),
+    /// Damage that restore found (the files are kept as they are), and what
+    /// `--restore-from-damaged` would restore.
+    #[error("{0}")]
+    Damaged(String),
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum JournalMode {
     /// No journal: state since the last snapshot is lost on a crash.
@@ -90,7 +148,7 @@ struct SnapshotFile {
 }
 
 /// Checks and opens a snapshot file's envelope ([`SNAPSHOT_ENVELOPE`]): its length and checksum.
-fn decode_snapshot_file(bytes: &[u8], path: &Path) -> Result<SnapshotFile, String> {
+fn decode_snapshot_file(bytes: &[u8], path: &Path) -> Result<SnapshotFile, PersistError> {
     if !bytes.starts_with(&SNAPSHOT_ENVELOPE) {
         // A file of an earlier version (no envelope) is named by its format; anything else is not a
         // snapshot.
@@ -139,7 +197,7 @@ fn decode_snapshot_file(bytes: &[u8], path: &Path) -> Result<SnapshotFile, Strin
 
 /// Decodes a snapshot body of this format; one of an earlier version is refused by its name (one
 /// format, no upgrade ladder: docs/service.md, "Persistence").
-fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<Snapshot, String> {
+fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<Snapshot, PersistError> {
     // The magic number comes first in every format.
     let (magic, _): (u32, usize) = bincode::serde::decode_from_slice(bytes, config())
         .map_err(|e| io(path, "not a snapshot", e))?;
@@ -227,13 +285,17 @@ pub struct Restored {
     pub damage: Option<String>,
 }
 
-fn io(path: &Path, what: &str, e: impl std::fmt::Display) -> String {
-    format!("{}: {what}: {e}", path.display())
+fn io(path: &Path, what: &str, e: impl std::fmt::Display) -> PersistError {
+    PersistError::File {
+        path: path.to_path_buf(),
+        what: what.to_string(),
+        why: e.to_string(),
+    }
 }
 
 impl Store {
     /// Opens (creating, owner-only) the state directory.
-    pub fn open(dir: &Path, mode: JournalMode) -> Result<Self, String> {
+    pub fn open(dir: &Path, mode: JournalMode) -> Result<Self, PersistError> {
         std::fs::DirBuilder::new()
             .recursive(true)
             .mode(0o700)
@@ -266,7 +328,7 @@ impl Store {
 
     /// Writes a snapshot of `set` on this thread (after any snapshot the writer thread has in hand),
     /// then drops the journal it covers. Used at start-up, on the `snapshot` command and at shutdown.
-    pub fn snapshot(&mut self, set: &World) -> Result<(), String> {
+    pub fn snapshot(&mut self, set: &World) -> Result<(), PersistError> {
         if let Some(Err(e)) = self.wait_for_writer() {
             // Reported to the caller of this snapshot; this one may still succeed.
             eprintln!("solver-service: a background snapshot failed: {e}");
@@ -286,7 +348,7 @@ impl Store {
     /// Starts from `set` and forgets the saved state: the old journals go first, then a new empty
     /// journal, then the snapshot, so a crash in between leaves the old snapshot alone (never a new
     /// snapshot beside old records).
-    pub fn begin(&mut self, set: &World) -> Result<(), String> {
+    pub fn begin(&mut self, set: &World) -> Result<(), PersistError> {
         if let Some(Err(e)) = self.wait_for_writer() {
             eprintln!("solver-service: a background snapshot failed: {e}");
         }
@@ -310,7 +372,7 @@ impl Store {
     /// rotated here (microseconds); the writer thread writes, syncs and renames the snapshot, then deletes
     /// the journal segments it covers. `Ok(false)`: the previous one is still being written (try later).
     /// Its outcome comes back through [`Store::finished`].
-    pub fn snapshot_in_background(&mut self, set: &World) -> Result<bool, String> {
+    pub fn snapshot_in_background(&mut self, set: &World) -> Result<bool, PersistError> {
         if self.writer.as_ref().is_some_and(|w| w.in_flight) {
             return Ok(false);
         }
@@ -335,37 +397,40 @@ impl Store {
         w.jobs
             .as_ref()
             .and_then(|j| j.send(Job { bytes, sequence }).ok())
-            .ok_or("the snapshot writer thread has ended")?;
+            .ok_or_else(|| {
+                PersistError::Writer("the snapshot writer thread has ended".to_string())
+            })?;
         w.in_flight = true;
         Ok(true)
     }
 
     /// The outcome of the background snapshot, once it is done (`Ok(sequence)` it holds).
-    pub fn finished(&mut self) -> Option<Result<u64, String>> {
+    pub fn finished(&mut self) -> Option<Result<u64, PersistError>> {
         let w = self.writer.as_mut().filter(|w| w.in_flight)?;
         let r = match w.done.try_recv() {
             Ok(r) => r,
             Err(std::sync::mpsc::TryRecvError::Empty) => return None,
-            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
-                Err("the snapshot writer thread has ended".to_string())
-            }
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => Err(PersistError::Writer(
+                "the snapshot writer thread has ended".to_string(),
+            )),
         };
         w.in_flight = false;
         Some(self.settle(r))
     }
 
     /// Waits for the background snapshot, if one is being written, and returns its outcome.
-    fn wait_for_writer(&mut self) -> Option<Result<u64, String>> {
+    fn wait_for_writer(&mut self) -> Option<Result<u64, PersistError>> {
         let w = self.writer.as_mut().filter(|w| w.in_flight)?;
-        let r = w
-            .done
-            .recv()
-            .unwrap_or_else(|_| Err("the snapshot writer thread has ended".to_string()));
+        let r = w.done.recv().unwrap_or_else(|_| {
+            Err(PersistError::Writer(
+                "the snapshot writer thread has ended".to_string(),
+            ))
+        });
         w.in_flight = false;
         Some(self.settle(r))
     }
 
-    fn settle(&mut self, r: Result<u64, String>) -> Result<u64, String> {
+    fn settle(&mut self, r: Result<u64, PersistError>) -> Result<u64, PersistError> {
         if let Ok(sequence) = r {
             self.written += 1;
             self.pending.retain(|&n| n > sequence);
@@ -374,7 +439,7 @@ impl Store {
     }
 
     /// A snapshot of state `sequence` is on disk: the journal segments it covers go.
-    fn covered(&mut self, sequence: u64) -> Result<(), String> {
+    fn covered(&mut self, sequence: u64) -> Result<(), PersistError> {
         remove_journals(&self.dir, sequence)?;
         self.pending.retain(|&n| n > sequence);
         Ok(())
@@ -383,7 +448,7 @@ impl Store {
     /// Moves the journal aside as segment `sequence` (every record in it is at most `sequence`) and
     /// starts a new one: a fresh file, so an unsound journal is sound again. On the calling thread, no
     /// sync (with [`JournalMode::Fsync`], the new file and the directory are synced).
-    fn rotate(&mut self, sequence: u64) -> Result<(), String> {
+    fn rotate(&mut self, sequence: u64) -> Result<(), PersistError> {
         let path = self.journal_path();
         if self.mode == JournalMode::Off {
             self.journal = None;
@@ -391,11 +456,10 @@ impl Store {
             return Ok(());
         }
         if self.pending.len() >= MAX_SEGMENTS {
-            return Err(format!(
-                "{}: {} journal segments wait for a snapshot; no more are started",
-                self.dir.display(),
-                self.pending.len()
-            ));
+            return Err(PersistError::Backlog {
+                dir: self.dir.clone(),
+                segments: self.pending.len(),
+            });
         }
         // The new journal is made first: if that fails, nothing has changed.
         let fresh = self.dir.join("journal.bin.new");
@@ -412,7 +476,7 @@ impl Store {
             // The old journal is a segment now and the new one has no name: nothing may be
             // acknowledged until a snapshot succeeds.
             let why = io(&path, "cannot name the new journal", e);
-            self.unsound = Some(why.clone());
+            self.unsound = Some(why.to_string());
             self.journal = Some(f);
             self.journal_len = JOURNAL_MAGIC.len() as u64;
             return Err(why);
@@ -431,7 +495,7 @@ impl Store {
     }
 
     /// A new journal file holding only the magic number.
-    fn create_journal(&self, path: &Path) -> Result<File, String> {
+    fn create_journal(&self, path: &Path) -> Result<File, PersistError> {
         let mut f = owner_only()
             .write(true)
             .create(true)
@@ -443,7 +507,7 @@ impl Store {
         Ok(f)
     }
 
-    fn start_journal(&mut self, path: &Path) -> Result<(), String> {
+    fn start_journal(&mut self, path: &Path) -> Result<(), PersistError> {
         self.journal = None;
         if self.mode == JournalMode::Off {
             return Ok(());
@@ -463,22 +527,25 @@ impl Store {
         sequence: u64,
         header: &RequestHeader,
         points: &[Vec3],
-    ) -> Result<(), String> {
+    ) -> Result<(), PersistError> {
         if self.journal.is_none() {
             return Ok(());
         }
         if let Some(why) = &self.unsound {
-            return Err(format!(
-                "the journal is unsound ({why}): changes are refused until a snapshot succeeds"
-            ));
+            return Err(PersistError::Unsound { why: why.clone() });
         }
         let rec = RecordRef {
             sequence,
             header,
             points,
         };
-        let n = bincode::serde::encode_into_slice(&rec, &mut self.buf[8..], config())
-            .map_err(|e| format!("cannot encode a journal record: {e}"))?;
+        let n =
+            bincode::serde::encode_into_slice(&rec, &mut self.buf[8..], config()).map_err(|e| {
+                PersistError::Encode {
+                    what: "a journal record",
+                    why: e.to_string(),
+                }
+            })?;
         let crc = crc32fast::hash(&self.buf[8..8 + n]);
         self.buf[0..4].copy_from_slice(&(n as u32).to_le_bytes());
         self.buf[4..8].copy_from_slice(&crc.to_le_bytes());
@@ -489,14 +556,11 @@ impl Store {
                 Ok(())
             }
             Err(e) => match self.cut_back() {
-                Ok(()) => Err(format!(
-                    "journal write failed ({e}); cut back to its last whole record"
-                )),
+                Ok(()) => Err(PersistError::WriteFailed { why: e.to_string() }),
                 Err(c) => {
                     let why = format!("a write failed ({e}) and the cut back failed too ({c})");
-                    let msg = format!("journal write failed: {why}");
-                    self.unsound = Some(why);
-                    Err(msg)
+                    self.unsound = Some(why.clone());
+                    Err(PersistError::CutFailed { why })
                 }
             },
         }
@@ -550,7 +614,11 @@ impl Store {
     /// `from_damaged` it restores the state before the damage, keeps the damaged files beside the new
     /// ones (`damaged-<state>-<name>`) and says what it dropped. A journal missing after a snapshot that
     /// says one follows is damage too.
-    pub fn restore(&mut self, set: &mut World, from_damaged: bool) -> Result<Restored, String> {
+    pub fn restore(
+        &mut self,
+        set: &mut World,
+        from_damaged: bool,
+    ) -> Result<Restored, PersistError> {
         let path = self.snapshot_path();
         let bound = snapshot_bound(set);
         let bytes = read_bounded(&path, bound)?;
@@ -577,9 +645,9 @@ impl Store {
                 ),
             );
             if !from_damaged {
-                return Err(format!(
+                return Err(PersistError::Damaged(format!(
                     "{why}; --restore-from-damaged restores the snapshot alone"
-                ));
+                )));
             }
             restored.damage = Some(format!("{why}: restored the snapshot alone"));
         }
@@ -598,15 +666,15 @@ impl Store {
             if let Err(damage) = replay(jpath, set, &mut restored) {
                 let later = files[k + 1..].iter().filter(|p| p.exists()).count();
                 let what = match later {
-                    0 => damage,
+                    0 => damage.to_string(),
                     n => format!("{damage}; {n} later journal file(s) are not replayed either"),
                 };
                 if !from_damaged {
-                    return Err(format!(
+                    return Err(PersistError::Damaged(format!(
                         "{what}. The files are kept as they are; --restore-from-damaged restores state {} \
                          and drops the rest",
                         set.sequence()
-                    ));
+                    )));
                 }
                 damaged.extend(files[k..].iter().filter(|p| p.exists()).cloned());
                 restored.damage = Some(what);
@@ -648,7 +716,7 @@ struct Job {
 #[derive(Debug)]
 struct Writer {
     jobs: Option<std::sync::mpsc::SyncSender<Job>>,
-    done: std::sync::mpsc::Receiver<Result<u64, String>>,
+    done: std::sync::mpsc::Receiver<Result<u64, PersistError>>,
     in_flight: bool,
     thread: Option<std::thread::JoinHandle<()>>,
 }
@@ -665,7 +733,7 @@ impl std::fmt::Debug for Job {
 }
 
 impl Writer {
-    fn start(dir: PathBuf) -> Result<Self, String> {
+    fn start(dir: PathBuf) -> Result<Self, PersistError> {
         let (jobs, rx) = std::sync::mpsc::sync_channel::<Job>(1);
         let (tx, done) = std::sync::mpsc::sync_channel(1);
         let thread = std::thread::Builder::new()
@@ -680,7 +748,9 @@ impl Writer {
                     }
                 }
             })
-            .map_err(|e| format!("cannot start the snapshot writer thread: {e}"))?;
+            .map_err(|e| {
+                PersistError::Writer(format!("cannot start the snapshot writer thread: {e}"))
+            })?;
         Ok(Writer {
             jobs: Some(jobs),
             done,
@@ -702,13 +772,16 @@ impl Drop for Writer {
 
 /// The state of `set` as a snapshot file's bytes (envelope and body), and its sequence number;
 /// `journal` says whether a journal follows it.
-fn encode_snapshot(set: &World, journal: bool) -> Result<(Vec<u8>, u64), String> {
+fn encode_snapshot(set: &World, journal: bool) -> Result<(Vec<u8>, u64), PersistError> {
     let snap = Snapshot {
         magic: SNAPSHOT_MAGIC,
         state: set.state(),
     };
-    let body = bincode::serde::encode_to_vec(&snap, config())
-        .map_err(|e| format!("cannot encode the snapshot: {e}"))?;
+    let body =
+        bincode::serde::encode_to_vec(&snap, config()).map_err(|e| PersistError::Encode {
+            what: "the snapshot",
+            why: e.to_string(),
+        })?;
     let flags = if journal { FLAG_JOURNAL_FOLLOWS } else { 0 };
     let mut bytes = Vec::with_capacity(ENVELOPE_BYTES + body.len());
     bytes.extend_from_slice(&SNAPSHOT_ENVELOPE);
@@ -724,7 +797,7 @@ fn encode_snapshot(set: &World, journal: bool) -> Result<(Vec<u8>, u64), String>
 /// Writes `bytes` to a temporary file, syncs it, renames it over `snapshot.bin` and syncs the directory:
 /// a crash leaves the old snapshot or the new one. A failed write removes its temporary file (on a full
 /// file system it would hold the space).
-fn write_snapshot_file(dir: &Path, bytes: &[u8]) -> Result<(), String> {
+fn write_snapshot_file(dir: &Path, bytes: &[u8]) -> Result<(), PersistError> {
     let path = dir.join("snapshot.bin");
     let tmp = dir.join("snapshot.bin.tmp");
     let mut f = owner_only()
@@ -750,7 +823,7 @@ fn segment_path(dir: &Path, sequence: u64) -> PathBuf {
 }
 
 /// The journal segments in `dir`, oldest first (at most [`MAX_SEGMENTS`]).
-fn list_segments(dir: &Path) -> Result<Vec<u64>, String> {
+fn list_segments(dir: &Path) -> Result<Vec<u64>, PersistError> {
     let mut found = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(|e| io(dir, "cannot list", e))? {
         let name = entry.map_err(|e| io(dir, "cannot list", e))?.file_name();
@@ -775,7 +848,7 @@ fn list_segments(dir: &Path) -> Result<Vec<u64>, String> {
 }
 
 /// Removes the journal segments that end at or before `sequence`.
-fn remove_journals(dir: &Path, sequence: u64) -> Result<(), String> {
+fn remove_journals(dir: &Path, sequence: u64) -> Result<(), PersistError> {
     for n in list_segments(dir)? {
         if n <= sequence {
             let p = segment_path(dir, n);
@@ -790,7 +863,7 @@ fn remove_journals(dir: &Path, sequence: u64) -> Result<(), String> {
 /// error. A record that does not read ends the file: a torn tail ([`is_torn_tail`]: a write cut by a
 /// crash or a failed append, never acknowledged) is dropped and counted; anything else is damage, an
 /// error that says where and how many whole records follow.
-fn replay(jpath: &Path, set: &mut World, restored: &mut Restored) -> Result<(), String> {
+fn replay(jpath: &Path, set: &mut World, restored: &mut Restored) -> Result<(), PersistError> {
     let file = File::open(jpath).map_err(|e| io(jpath, "cannot open", e))?;
     let file_len = file
         .metadata()
@@ -929,7 +1002,7 @@ fn owner_only() -> OpenOptions {
     o
 }
 
-fn read_bounded(path: &Path, bound: u64) -> Result<Vec<u8>, String> {
+fn read_bounded(path: &Path, bound: u64) -> Result<Vec<u8>, PersistError> {
     let f = File::open(path).map_err(|e| io(path, "cannot open", e))?;
     let len = f.metadata().map_err(|e| io(path, "cannot stat", e))?.len();
     if len > bound {
@@ -1025,7 +1098,7 @@ mod tests {
                 let mut set = World::new(&scene).unwrap();
                 let before = joints(&set);
                 let mut store = Store::open(dir.path(), JournalMode::Write).unwrap();
-                let e = store.restore(&mut set, false).unwrap_err();
+                let e = store.restore(&mut set, false).unwrap_err().to_string();
                 assert!(
                     e.contains(name) && e.contains("start without --restore"),
                     "{name}, envelope {envelope}: {e}"
@@ -1209,9 +1282,12 @@ mod tests {
                 Ok(()) => acknowledged += 1,
                 Err(e) => {
                     assert!(
-                        (20..=21).contains(&i) && e.contains("cut back")
+                        (20..=21).contains(&i) && matches!(e, PersistError::WriteFailed { .. })
                             || (50..60).contains(&i)
-                                && (e.contains("unsound") || e.contains("cut back failed")),
+                                && matches!(
+                                    e,
+                                    PersistError::Unsound { .. } | PersistError::CutFailed { .. }
+                                ),
                         "append {i}: {e}"
                     );
                     set.undo();
@@ -1344,7 +1420,10 @@ mod tests {
             .unwrap()
             .restore(&mut other_set, false)
             .unwrap_err();
-        assert!(e.contains("chains"), "{e}");
+        assert!(
+            matches!(&e, PersistError::File { what, why, .. } if what == "does not fit the scene" && why.contains("chains")),
+            "{e}"
+        );
         assert_eq!(joints(&other_set), before);
         // Garbage is refused as well.
         std::fs::write(dir.path().join("snapshot.bin"), b"garbage").unwrap();

@@ -3,7 +3,7 @@
 //! snapshot is written every `snapshot_every` while the state changes, on `snapshot` requests and on
 //! shutdown.
 
-use crate::persist::{JournalMode, Store};
+use crate::persist::{JournalMode, PersistError, Store};
 use crate::serve::{Handled, Handler, LoopOptions, ServerPorts, serve};
 use crate::wire::WireWorld;
 use crate::wire::request::{self, Answer, Command, Refusal, Residual, refuse};
@@ -227,11 +227,23 @@ impl Handler for Solver {
     }
 }
 
+/// Why the service stopped or did not start.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ServiceError {
+    /// The state directory (opening, restoring, the first or the last snapshot).
+    #[error(transparent)]
+    Persist(#[from] PersistError),
+    /// The machine: a core to pin to, iceoryx2's ports, shared memory.
+    #[error("{0}")]
+    Machine(String),
+}
+
 /// Serves `set` until SIGINT or SIGTERM; then writes a last snapshot. `ready` is called once the ports
 /// are open (the binary prints a line that scripts and tests wait for).
-pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<(), String> {
+pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<(), ServiceError> {
+    let machine = ServiceError::Machine;
     if let Some(core) = cfg.pin {
-        shared::pin_current_thread(core)?;
+        shared::pin_current_thread(core).map_err(machine)?;
     }
     let mut set = set;
     let mut store = None;
@@ -265,9 +277,9 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
         store = Some(s);
     }
     let (elements, joints) = set.response_sizes();
-    let iox = shared::iceoryx_config(&cfg.prefix)?;
+    let iox = shared::iceoryx_config(&cfg.prefix).map_err(machine)?;
     let shm = std::path::Path::new(crate::shm::SHM_DIR);
-    crate::shm::check_room(shm)?;
+    crate::shm::check_room(shm).map_err(machine)?;
     let (ports, stale) = ServerPorts::<ipc::Service>::open(
         &iox,
         "tractrix-solver",
@@ -275,11 +287,12 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
         Some(joints),
         cfg.state_buffer,
         set.bundle_stream_size(),
-    )?;
+    )
+    .map_err(machine)?;
     if stale > 0 {
         eprintln!("solver-service: cleaned the resources of {stale} dead process(es)");
     }
-    let (_, reserved) = crate::shm::reserve(shm, &cfg.prefix)?;
+    let (_, reserved) = crate::shm::reserve(shm, &cfg.prefix).map_err(machine)?;
     let snapshot_every = cfg
         .persistence
         .as_ref()
@@ -306,7 +319,8 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
             spin_budget: cfg.spin_budget,
             stop: None,
         },
-    )?;
+    )
+    .map_err(machine)?;
     if let Some(store) = solver.store.as_mut() {
         store.snapshot(&solver.set)?;
     }

@@ -122,7 +122,7 @@ fn restore(
         Ok(_) => Ok(state(&set)),
         Err(e) => {
             assert_eq!(files(dir), before, "a refused restore changed a file ({e})");
-            Err(e)
+            Err(e.to_string())
         }
     }
 }
