@@ -224,14 +224,14 @@ fn decode_snapshot(bytes: &[u8], path: &Path) -> Result<Snapshot, PersistError> 
 }
 
 #[derive(Debug, Serialize)]
-struct RecordRef<'a> {
+struct JournalRecordRef<'a> {
     sequence: u64,
     header: &'a RequestHeader,
     points: &'a [Vec3],
 }
 
 #[derive(Debug, Deserialize)]
-struct Record {
+struct JournalRecord {
     sequence: u64,
     header: RequestHeader,
     points: Vec<Vec3>,
@@ -534,7 +534,7 @@ impl Store {
         if let Some(why) = &self.unsound {
             return Err(PersistError::Unsound { why: why.clone() });
         }
-        let rec = RecordRef {
+        let rec = JournalRecordRef {
             sequence,
             header,
             points,
@@ -1038,7 +1038,7 @@ fn snapshot_bound(set: &World) -> u64 {
 
 /// The next whole record of a journal stream and its length in bytes; `None` at a torn or corrupt
 /// record (or the end). `buf` holds the record's body (at most [`MAX_RECORD_BYTES`]).
-fn next_record(input: &mut impl Read, buf: &mut Vec<u8>) -> Option<(Record, u64)> {
+fn next_record(input: &mut impl Read, buf: &mut Vec<u8>) -> Option<(JournalRecord, u64)> {
     let mut head = [0u8; 8];
     input.read_exact(&mut head).ok()?;
     let n = u32::from_le_bytes([head[0], head[1], head[2], head[3]]) as usize;
@@ -1051,7 +1051,7 @@ fn next_record(input: &mut impl Read, buf: &mut Vec<u8>) -> Option<(Record, u64)
     if crc32fast::hash(&buf[..n]) != crc {
         return None;
     }
-    let (rec, used): (Record, usize) =
+    let (rec, used): (JournalRecord, usize) =
         bincode::serde::decode_from_slice(&buf[..n], config()).ok()?;
     (used == n && rec.points.len() <= MAX_PATH_POINTS as usize).then_some((rec, 8 + n as u64))
 }
