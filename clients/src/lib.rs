@@ -14,6 +14,7 @@ pub mod reach;
 pub mod render;
 pub mod script;
 pub mod snake;
+mod vec3;
 pub mod viewer;
 
 pub use connection::{

@@ -10,6 +10,7 @@
 //! tractrix cuts corners by about `L²/(2R)` for links of length `L` on a bend of radius `R`).
 
 use crate::connection::{Connection, Pacer, count_refusal};
+use crate::vec3::{cross, dist, dot, lerp, sub, unit};
 use anyhow::bail;
 use shared::{Command, RequestHeader, Status, Vec3};
 use std::time::{Duration, Instant};
@@ -339,34 +340,6 @@ pub fn distance_to_polyline(p: [f64; 3], poly: &[[f64; 3]]) -> f64 {
             dist(p, lerp(w[0], w[1], t))
         })
         .fold(f64::INFINITY, f64::min)
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    dot(sub(a, b), sub(a, b)).sqrt()
-}
-fn lerp(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
-    [
-        a[0] + (b[0] - a[0]) * t,
-        a[1] + (b[1] - a[1]) * t,
-        a[2] + (b[2] - a[2]) * t,
-    ]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let n = dot(a, a).sqrt();
-    (n > 1e-12 && n.is_finite()).then(|| [a[0] / n, a[1] / n, a[2] / n])
 }
 
 #[cfg(test)]
