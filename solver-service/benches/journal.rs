@@ -65,7 +65,7 @@ fn main() {
     println!(
         "Head moves of the default rope (40 links, 8 substeps), {rounds} rounds interleaving the modes, \
          {per_round} requests per round ({} with fsync); \"solve\" is the whole request path without IPC \
-         (`World::respond`), \"append\" the journal record written after it:\n",
+         (`serve::answer` on the solver, without its store), \"append\" the journal record written after it:\n",
         per_round / 10
     );
     println!(
