@@ -115,19 +115,7 @@ impl Solver {
                 )),
             };
         }
-        let set = &mut self.set;
-        let outcome = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            set.apply_for(client, &req)
-        })) {
-            Ok(r) => r?,
-            Err(_) => {
-                self.set.undo();
-                return Err(refuse!(
-                    Internal,
-                    "internal error in the solver; state kept"
-                ));
-            }
-        };
+        let outcome = self.set.apply_guarded(client, &req)?;
         // A bundle's change is not persisted (see `crate::bundles`).
         if outcome.changed && !outcome.bundle {
             if let Some(store) = self.store.as_mut()

@@ -17,7 +17,8 @@ pub trait WireWorld {
     /// The response header of a request: from its answer or its refusal ([`super::request::encode`]), with a
     /// bundle's sequence and description.
     fn encode(&self, req: &RequestHeader, result: &Result<Answer, Refusal>) -> ResponseHeader;
-    /// Decodes and applies a wire request (the journal's replay, tests).
+    /// Decodes and applies a wire request as no client, behind the panic guard (the journal's
+    /// replay, tests).
     fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Answer, Refusal>;
     /// The payload a response header announces (nothing for an error response).
     fn elements(&self, h: &ResponseHeader) -> Elements<'_>;
@@ -63,7 +64,7 @@ impl WireWorld for World {
 
     fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Answer, Refusal> {
         let req = self.decode(h, points)?;
-        self.apply(&req)
+        self.apply_guarded(world::owners::LOCAL, &req)
     }
 
     fn elements(&self, h: &ResponseHeader) -> Elements<'_> {

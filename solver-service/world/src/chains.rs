@@ -46,6 +46,9 @@ pub struct World {
     owners: Owners,
     /// The collision work the kernel's meter charged the last request, in link-steps.
     last_work: u64,
+    /// Tests: the next command panics after the kernel has run (a kernel bug, injected).
+    #[cfg(test)]
+    panic_after_kernel: bool,
 }
 
 impl World {
@@ -79,6 +82,8 @@ impl World {
             undo: None,
             owners: Owners::new(scene.chains.len()),
             last_work: 0,
+            #[cfg(test)]
+            panic_after_kernel: false,
         })
     }
 
@@ -363,6 +368,25 @@ impl World {
         Ok(outcome)
     }
 
+    /// [`World::apply_for`] behind a guard, the way every door answers: a panic inside (a kernel
+    /// bug) is caught, the change that was being made is undone (chains; a bundle keeps what its
+    /// sweep did), and the command is refused as `Internal`.
+    pub fn apply_guarded(&mut self, client: u128, req: &Command<'_>) -> Result<Answer, Refusal> {
+        let world = &mut *self;
+        match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            world.apply_for(client, req)
+        })) {
+            Ok(r) => r,
+            Err(_) => {
+                self.undo();
+                Err(refuse!(
+                    Internal,
+                    "internal error in the solver; state kept"
+                ))
+            }
+        }
+    }
+
     /// Whether any grasp has an owner.
     pub fn grasps_owned(&self) -> bool {
         self.owners.any()
@@ -497,6 +521,10 @@ impl World {
                 .map_err(Refusal::from),
             Command::Snapshot | Command::Bundle { .. } => Ok(()),
         };
+        #[cfg(test)]
+        if std::mem::take(&mut self.panic_after_kernel) {
+            panic!("injected: a kernel bug after the chain moved");
+        }
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
         self.last_work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()));
@@ -577,5 +605,44 @@ impl World {
             Geometry::Planar32(h) => Elements::Planar32(ChainElements::new(h, wants, a)),
             Geometry::Spatial32(h) => Elements::Spatial32(ChainElements::new(h, wants, a)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::command::Point;
+    use crate::refusal::Cause;
+    use crate::scene::default_scene;
+
+    /// The head of the default rope moved to `t`.
+    fn head_to<'a>(w: &World, t: &'a [Point]) -> Command<'a> {
+        Command::Move {
+            chain: 0,
+            joint: 40,
+            targets: t,
+            options: w.specs()[0].moves,
+            take_over: false,
+        }
+    }
+
+    /// A panic inside a command (injected after the kernel moved the chain) is refused as `Internal`,
+    /// and the world is as it was: the chain, the sequence number, and what the next command does.
+    #[test]
+    fn a_panic_inside_a_command_is_refused_and_undone() {
+        let (a, b) = ([Point::new(30.0, 4.0, 1.0)], [Point::new(33.0, -2.0, 0.5)]);
+        let mut w = World::new(&default_scene()).unwrap();
+        w.apply(&head_to(&w, &a)).unwrap();
+        let before = w.state();
+        w.panic_after_kernel = true;
+        let e = w.apply_guarded(LOCAL, &head_to(&w, &b)).unwrap_err();
+        assert_eq!(e.cause, Cause::Internal, "{}", e.reason());
+        assert_eq!(w.state(), before);
+        // The same command again does what it would have done.
+        let mut fresh = World::new(&default_scene()).unwrap();
+        fresh.apply(&head_to(&fresh, &a)).unwrap();
+        fresh.apply(&head_to(&fresh, &b)).unwrap();
+        w.apply_guarded(LOCAL, &head_to(&w, &b)).unwrap();
+        assert_eq!(w.state(), fresh.state());
     }
 }
