@@ -10,8 +10,6 @@ use tractrix::collision::{Obstacle, move_joint_colliding};
 use tractrix::math::{Embed3, Real, Vector};
 use tractrix::{ChainError, MoveOptions, MoveOutcome, ReachOptions, reach};
 
-/// A move or a path on one chain. The chain may be left moved on a refusal: [`World::apply`]
-/// restores it.
 /// The instrument `from` moved to `centre` (and, for a capsule, turned to `axis`), its size kept.
 fn instrument_pose<T: Real, const D: usize>(
     from: &Obstacle<T, D>,
@@ -150,6 +148,8 @@ where
     Ok(m)
 }
 
+/// A move or a path of `joint` on one chain (held sides solved as fixed-base chains). The chain may
+/// be left moved on a refusal: [`crate::World::apply`] restores it.
 fn move_path<T: Real, const D: usize>(
     g: &mut LiveChain<T, D>,
     joint: usize,
