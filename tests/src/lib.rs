@@ -31,8 +31,6 @@ pub fn unique_prefix() -> String {
     )
 }
 
-/// Runs `cargo ARGS` (the cargo that runs the tests) and fails the test if the build fails: for what a
-/// test needs and the runner may not have built.
 /// Whether the system tool `tool` (a program on the PATH) or library (`lib…` in `ldconfig -p`) is here.
 pub fn system_has(tool: &str) -> bool {
     let probe = if tool.starts_with("lib") {
@@ -66,6 +64,8 @@ pub fn system_packages(test: &str, needs: &[&str]) -> bool {
     false
 }
 
+/// Runs `cargo ARGS` (the cargo that runs the tests) and fails the test if the build fails: for what a
+/// test needs and the runner may not have built.
 pub fn cargo_build(args: &[&str]) {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let ok = Command::new(cargo)

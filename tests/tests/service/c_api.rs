@@ -34,6 +34,31 @@ pub(crate) fn lib_dir() -> PathBuf {
     dir
 }
 
+/// A fresh directory for the programs a test compiles and runs: under the build's scratch directory
+/// (`target/tmp`, on the checkout's disk), not under `/tmp`, which a machine may mount `noexec`.
+pub(crate) fn program_dir() -> tempfile::TempDir {
+    let scratch = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    std::fs::create_dir_all(scratch).expect("create target/tmp");
+    tempfile::tempdir_in(scratch).expect("a directory in target/tmp")
+}
+
+/// What a failed run of the program at `exe` needs to be understood: its mode and size, and the mount
+/// options of its file system (an `exec` refused with "Permission denied" was seen once on CI).
+pub(crate) fn describe_program(exe: &Path) -> String {
+    use std::os::unix::fs::PermissionsExt;
+    let file = match std::fs::metadata(exe) {
+        Ok(m) => format!("mode {:o}, {} bytes", m.permissions().mode(), m.len()),
+        Err(e) => format!("no file ({e})"),
+    };
+    let mount = Process::new("findmnt")
+        .args(["-n", "-o", "TARGET,FSTYPE,OPTIONS", "-T"])
+        .arg(exe.parent().unwrap_or(exe))
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|e| format!("findmnt: {e}"));
+    format!("{}: {file}; mounted {mount}", exe.display())
+}
+
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
@@ -93,7 +118,7 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
     let lib_s = lib.display().to_string();
     let include = root().join("shared/include").display().to_string();
     let examples = root().join("clients/c/examples");
-    let dir = tempfile::tempdir().unwrap();
+    let dir = program_dir();
     let c_exe = dir.path().join("move").display().to_string();
     compile_strict(
         "cc",
@@ -192,7 +217,7 @@ fn a_csharp_program_moves_the_rope_through_p_invoke() {
         return;
     }
     let lib = lib_dir();
-    let dir = tempfile::tempdir().unwrap();
+    let dir = program_dir();
     let exe = dir.path().join("move.exe").display().to_string();
     compile(
         "mcs",
@@ -234,7 +259,7 @@ fn every_language_s_smallest_program_moves_the_rope() {
     let lib_s = lib.display().to_string();
     let include = root().join("shared/include").display().to_string();
     let examples = root().join("clients/c/examples");
-    let dir = tempfile::tempdir().unwrap();
+    let dir = program_dir();
     let exe = |n: &str| dir.path().join(n).display().to_string();
     compile_strict(
         "cc",

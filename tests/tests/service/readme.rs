@@ -201,12 +201,12 @@ fn every_readme_command_names_a_program_the_repository_builds_or_ships() {
 /// The quick start per language, as the README writes it, against a running service: each program
 /// prints where the head landed. The C library's directory is the tests' (`target/debug`, where
 /// `scripts/test.sh` builds it) instead of `target/release`, the scratch files go to a temporary
-/// directory instead of `/tmp`, and the prefix comes from `TRACTRIX_IOX_PREFIX`.
+/// directory in `target/tmp` instead of `/tmp`, and the prefix comes from `TRACTRIX_IOX_PREFIX`.
 #[test]
 fn the_readme_quick_start_of_every_language_moves_the_rope() {
     let root = root();
     let lib = crate::c_api::lib_dir();
-    let dir = tempfile::tempdir().unwrap();
+    let dir = crate::c_api::program_dir();
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
     let csharp = tests::system_packages("the README's C# quick start", &["mcs", "mono"]);
     let mut ran = Vec::new();
@@ -240,11 +240,19 @@ fn the_readme_quick_start_of_every_language_moves_the_rope() {
                 .output()
                 .unwrap();
             let text = String::from_utf8_lossy(&out.stdout);
-            assert!(
-                out.status.success() && text.contains("head at 38 5 1, 41 joints"),
-                "{lang}: {cmd}\n{text}{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
+            if !(out.status.success() && text.contains("head at 38 5 1, 41 joints")) {
+                let programs: Vec<String> = std::fs::read_dir(dir.path())
+                    .map(|d| {
+                        d.flatten()
+                            .map(|e| crate::c_api::describe_program(&e.path()))
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                panic!(
+                    "{lang}: {cmd}\n{text}{}\nthe scratch directory: {programs:#?}",
+                    String::from_utf8_lossy(&out.stderr)
+                );
+            }
             ran.push(lang);
         }
     }

@@ -611,6 +611,31 @@ fn watch_names_the_states_it_missed() {
     assert!(said.iter().any(|l| l.contains("136 missed")), "{said:?}");
 }
 
+/// Waits (up to 30 s) until every thread of the process `pid` is stopped (state `T` in
+/// `/proc/PID/task/*/stat`, the field after the command's closing parenthesis).
+fn wait_until_stopped(pid: u32) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let tasks = std::fs::read_dir(format!("/proc/{pid}/task")).expect("the process's threads");
+        let states: Vec<char> = tasks
+            .flatten()
+            .filter_map(|t| std::fs::read_to_string(t.path().join("stat")).ok())
+            .filter_map(|stat| {
+                let after = &stat[stat.rfind(')')? + 1..];
+                after.trim_start().chars().next()
+            })
+            .collect();
+        if !states.is_empty() && states.iter().all(|&c| c == 'T' || c == 't') {
+            return;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "process {pid} not stopped after 30 s: thread states {states:?}"
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
 /// Starts `watch --count count` on the rope, stops it (SIGSTOP) while `stopped` moves of the rope's
 /// head are made, continues it and makes `after` more; returns what `watch` wrote to its standard error
 /// once it has finished (within [`TOOL_TIMEOUT`]).
@@ -641,6 +666,9 @@ fn watch_stopped_while_moving(
         assert!(st.success());
     };
     signal("-STOP");
+    // `kill` returns once the signal is sent, not once every thread has stopped: on a busy machine the
+    // reader thread read a few of the first states before it stopped.
+    wait_until_stopped(watch.id());
     let mut mv = |i: usize| {
         let mut h = RequestHeader::new(Command::Move, 0);
         h.joint = shared::JOINT_HEAD;
