@@ -6,7 +6,7 @@
 
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
 use solver_service::persist::{JournalMode, Store};
-use solver_service::serve::answer;
+use solver_service::serve::respond;
 use solver_service::service::Solver;
 use std::time::Instant;
 use world::World;
@@ -49,7 +49,7 @@ fn main() {
                 let t = (round * n + i) as f64 * 0.01;
                 let p = [Vec3::new(40.0 + t.cos(), t.sin(), 0.1 * t)];
                 let t0 = Instant::now();
-                assert!(answer(&mut solver, LOCAL, &req, &p, &mut out).1);
+                assert!(respond(&mut solver, LOCAL, &req, &p, &mut out).1);
                 let t1 = Instant::now();
                 store
                     .append(solver.set().sequence(), &req, &p)
@@ -65,7 +65,7 @@ fn main() {
     println!(
         "Head moves of the default rope (40 links, 8 substeps), {rounds} rounds interleaving the modes, \
          {per_round} requests per round ({} with fsync); \"solve\" is the whole request path without IPC \
-         (`serve::answer` on the solver, without its store), \"append\" the journal record written after it:\n",
+         (`serve::respond` on the solver, without its store), \"append\" the journal record written after it:\n",
         per_round / 10
     );
     println!(

@@ -17,8 +17,9 @@
 
 use nalgebra::Vector3;
 use shared::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Vec3};
-use solver_service::serve::Handler;
+use solver_service::serve::{Handler, respond};
 use solver_service::service::Solver;
+use solver_service::wire::WireWorld;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
@@ -75,26 +76,26 @@ impl<T: Real> Way<T> {
                     black_box(c.move_joint(n, to, o).expect("a move"));
                 }
                 Way::Handle(s, payload) => {
-                    let h = s.handle(0, &req, &[Vec3::new(p[0], p[1], p[2])]);
-                    assert!(
-                        h.changed,
-                        "the service refused a move: {}",
-                        h.header.reason_str()
-                    );
+                    let to = [Vec3::new(p[0], p[1], p[2])];
                     if *payload {
-                        let mut header: ResponseHeader = h.header;
-                        let n = (header.n_joints + header.n_angles + header.n_held) as usize
-                            + (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
-                        out.resize(n, Vec3::default());
-                        // As the serving loop does: gathered, then copied at once (here into a
-                        // plain buffer instead of the loaned shared memory).
-                        gathered.clear();
-                        s.gather(&header, gathered, n);
-                        gathered.resize(n, Vec3::default());
+                        // As the serving loop does: answered, gathered, then copied at once (here
+                        // into a plain buffer instead of the loaned shared memory).
+                        let (header, changed) = respond(&mut **s, 0, &req, &to, gathered);
+                        assert!(
+                            changed,
+                            "the service refused a move: {}",
+                            header.reason_str()
+                        );
+                        out.resize(gathered.len(), Vec3::default());
                         out.copy_from_slice(gathered);
-                        s.finish(&mut header, out);
                         black_box((&header, &out));
                     } else {
+                        let h = s.answer(0, &req, &to);
+                        assert!(
+                            h.changed,
+                            "the service refused a move: {}",
+                            h.header.reason_str()
+                        );
                         black_box(&h.header);
                     }
                 }
@@ -116,7 +117,7 @@ impl<T: Real> Way<T> {
                     ..ResponseHeader::default()
                 };
                 h.chain = 0;
-                s.elements(&h).map(|v| [v.x, v.y, v.z]).collect()
+                s.set().elements(&h).map(|v| [v.x, v.y, v.z]).collect()
             }
         }
     }

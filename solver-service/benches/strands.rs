@@ -30,7 +30,7 @@
 
 use nalgebra::Vector3;
 use shared::{Command, RequestHeader, SubstepMode, Vec3};
-use solver_service::serve::answer;
+use solver_service::serve::respond;
 use solver_service::service::Solver;
 use solver_service::wire::WireWorld;
 use std::hint::black_box;
@@ -180,7 +180,7 @@ fn run<T: StrandReal + Send>(
         times[5].push(t.elapsed().as_nanos() as f64 / work);
         let t = Instant::now();
         for frame_targets in wire.chunks_exact(STRANDS) {
-            let (h, _) = answer(
+            let (h, _) = respond(
                 &mut solver,
                 LOCAL,
                 &request,

@@ -1,10 +1,10 @@
 //! Batch mode: a file of requests (JSON lines, [`shared::text`]) applied to a scene without IPC, through
-//! the service's own answer path ([`crate::serve::answer`] over a [`Solver`]: decode, apply, persist,
+//! the service's own answer path ([`crate::serve::respond`] over a [`Solver`]: decode, apply, persist,
 //! encode, the panic guard), with the resulting joints written as JSON lines or CSV. For scripts,
 //! regression files and debugging. Requests come from [`LOCAL`] (grasps unowned); without a store a
 //! `snapshot` is refused (`persistence-failed`), as the service refuses it under `--no-persist`.
 
-use crate::serve::answer;
+use crate::serve::respond;
 use crate::service::Solver;
 use shared::text::{TextRequest, TextResponse};
 use shared::{Status, Vec3};
@@ -72,7 +72,7 @@ pub fn run_batch(
         let (header, points) = req
             .to_wire(&|name| solver.set().find(name))
             .map_err(|e| format!("{source}:{number}: {e}"))?;
-        let (h, _) = answer(solver, LOCAL, &header, &points, &mut payload);
+        let (h, _) = respond(solver, LOCAL, &header, &points, &mut payload);
         summary.requests += 1;
         let ok = h.status == Status::Ok as u32;
         if !ok {

@@ -2,7 +2,7 @@
 //! validation, no solving, no state stream: every request gets a zeroed [`ResponseHeader`] (echoing
 //! `request_id`) and `elements` copies of one point. `solver-service echo` serves it.
 
-use crate::serve::{Handled, Handler};
+use crate::serve::{ElementSink, ElementSource, Handled, Handler};
 use shared::{RequestHeader, ResponseHeader, Vec3};
 
 /// Answers every request with `elements` copies of one point.
@@ -15,7 +15,7 @@ pub struct Echo {
 impl Handler for Echo {
     const SOLVES: bool = false;
 
-    fn handle(&mut self, _client: u128, req: &RequestHeader, _points: &[Vec3]) -> Handled {
+    fn answer(&mut self, _client: u128, req: &RequestHeader, _points: &[Vec3]) -> Handled {
         Handled {
             header: ResponseHeader {
                 request_id: req.request_id,
@@ -24,10 +24,23 @@ impl Handler for Echo {
             },
             changed: false,
             bundle: false,
+            landing: None,
         }
     }
 
-    fn elements(&self, _h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_ {
-        std::iter::repeat(Vec3::new(1.0, 2.0, 3.0))
+    fn write<K: ElementSink>(&self, _h: &ResponseHeader, sink: K) -> K::Out {
+        sink.take(Same)
     }
 }
+
+/// One point, again and again.
+struct Same;
+
+impl Iterator for Same {
+    type Item = Vec3;
+    fn next(&mut self) -> Option<Vec3> {
+        Some(Vec3::new(1.0, 2.0, 3.0))
+    }
+}
+
+impl ElementSource for Same {}

@@ -9,11 +9,11 @@
 //! any two requests the loop looks for signals and runs housekeeping (see below). For each request:
 //!
 //! 1. receive it (header + target slice, read in place in shared memory);
-//! 2. [`Handler::handle`] answers it: a response header, and whether the state changed;
-//! 3. loan the response slice and write [`Handler::elements`] into it (gathered by a tight loop into a
-//!    reused buffer and copied at once, or, for a bundle's megabytes, streamed straight in);
-//!    [`Handler::finish`] reads what was written (the moved joint, for the residual) and completes
-//!    the header;
+//! 2. [`Handler::answer`] answers it: a response header, whether the state changed, and a move's
+//!    landing;
+//! 3. loan the response slice and [`Handler::write`] its elements into it (gathered by a tight loop
+//!    into a reused buffer and copied at once, or, for a bundle's megabytes, streamed straight in);
+//!    the landing's residual is measured on what was written (what the client receives);
 //! 4. send the response and wake the client if it asked; for a change, publish the joints just
 //!    written on the state stream (no second pass over the chain), from the buffer after the
 //!    response has gone, so the client does not wait for the viewers' sample (a sample of more than
@@ -23,7 +23,7 @@
 //! sleeps on a WaitSet until a client's notification (no CPU when idle, one wake-up per request),
 //! `hybrid` sleeps like `event` but after each request spins for a short budget so a burst (a 1 kHz
 //! haptic loop) is served at spin latency while an idle service sleeps. In every mode the loop looks
-//! for SIGINT/SIGTERM and runs [`Handler::housekeeping`] (periodic snapshots) between any two requests
+//! for SIGINT/SIGTERM and runs [`Handler::housekeeping`] (periodic snapshots, grasps of clients gone) between any two requests
 //! once [`CHECK_EVERY`] has passed, whatever the traffic (a request in hand, bounded by the budget, is
 //! finished first).
 
@@ -282,21 +282,35 @@ fn stream_publisher<S: Service>(
 /// changed (then the first `n_joints` elements are the new state, published on the state stream).
 #[derive(Debug, Clone, Copy)]
 pub struct Handled {
-    /// The response header, everything but `solve_ns` (the loop measures it).
+    /// The response header, everything but `solve_ns` (the loop measures it) and, for a landing, the
+    /// residual (measured on the written elements).
     pub header: ResponseHeader,
     /// Whether an accepted change was made.
     pub changed: bool,
     /// Whether a bundle changed (published on the bundle stream instead of the state stream).
     pub bundle: bool,
+    /// A move's landing: element `.0` of the response should be at `.1`. The response's `residual` is
+    /// their distance, measured on the elements as written (what the client receives), with no extra
+    /// pass over the chain.
+    pub landing: Option<(usize, Vec3)>,
 }
 
-/// Takes a response's elements as one concrete iterator, so that a handler whose elements come in
-/// several forms ([`world::elements::Elements`]) picks the form once per response, not per element.
+/// A response's elements in one concrete form ([`Handler::write`] picks the form once per response,
+/// not per element).
+pub trait ElementSource: Iterator<Item = Vec3> + Sized {
+    /// Appends the first `n` elements to `out`, the same as `out.extend(self.take(n))` (a chain's
+    /// joints are gathered by one tight loop).
+    fn gather_into(self, out: &mut Vec<Vec3>, n: usize) {
+        out.extend(self.take(n));
+    }
+}
+
+/// Where a response's elements go: the loaned shared memory, or a buffer.
 pub trait ElementSink {
     /// What taking the elements gives.
     type Out;
     /// Consumes the elements.
-    fn take<I: Iterator<Item = Vec3>>(self, it: I) -> Self::Out;
+    fn take<I: ElementSource>(self, it: I) -> Self::Out;
 }
 
 /// Gathers the first `.1` elements into a buffer (the loop's scratch; no allocation once warm).
@@ -304,8 +318,8 @@ struct Gather<'a>(&'a mut Vec<Vec3>, usize);
 
 impl ElementSink for Gather<'_> {
     type Out = ();
-    fn take<I: Iterator<Item = Vec3>>(self, it: I) {
-        self.0.extend(it.take(self.1));
+    fn take<I: ElementSource>(self, it: I) {
+        it.gather_into(self.0, self.1);
     }
 }
 
@@ -314,76 +328,85 @@ struct Fill<S: Service>(ResponseMutUninit<S, [MaybeUninit<Vec3>], ResponseHeader
 
 impl<S: Service> ElementSink for Fill<S> {
     type Out = ResponseMut<S, [Vec3], ResponseHeader>;
-    fn take<I: Iterator<Item = Vec3>>(self, mut it: I) -> Self::Out {
+    fn take<I: ElementSource>(self, mut it: I) -> Self::Out {
         self.0.write_from_fn(|_| it.next().unwrap_or_default())
     }
 }
 
-/// Whoever answers the requests: the solver, or the raw echo.
+/// The clients connected now, listed when first asked (listing cleans up dead nodes first, which is
+/// not free), for a handler that keeps something per client (grasp owners).
+pub struct Clients<'a> {
+    list: &'a dyn Fn() -> Vec<u128>,
+    listed: std::cell::OnceCell<Vec<u128>>,
+}
+
+impl std::fmt::Debug for Clients<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Clients")
+            .field("listed", &self.listed.get())
+            .finish()
+    }
+}
+
+impl<'a> Clients<'a> {
+    /// The clients `list` gives, listed on the first [`Clients::present`].
+    pub fn new(list: &'a dyn Fn() -> Vec<u128>) -> Self {
+        Clients {
+            list,
+            listed: std::cell::OnceCell::new(),
+        }
+    }
+
+    /// Whether the client `id` (its iceoryx2 port id) is connected.
+    pub fn present(&self, id: u128) -> bool {
+        self.listed.get_or_init(|| (self.list)()).contains(&id)
+    }
+}
+
+/// Whoever answers the requests: the solver, or the raw echo. One request is answered by
+/// [`Handler::answer`] (the header, complete but for the loop's measurements) and its elements written
+/// by [`Handler::write`] wherever the door puts them.
 pub trait Handler {
-    /// Whether the response's `solve_ns` is the time [`Handler::handle`] took (the raw echo solves
+    /// Whether the response's `solve_ns` is the time [`Handler::answer`] took (the raw echo solves
     /// nothing and reports zero).
     const SOLVES: bool = true;
     /// Answers one request of `client` (its iceoryx2 port id).
-    fn handle(&mut self, client: u128, req: &RequestHeader, points: &[Vec3]) -> Handled;
-    /// The response's elements, in order (at least `n_joints + n_angles` of them).
-    fn elements(&self, h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_;
-    /// Hands [`Handler::elements`] to `sink` (a handler with several forms of elements picks one here).
-    fn feed<K: ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out {
-        sink.take(self.elements(h))
-    }
-    /// Appends the first `n` elements to `out` (default: [`Handler::feed`] into `out`; the solver
-    /// gathers a chain's joints by one tight loop).
-    fn gather(&self, h: &ResponseHeader, out: &mut Vec<Vec3>, n: usize) {
-        self.feed(h, Gather(out, n));
-    }
-    /// Completes the header from the elements just written (default: nothing to complete).
-    fn finish(&mut self, _h: &mut ResponseHeader, _written: &[Vec3]) {}
-    /// Runs at least every [`CHECK_EVERY`] (periodic snapshots); an error is reported, not fatal.
-    fn housekeeping(&mut self, _now: Instant) {}
-    /// Whether the handler keeps anything per client (grasp owners): then the loop tells it, every
-    /// [`CLIENTS_EVERY`], which clients are present ([`Handler::clients_present`]).
-    fn tracks_clients(&self) -> bool {
-        false
-    }
-    /// The clients present now (`present(id)`); those absent lose what the handler kept for them.
-    fn clients_present(&mut self, _present: &dyn Fn(u128) -> bool) {}
+    fn answer(&mut self, client: u128, req: &RequestHeader, points: &[Vec3]) -> Handled;
+    /// Hands the elements of the response `h` (the last answered) to `sink`, in one form.
+    fn write<K: ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out;
+    /// Runs at least every [`CHECK_EVERY`] (periodic snapshots; an error is reported, not fatal), with
+    /// the clients present every [`CLIENTS_EVERY`] (those absent lose what the handler kept for them).
+    fn housekeeping(&mut self, _now: Instant, _clients: Option<&Clients<'_>>) {}
 }
 
 /// Answers one request of `client` into `out` (the response's elements), the way the serving loop does
-/// (handle, time, gather, finish): the answer path of batch mode and the Unix socket. Returns the
-/// response header and whether the state changed.
-pub fn answer<H: Handler>(
+/// (answer, time, write, measure the landing): the answer path of batch mode and the Unix socket.
+/// Returns the response header and whether the state changed.
+pub fn respond<H: Handler>(
     handler: &mut H,
     client: u128,
     request: &RequestHeader,
     points: &[Vec3],
     out: &mut Vec<Vec3>,
 ) -> (ResponseHeader, bool) {
-    let (
-        Handled {
-            mut header,
-            changed,
-            ..
-        },
-        n,
-    ) = handle_timed(handler, client, request, points);
+    let (handled, n) = answer_timed(handler, client, request, points);
+    let mut header = handled.header;
     out.clear();
-    handler.gather(&header, out, n);
+    handler.write(&header, Gather(out, n));
     out.resize(n, Vec3::default());
-    handler.finish(&mut header, out);
-    (header, changed)
+    measure_landing(&mut header, handled.landing, out);
+    (header, handled.changed)
 }
 
-/// [`Handler::handle`], its `solve_ns` measured, and the number of elements its response has.
-fn handle_timed<H: Handler>(
+/// [`Handler::answer`], its `solve_ns` measured, and the number of elements its response has.
+fn answer_timed<H: Handler>(
     handler: &mut H,
     client: u128,
     request: &RequestHeader,
     points: &[Vec3],
 ) -> (Handled, usize) {
     let t0 = Instant::now();
-    let mut handled = handler.handle(client, request, points);
+    let mut handled = handler.answer(client, request, points);
     let header = &mut handled.header;
     if H::SOLVES {
         header.solve_ns = t0.elapsed().as_nanos() as u64;
@@ -391,6 +414,16 @@ fn handle_timed<H: Handler>(
     let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
     let n = (header.n_joints + header.n_angles + header.n_held) as usize + inst;
     (handled, n)
+}
+
+/// A landing's residual, measured on the written elements.
+fn measure_landing(h: &mut ResponseHeader, landing: Option<(usize, Vec3)>, written: &[Vec3]) {
+    if let Some((joint, target)) = landing
+        && let Some(p) = written.get(joint)
+    {
+        h.residual =
+            ((p.x - target.x).powi(2) + (p.y - target.y).powi(2) + (p.z - target.z).powi(2)).sqrt();
+    }
 }
 
 /// How the loop waits, and when it stops.
@@ -506,9 +539,7 @@ impl Checks {
         {
             self.stop = true;
         }
-        handler.housekeeping(now);
-        if now >= self.clients_next && handler.tracks_clients() {
-            self.clients_next = now + CLIENTS_EVERY;
+        let list = || {
             // A client killed with SIGKILL keeps its port until its node is cleaned up.
             let _ = ports.node.try_cleanup_dead_nodes();
             let mut present = Vec::new();
@@ -516,7 +547,14 @@ impl Checks {
                 present.push(c.client_id.value());
                 CallbackProgression::Continue
             });
-            handler.clients_present(&|id| present.contains(&id));
+            present
+        };
+        let clients = Clients::new(&list);
+        if now >= self.clients_next {
+            self.clients_next = now + CLIENTS_EVERY;
+            handler.housekeeping(now, Some(&clients));
+        } else {
+            handler.housekeeping(now, None);
         }
     }
 }
@@ -677,9 +715,10 @@ fn serve_one<S: Service, H: Handler>(
             mut header,
             changed,
             bundle,
+            landing,
         },
         n,
-    ) = handle_timed(handler, req.origin().value(), &request, req.payload());
+    ) = answer_timed(handler, req.origin().value(), &request, req.payload());
     let slot = match req.loan_slice_uninit(n) {
         Ok(slot) => slot,
         Err(e) => {
@@ -691,13 +730,13 @@ fn serve_one<S: Service, H: Handler>(
     let small = n <= DEFER_STATE_UP_TO;
     let mut resp = if small {
         scratch.clear();
-        handler.gather(&header, scratch, n);
+        handler.write(&header, Gather(scratch, n));
         scratch.resize(n, Vec3::default());
         slot.write_from_slice(scratch)
     } else {
-        handler.feed(&header, Fill(slot))
+        handler.write(&header, Fill(slot))
     };
-    handler.finish(&mut header, resp.payload());
+    measure_landing(&mut header, landing, resp.payload());
     *resp.user_header_mut() = header;
     let stream = if bundle {
         &ports.bundle_state

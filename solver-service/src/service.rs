@@ -4,15 +4,18 @@
 //! shutdown.
 
 use crate::persist::{JournalMode, PersistError, Store};
-use crate::serve::{Handled, Handler, LoopOptions, ServerPorts, serve};
+use crate::serve::{
+    Clients, ElementSink, ElementSource, Handled, Handler, LoopOptions, ServerPorts, serve,
+};
 use crate::wire::WireWorld;
-use crate::wire::request::{self, Answer, Command, Refusal, Residual, refuse};
+use crate::wire::request::{Answer, Command, Refusal, Residual, refuse};
 use iceoryx2::prelude::ipc;
 use shared::{RequestHeader, ResponseHeader, Vec3, WaitMode};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use world::World;
-use world::elements::Elements;
+use world::bundles::BundleElements;
+use world::elements::{ChainElements, Elements};
 
 /// Persistence settings.
 #[derive(Debug, Clone)]
@@ -46,16 +49,13 @@ pub struct ServiceConfig {
     pub state_buffer: usize,
 }
 
-/// The solver: the chain set, the store, and the residual the next response completes.
+/// The solver: the chain set and the store.
 pub struct Solver {
     set: World,
     store: Option<Store>,
     dirty_since_snapshot: bool,
     snapshot_every: Duration,
-
     last_snapshot: Instant,
-    /// The landing of the request being answered, measured on the written response.
-    residual: Residual,
 }
 
 impl std::fmt::Debug for Solver {
@@ -75,9 +75,7 @@ impl Solver {
             store,
             dirty_since_snapshot: false,
             snapshot_every,
-
             last_snapshot: Instant::now(),
-            residual: Residual::None,
         }
     }
 
@@ -165,55 +163,71 @@ impl Solver {
 }
 
 impl Handler for Solver {
-    fn handle(&mut self, client: u128, req: &RequestHeader, points: &[Vec3]) -> Handled {
+    fn answer(&mut self, client: u128, req: &RequestHeader, points: &[Vec3]) -> Handled {
         let result = self.run(client, req, points);
-        self.residual = result.as_ref().map_or(Residual::None, |o| o.residual);
+        let landing = match result.as_ref().map(|o| o.residual) {
+            Ok(Residual::Landing { joint, target }) => Some((joint, Vec3::from(target))),
+            _ => None,
+        };
         Handled {
             header: self.set.encode(req, &result),
             changed: result.as_ref().is_ok_and(|o| o.changed),
             bundle: result.is_ok_and(|o| o.bundle),
+            landing,
         }
     }
 
-    fn elements(&self, h: &ResponseHeader) -> impl Iterator<Item = Vec3> + '_ {
-        self.set.elements(h).map(Vec3::from)
-    }
-
-    fn feed<K: crate::serve::ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out {
+    fn write<K: ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out {
         // The form is picked once per response, not per element.
         match self.set.elements(h) {
-            Elements::Empty => sink.take(std::iter::empty()),
-            Elements::Planar64(e) => sink.take(e.map(Vec3::from)),
-            Elements::Spatial64(e) => sink.take(e.map(Vec3::from)),
-            Elements::Planar32(e) => sink.take(e.map(Vec3::from)),
-            Elements::Spatial32(e) => sink.take(e.map(Vec3::from)),
-            Elements::Bundle(e) => sink.take(e.map(Vec3::from)),
+            Elements::Empty => sink.take(Wire(std::iter::empty())),
+            Elements::Planar64(e) => sink.take(Wire(e)),
+            Elements::Spatial64(e) => sink.take(Wire(e)),
+            Elements::Planar32(e) => sink.take(Wire(e)),
+            Elements::Spatial32(e) => sink.take(Wire(e)),
+            Elements::Bundle(e) => sink.take(Wire(e)),
         }
     }
 
-    fn gather(&self, h: &ResponseHeader, out: &mut Vec<Vec3>, n: usize) {
-        self.set.elements(h).gather_into(out, n);
-    }
-
-    fn finish(&mut self, h: &mut ResponseHeader, written: &[Vec3]) {
-        request::finish(h, self.residual, written);
-    }
-
-    fn housekeeping(&mut self, now: Instant) {
+    fn housekeeping(&mut self, now: Instant, clients: Option<&Clients<'_>>) {
         self.snapshot_if_due(now);
-    }
-
-    fn tracks_clients(&self) -> bool {
-        self.set.grasps_owned()
-    }
-
-    fn clients_present(&mut self, present: &dyn Fn(u128) -> bool) {
-        let n = self.set.forget_absent_owners(present);
-        if n > 0 {
-            eprintln!("solver-service: {n} grasp(s) of clients that have gone now hold unowned");
+        if let Some(clients) = clients
+            && self.set.grasps_owned()
+        {
+            let n = self.set.forget_absent_owners(|id| clients.present(id));
+            if n > 0 {
+                eprintln!(
+                    "solver-service: {n} grasp(s) of clients that have gone now hold unowned"
+                );
+            }
         }
     }
 }
+
+/// One form of the world's elements as wire points.
+struct Wire<E>(E);
+
+impl<E: Iterator<Item = world::command::Point>> Iterator for Wire<E> {
+    type Item = Vec3;
+    #[inline]
+    fn next(&mut self) -> Option<Vec3> {
+        self.0.next().map(Vec3::from)
+    }
+}
+
+/// A chain's joints are gathered by the form's own tight loop.
+macro_rules! gathered_by_the_chain {
+    ($($t:ty, $d:literal);*) => {$(
+        impl ElementSource for Wire<ChainElements<'_, $t, $d>> {
+            fn gather_into(self, out: &mut Vec<Vec3>, n: usize) {
+                self.0.gather_into(out, n);
+            }
+        }
+    )*};
+}
+gathered_by_the_chain!(f64, 2; f64, 3; f32, 2; f32, 3);
+impl ElementSource for Wire<BundleElements<'_>> {}
+impl ElementSource for Wire<std::iter::Empty<world::command::Point>> {}
 
 /// Why the service stopped or did not start.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -1,13 +1,13 @@
 //! The same protocol over a Unix domain socket: a comparison transport for the latency bench (and for a
 //! peer that cannot map iceoryx2's shared memory). Same wire types, the service's own answer path
-//! ([`crate::serve::answer`] over a [`Solver`]), no persistence (a `snapshot` is refused), requests from
+//! ([`crate::serve::respond`] over a [`Solver`]), no persistence (a `snapshot` is refused), requests from
 //! [`LOCAL`], one connection at a time, every wait a blocking read (the kernel wakes the server).
 //!
 //! Framing: [`shared::unix_frame`]. A request with more than [`MAX_PATH_POINTS`] points or a non-zero pad
 //! gets a `bad-point-count` (`bad-option`) response and the connection is closed: the stream cannot be
 //! trusted after it.
 
-use crate::serve::answer;
+use crate::serve::respond;
 use crate::service::Solver;
 use shared::unix_frame::{REQUEST_PREFIX, frame_ok, split_request_prefix, write_response};
 use shared::{MAX_PATH_POINTS, ResponseHeader, Status, Vec3};
@@ -68,7 +68,7 @@ pub fn serve_connection(mut stream: UnixStream, solver: &mut Solver) -> std::io:
         }
         points.resize(n as usize, Vec3::default());
         stream.read_exact(bytemuck::cast_slice_mut(&mut points))?;
-        let (h, _) = answer(solver, LOCAL, &header, &points, &mut elements);
+        let (h, _) = respond(solver, LOCAL, &header, &points, &mut elements);
         write_response(&mut stream, &mut out, &h, elements.iter().copied())?;
     }
 }
@@ -97,7 +97,7 @@ mod tests {
         write_request(&mut b, &mut buf, &req, &target).unwrap();
         let h = read_response(&mut b, &mut got).unwrap();
         let mut expected = Vec::new();
-        let (_, changed) = answer(&mut local, LOCAL, &req, &target, &mut expected);
+        let (_, changed) = respond(&mut local, LOCAL, &req, &target, &mut expected);
         assert!(changed);
         assert_eq!(h.status, Status::Ok as u32);
         assert_eq!(h.n_joints, 41);

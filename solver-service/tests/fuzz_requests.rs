@@ -18,7 +18,7 @@
 
 use proptest::prelude::*;
 use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
-use solver_service::serve::answer;
+use solver_service::serve::respond;
 use solver_service::service::Solver;
 use world::World;
 use world::owners::LOCAL;
@@ -434,7 +434,7 @@ fn run_case(
     for (req, points) in requests {
         let before = snapshot(solver.set());
         let seq = solver.set().sequence();
-        let (h, changed) = answer(&mut solver, LOCAL, req, points, &mut elements);
+        let (h, changed) = respond(&mut solver, LOCAL, req, points, &mut elements);
         let Some(status) = Status::from_u32(h.status) else {
             return Err(TestCaseError::fail(format!(
                 "status {} is not a Status",
@@ -467,6 +467,25 @@ fn run_case(
                 "a NaN would be published"
             );
             prop_assert!(h.residual.is_finite());
+            // A move's residual is where its joint landed, as the response has it, from where it
+            // was sent (the last point of a path).
+            if req.command == Command::Move as u32 {
+                let j = if req.joint == shared::JOINT_HEAD {
+                    h.n_joints as usize - 1
+                } else {
+                    req.joint as usize
+                };
+                let (p, t) = (elements[j], points[points.len() - 1]);
+                let d = ((p.x - t.x) * (p.x - t.x)
+                    + (p.y - t.y) * (p.y - t.y)
+                    + (p.z - t.z) * (p.z - t.z))
+                    .sqrt();
+                prop_assert!(
+                    (h.residual - d).abs() <= 1e-12 * (1.0 + d),
+                    "residual {} of a move whose joint {j} landed {d} from its target",
+                    h.residual
+                );
+            }
         } else {
             prop_assert!(!changed);
             prop_assert_eq!(

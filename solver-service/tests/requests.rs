@@ -4,7 +4,7 @@
 //! the payload gathered) on the default scene, in microseconds.
 
 use shared::{Command, Precision, RequestHeader, ResponseHeader, Status, SubstepMode, Vec3};
-use solver_service::serve::answer;
+use solver_service::serve::respond;
 use solver_service::service::Solver;
 use std::time::Duration;
 use world::World;
@@ -32,7 +32,7 @@ impl Door {
 
     /// The response header and payload of one request.
     fn call(&mut self, h: &RequestHeader, points: &[Vec3]) -> (ResponseHeader, Vec<Vec3>) {
-        let (header, _) = answer(&mut self.solver, LOCAL, h, points, &mut self.out);
+        let (header, _) = respond(&mut self.solver, LOCAL, h, points, &mut self.out);
         (header, self.out.clone())
     }
 

@@ -411,8 +411,8 @@ fn reach<'a>(
 }
 
 /// The response header of a request: from its outcome or its refusal. `sequence` is the state after it;
-/// `chains` is the scene's (for the description). The residual of a landing is completed by [`finish`]
-/// once the joints are written.
+/// `chains` is the scene's (for the description). The residual of a landing is measured by the serving
+/// loop once the joints are written (`crate::serve::Handled::landing`).
 pub fn encode(
     req: &RequestHeader,
     result: &Result<Answer, Refusal>,
@@ -455,17 +455,6 @@ pub fn encode(
         }
     }
     h
-}
-
-/// Completes a header from the joints written into the response: the landing residual, measured on
-/// the response itself.
-pub fn finish(h: &mut ResponseHeader, residual: Residual, written: &[Vec3]) {
-    if let Residual::Landing { joint, target } = residual
-        && let Some(p) = written.get(joint)
-    {
-        h.residual =
-            ((p.x - target.x).powi(2) + (p.y - target.y).powi(2) + (p.z - target.z).powi(2)).sqrt();
-    }
 }
 
 /// The description fields of a chain.
