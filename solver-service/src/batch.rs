@@ -22,6 +22,34 @@ pub enum Format {
     Csv,
 }
 
+/// Why a batch stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchError {
+    /// A line that is not a request: its source, line number and what is wrong with it.
+    #[error("{source_name}:{line}: {why}")]
+    Line {
+        /// The input's name.
+        source_name: String,
+        /// The line, counted from 1.
+        line: usize,
+        /// What is wrong.
+        why: String,
+    },
+    /// The input could not be read.
+    #[error("{source_name}:{line}: {error}")]
+    Read {
+        /// The input's name.
+        source_name: String,
+        /// The line being read.
+        line: usize,
+        /// The system's error.
+        error: std::io::Error,
+    },
+    /// The output could not be written.
+    #[error("writing the responses: {0}")]
+    Write(#[from] std::io::Error),
+}
+
 /// What a batch did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Summary {
@@ -41,49 +69,57 @@ pub fn run_batch(
     out: &mut dyn Write,
     format: Format,
     source: &str,
-) -> Result<Summary, String> {
+) -> Result<Summary, BatchError> {
     let mut summary = Summary::default();
     let mut payload: Vec<Vec3> = Vec::new();
     let mut line = String::new();
     let mut number = 0usize;
+    let at = |line: usize, why: String| BatchError::Line {
+        source_name: source.to_string(),
+        line,
+        why,
+    };
     if format == Format::Csv {
-        writeln!(out, "line,sequence,status,chain,kind,index,x,y,z").map_err(|e| e.to_string())?;
+        writeln!(out, "line,sequence,status,chain,kind,index,x,y,z")?;
     }
     loop {
         line.clear();
         number += 1;
         let n = std::io::Read::take(&mut *input, MAX_LINE_BYTES as u64 + 1)
             .read_line(&mut line)
-            .map_err(|e| format!("{source}:{number}: {e}"))?;
+            .map_err(|error| BatchError::Read {
+                source_name: source.to_string(),
+                line: number,
+                error,
+            })?;
         if n == 0 {
             break;
         }
         if n > MAX_LINE_BYTES {
-            return Err(format!(
-                "{source}:{number}: line longer than {MAX_LINE_BYTES} bytes"
+            return Err(at(
+                number,
+                format!("line longer than {MAX_LINE_BYTES} bytes"),
             ));
         }
         let text = line.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
         }
-        let req: TextRequest =
-            serde_json::from_str(text).map_err(|e| format!("{source}:{number}: {e}"))?;
+        let req: TextRequest = serde_json::from_str(text).map_err(|e| at(number, e.to_string()))?;
         let (header, points) = req
             .to_wire(&|name| solver.set().find(name))
-            .map_err(|e| format!("{source}:{number}: {e}"))?;
+            .map_err(|e| at(number, e.to_string()))?;
         let (h, _) = respond(solver, LOCAL, &header, &points, &mut payload);
         summary.requests += 1;
         let ok = h.status == Status::Ok as u32;
         if !ok {
             summary.failed += 1;
         }
-        let w = |e: std::io::Error| e.to_string();
         match format {
             Format::JsonLines => {
                 let r = TextResponse::from_wire(&h, &payload);
-                serde_json::to_writer(&mut *out, &r).map_err(|e| e.to_string())?;
-                writeln!(out).map_err(w)?;
+                serde_json::to_writer(&mut *out, &r).map_err(std::io::Error::from)?;
+                writeln!(out)?;
             }
             Format::Csv => {
                 let status = Status::from_u32(h.status).map(Status::name).unwrap_or("?");
@@ -92,8 +128,7 @@ pub fn run_batch(
                         out,
                         "{number},{},{status},{},error,,,,",
                         h.sequence, h.chain
-                    )
-                    .map_err(w)?;
+                    )?;
                 }
                 for (i, p) in payload.iter().enumerate() {
                     let (kind, index) = if i < h.n_joints as usize {
@@ -105,8 +140,7 @@ pub fn run_batch(
                         out,
                         "{number},{},{status},{},{kind},{index},{:?},{:?},{:?}",
                         h.sequence, h.chain, p.x, p.y, p.z
-                    )
-                    .map_err(w)?;
+                    )?;
                 }
             }
         }
@@ -219,7 +253,8 @@ mod tests {
             Format::Csv,
             "r.jsonl",
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.starts_with("r.jsonl:2:"), "{e}");
         assert!(e.contains("2 or 3 coordinates"), "{e}");
     }

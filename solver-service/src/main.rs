@@ -231,7 +231,7 @@ fn real_main(cli: Cli) -> Result<u8> {
                 spin_budget: Duration::from_micros(a.spin_us),
                 stop: None,
             };
-            run_echo(&a.prefix, e.elements, &opts, a.pin, ready).map_err(anyhow::Error::msg)?;
+            run_echo(&a.prefix, e.elements, &opts, a.pin, ready)?;
             Ok(0)
         }
         Some(Cmd::Check) => {
@@ -286,8 +286,7 @@ fn real_main(cli: Cli) -> Result<u8> {
                 ))
             };
             let mut solver = solver_service::service::Solver::new(set, None, Duration::ZERO);
-            let s = run_batch(&mut solver, &mut input, &mut out, format, &source)
-                .map_err(anyhow::Error::msg)?;
+            let s = run_batch(&mut solver, &mut input, &mut out, format, &source)?;
             out.flush()?;
             eprintln!("{} requests, {} refused", s.requests, s.failed);
             Ok(if s.failed > 0 { 1 } else { 0 })

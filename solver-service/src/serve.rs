@@ -58,8 +58,41 @@ pub const CLIENTS_EVERY: Duration = Duration::from_millis(500);
 /// notify; its request is served at the next tick).
 pub const TICK: Duration = Duration::from_millis(50);
 
-fn err<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> String {
-    move |e| format!("{what}: {e:?}")
+/// Why the serving loop's ports could not be opened, or why the loop stopped.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PortError {
+    /// iceoryx2 refused a step (`what`); `detail` is its error as iceoryx2 prints it.
+    #[error("{what}: {detail}")]
+    Iceoryx {
+        /// The step.
+        what: &'static str,
+        /// iceoryx2's error.
+        detail: String,
+    },
+    /// Another server holds this prefix's ports.
+    #[error("{ANOTHER} ({detail})")]
+    Taken {
+        /// Which port is taken, and iceoryx2's error.
+        detail: String,
+    },
+    /// A service name the protocol builds from the prefix was refused.
+    #[error("{0}")]
+    Name(String),
+    /// SIGINT or SIGTERM arrived while the ports were being opened.
+    #[error("terminated while starting")]
+    Terminated,
+}
+
+fn err<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> PortError {
+    move |e| PortError::Iceoryx {
+        what,
+        detail: format!("{e:?}"),
+    }
+}
+
+/// The protocol's service `s` under this process's prefix.
+fn protocol_name(s: &str) -> Result<iceoryx2::prelude::ServiceName, PortError> {
+    service_name(s).map_err(PortError::Name)
 }
 
 /// The ports of a server of this protocol: the request server, the two wake-up events and, for the
@@ -112,7 +145,7 @@ impl<S: Service> ServerPorts<S> {
         state_joints: Option<usize>,
         state_buffer: usize,
         bundle_joints: Option<usize>,
-    ) -> Result<(Self, usize), String> {
+    ) -> Result<(Self, usize), PortError> {
         let mut stale = 0;
         let _ = Node::<S>::list(iox, |state| {
             if let NodeState::Dead(view) = state
@@ -132,12 +165,12 @@ impl<S: Service> ServerPorts<S> {
         // would otherwise kill the process the default way, without its final snapshot (the signal
         // test found it).
         if node.wait(Duration::ZERO).is_err() {
-            return Err("terminated while starting".into());
+            return Err(PortError::Terminated);
         }
         // The command service and its server come last: a client that finds the command service
         // finds the wake-up events and the state stream already there.
         let wake_listener = node
-            .service_builder(&service_name(SERVICE_WAKE_SERVER)?)
+            .service_builder(&protocol_name(SERVICE_WAKE_SERVER)?)
             .event()
             .max_notifiers(MAX_CLIENTS + 2)
             .max_listeners(2)
@@ -148,7 +181,7 @@ impl<S: Service> ServerPorts<S> {
             .create()
             .map_err(err("wake listener"))?;
         let wake_notifier = node
-            .service_builder(&service_name(SERVICE_WAKE_CLIENT)?)
+            .service_builder(&protocol_name(SERVICE_WAKE_CLIENT)?)
             .event()
             .max_notifiers(2)
             .max_listeners(MAX_CLIENTS + 2)
@@ -185,7 +218,7 @@ impl<S: Service> ServerPorts<S> {
             })
             .transpose()?;
         let command = node
-            .service_builder(&service_name(SERVICE_COMMAND)?)
+            .service_builder(&protocol_name(SERVICE_COMMAND)?)
             .request_response::<[Vec3], [Vec3]>()
             .request_user_header::<RequestHeader>()
             .response_user_header::<ResponseHeader>()
@@ -209,7 +242,9 @@ impl<S: Service> ServerPorts<S> {
             .max_loaned_responses_per_request(1)
             .initial_max_slice_len(max_elements.max(1))
             .create()
-            .map_err(err(ANOTHER))?;
+            .map_err(|e| PortError::Taken {
+                detail: format!("the command service has its server already: {e:?}"),
+            })?;
         Ok((
             ServerPorts {
                 node,
@@ -253,8 +288,8 @@ fn stream_publisher<S: Service>(
     buffer: usize,
     joints: usize,
     what: &'static str,
-) -> Result<Publisher<S, [Vec3], StateHeader>, String> {
-    node.service_builder(&service_name(service)?)
+) -> Result<Publisher<S, [Vec3], StateHeader>, PortError> {
+    node.service_builder(&protocol_name(service)?)
         .publish_subscribe::<[Vec3]>()
         .user_header::<StateHeader>()
         .max_publishers(1)
@@ -264,16 +299,24 @@ fn stream_publisher<S: Service>(
         .history_size(0)
         .enable_safe_overflow(true)
         .open_or_create()
-        .map_err(|e| format!("cannot open or create the {what}: {e:?}"))?
+        .map_err(|e| PortError::Iceoryx {
+            what: "cannot open or create a state stream",
+            detail: format!("the {what}: {e:?}"),
+        })?
         .publisher_builder()
         .initial_max_slice_len(joints.max(1))
         .create()
         .map_err(|e| {
             let e = format!("{e:?}");
             if e.contains("ExceedsMaxSupportedPublishers") {
-                format!("{ANOTHER} (the {what} has its publisher already: {e})")
+                PortError::Taken {
+                    detail: format!("the {what} has its publisher already: {e}"),
+                }
             } else {
-                format!("cannot create the {what}'s publisher: {e}")
+                PortError::Iceoryx {
+                    what: "cannot create a state stream's publisher",
+                    detail: format!("the {what}: {e}"),
+                }
             }
         })
 }
@@ -443,7 +486,7 @@ pub fn serve<S: Service, H: Handler>(
     ports: &ServerPorts<S>,
     handler: &mut H,
     opts: &LoopOptions,
-) -> Result<(), String>
+) -> Result<(), PortError>
 where
     Listener<S>: SynchronousMultiplexing,
 {
@@ -493,7 +536,7 @@ where
                         }
                     }
                     Ok(_) => {}
-                    Err(e) => return Err(format!("WaitSet: {e:?}")),
+                    Err(e) => return Err(err("WaitSet")(e)),
                 }
                 // Serve even without a notification: a polling client may not notify.
                 let served = serve_pending(ports, handler, &mut fair, &mut checks, &mut scratch)?;
@@ -567,7 +610,7 @@ fn spin_while_busy<S: Service, H: Handler>(
     fair: &mut Fair<S>,
     checks: &mut Checks,
     scratch: &mut Vec<Vec3>,
-) -> Result<(), String> {
+) -> Result<(), PortError> {
     let mut last = Instant::now();
     loop {
         while last.elapsed() < budget {
@@ -611,7 +654,7 @@ fn serve_pending<S: Service, H: Handler>(
     fair: &mut Fair<S>,
     checks: &mut Checks,
     scratch: &mut Vec<Vec3>,
-) -> Result<usize, String> {
+) -> Result<usize, PortError> {
     let mut served = 0;
     loop {
         while let Some(req) = ports.server.receive().map_err(err("receive"))? {

@@ -5,8 +5,10 @@
 
 use crate::persist::{JournalMode, PersistError, Store};
 use crate::serve::{
-    Clients, ElementSink, ElementSource, Handled, Handler, LoopOptions, ServerPorts, serve,
+    Clients, ElementSink, ElementSource, Handled, Handler, LoopOptions, PortError, ServerPorts,
+    serve,
 };
+use crate::shm::ShmError;
 use crate::wire::WireWorld;
 use crate::wire::request::{Answer, Command, Refusal, Residual, refuse};
 use iceoryx2::prelude::ipc;
@@ -230,22 +232,30 @@ impl ElementSource for Wire<BundleElements<'_>> {}
 impl ElementSource for Wire<std::iter::Empty<world::command::Point>> {}
 
 /// Why the service stopped or did not start.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
 pub enum ServiceError {
     /// The state directory (opening, restoring, the first or the last snapshot).
     #[error(transparent)]
     Persist(#[from] PersistError),
-    /// The machine: a core to pin to, iceoryx2's ports, shared memory.
+    /// iceoryx2's ports (opening them, or the loop's waits).
+    #[error(transparent)]
+    Ports(#[from] PortError),
+    /// The shared memory for the ports.
+    #[error(transparent)]
+    SharedMemory(#[from] ShmError),
+    /// The core to pin the serving thread to.
     #[error("{0}")]
-    Machine(String),
+    Pin(String),
+    /// iceoryx2's configuration for the prefix.
+    #[error("{0}")]
+    Config(String),
 }
 
 /// Serves `set` until SIGINT or SIGTERM; then writes a last snapshot. `ready` is called once the ports
 /// are open (the binary prints a line that scripts and tests wait for).
 pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<(), ServiceError> {
-    let machine = ServiceError::Machine;
     if let Some(core) = cfg.pin {
-        shared::pin_current_thread(core).map_err(machine)?;
+        shared::pin_current_thread(core).map_err(ServiceError::Pin)?;
     }
     let mut set = set;
     let mut store = None;
@@ -279,9 +289,9 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
         store = Some(s);
     }
     let (elements, joints) = set.response_sizes();
-    let iox = shared::iceoryx_config(&cfg.prefix).map_err(machine)?;
+    let iox = shared::iceoryx_config(&cfg.prefix).map_err(ServiceError::Config)?;
     let shm = std::path::Path::new(crate::shm::SHM_DIR);
-    crate::shm::check_room(shm).map_err(machine)?;
+    crate::shm::check_room(shm)?;
     let (ports, stale) = ServerPorts::<ipc::Service>::open(
         &iox,
         "tractrix-solver",
@@ -289,12 +299,11 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
         Some(joints),
         cfg.state_buffer,
         set.bundle_stream_size(),
-    )
-    .map_err(machine)?;
+    )?;
     if stale > 0 {
         eprintln!("solver-service: cleaned the resources of {stale} dead process(es)");
     }
-    let (_, reserved) = crate::shm::reserve(shm, &cfg.prefix).map_err(machine)?;
+    let (_, reserved) = crate::shm::reserve(shm, &cfg.prefix)?;
     let snapshot_every = cfg
         .persistence
         .as_ref()
@@ -321,8 +330,7 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
             spin_budget: cfg.spin_budget,
             stop: None,
         },
-    )
-    .map_err(machine)?;
+    )?;
     if let Some(store) = solver.store.as_mut() {
         store.snapshot(&solver.set)?;
     }
@@ -341,16 +349,16 @@ pub fn run_echo(
     opts: &LoopOptions,
     pin: Option<usize>,
     ready: impl FnOnce(&str),
-) -> Result<(), String> {
+) -> Result<(), ServiceError> {
     if let Some(core) = pin {
-        shared::pin_current_thread(core)?;
+        shared::pin_current_thread(core).map_err(ServiceError::Pin)?;
     }
-    let iox = shared::iceoryx_config(prefix)?;
+    let iox = shared::iceoryx_config(prefix).map_err(ServiceError::Config)?;
     let (ports, _) =
         ServerPorts::<ipc::Service>::open(&iox, "tractrix-echo", elements as usize, None, 1, None)?;
     ready(&format!(
         "solver-service echo ready: {elements} elements, prefix {prefix}, wait {:?}",
         opts.wait
     ));
-    serve(&ports, &mut crate::echo::Echo { elements }, opts)
+    Ok(serve(&ports, &mut crate::echo::Echo { elements }, opts)?)
 }

@@ -241,14 +241,15 @@ impl InProcess {
                     Some(joints),
                     shared::STATE_BUFFER,
                     set.bundle_stream_size(),
-                )?;
+                )
+                .map_err(|e| e.to_string())?;
                 let mut solver = Solver::new(set, None, Duration::ZERO);
                 let _ = tx.send(());
                 let opts = LoopOptions {
                     stop: Some(stop),
                     ..LoopOptions::default()
                 };
-                serve(&ports, &mut solver, &opts)
+                serve(&ports, &mut solver, &opts).map_err(|e| e.to_string())
             })
         };
         rx.recv_timeout(START_TIMEOUT)
