@@ -10,29 +10,18 @@ use iceoryx2::service::Service;
 use iceoryx2::service::builder::request_response::RequestResponseOpenError;
 use shared::{
     Command, RequestHeader, ResponseHeader, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT,
-    SERVICE_WAKE_SERVER, StateHeader, Vec3,
+    SERVICE_WAKE_SERVER, StateHeader, Vec3, Wait,
 };
 use std::time::{Duration, Instant};
 
 /// The iceoryx2 service variant between processes.
 pub type Svc = ipc::Service;
 
-/// How a client waits for its response.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ClientWait {
-    /// Busy-poll (lowest latency; costs a core while waiting).
-    Spin,
-    /// Sleep on a listener until the service wakes it.
-    Event,
-    /// Spin for the budget, then sleep.
-    Hybrid(Duration),
-}
-
 /// Connection options.
 #[derive(Debug, Clone)]
 pub struct ConnectOptions {
     pub prefix: String,
-    pub wait: ClientWait,
+    pub wait: Wait,
     /// How long to wait for the service to appear (0: fail at once if none runs).
     pub connect_timeout: Duration,
     /// How long to wait for each response.
@@ -46,7 +35,7 @@ impl Default for ConnectOptions {
     fn default() -> Self {
         ConnectOptions {
             prefix: shared::prefix_from_env(),
-            wait: ClientWait::Hybrid(Duration::from_micros(50)),
+            wait: Wait::Hybrid(Duration::from_micros(50)),
             connect_timeout: Duration::ZERO,
             call_timeout: Duration::from_secs(5),
             max_request_points: shared::MAX_PATH_POINTS as usize,
@@ -65,7 +54,7 @@ impl ConnectOptions {
         }
         Ok(ConnectOptions {
             prefix: prefix.to_string(),
-            wait: ClientWait::Hybrid(Duration::from_micros(200)),
+            wait: Wait::Hybrid(Duration::from_micros(200)),
             connect_timeout: Duration::from_secs_f64(wait_s),
             call_timeout: Duration::from_secs(10),
             ..ConnectOptions::default()
@@ -269,7 +258,7 @@ impl<S: Service> Connection<S> {
             .create()
             .map_err(ipc("client port (too many clients?)"))?;
         let (wake_server, listener) = match opts.wait {
-            ClientWait::Spin => (None, None),
+            Wait::Spin => (None, None),
             _ => {
                 let ws = node
                     .service_builder(&name(SERVICE_WAKE_SERVER)?)
@@ -347,10 +336,10 @@ impl<S: Service> Connection<S> {
                 return Err(CallError::Disconnected);
             }
             match (self.opts.wait, &self.listener) {
-                (ClientWait::Hybrid(budget), Some(l)) if waited >= budget => {
+                (Wait::Hybrid(budget), Some(l)) if waited >= budget => {
                     let _ = l.timed_wait(|_| {}, Duration::from_millis(5));
                 }
-                (ClientWait::Event, Some(l)) => {
+                (Wait::Event, Some(l)) => {
                     let _ = l.timed_wait(|_| {}, Duration::from_millis(5));
                 }
                 _ => std::hint::spin_loop(),

@@ -9,9 +9,10 @@
 //! behind it and they are all charged for it (no coordinated omission). Histograms are HDR (3 significant
 //! digits), in nanoseconds.
 
-use crate::connection::{ClientWait, ConnectOptions, Connection};
+use crate::connection::{ConnectOptions, Connection};
 use hdrhistogram::Histogram;
 use serde::{Deserialize, Serialize};
+use shared::Wait;
 use shared::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Status, Vec3};
 use std::os::unix::net::UnixStream;
 use std::path::PathBuf;
@@ -467,9 +468,9 @@ pub fn connect_options(prefix: &str, wait: WaitMode) -> ConnectOptions {
     ConnectOptions {
         prefix: prefix.to_string(),
         wait: match wait {
-            WaitMode::Spin => ClientWait::Spin,
-            WaitMode::Event => ClientWait::Event,
-            WaitMode::Hybrid => ClientWait::Hybrid(Duration::from_micros(200)),
+            WaitMode::Spin => Wait::Spin,
+            WaitMode::Event => Wait::Event,
+            WaitMode::Hybrid => Wait::Hybrid(Duration::from_micros(200)),
         },
         connect_timeout: Duration::from_secs(10),
         call_timeout: Duration::from_secs(5),

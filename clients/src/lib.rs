@@ -18,6 +18,8 @@ mod vec3;
 pub mod viewer;
 
 pub use connection::{
-    CallError, ClientWait, ConnectOptions, Connection, Pacer, Reply, StateStream, ToolArgs,
-    count_refusal,
+    CallError, ConnectOptions, Connection, Pacer, Reply, StateStream, ToolArgs, count_refusal,
 };
+/// How a client waits for its response (the protocol's [`shared::Wait`], which the service's loop
+/// takes too).
+pub use shared::Wait;

@@ -326,6 +326,41 @@ impl WaitMode {
     }
 }
 
+/// How a peer waits, with its spin budget: what the service's loop and a client's calls take
+/// ([`WaitMode`] names it on command lines, where the budget is an option of its own).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Wait {
+    /// Busy-poll (the lowest latency; costs a core while waiting).
+    Spin,
+    /// Sleep until notified.
+    Event,
+    /// Sleep until notified; spin for the budget after each message (a server) or before sleeping
+    /// (a client).
+    Hybrid(std::time::Duration),
+}
+
+impl Wait {
+    /// The mode, without the budget.
+    pub fn mode(self) -> WaitMode {
+        match self {
+            Wait::Spin => WaitMode::Spin,
+            Wait::Event => WaitMode::Event,
+            Wait::Hybrid(_) => WaitMode::Hybrid,
+        }
+    }
+}
+
+impl WaitMode {
+    /// This mode with a spin budget (used by `hybrid` only).
+    pub fn with_budget(self, budget: std::time::Duration) -> Wait {
+        match self {
+            WaitMode::Spin => Wait::Spin,
+            WaitMode::Event => Wait::Event,
+            WaitMode::Hybrid => Wait::Hybrid(budget),
+        }
+    }
+}
+
 /// Pins the calling thread to CPU `core` (latency runs on two cores: the service on one, a client on
 /// the other).
 pub fn pin_current_thread(core: usize) -> Result<(), String> {

@@ -149,8 +149,7 @@ fn serve_config(a: &ServeArgs) -> Result<ServiceConfig> {
     shared::iceoryx_config(&a.prefix).map_err(anyhow::Error::msg)?;
     Ok(ServiceConfig {
         prefix: a.prefix.clone(),
-        wait: a.wait,
-        spin_budget: Duration::from_micros(a.spin_us),
+        wait: a.wait.with_budget(Duration::from_micros(a.spin_us)),
         pin: a.pin,
         persistence: (!a.no_persist).then(|| Persistence {
             dir: a.state_dir.clone().unwrap_or_else(|| state_dir(&a.prefix)),
@@ -227,8 +226,7 @@ fn real_main(cli: Cli) -> Result<u8> {
             let a = &cli.serve;
             shared::iceoryx_config(&a.prefix).map_err(anyhow::Error::msg)?;
             let opts = LoopOptions {
-                wait: a.wait,
-                spin_budget: Duration::from_micros(a.spin_us),
+                wait: a.wait.with_budget(Duration::from_micros(a.spin_us)),
                 stop: None,
             };
             run_echo(&a.prefix, e.elements, &opts, a.pin, ready)?;

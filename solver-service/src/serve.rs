@@ -19,7 +19,7 @@
 //!    response has gone, so the client does not wait for the viewers' sample (a sample of more than
 //!    [`DEFER_STATE_UP_TO`] elements, a bundle's, is copied from the response before it goes).
 //!
-//! Waiting ([`WaitMode`]): `spin` polls without pause (one core at 100 %, the lowest latency), `event`
+//! Waiting ([`Wait`]): `spin` polls without pause (one core at 100 %, the lowest latency), `event`
 //! sleeps on a WaitSet until a client's notification (no CPU when idle, one wake-up per request),
 //! `hybrid` sleeps like `event` but after each request spins for a short budget so a burst (a 1 kHz
 //! haptic loop) is served at spin latency while an idle service sleeps. In every mode the loop looks
@@ -42,7 +42,7 @@ use iceoryx2::waitset::WaitSetRunResult;
 use shared::{
     BUNDLE_STATE_BUFFER, MAX_BUNDLE_SUBSCRIBERS, MAX_CLIENTS, RequestHeader, ResponseHeader,
     SERVICE_BUNDLE_STATE, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER,
-    StateHeader, Vec3, WaitMode, service_name,
+    StateHeader, Vec3, Wait, service_name,
 };
 use std::collections::VecDeque;
 use std::mem::MaybeUninit;
@@ -470,15 +470,23 @@ fn measure_landing(h: &mut ResponseHeader, landing: Option<(usize, Vec3)>, writt
 }
 
 /// How the loop waits, and when it stops.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct LoopOptions {
-    /// Spin, sleep, or sleep and spin after each request.
-    pub wait: WaitMode,
-    /// Hybrid: how long to keep spinning after the last request.
-    pub spin_budget: Duration,
+    /// Spin, sleep, or sleep and spin for the budget after each request.
+    pub wait: Wait,
     /// Besides SIGINT and SIGTERM, the loop ends within [`CHECK_EVERY`] (event mode: [`TICK`]) of this
     /// flag being set: a service embedded in a thread, a test serving inside its own process.
     pub stop: Option<Arc<AtomicBool>>,
+}
+
+impl Default for LoopOptions {
+    /// Sleeps until notified; no stop flag.
+    fn default() -> Self {
+        LoopOptions {
+            wait: Wait::Event,
+            stop: None,
+        }
+    }
 }
 
 /// Serves requests until SIGINT or SIGTERM (or a broken port).
@@ -500,7 +508,7 @@ where
         flag: opts.stop.clone(),
     };
     match opts.wait {
-        WaitMode::Spin => {
+        Wait::Spin => {
             while !checks.stop {
                 if serve_pending(ports, handler, &mut fair, &mut checks, &mut scratch)? == 0 {
                     std::hint::spin_loop();
@@ -508,7 +516,7 @@ where
                 checks.run(ports, handler);
             }
         }
-        WaitMode::Event | WaitMode::Hybrid => {
+        Wait::Event | Wait::Hybrid(_) => {
             let ws = WaitSetBuilder::new()
                 .create::<S>()
                 .map_err(err("cannot create the WaitSet"))?;
@@ -540,15 +548,8 @@ where
                 }
                 // Serve even without a notification: a polling client may not notify.
                 let served = serve_pending(ports, handler, &mut fair, &mut checks, &mut scratch)?;
-                if opts.wait == WaitMode::Hybrid && served > 0 && !checks.stop {
-                    spin_while_busy(
-                        ports,
-                        handler,
-                        opts.spin_budget,
-                        &mut fair,
-                        &mut checks,
-                        &mut scratch,
-                    )?;
+                if let (Wait::Hybrid(budget), true) = (opts.wait, served > 0 && !checks.stop) {
+                    spin_while_busy(ports, handler, budget, &mut fair, &mut checks, &mut scratch)?;
                 }
                 checks.next = Instant::now();
                 checks.run(ports, handler);

@@ -12,7 +12,7 @@ use crate::shm::ShmError;
 use crate::wire::WireWorld;
 use crate::wire::request::{Answer, Command, Refusal, Residual, refuse};
 use iceoryx2::prelude::ipc;
-use shared::{RequestHeader, ResponseHeader, Vec3, WaitMode};
+use shared::{RequestHeader, ResponseHeader, Vec3, Wait};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use world::World;
@@ -39,10 +39,8 @@ pub struct Persistence {
 pub struct ServiceConfig {
     /// iceoryx2 prefix of this instance.
     pub prefix: String,
-    /// How the serving thread waits.
-    pub wait: WaitMode,
-    /// Hybrid: how long to keep spinning after the last request.
-    pub spin_budget: Duration,
+    /// How the serving thread waits (hybrid: how long it keeps spinning after the last request).
+    pub wait: Wait,
     /// Pin the serving thread to this core.
     pub pin: Option<usize>,
     /// Snapshots and journal, or none.
@@ -315,10 +313,10 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
         n => format!(" and {n} bundles"),
     };
     ready(&format!(
-        "solver-service ready: {} chains{bundles}, prefix {}, wait {:?}, {:.1} MiB of shared memory reserved{}",
+        "solver-service ready: {} chains{bundles}, prefix {}, wait {}, {:.1} MiB of shared memory reserved{}",
         solver.set.len(),
         cfg.prefix,
-        cfg.wait,
+        cfg.wait.mode().name(),
         reserved as f64 / f64::from(1 << 20),
         restored_note
     ));
@@ -327,7 +325,6 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
         &mut solver,
         &LoopOptions {
             wait: cfg.wait,
-            spin_budget: cfg.spin_budget,
             stop: None,
         },
     )?;
@@ -357,8 +354,8 @@ pub fn run_echo(
     let (ports, _) =
         ServerPorts::<ipc::Service>::open(&iox, "tractrix-echo", elements as usize, None, 1, None)?;
     ready(&format!(
-        "solver-service echo ready: {elements} elements, prefix {prefix}, wait {:?}",
-        opts.wait
+        "solver-service echo ready: {elements} elements, prefix {prefix}, wait {}",
+        opts.wait.mode().name()
     ));
     Ok(serve(&ports, &mut crate::echo::Echo { elements }, opts)?)
 }

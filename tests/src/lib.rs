@@ -3,7 +3,7 @@
 //! wait with a deadline, every child killed and reaped on drop.
 
 use clients::process::Proc;
-use clients::{ClientWait, ConnectOptions, Connection};
+use clients::{ConnectOptions, Connection, Wait};
 use iceoryx2::prelude::local;
 use solver_service::serve::{LoopOptions, ServerPorts, serve};
 use solver_service::service::Solver;
@@ -148,11 +148,11 @@ impl Service {
 
     /// A connection that spins (tests run two at a time on two cores: at most one spinner each).
     pub fn connect(&self) -> Connection {
-        self.connect_with(ClientWait::Hybrid(Duration::from_micros(50)))
+        self.connect_with(Wait::Hybrid(Duration::from_micros(50)))
     }
 
     /// A connection that waits as told.
-    pub fn connect_with(&self, wait: ClientWait) -> Connection {
+    pub fn connect_with(&self, wait: Wait) -> Connection {
         Connection::connect(ConnectOptions {
             prefix: self.prefix.clone(),
             wait,
@@ -266,7 +266,7 @@ impl InProcess {
     pub fn connect(&self) -> Connection<local::Service> {
         Connection::open(ConnectOptions {
             prefix: self.prefix.clone(),
-            wait: ClientWait::Hybrid(Duration::from_micros(50)),
+            wait: Wait::Hybrid(Duration::from_micros(50)),
             connect_timeout: Duration::from_secs(5),
             call_timeout: Duration::from_secs(10),
             max_request_points: self.max_points,

@@ -25,7 +25,7 @@
 // A C ABI passes each buffer as pointer, capacity and count: the functions have many arguments.
 #![allow(clippy::too_many_arguments)]
 
-use clients::{CallError, ClientWait, ConnectOptions, Connection, StateStream};
+use clients::{CallError, ConnectOptions, Connection, StateStream, Wait};
 use iceoryx2::service::ipc_threadsafe;
 use shared::{Command, RequestHeader, ResponseHeader, StateHeader, Status, Vec3};
 use std::ffi::{CStr, CString, c_char, c_int, c_void};
@@ -255,9 +255,9 @@ pub unsafe extern "C" fn tractrix_client_open(
                 }
             };
             let wait = match wait {
-                TRACTRIX_WAIT_SPIN => ClientWait::Spin,
-                TRACTRIX_WAIT_EVENT => ClientWait::Event,
-                TRACTRIX_WAIT_HYBRID => ClientWait::Hybrid(Duration::from_micros(50)),
+                TRACTRIX_WAIT_SPIN => Wait::Spin,
+                TRACTRIX_WAIT_EVENT => Wait::Event,
+                TRACTRIX_WAIT_HYBRID => Wait::Hybrid(Duration::from_micros(50)),
                 w => {
                     return Err((
                         TRACTRIX_E_ARGUMENT,

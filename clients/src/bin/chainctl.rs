@@ -17,7 +17,7 @@
 
 use anyhow::{Result, bail};
 use clap::{Parser, ValueEnum};
-use clients::{ClientWait, ConnectOptions, Connection};
+use clients::{ConnectOptions, Connection, Wait};
 use shared::text::{ChainRef, JointRef, TextRequest, TextResponse};
 use shared::{Command, Precision, RequestHeader, WireMethod, WireStrategy};
 use std::time::Duration;
@@ -181,7 +181,7 @@ fn run(a: Args) -> Result<u8> {
     }
     let mut conn = Connection::connect(ConnectOptions {
         prefix: a.prefix.clone(),
-        wait: ClientWait::Spin,
+        wait: Wait::Spin,
         connect_timeout: Duration::from_secs_f64(a.wait_for_service),
         call_timeout: Duration::from_secs_f64(a.timeout),
         ..ConnectOptions::default()

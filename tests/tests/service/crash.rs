@@ -8,7 +8,7 @@
 //! not have reached the journal before the kill: the restored state is the last acknowledged one, or
 //! the one that request produces, and nothing else.
 
-use clients::{ClientWait, ConnectOptions, Connection};
+use clients::{ConnectOptions, Connection, Wait};
 use shared::{Command, RequestHeader, Status, Vec3};
 use solver_service::wire::WireWorld;
 use std::path::Path;
@@ -95,7 +95,7 @@ impl Rng {
 fn connect(svc: &Service, call_timeout: Duration) -> Connection {
     Connection::connect(ConnectOptions {
         prefix: svc.prefix.clone(),
-        wait: ClientWait::Event,
+        wait: Wait::Event,
         connect_timeout: Duration::from_secs(5),
         call_timeout,
         max_request_points: 16,

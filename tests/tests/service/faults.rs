@@ -1,7 +1,7 @@
 //! Faults: a client killed with `kill -9` mid-stream, a client started before the service, a peer of
 //! another protocol version.
 
-use clients::ClientWait;
+use clients::Wait;
 use shared::{Command, RequestHeader, SERVICE_COMMAND, Vec3};
 use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant};
@@ -13,7 +13,7 @@ use tests::{Service, bin, unique_prefix};
 #[test]
 fn a_client_killed_mid_stream_leaves_the_others_served_and_its_port_is_reclaimed() {
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
-    let mut me = svc.connect_with(ClientWait::Event);
+    let mut me = svc.connect_with(Wait::Event);
     let mut seq = 0;
     for round in 0..shared::MAX_CLIENTS + 4 {
         let mut child = Process::new(bin("latency"))
@@ -63,7 +63,7 @@ fn a_client_killed_mid_stream_leaves_the_others_served_and_its_port_is_reclaimed
         seq = r.header.sequence;
     }
     // 20 clients died holding a port each; the service has 16. A new client still gets one.
-    let mut late = svc.connect_with(ClientWait::Event);
+    let mut late = svc.connect_with(Wait::Event);
     let r = late
         .call(RequestHeader::new(Command::Query, 0), &[])
         .expect("a new client after the dead ones");
@@ -203,7 +203,7 @@ fn a_peer_of_another_protocol_version_is_refused_with_a_message() {
         "{other:?}"
     );
     // and the service serves this version's clients as before
-    let mut c = svc.connect_with(ClientWait::Event);
+    let mut c = svc.connect_with(Wait::Event);
     assert!(
         c.call(RequestHeader::new(Command::Query, 0), &[])
             .unwrap()
@@ -231,7 +231,7 @@ fn wait_output(mut child: std::process::Child, timeout: Duration) -> std::proces
 fn shared_memory_is_the_owners_alone() {
     use std::os::unix::fs::PermissionsExt;
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
-    let mut c = svc.connect_with(ClientWait::Event);
+    let mut c = svc.connect_with(Wait::Event);
     assert!(
         c.call(RequestHeader::new(Command::Query, 0), &[])
             .unwrap()

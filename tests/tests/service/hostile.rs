@@ -6,7 +6,7 @@
 //! not asserted on these shared cores; `cargo test -p tests --test service hostile -- --nocapture` on an
 //! idle machine is the measurement the README quotes).
 
-use clients::{ClientWait, ConnectOptions, Connection};
+use clients::{ConnectOptions, Connection, Wait};
 use shared::{Command, RequestHeader, Status, Vec3};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -16,7 +16,7 @@ use tests::{Service, unique_prefix};
 fn connect(prefix: &str) -> Connection {
     Connection::connect(ConnectOptions {
         prefix: prefix.to_string(),
-        wait: ClientWait::Event,
+        wait: Wait::Event,
         connect_timeout: Duration::from_secs(5),
         call_timeout: Duration::from_secs(10),
         max_request_points: shared::MAX_PATH_POINTS as usize,

@@ -34,7 +34,7 @@ mod sweep;
 mod tools;
 mod viewer;
 
-use clients::{ClientWait, Connection};
+use clients::{Connection, Wait};
 use shared::{
     Command, FLAG_ANGLES, JOINT_HEAD, RequestHeader, Status, SubstepMode, Vec3, WireMethod,
     WireStrategy,
@@ -301,7 +301,7 @@ fn sigterm_shuts_down_cleanly_and_keeps_the_state() {
         &prefix,
         &["--state-dir", d, "--journal", "off", "--wait", "event"],
     );
-    let mut c = svc.connect_with(ClientWait::Event);
+    let mut c = svc.connect_with(Wait::Event);
     let r = c
         .call(req(Command::Move, 1), &[Vec3::new(5.0, -45.0, 3.0)])
         .unwrap();
@@ -339,8 +339,8 @@ fn sigterm_shuts_down_cleanly_and_keeps_the_state() {
 #[test]
 fn event_mode_serves_sleeping_clients() {
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
-    let mut a = svc.connect_with(ClientWait::Event);
-    let mut b = svc.connect_with(ClientWait::Event);
+    let mut a = svc.connect_with(Wait::Event);
+    let mut b = svc.connect_with(Wait::Event);
     for i in 0..50 {
         let t = i as f64 * 0.1;
         let ra = a

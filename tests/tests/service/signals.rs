@@ -11,7 +11,7 @@
 //! The journal is off, so the shutdown snapshot alone carries the state: it is read back in this
 //! process (`Store::restore`) and must hold exactly the last state a client was told about.
 
-use clients::{ClientWait, ConnectOptions, Connection};
+use clients::{ConnectOptions, Connection, Wait};
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
 use solver_service::persist::{JournalMode, Store};
 use std::sync::Arc;
@@ -54,7 +54,7 @@ fn one_run(wait: &str, load: Load, sig: &str) -> Duration {
                 // service is one).
                 let mut c = Connection::connect(ConnectOptions {
                     prefix,
-                    wait: ClientWait::Event,
+                    wait: Wait::Event,
                     connect_timeout: Duration::from_secs(5),
                     call_timeout: Duration::from_secs(5),
                     max_request_points: 1,
@@ -175,7 +175,7 @@ fn periodic_snapshots_happen_under_traffic() {
             "hybrid",
         ],
     );
-    let mut c = svc.connect_with(ClientWait::Event);
+    let mut c = svc.connect_with(Wait::Event);
     let snapshot = state.join("snapshot.bin");
     let journal = state.join("journal.bin");
     let modified = || std::fs::metadata(&snapshot).and_then(|m| m.modified()).ok();
