@@ -47,6 +47,22 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
             ),
         ));
     }
+    let obstacles = obstacles(&raw, &at)?;
+    let instruments = instruments(&raw, &at)?;
+    let chains = chains(&raw, &obstacles, &instruments, &at)?;
+    let bundles = bundles(&raw, &chains, &at)?;
+    Ok(Scene {
+        chains,
+        bundles,
+        budget: budget(&raw, &at)?,
+    })
+}
+
+/// Shapes by name: a scene's obstacles or instruments.
+type Named = Vec<(String, Obstacle<f64, 3>)>;
+
+/// The scene's `[[obstacle]]` tables, by name.
+fn obstacles(raw: &RawScene, at: &At<'_>) -> Result<Named, SceneError> {
     if raw.obstacle.len() > MAX_OBSTACLES {
         return Err(at(
             raw.obstacle[MAX_OBSTACLES].span(),
@@ -56,10 +72,10 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
             ),
         ));
     }
-    let mut obstacles: Vec<(String, Obstacle<f64, 3>)> = Vec::with_capacity(raw.obstacle.len());
+    let mut obstacles: Named = Vec::with_capacity(raw.obstacle.len());
     for o in &raw.obstacle {
         let o = o.get_ref();
-        let ob = obstacle(o, &at)?;
+        let ob = obstacle(o, at)?;
         if let Some(f) = &o.follows {
             return Err(at(
                 f.span(),
@@ -81,6 +97,11 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         }
         obstacles.push((o.name.get_ref().clone(), ob));
     }
+    Ok(obstacles)
+}
+
+/// The scene's `[[instrument]]` tables, by name (spheres and capsules only).
+fn instruments(raw: &RawScene, at: &At<'_>) -> Result<Named, SceneError> {
     if raw.instrument.len() > MAX_INSTRUMENTS {
         return Err(at(
             raw.instrument[MAX_INSTRUMENTS].span(),
@@ -90,11 +111,11 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
             ),
         ));
     }
-    let mut instruments: Vec<(String, Obstacle<f64, 3>)> = Vec::with_capacity(raw.instrument.len());
+    let mut instruments: Named = Vec::with_capacity(raw.instrument.len());
     for o in &raw.instrument {
         let o = o.get_ref();
         let name = o.name.get_ref();
-        let ob = obstacle(o, &at).map_err(|e| SceneError {
+        let ob = obstacle(o, at).map_err(|e| SceneError {
             message: e.message.replacen("obstacle", "instrument", 1),
             ..e
         })?;
@@ -114,12 +135,24 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         }
         instruments.push((name.clone(), ob));
     }
+    Ok(instruments)
+}
+
+/// The scene's `[[chain]]` tables: each validated, its instruments' `follows` resolved against it,
+/// every instrument listed by one chain at most, the links of all within the scene's bound, names
+/// unique.
+fn chains(
+    raw: &RawScene,
+    obstacles: &Named,
+    instruments: &Named,
+    at: &At<'_>,
+) -> Result<Vec<ChainSpec>, SceneError> {
     // Which chain lists each instrument: one at most (its pose is that chain's state).
     let mut owner: Vec<Option<String>> = vec![None; instruments.len()];
     let mut chains: Vec<ChainSpec> = Vec::with_capacity(raw.chain.len());
     let mut total_links = 0usize;
     for c in &raw.chain {
-        let mut spec = chain(c.get_ref(), &obstacles, &instruments, &at)?;
+        let mut spec = chain(c.get_ref(), obstacles, instruments, at)?;
         let n_links = spec.lengths.len();
         if let Some(col) = &mut spec.collision {
             // The joints its instruments follow, resolved against this chain.
@@ -197,6 +230,16 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         }
         chains.push(spec);
     }
+    Ok(chains)
+}
+
+/// The scene's `[[bundle]]` tables: names unique among chains and bundles, their joints within the
+/// scene's bound.
+fn bundles(
+    raw: &RawScene,
+    chains: &[ChainSpec],
+    at: &At<'_>,
+) -> Result<Vec<BundleSpec>, SceneError> {
     if chains.len() + raw.bundle.len() > MAX_CHAINS {
         return Err(at(
             raw.bundle[MAX_CHAINS - chains.len()].span(),
@@ -210,7 +253,7 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
     let mut bundles: Vec<BundleSpec> = Vec::with_capacity(raw.bundle.len());
     let mut bundle_joints = 0usize;
     for b in &raw.bundle {
-        let spec = bundle(b.get_ref(), &at)?;
+        let spec = bundle(b.get_ref(), at)?;
         let name = b.get_ref().name.get_ref();
         if chains.iter().any(|c| &c.name == name) || bundles.iter().any(|c| &c.name == name) {
             return Err(at(
@@ -230,7 +273,12 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
         }
         bundles.push(spec);
     }
-    let budget = match &raw.budget {
+    Ok(bundles)
+}
+
+/// The scene's `budget`, if it sets one.
+fn budget(raw: &RawScene, at: &At<'_>) -> Result<Option<u64>, SceneError> {
+    Ok(match &raw.budget {
         None => None,
         Some(b) => {
             let v = *b.get_ref();
@@ -245,11 +293,6 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
             }
             Some(v as u64)
         }
-    };
-    Ok(Scene {
-        chains,
-        bundles,
-        budget,
     })
 }
 
@@ -667,36 +710,7 @@ fn chain(
         None,
     )?;
     let (points, lengths) = geometry(&f, shape)?;
-    // Every link as the chain's arithmetic will see it: a length whose square is a normal number.
-    let single = precision == Precision::F32;
-    for (i, w) in points.windows(2).enumerate() {
-        let d = if single {
-            let v = |p: &Vector3<f64>| p.map(|x| x as f32);
-            f64::from((v(&w[1]) - v(&w[0])).norm())
-        } else {
-            (w[1] - w[0]).norm()
-        };
-        if !representable(d, single) {
-            let (field, span) = [
-                ("points", c.points.as_ref().map(|x| x.span())),
-                ("radius", c.radius.as_ref().map(|x| x.span())),
-                ("link_lengths", c.link_lengths.as_ref().map(|x| x.span())),
-                ("link_length", c.link_length.as_ref().map(|x| x.span())),
-            ]
-            .into_iter()
-            .find_map(|(n, s)| Some((n, s?)))
-            .unwrap_or(("links", c.name.span()));
-            return Err(f.err(
-                span,
-                field,
-                format!(
-                    "link {i} (length {:e}, {d:e} between its joints): {}",
-                    lengths[i],
-                    unrepresentable(precision)
-                ),
-            ));
-        }
-    }
+    representable_links(&f, &points, &lengths, precision)?;
     let links_line = (f.at)(
         c.links
             .as_ref()
@@ -706,40 +720,7 @@ fn chain(
         String::new(),
     )
     .line;
-    let anchors = match &c.anchors {
-        None => Vec::new(),
-        Some(a) => {
-            if kind != ChainKind::Free {
-                return Err(f.err(
-                    a.span(),
-                    "anchors",
-                    "anchors are for free chains (a fixed-base chain is held at its base)".into(),
-                ));
-            }
-            let n = lengths.len() as i64;
-            let mut v: Vec<u32> = Vec::with_capacity(a.get_ref().len());
-            for &j in a.get_ref() {
-                if !(0..=n).contains(&j) {
-                    return Err(f.err(
-                        a.span(),
-                        "anchors",
-                        format!("joint {j} is outside 0..={n}"),
-                    ));
-                }
-                v.push(j as u32);
-            }
-            v.sort_unstable();
-            v.dedup();
-            if v.len() != a.get_ref().len() || v.len() > MAX_HELD {
-                return Err(f.err(
-                    a.span(),
-                    "anchors",
-                    format!("anchors must be distinct joints, at most {}", MAX_HELD),
-                ));
-            }
-            v
-        }
-    };
+    let anchors = anchors(&f, kind, lengths.len())?;
     // Free chains must start where positions can hold their link lengths (requests beyond that are
     // refused as too far; a chain that starts there could never be moved).
     let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
@@ -767,43 +748,8 @@ fn chain(
             ));
         }
     };
-    let max_substeps = f.count_or(
-        &c.max_substeps,
-        "max_substeps",
-        1,
-        MAX_SUBSTEPS_LIMIT as i64,
-        1 << 16,
-    )?;
-    let substeps = match (&c.substeps, &c.max_step) {
-        (Some(_), Some(m)) => {
-            return Err(f.err(
-                m.span(),
-                "max_step",
-                "give `substeps` or `max_step`, not both".into(),
-            ));
-        }
-        (Some(k), None) => Substeps::Fixed(f.count(k, "substeps", 1, max_substeps as i64)?),
-        (None, Some(m)) => Substeps::MaxStep(f.positive(m, "max_step")?),
-        (None, None) => Substeps::Fixed(1),
-    };
-    let tolerance = match &c.tolerance {
-        Some(t) => {
-            let v = f.positive(t, "tolerance")?;
-            if v > 0.1 {
-                return Err(f.err(t.span(), "tolerance", format!("{v} is above 0.1")));
-            }
-            v
-        }
-        None => 1e-9,
-    };
-    let max_iterations = f.count_or(&c.max_iterations, "max_iterations", 1, 100_000, 1000)?;
-    let hierarchy_after = f.count_or(
-        &c.hierarchy_after,
-        "hierarchy_after",
-        0,
-        100_000,
-        ReachOptions::<f64>::default().hierarchy_after,
-    )?;
+    let (max_substeps, substeps) = substeps(&f)?;
+    let (tolerance, max_iterations, hierarchy_after) = iteration(&f)?;
     let collision = collision(&f, scheme, kind, thickness, obstacles, instruments)?;
     let limits = limits(&f, &points, &lengths)?;
     // With joint limits the reach hierarchy cannot finish a slow iteration (its pose is kept only when
@@ -846,6 +792,133 @@ fn chain(
         },
         reach,
     })
+}
+
+/// Every link as the chain's arithmetic will see it: a length whose square is a normal number.
+fn representable_links(
+    f: &Fields<'_>,
+    points: &[Vector3<f64>],
+    lengths: &[f64],
+    precision: Precision,
+) -> Result<(), SceneError> {
+    let c = f.c;
+    let single = precision == Precision::F32;
+    for (i, w) in points.windows(2).enumerate() {
+        let d = if single {
+            let v = |p: &Vector3<f64>| p.map(|x| x as f32);
+            f64::from((v(&w[1]) - v(&w[0])).norm())
+        } else {
+            (w[1] - w[0]).norm()
+        };
+        if !representable(d, single) {
+            let (field, span) = [
+                ("points", c.points.as_ref().map(|x| x.span())),
+                ("radius", c.radius.as_ref().map(|x| x.span())),
+                ("link_lengths", c.link_lengths.as_ref().map(|x| x.span())),
+                ("link_length", c.link_length.as_ref().map(|x| x.span())),
+            ]
+            .into_iter()
+            .find_map(|(n, s)| Some((n, s?)))
+            .unwrap_or(("links", c.name.span()));
+            return Err(f.err(
+                span,
+                field,
+                format!(
+                    "link {i} (length {:e}, {d:e} between its joints): {}",
+                    lengths[i],
+                    unrepresentable(precision)
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The chain's `anchors`: distinct joints of a free chain, at most [`MAX_HELD`], sorted.
+fn anchors(f: &Fields<'_>, kind: ChainKind, n_links: usize) -> Result<Vec<u32>, SceneError> {
+    Ok(match &f.c.anchors {
+        None => Vec::new(),
+        Some(a) => {
+            if kind != ChainKind::Free {
+                return Err(f.err(
+                    a.span(),
+                    "anchors",
+                    "anchors are for free chains (a fixed-base chain is held at its base)".into(),
+                ));
+            }
+            let n = n_links as i64;
+            let mut v: Vec<u32> = Vec::with_capacity(a.get_ref().len());
+            for &j in a.get_ref() {
+                if !(0..=n).contains(&j) {
+                    return Err(f.err(
+                        a.span(),
+                        "anchors",
+                        format!("joint {j} is outside 0..={n}"),
+                    ));
+                }
+                v.push(j as u32);
+            }
+            v.sort_unstable();
+            v.dedup();
+            if v.len() != a.get_ref().len() || v.len() > MAX_HELD {
+                return Err(f.err(
+                    a.span(),
+                    "anchors",
+                    format!("anchors must be distinct joints, at most {}", MAX_HELD),
+                ));
+            }
+            v
+        }
+    })
+}
+
+/// The chain's `max_substeps`, and its `substeps` or `max_step` (not both).
+fn substeps(f: &Fields<'_>) -> Result<(u32, Substeps<f64>), SceneError> {
+    let c = f.c;
+    let max_substeps = f.count_or(
+        &c.max_substeps,
+        "max_substeps",
+        1,
+        MAX_SUBSTEPS_LIMIT as i64,
+        1 << 16,
+    )?;
+    let substeps = match (&c.substeps, &c.max_step) {
+        (Some(_), Some(m)) => {
+            return Err(f.err(
+                m.span(),
+                "max_step",
+                "give `substeps` or `max_step`, not both".into(),
+            ));
+        }
+        (Some(k), None) => Substeps::Fixed(f.count(k, "substeps", 1, max_substeps as i64)?),
+        (None, Some(m)) => Substeps::MaxStep(f.positive(m, "max_step")?),
+        (None, None) => Substeps::Fixed(1),
+    };
+    Ok((max_substeps, substeps))
+}
+
+/// The chain's `tolerance`, `max_iterations` and `hierarchy_after` (fixed-base solves and held sides).
+fn iteration(f: &Fields<'_>) -> Result<(f64, u32, u32), SceneError> {
+    let c = f.c;
+    let tolerance = match &c.tolerance {
+        Some(t) => {
+            let v = f.positive(t, "tolerance")?;
+            if v > 0.1 {
+                return Err(f.err(t.span(), "tolerance", format!("{v} is above 0.1")));
+            }
+            v
+        }
+        None => 1e-9,
+    };
+    let max_iterations = f.count_or(&c.max_iterations, "max_iterations", 1, 100_000, 1000)?;
+    let hierarchy_after = f.count_or(
+        &c.hierarchy_after,
+        "hierarchy_after",
+        0,
+        100_000,
+        ReachOptions::<f64>::default().hierarchy_after,
+    )?;
+    Ok((tolerance, max_iterations, hierarchy_after))
 }
 
 /// The default `max_iterations` of a chain with joint limits.
