@@ -117,30 +117,7 @@ fn run(a: Args) -> Result<u8> {
         shared::pin_current_thread(core).map_err(anyhow::Error::msg)?;
     }
     let mut conn = a.service.connect()?;
-    // Chain names and kinds, once.
-    let mut chains: HashMap<u32, ChainInfo> = HashMap::new();
-    let mut bundle_seq_at_start: HashMap<u32, u64> = HashMap::new();
-    let first = conn.call(RequestHeader::new(Command::Describe, 0), &[])?;
-    for c in 0..first.header.n_chains {
-        let d = conn.call(RequestHeader::new(Command::Describe, c), &[])?;
-        let links = d.header.n_links as usize;
-        if d.header.kind == ChainKind::Bundle as u32 {
-            bundle_seq_at_start.insert(c, d.header.sequence);
-        }
-        chains.insert(
-            c,
-            ChainInfo {
-                name: d.header.name_str(),
-                planar: d.header.dims == 2,
-                thickness: d.header.thickness,
-                free: d.header.kind == 0,
-                limit: LimitView::from_describe(d.header.limits, d.header.limit_value),
-                seen: 0,
-                bundle: (d.header.kind == ChainKind::Bundle as u32 && links > 0)
-                    .then(|| (links + 1, d.header.total_length / links as f64)),
-            },
-        );
-    }
+    let (mut chains, bundle_seq_at_start, first) = describe(&mut conn)?;
     for name in &a.chain {
         if !chains.values().any(|c| &c.name == name) {
             anyhow::bail!("the service has no chain {name:?}");
@@ -182,21 +159,8 @@ fn run(a: Args) -> Result<u8> {
     let deadline = a
         .duration
         .map(|d| Instant::now() + Duration::from_secs_f64(d));
-    let (mut states, mut frames, mut missed, mut duplicated) = (0u64, 0u64, 0u64, 0u64);
-    // Which states of the chains' stream were missed: ranges of sequence numbers (the first
-    // `MISSED_RANGES` kept, all counted).
-    let mut missed_ranges: Vec<(u64, u64)> = Vec::new();
-    let mut missed_range_count = 0u64;
-    // Link lengths per chain, read off the first state seen (lengths never change), and the largest
-    // relative deviation from them in any later state.
-    let mut lengths: HashMap<u32, Vec<f64>> = HashMap::new();
-    let mut length_error = 0.0f64;
-    // The sequence when `watch` described the scene: a state published after it and not seen is
-    // missed, the first one included.
-    let mut last_seq: Option<u64> =
-        (first.header.kind != ChainKind::Bundle as u32).then_some(first.header.sequence);
-    // A bundle's sequence counts its own changes: the last seen per bundle, from its description.
-    let mut last_bundle_seq = bundle_seq_at_start;
+    let (mut states, mut frames) = (0u64, 0u64);
+    let mut tally = Tally::new(&first, bundle_seq_at_start);
     // Frames are drawn when the queue is empty (drawing takes about a millisecond, while the reader
     // thread goes on reading), at most one per idle turn, and all at the end.
     let mut pending = std::collections::VecDeque::new();
@@ -207,59 +171,12 @@ fn run(a: Args) -> Result<u8> {
             let Some((h, joints, held, instruments, from_bundles)) = reader.try_next()? else {
                 break;
             };
-            let last = if from_bundles {
-                last_bundle_seq.get(&h.chain).copied()
-            } else {
-                last_seq
-            };
-            if let Some(prev) = last {
-                if h.sequence > prev + 1 {
-                    missed += h.sequence - prev - 1;
-                    if !from_bundles {
-                        missed_range_count += 1;
-                        if missed_ranges.len() < MISSED_RANGES {
-                            missed_ranges.push((prev + 1, h.sequence - 1));
-                        }
-                    }
-                    if let (Some(v), false) = (&mut rr, from_bundles) {
-                        v.missed(h.sequence, missed)?;
-                    }
-                } else if h.sequence <= prev {
-                    duplicated += 1;
-                }
+            if let Some(missed) = tally.sequence(&h, from_bundles)
+                && let Some(v) = &mut rr
+            {
+                v.missed(h.sequence, missed)?;
             }
-            let newest = h.sequence.max(last.unwrap_or(0));
-            if from_bundles {
-                last_bundle_seq.insert(h.chain, newest);
-            } else {
-                last_seq = Some(newest);
-            }
-            let dist =
-                |a: &[f64; 3], b: &[f64; 3]| (b[0] - a[0]).hypot(b[1] - a[1]).hypot(b[2] - a[2]);
-            let bundle = chains.get(&h.chain).and_then(|i| i.bundle);
-            match lengths.get(&h.chain) {
-                // A bundle's links all have the bundle's length, strand by strand.
-                _ if bundle.is_some() => {
-                    let (per, l) = bundle.expect("checked");
-                    for s in joints.chunks(per) {
-                        for w in s.windows(2) {
-                            length_error = length_error.max(((dist(&w[0], &w[1]) - l) / l).abs());
-                        }
-                    }
-                }
-                Some(l) if l.len() + 1 == joints.len() => {
-                    for (w, l) in joints.windows(2).zip(l) {
-                        length_error = length_error.max(((dist(&w[0], &w[1]) - l) / l).abs());
-                    }
-                }
-                Some(_) => {}
-                None => {
-                    lengths.insert(
-                        h.chain,
-                        joints.windows(2).map(|w| dist(&w[0], &w[1])).collect(),
-                    );
-                }
-            }
+            tally.lengths(&h, &joints, chains.get(&h.chain).and_then(|i| i.bundle));
             let Some(info) = chains.get_mut(&h.chain) else {
                 continue;
             };
@@ -305,7 +222,7 @@ fn run(a: Args) -> Result<u8> {
             if probe_at.elapsed() >= PROBE_EVERY {
                 probe_at = Instant::now();
                 conn.call(RequestHeader::new(Command::Query, 0), &[])?;
-                v.round_trip(last_seq.unwrap_or(0), probe_at.elapsed())?;
+                v.round_trip(tally.last_seq.unwrap_or(0), probe_at.elapsed())?;
                 continue;
             }
             if v.identify_one()? {
@@ -332,34 +249,173 @@ fn run(a: Args) -> Result<u8> {
         eprintln!("watch: {} states sent to Rerun", v.logged());
         v.finish()?;
     }
-    // The ranges first: the summary stays the last line (the load run reads it).
-    if missed_range_count > 0 {
-        let shown: Vec<String> = missed_ranges
-            .iter()
-            .map(|&(a, b)| {
-                if a == b {
-                    a.to_string()
-                } else {
-                    format!("{a}-{b}")
-                }
-            })
-            .collect();
-        let more = missed_range_count - missed_ranges.len() as u64;
-        eprintln!(
-            "watch: missed states (sequence numbers): {}{}",
-            shown.join(", "),
-            if more > 0 {
-                format!(" and {more} more ranges")
-            } else {
-                String::new()
-            }
+    tally.report(states, frames);
+    Ok(0)
+}
+
+/// What `watch` knows of each chain, by index.
+type Chains = HashMap<u32, ChainInfo>;
+
+/// The service's chains (names, kinds, limits) and each bundle's sequence as `watch` starts, with the
+/// first description (its sequence is where the stream is read from).
+fn describe(conn: &mut clients::Connection) -> Result<(Chains, HashMap<u32, u64>, clients::Reply)> {
+    let mut chains: HashMap<u32, ChainInfo> = HashMap::new();
+    let mut bundle_seq_at_start: HashMap<u32, u64> = HashMap::new();
+    let first = conn.call(RequestHeader::new(Command::Describe, 0), &[])?;
+    for c in 0..first.header.n_chains {
+        let d = conn.call(RequestHeader::new(Command::Describe, c), &[])?;
+        let links = d.header.n_links as usize;
+        if d.header.kind == ChainKind::Bundle as u32 {
+            bundle_seq_at_start.insert(c, d.header.sequence);
+        }
+        chains.insert(
+            c,
+            ChainInfo {
+                name: d.header.name_str(),
+                planar: d.header.dims == 2,
+                thickness: d.header.thickness,
+                free: d.header.kind == 0,
+                limit: LimitView::from_describe(d.header.limits, d.header.limit_value),
+                seen: 0,
+                bundle: (d.header.kind == ChainKind::Bundle as u32 && links > 0)
+                    .then(|| (links + 1, d.header.total_length / links as f64)),
+            },
         );
     }
-    eprintln!(
-        "watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps), \
+    Ok((chains, bundle_seq_at_start, first))
+}
+
+/// The state stream's accounting: the states missed (sequence gaps) and duplicated, and the largest
+/// relative deviation of any link from its length.
+struct Tally {
+    missed: u64,
+    duplicated: u64,
+    /// Which states of the chains' stream were missed: ranges of sequence numbers (the first
+    /// [`MISSED_RANGES`] kept, all counted).
+    missed_ranges: Vec<(u64, u64)>,
+    missed_range_count: u64,
+    /// The sequence of the chains' stream last seen: from the scene's description, a state published
+    /// after it and not seen is missed, the first one included.
+    last_seq: Option<u64>,
+    /// A bundle's sequence counts its own changes: the last seen per bundle, from its description.
+    last_bundle_seq: HashMap<u32, u64>,
+    /// Link lengths per chain, read off the first state seen (lengths never change).
+    lengths: HashMap<u32, Vec<f64>>,
+    length_error: f64,
+}
+
+impl Tally {
+    fn new(first: &clients::Reply, bundle_seq_at_start: HashMap<u32, u64>) -> Self {
+        Tally {
+            missed: 0,
+            duplicated: 0,
+            missed_ranges: Vec::new(),
+            missed_range_count: 0,
+            last_seq: (first.header.kind != ChainKind::Bundle as u32)
+                .then_some(first.header.sequence),
+            last_bundle_seq: bundle_seq_at_start,
+            lengths: HashMap::new(),
+            length_error: 0.0,
+        }
+    }
+
+    /// Counts the state `h`; the states missed so far when it follows a gap in the chains' stream.
+    fn sequence(&mut self, h: &shared::StateHeader, from_bundles: bool) -> Option<u64> {
+        let last = if from_bundles {
+            self.last_bundle_seq.get(&h.chain).copied()
+        } else {
+            self.last_seq
+        };
+        let mut gap = None;
+        if let Some(prev) = last {
+            if h.sequence > prev + 1 {
+                self.missed += h.sequence - prev - 1;
+                if !from_bundles {
+                    self.missed_range_count += 1;
+                    if self.missed_ranges.len() < MISSED_RANGES {
+                        self.missed_ranges.push((prev + 1, h.sequence - 1));
+                    }
+                    gap = Some(self.missed);
+                }
+            } else if h.sequence <= prev {
+                self.duplicated += 1;
+            }
+        }
+        let newest = h.sequence.max(last.unwrap_or(0));
+        if from_bundles {
+            self.last_bundle_seq.insert(h.chain, newest);
+        } else {
+            self.last_seq = Some(newest);
+        }
+        gap
+    }
+
+    /// Checks the link lengths of a state against the chain's (a bundle's: `(joints per strand,
+    /// link length)`), or learns them from the chain's first state.
+    fn lengths(
+        &mut self,
+        h: &shared::StateHeader,
+        joints: &[[f64; 3]],
+        bundle: Option<(usize, f64)>,
+    ) {
+        let dist = |a: &[f64; 3], b: &[f64; 3]| (b[0] - a[0]).hypot(b[1] - a[1]).hypot(b[2] - a[2]);
+        let worst = &mut self.length_error;
+        match (bundle, self.lengths.get(&h.chain)) {
+            // A bundle's links all have the bundle's length, strand by strand.
+            (Some((per, l)), _) => {
+                for s in joints.chunks(per) {
+                    for w in s.windows(2) {
+                        *worst = worst.max(((dist(&w[0], &w[1]) - l) / l).abs());
+                    }
+                }
+            }
+            (None, Some(l)) if l.len() + 1 == joints.len() => {
+                for (w, l) in joints.windows(2).zip(l) {
+                    *worst = worst.max(((dist(&w[0], &w[1]) - l) / l).abs());
+                }
+            }
+            (None, Some(_)) => {}
+            (None, None) => {
+                self.lengths.insert(
+                    h.chain,
+                    joints.windows(2).map(|w| dist(&w[0], &w[1])).collect(),
+                );
+            }
+        }
+    }
+
+    /// The last lines on stderr: the missed ranges, then the summary (the load run reads the last).
+    fn report(&self, states: u64, frames: u64) {
+        let (missed, duplicated, length_error) = (self.missed, self.duplicated, self.length_error);
+        let (missed_ranges, missed_range_count) = (&self.missed_ranges, self.missed_range_count);
+        // The ranges first: the summary stays the last line (the load run reads it).
+        if missed_range_count > 0 {
+            let shown: Vec<String> = missed_ranges
+                .iter()
+                .map(|&(a, b)| {
+                    if a == b {
+                        a.to_string()
+                    } else {
+                        format!("{a}-{b}")
+                    }
+                })
+                .collect();
+            let more = missed_range_count - missed_ranges.len() as u64;
+            eprintln!(
+                "watch: missed states (sequence numbers): {}{}",
+                shown.join(", "),
+                if more > 0 {
+                    format!(" and {more} more ranges")
+                } else {
+                    String::new()
+                }
+            );
+        }
+        eprintln!(
+            "watch: {states} states, {frames} SVG frames, {missed} missed (sequence gaps), \
          {duplicated} duplicated, link length error {length_error:.1e}"
-    );
-    Ok(0)
+        );
+    }
 }
 
 /// What the reader thread hands over: one state, owned (header, joints, held joints, instrument
