@@ -426,47 +426,16 @@ fn drive(
                     instruments.len()
                 );
             };
-            let poses = turn.instrument_poses(rope[idx], *now, cfg.script.max_step);
-            let pacer = Pacer::new(cfg.rate_hz);
-            for (i, (centre, axis)) in poses.iter().enumerate() {
-                pacer.wait(i);
-                if conn.node().wait(Duration::ZERO).is_err() {
-                    bail!("interrupted (SIGINT or SIGTERM)");
-                }
-                let mut h = RequestHeader::new(Command::Instrument, chain);
-                h.joint = m.index;
-                let sent = now_ns();
-                let called = Instant::now();
-                let (status, seq, rid, dg) = conn.call_with(
-                    h,
-                    &[
-                        Vec3::new(centre[0], centre[1], centre[2]),
-                        Vec3::new(axis[0], axis[1], axis[2]),
-                    ],
-                    |rh, pts| {
-                        let n = (rh.n_joints as usize).min(pts.len());
-                        (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
-                    },
-                )?;
-                let name = report.tally(status, called);
-                if let Some(w) = record.as_mut() {
-                    let r = Record {
-                        t_ns: sent,
-                        hand: cfg.hand.clone(),
-                        turn: k as u32,
-                        chain: turn.chain.clone(),
-                        joint: m.index,
-                        target: *centre,
-                        request_id: rid,
-                        status: name.to_string(),
-                        sequence: seq,
-                        digest: dg,
-                        command: Command::Instrument.name().into(),
-                        axis: Some(*axis),
-                    };
-                    r.append_to(w)?;
-                }
-            }
+            let mut hand = TurnRun {
+                conn: &mut *conn,
+                cfg,
+                record: &mut *record,
+                report: &mut *report,
+                k,
+                turn,
+                chain,
+            };
+            hand.instrument(m.index, rope[idx], *now)?;
             if let Some(w) = record.as_mut() {
                 w.flush()?;
             }
@@ -485,51 +454,155 @@ fn drive(
                 Vec::new()
             }
         };
-        let every = (targets.len() / cfg.frames_per_turn.max(1)).max(1);
-        if cfg.frames_per_turn > 0 && report.frames.is_empty() {
-            let joints = q.joints().iter().map(|p| p.to_array()).collect();
-            report
-                .frames
-                .push((format!("{}: start", turn.chain), joints));
+        let mut hand = TurnRun {
+            conn: &mut *conn,
+            cfg,
+            record: &mut *record,
+            report: &mut *report,
+            k,
+            turn,
+            chain,
+        };
+        hand.moves(joint, rope[idx], &targets, &q, &mut tremor)?;
+        if let Some(w) = record.as_mut() {
+            w.flush()?;
         }
-        let pacer = Pacer::new(cfg.rate_hz);
+        mine.push(k);
+        baton.announce(&mine);
+    }
+    mine.push(FINISHED + me);
+    let everyone: Vec<usize> = (0..hands.len()).map(|i| FINISHED + i).collect();
+    baton
+        .wait_all(&everyone, &mine, cfg.turn_timeout)
+        .map_err(anyhow::Error::msg)?;
+    Ok(())
+}
+
+/// One turn of a hand: its connection, configuration, recording and report, which turn it is (`k`) and
+/// the chain it moves.
+struct TurnRun<'a> {
+    conn: &'a mut Connection,
+    cfg: &'a HandConfig,
+    record: &'a mut Option<std::io::BufWriter<std::fs::File>>,
+    report: &'a mut HandReport,
+    k: usize,
+    turn: &'a crate::script::Turn,
+    chain: u32,
+}
+
+impl TurnRun<'_> {
+    /// Moves instrument `index` of the chain along the turn's poses from where it is (`now`), the
+    /// joint it follows at `joint_at`.
+    fn instrument(
+        &mut self,
+        index: u32,
+        joint_at: [f64; 3],
+        now: InstrumentEnds,
+    ) -> anyhow::Result<()> {
+        use anyhow::bail;
+        let poses = self
+            .turn
+            .instrument_poses(joint_at, now, self.cfg.script.max_step);
+        let pacer = Pacer::new(self.cfg.rate_hz);
+        for (i, (centre, axis)) in poses.iter().enumerate() {
+            pacer.wait(i);
+            if self.conn.node().wait(Duration::ZERO).is_err() {
+                bail!("interrupted (SIGINT or SIGTERM)");
+            }
+            let mut h = RequestHeader::new(Command::Instrument, self.chain);
+            h.joint = index;
+            let sent = now_ns();
+            let called = Instant::now();
+            let (status, seq, rid, dg) = self.conn.call_with(
+                h,
+                &[
+                    Vec3::new(centre[0], centre[1], centre[2]),
+                    Vec3::new(axis[0], axis[1], axis[2]),
+                ],
+                |rh, pts| {
+                    let n = (rh.n_joints as usize).min(pts.len());
+                    (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
+                },
+            )?;
+            let name = self.report.tally(status, called);
+            if let Some(w) = self.record.as_mut() {
+                let r = Record {
+                    t_ns: sent,
+                    hand: self.cfg.hand.clone(),
+                    turn: self.k as u32,
+                    chain: self.turn.chain.clone(),
+                    joint: index,
+                    target: *centre,
+                    request_id: rid,
+                    status: name.to_string(),
+                    sequence: seq,
+                    digest: dg,
+                    command: Command::Instrument.name().into(),
+                    axis: Some(*axis),
+                };
+                r.append_to(w)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Moves `joint` (at `start`, the rope as `q` answered) through `targets`, each shaken by the
+    /// tremor; a move over the service's budget is split in halves, at most `SPLITS` deep.
+    fn moves(
+        &mut self,
+        joint: u32,
+        start: [f64; 3],
+        targets: &[[f64; 3]],
+        q: &crate::Reply,
+        tremor: &mut crate::script::Tremor,
+    ) -> anyhow::Result<()> {
+        use anyhow::bail;
+        let every = (targets.len() / self.cfg.frames_per_turn.max(1)).max(1);
+        if self.cfg.frames_per_turn > 0 && self.report.frames.is_empty() {
+            let joints = q.joints().iter().map(|p| p.to_array()).collect();
+            self.report
+                .frames
+                .push((format!("{}: start", self.turn.chain), joints));
+        }
+        let pacer = Pacer::new(self.cfg.rate_hz);
         // Where the joint is: the query's, then each accepted target (a refused move leaves it).
-        let mut at = rope[idx];
+        let mut at = start;
         let mut told_budget = false;
         let mut told_locked = false;
         for (i, t) in targets.iter().enumerate() {
             let t = &tremor.apply(*t);
             pacer.wait(i);
-            if conn.node().wait(Duration::ZERO).is_err() {
+            if self.conn.node().wait(Duration::ZERO).is_err() {
                 bail!("interrupted (SIGINT or SIGTERM)");
             }
-            let keep = cfg.frames_per_turn > 0
+            let keep = self.cfg.frames_per_turn > 0
                 && ((i + 1) % every == 0 || i + 1 == targets.len())
-                && (i + 1) / every <= cfg.frames_per_turn;
+                && (i + 1) / every <= self.cfg.frames_per_turn;
             // A move refused as over-budget (more collision work than the service allows one
             // request) is sent again as two halves from where the joint is, each split again if it
             // must, at most `SPLITS` deep: the same path in smaller requests.
             let mut pending = vec![(*t, 0u32)];
             while let Some((t, depth)) = pending.pop() {
-                let mut h = RequestHeader::new(Command::Move, chain);
+                let mut h = RequestHeader::new(Command::Move, self.chain);
                 h.joint = joint;
                 let sent = now_ns();
                 let called = Instant::now();
                 let last = pending.is_empty();
                 let (status, seq, rid, dg, frame, (reason, stopped_at)) =
-                    conn.call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
-                        let n = (rh.n_joints as usize).min(pts.len());
-                        let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
-                            .then(|| pts[..n].iter().map(|p| p.to_array()).collect());
-                        (
-                            rh.status,
-                            rh.sequence,
-                            rh.request_id,
-                            digest(&pts[..n]),
-                            frame,
-                            (rh.reason_str(), rh.substeps),
-                        )
-                    })?;
+                    self.conn
+                        .call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
+                            let n = (rh.n_joints as usize).min(pts.len());
+                            let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
+                                .then(|| pts[..n].iter().map(|p| p.to_array()).collect());
+                            (
+                                rh.status,
+                                rh.sequence,
+                                rh.request_id,
+                                digest(&pts[..n]),
+                                frame,
+                                (rh.reason_str(), rh.substeps),
+                            )
+                        })?;
                 // Halves help unless the work ran out in the first substep (a piece does
                 // fewer substeps); a rope jammed against itself spends every collision pass in
                 // one substep whatever the move's length, and splitting only repeats that.
@@ -541,22 +614,22 @@ fn drive(
                         told_budget = true;
                         eprintln!(
                             "hand {}: turn {}: a move is over the service's work budget (said once \
-                             per turn): {reason}",
-                            cfg.hand,
-                            k + 1
+                         per turn): {reason}",
+                            self.cfg.hand,
+                            self.k + 1
                         );
                     }
                 }
-                if status == Status::Locked as u32 && !told_locked && cfg.progress {
+                if status == Status::Locked as u32 && !told_locked && self.cfg.progress {
                     told_locked = true;
                     eprintln!(
                         "hand {}: turn {}: a move locked (said once per turn): {reason}",
-                        cfg.hand,
-                        k + 1
+                        self.cfg.hand,
+                        self.k + 1
                     );
                 }
                 if status == Status::OverBudget as u32 && splittable {
-                    report.splits += 1;
+                    self.report.splits += 1;
                     let mid = [
                         0.5 * (at[0] + t[0]),
                         0.5 * (at[1] + t[1]),
@@ -565,16 +638,16 @@ fn drive(
                     pending.push((t, depth + 1));
                     pending.push((mid, depth + 1));
                 } else {
-                    let name = report.tally(status, called);
+                    let name = self.report.tally(status, called);
                     if status == Status::Ok as u32 {
                         at = t;
                     }
-                    if let Some(w) = record.as_mut() {
+                    if let Some(w) = self.record.as_mut() {
                         Record {
                             t_ns: sent,
-                            hand: cfg.hand.clone(),
-                            turn: k as u32,
-                            chain: turn.chain.clone(),
+                            hand: self.cfg.hand.clone(),
+                            turn: self.k as u32,
+                            chain: self.turn.chain.clone(),
                             joint,
                             target: t,
                             request_id: rid,
@@ -588,34 +661,29 @@ fn drive(
                     }
                 }
                 if let Some(f) = frame {
-                    let label = format!("hand {}, turn {}, move {}", cfg.hand, k + 1, i + 1);
-                    report.frames.push((label, f));
+                    let label = format!(
+                        "hand {}, turn {}, move {}",
+                        self.cfg.hand,
+                        self.k + 1,
+                        i + 1
+                    );
+                    self.report.frames.push((label, f));
                 }
             }
-            if cfg.progress && (i + 1) % 500 == 0 {
+            if self.cfg.progress && (i + 1) % 500 == 0 {
                 eprintln!(
                     "hand {}: turn {}/{}: {}/{} requests, {} locked",
-                    cfg.hand,
-                    k + 1,
-                    cfg.script.turn.len(),
+                    self.cfg.hand,
+                    self.k + 1,
+                    self.cfg.script.turn.len(),
                     i + 1,
                     targets.len(),
-                    report.locked
+                    self.report.locked
                 );
             }
         }
-        if let Some(w) = record.as_mut() {
-            w.flush()?;
-        }
-        mine.push(k);
-        baton.announce(&mine);
+        Ok(())
     }
-    mine.push(FINISHED + me);
-    let everyone: Vec<usize> = (0..hands.len()).map(|i| FINISHED + i).collect();
-    baton
-        .wait_all(&everyone, &mine, cfg.turn_timeout)
-        .map_err(anyhow::Error::msg)?;
-    Ok(())
 }
 
 /// Reads recordings (JSON lines), each line checked.
