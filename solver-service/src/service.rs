@@ -10,14 +10,16 @@ use crate::serve::{
 };
 use crate::shm::ShmError;
 use crate::wire::WireWorld;
-use crate::wire::request::{Answer, Command, Refusal, Residual, refuse};
 use iceoryx2::prelude::ipc;
 use shared::{RequestHeader, ResponseHeader, Vec3, Wait};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use world::World;
 use world::bundles::BundleElements;
+use world::command::{Answer, Command, Residual};
 use world::elements::{ChainElements, Elements};
+use world::refusal::Refusal;
+use world::refuse;
 
 /// Persistence settings.
 #[derive(Debug, Clone)]

@@ -17,9 +17,9 @@ use world::scene::{ChainKind, ChainSpec};
 pub const MAX_REACH_ITERATIONS: u32 = 100_000;
 
 use crate::wire::header::{Checked, check_header};
-pub use world::command::{Answer, Command, Point, Residual};
-pub use world::refusal::Refusal;
-pub(crate) use world::refuse;
+use world::command::{Answer, Command, Point, Residual};
+use world::refusal::Refusal;
+use world::refuse;
 
 /// The kernel method a wire method asks for (`None`: the chain's default).
 pub fn method_from_wire(m: WireMethod) -> Option<Method> {
