@@ -1054,7 +1054,25 @@ fn limits(
         }
         _ => unreachable!("the fields listed above"),
     };
-    // The initial pose within the limits (the angle computed as the kernel's check does).
+    pose_within(f, (field, span), kind, (&lo, &hi), points)?;
+    Ok(Some(LimitSpec {
+        kind,
+        lo,
+        hi,
+        min_bend_radius: r,
+    }))
+}
+
+/// The initial pose within the limits `[lo, hi]` of `kind`, the angle computed as the kernel's check
+/// does; an error names the limit's `field` at its `span`.
+fn pose_within(
+    f: &Fields<'_>,
+    (field, span): (&str, Range<usize>),
+    kind: LimitKind,
+    (lo, hi): (&[f64], &[f64]),
+    points: &[Vector3<f64>],
+) -> Result<(), SceneError> {
+    let joints = points.len();
     for j in 1..joints - 1 {
         let (a, b) = (points[j] - points[j - 1], points[j + 1] - points[j]);
         let angle = match kind {
@@ -1074,12 +1092,7 @@ fn limits(
             ));
         }
     }
-    Ok(Some(LimitSpec {
-        kind,
-        lo,
-        hi,
-        min_bend_radius: r,
-    }))
+    Ok(())
 }
 
 /// The initial joints and the link lengths.
