@@ -1,8 +1,10 @@
 //! Batch mode: a file of requests (JSON lines, [`shared::text`]) applied to a scene without IPC, through
 //! the service's own answer path ([`crate::serve::respond`] over a [`Solver`]: decode, apply, persist,
 //! encode, the panic guard), with the resulting joints written as JSON lines or CSV. For scripts,
-//! regression files and debugging. Requests come from [`LOCAL`] (grasps unowned); without a store a
-//! `snapshot` is refused (`persistence-failed`), as the service refuses it under `--no-persist`.
+//! regression files and debugging. Requests come from [`LOCAL`] (grasps unowned). With a store (the
+//! binary's `batch` with `--state-dir`) changes are journaled and `snapshot` writes one, as in the
+//! service; without, a `snapshot` is refused (`persistence-failed`), as the service refuses it under
+//! `--no-persist`.
 
 use crate::serve::respond;
 use crate::service::Solver;

@@ -9,7 +9,7 @@ use solver_service::batch::{Format, run_batch};
 use solver_service::persist::JournalMode;
 use solver_service::scene_file::load_scene;
 use solver_service::serve::LoopOptions;
-use solver_service::service::{Persistence, ServiceConfig, run, run_echo};
+use solver_service::service::{Persistence, ServiceConfig, Solver, run, run_echo};
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -31,12 +31,13 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Cmd {
-    /// Apply a file of JSON-lines requests to the scene, without IPC, and write the resulting joints.
+    /// Apply a file of JSON-lines requests to the scene, without IPC, and write the resulting joints;
+    /// snapshots and journal only with --state-dir (then --restore starts from them).
     Batch(BatchArgs),
     /// Validate the scene (--scene, or the embedded one) and print its chains.
     Check,
-    /// Serve the same protocol over a Unix domain socket (the latency bench's comparison transport):
-    /// no persistence, one connection at a time.
+    /// Serve the same protocol over a Unix domain socket (the latency bench's comparison transport),
+    /// one connection at a time; snapshots and journal only with --state-dir.
     Unix(UnixArgs),
     /// Serve the raw echo (the latency bench's baseline): the service's ports, serving loop and waits
     /// (--wait, --spin-us, --pin), no validation, no solving; every response carries --elements points.
@@ -151,15 +152,40 @@ fn serve_config(a: &ServeArgs) -> Result<ServiceConfig> {
         prefix: a.prefix.clone(),
         wait: a.wait.with_budget(Duration::from_micros(a.spin_us)),
         pin: a.pin,
-        persistence: (!a.no_persist).then(|| Persistence {
-            dir: a.state_dir.clone().unwrap_or_else(|| state_dir(&a.prefix)),
-            journal: a.journal,
-            restore: a.restore || a.restore_from_damaged,
-            from_damaged: a.restore_from_damaged,
-            snapshot_every: Duration::from_secs_f64(a.snapshot_every),
+        persistence: (!a.no_persist).then(|| {
+            persistence(
+                a,
+                a.state_dir.clone().unwrap_or_else(|| state_dir(&a.prefix)),
+            )
         }),
         state_buffer: a.state_buffer as usize,
     })
+}
+
+/// Snapshots and journal in `dir`, as the options say.
+fn persistence(a: &ServeArgs, dir: PathBuf) -> Persistence {
+    Persistence {
+        dir,
+        journal: a.journal,
+        restore: a.restore || a.restore_from_damaged,
+        from_damaged: a.restore_from_damaged,
+        snapshot_every: Duration::from_secs_f64(a.snapshot_every),
+    }
+}
+
+/// Batch mode and the Unix socket persist only into a `--state-dir` given (a batch beside a running
+/// service must not take its state directory): then as the service does, restore included.
+fn door_persistence(a: &ServeArgs, door: &str) -> Result<Option<Persistence>> {
+    if !(a.snapshot_every.is_finite() && a.snapshot_every >= 0.0) {
+        bail!("--snapshot-every must be a number of seconds ≥ 0");
+    }
+    match (&a.state_dir, a.no_persist) {
+        (Some(dir), false) => Ok(Some(persistence(a, dir.clone()))),
+        _ if a.restore || a.restore_from_damaged => {
+            bail!("{door}: --restore needs --state-dir DIR (and no --no-persist)")
+        }
+        _ => Ok(None),
+    }
 }
 
 fn main() -> ExitCode {
@@ -252,17 +278,19 @@ fn real_main(cli: Cli) -> Result<u8> {
             if let Some(core) = cli.serve.pin {
                 shared::pin_current_thread(core).map_err(anyhow::Error::msg)?;
             }
+            let persist = door_persistence(&cli.serve, "unix")?;
+            let (mut solver, restored) = Solver::open(set, persist.as_ref())?;
             let listener = std::os::unix::net::UnixListener::bind(&u.socket)
                 .with_context(|| format!("bind {}", u.socket.display()))?;
             println!(
-                "solver-service ready: {} chains, unix socket {}",
-                set.len(),
+                "solver-service ready: {} chains, unix socket {}{restored}",
+                solver.set().len(),
                 u.socket.display()
             );
             let _ = std::io::stdout().flush();
-            let mut solver = solver_service::service::Solver::new(set, None, Duration::ZERO);
             solver_service::unix_socket::serve(&listener, &mut solver, u.connections)?;
             let _ = std::fs::remove_file(&u.socket);
+            solver.close()?;
             Ok(0)
         }
         Some(Cmd::Batch(b)) => {
@@ -283,9 +311,13 @@ fn real_main(cli: Cli) -> Result<u8> {
                     std::fs::File::create(&b.out).with_context(|| b.out.display().to_string())?,
                 ))
             };
-            let mut solver = solver_service::service::Solver::new(set, None, Duration::ZERO);
+            let persist = door_persistence(&cli.serve, "batch")?;
+            let (mut solver, _) = Solver::open(set, persist.as_ref())?;
             let s = run_batch(&mut solver, &mut input, &mut out, format, &source)?;
             out.flush()?;
+            if persist.is_some() {
+                solver.close()?;
+            }
             eprintln!("{} requests, {} refused", s.requests, s.failed);
             Ok(if s.failed > 0 { 1 } else { 0 })
         }

@@ -81,6 +81,59 @@ impl Solver {
         }
     }
 
+    /// A solver over `set` with the persistence asked for (none: `None`), the way every door starts
+    /// one: the state directory opened (and locked), the state restored from it or its first snapshot
+    /// written. Returns the solver and, after a restore, what was restored (a note for the ready line).
+    pub fn open(
+        set: World,
+        persistence: Option<&Persistence>,
+    ) -> Result<(Solver, String), ServiceError> {
+        let mut set = set;
+        let Some(p) = persistence else {
+            return Ok((Solver::new(set, None, Duration::ZERO), String::new()));
+        };
+        let mut store = Store::open(&p.dir, p.journal)?;
+        let mut note = String::new();
+        if p.restore {
+            let r = store.restore(&mut set, p.from_damaged)?;
+            if let Some(d) = &r.damage {
+                eprintln!("solver-service: restored past damage: {d}");
+            }
+            note = format!(
+                "; restored state {} (snapshot {} + {} journal records{})",
+                set.sequence(),
+                r.snapshot_sequence,
+                r.replayed,
+                if r.damage.is_some() {
+                    ", past damage (see above)".to_string()
+                } else if r.dropped_tail_bytes > 0 {
+                    format!(
+                        ", {} unacknowledged tail bytes dropped",
+                        r.dropped_tail_bytes
+                    )
+                } else {
+                    String::new()
+                }
+            );
+        } else {
+            store.begin(&set)?;
+        }
+        Ok((Solver::new(set, Some(store), p.snapshot_every), note))
+    }
+
+    /// Ends a door's run: the last snapshot written (with persistence) and the line that says so.
+    pub fn close(&mut self) -> Result<(), ServiceError> {
+        if let Some(store) = self.store.as_mut() {
+            store.snapshot(&self.set)?;
+        }
+        eprintln!(
+            "solver-service: shut down cleanly at state {} ({} snapshots written since the start)",
+            self.set.sequence(),
+            self.store.as_ref().map_or(0, |s| s.written())
+        );
+        Ok(())
+    }
+
     /// The chains.
     pub fn set(&self) -> &World {
         &self.set
@@ -257,37 +310,8 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
     if let Some(core) = cfg.pin {
         shared::pin_current_thread(core).map_err(ServiceError::Pin)?;
     }
-    let mut set = set;
-    let mut store = None;
-    let mut restored_note = String::new();
-    if let Some(p) = &cfg.persistence {
-        let mut s = Store::open(&p.dir, p.journal)?;
-        if p.restore {
-            let r = s.restore(&mut set, p.from_damaged)?;
-            if let Some(d) = &r.damage {
-                eprintln!("solver-service: restored past damage: {d}");
-            }
-            restored_note = format!(
-                "; restored state {} (snapshot {} + {} journal records{})",
-                set.sequence(),
-                r.snapshot_sequence,
-                r.replayed,
-                if r.damage.is_some() {
-                    ", past damage (see above)".to_string()
-                } else if r.dropped_tail_bytes > 0 {
-                    format!(
-                        ", {} unacknowledged tail bytes dropped",
-                        r.dropped_tail_bytes
-                    )
-                } else {
-                    String::new()
-                }
-            );
-        } else {
-            s.begin(&set)?;
-        }
-        store = Some(s);
-    }
+    let (mut solver, restored_note) = Solver::open(set, cfg.persistence.as_ref())?;
+    let set = &solver.set;
     let (elements, joints) = set.response_sizes();
     let iox = shared::iceoryx_config(&cfg.prefix).map_err(ServiceError::Config)?;
     let shm = std::path::Path::new(crate::shm::SHM_DIR);
@@ -304,12 +328,6 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
         eprintln!("solver-service: cleaned the resources of {stale} dead process(es)");
     }
     let (_, reserved) = crate::shm::reserve(shm, &cfg.prefix)?;
-    let snapshot_every = cfg
-        .persistence
-        .as_ref()
-        .map(|p| p.snapshot_every)
-        .unwrap_or(Duration::ZERO);
-    let mut solver = Solver::new(set, store, snapshot_every);
     let bundles = match solver.set.bundles().len() {
         0 => String::new(),
         n => format!(" and {n} bundles"),
@@ -330,14 +348,7 @@ pub fn run(cfg: &ServiceConfig, set: World, ready: impl FnOnce(&str)) -> Result<
             stop: None,
         },
     )?;
-    if let Some(store) = solver.store.as_mut() {
-        store.snapshot(&solver.set)?;
-    }
-    eprintln!(
-        "solver-service: shut down cleanly at state {} ({} snapshots written since the start)",
-        solver.set.sequence(),
-        solver.store.as_ref().map_or(0, |s| s.written())
-    );
+    solver.close()?;
     Ok(())
 }
 

@@ -1,13 +1,14 @@
 //! The same protocol over a Unix domain socket: a comparison transport for the latency bench (and for a
 //! peer that cannot map iceoryx2's shared memory). Same wire types, the service's own answer path
-//! ([`crate::serve::respond`] over a [`Solver`]), no persistence (a `snapshot` is refused), requests from
+//! ([`crate::serve::respond`] over a [`Solver`]), persistence as the solver has it (the binary's
+//! `unix` persists only into a `--state-dir` given; without, a `snapshot` is refused), requests from
 //! [`LOCAL`], one connection at a time, every wait a blocking read (the kernel wakes the server).
 //!
 //! Framing: [`shared::unix_frame`]. A request with more than [`MAX_PATH_POINTS`] points or a non-zero pad
 //! gets a `bad-point-count` (`bad-option`) response and the connection is closed: the stream cannot be
 //! trusted after it.
 
-use crate::serve::respond;
+use crate::serve::{Handler, respond};
 use crate::service::Solver;
 use shared::unix_frame::{REQUEST_PREFIX, frame_ok, split_request_prefix, write_response};
 use shared::{MAX_PATH_POINTS, ResponseHeader, Status, Vec3};
@@ -70,6 +71,8 @@ pub fn serve_connection(mut stream: UnixStream, solver: &mut Solver) -> std::io:
         stream.read_exact(bytemuck::cast_slice_mut(&mut points))?;
         let (h, _) = respond(solver, LOCAL, &header, &points, &mut elements);
         write_response(&mut stream, &mut out, &h, elements.iter().copied())?;
+        // Periodic snapshots, as the serving loop runs them between requests.
+        solver.housekeeping(std::time::Instant::now(), None);
     }
 }
 

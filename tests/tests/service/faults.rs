@@ -211,7 +211,10 @@ fn a_peer_of_another_protocol_version_is_refused_with_a_message() {
     );
 }
 
-fn wait_output(mut child: std::process::Child, timeout: Duration) -> std::process::Output {
+pub(crate) fn wait_output(
+    mut child: std::process::Child,
+    timeout: Duration,
+) -> std::process::Output {
     let deadline = Instant::now() + timeout;
     while child.try_wait().unwrap().is_none() {
         if Instant::now() > deadline {

@@ -39,6 +39,7 @@ use shared::{
     Command, FLAG_ANGLES, JOINT_HEAD, RequestHeader, Status, SubstepMode, Vec3, WireMethod,
     WireStrategy,
 };
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 use tests::{InProcess, Service, bin, unique_prefix};
 
@@ -405,6 +406,96 @@ fn batch_mode_writes_csv() {
     assert_eq!(lines.len(), 1 + 41 + 1);
     assert_eq!(lines[41], "1,1,ok,0,joint,40,40.0,5.0,0.0");
     assert!(lines[42].starts_with("2,1,unreachable,2,error"));
+}
+
+/// Batch mode and the Unix socket persist as the service does when given a state directory: a move
+/// over the socket is journaled, a batch's `snapshot` writes one, and a batch restored from the
+/// directory finds the rope where the socket left it and the batch after it moved it. Without a
+/// state directory `--restore` is refused with a message naming the option.
+#[test]
+fn batch_and_the_unix_socket_persist_into_a_state_dir() {
+    use shared::unix_frame::{read_response, write_request};
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("state");
+    let state_s = state.display().to_string();
+    let sock = dir.path().join("s.sock");
+    // The socket: one connection, one move of the rope's head, then the server ends.
+    let mut server = std::process::Command::new(bin("solver-service"))
+        .args([
+            "--state-dir",
+            &state_s,
+            "unix",
+            "--connections",
+            "1",
+            "--socket",
+        ])
+        .arg(&sock)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut ready = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(server.stdout.take().unwrap()),
+        &mut ready,
+    )
+    .unwrap();
+    assert!(ready.contains("unix socket"), "{ready}");
+    let mut stream = std::os::unix::net::UnixStream::connect(&sock).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
+    let mut h = RequestHeader::new(Command::Move, 0);
+    h.joint = shared::JOINT_HEAD;
+    let (mut buf, mut got) = (Vec::new(), Vec::new());
+    write_request(&mut stream, &mut buf, &h, &[Vec3::new(39.0, 4.0, 0.0)]).unwrap();
+    let r = read_response(&mut stream, &mut got).unwrap();
+    assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
+    drop(stream);
+    let out = crate::faults::wait_output(server, Duration::from_secs(60));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let batch = |args: &[&str], requests: &str| {
+        let input = dir.path().join("r.jsonl");
+        std::fs::write(&input, requests).unwrap();
+        let out = std::process::Command::new(bin("solver-service"))
+            .args(args)
+            .args(["batch", "--format", "csv", "--requests"])
+            .arg(&input)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    // Restored: the head where the socket moved it; then moved on and snapshotted.
+    let (code, csv, err) = batch(
+        &["--state-dir", &state_s, "--restore"],
+        "{\"cmd\":\"query\",\"chain\":\"rope\"}\n\
+         {\"cmd\":\"move\",\"chain\":\"rope\",\"target\":[38,5,0]}\n\
+         {\"cmd\":\"snapshot\"}\n",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(csv.contains("1,1,ok,0,joint,40,39.0,4.0,0.0"), "{csv}");
+    assert!(csv.contains("2,2,ok,0,joint,40,38.0,5.0,0.0"), "{csv}");
+    // The snapshot was written: a refused request would exit 1 and write an error row.
+    assert!(!csv.lines().any(|l| l.starts_with("3,")), "{csv}");
+    let (code, csv, err) = batch(
+        &["--state-dir", &state_s, "--restore"],
+        "{\"cmd\":\"query\",\"chain\":\"rope\"}\n",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(csv.contains("1,2,ok,0,joint,40,38.0,5.0,0.0"), "{csv}");
+    // No state directory: nothing to restore from.
+    let (code, _, err) = batch(&["--restore"], "{\"cmd\":\"query\",\"chain\":\"rope\"}\n");
+    assert_eq!(code, Some(1));
+    assert!(err.contains("--restore needs --state-dir"), "{err}");
 }
 
 /// Issue 35: `check` refuses what a start refuses, with the file and the line: here a chain whose
