@@ -296,16 +296,29 @@ fn ranged_reach() {
             |c, t| reach_dls_ranges(c, t, &opts, handling_or_none).map(|o| o.iterations),
         );
     }
-    for (name, strategy) in [
-        ("translate-back", Strategy::TranslateBack),
-        ("pull-back", Strategy::PullBack),
-        ("two-link", Strategy::TractrixTwoLink),
+    for (name, strategy, hierarchy_after) in [
+        ("translate-back", Strategy::TranslateBack, None),
+        (
+            "translate-back, hierarchy after 8",
+            Strategy::TranslateBack,
+            Some(8),
+        ),
+        (
+            "translate-back, hierarchy after 4",
+            Strategy::TranslateBack,
+            Some(4),
+        ),
+        ("pull-back", Strategy::PullBack, None),
+        ("two-link", Strategy::TractrixTwoLink, None),
     ] {
         for limited in [false, true] {
-            let opts = ReachOptions {
+            let mut opts = ReachOptions {
                 strategy,
                 ..ReachOptions::default()
             };
+            if let Some(h) = hierarchy_after {
+                opts.hierarchy_after = h;
+            }
             let mut ws = ReachWorkspace::default();
             solve_all(name, limited, arm(limited), &targets, |c, t| {
                 reach(c, t, &opts, &mut ws).map(|o| o.iterations)
