@@ -22,6 +22,8 @@
 //! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a hash grid), in query,
 //!   grid and resolve modules.
 //! * [`fixed_base`]: fixed-base manipulators, both of the paper's strategies, workspace checks.
+//! * [`goals`]: Korein & Badler's goals beyond a point for a fixed-base chain: an orientation of the
+//!   last link, a box or a ball for the head.
 //! * [`hold`]: moves with held joints (anchors, grasps): each side up to a held joint solved as a
 //!   fixed-base chain.
 //! * [`limits`]: joint limits (cones, planar ranges, a rope's minimum bend radius), honoured link by
@@ -46,6 +48,7 @@ pub mod boundary;
 pub mod chain;
 pub mod collision;
 pub mod fixed_base;
+pub mod goals;
 #[cfg(feature = "reference")]
 pub mod ground_truth;
 pub mod hold;
@@ -59,6 +62,7 @@ pub mod strands;
 
 pub use chain::{Chain, ChainError, MoveOptions, MoveOutcome, Substeps};
 pub use fixed_base::{ReachError, ReachOptions, ReachOutcome, ReachWorkspace, Strategy, reach};
+pub use goals::{Goal, reach_goal};
 pub use limits::{JointLimits, LimitError, LimitKind};
 pub use link::{LinkStep, Method};
 pub use math::{Real, Vector};
