@@ -38,6 +38,9 @@ MAX_PATH_POINTS = 4096
 FLAG_ANGLES = 1
 FLAG_POSE = 2
 FLAG_TAKE_OVER = 4
+FLAG_ORIENT = 8  # reach: (head target, direction of the last link)
+FLAG_IN_BOX = 16  # reach: (corner lo, corner hi); no motion inside
+FLAG_IN_BALL = 32  # reach: (centre, (radius, 0, 0)); no motion inside
 KIND = ["free", "fixed-base", "bundle"]
 
 CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
@@ -327,9 +330,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("chain")
     p.add_argument("points", nargs="+", help="x,y,z")
     p.add_argument("--joint", type=int, default=JOINT_HEAD)
-    r = sub.add_parser("reach", help="bring a fixed-base chain's head to x y z")
+    r = sub.add_parser("reach", help="bring a fixed-base chain's head to x y z (with a goal: the last "
+                                     "link along --direction, or anywhere within --within of x y z)")
     r.add_argument("chain")
     r.add_argument("xyz", type=float, nargs=3)
+    goal = r.add_mutually_exclusive_group()
+    goal.add_argument("--direction", type=float, nargs=3, help="the last link's direction")
+    goal.add_argument("--within", type=float, help="a ball goal: the head within this of x y z")
+    goal.add_argument("--box", type=float, nargs=3, metavar="HI",
+                      help="a box goal from x y z (its smallest corner) to HI")
     for name, what in (("query", "print a chain's joints"), ("reset", "back to the scene's state"),
                        ("describe", "the chain's description and joints")):
         q = sub.add_parser(name, help=what)
@@ -363,7 +372,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             pts = [tuple(float(x) for x in s.split(",")) for s in a.points]
             h, elements = client.call("path", chain, pts, joint=a.joint)
         elif a.cmd == "reach":
-            h, elements = client.call("reach", chain, [tuple(a.xyz)])
+            if a.direction:
+                h, elements = client.call("reach", chain, [tuple(a.xyz), tuple(a.direction)],
+                                          flags=FLAG_ORIENT)
+            elif a.within is not None:
+                h, elements = client.call("reach", chain, [tuple(a.xyz), (a.within, 0.0, 0.0)],
+                                          flags=FLAG_IN_BALL)
+            elif a.box:
+                h, elements = client.call("reach", chain, [tuple(a.xyz), tuple(a.box)],
+                                          flags=FLAG_IN_BOX)
+            else:
+                h, elements = client.call("reach", chain, [tuple(a.xyz)])
         elif a.cmd in ("grasp", "release"):
             h, elements = client.call(a.cmd, chain, joint=a.joint)
         elif a.cmd == "bench":

@@ -57,6 +57,12 @@
 #define TRACTRIX_FLAG_POSE 2u
 /* Grasp, release, move, path, reset: take over the grasps of other clients the request touches. */
 #define TRACTRIX_FLAG_TAKE_OVER 4u
+/* Reach: an orientation goal, points (head target, direction of the last link). */
+#define TRACTRIX_FLAG_ORIENT 8u
+/* Reach: a box goal, points (corner of smallest coordinates, corner of largest); no motion inside. */
+#define TRACTRIX_FLAG_IN_BOX 16u
+/* Reach: a ball goal, points (centre, (radius, 0, 0)); no motion inside. */
+#define TRACTRIX_FLAG_IN_BALL 32u
 #define TRACTRIX_MAX_BUNDLE_JOINTS 1048576u
 #define TRACTRIX_MAX_BUNDLE_STRANDS 131072u
 #define TRACTRIX_BUNDLE_STATE_BUFFER 2u

@@ -73,6 +73,12 @@ int tractrix_client_path(tractrix_client *client, uint32_t chain, uint32_t joint
 /* A fixed-base chain's head to `target`; the distance left in *residual (may be NULL). */
 int tractrix_client_reach(tractrix_client *client, uint32_t chain, tractrix_Vec3 target, tractrix_Vec3 *joints,
                           size_t capacity, size_t *n_joints, double *residual);
+/* A fixed-base chain's head to a goal: goal TRACTRIX_FLAG_ORIENT (a: the head's target, b: the last link's
+ * direction), TRACTRIX_FLAG_IN_BOX (a, b: the smallest and largest corners) or TRACTRIX_FLAG_IN_BALL (a: the
+ * centre, b.x: the radius); 0: the point a. The distance left in *residual (may be NULL). */
+int tractrix_client_reach_goal(tractrix_client *client, uint32_t chain, uint32_t goal, tractrix_Vec3 a,
+                               tractrix_Vec3 b, tractrix_Vec3 *joints, size_t capacity, size_t *n_joints,
+                               double *residual);
 /* The chain's current joints. */
 int tractrix_client_query(tractrix_client *client, uint32_t chain, tractrix_Vec3 *joints, size_t capacity,
                           size_t *n_joints);

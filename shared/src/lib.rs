@@ -238,6 +238,15 @@ pub const FLAG_POSE: u32 = 2;
 /// the request touches (without it such a request is refused with [`Status::Held`]). Anchors are the
 /// scene's and are never taken over.
 pub const FLAG_TAKE_OVER: u32 = 4;
+/// Flag (reach): an orientation goal, two points: where the head goes, then the direction of the last
+/// link (any non-zero length). The rest of the chain reaches the last link's base joint.
+pub const FLAG_ORIENT: u32 = 8;
+/// Flag (reach): a box goal, two points, the corners of smallest and largest coordinates: the head
+/// anywhere inside (no motion when it already is).
+pub const FLAG_IN_BOX: u32 = 16;
+/// Flag (reach): a ball goal, two points, the centre then `(radius, 0, 0)`: the head within the radius
+/// of the centre (no motion when it already is).
+pub const FLAG_IN_BALL: u32 = 32;
 
 /// Most joints (strands × (links + 1)) of one bundle: 24 MiB per state sample in `Vec3`s.
 pub const MAX_BUNDLE_JOINTS: u32 = 1 << 20;

@@ -19,9 +19,9 @@
 //! rigid motion `R(rotation)·h0 + target`. Unknown fields are an error.
 
 use crate::{
-    Command, FLAG_ANGLES, FLAG_POSE, FLAG_TAKE_OVER, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS,
-    Parts, Precision, RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod,
-    WireStrategy,
+    Command, FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_TAKE_OVER,
+    InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision, RequestHeader, ResponseHeader,
+    Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use serde::{Deserialize, Serialize};
 
@@ -60,6 +60,16 @@ pub struct TextRequest {
     /// A bundle's pose move: the heads' rotation vector (`target` is then the translation).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rotation: Option<Vec<f64>>,
+    /// A reach's orientation goal: the direction of the last link ([`crate::FLAG_ORIENT`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub direction: Option<Vec<f64>>,
+    /// A reach's ball goal: the head within this distance of `target` ([`crate::FLAG_IN_BALL`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub within: Option<f64>,
+    /// A reach's box goal: the corners of smallest and largest coordinates, no `target`
+    /// ([`crate::FLAG_IN_BOX`]).
+    #[serde(default, rename = "box", skip_serializing_if = "Option::is_none")]
+    pub in_box: Option<Vec<Vec<f64>>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -210,7 +220,45 @@ impl TextRequest {
             h.flags |= FLAG_TAKE_OVER;
         }
         h.request_id = self.request_id.unwrap_or(0);
+        let goals = [
+            self.direction.is_some(),
+            self.within.is_some(),
+            self.in_box.is_some(),
+        ];
+        if goals.iter().any(|&g| g) && command != Command::Reach {
+            return Err(format!(
+                "{}: `direction`, `within` and `box` are goals of a reach",
+                self.cmd
+            ));
+        }
+        if goals.iter().filter(|&&g| g).count() > 1 {
+            return Err("reach: one goal at a time: `direction`, `within` or `box`".into());
+        }
         let points = match command {
+            Command::Reach if self.in_box.is_some() => {
+                if self.target.is_some() {
+                    return Err("reach: a `box` goal takes no `target`".into());
+                }
+                h.flags |= FLAG_IN_BOX;
+                match self.in_box.as_deref() {
+                    Some([lo, hi]) => vec![parse_point(lo)?, parse_point(hi)?],
+                    _ => return Err("reach: `box` is two corners, [[lo...], [hi...]]".into()),
+                }
+            }
+            Command::Reach if self.direction.is_some() || self.within.is_some() => {
+                let t = self
+                    .target
+                    .as_ref()
+                    .ok_or_else(|| "reach: field `target` is missing".to_string())?;
+                if let Some(d) = &self.direction {
+                    h.flags |= FLAG_ORIENT;
+                    vec![parse_point(t)?, parse_point(d)?]
+                } else {
+                    h.flags |= FLAG_IN_BALL;
+                    let r = self.within.expect("checked");
+                    vec![parse_point(t)?, Vec3::new(r, 0.0, 0.0)]
+                }
+            }
             Command::Move | Command::Reach => {
                 let t = self
                     .target
@@ -375,6 +423,47 @@ mod tests {
         let (h, p) = r.to_wire(&|_| None).expect("valid request");
         assert_eq!(h.flags, FLAG_POSE);
         assert_eq!(p, vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.0, 0.0, 0.5)]);
+    }
+
+    #[test]
+    fn reach_goals_map_onto_flags_and_points() {
+        let parse = |text: &str| {
+            serde_json::from_str::<TextRequest>(text)
+                .unwrap()
+                .to_wire(&|_| Some(2))
+        };
+        let (h, p) =
+            parse(r#"{"cmd":"reach","chain":"arm","target":[1,0.5],"direction":[0,1]}"#).unwrap();
+        assert_eq!(h.flags, FLAG_ORIENT);
+        assert_eq!(p, vec![Vec3::new(1.0, 0.5, 0.0), Vec3::new(0.0, 1.0, 0.0)]);
+        let (h, p) =
+            parse(r#"{"cmd":"reach","chain":"arm","target":[1,0.5],"within":0.1}"#).unwrap();
+        assert_eq!(h.flags, FLAG_IN_BALL);
+        assert_eq!(p, vec![Vec3::new(1.0, 0.5, 0.0), Vec3::new(0.1, 0.0, 0.0)]);
+        let (h, p) = parse(r#"{"cmd":"reach","chain":"arm","box":[[0,0],[1,2]]}"#).unwrap();
+        assert_eq!(h.flags, FLAG_IN_BOX);
+        assert_eq!(p, vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 2.0, 0.0)]);
+        for (bad, says) in [
+            (
+                r#"{"cmd":"move","chain":"arm","target":[1,0],"within":0.1}"#,
+                "goals of a reach",
+            ),
+            (
+                r#"{"cmd":"reach","chain":"arm","target":[1,0],"within":0.1,"direction":[1,0]}"#,
+                "one goal at a time",
+            ),
+            (
+                r#"{"cmd":"reach","chain":"arm","target":[1,0],"box":[[0,0],[1,1]]}"#,
+                "no `target`",
+            ),
+            (
+                r#"{"cmd":"reach","chain":"arm","box":[[0,0]]}"#,
+                "two corners",
+            ),
+        ] {
+            let e = parse(bad).unwrap_err();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -383,6 +383,57 @@ fn every_error_leaves_the_state_unchanged() {
             "point 1",
         ),
         (
+            "a goal flag on a move",
+            with(Move, 0, &|h| h.flags = shared::FLAG_ORIENT),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "are for reach",
+        ),
+        (
+            "two goal flags",
+            with(Reach, 2, &|h| {
+                h.flags = shared::FLAG_IN_BOX | shared::FLAG_IN_BALL
+            }),
+            vec![Vec3::new(0.5, 0.5, 0.), Vec3::new(1., 1., 0.)],
+            Status::BadOption,
+            "exclusive",
+        ),
+        (
+            "an orientation goal with one point",
+            with(Reach, 2, &|h| h.flags = shared::FLAG_ORIENT),
+            p(1., 1., 0.),
+            Status::BadPointCount,
+            "2..=2",
+        ),
+        (
+            "an orientation goal with no direction",
+            with(Reach, 2, &|h| h.flags = shared::FLAG_ORIENT),
+            vec![Vec3::new(1., 1., 0.), Vec3::new(0., 0., 0.)],
+            Status::BadOption,
+            "zero length",
+        ),
+        (
+            "a box with its corners swapped",
+            with(Reach, 2, &|h| h.flags = shared::FLAG_IN_BOX),
+            vec![Vec3::new(1., 1., 0.), Vec3::new(0.5, 0.5, 0.)],
+            Status::BadOption,
+            "smallest coordinates",
+        ),
+        (
+            "a ball of radius 0",
+            with(Reach, 2, &|h| h.flags = shared::FLAG_IN_BALL),
+            vec![Vec3::new(1., 1., 0.), Vec3::new(0., 0., 0.)],
+            Status::BadOption,
+            "positive radius",
+        ),
+        (
+            "a ball out of reach",
+            with(Reach, 2, &|h| h.flags = shared::FLAG_IN_BALL),
+            vec![Vec3::new(5., 0., 0.), Vec3::new(1., 0., 0.)],
+            Status::Unreachable,
+            "nearest",
+        ),
+        (
             "NaN reach target",
             req(Reach, 2),
             p(f64::NAN, 0., 0.),
@@ -541,4 +592,60 @@ fn every_error_leaves_the_state_unchanged() {
             assert!(seen.contains(&(s as u32)), "no case for {s:?}");
         }
     }
+}
+
+/// Korein & Badler's goals at the wire's door, on the default scene's arm (10 links of 0.2, planar):
+/// an orientation goal puts the head there with the last link along the direction; a region the
+/// head lies in moves nothing; a head outside a box or a ball ends inside. Every check computed here
+/// from the response's joints.
+#[test]
+fn reach_goals_beyond_a_point() {
+    let mut door = Door::new();
+    let goal = |flags: u32, points: &[Vec3]| {
+        let mut h = req(Command::Reach, 2);
+        h.flags = flags;
+        (h, points.to_vec())
+    };
+    // Orientation: head at (1.1, 0.8), last link pointing along (0, -1).
+    let (h, pts) = goal(
+        shared::FLAG_ORIENT,
+        &[Vec3::new(1.1, 0.8, 0.0), Vec3::new(0.0, -2.0, 0.0)],
+    );
+    let (r, joints) = door.call(&h, &pts);
+    assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
+    let (head, wrist) = (joints[10], joints[9]);
+    let miss = ((head.x - 1.1).powi(2) + (head.y - 0.8).powi(2)).sqrt();
+    assert!(miss <= 2e-9 * 2.0, "{miss}");
+    let (dx, dy) = (head.x - wrist.x, head.y - wrist.y);
+    assert!(dx.abs() < 1e-12 && (dy + 0.2).abs() < 1e-12, "{dx} {dy}");
+    assert!((r.residual - miss).abs() < 1e-15, "{} {miss}", r.residual);
+    // A box around the head: nothing moves (the same joints, bit for bit).
+    let lo = Vec3::new(head.x - 0.1, head.y - 0.1, 0.0);
+    let hi = Vec3::new(head.x + 0.1, head.y + 0.1, 0.0);
+    let (h, pts) = goal(shared::FLAG_IN_BOX, &[lo, hi]);
+    let (r, still) = door.call(&h, &pts);
+    assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
+    assert_eq!((r.iterations, r.residual), (0, 0.0));
+    assert_eq!(still[..11], joints[..11]);
+    // A box away from it: the head ends inside.
+    let (h, pts) = goal(
+        shared::FLAG_IN_BOX,
+        &[Vec3::new(-0.6, 0.9, 0.0), Vec3::new(-0.2, 1.3, 0.0)],
+    );
+    let (r, moved) = door.call(&h, &pts);
+    assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
+    let h10 = moved[10];
+    assert!(
+        (-0.6..=-0.2).contains(&h10.x) && (0.9..=1.3).contains(&h10.y),
+        "{h10:?}"
+    );
+    // A ball: within its radius.
+    let (h, pts) = goal(
+        shared::FLAG_IN_BALL,
+        &[Vec3::new(1.5, -0.5, 0.0), Vec3::new(0.1, 0.0, 0.0)],
+    );
+    let (r, moved) = door.call(&h, &pts);
+    assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
+    let d = ((moved[10].x - 1.5).powi(2) + (moved[10].y + 0.5).powi(2)).sqrt();
+    assert!(d <= 0.1, "{d}");
 }

@@ -68,6 +68,18 @@ int main(int argc, char **argv) {
     while (tractrix_stream_next(stream, on_state, &last) == 1) states++;
     printf("streamed %d states, the last %" PRIu64 "\n", states, last);
     tractrix_stream_close(stream);
+    /* The arm's head at (1.1, 0.8) with its last link pointing down (Korein & Badler's orientation goal). */
+    uint32_t arm;
+    tractrix_Vec3 arm_joints[16];
+    size_t na = 0;
+    tractrix_Vec3 at = {1.1, 0.8, 0.0}, down = {0.0, -1.0, 0.0};
+    if (tractrix_client_find_chain(c, "arm", &arm) != 0 ||
+        tractrix_client_reach_goal(c, arm, TRACTRIX_FLAG_ORIENT, at, down, arm_joints, 16, &na, NULL) != 0) {
+        fprintf(stderr, "reach goal: %s\n", tractrix_client_error(c));
+        return 1;
+    }
+    printf("arm pose: last link %.6f %.6f\n", arm_joints[na - 1].x - arm_joints[na - 2].x,
+           arm_joints[na - 1].y - arm_joints[na - 2].y);
     for (size_t i = 0; i < n; i++)
         printf("joint %zu %016" PRIx64 " %016" PRIx64 " %016" PRIx64 "\n", i, bits(joints[i].x),
                bits(joints[i].y), bits(joints[i].z));

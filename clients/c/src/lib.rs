@@ -539,6 +539,47 @@ pub unsafe extern "C" fn tractrix_client_reach(
     })
 }
 
+/// A fixed-base chain's head to a goal beyond a point (Korein & Badler): `goal` is
+/// `TRACTRIX_FLAG_ORIENT` (`a` where the head goes, `b` the last link's direction),
+/// `TRACTRIX_FLAG_IN_BOX` (`a`, `b` the corners of smallest and largest coordinates) or
+/// `TRACTRIX_FLAG_IN_BALL` (`a` the centre, `b.x` the radius); 0 is a point goal at `a`. The distance
+/// left is written to `*residual` (may be null).
+///
+/// # Safety
+///
+/// Every pointer is null or valid as `tractrix_client.h` says (handles from the matching `open` and
+/// not yet closed; buffers valid for their stated capacity; strings NUL-terminated).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn tractrix_client_reach_goal(
+    client: *mut TractrixClient,
+    chain: u32,
+    goal: u32,
+    a: Vec3,
+    b: Vec3,
+    joints: *mut Vec3,
+    capacity: usize,
+    n_joints: *mut usize,
+    residual: *mut f64,
+) -> c_int {
+    with_client(client, |conn| {
+        let mut h = RequestHeader::new(Command::Reach, chain);
+        h.flags = goal;
+        let ball = [a, Vec3::new(b.x, 0.0, 0.0)];
+        let points: &[Vec3] = match goal {
+            0 => &[a],
+            shared::FLAG_IN_BALL => &ball,
+            _ => &[a, b],
+        };
+        request(conn, h, points, |rh, p| {
+            if !residual.is_null() {
+                // SAFETY: non-null; by contract a writable double.
+                unsafe { residual.write(rh.residual) };
+            }
+            copy_joints(rh, p, joints, capacity, n_joints)
+        })
+    })
+}
+
 /// The chain's current joints.
 ///
 /// # Safety

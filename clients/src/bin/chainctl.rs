@@ -62,6 +62,17 @@ struct Args {
     /// then the translation.
     #[arg(long)]
     rotation: Option<String>,
+    /// Reach: an orientation goal, the last link's direction x,y or x,y,z (`--target` is where the head
+    /// goes).
+    #[arg(long)]
+    direction: Option<String>,
+    /// Reach: a ball goal, the head within this distance of `--target` (no motion when it already is).
+    #[arg(long)]
+    within: Option<f64>,
+    /// Reach: a box goal, its two corners "x,y[,z] x,y[,z]" (smallest, largest), no `--target` (no
+    /// motion when the head is already inside).
+    #[arg(long = "box", value_name = "LO HI")]
+    in_box: Option<String>,
     /// Path points: space-separated groups, each x,y or x,y,z.
     #[arg(long)]
     path: Option<String>,
@@ -282,6 +293,13 @@ fn run(a: Args) -> Result<u8> {
         target: a.target.as_deref().map(point).transpose()?,
         axis: a.axis.as_deref().map(point).transpose()?,
         rotation: a.rotation.as_deref().map(point).transpose()?,
+        direction: a.direction.as_deref().map(point).transpose()?,
+        within: a.within,
+        in_box: a
+            .in_box
+            .as_deref()
+            .map(|p| p.split_whitespace().map(point).collect::<Result<Vec<_>>>())
+            .transpose()?,
         path: a
             .path
             .as_deref()

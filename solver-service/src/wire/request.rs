@@ -7,8 +7,9 @@
 //! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
 
 use shared::{
-    FLAG_ANGLES, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader,
-    ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+    FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_TAKE_OVER, JOINT_HEAD,
+    MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader, Status, SubstepMode, Vec3,
+    WireMethod, WireStrategy,
 };
 use tractrix::{Method, MoveOptions, ReachOptions, Strategy, Substeps};
 use world::scene::{ChainKind, ChainSpec};
@@ -17,7 +18,7 @@ use world::scene::{ChainKind, ChainSpec};
 pub const MAX_REACH_ITERATIONS: u32 = 100_000;
 
 use crate::wire::header::{Checked, check_header};
-use world::command::{Answer, Command, Point, Residual};
+use world::command::{Answer, Command, Goal, Point, Residual};
 use world::refusal::Refusal;
 use world::refuse;
 
@@ -77,7 +78,24 @@ pub fn decode<'a>(
         precision,
         substep_mode,
         strategy,
-    } = check_header(h, FLAG_ANGLES | FLAG_TAKE_OVER)?;
+    } = check_header(
+        h,
+        FLAG_ANGLES | FLAG_TAKE_OVER | FLAG_ORIENT | FLAG_IN_BOX | FLAG_IN_BALL,
+    )?;
+    let goal_flags = h.flags & (FLAG_ORIENT | FLAG_IN_BOX | FLAG_IN_BALL);
+    if goal_flags != 0 && command != shared::Command::Reach {
+        return Err(refuse!(
+            BadOption,
+            "flags orient (8), in-box (16) and in-ball (32) are for reach, not {}",
+            command.name()
+        ));
+    }
+    if goal_flags.count_ones() > 1 {
+        return Err(refuse!(
+            BadOption,
+            "one goal at a time: flags orient (8), in-box (16) and in-ball (32) are exclusive"
+        ));
+    }
     let take_over = h.flags & FLAG_TAKE_OVER != 0;
     if take_over
         && !matches!(
@@ -96,6 +114,7 @@ pub fn decode<'a>(
         ));
     }
     let expected = match command {
+        shared::Command::Reach if goal_flags != 0 => 2..=2,
         shared::Command::Move | shared::Command::Reach => 1..=1,
         shared::Command::Path => 1..=MAX_PATH_POINTS as usize,
         shared::Command::Instrument => 1..=2,
@@ -397,7 +416,7 @@ fn reach<'a>(
     };
     Ok(Command::Reach {
         chain,
-        target: points[0],
+        goal: goal(h.flags, points)?,
         options: ReachOptions {
             strategy: strategy_from_wire(strategy).unwrap_or(spec.reach.strategy),
             method: method.unwrap_or(spec.reach.method),
@@ -407,6 +426,47 @@ fn reach<'a>(
             hierarchy_after: spec.reach.hierarchy_after,
         },
         angles,
+    })
+}
+
+/// A reach's goal from its flags and its points (their count checked): a point, or with
+/// [`FLAG_ORIENT`] a point and a direction, [`FLAG_IN_BOX`] two corners, [`FLAG_IN_BALL`] a centre
+/// and `(radius, 0, 0)`.
+fn goal(flags: u32, points: &[Point]) -> Result<Goal, Refusal> {
+    Ok(if flags & FLAG_ORIENT != 0 {
+        if points[1].norm() == 0.0 {
+            return Err(refuse!(
+                BadOption,
+                "orient: the direction (point 1) has zero length"
+            ));
+        }
+        Goal::Pose {
+            at: points[0],
+            direction: points[1],
+        }
+    } else if flags & FLAG_IN_BOX != 0 {
+        let (lo, hi) = (points[0], points[1]);
+        if (0..3).any(|i| lo[i] > hi[i]) {
+            return Err(refuse!(
+                BadOption,
+                "in-box: point 0 is the corner of smallest coordinates, point 1 the largest"
+            ));
+        }
+        Goal::Box { lo, hi }
+    } else if flags & FLAG_IN_BALL != 0 {
+        let r = points[1];
+        if !(r.x > 0.0 && r.y == 0.0 && r.z == 0.0) {
+            return Err(refuse!(
+                BadOption,
+                "in-ball: point 1 is (radius, 0, 0) with a positive radius"
+            ));
+        }
+        Goal::Ball {
+            centre: points[0],
+            radius: r.x,
+        }
+    } else {
+        Goal::Point(points[0])
     })
 }
 

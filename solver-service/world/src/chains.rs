@@ -476,11 +476,11 @@ impl World {
                 };
             }),
             Command::Reach {
-                target,
+                ref goal,
                 ref options,
                 angles,
                 ..
-            } => each_form!(&mut *g, h => reach_with_holds(h, target, options)).map(|(it, res)| {
+            } => each_form!(&mut *g, h => reach_with_holds(h, goal, options)).map(|(it, res)| {
                 outcome.iterations = it;
                 outcome.residual = Residual::Known(res);
                 outcome.angles = if angles { n_links } else { 0 };

@@ -8,6 +8,9 @@ use tractrix::{MoveOptions, ReachOptions};
 /// A point or vector in the world's coordinates (planar chains: `z = 0`).
 pub type Point = nalgebra::Vector3<f64>;
 
+/// A fixed-base reach's goal (Korein & Badler's point, orientation and region goals: [`tractrix::goals`]).
+pub type Goal = tractrix::Goal<f64, 3>;
+
 /// A command: everything checked and resolved, ready for the kernel.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command<'a> {
@@ -25,12 +28,13 @@ pub enum Command<'a> {
         /// (the wire's `FLAG_TAKE_OVER`).
         take_over: bool,
     },
-    /// Bring a fixed-base chain's head to `target`.
+    /// Bring a fixed-base chain's head to its goal: a point, a pose of the last link, or anywhere in a
+    /// region.
     Reach {
         /// Chain handle.
         chain: u32,
-        /// The target.
-        target: Point,
+        /// The goal, its points checked (finite, in the chain's plane).
+        goal: Goal,
         /// Strategy, method, tolerance and limits, defaults resolved.
         options: ReachOptions<f64>,
         /// Append joint rotations to the response.

@@ -2,13 +2,13 @@
 //! instruments carried by the joint they follow or pushed to a new pose, a fixed-base reach. A chain
 //! may be left moved on a refusal: [`crate::World::apply`] restores it.
 
-use crate::command::Point;
+use crate::command::{Goal, Point};
 use crate::form::{LiveChain, point};
 use crate::refusal::Refusal;
 use nalgebra::Vector3;
 use tractrix::collision::{Obstacle, move_joint_colliding};
 use tractrix::math::{Embed3, Real, Vector};
-use tractrix::{ChainError, MoveOptions, MoveOutcome, ReachOptions, reach};
+use tractrix::{ChainError, MoveOptions, MoveOutcome, ReachOptions, reach_goal};
 
 /// The instrument `from` moved to `centre` (and, for a capsule, turned to `axis`), its size kept.
 fn instrument_pose<T: Real, const D: usize>(
@@ -216,13 +216,35 @@ where
 /// A reach on one fixed-base chain: iterations and residual.
 pub(crate) fn reach_with_holds<T: Real, const D: usize>(
     g: &mut LiveChain<T, D>,
-    target: Point,
+    goal: &Goal,
     opts: &ReachOptions<f64>,
 ) -> Result<(u32, f64), Refusal>
 where
     Vector<T, D>: Embed3<T>,
 {
-    let t: Vector<T, D> = point(target);
+    let p = |q: &Point| -> Result<Vector<T, D>, Refusal> {
+        let v: Vector<T, D> = point(*q);
+        if tractrix::math::all_finite(&v) {
+            Ok(v)
+        } else {
+            Err(ChainError::NonFinite.into())
+        }
+    };
+    let goal: tractrix::Goal<T, D> = match goal {
+        Goal::Point(q) => tractrix::Goal::Point(p(q)?),
+        Goal::Pose { at, direction } => tractrix::Goal::Pose {
+            at: p(at)?,
+            direction: p(direction)?,
+        },
+        Goal::Box { lo, hi } => tractrix::Goal::Box {
+            lo: p(lo)?,
+            hi: p(hi)?,
+        },
+        Goal::Ball { centre, radius } => tractrix::Goal::Ball {
+            centre: p(centre)?,
+            radius: T::lit(*radius),
+        },
+    };
     let opts = ReachOptions::<T> {
         strategy: opts.strategy,
         method: opts.method,
@@ -231,9 +253,6 @@ where
         max_iterations: opts.max_iterations,
         hierarchy_after: opts.hierarchy_after,
     };
-    if !tractrix::math::all_finite(&t) {
-        return Err(ChainError::NonFinite.into());
-    }
-    let o = reach(&mut g.chain, &t, &opts, &mut g.ws)?;
+    let o = reach_goal(&mut g.chain, &goal, &opts, &mut g.ws)?;
     Ok((o.iterations, o.residual.to_f64()))
 }

@@ -119,7 +119,7 @@ proptest! {
                     max_substeps: moves.max_substeps,
                 },
                 Op::Reset => Command::Reset { chain: 0, take_over: false },
-                Op::Reach(t) => Command::Reach { chain: 1, target: Point::new(t[0], t[1], 0.0), options: reach, angles: false },
+                Op::Reach(t) => Command::Reach { chain: 1, goal: world::command::Goal::Point(Point::new(t[0], t[1], 0.0)), options: reach, angles: false },
                 Op::Hair(d) => {
                     heads = (0..9).map(|i| {
                         let h = before[2][i * 5 + 4];

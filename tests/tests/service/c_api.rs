@@ -174,6 +174,10 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
     // A NaN target: the service's status (non-finite = 4) and its reason.
     assert!(text.contains("refused: 4 non-finite:"), "{text}");
     assert!(text.contains("small buffer: -7, needs 41"), "{text}");
+    assert!(
+        text.contains("arm pose: last link 0.000000 -0.200000"),
+        "{text}"
+    );
     let c_joints = printed_joints(&text);
     assert_eq!(c_joints.len(), 41);
     assert_eq!(c_joints, rust_joints(&svc), "C read other joints than Rust");

@@ -152,6 +152,26 @@ fn the_installed_python_package_has_chainctl_s_commands() {
         serde_json::json!([40.0, 0.0, 0.0])
     );
     assert_eq!(run(&["query", "rope"])["sequence"], 5);
+    // Korein & Badler's goals: the last link along (0, -1, 0), then a ball around the head it reached
+    // (nothing moves).
+    let o = run(&[
+        "reach",
+        "arm",
+        "1.1",
+        "0.8",
+        "0",
+        "--direction",
+        "0",
+        "-1",
+        "0",
+    ]);
+    let j: Vec<Vec<f64>> = serde_json::from_value(o["joints"].clone()).unwrap();
+    assert!(
+        (j[10][0] - j[9][0]).abs() < 1e-12 && (j[10][1] - j[9][1] + 0.2).abs() < 1e-12,
+        "{o}"
+    );
+    let w = run(&["reach", "arm", "1.1", "0.8", "0", "--within", "0.5"]);
+    assert_eq!(w["joints"], o["joints"], "a head within the ball stays");
     let out = Process::new(&py)
         .args([
             "-c",
