@@ -109,6 +109,8 @@ block knots-bend "KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS=4 cargo bench -p client
   env KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-4}" cargo bench -q -p clients --bench knots
 block limits "cargo bench -p tractrix --bench limits" \
   cargo bench -q -p tractrix --bench limits
+block goals "cargo bench -p tractrix --bench goals" \
+  cargo bench -q -p tractrix --bench goals
 block sweep-knots "scripts/sweep-bench.sh knots" \
   scripts/sweep-bench.sh knots
 block sweep-accuracy "scripts/sweep-bench.sh accuracy" \
