@@ -28,6 +28,7 @@
 //!   fixed-base chain.
 //! * [`limits`]: joint limits (cones, planar ranges, a rope's minimum bend radius), honoured link by
 //!   link as a sweep runs.
+//! * [`path`]: smooth key-frame paths (a natural cubic spline through key points, C² everywhere).
 //! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
 //! * [`angles`]: joint angles (eq. 15, relative rotations).
 //! * [`strands`]: many free strands at once (hair, fur, bundles), SIMD across strands, the substep
@@ -56,6 +57,7 @@ pub mod knot;
 pub mod limits;
 pub mod link;
 pub mod math;
+pub mod path;
 #[cfg(feature = "reference")]
 pub mod pseudo_inverse;
 pub mod strands;
