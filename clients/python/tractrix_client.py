@@ -41,6 +41,7 @@ FLAG_TAKE_OVER = 4
 FLAG_ORIENT = 8  # reach: (head target, direction of the last link)
 FLAG_IN_BOX = 16  # reach: (corner lo, corner hi); no motion inside
 FLAG_IN_BALL = 32  # reach: (centre, (radius, 0, 0)); no motion inside
+FLAG_SMOOTH = 64  # path: the natural cubic spline through the joint and the points (C2)
 KIND = ["free", "fixed-base", "bundle"]
 
 CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
@@ -330,6 +331,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("chain")
     p.add_argument("points", nargs="+", help="x,y,z")
     p.add_argument("--joint", type=int, default=JOINT_HEAD)
+    p.add_argument("--smooth", action="store_true",
+                   help="follow the natural cubic spline through the points (C2), not straight segments")
     r = sub.add_parser("reach", help="bring a fixed-base chain's head to x y z (with a goal: the last "
                                      "link along --direction, or anywhere within --within of x y z)")
     r.add_argument("chain")
@@ -370,7 +373,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             h, elements = client.call("move", chain, [tuple(a.xyz)], joint=a.joint)
         elif a.cmd == "path":
             pts = [tuple(float(x) for x in s.split(",")) for s in a.points]
-            h, elements = client.call("path", chain, pts, joint=a.joint)
+            h, elements = client.call("path", chain, pts, joint=a.joint,
+                                      flags=FLAG_SMOOTH if a.smooth else 0)
         elif a.cmd == "reach":
             if a.direction:
                 h, elements = client.call("reach", chain, [tuple(a.xyz), tuple(a.direction)],

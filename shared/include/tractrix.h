@@ -63,6 +63,8 @@
 #define TRACTRIX_FLAG_IN_BOX 16u
 /* Reach: a ball goal, points (centre, (radius, 0, 0)); no motion inside. */
 #define TRACTRIX_FLAG_IN_BALL 32u
+/* Path: follow the natural cubic spline through the joint and the points (C2) instead of straight segments. */
+#define TRACTRIX_FLAG_SMOOTH 64u
 #define TRACTRIX_MAX_BUNDLE_JOINTS 1048576u
 #define TRACTRIX_MAX_BUNDLE_STRANDS 131072u
 #define TRACTRIX_BUNDLE_STATE_BUFFER 2u

@@ -247,6 +247,10 @@ pub const FLAG_IN_BOX: u32 = 16;
 /// Flag (reach): a ball goal, two points, the centre then `(radius, 0, 0)`: the head within the radius
 /// of the centre (no motion when it already is).
 pub const FLAG_IN_BALL: u32 = 32;
+/// Flag (path): follow the natural cubic spline through the joint and the points (C² everywhere, Korein
+/// & Badler's smooth key frames) instead of straight segments; each segment is sampled into as many
+/// points as it has substeps.
+pub const FLAG_SMOOTH: u32 = 64;
 
 /// Most joints (strands × (links + 1)) of one bundle: 24 MiB per state sample in `Vec3`s.
 pub const MAX_BUNDLE_JOINTS: u32 = 1 << 20;

@@ -19,9 +19,9 @@
 //! rigid motion `R(rotation)·h0 + target`. Unknown fields are an error.
 
 use crate::{
-    Command, FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_TAKE_OVER,
-    InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision, RequestHeader, ResponseHeader,
-    Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+    Command, FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_SMOOTH,
+    FLAG_TAKE_OVER, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision, RequestHeader,
+    ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use serde::{Deserialize, Serialize};
 
@@ -89,6 +89,9 @@ pub struct TextRequest {
     /// Take over other clients' grasps ([`crate::FLAG_TAKE_OVER`]).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub take_over: bool,
+    /// A path along the natural cubic spline through its points ([`crate::FLAG_SMOOTH`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub smooth: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub request_id: Option<u64>,
 }
@@ -218,6 +221,12 @@ impl TextRequest {
         }
         if self.take_over {
             h.flags |= FLAG_TAKE_OVER;
+        }
+        if self.smooth {
+            if command != Command::Path {
+                return Err(format!("{}: `smooth` is for a path", self.cmd));
+            }
+            h.flags |= FLAG_SMOOTH;
         }
         h.request_id = self.request_id.unwrap_or(0);
         let goals = [

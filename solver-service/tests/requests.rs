@@ -434,6 +434,13 @@ fn every_error_leaves_the_state_unchanged() {
             "nearest",
         ),
         (
+            "smooth on a move",
+            with(Move, 0, &|h| h.flags = shared::FLAG_SMOOTH),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "is for path",
+        ),
+        (
             "NaN reach target",
             req(Reach, 2),
             p(f64::NAN, 0., 0.),
@@ -648,4 +655,116 @@ fn reach_goals_beyond_a_point() {
     assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
     let d = ((moved[10].x - 1.5).powi(2) + (moved[10].y + 0.5).powi(2)).sqrt();
     assert!(d <= 0.1, "{d}");
+}
+
+/// A natural cubic spline through `keys` by chord length, sampled `k` times per segment (the last
+/// sample of each is its end key point): written here, by dense Gaussian elimination of the
+/// continuity equations, independently of the kernel's.
+fn spline_here(keys: &[[f64; 3]], k: usize) -> Vec<[f64; 3]> {
+    let n = keys.len();
+    let dist = |a: &[f64; 3], b: &[f64; 3]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    let h: Vec<f64> = keys.windows(2).map(|w| dist(&w[0], &w[1])).collect();
+    // Unknowns: the second derivative at every key point, per coordinate; natural ends.
+    let mut m = vec![[0.0; 3]; n];
+    for c in 0..3 {
+        let mut a = vec![vec![0.0; n + 1]; n];
+        a[0][0] = 1.0;
+        a[n - 1][n - 1] = 1.0;
+        for i in 1..n - 1 {
+            a[i][i - 1] = h[i - 1];
+            a[i][i] = 2.0 * (h[i - 1] + h[i]);
+            a[i][i + 1] = h[i];
+            a[i][n] = 6.0
+                * ((keys[i + 1][c] - keys[i][c]) / h[i] - (keys[i][c] - keys[i - 1][c]) / h[i - 1]);
+        }
+        for col in 0..n {
+            let pivot = (col..n)
+                .max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))
+                .unwrap();
+            a.swap(col, pivot);
+            for row in 0..n {
+                if row != col {
+                    let f = a[row][col] / a[col][col];
+                    for j in col..=n {
+                        a[row][j] -= f * a[col][j];
+                    }
+                }
+            }
+        }
+        for i in 0..n {
+            m[i][c] = a[i][n] / a[i][i];
+        }
+    }
+    let mut out = Vec::new();
+    for i in 0..n - 1 {
+        for j in 1..=k {
+            let t = h[i] * j as f64 / k as f64;
+            let (u, v) = (h[i] - t, t);
+            let mut q = [0.0; 3];
+            for c in 0..3 {
+                q[c] = m[i][c] * u.powi(3) / (6.0 * h[i])
+                    + m[i + 1][c] * v.powi(3) / (6.0 * h[i])
+                    + (keys[i][c] / h[i] - m[i][c] * h[i] / 6.0) * u
+                    + (keys[i + 1][c] / h[i] - m[i + 1][c] * h[i] / 6.0) * v;
+            }
+            out.push(q);
+        }
+    }
+    out
+}
+
+/// A smooth path (`FLAG_SMOOTH`) moves the rope's head along the natural cubic spline through the
+/// head and the path's points: the same joints, to 1e-9, as a straight path through the spline's
+/// samples computed here (one substep each).
+#[test]
+fn a_smooth_path_follows_the_spline_through_its_points() {
+    let keys_after = [[39.0, 3.0, 0.0], [37.0, 4.0, 1.0], [36.0, 7.0, 0.5]];
+    let k = 6;
+    let mut smooth = Door::new();
+    let mut h = req(Command::Path, 0);
+    h.flags = shared::FLAG_SMOOTH;
+    h.substep_mode = SubstepMode::Fixed as u32;
+    h.substeps = k as u32;
+    let pts: Vec<Vec3> = keys_after
+        .iter()
+        .map(|p| Vec3::new(p[0], p[1], p[2]))
+        .collect();
+    let (r, a) = smooth.call(&h, &pts);
+    assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
+    // The same through the samples computed here, from the rope's head as the scene has it.
+    let mut straight = Door::new();
+    let (q, start) = straight.call(&req(Command::Query, 0), &[]);
+    let head = start[q.n_joints as usize - 1];
+    let mut keys = vec![[head.x, head.y, head.z]];
+    keys.extend_from_slice(&keys_after);
+    let samples: Vec<Vec3> = spline_here(&keys, k)
+        .into_iter()
+        .map(|p| Vec3::new(p[0], p[1], p[2]))
+        .collect();
+    let mut h = req(Command::Path, 0);
+    h.substep_mode = SubstepMode::Fixed as u32;
+    h.substeps = 1;
+    let (r, b) = straight.call(&h, &samples);
+    assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
+    assert_eq!(a.len(), b.len());
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| ((p.x - q.x).powi(2) + (p.y - q.y).powi(2) + (p.z - q.z).powi(2)).sqrt())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-9, "{worst}");
+    // And not the straight segments through the points themselves.
+    let mut plain = Door::new();
+    let mut h = req(Command::Path, 0);
+    h.substep_mode = SubstepMode::Fixed as u32;
+    h.substeps = k as u32;
+    let (_, c) = plain.call(&h, &pts);
+    let apart = a
+        .iter()
+        .zip(&c)
+        .map(|(p, q)| ((p.x - q.x).powi(2) + (p.y - q.y).powi(2) + (p.z - q.z).powi(2)).sqrt())
+        .fold(0.0, f64::max);
+    assert!(apart > 1e-3, "{apart}");
 }

@@ -76,6 +76,10 @@ struct Args {
     /// Path points: space-separated groups, each x,y or x,y,z.
     #[arg(long)]
     path: Option<String>,
+    /// Path: follow the natural cubic spline through the joint and the points (C²) instead of
+    /// straight segments.
+    #[arg(long)]
+    smooth: bool,
     /// Method (default: the chain's).
     #[arg(long, value_enum)]
     method: Option<WireMethod>,
@@ -314,6 +318,7 @@ fn run(a: Args) -> Result<u8> {
         max_iterations: a.max_iterations,
         angles: a.angles,
         take_over: a.take_over,
+        smooth: a.smooth,
         request_id: None,
     };
     let (header, points) = req.to_wire(&|_| None).map_err(anyhow::Error::msg)?;

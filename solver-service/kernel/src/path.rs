@@ -49,10 +49,7 @@ pub fn spline_samples<T: Real, const D: usize>(
 
 /// The second derivatives at the key points (natural ends), by the Thomas algorithm: the system is
 /// diagonally dominant, so it needs no pivoting.
-fn second_derivatives<T: Real, const D: usize>(
-    p: &[Vector<T, D>],
-    h: &[T],
-) -> Vec<Vector<T, D>> {
+fn second_derivatives<T: Real, const D: usize>(p: &[Vector<T, D>], h: &[T]) -> Vec<Vector<T, D>> {
     let n = p.len();
     let mut m = vec![Vector::<T, D>::zeros(); n];
     if n < 3 {
@@ -139,11 +136,18 @@ mod tests {
             Vector2::new(4.0, 2.0),
         ];
         let mut out = Vec::new();
-        spline_samples(&keys, |_, chord: f64| (chord / 0.5).ceil() as usize, &mut out);
+        spline_samples(
+            &keys,
+            |_, chord: f64| (chord / 0.5).ceil() as usize,
+            &mut out,
+        );
         assert_eq!(out.len(), 9);
         for (j, q) in out.iter().enumerate() {
             let t = (j + 1) as f64 / 9.0;
-            assert!((q - Vector2::new(4.0, 2.0) * t).norm() < 1e-12, "{j}: {q:?}");
+            assert!(
+                (q - Vector2::new(4.0, 2.0) * t).norm() < 1e-12,
+                "{j}: {q:?}"
+            );
         }
         assert_eq!(spline_samples(&keys[..1], |_, _| 3, &mut out), 0);
     }

@@ -7,7 +7,7 @@
 //! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
 
 use shared::{
-    FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_TAKE_OVER, JOINT_HEAD,
+    FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_SMOOTH, FLAG_TAKE_OVER, JOINT_HEAD,
     MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader, Status, SubstepMode, Vec3,
     WireMethod, WireStrategy,
 };
@@ -80,8 +80,15 @@ pub fn decode<'a>(
         strategy,
     } = check_header(
         h,
-        FLAG_ANGLES | FLAG_TAKE_OVER | FLAG_ORIENT | FLAG_IN_BOX | FLAG_IN_BALL,
+        FLAG_ANGLES | FLAG_TAKE_OVER | FLAG_ORIENT | FLAG_IN_BOX | FLAG_IN_BALL | FLAG_SMOOTH,
     )?;
+    if h.flags & FLAG_SMOOTH != 0 && command != shared::Command::Path {
+        return Err(refuse!(
+            BadOption,
+            "flag smooth (64) is for path, not {}",
+            command.name()
+        ));
+    }
     let goal_flags = h.flags & (FLAG_ORIENT | FLAG_IN_BOX | FLAG_IN_BALL);
     if goal_flags != 0 && command != shared::Command::Reach {
         return Err(refuse!(
@@ -357,6 +364,7 @@ fn move_or_path<'a>(
             ..spec.moves
         },
         take_over,
+        smooth: h.flags & FLAG_SMOOTH != 0,
     })
 }
 

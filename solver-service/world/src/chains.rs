@@ -22,8 +22,8 @@ use crate::moves::{instrument_travel, move_and_carry, push_instrument, reach_wit
 use crate::owners::{LOCAL, Owners};
 use crate::refusal::Refusal;
 use crate::refuse;
-use crate::scene::{ChainSpec, Scene};
-use tractrix::ChainError;
+use crate::scene::{ChainKind, ChainSpec, Scene};
+use tractrix::{ChainError, MoveOptions, Substeps};
 
 /// The work a request may cost by default, in link-steps (one link following its tractrix once, about
 /// 80 ns here): about 4 ms. See [`World::set_budget`].
@@ -357,6 +357,26 @@ impl World {
     /// nothing; an accepted change gets the next sequence number and can be undone until the next
     /// request. Grasps belong to their client ([`crate::owners`]).
     pub fn apply_for(&mut self, client: u128, req: &Command<'_>) -> Result<Answer, Refusal> {
+        if let Command::Move {
+            chain,
+            joint,
+            targets,
+            options,
+            take_over,
+            smooth: true,
+        } = *req
+        {
+            let (samples, options) = self.smooth_samples(chain, joint, targets, &options)?;
+            let straight = Command::Move {
+                chain,
+                joint,
+                targets: &samples,
+                options,
+                take_over,
+                smooth: false,
+            };
+            return self.apply_for(client, &straight);
+        }
         self.undo = None;
         self.owners.begin();
         self.owners.check(client, req)?;
@@ -366,6 +386,66 @@ impl World {
                 .record(client, req, &self.specs[chain as usize].anchors);
         }
         Ok(outcome)
+    }
+
+    /// A smooth path's samples: the natural cubic spline through the joint and `targets`, each
+    /// segment sampled into as many points as it would take substeps (fixed substeps: that many, each
+    /// then one substep; a longest step: its chord over the step). Refused, changing nothing, when a
+    /// segment needs more than the chain's substep limit or a sample lies beyond the chain's
+    /// coordinate range.
+    fn smooth_samples(
+        &self,
+        chain: u32,
+        joint: usize,
+        targets: &[Point],
+        options: &MoveOptions<f64>,
+    ) -> Result<(Vec<Point>, MoveOptions<f64>), Refusal> {
+        let spec = &self.specs[chain as usize];
+        let from: Point =
+            each_form!(&self.geometry[chain as usize], h => to_point(&h.chain.joint(joint)));
+        let mut keys = Vec::with_capacity(targets.len() + 1);
+        keys.push(from);
+        keys.extend_from_slice(targets);
+        let limit = options.max_substeps;
+        let mut too_many = None;
+        let per_segment = |_: usize, chord: f64| -> usize {
+            let k = match options.substeps {
+                Substeps::Fixed(k) => f64::from(k),
+                Substeps::MaxStep(s) => (chord / (s * spec.shortest)).ceil(),
+            };
+            if k.is_nan() || k > f64::from(limit) {
+                too_many.get_or_insert(k);
+                return 1;
+            }
+            k as usize
+        };
+        let mut samples = Vec::new();
+        tractrix::path::spline_samples(&keys, per_segment, &mut samples);
+        if let Some(k) = too_many {
+            return Err(ChainError::TooManySubsteps {
+                required: if k.is_finite() { k as u64 } else { u64::MAX },
+                limit,
+            }
+            .into());
+        }
+        if spec.kind == ChainKind::Free
+            && let Some((i, p)) = samples
+                .iter()
+                .enumerate()
+                .find(|(_, p)| p.amax() > spec.max_coordinate)
+        {
+            return Err(refuse!(
+                TooFar,
+                "smooth path sample {i}: {:.3e} is beyond {:.3e}",
+                p.amax(),
+                spec.max_coordinate
+            ));
+        }
+        let mut options = *options;
+        if let Substeps::Fixed(_) = options.substeps {
+            options.substeps = Substeps::Fixed(1);
+        }
+        Ok((samples, options))
     }
 
     /// [`World::apply_for`] behind a guard, the way every door answers: a panic inside (a kernel
@@ -623,6 +703,7 @@ mod tests {
             targets: t,
             options: w.specs()[0].moves,
             take_over: false,
+            smooth: false,
         }
     }
 

@@ -27,6 +27,10 @@ pub enum Command<'a> {
         /// Move the joint even if another client grasps it, taking the grasp over
         /// (the wire's `FLAG_TAKE_OVER`).
         take_over: bool,
+        /// Follow the natural cubic spline through the joint and the targets (C², Korein & Badler's
+        /// smooth key frames: [`tractrix::path`]) instead of straight segments: each segment sampled
+        /// into as many points as it has substeps.
+        smooth: bool,
     },
     /// Bring a fixed-base chain's head to its goal: a point, a pose of the last link, or anywhere in a
     /// region.

@@ -208,6 +208,7 @@ mod tests {
             targets: &target,
             options: tractrix::MoveOptions::default(),
             take_over: true,
+            smooth: false,
         };
         let e = owners.check(a, &take).unwrap_err();
         assert_eq!(e.cause, crate::refusal::Cause::BadOption, "{}", e.reason());
@@ -223,6 +224,7 @@ mod tests {
             targets: &target,
             options: tractrix::MoveOptions::default(),
             take_over: true,
+            smooth: false,
         };
         owners.check(a, &own).unwrap();
         let release = Command::Release {

@@ -292,6 +292,7 @@ mod tests {
                     ..w.specs()[0].moves
                 },
                 take_over: false,
+                smooth: false,
             })
             .unwrap();
         }
@@ -319,6 +320,7 @@ mod tests {
                 targets: &target,
                 options,
                 take_over: false,
+                smooth: false,
             })
             .unwrap();
         }
