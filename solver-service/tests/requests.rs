@@ -684,17 +684,18 @@ fn spline_here(keys: &[[f64; 3]], k: usize) -> Vec<[f64; 3]> {
                 .max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))
                 .unwrap();
             a.swap(col, pivot);
-            for row in 0..n {
+            let pivot_row = a[col].clone();
+            for (row, r) in a.iter_mut().enumerate() {
                 if row != col {
-                    let f = a[row][col] / a[col][col];
-                    for j in col..=n {
-                        a[row][j] -= f * a[col][j];
+                    let f = r[col] / pivot_row[col];
+                    for (x, p) in r.iter_mut().zip(&pivot_row).skip(col) {
+                        *x -= f * p;
                     }
                 }
             }
         }
-        for i in 0..n {
-            m[i][c] = a[i][n] / a[i][i];
+        for (i, (mi, row)) in m.iter_mut().zip(&a).enumerate() {
+            mi[c] = row[n] / row[i];
         }
     }
     let mut out = Vec::new();

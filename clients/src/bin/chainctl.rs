@@ -69,7 +69,7 @@ struct Args {
     /// Reach: a ball goal, the head within this distance of `--target` (no motion when it already is).
     #[arg(long)]
     within: Option<f64>,
-    /// Reach: a box goal, its two corners "x,y[,z] x,y[,z]" (smallest, largest), no `--target` (no
+    /// Reach: a box goal, its two corners "x,y x,y" or "x,y,z x,y,z" (smallest, largest), no `--target` (no
     /// motion when the head is already inside).
     #[arg(long = "box", value_name = "LO HI")]
     in_box: Option<String>,
