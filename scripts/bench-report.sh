@@ -111,6 +111,8 @@ block limits "cargo bench -p tractrix --bench limits" \
   cargo bench -q -p tractrix --bench limits
 block goals "cargo bench -p tractrix --bench goals" \
   cargo bench -q -p tractrix --bench goals
+block smooth "cargo bench -p clients --bench smooth" \
+  cargo bench -q -p clients --bench smooth
 block sweep-knots "scripts/sweep-bench.sh knots" \
   scripts/sweep-bench.sh knots
 block sweep-accuracy "scripts/sweep-bench.sh accuracy" \
