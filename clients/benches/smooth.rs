@@ -138,7 +138,10 @@ fn main() {
     );
     println!("|---:|---|---:|---:|---:|---:|---|");
     for links in [40, 160, 320] {
-        for (name, samples) in [("straight segments", &lines), ("cubic spline (C²)", &smooth)] {
+        for (name, samples) in [
+            ("straight segments", &lines),
+            ("cubic spline (C²)", &smooth),
+        ] {
             let r = run(links, samples);
             println!(
                 "| {links} | {name} | {:.4} | {:.4} | {:.4} | {} | {} |",

@@ -8,6 +8,11 @@
 //! change of each relative joint angle, summed over the steps. The tractrix moves the joints near the base
 //! least (remark 5: it minimises the motion of the links, not the joint rates); the pseudo-inverse
 //! minimises joint rates in the least-squares sense and spreads the motion over all joints.
+//!
+//! With a direction every step is an orientation goal as well (Korein & Badler): the tractrix fixes
+//! the last link along it and resolves the rest ([`tractrix::goals`]); the pseudo-inverse minimises
+//! the joint rates of a three-row task, the head and the last link's angle
+//! ([`tractrix::pseudo_inverse::reach_dls_pose`]).
 
 use crate::connection::Connection;
 use anyhow::bail;
@@ -16,7 +21,7 @@ use shared::{ChainKind, Command, RequestHeader, Status, Vec3};
 use std::time::Instant;
 use tractrix::angles::planar_joint_motion;
 use tractrix::chain::Chain;
-use tractrix::pseudo_inverse::{DlsOptions, reach_dls};
+use tractrix::pseudo_inverse::{DlsOptions, reach_dls, reach_dls_pose};
 
 /// Most targets per run.
 pub const MAX_TARGETS: usize = 64;
@@ -33,6 +38,9 @@ pub struct ReachConfig {
     pub tolerance: f64,
     /// Reset the chain before the first target.
     pub reset: bool,
+    /// An orientation goal at every step of every target: the last link along this direction (the
+    /// tractrix's `FLAG_ORIENT` on the service, the pseudo-inverse's three-row task here).
+    pub direction: Option<[f64; 2]>,
 }
 
 /// One method's way to one target.
@@ -162,7 +170,16 @@ pub fn run_reach(conn: &mut Connection, cfg: &ReachConfig) -> anyhow::Result<Vec
             ];
             let mut h = RequestHeader::new(Command::Reach, chain);
             h.tolerance = cfg.tolerance;
-            let r = conn.call(h, &[Vec3::new(goal[0], goal[1], 0.0)])?;
+            let r = match cfg.direction {
+                None => conn.call(h, &[Vec3::new(goal[0], goal[1], 0.0)])?,
+                Some(d) => {
+                    h.flags = shared::FLAG_ORIENT;
+                    conn.call(
+                        h,
+                        &[Vec3::new(goal[0], goal[1], 0.0), Vec3::new(d[0], d[1], 0.0)],
+                    )?
+                }
+            };
             if r.header.status() != Some(Status::Ok) {
                 bail!(
                     "tractrix reach of ({:.4}, {:.4}): {} ({})",
@@ -183,7 +200,12 @@ pub fn run_reach(conn: &mut Connection, cfg: &ReachConfig) -> anyhow::Result<Vec
             let goal = from_d + (Vector2::new(target[0], target[1]) - from_d) * s;
             let before = dls_pose(&dls_chain);
             let t0 = Instant::now();
-            let out = reach_dls(&mut dls_chain, &goal, &dls_opts);
+            let out = match cfg.direction {
+                None => reach_dls(&mut dls_chain, &goal, &dls_opts),
+                Some(d) => {
+                    reach_dls_pose(&mut dls_chain, &goal, &Vector2::new(d[0], d[1]), &dls_opts)
+                }
+            };
             res.pseudo_inverse.solve_ns += t0.elapsed().as_nanos() as u64;
             let out = out.map_err(|e| {
                 anyhow::anyhow!(

@@ -38,6 +38,9 @@ struct Args {
     /// Start from the chain's current pose instead of resetting it.
     #[arg(long)]
     no_reset: bool,
+    /// An orientation goal at every step: the last link along dx,dy (both methods).
+    #[arg(long)]
+    direction: Option<String>,
     /// Write DIR/reach.svg (figure 7) and DIR/rotations.svg (figure 8).
     #[arg(long)]
     svg: Option<PathBuf>,
@@ -54,6 +57,16 @@ const BLACK: (u8, u8, u8) = (0, 0, 0);
 
 fn run(a: Args) -> Result<u8> {
     let targets = parse_targets(&a.targets).map_err(|e| usage(format!("--targets: {e}")))?;
+    let direction = a
+        .direction
+        .as_deref()
+        .map(|d| match parse_targets(d).as_deref() {
+            Ok([d]) if d[0] != 0.0 || d[1] != 0.0 => Ok(*d),
+            _ => Err(usage(format!(
+                "--direction: {d:?} is not dx,dy (finite, not both zero)"
+            ))),
+        })
+        .transpose()?;
     let mut conn = a.service.connect()?;
     let cfg = ReachConfig {
         chain: a.chain.clone(),
@@ -61,8 +74,15 @@ fn run(a: Args) -> Result<u8> {
         steps: a.steps,
         tolerance: a.tolerance,
         reset: !a.no_reset,
+        direction,
     };
     let results = run_reach(&mut conn, &cfg)?;
+    if let Some(d) = direction {
+        println!(
+            "orientation goal: the last link along ({}, {}) at every step",
+            d[0], d[1]
+        );
+    }
     for (i, r) in results.iter().enumerate() {
         print_target(i, r, a.steps);
     }

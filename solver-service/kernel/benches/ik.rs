@@ -118,6 +118,24 @@ impl Solver {
             Solver::Dls => "pseudo-inverse (DLS)",
         }
     }
+
+    /// What the method minimises, for the table that compares them.
+    fn objective(self) -> &'static str {
+        match self {
+            Solver::TranslateBack | Solver::PullBack => {
+                "each pass: the motion of every link for the motion of its leading end (the tractrix, \
+                 remark 5); nothing global"
+            }
+            Solver::TwoLink => {
+                "the same down to the third link; the first two placed exactly (closed form)"
+            }
+            Solver::Fabrik => "nothing: alternating reaches to the target and back to the base",
+            Solver::Dls => {
+                "each step: the joint rates, ‖δq‖² + ‖J δq − e‖² / λ² (least joint motion in least \
+                 squares); with ranges a penalty on them in the null space (\"What joint limits cost\")"
+            }
+        }
+    }
 }
 
 #[derive(Default)]
@@ -230,6 +248,10 @@ fn main() {
                 t.worst_residual
             );
         }
+    }
+    println!("\n| method | what it minimises |\n|---|---|");
+    for s in solvers {
+        println!("| {} | {} |", s.name(), s.objective());
     }
     println!(
         "\nSuccess: converged within the limit (tractrix 1000 iterations with the reach hierarchy after 16, \

@@ -44,7 +44,10 @@ impl<T: Real> Default for DlsOptions<T> {
 }
 
 /// Reaches `target` with the fixed-base `chain` by damped least squares. Unreachable targets and
-/// non-convergence are errors that leave the chain unchanged.
+/// non-convergence are errors that leave the chain unchanged. What it minimises: each step's joint
+/// rates, `‖δq‖² + ‖J δq − e‖² / λ²` (the least joint motion that moves the head by the clamped
+/// error `e`, in least squares); the tractrix instead moves each link least for the motion of its
+/// leading end (remark 5).
 pub fn reach_dls<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     target: &Vector<T, D>,
@@ -99,6 +102,97 @@ where
             rot *= UnitQuaternion::from_scaled_axis(omega);
             let nl = rot * l.to_3d();
             *l = Vector::<T, D>::from_3d(&(nl * (len / nl.norm())));
+        }
+    }
+    give_up(chain, target, &backup, backup_datum, opts.max_iterations)
+}
+
+/// [`reach_dls`] with an orientation goal for a planar chain (Korein & Badler: "add to the goal a
+/// constraint on the orientation of the last link"): the task is the head's position and the last
+/// link's angle, one Jacobian of three rows (the angle's row is 1 for every joint), the angle's error
+/// weighted by the last link's length so that both rows are lengths. What it minimises: the joint
+/// rates, in the least-squares sense, of the three-row task (the tractrix's orientation goal instead
+/// fixes the last link and resolves the rest, [`crate::goals`]). Converged when the head is within
+/// the tolerance and the last link's tip moved by the angle's error would be too. Refused, changing
+/// nothing, when the wrist (the last link's base joint the goal implies) is outside the workspace of
+/// the links before it, with the nearest head that keeps the direction.
+pub fn reach_dls_pose<T: Real>(
+    chain: &mut Chain<T, 2>,
+    target: &nalgebra::Vector2<T>,
+    direction: &nalgebra::Vector2<T>,
+    opts: &DlsOptions<T>,
+) -> Result<ReachOutcome<T>, ReachError<T, 2>> {
+    let n = chain.n_links();
+    if !all_finite(target) || !all_finite(direction) {
+        return Err(ChainError::NonFinite.into());
+    }
+    let dn = direction.norm();
+    if n < 2 || dn <= T::zero() {
+        return Err(ChainError::BadOption(
+            "an orientation goal needs two links or more and a direction of non-zero length",
+        )
+        .into());
+    }
+    let d = direction / dn;
+    let w = chain.lengths()[n - 1];
+    let base = chain.origin();
+    let wrist = target - d * w;
+    let inner = &chain.lengths()[..n - 1];
+    let (nearest, outside) = nearest_reachable(&base, inner, &wrist, &(chain.head() - base));
+    if outside > T::zero() {
+        return Err(ReachError::Unreachable {
+            nearest: nearest + d * w,
+            residual: outside,
+        });
+    }
+    let backup: Vec<_> = chain.links().to_vec();
+    let backup_datum = chain.datum();
+    let total = chain.total_length();
+    let tol = opts.tolerance * total;
+    let max_step = opts.max_step * total;
+    let lambda2 = opts.damping * opts.damping;
+    let goal_angle = d.y.atan2(d.x);
+    let mut p = vec![nalgebra::Vector2::<T>::zeros(); n + 1];
+    for it in 0..opts.max_iterations {
+        chain.write_positions(&mut p);
+        let head = p[n];
+        let last = chain.links()[n - 1];
+        let mut turn = goal_angle - last.y.atan2(last.x);
+        while turn > T::pi() {
+            turn -= T::two_pi();
+        }
+        while turn < -T::pi() {
+            turn += T::two_pi();
+        }
+        let mut e = Vector3::new(target.x - head.x, target.y - head.y, w * turn);
+        let en = e.norm();
+        let pos = (e.x * e.x + e.y * e.y).sqrt();
+        if pos <= tol && e.z.abs() <= tol {
+            return Ok(ReachOutcome {
+                iterations: it,
+                residual: pos,
+            });
+        }
+        if en > max_step {
+            e *= max_step / en;
+        }
+        // Column j: the head's motion for a unit turn of joint j (about p[j]), and the angle's (w).
+        let column = |j: usize| Vector3::new(-(head.y - p[j].y), head.x - p[j].x, w);
+        let mut jjt = Matrix3::<T>::identity() * lambda2;
+        for j in 0..n {
+            let c = column(j);
+            jjt += c * c.transpose();
+        }
+        let Some(y) = jjt.lu().solve(&e) else {
+            break;
+        };
+        let mut angle = T::zero();
+        let (links, lengths, _) = chain.links_lengths_limits_mut();
+        for (j, (l, &len)) in links.iter_mut().zip(lengths).enumerate() {
+            angle += column(j).dot(&y);
+            let (sn, cs) = angle.sin_cos();
+            let r = nalgebra::Vector2::new(cs * l.x - sn * l.y, sn * l.x + cs * l.y);
+            *l = r * (len / r.norm());
         }
     }
     give_up(chain, target, &backup, backup_datum, opts.max_iterations)

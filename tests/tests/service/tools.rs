@@ -180,6 +180,32 @@ fn reach_runs_the_tractrix_and_the_pseudo_inverse_and_plots_both() {
     let fig8 = std::fs::read_to_string(dir.path().join("rotations.svg")).unwrap();
     let texts: Vec<&str> = fig8.lines().map(str::trim).collect();
     assert!(texts.contains(&"tractrix") && texts.contains(&"pseudo-inverse"));
+    // The orientation rows: both methods with the last link along (0, 1) at every step; both land,
+    // and the service's arm ends with its last link pointing up (from the joints).
+    let out = run(
+        &svc,
+        "reach",
+        &["--targets", "0.9,0.7", "--steps", "2", "--direction", "0,1"],
+    );
+    assert!(
+        out.contains("orientation goal: the last link along (0, 1)"),
+        "{out}"
+    );
+    let rows: Vec<&str> = out
+        .lines()
+        .filter(|l| !l.contains('°'))
+        .filter(|l| l.trim_start().starts_with("tractrix ") || l.contains("pseudo-inverse "))
+        .collect();
+    assert_eq!(rows.len(), 2, "{out}");
+    for r in &rows {
+        let residual: f64 = r.split_whitespace().nth(2).unwrap().parse().unwrap();
+        assert!(residual <= 2e-9, "{r}");
+    }
+    let mut c = svc.connect();
+    let q = c.call(RequestHeader::new(Command::Query, 2), &[]).unwrap();
+    let j = q.joints();
+    let (dx, dy) = (j[10].x - j[9].x, j[10].y - j[9].y);
+    assert!(dx.abs() < 1e-12 && (dy - 0.2).abs() < 1e-12, "{dx} {dy}");
 }
 
 #[test]
