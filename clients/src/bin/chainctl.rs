@@ -53,28 +53,28 @@ struct Args {
     #[arg(long, default_value = "head")]
     joint: String,
     /// Target point: x,y or x,y,z.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     target: Option<String>,
     /// An instrument's axis direction: x,y or x,y,z (capsules).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     axis: Option<String>,
     /// A bundle's pose move: the heads' rotation vector x,y,z (axis × angle, radians); `--target` is
     /// then the translation.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     rotation: Option<String>,
     /// Reach: an orientation goal, the last link's direction x,y or x,y,z (`--target` is where the head
     /// goes).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     direction: Option<String>,
     /// Reach: a ball goal, the head within this distance of `--target` (no motion when it already is).
     #[arg(long)]
     within: Option<f64>,
     /// Reach: a box goal, its two corners "x,y x,y" or "x,y,z x,y,z" (smallest, largest), no `--target` (no
     /// motion when the head is already inside).
-    #[arg(long = "box", value_name = "LO HI")]
+    #[arg(long = "box", value_name = "LO HI", allow_hyphen_values = true)]
     in_box: Option<String>,
     /// Path points: space-separated groups, each x,y or x,y,z.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     path: Option<String>,
     /// Path: follow the natural cubic spline through the joint and the points (C²) instead of
     /// straight segments.

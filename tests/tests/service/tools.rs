@@ -730,3 +730,38 @@ fn watch_stopped_while_moving(
     }
     said
 }
+
+/// `chainctl reach` with each of Korein & Badler's goals: `--box` moves the arm's head into the box,
+/// `--within` around a head already inside moves nothing, `--direction` lays the last link along it;
+/// `path --smooth` ends the rope's head on the last point. Every check from the joints, here.
+#[test]
+fn chainctl_reaches_goals_and_follows_a_smooth_path() {
+    let svc = default_service();
+    let chainctl = |args: &[&str]| run(&svc, "chainctl", args);
+    chainctl(&["reach", "arm", "--box", "0.5,0.8 1.0,1.2"]);
+    let h = head_of(&svc, "arm");
+    assert!(
+        (0.5..=1.0).contains(&h.x) && (0.8..=1.2).contains(&h.y),
+        "{h:?}"
+    );
+    let target = format!("{},{}", h.x + 0.05, h.y);
+    chainctl(&["reach", "arm", "--target", &target, "--within", "0.1"]);
+    assert_eq!(head_of(&svc, "arm"), h, "a head inside the ball stays");
+    chainctl(&[
+        "reach",
+        "arm",
+        "--target",
+        "-0.9,0.6",
+        "--direction",
+        "-1,0",
+    ]);
+    let mut c = svc.connect();
+    let q = c.call(RequestHeader::new(Command::Query, 2), &[]).unwrap();
+    let j = q.joints();
+    let (dx, dy) = (j[10].x - j[9].x, j[10].y - j[9].y);
+    assert!((dx + 0.2).abs() < 1e-12 && dy.abs() < 1e-12, "{dx} {dy}");
+    assert!((j[10].x + 0.9).hypot(j[10].y - 0.6) < 2e-9, "{:?}", j[10]);
+    chainctl(&["path", "rope", "--smooth", "--path", "39,2,0 37,3,1 36,5,0"]);
+    let h = head_of(&svc, "rope");
+    assert!((h.x - 36.0).hypot(h.y - 5.0).hypot(h.z) < 1e-9, "{h:?}");
+}
