@@ -70,6 +70,9 @@ int tractrix_client_move(tractrix_client *client, uint32_t chain, uint32_t joint
 /* Moves `joint` through n_points targets in order (1..4096). */
 int tractrix_client_path(tractrix_client *client, uint32_t chain, uint32_t joint, const tractrix_Vec3 *points,
                          size_t n_points, tractrix_Vec3 *joints, size_t capacity, size_t *n_joints);
+/* The same along the natural cubic spline through the joint and the points (C2) instead of straight segments. */
+int tractrix_client_path_smooth(tractrix_client *client, uint32_t chain, uint32_t joint, const tractrix_Vec3 *points,
+                                size_t n_points, tractrix_Vec3 *joints, size_t capacity, size_t *n_joints);
 /* A fixed-base chain's head to `target`; the distance left in *residual (may be NULL). */
 int tractrix_client_reach(tractrix_client *client, uint32_t chain, tractrix_Vec3 target, tractrix_Vec3 *joints,
                           size_t capacity, size_t *n_joints, double *residual);

@@ -80,6 +80,18 @@ int main(int argc, char **argv) {
     }
     printf("arm pose: last link %.6f %.6f\n", arm_joints[na - 1].x - arm_joints[na - 2].x,
            arm_joints[na - 1].y - arm_joints[na - 2].y);
+    /* The snake's head along a smooth curve through two key points (C2, not two straight segments). */
+    uint32_t snake;
+    tractrix_Vec3 snake_joints[256];
+    size_t ns = 0;
+    tractrix_Vec3 keys[2] = {{1.0, -49.0, 1.0}, {2.0, -47.0, 1.5}};
+    if (tractrix_client_find_chain(c, "snake", &snake) != 0 ||
+        tractrix_client_path_smooth(c, snake, TRACTRIX_JOINT_HEAD, keys, 2, snake_joints, 256, &ns) != 0) {
+        fprintf(stderr, "smooth path: %s\n", tractrix_client_error(c));
+        return 1;
+    }
+    printf("smooth path: head %.6f %.6f %.6f\n", snake_joints[ns - 1].x, snake_joints[ns - 1].y,
+           snake_joints[ns - 1].z);
     for (size_t i = 0; i < n; i++)
         printf("joint %zu %016" PRIx64 " %016" PRIx64 " %016" PRIx64 "\n", i, bits(joints[i].x),
                bits(joints[i].y), bits(joints[i].z));

@@ -506,6 +506,35 @@ pub unsafe extern "C" fn tractrix_client_path(
     })
 }
 
+/// [`tractrix_client_path`] along the natural cubic spline through the joint and the points (C²,
+/// `TRACTRIX_FLAG_SMOOTH`) instead of straight segments.
+///
+/// # Safety
+///
+/// Every pointer is null or valid as `tractrix_client.h` says (handles from the matching `open` and
+/// not yet closed; buffers valid for their stated capacity; strings NUL-terminated).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn tractrix_client_path_smooth(
+    client: *mut TractrixClient,
+    chain: u32,
+    joint: u32,
+    points: *const Vec3,
+    n_points: usize,
+    joints: *mut Vec3,
+    capacity: usize,
+    n_joints: *mut usize,
+) -> c_int {
+    with_client(client, |conn| {
+        let pts = points_arg(points, n_points)?;
+        let mut h = RequestHeader::new(Command::Path, chain);
+        h.joint = joint;
+        h.flags = shared::FLAG_SMOOTH;
+        request(conn, h, pts, |rh, p| {
+            copy_joints(rh, p, joints, capacity, n_joints)
+        })
+    })
+}
+
 /// A fixed-base chain's head to `target` (the chain's strategy and tolerance); the distance left is
 /// written to `*residual` (may be null).
 ///

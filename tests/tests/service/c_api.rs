@@ -178,6 +178,10 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
         text.contains("arm pose: last link 0.000000 -0.200000"),
         "{text}"
     );
+    assert!(
+        text.contains("smooth path: head 2.000000 -47.000000 1.500000"),
+        "{text}"
+    );
     let c_joints = printed_joints(&text);
     assert_eq!(c_joints.len(), 41);
     assert_eq!(c_joints, rust_joints(&svc), "C read other joints than Rust");
