@@ -4,8 +4,10 @@
 # MuJoCo's offscreen frames, headless). Debian packages, as root or with password-less sudo; without
 # either it says so in one line and installs nothing (the tests that need them skip themselves).
 set -euo pipefail
+# ldconfig lives in /sbin, which a normal user's PATH may not have.
 have() {
-  command -v mcs >/dev/null && command -v mono >/dev/null && ldconfig -p | grep -q libOSMesa
+  command -v mcs >/dev/null && command -v mono >/dev/null \
+    && PATH="$PATH:/sbin:/usr/sbin" ldconfig -p | grep -q libOSMesa
 }
 if have; then
   exit 0

@@ -208,10 +208,12 @@ impl<S: Service> Connection<S> {
     /// appear.
     pub fn open(opts: ConnectOptions) -> Result<Self, CallError> {
         let cfg = shared::iceoryx_config(&opts.prefix).map_err(CallError::Ipc)?;
-        let node = NodeBuilder::new()
-            .config(&cfg)
-            .create::<S>()
-            .map_err(ipc("node"))?;
+        let node = NodeBuilder::new().config(&cfg).create::<S>().map_err(|e| {
+            CallError::Ipc(match shared::iceoryx_dir_problem() {
+                Some(why) => format!("node: {e:?}: {why}"),
+                None => format!("node: {e:?}"),
+            })
+        })?;
         let deadline = Instant::now() + opts.connect_timeout;
         let name =
             |s: &str| -> Result<ServiceName, CallError> { s.try_into().map_err(ipc("name")) };

@@ -305,6 +305,32 @@ pub fn iceoryx_config(prefix: &str) -> Result<iceoryx2::config::Config, String> 
     Ok(cfg)
 }
 
+/// iceoryx2's directory of node and service files (its default root path): every process of every
+/// user on the machine shares it.
+pub const ICEORYX_DIR: &str = "/tmp/iceoryx2";
+
+/// Why iceoryx2 could not create a node, when the reason is its directory: [`ICEORYX_DIR`] made by
+/// another user (iceoryx2 makes it owner-only), where this process cannot create its files. `None`
+/// when the directory is missing or writable.
+pub fn iceoryx_dir_problem() -> Option<String> {
+    use std::os::unix::fs::MetadataExt;
+    let dir = std::path::Path::new(ICEORYX_DIR);
+    let owner = std::fs::metadata(dir).ok()?.uid();
+    let probe = dir.join(format!(".tractrix-probe-{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            None
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => Some(format!(
+            "{ICEORYX_DIR} belongs to another user (uid {owner}), so this user cannot open iceoryx2 \
+             ports: iceoryx2 processes of different users cannot share it. Run as that user, or \
+             remove the directory as its owner when no iceoryx2 process runs"
+        )),
+        Err(_) => None,
+    }
+}
+
 /// A service name of this protocol (one of the `SERVICE_*` constants).
 pub fn service_name(s: &str) -> Result<iceoryx2::prelude::ServiceName, String> {
     s.try_into().map_err(|e| format!("service name {s}: {e:?}"))

@@ -159,7 +159,13 @@ impl<S: Service> ServerPorts<S> {
             .config(iox)
             .name(&name.try_into().map_err(err("node name"))?)
             .create::<S>()
-            .map_err(err("cannot create the iceoryx2 node"))?;
+            .map_err(|e| PortError::Iceoryx {
+                what: "cannot create the iceoryx2 node",
+                detail: match shared::iceoryx_dir_problem() {
+                    Some(why) => format!("{e:?}: {why}"),
+                    None => format!("{e:?}"),
+                },
+            })?;
         // iceoryx2 installs its SIGINT/SIGTERM handlers the first time a termination request is looked
         // for. Look now, before the caller says it is ready: a signal sent right after the ready line
         // would otherwise kill the process the default way, without its final snapshot (the signal

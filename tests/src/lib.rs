@@ -34,7 +34,8 @@ pub fn unique_prefix() -> String {
 /// Whether the system tool `tool` (a program on the PATH) or library (`lib…` in `ldconfig -p`) is here.
 pub fn system_has(tool: &str) -> bool {
     let probe = if tool.starts_with("lib") {
-        format!("ldconfig -p | grep -q {tool}")
+        // ldconfig lives in /sbin, which a normal user's PATH may not have.
+        format!("PATH=\"$PATH:/sbin:/usr/sbin\" ldconfig -p | grep -q {tool}")
     } else {
         format!("command -v {tool}")
     };

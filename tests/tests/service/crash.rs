@@ -230,7 +230,9 @@ struct Tmpfs {
 }
 
 impl Tmpfs {
-    fn mount(path: &Path, bytes: u64) -> Tmpfs {
+    /// Mounts it, which needs root (CAP_SYS_ADMIN): as a normal user the test is skipped with one
+    /// line (`None`), except under `CI=true`, where nothing may be skipped.
+    fn mount(path: &Path, bytes: u64) -> Option<Tmpfs> {
         std::fs::create_dir_all(path).unwrap();
         let out = std::process::Command::new("mount")
             .args(["-t", "tmpfs", "-o"])
@@ -239,15 +241,26 @@ impl Tmpfs {
             .arg(path)
             .output()
             .expect("run mount");
-        assert!(
-            out.status.success(),
+        if out.status.success() {
+            return Some(Tmpfs {
+                path: path.to_path_buf(),
+            });
+        }
+        let root = std::fs::read_to_string("/proc/self/status").is_ok_and(|s| {
+            s.lines()
+                .any(|l| l.starts_with("Uid:") && l.split_whitespace().nth(2) == Some("0"))
+        });
+        if !root && std::env::var("CI").as_deref() != Ok("true") {
+            eprintln!(
+                "skipped: mounting a tmpfs to fill needs root (this test runs as root on CI)"
+            );
+            return None;
+        }
+        panic!(
             "this test mounts a small tmpfs to fill it, which needs root (CAP_SYS_ADMIN), as on the \
              CI machine: {}",
             String::from_utf8_lossy(&out.stderr)
         );
-        Tmpfs {
-            path: path.to_path_buf(),
-        }
     }
 }
 
@@ -282,7 +295,9 @@ fn fill(dir: &Path) -> std::path::PathBuf {
 #[test]
 fn a_full_file_system_refuses_changes_and_loses_no_acknowledged_one() {
     let dir = tempfile::tempdir().unwrap();
-    let fs = Tmpfs::mount(&dir.path().join("fs"), 512 * 1024);
+    let Some(fs) = Tmpfs::mount(&dir.path().join("fs"), 512 * 1024) else {
+        return;
+    };
     let state_dir = fs.path.join("state");
     let d = state_dir.to_str().unwrap();
     let svc = Service::start(
