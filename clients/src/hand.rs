@@ -416,6 +416,15 @@ fn drive(
             .iter()
             .map(|i| (i.a.to_array(), i.b.to_array()))
             .collect();
+        let mut hand = TurnRun {
+            conn: &mut *conn,
+            cfg,
+            record: &mut *record,
+            report: &mut *report,
+            k,
+            turn,
+            chain,
+        };
         if let Some(m) = &turn.instrument {
             let Some(now) = instruments.get(m.index as usize) else {
                 bail!(
@@ -426,44 +435,21 @@ fn drive(
                     instruments.len()
                 );
             };
-            let mut hand = TurnRun {
-                conn: &mut *conn,
-                cfg,
-                record: &mut *record,
-                report: &mut *report,
-                k,
-                turn,
-                chain,
-            };
             hand.instrument(m.index, rope[idx], *now)?;
-            if let Some(w) = record.as_mut() {
-                w.flush()?;
-            }
-            mine.push(k);
-            baton.announce(&mine);
-            continue;
+        } else {
+            // A turn whose path cannot be made (a tuck that finds no loop in the rope, a wrap round
+            // an instrument that is not there) is skipped, said on stderr and counted: the other
+            // hands go on (the knot is then not tied, which the identification reports).
+            let targets = match turn.targets_with(&rope, idx, &instruments, cfg.script.max_step) {
+                Ok(t) => t,
+                Err(e) => {
+                    eprintln!("hand {}: turn {} skipped: {e}", cfg.hand, k + 1);
+                    hand.report.skipped_turns += 1;
+                    Vec::new()
+                }
+            };
+            hand.moves(joint, rope[idx], &targets, &q, &mut tremor)?;
         }
-        // A turn whose path cannot be made (a tuck that finds no loop in the rope, a wrap round an
-        // instrument that is not there) is skipped, said on stderr and counted: the other hands go
-        // on (the knot is then not tied, which the identification reports).
-        let targets = match turn.targets_with(&rope, idx, &instruments, cfg.script.max_step) {
-            Ok(t) => t,
-            Err(e) => {
-                eprintln!("hand {}: turn {} skipped: {e}", cfg.hand, k + 1);
-                report.skipped_turns += 1;
-                Vec::new()
-            }
-        };
-        let mut hand = TurnRun {
-            conn: &mut *conn,
-            cfg,
-            record: &mut *record,
-            report: &mut *report,
-            k,
-            turn,
-            chain,
-        };
-        hand.moves(joint, rope[idx], &targets, &q, &mut tremor)?;
         if let Some(w) = record.as_mut() {
             w.flush()?;
         }

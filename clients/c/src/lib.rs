@@ -496,10 +496,24 @@ pub unsafe extern "C" fn tractrix_client_path(
     capacity: usize,
     n_joints: *mut usize,
 ) -> c_int {
+    let out = (joints, capacity, n_joints);
+    path_with(client, chain, joint, (points, n_points), out, 0)
+}
+
+/// A path request with `flags` (0 or `FLAG_SMOOTH`).
+fn path_with(
+    client: *mut TractrixClient,
+    chain: u32,
+    joint: u32,
+    (points, n_points): (*const Vec3, usize),
+    (joints, capacity, n_joints): (*mut Vec3, usize, *mut usize),
+    flags: u32,
+) -> c_int {
     with_client(client, |conn| {
         let pts = points_arg(points, n_points)?;
         let mut h = RequestHeader::new(Command::Path, chain);
         h.joint = joint;
+        h.flags = flags;
         request(conn, h, pts, |rh, p| {
             copy_joints(rh, p, joints, capacity, n_joints)
         })
@@ -524,15 +538,15 @@ pub unsafe extern "C" fn tractrix_client_path_smooth(
     capacity: usize,
     n_joints: *mut usize,
 ) -> c_int {
-    with_client(client, |conn| {
-        let pts = points_arg(points, n_points)?;
-        let mut h = RequestHeader::new(Command::Path, chain);
-        h.joint = joint;
-        h.flags = shared::FLAG_SMOOTH;
-        request(conn, h, pts, |rh, p| {
-            copy_joints(rh, p, joints, capacity, n_joints)
-        })
-    })
+    let out = (joints, capacity, n_joints);
+    path_with(
+        client,
+        chain,
+        joint,
+        (points, n_points),
+        out,
+        shared::FLAG_SMOOTH,
+    )
 }
 
 /// A fixed-base chain's head to `target` (the chain's strategy and tolerance); the distance left is

@@ -18,6 +18,8 @@
     clippy::disallowed_methods
 )]
 
+mod common;
+use common::Rng;
 use nalgebra::Vector2;
 use std::time::Instant;
 use tractrix::{Chain, Goal, ReachOptions, ReachWorkspace, reach_goal};
@@ -27,18 +29,6 @@ type V = Vector2<f64>;
 const LINKS: usize = 10;
 const LINK: f64 = 0.2;
 const TARGETS: usize = 500;
-
-/// SplitMix64: the same targets in every run.
-struct Rng(u64);
-impl Rng {
-    fn unit(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// Head and last link of random poses (base angle anywhere, every other joint in [-90°, 90°]).
 fn poses() -> Vec<(V, V)> {

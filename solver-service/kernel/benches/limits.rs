@@ -25,27 +25,14 @@
     clippy::disallowed_methods
 )]
 
+mod common;
+use common::Rng;
 use nalgebra::{Vector2, Vector3};
 use std::time::Instant;
 use tractrix::pseudo_inverse::{DlsOptions, RangeHandling, reach_dls_ranges};
 use tractrix::{
     Chain, JointLimits, MoveOptions, ReachOptions, ReachWorkspace, Strategy, Substeps, reach,
 };
-
-/// SplitMix64: the same targets in every run.
-struct Rng(u64);
-impl Rng {
-    fn unit(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-}
 
 fn pct(v: &mut [f64], p: f64) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));

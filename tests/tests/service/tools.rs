@@ -134,6 +134,19 @@ fn snake_crawls_to_the_end_of_its_curve_keeping_its_links() {
     assert_eq!(panels, 6, "six key frames");
 }
 
+/// The residuals of `reach`'s method rows, each checked within the tolerance (1e-9 of the 2-unit arm).
+fn reach_residuals(out: &str) -> Vec<f64> {
+    out.lines()
+        .filter(|l| !l.contains('°'))
+        .filter(|l| l.trim_start().starts_with("tractrix ") || l.contains("pseudo-inverse "))
+        .map(|r| {
+            let residual: f64 = r.split_whitespace().nth(2).unwrap().parse().unwrap();
+            assert!(residual <= 2e-9, "{r}");
+            residual
+        })
+        .collect()
+}
+
 #[test]
 fn reach_runs_the_tractrix_and_the_pseudo_inverse_and_plots_both() {
     let svc = default_service();
@@ -155,16 +168,7 @@ fn reach_runs_the_tractrix_and_the_pseudo_inverse_and_plots_both() {
         assert!(out.contains(k), "{out}");
     }
     // Every method row reports a residual within the tolerance (1e-9 of the 2-unit arm).
-    let rows: Vec<&str> = out
-        .lines()
-        .filter(|l| !l.contains('°'))
-        .filter(|l| l.trim_start().starts_with("tractrix ") || l.contains("pseudo-inverse "))
-        .collect();
-    assert_eq!(rows.len(), 4, "{out}");
-    for r in &rows {
-        let residual: f64 = r.split_whitespace().nth(2).unwrap().parse().unwrap();
-        assert!(residual <= 2e-9, "{r}");
-    }
+    assert_eq!(reach_residuals(&out).len(), 4, "{out}");
     // Ten joint rotations per method and target.
     let per_joint = out
         .lines()
@@ -191,16 +195,7 @@ fn reach_runs_the_tractrix_and_the_pseudo_inverse_and_plots_both() {
         out.contains("orientation goal: the last link along (0, 1)"),
         "{out}"
     );
-    let rows: Vec<&str> = out
-        .lines()
-        .filter(|l| !l.contains('°'))
-        .filter(|l| l.trim_start().starts_with("tractrix ") || l.contains("pseudo-inverse "))
-        .collect();
-    assert_eq!(rows.len(), 2, "{out}");
-    for r in &rows {
-        let residual: f64 = r.split_whitespace().nth(2).unwrap().parse().unwrap();
-        assert!(residual <= 2e-9, "{r}");
-    }
+    assert_eq!(reach_residuals(&out).len(), 2, "{out}");
     let mut c = svc.connect();
     let q = c.call(RequestHeader::new(Command::Query, 2), &[]).unwrap();
     let j = q.joints();
