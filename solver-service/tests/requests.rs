@@ -434,6 +434,20 @@ fn every_error_leaves_the_state_unchanged() {
             "nearest",
         ),
         (
+            // 4096 points × 65 536 substeps: 2.7e8 samples, refused before one is made.
+            "a smooth path whose samples alone pass the budget",
+            with(Path, 0, &|h| {
+                h.flags = shared::FLAG_SMOOTH;
+                h.substep_mode = SubstepMode::Fixed as u32;
+                h.substeps = 1 << 16;
+            }),
+            (0..shared::MAX_PATH_POINTS)
+                .map(|i| Vec3::new(39.0, (i % 7) as f64, 0.0))
+                .collect(),
+            Status::OverBudget,
+            "over the budget",
+        ),
+        (
             "smooth on a move",
             with(Move, 0, &|h| h.flags = shared::FLAG_SMOOTH),
             p(1., 0., 0.),

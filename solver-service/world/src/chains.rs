@@ -419,6 +419,31 @@ impl World {
             }
             k as usize
         };
+        // Bounded before anything is allocated: every sample is at least one substep over the
+        // chain's links, so a path whose samples alone pass the budget is refused here.
+        let count = keys.windows(2).fold(0u64, |acc, w| {
+            let chord = (w[1] - w[0]).norm();
+            let k = match options.substeps {
+                Substeps::Fixed(k) => u64::from(k),
+                Substeps::MaxStep(s) => {
+                    let k = (chord / (s * spec.shortest)).ceil();
+                    if k.is_finite() && k < 1e18 {
+                        k as u64
+                    } else {
+                        u64::MAX
+                    }
+                }
+            };
+            acc.saturating_add(k.max(1))
+        });
+        let work = count.saturating_mul(spec.lengths.len() as u64);
+        if work > self.budget {
+            return Err(refuse!(
+                OverBudget,
+                "about {work:.2e} link-steps, over the budget of {:.2e} (--budget)",
+                self.budget as f64
+            ));
+        }
         let mut samples = Vec::new();
         tractrix::path::spline_samples(&keys, per_segment, &mut samples);
         if let Some(k) = too_many {
