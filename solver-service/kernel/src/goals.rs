@@ -115,7 +115,8 @@ impl<T: Real, const D: usize> Goal<T, D> {
 
 /// Reaches for `goal` with the options' strategy (see the module). On success the outcome's residual
 /// is the head's distance from the goal's point (zero for a region it lies in); on an error nothing
-/// moves. For a region the head already lies in, nothing moves and no iteration runs.
+/// moves. For a region the head already lies in, nothing moves and no iteration runs. A pose goal
+/// builds the chain without its last link (it allocates); the other goals allocate nothing.
 pub fn reach_goal<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     goal: &Goal<T, D>,

@@ -406,36 +406,29 @@ impl World {
         let mut keys = Vec::with_capacity(targets.len() + 1);
         keys.push(from);
         keys.extend_from_slice(targets);
-        let limit = options.max_substeps;
-        let mut too_many = None;
-        let per_segment = |_: usize, chord: f64| -> usize {
-            let k = match options.substeps {
+        // Samples of a segment: as many as its substeps would be (at least one).
+        let per_chord = |chord: f64| -> f64 {
+            match options.substeps {
                 Substeps::Fixed(k) => f64::from(k),
-                Substeps::MaxStep(s) => (chord / (s * spec.shortest)).ceil(),
-            };
-            if k.is_nan() || k > f64::from(limit) {
-                too_many.get_or_insert(k);
-                return 1;
+                Substeps::MaxStep(s) => (chord / (s * spec.shortest)).ceil().max(1.0),
             }
-            k as usize
         };
-        // Bounded before anything is allocated: every sample is at least one substep over the
-        // chain's links, so a path whose samples alone pass the budget is refused here.
-        let count = keys.windows(2).fold(0u64, |acc, w| {
-            let chord = (w[1] - w[0]).norm();
-            let k = match options.substeps {
-                Substeps::Fixed(k) => u64::from(k),
-                Substeps::MaxStep(s) => {
-                    let k = (chord / (s * spec.shortest)).ceil();
-                    if k.is_finite() && k < 1e18 {
-                        k as u64
-                    } else {
-                        u64::MAX
-                    }
+        // Bounded before anything is allocated: each segment by the substep limit, and every
+        // sample is at least one substep over the chain's links, so a path whose samples alone
+        // pass the budget is refused here.
+        let limit = options.max_substeps;
+        let mut count = 0u64;
+        for w in keys.windows(2) {
+            let k = per_chord((w[1] - w[0]).norm());
+            if k.is_nan() || k > f64::from(limit) {
+                return Err(ChainError::TooManySubsteps {
+                    required: if k.is_finite() { k as u64 } else { u64::MAX },
+                    limit,
                 }
-            };
-            acc.saturating_add(k.max(1))
-        });
+                .into());
+            }
+            count = count.saturating_add(k as u64);
+        }
         let work = count.saturating_mul(spec.lengths.len() as u64);
         if work > self.budget {
             return Err(refuse!(
@@ -445,14 +438,7 @@ impl World {
             ));
         }
         let mut samples = Vec::new();
-        tractrix::path::spline_samples(&keys, per_segment, &mut samples);
-        if let Some(k) = too_many {
-            return Err(ChainError::TooManySubsteps {
-                required: if k.is_finite() { k as u64 } else { u64::MAX },
-                limit,
-            }
-            .into());
-        }
+        tractrix::path::spline_samples(&keys, |_, chord| per_chord(chord) as usize, &mut samples);
         if spec.kind == ChainKind::Free
             && let Some((i, p)) = samples
                 .iter()
