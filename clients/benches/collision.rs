@@ -1,7 +1,8 @@
 //! What collision handling costs per move, and what it buys, measured side by side in one run.
 //!
 //! `cargo bench -p clients --bench collision` prints, for a rope 40 units long in 40, 160 and 320 links
-//! (thickness 0.2), with no collision, the paper's spheres (section 4.2) and capsules on a hash grid:
+//! (thickness 0.2), with no collision, the paper's spheres (section 4.2) and capsules (candidate pairs
+//! from the kernel's tree of boxes over the chain):
 //!
 //! * **tying**: the built-in overhand script's head path (the `hand run --builtin overhand` moves): time
 //!   per move (median, p99, max), the ratio of medians to no collision, moves refused as locked, and the
@@ -10,11 +11,12 @@
 //!   touching: the cost of detection alone.
 //!
 //! Schemes are interleaved round by round so machine noise hits them alike. `COLLISION_BENCH_ROUNDS`
-//! (default 5) sets the rounds.
+//! (default 5) sets the rounds; `COLLISION_BENCH_COST_ONLY` prints the first table only.
 //!
 //! A second table is the speed/accuracy trade: the tying path at 160 and 320 links, for each scheme,
-//! over the resolution passes allowed per substep (`max_iterations` 1 to 256, tolerance 1 %) and over
-//! the tolerance (10 %, 1 %, 0.1 %, 256 passes). The accuracy side is measured independently of the
+//! over the resolution passes allowed per substep (`max_iterations` 1 to 256, tolerance 1 %), over
+//! the tolerance (10 %, 1 %, 0.1 %, 256 passes) and over the pushes' over-relaxation (1, the default
+//! 1.5 and 1.9, 64 passes). The accuracy side is measured independently of the
 //! solver's own bookkeeping: after every accepted move, every pair of links with at least a rope
 //! thickness of rope between them is tested (all pairs, O(n²)) and the worst penetration of the real
 //! rope (thickness 0.2) is kept, as a fraction of the thickness; with it, the moves refused as locked,
@@ -75,6 +77,7 @@ fn run(
     targets: &[V],
     max_iterations: u32,
     tolerance: f64,
+    over_relaxation: f64,
     check: bool,
 ) -> Run {
     let len = 40.0 / n as f64;
@@ -89,6 +92,7 @@ fn run(
             thickness: THICKNESS,
             max_iterations,
             tolerance,
+            over_relaxation,
             ..CollisionOptions::default()
         },
         obstacles: vec![],
@@ -168,7 +172,7 @@ fn main() {
             for r in 0..rounds {
                 for k in 0..schemes.len() {
                     let i = (k + r) % schemes.len();
-                    let out = run(n, schemes[i], targets, 64, 0.01, false);
+                    let out = run(n, schemes[i], targets, 64, 0.01, 1.5, false);
                     all[i].extend(out.ns);
                     last[i] = (out.locked, out.knot);
                 }
@@ -191,7 +195,10 @@ fn main() {
             }
         }
     }
-    trade(&tying);
+    // `scripts/ab-collision.sh` compares the first table across commits and skips the trade.
+    if std::env::var_os("COLLISION_BENCH_COST_ONLY").is_none() {
+        trade(&tying);
+    }
 }
 
 /// The speed/accuracy trade of collision handling: passes allowed and tolerance, per scheme.
@@ -205,26 +212,32 @@ fn trade(tying: &[V]) {
         tying.len()
     );
     println!(
-        "| links | collision | passes allowed | tolerance | mean µs | median µs | p99 µs \
-         | passes per accepted move | locked moves | worst penetration | knot |"
+        "| links | collision | passes allowed | tolerance | over-relaxation | mean µs | median µs \
+         | p99 µs | passes per accepted move | locked moves | worst penetration | knot |"
     );
-    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
-    let mut grid: Vec<(u32, f64)> = [1u32, 2, 4, 8, 16, 64, 256]
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    let mut grid: Vec<(u32, f64, f64)> = [1u32, 2, 4, 8, 16, 64, 256]
         .iter()
-        .map(|&m| (m, 0.01))
+        .map(|&m| (m, 0.01, 1.5))
         .collect();
-    grid.extend([(256, 0.1), (256, 0.001)]);
+    grid.extend([
+        (256, 0.1, 1.5),
+        (256, 0.001, 1.5),
+        (64, 0.01, 1.0),
+        (64, 0.01, 1.9),
+    ]);
     for n in [160usize, 320] {
         for h in [Handling::Paper, Handling::Capsules] {
-            for &(m, tol) in &grid {
-                let mut r = run(n, h, tying, m, tol, true);
+            for &(m, tol, omega) in &grid {
+                let mut r = run(n, h, tying, m, tol, omega, true);
                 let accepted = (r.ns.len() - r.locked).max(1);
                 println!(
-                    "| {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.4} | {} |",
+                    "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.4} | {} |",
                     n,
                     h.name(),
                     m,
                     tol,
+                    omega,
                     r.ns.iter().sum::<u64>() as f64 / r.ns.len() as f64 / 1e3,
                     pct(&mut r.ns, 0.5),
                     pct(&mut r.ns, 0.99),

@@ -358,8 +358,14 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
                 row["knot"] = k.group(1)
         if row["requests"]:
             row["us_per_request"] = row["seconds"] * 1e6 / row["requests"]
-        # Every move and instrument request's round trip, as the hands waited for it (`hand --timings`).
-        trips = sorted(float(x) for h in hands for x in (tmp / f"hand-{h}.us").read_text().split())
+        # Every move and instrument request's round trip, as the hands waited for it (`hand --timings`:
+        # round trip µs, the service's solve µs and the status per line, after a `#` header).
+        trips = sorted(
+            float(line.split()[0])
+            for h in hands
+            for line in (tmp / f"hand-{h}.us").read_text().splitlines()
+            if line.strip() and not line.startswith("#")
+        )
         if trips:
             row["rt_p50_us"] = trips[(len(trips) - 1) // 2]
             row["rt_p99_us"] = trips[min(len(trips) - 1, math.ceil(0.99 * len(trips)) - 1)]

@@ -81,22 +81,42 @@ pub struct HandReport {
     pub frames: Vec<(String, Vec<[f64; 3]>)>,
     /// Moves refused as over-budget and sent again as two halves (not counted in `requests`).
     pub splits: u64,
-    /// The round trip of every counted request (move or instrument), µs: from the call to the
-    /// response read, as the hand waits for it.
-    pub round_trips_us: Vec<f64>,
+    /// Every move and instrument request sent, in order, the halves of a split move included.
+    pub timings: Vec<Timing>,
+}
+
+/// One request's times.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timing {
+    /// From the call to the response read, as the hand waits for it, µs.
+    pub round_trip_us: f64,
+    /// The service's own time for it (`solve_ns` of the response: from decoding to journaling).
+    pub solve_ns: u64,
+    /// Its status's name.
+    pub status: &'static str,
 }
 
 /// How deep a move refused as over-budget is split in halves (at most 2⁴ pieces).
 const SPLITS: u32 = 4;
 
 impl HandReport {
-    /// Counts one request's answer by its status and its round trip (since `called`); returns the
-    /// status's name.
-    fn tally(&mut self, status: u32, called: Instant) -> &'static str {
-        self.round_trips_us
-            .push(called.elapsed().as_secs_f64() * 1e6);
-        self.requests += 1;
+    /// Keeps one request's times: its round trip (since `called`) and the service's `solve_ns`;
+    /// returns the status's name.
+    fn time(&mut self, status: u32, called: Instant, solve_ns: u64) -> &'static str {
         let name = Status::from_u32(status).map_or("unknown", |s| s.name());
+        self.timings.push(Timing {
+            round_trip_us: called.elapsed().as_secs_f64() * 1e6,
+            solve_ns,
+            status: name,
+        });
+        name
+    }
+
+    /// Counts one request's answer by its status and keeps its times ([`HandReport::time`]);
+    /// returns the status's name.
+    fn tally(&mut self, status: u32, called: Instant, solve_ns: u64) -> &'static str {
+        let name = self.time(status, called, solve_ns);
+        self.requests += 1;
         match Status::from_u32(status) {
             Some(Status::Ok) => self.ok += 1,
             Some(Status::Locked) => self.locked += 1,
@@ -499,7 +519,7 @@ impl TurnRun<'_> {
             h.joint = index;
             let sent = now_ns();
             let called = Instant::now();
-            let (status, seq, rid, dg) = self.conn.call_with(
+            let (status, seq, rid, dg, solve_ns) = self.conn.call_with(
                 h,
                 &[
                     Vec3::new(centre[0], centre[1], centre[2]),
@@ -507,10 +527,16 @@ impl TurnRun<'_> {
                 ],
                 |rh, pts| {
                     let n = (rh.n_joints as usize).min(pts.len());
-                    (rh.status, rh.sequence, rh.request_id, digest(&pts[..n]))
+                    (
+                        rh.status,
+                        rh.sequence,
+                        rh.request_id,
+                        digest(&pts[..n]),
+                        rh.solve_ns,
+                    )
                 },
             )?;
-            let name = self.report.tally(status, called);
+            let name = self.report.tally(status, called, solve_ns);
             if let Some(w) = self.record.as_mut() {
                 let r = Record {
                     t_ns: sent,
@@ -574,21 +600,21 @@ impl TurnRun<'_> {
                 let sent = now_ns();
                 let called = Instant::now();
                 let last = pending.is_empty();
-                let (status, seq, rid, dg, frame, (reason, stopped_at)) =
-                    self.conn
-                        .call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
-                            let n = (rh.n_joints as usize).min(pts.len());
-                            let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
-                                .then(|| pts[..n].iter().map(|p| p.to_array()).collect());
-                            (
-                                rh.status,
-                                rh.sequence,
-                                rh.request_id,
-                                digest(&pts[..n]),
-                                frame,
-                                (rh.reason_str(), rh.substeps),
-                            )
-                        })?;
+                let (status, seq, rid, dg, frame, (reason, stopped_at, solve_ns)) = self
+                    .conn
+                    .call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
+                        let n = (rh.n_joints as usize).min(pts.len());
+                        let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
+                            .then(|| pts[..n].iter().map(|p| p.to_array()).collect());
+                        (
+                            rh.status,
+                            rh.sequence,
+                            rh.request_id,
+                            digest(&pts[..n]),
+                            frame,
+                            (rh.reason_str(), rh.substeps, rh.solve_ns),
+                        )
+                    })?;
                 // Halves help unless the work ran out in the first substep (a piece does
                 // fewer substeps); a rope jammed against itself spends every collision pass in
                 // one substep whatever the move's length, and splitting only repeats that.
@@ -616,6 +642,7 @@ impl TurnRun<'_> {
                 }
                 if status == Status::OverBudget as u32 && splittable {
                     self.report.splits += 1;
+                    self.report.time(status, called, solve_ns);
                     let mid = [
                         0.5 * (at[0] + t[0]),
                         0.5 * (at[1] + t[1]),
@@ -624,7 +651,7 @@ impl TurnRun<'_> {
                     pending.push((t, depth + 1));
                     pending.push((mid, depth + 1));
                 } else {
-                    let name = self.report.tally(status, called);
+                    let name = self.report.tally(status, called, solve_ns);
                     if status == Status::Ok as u32 {
                         at = t;
                     }

@@ -42,7 +42,7 @@ use iceoryx2::waitset::WaitSetRunResult;
 use shared::{
     BUNDLE_STATE_BUFFER, MAX_BUNDLE_SUBSCRIBERS, MAX_CLIENTS, RequestHeader, ResponseHeader,
     SERVICE_BUNDLE_STATE, SERVICE_COMMAND, SERVICE_STATE, SERVICE_WAKE_CLIENT, SERVICE_WAKE_SERVER,
-    StateHeader, Vec3, Wait, service_name,
+    StateHeader, Status, Vec3, Wait, service_name,
 };
 use std::collections::VecDeque;
 use std::mem::MaybeUninit;
@@ -54,6 +54,9 @@ use std::time::{Duration, Instant};
 pub const CHECK_EVERY: Duration = Duration::from_millis(1);
 /// How often the loop looks for clients that have gone, while the handler tracks clients.
 pub const CLIENTS_EVERY: Duration = Duration::from_millis(500);
+/// Least time between two checks of the clients present forced by a request refused as `held` (a
+/// client that sends such requests in a loop cannot make the loop list clients for each).
+pub const CLIENTS_FORCED_EVERY: Duration = Duration::from_millis(20);
 /// Longest sleep of the event and hybrid modes without a notification (a polling client may not
 /// notify; its request is served at the next tick).
 pub const TICK: Duration = Duration::from_millis(50);
@@ -510,6 +513,7 @@ where
     let mut checks = Checks {
         next: Instant::now() + CHECK_EVERY,
         clients_next: Instant::now() + CLIENTS_EVERY,
+        forced_next: Instant::now(),
         stop: false,
         flag: opts.stop.clone(),
     };
@@ -569,6 +573,8 @@ where
 struct Checks {
     next: Instant,
     clients_next: Instant,
+    /// When a refusal as `held` may next force a check of the clients present.
+    forced_next: Instant,
     stop: bool,
     flag: Option<Arc<AtomicBool>>,
 }
@@ -589,16 +595,7 @@ impl Checks {
         {
             self.stop = true;
         }
-        let list = || {
-            // A client killed with SIGKILL keeps its port until its node is cleaned up.
-            let _ = ports.node.try_cleanup_dead_nodes();
-            let mut present = Vec::new();
-            ports.command.dynamic_config().list_clients(|c| {
-                present.push(c.client_id.value());
-                CallbackProgression::Continue
-            });
-            present
-        };
+        let list = || present_clients(ports);
         let clients = Clients::new(&list);
         if now >= self.clients_next {
             self.clients_next = now + CLIENTS_EVERY;
@@ -607,6 +604,37 @@ impl Checks {
             handler.housekeeping(now, None);
         }
     }
+
+    /// Checks the clients present now (those gone lose their grasps), unless a forced check ran
+    /// within [`CLIENTS_FORCED_EVERY`]; `true` if it ran. A request refused because another client
+    /// holds the joint may come right after that client exited, before the periodic check saw it go
+    /// (`tractrix-client grasp`, then `tractrix-client release` from the next process).
+    fn clients_now<S: Service, H: Handler>(
+        &mut self,
+        ports: &ServerPorts<S>,
+        handler: &mut H,
+    ) -> bool {
+        let now = Instant::now();
+        if now < self.forced_next {
+            return false;
+        }
+        self.forced_next = now + CLIENTS_FORCED_EVERY;
+        let list = || present_clients(ports);
+        handler.housekeeping(now, Some(&Clients::new(&list)));
+        true
+    }
+}
+
+/// The port ids of the clients connected now.
+fn present_clients<S: Service>(ports: &ServerPorts<S>) -> Vec<u128> {
+    // A client killed with SIGKILL keeps its port until its node is cleaned up.
+    let _ = ports.node.try_cleanup_dead_nodes();
+    let mut present = Vec::new();
+    ports.command.dynamic_config().list_clients(|c| {
+        present.push(c.client_id.value());
+        CallbackProgression::Continue
+    });
+    present
 }
 
 /// Hybrid mode after a request: spin for `budget` past the last one, then sleep again.
@@ -670,7 +698,7 @@ fn serve_pending<S: Service, H: Handler>(
         let Some(req) = fair.pop() else {
             return Ok(served);
         };
-        serve_one(ports, handler, req, scratch);
+        serve_one(ports, handler, req, scratch, checks);
         served += 1;
         checks.run(ports, handler);
         if checks.stop {
@@ -758,8 +786,15 @@ fn serve_one<S: Service, H: Handler>(
     handler: &mut H,
     req: Request<S>,
     scratch: &mut Vec<Vec3>,
+    checks: &mut Checks,
 ) {
     let request = *req.user_header();
+    let mut answered = answer_timed(handler, req.origin().value(), &request, req.payload());
+    // Refused because another client holds the joint: that client may have just gone. A refusal
+    // changed nothing, so once the clients present are checked the request is answered afresh.
+    if answered.0.header.status == Status::Held as u32 && checks.clients_now(ports, handler) {
+        answered = answer_timed(handler, req.origin().value(), &request, req.payload());
+    }
     let (
         Handled {
             mut header,
@@ -768,7 +803,7 @@ fn serve_one<S: Service, H: Handler>(
             landing,
         },
         n,
-    ) = answer_timed(handler, req.origin().value(), &request, req.payload());
+    ) = answered;
     let slot = match req.loan_slice_uninit(n) {
         Ok(slot) => slot,
         Err(e) => {

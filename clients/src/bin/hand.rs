@@ -100,8 +100,10 @@ enum Cmd {
         /// this many units (0: none; without `--perturb` none).
         #[arg(long, default_value_t = clients::script::HAND_TREMOR)]
         tremor: f64,
-        /// Write the round trip of every move and instrument request, µs, one per line, to this file
-        /// (the knot sweep's time per request).
+        /// Write the times of every move and instrument request sent (the halves of a split move
+        /// included) to this file, one line each: the round trip as the hand waited for it (µs), the
+        /// service's own time (`solve_ns`, µs) and the status (the knot sweep's time per request, the
+        /// contact bench's).
         #[arg(long)]
         timings: Option<PathBuf>,
     },
@@ -220,10 +222,15 @@ fn run(a: Args) -> Result<u8> {
                 }
             );
             if let Some(path) = &timings {
-                let text: String = r
-                    .round_trips_us
-                    .iter()
-                    .map(|t| format!("{t:.1}\n"))
+                let text: String = std::iter::once("# round_trip_us solve_us status\n".to_string())
+                    .chain(r.timings.iter().map(|t| {
+                        format!(
+                            "{:.1} {:.3} {}\n",
+                            t.round_trip_us,
+                            t.solve_ns as f64 / 1e3,
+                            t.status
+                        )
+                    }))
                     .collect();
                 std::fs::write(path, text).with_context(|| format!("write {}", path.display()))?;
             }

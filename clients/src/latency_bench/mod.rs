@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 mod load;
 mod loaded;
 mod noise;
+pub use noise::noise;
 
 pub use load::{LoadConfig, LoadReport, load};
 use loaded::loaded;

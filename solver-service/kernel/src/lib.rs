@@ -19,8 +19,8 @@
 //! * [`math`]: scalar trait, vector aliases, tolerances.
 //! * [`link`]: one link, three ways (closed-form tractrix, the paper's TRACTRIX3D, follow-the-leader).
 //! * [`chain`]: flat chain state and RESOLUTION-TRACTRIX (head, tail or interior joint moves, substeps).
-//! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a hash grid), in query,
-//!   grid and resolve modules.
+//! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a tree of boxes
+//!   over the chain), in query, tree and resolve modules.
 //! * [`fixed_base`]: fixed-base manipulators, both of the paper's strategies, workspace checks.
 //! * [`goals`]: Korein & Badler's goals beyond a point for a fixed-base chain: an orientation of the
 //!   last link, a box or a ball for the head.

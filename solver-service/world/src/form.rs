@@ -261,6 +261,7 @@ where
                 thickness: T::lit(o.thickness),
                 max_iterations: o.max_iterations,
                 tolerance: T::lit(o.tolerance),
+                over_relaxation: T::lit(o.over_relaxation),
             },
             obstacles,
             holding: holding(spec, c),

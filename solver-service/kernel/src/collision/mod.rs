@@ -21,9 +21,9 @@
 //!   less than a thickness of rope between them ([`neighbour_span`]: only adjacent links when the links
 //!   are longer than the rope is thick). The
 //!   contact pushes the four joints along the common normal in proportion to where the closest points
-//!   lie on each link (the grasped joint does not move). Candidate pairs come from a spatial hash grid
-//!   with cells one link plus one thickness wide, so detection costs O(n) for a rope that is not piled
-//!   into one cell.
+//!   lie on each link (the grasped joint does not move). Candidate pairs come from a bounding-volume
+//!   tree over the chain whose shape never changes (leaves of four consecutive links, refitted every
+//!   pass in O(n)), so detection costs O(n) for a rope that is not piled into a ball.
 //!
 //! # Guarantees
 //!
@@ -38,28 +38,29 @@
 //! # Modules
 //!
 //! [`query`]: distances and closest points (point–segment, segment–segment, link pairs, obstacles);
-//! `grid`: the spatial hash grid that finds candidate pairs; `resolve`: one resolution pass over the
+//! `tree`: the bounding-volume tree over the chain that finds candidate pairs; `resolve`: one resolution pass over the
 //! contacts; this module: the options, the model and the driver that moves a joint with collision.
 
-mod grid;
 pub mod query;
 mod resolve;
+mod tree;
 
 use crate::chain::{Chain, ChainError, MoveOptions, MoveOutcome};
 use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
-use grid::HashGrid;
 pub use query::{
     closest_links_apart, closest_nonadjacent_links, closest_param_point_segment,
     closest_params_segment_segment,
 };
 use resolve::resolve;
+use tree::ChainTree;
 
 /// Which collision test and response a chain uses (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Scheme {
     /// Section 4.2 as printed: one bounding sphere per link, all pairs, the colliding link moved.
     PaperSpheres,
-    /// Capsules of the rope's thickness, spatial hash grid, contact pushes weighted along the links.
+    /// Capsules of the rope's thickness, a tree of boxes over the chain, contact pushes weighted along
+    /// the links.
     Capsules,
 }
 
@@ -109,6 +110,16 @@ pub struct CollisionOptions<T> {
     /// Penetration accepted, as a fraction of each pair's clearance, in `(0, 1)`. Smaller is stricter
     /// and costs more passes; the default keeps links within 1 % of a thickness.
     pub tolerance: T,
+    /// How far each contact is pushed, as a multiple of its depth (plus half the tolerance), in
+    /// `[1, 2)`: successive over-relaxation of the pushes. A knot pulled tight jams: each pass pushes
+    /// its contacts apart and re-straightening the rope to its lengths pulls them most of the way
+    /// back, so at 1 the passes creep toward the tolerance; pushing further converges in fewer passes
+    /// (the built-in overhand's pull at 160 links: 144 passes over a move's two substeps at 1, 76 at
+    /// 1.5, 57 at 2). It leaves a contact at most its depth farther apart than it need be, when that
+    /// depth is above the tolerance (`cargo bench -p clients --bench collision` shows the trade). A
+    /// chain with held joints pushes by the depth (1): the rope between them is re-solved as a whole
+    /// after the pushes, and a joint that moves farther than a substep may locks the move.
+    pub over_relaxation: T,
 }
 
 impl<T: Real> Default for CollisionOptions<T> {
@@ -119,12 +130,14 @@ impl<T: Real> Default for CollisionOptions<T> {
             thickness: T::lit(0.2),
             max_iterations: 64,
             tolerance: T::lit(0.01),
+            over_relaxation: T::lit(1.5),
         }
     }
 }
 
 impl<T: Real> CollisionOptions<T> {
-    /// Checks the options (positive thickness for capsules, tolerance in `(0, 1)`, at least one pass).
+    /// Checks the options (positive thickness for capsules, tolerance in `(0, 1)`, over-relaxation in
+    /// `[1, 2)`, at least one pass).
     pub fn validate(&self) -> Result<(), ChainError> {
         if self.scheme == Scheme::Capsules && !positive_finite(self.thickness) {
             return Err(ChainError::BadOption(
@@ -134,6 +147,11 @@ impl<T: Real> CollisionOptions<T> {
         if !(self.tolerance > T::zero() && self.tolerance < T::one()) {
             return Err(ChainError::BadOption(
                 "collision tolerance must lie strictly between 0 and 1",
+            ));
+        }
+        if !(self.over_relaxation >= T::one() && self.over_relaxation < T::lit(2.0)) {
+            return Err(ChainError::BadOption(
+                "collision over-relaxation must lie in [1, 2)",
             ));
         }
         if self.max_iterations == 0 {
@@ -172,7 +190,7 @@ pub struct Holding {
 pub struct CollisionWorkspace<T: Real, const D: usize> {
     pos: Vec<Vector<T, D>>,
     backup_links: Vec<Vector<T, D>>,
-    grid: HashGrid,
+    tree: ChainTree<T, D>,
     meter: Meter,
 }
 
@@ -186,8 +204,8 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     /// total, to `link_steps`, and starts counting from zero. The work is counted in link-steps, the
     /// cost of one link following its tractrix once, and charged *before* it is done: every tractrix
     /// sweep (one per link per substep), every held side's solve (its bound, [`ReachOptions::passes_bound`]),
-    /// and each collision pass's grid (two per link), candidate pairs (one per pair tested, one per
-    /// sixteen grid entries scanned; the paper's spheres all pairs at once), obstacles (one per link
+    /// and each collision pass's tree (an eighth per link to refit it, a sixteenth per pair of boxes
+    /// tested), candidate pairs (three eighths per pair tested; the paper's spheres all pairs at once), obstacles (one per link
     /// each), re-straightening (one per link), relaxation iterations (half a link-step per link) and re-solves (four per
     /// link per iteration, the iterations capped by what is left). A call that would pass the limit
     /// stops before it, leaves the chain unchanged and returns [`ChainError::OverWork`]; so the work
@@ -209,15 +227,18 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
 }
 
 /// What each unit of collision work is charged, in sixteenths of a link-step (one link following its
-/// tractrix once). Set from the time each takes beside a tractrix link-step, measured by
-/// `cargo bench -p clients --bench budget` (BENCHMARKS.md, "Work meter"), rounded up.
+/// tractrix once): set from the time each takes beside a tractrix link-step, rounded up (the
+/// tree's refit and box tests from the free path of `cargo bench -p clients --bench collision`,
+/// where they are all the work a pass does). `cargo bench -p solver-service --bench budget`
+/// (BENCHMARKS.md, "Every request inside its budget") checks that no request takes longer than its
+/// budget's time.
 pub(super) mod cost {
     /// A link-step: one link of a tractrix sweep.
     pub const LINK_STEP: u64 = 16;
-    /// Building the grid, per link.
-    pub const GRID_PER_LINK: u64 = 8;
-    /// One grid entry scanned while querying a link.
-    pub const ENTRY: u64 = 1;
+    /// Refitting the tree's boxes, per link.
+    pub const REFIT_PER_LINK: u64 = 2;
+    /// One pair of the tree's boxes tested.
+    pub const NODE_PAIR: u64 = 1;
     /// One capsule pair tested (closest points of two segments).
     pub const CAPSULE_PAIR: u64 = 6;
     /// One pair of the paper's spheres tested.

@@ -1,11 +1,11 @@
-//! One resolution pass over the contacts of a chain (capsules on the grid, or the paper's spheres) and
+//! One resolution pass over the contacts of a chain (capsules on the chain's tree, or the paper's spheres) and
 //! its obstacles: each contact found is pushed apart at once (Gauss–Seidel).
 
-use super::grid::HashGrid;
 use super::query::{
     any_perpendicular, away_from, closest_param_point_segment, closest_params_segment_segment,
     lerp, unit_or_perpendicular,
 };
+use super::tree::ChainTree;
 use super::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Meter, Obstacle, Scheme, Stop, cost,
     neighbour_span, restraighten,
@@ -31,14 +31,14 @@ where
     let opts = &model.options;
     let mut contacts = 0u32;
     let mut iterations = 0u32;
-    let use_grid = opts.self_collision && opts.scheme == Scheme::Capsules;
+    let use_tree = opts.self_collision && opts.scheme == Scheme::Capsules;
     let span = neighbour_span(chain.min_length(), opts.thickness);
     let n = chain.n_links() as u64;
-    // What a pass costs before its pairs: the grid (two per link) or the paper's all pairs, and each
+    // What a pass costs before its pairs: refitting the tree or the paper's all pairs, and each
     // obstacle against every link.
     let detection = match (opts.self_collision, opts.scheme) {
         (false, _) => 0,
-        (true, Scheme::Capsules) => n.saturating_mul(cost::GRID_PER_LINK),
+        (true, Scheme::Capsules) => n.saturating_mul(cost::REFIT_PER_LINK),
         (true, Scheme::PaperSpheres) => {
             (n.saturating_mul(n.saturating_sub(1)) / 2).saturating_mul(cost::SPHERE_PAIR)
         }
@@ -51,13 +51,20 @@ where
         if !ws.meter.charge(detection) {
             return Err(Stop::OverWork);
         }
-        if use_grid {
-            ws.grid.build(&ws.pos, opts.thickness * T::lit(0.5));
+        if use_tree {
+            ws.tree.refit(&ws.pos, opts.thickness * T::lit(0.5));
         }
         let mut pass = Pass {
             m,
             held,
             tol: opts.tolerance,
+            // Between held joints the rope is re-solved as a whole after the pushes, and a joint that
+            // moves farther than a substep may locks the move: pushes there are not over-relaxed.
+            omega: if held.is_empty() {
+                opts.over_relaxation
+            } else {
+                T::one()
+            },
             pushed: 0,
             worst: T::zero(),
             blocked: false,
@@ -67,7 +74,7 @@ where
             match opts.scheme {
                 Scheme::Capsules => pass.capsules(
                     &mut ws.pos,
-                    &mut ws.grid,
+                    &mut ws.tree,
                     opts.thickness,
                     span,
                     &mut ws.meter,
@@ -387,6 +394,8 @@ struct Pass<'a, T> {
     /// Held joints (ascending): they do not move either.
     held: &'a [usize],
     tol: T,
+    /// The over-relaxation of each push.
+    omega: T,
     pushed: u32,
     worst: T,
     /// A contact only fixed joints could resolve.
@@ -418,49 +427,32 @@ impl<T: Real> Pass<'_, T> {
         depth > self.tol * clearance
     }
 
-    /// The push that brings a contact of depth `depth` to its clearance plus half the tolerance.
+    /// The push that brings a contact of depth `depth` to its clearance plus half the tolerance,
+    /// over-relaxed: the depth is pushed [`CollisionOptions::over_relaxation`] times.
     #[inline]
     fn push_depth(&self, depth: T, clearance: T) -> T {
-        depth + self.tol * T::lit(0.5) * clearance
+        depth * self.omega + self.tol * T::lit(0.5) * clearance
     }
 
     fn capsules<const D: usize>(
         &mut self,
         pos: &mut [Vector<T, D>],
-        grid: &mut HashGrid,
+        tree: &mut ChainTree<T, D>,
         thickness: T,
         span: usize,
         meter: &mut Meter,
     ) where
         Vector<T, D>: Embed3<T>,
     {
-        let n = pos.len() - 1;
-        for i in 0..n {
-            let (lo, hi) = (grid.lo[i], grid.hi[i]);
-            // The entries this link's cells hold, scanned below (a rope piled into a few cells scans
-            // many).
-            if !meter.charge(grid.entries_around(i).saturating_mul(cost::ENTRY)) {
-                self.out_of_work = true;
-                return;
+        let done = tree.close_pairs(meter, span, |meter, i, j| {
+            if !meter.charge(cost::CAPSULE_PAIR) {
+                return false;
             }
-            for cx in lo[0]..=hi[0] {
-                for cy in lo[1]..=hi[1] {
-                    for cz in lo[2]..=hi[2] {
-                        let h = grid.slot([cx, cy, cz]);
-                        for e in grid.starts[h]..grid.starts[h + 1] {
-                            let j = grid.entries[e as usize] as usize;
-                            if j <= i + span || !grid.first_visit(j, i) {
-                                continue;
-                            }
-                            if !meter.charge(cost::CAPSULE_PAIR) {
-                                self.out_of_work = true;
-                                return;
-                            }
-                            self.capsule_pair(pos, i, j, thickness);
-                        }
-                    }
-                }
-            }
+            self.capsule_pair(pos, i, j, thickness);
+            true
+        });
+        if !done {
+            self.out_of_work = true;
         }
     }
 
@@ -469,7 +461,7 @@ impl<T: Real> Pass<'_, T> {
         Vector<T, D>: Embed3<T>,
     {
         let (a0, a1, b0, b1) = (pos[i], pos[i + 1], pos[j], pos[j + 1]);
-        // Most candidates from the grid's cells are farther apart than the clearance along some
+        // Most candidates from overlapping leaves are farther apart than the clearance along some
         // axis: no closest points needed (the pair could not violate it).
         if boxes_apart(&a0, &a1, &b0, &b1, c) {
             return;

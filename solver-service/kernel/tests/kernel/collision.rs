@@ -111,8 +111,8 @@ fn a_head_pushed_through_the_other_arm_of_a_hairpin_never_passes_it() {
 }
 
 #[test]
-fn random_crumpled_ropes_are_separated_by_the_grid_as_by_brute_force() {
-    // Ropes driven hard in random directions pile up; whatever the grid finds, the O(n²) check agrees
+fn random_crumpled_ropes_are_separated_by_the_tree_as_by_brute_force() {
+    // Ropes driven hard in random directions pile up; whatever the tree finds, the O(n²) check agrees
     // that no contact is deeper than the tolerance after any accepted move.
     let mut rng = Rng(42);
     let (mut accepted, mut locked, mut contacts) = (0u32, 0u32, 0u64);

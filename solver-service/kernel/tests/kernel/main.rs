@@ -8,7 +8,7 @@
 //!   10⁻⁶ to 10⁶, chains of 1 and 10⁶ links, f32 drift.
 //! * `convergence`: error against the continuous ground truth on a 40-link rope following a helix, per
 //!   doubling of substeps (≈4× tractrix, ≈2× follow-the-leader).
-//! * `collision`: clearance kept after every accepted move (grid vs brute force, spheres, obstacles),
+//! * `collision`: clearance kept after every accepted move (tree vs brute force, spheres, obstacles),
 //!   locked moves change nothing, the overhand knot holds with collision on a fine enough rope.
 //! * `fixed_base`: both strategies converge with the base unmoved; unreachable targets are reported;
 //!   the DLS baseline; joint angles.

@@ -23,6 +23,7 @@
 //! | `instruments` | list of instrument names | `[]` | the `[[instrument]]`s that push this chain (needs a scheme) |
 //! | `collision_iterations` | integer 1..=10000 | 64 | passes per substep before the chain is "locked" |
 //! | `collision_tolerance` | number in (0, 1) | 0.01 | accepted penetration, fraction of the clearance |
+//! | `collision_over_relaxation` | number in [1, 2) | 1.5 | each push as a multiple of its contact's depth: fewer passes on a jammed knot (BENCHMARKS.md, collision) |
 //! | `precision` | `"f64"` \| `"f32"` | `"f64"` | arithmetic and storage of the chain |
 //! | `method` | `"tractrix"` \| `"paper"` \| `"ftl"` | `"tractrix"` | default single-link method |
 //! | `substeps` / `max_step` | integer ≥ 1 / fraction of the shortest link | `substeps = 1` | default substep policy |
@@ -459,6 +460,16 @@ mod tests {
                 "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ncollision_tolerance = 1.5\n",
                 7,
                 "`collision_tolerance`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ncollision_over_relaxation = 2.0\n",
+                7,
+                "`collision_over_relaxation`: 2 is not in [1, 2)",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\ncollision_over_relaxation = 1.2\n",
+                5,
+                "`collision_over_relaxation`: needs `collision",
             ),
             (
                 "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nsubsteps = 0\n",

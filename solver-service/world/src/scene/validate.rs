@@ -1258,6 +1258,9 @@ fn collision(
             c.collision_tolerance
                 .as_ref()
                 .map(|s| ("collision_tolerance", s.span())),
+            c.collision_over_relaxation
+                .as_ref()
+                .map(|s| ("collision_over_relaxation", s.span())),
         ];
         if let Some((field, span)) = stray.into_iter().flatten().next() {
             return Err(f.err(
@@ -1300,6 +1303,17 @@ fn collision(
             ));
         }
         None => 0.01,
+    };
+    let over_relaxation = match &c.collision_over_relaxation {
+        Some(t) if *t.get_ref() >= 1.0 && *t.get_ref() < 2.0 => *t.get_ref(),
+        Some(t) => {
+            return Err(f.err(
+                t.span(),
+                "collision_over_relaxation",
+                format!("{} is not in [1, 2)", t.get_ref()),
+            ));
+        }
+        None => CollisionOptions::<f64>::default().over_relaxation,
     };
     let mut list = Vec::new();
     if let Some(names) = &c.obstacles {
@@ -1355,6 +1369,7 @@ fn collision(
             thickness,
             max_iterations,
             tolerance,
+            over_relaxation,
         },
         obstacles: list,
         instruments: mine,

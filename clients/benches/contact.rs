@@ -1,0 +1,322 @@
+//! Contact inside a haptic frame (issue 40): the service's own time per request along the tying path of
+//! every built-in knot, through the product.
+//!
+//! `cargo bench -p clients --bench contact` starts, for each row, the release `solver-service` on the
+//! shipped `knots.toml` (capsule self-collision, the scene's holds, instruments, anchors and budget),
+//! pinned to core 0 and waiting on events, and the script's `hand` processes as fast as the service
+//! answers (`--rate 0`); each hand writes the times of every request it sent (`hand run --timings`:
+//! moves and instrument poses, the halves of a move split after an over-budget refusal included). The
+//! table gives the service's own time per request (`solve_ns` of the response: from decoding the
+//! request to journaling it; no journal here) at p50, p99, p99.9 and max, with the requests refused
+//! (locked, over the work budget, out of a held rope's reach), and the knot the rope holds at the end
+//! (named by the service's identification, as `chainctl knot` names it). The machine's own noise
+//! (sleep and busy-loop probes on both cores, nothing of ours running) is measured first and printed
+//! above the rows: a request's time is only as steady as the core it runs on.
+//!
+//! A second table is the scale curve: the round trip of a move as a client in this process sees it
+//! (spinning on core 1, the service spinning on core 0), for a 40-unit rope of 40, 200, 1,000 and
+//! 10,000 links, with capsule collision (thickness 0.2) and without, along the built-in overhand's head
+//! path (the tying moves of the collision bench): what a simulator author picks a resolution from.
+//!
+//! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
+//! `CONTACT_BENCH_ONLY=overhand,tie-160` keeps the rows whose script or chain is named.
+
+use anyhow::{Context, Result, bail};
+use clients::process::Proc;
+use clients::script::Script;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The rows: a built-in script, the chain of `knots.toml` it runs on (its links), and what the chain
+/// has that costs (held joints, instruments, a bend limit).
+const ROWS: &[(&str, &str, usize, &str)] = &[
+    ("overhand", "paper", 40, "free head"),
+    ("overhand", "overhand", 160, "free head"),
+    ("square", "reef", 320, "two free ends"),
+    ("granny", "reef", 320, "two free ends"),
+    ("overhand-anchored", "suture", 40, "tail anchored"),
+    ("overhand-bend", "bend-80", 80, "bend limit"),
+    ("overhand-bend", "bend-160", 160, "bend limit"),
+    ("overhand-bend", "bend-320", 320, "bend limit"),
+    ("square-held", "hands", 40, "both ends held, a finger"),
+    ("square-held", "hands-160", 160, "both ends held, a finger"),
+    ("square-held", "hands-320", 320, "both ends held, a finger"),
+    ("instrument-tie", "tie", 40, "anchored, needle driver"),
+    ("instrument-tie", "tie-160", 160, "anchored, needle driver"),
+    ("instrument-tie", "tie-320", 320, "anchored, needle driver"),
+    ("surgeons-knot", "tie", 40, "anchored, needle driver"),
+    ("surgeons-knot", "tie-160", 160, "anchored, needle driver"),
+    (
+        "instrument-square",
+        "tie-160",
+        160,
+        "anchored, needle driver",
+    ),
+];
+
+/// How long one row may take before it is abandoned (a row is a few seconds to a few minutes).
+const ROW_TIMEOUT: Duration = Duration::from_secs(900);
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn release_bin(name: &str) -> Result<PathBuf> {
+    let dir = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join("target"));
+    let p = dir.join("release").join(name);
+    if !p.exists() {
+        bail!(
+            "{} is missing: build the binaries first (cargo build --release --bins)",
+            p.display()
+        );
+    }
+    Ok(p)
+}
+
+struct Row {
+    /// The service's time per request, ns.
+    solve: Vec<u64>,
+    refused: usize,
+    knot: String,
+    seconds: f64,
+}
+
+fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
+    let hands: Vec<String> = {
+        let s = Script::builtin(script).context("no such built-in script")?;
+        let mut h: Vec<String> = s.turn.iter().map(|t| t.hand.clone()).collect();
+        h.sort();
+        h.dedup();
+        h
+    };
+    let prefix = format!("contact_{}_{k}_", std::process::id());
+    let scene = workspace().join("solver-service/scenes/knots.toml");
+    let mut svc = Command::new(release_bin("solver-service")?);
+    svc.args(["--prefix", &prefix, "--scene"])
+        .arg(&scene)
+        .args(["--wait", "event", "--no-persist", "--pin", "0"]);
+    let mut svc = Proc::ready(svc, "solver-service")?;
+    let started = Instant::now();
+    let mut children = Vec::new();
+    for h in &hands {
+        let file = dir.join(format!("{script}-{chain}-{h}.txt"));
+        let child = Command::new(release_bin("hand")?)
+            .args(["--prefix", &prefix, "run", "--builtin", script, "--hand", h])
+            .args([
+                "--chain",
+                chain,
+                "--rate",
+                "0",
+                "--quiet",
+                "--turn-timeout",
+                "300",
+            ])
+            .arg("--timings")
+            .arg(&file)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .context("start hand")?;
+        children.push((child, file));
+    }
+    let mut row = Row {
+        solve: Vec::new(),
+        refused: 0,
+        knot: String::new(),
+        seconds: 0.0,
+    };
+    for (mut child, file) in children {
+        let status = loop {
+            if let Some(s) = child.try_wait()? {
+                break s;
+            }
+            if started.elapsed() > ROW_TIMEOUT {
+                let _ = child.kill();
+                bail!("{script} on {chain}: a hand took longer than {ROW_TIMEOUT:?}");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        if !status.success() {
+            let mut err = String::new();
+            if let Some(mut e) = child.stderr.take() {
+                use std::io::Read;
+                let _ = e.read_to_string(&mut err);
+            }
+            bail!("{script} on {chain}: a hand failed ({status}): {err}");
+        }
+        let text = std::fs::read_to_string(&file).with_context(|| file.display().to_string())?;
+        for line in text.lines().filter(|l| !l.starts_with('#')) {
+            let f: Vec<&str> = line.split_whitespace().collect();
+            let [_, solve_us, status] = f[..] else {
+                bail!("{}: bad line {line:?}", file.display());
+            };
+            row.solve
+                .push((solve_us.parse::<f64>()? * 1e3).round() as u64);
+            if status != "ok" {
+                row.refused += 1;
+            }
+        }
+    }
+    row.seconds = started.elapsed().as_secs_f64();
+    let out = Command::new(release_bin("chainctl")?)
+        .args(["--prefix", &prefix, "knot", chain, "--json"])
+        .output()
+        .context("chainctl knot")?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    row.knot = text
+        .split("\"knot\":\"")
+        .nth(1)
+        .and_then(|s| s.split('"').next())
+        .unwrap_or("?")
+        .to_string();
+    svc.stop();
+    Ok(row)
+}
+
+/// The scale curve: one service with a chain per resolution × collision, the overhand's head path
+/// sent to each in turn, timed here.
+fn scale(k: usize, dir: &Path) -> Result<()> {
+    const SIZES: [usize; 4] = [40, 200, 1000, 10_000];
+    let mut scene = String::from("budget = 100000000\n");
+    for n in SIZES {
+        for on in [false, true] {
+            scene.push_str(&format!(
+                "\n[[chain]]\nname = \"n{n}{}\"\nlinks = {n}\nlink_length = {}\naxis = [1.0, 0.0, 0.0]\n",
+                if on { "-capsules" } else { "" },
+                40.0 / n as f64
+            ));
+            if on {
+                scene.push_str("thickness = 0.2\ncollision = \"capsules\"\n");
+            }
+        }
+    }
+    let file = dir.join("scale.toml");
+    std::fs::write(&file, scene)?;
+    let prefix = format!("contact_{}_{k}_", std::process::id());
+    let mut svc = Command::new(release_bin("solver-service")?);
+    svc.args(["--prefix", &prefix, "--scene"]).arg(&file).args([
+        "--wait",
+        "spin",
+        "--no-persist",
+        "--pin",
+        "0",
+    ]);
+    let mut svc = Proc::ready(svc, "solver-service")?;
+    shared::pin_current_thread(1).map_err(anyhow::Error::msg)?;
+    let mut opts = clients::ConnectOptions::for_tool(&prefix, 10.0).map_err(anyhow::Error::msg)?;
+    opts.wait = clients::Wait::Spin;
+    opts.call_timeout = Duration::from_secs(60);
+    let mut conn = clients::Connection::connect(opts)?;
+    let script = Script::builtin("overhand").context("built-in overhand")?;
+    let path = script.turn[0].targets([40.0, 0.0, 0.0], script.max_step);
+    println!(
+        "\n### The scale curve: round trip per move against resolution\n\nA 40-unit rope in 40 to 10,000 \
+         links, the built-in overhand's head path ({} moves), capsule collision (thickness 0.2) or none; \
+         the round trip from this process's call to the response read, the client spinning on core 1 \
+         and the service spinning on core 0; *solve* is the service's own time (`solve_ns`) (µs):\n",
+        path.len()
+    );
+    println!(
+        "| links | link length | collision | p50 round trip | p99 | p99.9 | max | p50 solve | refused | knot |"
+    );
+    println!("|---:|---:|---|---:|---:|---:|---:|---:|---:|---|");
+    for n in SIZES {
+        for on in [false, true] {
+            let name = format!("n{n}{}", if on { "-capsules" } else { "" });
+            let id = conn.require_chain(&name)?;
+            let (mut trips, mut solves, mut refused) = (Vec::new(), Vec::new(), 0usize);
+            for t in &path {
+                let mut h = shared::RequestHeader::new(shared::Command::Move, id);
+                h.joint = shared::JOINT_HEAD;
+                let called = Instant::now();
+                let (status, solve_ns) =
+                    conn.call_with(h, &[shared::Vec3::new(t[0], t[1], t[2])], |rh, _| {
+                        (rh.status, rh.solve_ns)
+                    })?;
+                trips.push(called.elapsed().as_nanos() as u64);
+                solves.push(solve_ns);
+                refused += usize::from(status != 0);
+            }
+            trips.sort_unstable();
+            solves.sort_unstable();
+            let k = clients::hand::knot_of(&mut conn, id)?;
+            println!(
+                "| {n} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {refused} | {} |",
+                40.0 / n as f64,
+                if on { "capsules" } else { "none" },
+                pct(&trips, 0.5),
+                pct(&trips, 0.99),
+                pct(&trips, 0.999),
+                pct(&trips, 1.0),
+                pct(&solves, 0.5),
+                k.kind.name()
+            );
+        }
+    }
+    drop(conn);
+    svc.stop();
+    Ok(())
+}
+
+fn pct(v: &[u64], p: f64) -> f64 {
+    v[((v.len() - 1) as f64 * p).round() as usize] as f64 / 1e3
+}
+
+fn main() -> Result<()> {
+    let only: Option<Vec<String>> = std::env::var("CONTACT_BENCH_ONLY")
+        .ok()
+        .map(|s| s.split(',').map(str::to_string).collect());
+    let dir = tempfile::tempdir()?;
+    let mut out = std::io::stdout();
+    clients::latency_bench::noise(&mut out, 2000, 1.0)?;
+    println!(
+        "### Contact per request along every built-in knot's tying path\n\nThe service's own time per \
+         request (`solve_ns`), capsule self-collision on the shipped `knots.toml` (rope thickness 0.2, \
+         its holds, instruments, anchors, bend limits and budget), the service pinned to core 0, the \
+         script's hands as fast as it answers; every move and instrument pose the hands sent, refused \
+         ones and the halves of split moves included (µs):\n"
+    );
+    println!(
+        "| script | chain | links | what it has | requests | refused | p50 µs | p99 µs | p99.9 µs \
+         | max µs | knot | wall s |"
+    );
+    println!("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---|---:|");
+    for (k, &(script, chain, links, what)) in ROWS.iter().enumerate() {
+        if let Some(o) = &only
+            && !o.iter().any(|x| x == script || x == chain)
+        {
+            continue;
+        }
+        match run_row(script, chain, k, dir.path()) {
+            Ok(mut r) if !r.solve.is_empty() => {
+                r.solve.sort_unstable();
+                println!(
+                    "| {script} | {chain} | {links} | {what} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} \
+                     | {} | {:.1} |",
+                    r.solve.len(),
+                    r.refused,
+                    pct(&r.solve, 0.5),
+                    pct(&r.solve, 0.99),
+                    pct(&r.solve, 0.999),
+                    pct(&r.solve, 1.0),
+                    r.knot,
+                    r.seconds
+                );
+            }
+            Ok(_) => println!(
+                "| {script} | {chain} | {links} | {what} | 0 | – | – | – | – | – | – | – |"
+            ),
+            Err(e) => {
+                eprintln!("contact bench: {e:#}");
+                println!("| {script} | {chain} | {links} | {what} | failed: {e} | | | | | | | |");
+            }
+        }
+    }
+    if only.as_ref().is_none_or(|o| o.iter().any(|x| x == "scale")) {
+        scale(ROWS.len(), dir.path())?;
+    }
+    Ok(())
+}
