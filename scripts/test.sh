@@ -3,23 +3,31 @@
 # makes the Python client's venv, installs Mono and OSMesa, then runs every test of the workspace.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --workspace --bins --profile test
+# step NAME COMMAND...: runs COMMAND and says how long it took (the README's time per part).
+step() {
+  local name=$1 t0=$SECONDS
+  shift
+  "$@"
+  echo "[test.sh] $name: $((SECONDS - t0)) s" >&2
+}
+step "the binaries (test profile)" cargo build --workspace --bins --profile test
 # `watch` with the Rerun viewer (cargo feature `rerun`, many dependencies): built once, here, into
 # target/viewer/, in the profile `viewer` (no optimisation, no debug info: a much shorter build than the
 # optimised test profile's).
-cargo build -p clients --features rerun --bin watch --profile viewer
+step "the Rerun viewer (watch --features rerun)" \
+  cargo build -p clients --features rerun --bin watch --profile viewer
 # The C library (libtractrix_client.so and .a) that the C and C++ examples link against.
-cargo build -p tractrix-client --lib --profile test
+step "the C library" cargo build -p tractrix-client --lib --profile test
 # The Rust quick start (`--example hello`), built here, once: two tests run it at once, and one building
 # it while the other started it failed under load ("Permission denied" executing the half-written file).
-cargo build -p clients --example hello --profile test
+step "the Rust quick start" cargo build -p clients --example hello --profile test
 # The Python client's venv (PyPI wheel iceoryx2==0.10.0) for the end-to-end test of the Python client.
-scripts/python-venv.sh
+step "the Python venv (iceoryx2, MuJoCo, rerun-sdk, Ray)" scripts/python-venv.sh
 # Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames).
-scripts/system-packages.sh
+step "Mono and OSMesa" scripts/system-packages.sh
 # The test binaries, built before any CPU hog starts: the hog loads the tests, not the compiler (built
 # beside two hogs, they took 6 of the 21 minutes of a CI run).
-cargo test --workspace --no-run "$@"
+step "the test binaries" cargo test --workspace --no-run "$@"
 # TRACTRIX_TEST_LOAD=N runs the tests beside N busy-spinning processes, a CPU hog at normal priority (CI
 # runs the suite beside two, one per core: no test may need an idle machine).
 load=${TRACTRIX_TEST_LOAD:-0}
@@ -38,4 +46,4 @@ if [ "$load" -gt 0 ]; then
 fi
 # Every test binary runs even when one fails (cargo stops at the first failing binary otherwise, and
 # the failures after it go unseen).
-cargo test --workspace --no-fail-fast "$@"
+step "the tests" cargo test --workspace --no-fail-fast "$@"

@@ -2,21 +2,24 @@
 //!
 //! `cargo bench -p tractrix --bench lean` moves the head of a chain of 40 and of 1000 unit links along a
 //! helix (a third of a link per move, one substep), in f64 and f32, with the closed-form tractrix and with
-//! follow-the-leader, two ways side by side in one run, batches interleaved:
+//! follow-the-leader, side by side in one run, batches interleaved:
 //!
 //! * **kernel**: `Chain::move_joint(head, target)`, everything a caller gets (checks, substep count,
 //!   holds, the moved joint landing on its target);
-//! * **minimal loop**: written here, a flat array of link vectors and lengths and the head's position,
-//!   the same arithmetic per link as the kernel's method (for the tractrix: both cancellation rewrites,
-//!   `expm1` for short moves and the second Gram–Schmidt pass; for follow-the-leader a plain norm), and
-//!   nothing else: no checks, no dispatch.
+//! * **minimal loop**, the floor (issue 40): written here as a user would write the method from its
+//!   formula, a flat array of link vectors and lengths and the head's position, and no guard — for the
+//!   tractrix `p = 1 − c`, `m = 1 + c` as they stand, `exp` for every move, one Gram–Schmidt pass and the
+//!   trailing end's displacement as new less old; for follow-the-leader a plain norm;
+//! * **guarded loop**: the same flat loop with the kernel's arithmetic applied to every link (both
+//!   cancellation rewrites, `expm1` for short moves, the second Gram–Schmidt pass): what the guards cost
+//!   where the kernel runs them everywhere.
 //!
-//! A third column times the **cheap tractrix**: the minimal loop without the second Gram–Schmidt pass
-//! and with `exp` for every move — what a user saves by dropping those guards — and the table says
-//! what it loses: the largest relative link-length error after the run and after 10⁶ moves of a
-//! 40-link chain along the same helix. Every figure is a median over
-//! the batches' mean ns per link-step; the ratio columns divide medians measured in the same run.
-//! The kernel's joints are compared with the minimal loop's after the run (*max joint difference*).
+//! The kernel runs each guard only for the inputs that need it (`tractrix::link`). The table shows what
+//! the guards buy in accuracy: the largest relative link-length error after the run, after 10⁶ moves of
+//! a 40-link chain along the same helix, and after collinear pushes of 10⁻¹² to 10⁹ links, for the
+//! kernel (or the guarded loop) and the minimal loop. Every figure is a median over the batches' mean ns
+//! per link-step; the ratio columns divide medians measured in the same run. The kernel's joints are
+//! compared with the minimal loop's after the run (*max joint difference*).
 //! `LEAN_BENCH_SCALE` (default 1.0) scales the work.
 
 // The kernel's I/O rules (clippy.toml) are for its library: benches time and print.
@@ -51,9 +54,10 @@ fn dot<T: Real>(a: P<T>, b: P<T>) -> T {
 
 /// The closed-form tractrix for one link, written flat: `t` the link from its moving end to its
 /// trailing end, `s` the moving end's displacement. Returns (new link, trailing end's displacement).
-/// `guards`: the second Gram–Schmidt pass and `expm1` for short moves, as the kernel does.
+/// With the kernel's guards everywhere: the cancellation rewrites, the second Gram–Schmidt pass and
+/// `expm1` for moves under half a link.
 #[inline(always)]
-fn tractrix<T: Real>(t: P<T>, s: P<T>, len: T, guards: bool) -> (P<T>, P<T>) {
+fn tractrix<T: Real>(t: P<T>, s: P<T>, len: T) -> (P<T>, P<T>) {
     let one = T::one();
     let two = T::lit(2.0);
     let inv = one / len;
@@ -67,17 +71,15 @@ fn tractrix<T: Real>(t: P<T>, s: P<T>, len: T, guards: bool) -> (P<T>, P<T>) {
     let tt = [t[0] * inv, t[1] * inv, t[2] * inv];
     let c = dot(tt, u);
     let mut w = [tt[0] - u[0] * c, tt[1] - u[1] * c, tt[2] - u[2] * c];
-    if guards {
-        let k = dot(w, u);
-        w = [w[0] - u[0] * k, w[1] - u[1] * k, w[2] - u[2] * k];
-    }
+    let k = dot(w, u);
+    w = [w[0] - u[0] * k, w[1] - u[1] * k, w[2] - u[2] * k];
     let y2 = dot(w, w);
     let (p, m) = if c > T::zero() {
         (y2 / (one + c), one + c)
     } else {
         (one - c, y2 / (one - c))
     };
-    let (q, e1) = if guards && b < T::lit(0.5) {
+    let (q, e1) = if b < T::lit(0.5) {
         let e1 = -(-b).exp_m1();
         (one - e1, e1)
     } else {
@@ -109,6 +111,45 @@ fn tractrix<T: Real>(t: P<T>, s: P<T>, len: T, guards: bool) -> (P<T>, P<T>) {
     )
 }
 
+/// The closed-form tractrix as a user would write it from the paper's formula, with no guard: `p = 1 − c`
+/// and `m = 1 + c` as they stand, `exp` for every move, one Gram–Schmidt pass, `û` by the reciprocal of
+/// `b`, and the trailing end's displacement as the new trailing end less the old one. One `sqrt`, one
+/// `exp`, three divisions per link (`1/L` too); only a zero move is returned as is (0/0 otherwise).
+#[inline(always)]
+fn tractrix_bare<T: Real>(t: P<T>, s: P<T>, len: T) -> (P<T>, P<T>) {
+    let one = T::one();
+    let two = T::lit(2.0);
+    let inv = one / len;
+    let ss = [s[0] * inv, s[1] * inv, s[2] * inv];
+    let b = dot(ss, ss).sqrt();
+    if b == T::zero() {
+        return (t, [T::zero(); 3]);
+    }
+    let ib = one / b;
+    let u = [ss[0] * ib, ss[1] * ib, ss[2] * ib];
+    let tt = [t[0] * inv, t[1] * inv, t[2] * inv];
+    let c = dot(tt, u);
+    let w = [tt[0] - u[0] * c, tt[1] - u[1] * c, tt[2] - u[2] * c];
+    let (p, m) = (one - c, one + c);
+    let q = (-b).exp();
+    let e = q * q;
+    let k = len / (p + e * m);
+    let (lu, lw) = ((e * m - p) * k, two * q * k);
+    let nl = [
+        u[0] * lu + w[0] * lw,
+        u[1] * lu + w[1] * lw,
+        u[2] * lu + w[2] * lw,
+    ];
+    (
+        nl,
+        [
+            s[0] + nl[0] - t[0],
+            s[1] + nl[1] - t[1],
+            s[2] + nl[2] - t[2],
+        ],
+    )
+}
+
 /// Follow-the-leader for one link, written flat (the trailing end on the line from the new moving end
 /// to its old place).
 #[inline(always)]
@@ -130,8 +171,10 @@ fn ftl<T: Real>(t: P<T>, s: P<T>, len: T) -> (P<T>, P<T>) {
 
 #[derive(Clone, Copy, PartialEq)]
 enum Form {
+    /// The kernel's arithmetic with its guards, flat.
     Tractrix,
-    CheapTractrix,
+    /// [`tractrix_bare`]: the floor.
+    BareTractrix,
     Ftl,
 }
 
@@ -163,8 +206,8 @@ impl<T: Real> Flat<T> {
             // The link seen from its moving end (the head side) is −l.
             let t = [-l[0], -l[1], -l[2]];
             let (nl, shift) = match self.form {
-                Form::Tractrix => tractrix(t, s, len, true),
-                Form::CheapTractrix => tractrix(t, s, len, false),
+                Form::Tractrix => tractrix(t, s, len),
+                Form::BareTractrix => tractrix_bare(t, s, len),
                 Form::Ftl => ftl(t, s, len),
             };
             *l = [-nl[0], -nl[1], -nl[2]];
@@ -245,6 +288,43 @@ fn long_walk<T: Real>(form: Form, moves: usize) -> f64 {
     f.length_error()
 }
 
+/// Largest relative link-length error after pushes of the head straight back along a straight chain
+/// of 40 links (collinear, the tail ahead of every head), one push of each length 10⁻¹² … 10⁹ links,
+/// each from a fresh chain: the kernel's (`form` none) or a flat loop's.
+fn collinear_pushes<T: Real>(form: Option<Form>) -> f64 {
+    let mut worst = 0.0f64;
+    for k in -12..=9 {
+        let to = [T::lit(40.0 - 10f64.powi(k)), T::zero(), T::zero()];
+        let err = match form {
+            None => {
+                let mut c = Chain::<T, 3>::straight(40, T::one(), Vector3::zeros(), Vector3::x())
+                    .expect("a straight chain");
+                let o = MoveOptions {
+                    substeps: Substeps::Fixed(1),
+                    ..MoveOptions::default()
+                };
+                if c.move_joint(40, Vector3::from(to), &o).is_err() {
+                    return f64::NAN;
+                }
+                c.links()
+                    .iter()
+                    .map(|l| (l.norm() - T::one()).to_f64().abs())
+                    .fold(0.0, f64::max)
+            }
+            Some(form) => {
+                let mut f = Flat::<T>::new(40, form);
+                f.move_head(to);
+                f.length_error()
+            }
+        };
+        if err.is_nan() {
+            return f64::NAN;
+        }
+        worst = worst.max(err);
+    }
+    worst
+}
+
 fn rows<T: Real>(precision: &str, scale: f64) {
     for n in [40usize, 1000] {
         for method in [Method::Tractrix, Method::FollowTheLeader] {
@@ -260,11 +340,15 @@ fn rows<T: Real>(precision: &str, scale: f64) {
                 Runner::Kernel(chain, opts),
                 Runner::Flat(Flat::new(
                     n,
-                    if tractrix { Form::Tractrix } else { Form::Ftl },
+                    if tractrix {
+                        Form::BareTractrix
+                    } else {
+                        Form::Ftl
+                    },
                 )),
             ];
             if tractrix {
-                runners.push(Runner::Flat(Flat::new(n, Form::CheapTractrix)));
+                runners.push(Runner::Flat(Flat::new(n, Form::Tractrix)));
             }
             let moves = (BATCH_WORK / n).max(1);
             let batches = ((40.0 * scale) as usize).max(5);
@@ -284,27 +368,35 @@ fn rows<T: Real>(precision: &str, scale: f64) {
                 .map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f64::max))
                 .fold(0.0, f64::max);
             let med: Vec<f64> = ns.iter_mut().map(|v| median(v)).collect();
-            let (cheap, cheap_ratio, lost) = if tractrix {
-                let Runner::Flat(c) = &runners[2] else {
+            let (guarded, guarded_ratio, accuracy) = if tractrix {
+                let (Runner::Kernel(kernel, _), Runner::Flat(bare)) = (&runners[0], &runners[1])
+                else {
                     unreachable!()
                 };
-                let walk = long_walk::<T>(Form::CheapTractrix, (1_000_000.0 * scale) as usize);
-                let kept = long_walk::<T>(Form::Tractrix, (1_000_000.0 * scale) as usize);
+                let kernel_err = kernel
+                    .links()
+                    .iter()
+                    .map(|l| (l.norm() - T::one()).to_f64().abs())
+                    .fold(0.0, f64::max);
+                let walk = (1_000_000.0 * scale) as usize;
                 (
                     format!("{:.1}", med[2]),
                     format!("{:.2}", med[2] / med[1]),
                     format!(
-                        "{:.1e} / {:.1e} (guarded: {:.1e})",
-                        c.length_error(),
-                        walk,
-                        kept
+                        "{:.1e} / {:.1e} | {:.1e} / {:.1e} | {:.1e} / {:.1e}",
+                        kernel_err,
+                        bare.length_error(),
+                        long_walk::<T>(Form::Tractrix, walk),
+                        long_walk::<T>(Form::BareTractrix, walk),
+                        collinear_pushes::<T>(None),
+                        collinear_pushes::<T>(Some(Form::BareTractrix)),
                     ),
                 )
             } else {
-                ("–".into(), "–".into(), "–".into())
+                ("–".into(), "–".into(), "– | – | –".into())
             };
             println!(
-                "| {n} | {precision} | {} | {batches} | {:.1} | {:.1} | **{:.2}** | {diff:.1e} | {cheap} | {cheap_ratio} | {lost} |",
+                "| {n} | {precision} | {} | {batches} | {:.1} | {:.1} | **{:.2}** | {guarded} | {guarded_ratio} | {diff:.1e} | {accuracy} |",
                 if tractrix {
                     "closed-form tractrix"
                 } else {
@@ -326,16 +418,21 @@ fn main() {
         .unwrap_or(1.0);
     println!(
         "Head moves of a third of a link along a helix, one substep each, batches of ~{BATCH_WORK} \
-         link-steps timed whole and interleaved; medians of the batches' mean ns per link-step. *cheap \
-         tractrix*: the minimal loop without the second Gram–Schmidt pass and `expm1`; *its length error*: \
-         after this run / after 10⁶ head moves of a 40-link chain along the helix (the guarded minimal \
-         loop's in brackets).\n"
+         link-steps timed whole and interleaved; medians of the batches' mean ns per link-step. The \
+         floor is the *minimal loop*: the closed form as a user would write it, with no guard (for \
+         follow-the-leader, the plain flat loop). *Guarded loop*: the same flat loop with the kernel's \
+         arithmetic (its cancellation rewrites, `expm1` and the second Gram–Schmidt pass everywhere). \
+         *Max joint difference*: the kernel against the minimal loop after the run. Largest relative \
+         link-length errors, kernel / minimal loop: *after the run*; *10⁶ moves*: a 40-link chain \
+         along the helix (guarded loop / minimal loop); *collinear pushes*: the head of a straight \
+         40-link chain pushed straight back by 10⁻¹² to 10⁹ links, one push each (kernel / minimal \
+         loop; NaN: a length came out NaN).\n"
     );
     println!(
         "| links | precision | method | batches | kernel `move_joint` (ns) | minimal loop (ns) | kernel ÷ minimal \
-         | max joint difference | cheap tractrix (ns) | cheap ÷ minimal | cheap tractrix's length error |"
+         | guarded loop (ns) | guarded ÷ minimal | max joint difference | after the run | 10⁶ moves | collinear pushes |"
     );
-    println!("|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---|");
+    println!("|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|");
     rows::<f64>("f64", scale);
     rows::<f32>("f32", scale);
 }

@@ -31,16 +31,26 @@
 //! length `L` whatever rounding the input carries (because `p m = |w|²` by construction), so lengths do
 //! not drift over millions of moves. Two cancellations are avoided:
 //!
-//! * `p = 1 − c` when the tail is nearly *ahead* of the head (`c → 1`, pushing) is written as
-//!   `|w|² / (1 + c)`, and `m = 1 + c` when the tail is nearly *behind* (`c → −1`, pulling) as
-//!   `|w|² / (1 − c)` (the `1 − cos = sin² / (1 + cos)` trick);
-//! * the tail's displacement is computed in its own form, `(b − p m (1−E)/D) û + (e₁ (2c − e₁ m)/D) w`
-//!   with `e₁ = 1 − q = −expm1(−b)`, so a move of `10⁻¹²·L` gives a displacement accurate to the last
-//!   digits instead of the difference of two nearly equal positions (and `2c − e₁ m = q m − p` when the
-//!   tail is ahead, where it would cancel);
-//! * near the line of motion `w` is tiny and the factor `2q/D` large (up to `1/|w|` for a long push), so
-//!   `w` is orthogonalised against `û` twice: one Gram–Schmidt pass leaves an `ε`-sized component along
-//!   `û` that would otherwise come out as a length error of `ε/|w|` (seen as 1.7e-11 in a 10⁶-move walk).
+//! * `p = 1 − c` when the tail is *ahead* of the head (`c > 0`, pushing) is written as `|w|² / (1 + c)`
+//!   (the `1 − cos = sin² / (1 + cos)` trick), so that `p m = |w|²` and the output keeps its length
+//!   however close to the line of motion the push is; with the tail behind (`c ≤ 0`, pulling) `D ≥ 1`
+//!   and `m = 1 + c` as it stands loses nothing that shows (the mirror rewrite, `m = |w|²/(1 − c)`,
+//!   cost a division per link and no test fails without it);
+//! * for a move shorter than a thousandth of the link the tail's displacement is computed in its own
+//!   form, `(b − p m (1−E)/D) û + (e₁ (2c − e₁ m)/D) w` with `e₁ = 1 − q = −expm1(−b)`, so a move of
+//!   `10⁻¹²·L` gives a displacement accurate to the last digits instead of the difference of two nearly
+//!   equal positions (and `2c − e₁ m = q m − p` when the tail is ahead, where it would cancel); a
+//!   longer move takes it as that difference (new tail − old tail), which keeps it to about
+//!   `1000 ε` of itself;
+//! * near the line of motion (`|w| < 1/2`) `w` is tiny and the factor `2q/D` large (up to `1/|w|` for
+//!   a long push), so `w` is orthogonalised against `û` twice: one Gram–Schmidt pass leaves an
+//!   `ε`-sized component along `û` that would otherwise come out as a length error of `ε/|w|` (seen as
+//!   1.7e-11 in a 10⁶-move walk); farther from it that error is at most `2ε` and the pass is skipped.
+//!
+//! Each guard runs only for the inputs that need it, and each has a test that fails without it
+//! (`tests/kernel/link.rs`: `tiny_moves_keep_relative_accuracy` for the short-move form;
+//! `tests/kernel/extremes.rs`, `collinear_pushes_of_every_length_stay_finite` and the 10⁶-move walks, for
+//! the second pass).
 //!
 //! The collinear pull (`w = 0`, `c = −1`: `m = 0`) and push (`w = 0`, `c = 1`: `p = 0`) need no branch.
 //! The only guard is the zero move and `D = 0`, which happens only for an exactly collinear push so large
@@ -117,25 +127,23 @@ pub fn tractrix_step<T: Real, const D: usize>(
     let u = ss / b;
     let tt = t * inv_len;
     let c = tt.dot(&u);
-    let w = tt - u * c;
-    // Second Gram–Schmidt pass: near the line of motion |w| ≪ 1 keeps an ε-sized component along û,
-    // which the factor 2q/D (up to ~1/|w|) would amplify into a length error.
-    let w = w - u * w.dot(&u);
-    let y2 = w.norm_squared();
-    // p = 1 + tanh a = 1 − c, m = 1 − tanh a = 1 + c; the one that cancels is rewritten as |w|²/(1 ± c).
-    let (p, m) = if c > T::zero() {
-        (y2 / (one + c), one + c)
-    } else {
-        (one - c, y2 / (one - c))
-    };
-    // e1 = 1 − e^{−b} without cancellation for small b; q = e^{−b} without cancellation for large b.
-    let (q, e1) = if b < T::lit(0.5) {
-        let e1 = -(-b).exp_m1();
-        (one - e1, e1)
-    } else {
-        let q = (-b).exp();
-        (q, one - q)
-    };
+    let mut w = tt - u * c;
+    let mut y2 = w.norm_squared();
+    // Second Gram–Schmidt pass, for a push near the line of motion only: there |w| ≪ 1 keeps an
+    // ε-sized component along û, which the factor 2q/D (up to ~1/|w| when the tail is ahead, c > 0)
+    // would amplify into a length error of ε/|w|. Beyond |w| = 1/2, or with the tail behind (c ≤ 0:
+    // D ≥ 1, the factor at most 2), that error is at most 2ε, and the pass is skipped.
+    if c > T::zero() && y2 < T::lit(0.25) {
+        w -= u * w.dot(&u);
+        y2 = w.norm_squared();
+    }
+    // p = 1 + tanh a = 1 − c, m = 1 − tanh a = 1 + c; for a push p cancels and is rewritten |w|²/(1 + c).
+    let m = one + c;
+    let p = if c > T::zero() { y2 / m } else { one - c };
+    if b < T::lit(SHORT_MOVE) {
+        return short_move_step(t, s, &u, &w, c, p, m, b, len);
+    }
+    let q = (-b).exp();
     let e = q * q;
     let d = p + e * m;
     if !positive_finite(d) {
@@ -145,7 +153,54 @@ pub fn tractrix_step<T: Real, const D: usize>(
             tail_shift: *s,
         };
     }
-    // 2c − e1 m; for c > 0 it cancels toward c − 1 + q m and is written q m − p (p = 1 − c, accurately).
+    if d > T::lit(1e-30) {
+        // The length folded into the scalar coefficients: two vector scalings fewer.
+        let inv_d = one / d;
+        let link = u * ((e * m - p) * inv_d * len) + w * (two * q * inv_d * len);
+        // The new tail less the old one (a move of at least SHORT_MOVE links: the difference keeps
+        // the displacement's digits to about ε/SHORT_MOVE of itself).
+        let tail_shift = s + link - t;
+        return LinkStep { link, tail_shift };
+    }
+    tiny_denominator_step(t, s, &u, &w, q, m, b, one - q, len)
+}
+
+/// Moves shorter than this (in link lengths) take [`short_move_step`]: their tail displacement is
+/// computed in its own form, accurate relative to itself; longer ones take it as the difference of the
+/// new and the old tail, which loses at most a factor `1/SHORT_MOVE` of its relative accuracy.
+const SHORT_MOVE: f64 = 1e-3;
+
+/// The rest of [`tractrix_step`] for a move shorter than [`SHORT_MOVE`] links: `e₁ = 1 − e^{−b}` by
+/// `expm1` (no cancellation for small `b`) and the tail's displacement in its own form,
+/// `(b − p m (1−E)/D) û + (e₁ (2c − e₁ m)/D) w`, so a move of `10⁻¹²·L` gives a displacement accurate
+/// to the last digits instead of the difference of two nearly equal positions.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn short_move_step<T: Real, const D: usize>(
+    t: &Vector<T, D>,
+    s: &Vector<T, D>,
+    u: &Vector<T, D>,
+    w: &Vector<T, D>,
+    c: T,
+    p: T,
+    m: T,
+    b: T,
+    len: T,
+) -> LinkStep<T, D> {
+    let one = T::one();
+    let two = T::lit(2.0);
+    let e1 = -(-b).exp_m1();
+    let q = one - e1;
+    let e = q * q;
+    let d = p + e * m;
+    if !positive_finite(d) {
+        return LinkStep {
+            link: *t,
+            tail_shift: *s,
+        };
+    }
+    // 2c − e1 m, written q m − p when the tail is ahead (c > 0, p = 1 − c accurately), where it would
+    // cancel toward c − 1 + q m.
     let cw_num = if c > T::zero() {
         e1 * (q * m - p)
     } else {
@@ -154,10 +209,9 @@ pub fn tractrix_step<T: Real, const D: usize>(
     // 1 − E = e1 (1 + q)
     let cu_num = p * m * e1 * (one + q);
     if d > T::lit(1e-30) {
-        // The length folded into the scalar coefficients: two vector scalings fewer.
         let inv_d = one / d;
-        let link = u * ((e * m - p) * inv_d * len) + w * (two * q * inv_d * len);
-        let tail_shift = u * ((b - cu_num * inv_d) * len) + w * (cw_num * inv_d * len);
+        let link = *u * ((e * m - p) * inv_d * len) + *w * (two * q * inv_d * len);
+        let tail_shift = *u * ((b - cu_num * inv_d) * len) + *w * (cw_num * inv_d * len);
         return LinkStep { link, tail_shift };
     }
     tiny_denominator_step(t, s, &u, &w, q, m, b, e1, len)
