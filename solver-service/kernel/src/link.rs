@@ -214,7 +214,7 @@ fn short_move_step<T: Real, const D: usize>(
         let tail_shift = *u * ((b - cu_num * inv_d) * len) + *w * (cw_num * inv_d * len);
         return LinkStep { link, tail_shift };
     }
-    tiny_denominator_step(t, s, &u, &w, q, m, b, e1, len)
+    tiny_denominator_step(t, s, u, w, q, m, b, e1, len)
 }
 
 /// The rest of [`tractrix_step`] when `D` is tiny (out of line: rare, and it keeps the common path's
