@@ -15,8 +15,10 @@
 //!
 //! A second table is the scale curve: the round trip of a move as a client in this process sees it
 //! (spinning on core 1, the service spinning on core 0), for a 40-unit rope of 40, 200, 1,000 and
-//! 10,000 links, with capsule collision (thickness 0.2) and without, along the built-in overhand's head
-//! path (the tying moves of the collision bench): what a simulator author picks a resolution from.
+//! 10,000 links, with capsule collision (thickness 0.2) and a bend radius of 1.5 (a rope finer than it
+//! is thick kinks without one: links a thickness apart along it fold onto each other and lock), and
+//! with neither, along the built-in `overhand-bend`'s head path (no corner): what a simulator author
+//! picks a resolution from.
 //!
 //! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
 //! `CONTACT_BENCH_ONLY=overhand,tie-160` keeps the rows whose script or chain is named.
@@ -31,7 +33,7 @@ use std::time::{Duration, Instant};
 /// The rows: a built-in script, the chain of `knots.toml` it runs on (its links), and what the chain
 /// has that costs (held joints, instruments, a bend limit).
 const ROWS: &[(&str, &str, usize, &str)] = &[
-    ("overhand", "paper", 40, "free head"),
+    ("overhand-wide", "paper", 40, "free head, one wide loop"),
     ("overhand", "overhand", 160, "free head"),
     ("square", "reef", 320, "two free ends"),
     ("granny", "reef", 320, "two free ends"),
@@ -189,7 +191,8 @@ fn scale(k: usize, dir: &Path) -> Result<()> {
                 40.0 / n as f64
             ));
             if on {
-                scene.push_str("thickness = 0.2\ncollision = \"capsules\"\n");
+                scene
+                    .push_str("thickness = 0.2\ncollision = \"capsules\"\nmin_bend_radius = 1.5\n");
             }
         }
     }
@@ -210,17 +213,18 @@ fn scale(k: usize, dir: &Path) -> Result<()> {
     opts.wait = clients::Wait::Spin;
     opts.call_timeout = Duration::from_secs(60);
     let mut conn = clients::Connection::connect(opts)?;
-    let script = Script::builtin("overhand").context("built-in overhand")?;
+    let script = Script::builtin("overhand-bend").context("built-in overhand-bend")?;
     let path = script.turn[0].targets([40.0, 0.0, 0.0], script.max_step);
     println!(
         "\n### The scale curve: round trip per move against resolution\n\nA 40-unit rope in 40 to 10,000 \
-         links, the built-in overhand's head path ({} moves), capsule collision (thickness 0.2) or none; \
+         links, the built-in `overhand-bend`'s head path ({} moves, no corner), capsule collision \
+         (thickness 0.2) with the bend radius 1.5 of `knots.toml`'s `bend-*` ropes, or neither; \
          the round trip from this process's call to the response read, the client spinning on core 1 \
          and the service spinning on core 0; *solve* is the service's own time (`solve_ns`) (µs):\n",
         path.len()
     );
     println!(
-        "| links | link length | collision | p50 round trip | p99 | p99.9 | max | p50 solve | refused | knot |"
+        "| links | link length | collision and limits | p50 round trip | p99 | p99.9 | max | p50 solve | refused | knot |"
     );
     println!("|---:|---:|---|---:|---:|---:|---:|---:|---:|---|");
     for n in SIZES {
@@ -246,7 +250,11 @@ fn scale(k: usize, dir: &Path) -> Result<()> {
             println!(
                 "| {n} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {refused} | {} |",
                 40.0 / n as f64,
-                if on { "capsules" } else { "none" },
+                if on {
+                    "capsules, bend radius 1.5"
+                } else {
+                    "none"
+                },
                 pct(&trips, 0.5),
                 pct(&trips, 0.99),
                 pct(&trips, 0.999),
