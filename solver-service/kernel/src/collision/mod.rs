@@ -116,9 +116,11 @@ pub struct CollisionOptions<T> {
     /// back, so at 1 the passes creep toward the tolerance; pushing further converges in fewer passes
     /// (the built-in overhand's pull at 160 links: 144 passes over a move's two substeps at 1, 76 at
     /// 1.5, 57 at 2). It leaves a contact at most its depth farther apart than it need be, when that
-    /// depth is above the tolerance (`cargo bench -p clients --bench collision` shows the trade). A
-    /// chain with held joints pushes by the depth (1): the rope between them is re-solved as a whole
-    /// after the pushes, and a joint that moves farther than a substep may locks the move.
+    /// depth is above the tolerance (`cargo bench -p clients --bench collision` shows the trade). On
+    /// a chain with held joints the extra push is capped at the tolerance: the rope between them is
+    /// re-solved as a whole after the pushes, and a joint that moves farther than a substep may locks
+    /// the move (uncapped, a kernel test's instrument push locked); capped, the held ropes of the
+    /// built-in knots need fewer passes (`cargo bench -p clients --bench contact`).
     pub over_relaxation: T,
 }
 

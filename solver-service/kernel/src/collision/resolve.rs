@@ -58,13 +58,10 @@ where
             m,
             held,
             tol: opts.tolerance,
+            omega: opts.over_relaxation,
             // Between held joints the rope is re-solved as a whole after the pushes, and a joint that
-            // moves farther than a substep may locks the move: pushes there are not over-relaxed.
-            omega: if held.is_empty() {
-                opts.over_relaxation
-            } else {
-                T::one()
-            },
+            // moves farther than a substep may locks the move: the extra push is capped there.
+            capped: !held.is_empty(),
             pushed: 0,
             worst: T::zero(),
             blocked: false,
@@ -396,6 +393,8 @@ struct Pass<'a, T> {
     tol: T,
     /// The over-relaxation of each push.
     omega: T,
+    /// Whether the over-relaxation's extra push is capped at the tolerance (held ropes).
+    capped: bool,
     pushed: u32,
     worst: T,
     /// A contact only fixed joints could resolve.
@@ -431,7 +430,13 @@ impl<T: Real> Pass<'_, T> {
     /// over-relaxed: the depth is pushed [`CollisionOptions::over_relaxation`] times.
     #[inline]
     fn push_depth(&self, depth: T, clearance: T) -> T {
-        depth * self.omega + self.tol * T::lit(0.5) * clearance
+        let extra = depth * (self.omega - T::one());
+        let extra = if self.capped {
+            extra.min(self.tol * clearance)
+        } else {
+            extra
+        };
+        depth + extra + self.tol * T::lit(0.5) * clearance
     }
 
     fn capsules<const D: usize>(
