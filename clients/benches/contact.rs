@@ -78,6 +78,21 @@ fn release_bin(name: &str) -> Result<PathBuf> {
     Ok(p)
 }
 
+/// A row's hand processes, each with its timings file and its stderr's file; any still running when
+/// the row ends (a failure, a timeout) are killed and reaped.
+struct Hands(Vec<(std::process::Child, PathBuf, PathBuf)>);
+
+impl Drop for Hands {
+    fn drop(&mut self) {
+        for (child, _, _) in &mut self.0 {
+            if matches!(child.try_wait(), Ok(None)) {
+                let _ = child.kill();
+                let _ = child.wait();
+            }
+        }
+    }
+}
+
 struct Row {
     /// The service's time per request, ns.
     solve: Vec<u64>,
@@ -102,9 +117,10 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         .args(["--wait", "event", "--no-persist", "--pin", "0"]);
     let mut svc = Proc::ready(svc, "solver-service")?;
     let started = Instant::now();
-    let mut children = Vec::new();
+    let mut children = Hands(Vec::new());
     for h in &hands {
         let file = dir.join(format!("{script}-{chain}-{h}.txt"));
+        let log = dir.join(format!("{script}-{chain}-{h}.err"));
         let child = Command::new(release_bin("hand")?)
             .args(["--prefix", &prefix, "run", "--builtin", script, "--hand", h])
             .args([
@@ -119,10 +135,10 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
             .arg("--timings")
             .arg(&file)
             .stdout(Stdio::null())
-            .stderr(Stdio::piped())
+            .stderr(std::fs::File::create(&log)?)
             .spawn()
             .context("start hand")?;
-        children.push((child, file));
+        children.0.push((child, file, log));
     }
     let mut row = Row {
         solve: Vec::new(),
@@ -130,26 +146,22 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         knot: String::new(),
         seconds: 0.0,
     };
-    for (mut child, file) in children {
+    for (child, file, log) in &mut children.0 {
         let status = loop {
             if let Some(s) = child.try_wait()? {
                 break s;
             }
             if started.elapsed() > ROW_TIMEOUT {
-                let _ = child.kill();
                 bail!("{script} on {chain}: a hand took longer than {ROW_TIMEOUT:?}");
             }
             std::thread::sleep(Duration::from_millis(20));
         };
         if !status.success() {
-            let mut err = String::new();
-            if let Some(mut e) = child.stderr.take() {
-                use std::io::Read;
-                let _ = e.read_to_string(&mut err);
-            }
+            let err = std::fs::read_to_string(&*log).unwrap_or_default();
             bail!("{script} on {chain}: a hand failed ({status}): {err}");
         }
-        let text = std::fs::read_to_string(&file).with_context(|| file.display().to_string())?;
+        let file = &*file;
+        let text = std::fs::read_to_string(file).with_context(|| file.display().to_string())?;
         for line in text.lines().filter(|l| !l.starts_with('#')) {
             let f: Vec<&str> = line.split_whitespace().collect();
             let [_, solve_us, status] = f[..] else {

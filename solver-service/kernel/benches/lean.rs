@@ -52,25 +52,41 @@ fn dot<T: Real>(a: P<T>, b: P<T>) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// What both flat tractrix loops start from, in units of the link length: the move's length `b`, its
+/// direction `û` (by the reciprocal of `b`), the tail's component `c` along it and the rest `w` after
+/// one Gram–Schmidt pass; `None` for a zero move.
+#[inline(always)]
+fn frame<T: Real>(t: P<T>, s: P<T>, len: T) -> Option<(T, P<T>, T, P<T>)> {
+    let inv = T::one() / len;
+    let ss = [s[0] * inv, s[1] * inv, s[2] * inv];
+    let b = dot(ss, ss).sqrt();
+    if b == T::zero() {
+        return None;
+    }
+    let ib = T::one() / b;
+    let u = [ss[0] * ib, ss[1] * ib, ss[2] * ib];
+    let tt = [t[0] * inv, t[1] * inv, t[2] * inv];
+    let c = dot(tt, u);
+    Some((
+        b,
+        u,
+        c,
+        [tt[0] - u[0] * c, tt[1] - u[1] * c, tt[2] - u[2] * c],
+    ))
+}
+
 /// The closed-form tractrix for one link, written flat: `t` the link from its moving end to its
 /// trailing end, `s` the moving end's displacement. Returns (new link, trailing end's displacement).
 /// With the kernel's guards everywhere: the cancellation rewrites, the second Gram–Schmidt pass and
-/// `expm1` for moves under half a link.
+/// `expm1` for moves under half a link (`û` by the reciprocal, as in the minimal loop; the kernel
+/// divides).
 #[inline(always)]
 fn tractrix<T: Real>(t: P<T>, s: P<T>, len: T) -> (P<T>, P<T>) {
     let one = T::one();
     let two = T::lit(2.0);
-    let inv = one / len;
-    let ss = [s[0] * inv, s[1] * inv, s[2] * inv];
-    let b = dot(ss, ss).sqrt();
-    if b == T::zero() {
+    let Some((b, u, c, mut w)) = frame(t, s, len) else {
         return (t, [T::zero(); 3]);
-    }
-    let ib = one / b;
-    let u = [ss[0] * ib, ss[1] * ib, ss[2] * ib];
-    let tt = [t[0] * inv, t[1] * inv, t[2] * inv];
-    let c = dot(tt, u);
-    let mut w = [tt[0] - u[0] * c, tt[1] - u[1] * c, tt[2] - u[2] * c];
+    };
     let k = dot(w, u);
     w = [w[0] - u[0] * k, w[1] - u[1] * k, w[2] - u[2] * k];
     let y2 = dot(w, w);
@@ -119,17 +135,9 @@ fn tractrix<T: Real>(t: P<T>, s: P<T>, len: T) -> (P<T>, P<T>) {
 fn tractrix_bare<T: Real>(t: P<T>, s: P<T>, len: T) -> (P<T>, P<T>) {
     let one = T::one();
     let two = T::lit(2.0);
-    let inv = one / len;
-    let ss = [s[0] * inv, s[1] * inv, s[2] * inv];
-    let b = dot(ss, ss).sqrt();
-    if b == T::zero() {
+    let Some((b, u, c, w)) = frame(t, s, len) else {
         return (t, [T::zero(); 3]);
-    }
-    let ib = one / b;
-    let u = [ss[0] * ib, ss[1] * ib, ss[2] * ib];
-    let tt = [t[0] * inv, t[1] * inv, t[2] * inv];
-    let c = dot(tt, u);
-    let w = [tt[0] - u[0] * c, tt[1] - u[1] * c, tt[2] - u[2] * c];
+    };
     let (p, m) = (one - c, one + c);
     let q = (-b).exp();
     let e = q * q;

@@ -103,8 +103,8 @@ impl Method {
 /// The closed-form tractrix step (see the module docs). Exact for a straight head motion of any length.
 ///
 /// `len` must be positive and the inputs finite; `t` should have length `len` (rounding drift is
-/// corrected, not amplified). Inlined into the sweeps: called, it cost the f32 sweep about a sixth
-/// more (`cargo bench -p tractrix --bench lean`).
+/// corrected, not amplified). Inlined into the sweeps: as a call it showed in the f32 rows of
+/// `cargo bench -p tractrix --bench lean`.
 #[inline(always)]
 pub fn tractrix_step<T: Real, const D: usize>(
     t: &Vector<T, D>,

@@ -114,9 +114,9 @@ pub struct CollisionOptions<T> {
     /// `[1, 2)`: successive over-relaxation of the pushes. A knot pulled tight jams: each pass pushes
     /// its contacts apart and re-straightening the rope to its lengths pulls them most of the way
     /// back, so at 1 the passes creep toward the tolerance; pushing further converges in fewer passes
-    /// (the built-in overhand's pull at 160 links: 144 passes over a move's two substeps at 1, 76 at
-    /// 1.5, 57 at 2). It leaves a contact at most its depth farther apart than it need be, when that
-    /// depth is above the tolerance (`cargo bench -p clients --bench collision` shows the trade). On
+    /// (`cargo bench -p clients --bench collision`, the trade table's *over-relaxation* rows: passes
+    /// per move and moves locked at 1, 1.5 and 1.9). It leaves a contact at most its depth farther
+    /// apart than it need be, when that depth is above the tolerance. On
     /// a chain with held joints the extra push is capped at the tolerance: the rope between them is
     /// re-solved as a whole after the pushes, and a joint that moves farther than a substep may locks
     /// the move (uncapped, a kernel test's instrument push locked); capped, the held ropes of the
