@@ -13,11 +13,16 @@
  *                           slice of tractrix_Vec3 (targets); response user header
  *                           tractrix_ResponseHeader, payload a slice of tractrix_Vec3 (n_joints joints,
  *                           then n_angles rotation vectors, then n_held held joints: x the index,
- *                           y 1 for an anchor of the scene and 0 for a grasp, z 0, then
+ *                           y 1 for an anchor of the scene and 0 for a grasp, z 1 when the stretch
+ *                           to the next held joint toward the head is taut, else 0, then
  *                           n_instruments instruments, three elements each: the axis ends a and b
- *                           (equal for a sphere), then (radius, 0 sphere / 1 capsule, 0)).
+ *                           (equal for a sphere), then (radius, 0 sphere / 1 capsule, 0), then n_pulls
+ *                           pulls, one per held joint and one per instrument: the vector from where
+ *                           its owner last asked it to be to where the rope let it be, zero when
+ *                           slack (times a coupling stiffness: the force on the hand; FLAG_PULL)).
  *   "tractrix/state"        publish-subscribe: user header tractrix_StateHeader, payload tractrix_Vec3[]
- *                           (n_joints joints, n_held held joints, n_instruments instruments).
+ *                           (n_joints joints, n_held held joints, n_instruments instruments, n_pulls
+ *                           pulls).
  *   "tractrix/bundle-state" publish-subscribe, only for a scene with bundles: user header
  *                           tractrix_StateHeader, payload all joints of one bundle (strand after
  *                           strand, each tail first); at most TRACTRIX_MAX_BUNDLE_SUBSCRIBERS
@@ -46,7 +51,8 @@
 #define TRACTRIX_MAX_INSTRUMENTS 64u
 #define TRACTRIX_INSTRUMENT_ELEMENTS 3u
 #define TRACTRIX_MAX_RESPONSE_ELEMENTS \
-    (2u * TRACTRIX_MAX_LINKS + 1u + TRACTRIX_MAX_HELD + TRACTRIX_INSTRUMENT_ELEMENTS * TRACTRIX_MAX_INSTRUMENTS)
+    (2u * TRACTRIX_MAX_LINKS + 1u + 2u * TRACTRIX_MAX_HELD + \
+     (TRACTRIX_INSTRUMENT_ELEMENTS + 1u) * TRACTRIX_MAX_INSTRUMENTS)
 #define TRACTRIX_MAX_PATH_POINTS 4096u
 #define TRACTRIX_MAX_CHAINS 256u
 #define TRACTRIX_NAME_LEN 32u
@@ -65,6 +71,9 @@
 #define TRACTRIX_FLAG_IN_BALL 32u
 /* Path: follow the natural cubic spline through the joint and the points (C2) instead of straight segments. */
 #define TRACTRIX_FLAG_SMOOTH 64u
+/* Move (one target) and instrument: pull. A move the rope cannot make in full goes as far as it can
+ * instead of being refused; the rest is the pull of that joint or instrument (n_pulls elements). */
+#define TRACTRIX_FLAG_PULL 128u
 #define TRACTRIX_MAX_BUNDLE_JOINTS 1048576u
 #define TRACTRIX_MAX_BUNDLE_STRANDS 131072u
 #define TRACTRIX_BUNDLE_STATE_BUFFER 2u
@@ -187,7 +196,8 @@ typedef struct tractrix_ResponseHeader {
     uint32_t n_instruments; /* offset 256 */
     uint32_t limits; /* offset 260 */
     double limit_value; /* offset 264 */
-    uint32_t reserved[4]; /* offset 272 */
+    uint32_t n_pulls; /* offset 272 */
+    uint32_t reserved[3]; /* offset 276 */
 } tractrix_ResponseHeader;
 
 /* 48 bytes, align 8. */
@@ -199,7 +209,8 @@ typedef struct tractrix_StateHeader {
     uint32_t n_held; /* offset 20 */
     uint64_t request_id; /* offset 24 */
     uint32_t n_instruments; /* offset 32 */
-    uint32_t reserved[3]; /* offset 36 */
+    uint32_t n_pulls; /* offset 36 */
+    uint32_t reserved[2]; /* offset 40 */
 } tractrix_StateHeader;
 
 #ifdef __cplusplus
@@ -261,7 +272,8 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reason) == 160, "tractr
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_instruments) == 256, "tractrix_ResponseHeader.n_instruments offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limits) == 260, "tractrix_ResponseHeader.limits offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limit_value) == 264, "tractrix_ResponseHeader.limit_value offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 272, "tractrix_ResponseHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_pulls) == 272, "tractrix_ResponseHeader.n_pulls offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 276, "tractrix_ResponseHeader.reserved offset");
 
 TRACTRIX_STATIC_ASSERT(sizeof(tractrix_StateHeader) == 48, "tractrix_StateHeader size");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, sequence) == 0, "tractrix_StateHeader starts with sequence");
@@ -271,6 +283,7 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, command) == 16, "tractrix_
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_held) == 20, "tractrix_StateHeader.n_held offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, request_id) == 24, "tractrix_StateHeader.request_id offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_instruments) == 32, "tractrix_StateHeader.n_instruments offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, reserved) == 36, "tractrix_StateHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_pulls) == 36, "tractrix_StateHeader.n_pulls offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, reserved) == 40, "tractrix_StateHeader.reserved offset");
 
 #endif /* TRACTRIX_H */

@@ -30,9 +30,14 @@
 //!    `n_joints` joint positions (tail first, joint 0 = tail, joint `n_joints - 1` = head) followed by
 //!    `n_angles` joint rotations as rotation vectors (axis × angle in radians; for a planar chain `(0, 0,
 //!    θ)`), then `n_held` held joints (anchors of the scene and grasps of clients), one element each:
-//!    `x` the joint's index, `y` 1 for an anchor and 0 for a grasp, `z` 0, then `n_instruments`
+//!    `x` the joint's index, `y` 1 for an anchor and 0 for a grasp, `z` 1 when the stretch of rope from
+//!    it to the next held joint toward the head is taut (straight to within its length's rounding),
+//!    else 0, then `n_instruments`
 //!    instruments of the chain (in the scene's order), three elements each ([`InstrumentPose`]): the
-//!    two ends of the axis (equal for a sphere), then `(radius, 0 for a sphere or 1 for a capsule, 0)`.
+//!    two ends of the axis (equal for a sphere), then `(radius, 0 for a sphere or 1 for a capsule, 0)`,
+//!    then `n_pulls` pulls, one per held joint and then one per instrument: the vector from where its
+//!    owner last asked it to be to where the rope let it be (zero when slack; with a virtual coupling
+//!    of stiffness `k` the force on the hand is `k` times it; [`FLAG_PULL`]).
 //!    A chain without instruments has `n_instruments = 0`. An error response carries no elements. The chain's description (name, kind, sizes, defaults) comes with [`Command::Describe`]
 //!    only.
 //!
@@ -116,7 +121,8 @@
 //! | | n_instruments | 256 | uint32_t |
 //! | | limits | 260 | uint32_t |
 //! | | limit_value | 264 | double |
-//! | | reserved | 272 | `uint32_t[4]` |
+//! | | n_pulls | 272 | uint32_t |
+//! | | reserved | 276 | `uint32_t[3]` |
 //! | StateHeader (48 B, align 8) | sequence | 0 | uint64_t |
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
@@ -124,7 +130,8 @@
 //! | | n_held | 20 | uint32_t |
 //! | | request_id | 24 | uint64_t |
 //! | | n_instruments | 32 | uint32_t |
-//! | | reserved | 36 | `uint32_t[3]` |
+//! | | n_pulls | 36 | uint32_t |
+//! | | reserved | 40 | `uint32_t[2]` |
 //! <!-- layout-table-end -->
 //!
 //! Service names carry no version on purpose: a peer of another protocol version finds the service and
@@ -135,7 +142,8 @@
 //! Versions: v1 had no instruments in payloads and no reserved tail in the response and state headers;
 //! v2 adds `n_instruments` (and the instruments' elements) and zeroed `reserved` words for later fields;
 //! `limits` and `limit_value` (a describe's joint limits, [`LIMITS_NONE`] and the rest) took three of
-//! them within v2 (a v2 peer that does not know them reads zeros: no limits).
+//! them within v2 (a v2 peer that does not know them reads zeros: no limits), and `n_pulls` one more
+//! in each header (a v2 peer that does not know it reads the pulls as trailing elements it ignores).
 //!
 //! # Enumerations (all `uint32_t`)
 //!
@@ -152,7 +160,9 @@
 //!   3 pull-back (tractrix, then a tractrix pass pulling the base end back).
 //! * `flags`: bit 0 [`FLAG_ANGLES`] (reach and query: append joint rotations), bit 1 [`FLAG_POSE`] (a
 //!   bundle's move by one rigid motion of its heads), bit 2 [`FLAG_TAKE_OVER`] (grasp, release, move,
-//!   path, reset: take over another client's grasps).
+//!   path, reset: take over another client's grasps), bit 3 [`FLAG_ORIENT`], bit 4 [`FLAG_IN_BOX`],
+//!   bit 5 [`FLAG_IN_BALL`] (reach goals), bit 6 [`FLAG_SMOOTH`] (path), bit 7 [`FLAG_PULL`] (move and
+//!   instrument: as far as the rope lets, the rest reported as the pull).
 //! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base, 2 bundle. `collision`: bit 0 self, bit 1 obstacles.
 
 use bytemuck::{Pod, Zeroable};
@@ -204,9 +214,9 @@ pub const DEFAULT_PREFIX: &str = "tractrix_";
 
 /// Most links in one chain. Bounds scenes, snapshots and the response memory (24 B per joint).
 pub const MAX_LINKS: u32 = 65_536;
-/// Most joints in a response: joints plus one rotation per link.
+/// Most elements in a response: joints, one rotation per link, held joints, instruments and pulls.
 pub const MAX_RESPONSE_ELEMENTS: u32 =
-    2 * MAX_LINKS + 1 + MAX_HELD + INSTRUMENT_ELEMENTS * MAX_INSTRUMENTS;
+    2 * MAX_LINKS + 1 + 2 * MAX_HELD + (INSTRUMENT_ELEMENTS + 1) * MAX_INSTRUMENTS;
 /// Most points in one [`Command::Path`] request.
 pub const MAX_PATH_POINTS: u32 = 4096;
 /// Most chains in one scene.
@@ -251,6 +261,11 @@ pub const FLAG_IN_BALL: u32 = 32;
 /// & Badler's smooth key frames) instead of straight segments; each segment is sampled into as many
 /// points as it has substeps.
 pub const FLAG_SMOOTH: u32 = 64;
+/// Move (one target) and instrument: pull. A move the rope cannot make in full (a held side out of
+/// length, contact jammed, a joint limit) goes as far toward the target as it can instead of being
+/// refused, and the rest is the joint's (or instrument's) pull in the payload (`n_pulls`): the
+/// tension a haptic hand feels, docs/tension.md.
+pub const FLAG_PULL: u32 = 128;
 
 /// Most joints (strands × (links + 1)) of one bundle: 24 MiB per state sample in `Vec3`s.
 pub const MAX_BUNDLE_JOINTS: u32 = 1 << 20;
@@ -825,8 +840,13 @@ pub struct ResponseHeader {
     /// for [`LIMITS_CONE`], the widest cone for [`LIMITS_CONES`], the widest range's width for
     /// [`LIMITS_RANGES`]; 0 otherwise.
     pub limit_value: f64,
+    /// Pulls after the instruments: one per held joint, then one per instrument (`n_held +
+    /// n_instruments`; every response that carries held joints or instruments). Each is the vector
+    /// from where that joint's or instrument's owner last asked it to be to where the rope let it be:
+    /// zero while the rope is slack ([`FLAG_PULL`], docs/tension.md).
+    pub n_pulls: u32,
     /// Must be zero (room for later fields without a layout change).
-    pub reserved: [u32; 4],
+    pub reserved: [u32; 3],
 }
 
 /// A describe's [`ResponseHeader::limits`]: the chain has no joint limits.
@@ -873,7 +893,8 @@ impl Default for ResponseHeader {
             n_instruments: 0,
             limits: 0,
             limit_value: 0.0,
-            reserved: [0; 4],
+            n_pulls: 0,
+            reserved: [0; 3],
         }
     }
 }
@@ -921,8 +942,10 @@ pub struct StateHeader {
     pub request_id: u64,
     /// Instruments after the held joints in the payload (as in a response).
     pub n_instruments: u32,
+    /// Pulls after the instruments in the payload (as in a response).
+    pub n_pulls: u32,
     /// Must be zero (room for later fields without a layout change).
-    pub reserved: [u32; 3],
+    pub reserved: [u32; 2],
 }
 
 /// One instrument as a payload carries it ([`INSTRUMENT_ELEMENTS`] elements: `a`, `b`, then
@@ -968,16 +991,19 @@ pub struct Parts<'a> {
     pub held: &'a [Vec3],
     /// [`INSTRUMENT_ELEMENTS`] elements per instrument.
     pub instruments: &'a [Vec3],
+    /// One pull per held joint, then one per instrument.
+    pub pulls: &'a [Vec3],
 }
 
 impl<'a> Parts<'a> {
-    /// Cuts `payload` into `n_joints`, `n_angles`, `n_held` and `n_instruments` parts.
+    /// Cuts `payload` into `n_joints`, `n_angles`, `n_held`, `n_instruments` and `n_pulls` parts.
     pub fn new(
         payload: &'a [Vec3],
         n_joints: u32,
         n_angles: u32,
         n_held: u32,
         n_inst: u32,
+        n_pulls: u32,
     ) -> Self {
         let mut rest = payload;
         let mut take = |n: usize| {
@@ -989,24 +1015,49 @@ impl<'a> Parts<'a> {
         let angles = take(n_angles as usize);
         let held = take(n_held as usize);
         let instruments = take((n_inst as usize).saturating_mul(INSTRUMENT_ELEMENTS as usize));
+        let pulls = take(n_pulls as usize);
         Parts {
             joints,
             angles,
             held,
             instruments,
+            pulls,
         }
     }
     /// The parts of a response's payload.
     pub fn of_response(h: &ResponseHeader, payload: &'a [Vec3]) -> Self {
-        Self::new(payload, h.n_joints, h.n_angles, h.n_held, h.n_instruments)
+        Self::new(
+            payload,
+            h.n_joints,
+            h.n_angles,
+            h.n_held,
+            h.n_instruments,
+            h.n_pulls,
+        )
     }
     /// The parts of a state sample's payload (no rotations).
     pub fn of_state(h: &StateHeader, payload: &'a [Vec3]) -> Self {
-        Self::new(payload, h.n_joints, 0, h.n_held, h.n_instruments)
+        Self::new(payload, h.n_joints, 0, h.n_held, h.n_instruments, h.n_pulls)
     }
     /// The held joints: `(index, anchor of the scene)`.
     pub fn held_joints(&self) -> impl Iterator<Item = (u32, bool)> + 'a {
         self.held.iter().map(|v| (v.x as u32, v.y != 0.0))
+    }
+    /// For each held joint, whether the stretch from it to the next held joint toward the head is
+    /// taut.
+    pub fn taut(&self) -> impl Iterator<Item = bool> + 'a {
+        self.held.iter().map(|v| v.z != 0.0)
+    }
+    /// The pull on each held joint: `(joint index, pull)`.
+    pub fn held_pulls(&self) -> impl Iterator<Item = (u32, Vec3)> + 'a {
+        self.held
+            .iter()
+            .zip(self.pulls)
+            .map(|(h, p)| (h.x as u32, *p))
+    }
+    /// The pull on each instrument (in the scene's order).
+    pub fn instrument_pulls(&self) -> &'a [Vec3] {
+        self.pulls.get(self.held.len()..).unwrap_or(&[])
     }
     /// The instruments.
     pub fn instrument_poses(&self) -> impl Iterator<Item = InstrumentPose> + 'a {
@@ -1092,12 +1143,12 @@ wire_layout!(ResponseHeader, "tractrix.v2.ResponseHeader", size = 288, align = 8
     n_held: "uint32_t" @ 100, max_step: "double" @ 104, total_length: "double" @ 112,
     thickness: "double" @ 120, name: "uint8_t[32]" @ 128, reason: "uint8_t[96]" @ 160,
     n_instruments: "uint32_t" @ 256, limits: "uint32_t" @ 260, limit_value: "double" @ 264,
-    reserved: "uint32_t[4]" @ 272,
+    n_pulls: "uint32_t" @ 272, reserved: "uint32_t[3]" @ 276,
 ]);
 wire_layout!(StateHeader, "tractrix.v2.StateHeader", size = 48, align = 8, [
     sequence: "uint64_t" @ 0, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12, command: "uint32_t" @ 16,
     n_held: "uint32_t" @ 20, request_id: "uint64_t" @ 24, n_instruments: "uint32_t" @ 32,
-    reserved: "uint32_t[3]" @ 36,
+    n_pulls: "uint32_t" @ 36, reserved: "uint32_t[2]" @ 40,
 ]);
 
 /// Every wire type's layout, in the order of the crate docs' table.

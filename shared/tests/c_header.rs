@@ -95,6 +95,7 @@ fn assertions() -> String {
         ("FLAG_ANGLES", u64::from(shared::FLAG_ANGLES)),
         ("FLAG_POSE", u64::from(shared::FLAG_POSE)),
         ("FLAG_TAKE_OVER", u64::from(shared::FLAG_TAKE_OVER)),
+        ("FLAG_PULL", u64::from(shared::FLAG_PULL)),
         ("MAX_BUNDLE_JOINTS", u64::from(shared::MAX_BUNDLE_JOINTS)),
         ("MAX_BUNDLE_STRANDS", u64::from(shared::MAX_BUNDLE_STRANDS)),
         ("BUNDLE_STATE_BUFFER", shared::BUNDLE_STATE_BUFFER as u64),

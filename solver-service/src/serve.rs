@@ -464,7 +464,7 @@ fn answer_timed<H: Handler>(
         header.solve_ns = t0.elapsed().as_nanos() as u64;
     }
     let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
-    let n = (header.n_joints + header.n_angles + header.n_held) as usize + inst;
+    let n = (header.n_joints + header.n_angles + header.n_held + header.n_pulls) as usize + inst;
     (handled, n)
 }
 
@@ -829,10 +829,10 @@ fn serve_one<S: Service, H: Handler>(
         &ports.state
     };
     let publisher = stream.as_ref().filter(|_| changed);
-    // The sample: the response's joints, held joints and instruments (not its rotations).
+    // The sample: the response's joints, held joints, instruments and pulls (not its rotations).
     let parts = shared::Parts::of_response(&header, resp.payload());
     let (nj, na) = (parts.joints.len(), header.n_angles as usize);
-    let n_state = nj + parts.held.len() + parts.instruments.len();
+    let n_state = nj + parts.held.len() + parts.instruments.len() + parts.pulls.len();
     let state_header = StateHeader {
         sequence: header.sequence,
         chain: header.chain,
@@ -841,14 +841,16 @@ fn serve_one<S: Service, H: Handler>(
         n_held: parts.held.len() as u32,
         request_id: request.request_id,
         n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize) as u32,
-        reserved: [0; 3],
+        n_pulls: parts.pulls.len() as u32,
+        reserved: [0; 2],
     };
     let early = match publisher {
         Some(p) if !small => {
-            let (joints, held, instruments) = (parts.joints, parts.held, parts.instruments);
+            let (joints, held, instruments, pulls) =
+                (parts.joints, parts.held, parts.instruments, parts.pulls);
             state_sample(p, n_state, state_header, |s| {
                 // One memcpy when there are only joints (a bundle), else element by element.
-                if held.is_empty() && instruments.is_empty() {
+                if held.is_empty() && instruments.is_empty() && pulls.is_empty() {
                     s.write_from_slice(joints)
                 } else {
                     let nh = held.len();
@@ -857,8 +859,13 @@ fn serve_one<S: Service, H: Handler>(
                             joints[i]
                         } else if i < nj + nh {
                             held[i - nj]
+                        } else if i < nj + nh + instruments.len() {
+                            instruments[i - nj - nh]
                         } else {
-                            instruments.get(i - nj - nh).copied().unwrap_or_default()
+                            pulls
+                                .get(i - nj - nh - instruments.len())
+                                .copied()
+                                .unwrap_or_default()
                         }
                     })
                 }

@@ -192,7 +192,8 @@ fn structured_request() -> impl Strategy<Value = (RequestHeader, Vec<Vec3>)> {
         (
             0..=2u32,
             prop_oneof![1 => 1..=3u32, 2 => 0..=300u32],
-            0..=1u32,
+            // No flag, the rotations, or a pull (`FLAG_PULL`: moves and instruments stop short).
+            prop::sample::select(vec![0u32, 0, 1, shared::FLAG_PULL]),
             any::<u64>(),
             prop_oneof![Just(0.0), 1e-9..1e-2f64],
         ),
@@ -321,7 +322,7 @@ fn snapshot(set: &World) -> Vec<Vec<[u64; 3]>> {
     (0..set.len() as u32)
         .map(|c| {
             let mut v: Vec<[u64; 3]> = set
-                .elements_with(c, false, true, true)
+                .elements_with(c, false, true, true, false)
                 .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
                 .collect();
             let poses = set.instrument_poses(c);
@@ -381,15 +382,20 @@ fn check_invariants(set: &World) -> Result<(), TestCaseError> {
                 .map(|e| [e.x.to_bits(), e.y.to_bits(), e.z.to_bits()])
                 .collect()
         };
-        for parts in 0..8u32 {
-            let (a, h, i) = (parts & 1 != 0, parts & 2 != 0, parts & 4 != 0);
+        for parts in 0..16u32 {
+            let (a, h, i, p) = (
+                parts & 1 != 0,
+                parts & 2 != 0,
+                parts & 4 != 0,
+                parts & 8 != 0,
+            );
             let all: Vec<Vec3> = set
-                .elements_with(c as u32, a, h, i)
+                .elements_with(c as u32, a, h, i, p)
                 .map(Vec3::from)
                 .collect();
             for n in [all.len(), all.len() / 2, 1, 0] {
                 let mut got = vec![Vec3::new(7.0, 7.0, 7.0)];
-                set.elements_with(c as u32, a, h, i)
+                set.elements_with(c as u32, a, h, i, p)
                     .gather_into(&mut got, n);
                 prop_assert_eq!(bits(&got[..1]), bits(&[Vec3::new(7.0, 7.0, 7.0)]));
                 prop_assert_eq!(
@@ -459,8 +465,9 @@ fn run_case(
             if req.command != Command::Snapshot as u32 && req.command != Command::Describe as u32 {
                 prop_assert_eq!(
                     elements.len(),
-                    (h.n_joints + h.n_angles + h.n_held + 3 * h.n_instruments) as usize
+                    (h.n_joints + h.n_angles + h.n_held + 3 * h.n_instruments + h.n_pulls) as usize
                 );
+                prop_assert_eq!(h.n_pulls, h.n_held + h.n_instruments);
             }
             prop_assert!(
                 elements.iter().all(|v| v.is_finite()),

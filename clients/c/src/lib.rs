@@ -813,6 +813,7 @@ pub unsafe extern "C" fn tractrix_stream_next(
                 n_held: parts.held.len() as u32,
                 n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize)
                     as u32,
+                n_pulls: parts.pulls.len() as u32,
                 ..*h
             };
             f(user, &h, p.as_ptr(), parts.joints.len());

@@ -721,6 +721,22 @@ where
         Ok(outcome)
     }
 
+    /// Where joint `joint` can go nearest to `target` with the held joints kept: `target` itself when
+    /// the held sides reach it (each within its rope's length of its held joint, and no nearer than
+    /// the rope can fold), else the nearest point they reach (on the boundary of the held sides'
+    /// shells). A hand pulling the rope taut moves the joint there.
+    pub fn nearest_reachable(
+        &self,
+        joint: usize,
+        target: Vector<T, D>,
+    ) -> Result<Vector<T, D>, ChainError> {
+        self.check_joint(joint)?;
+        if !all_finite(&target) {
+            return Err(ChainError::NonFinite);
+        }
+        crate::hold::nearest_reachable(self, joint, target)
+    }
+
     /// Whether a joint other than `joint` is held (a move of `joint` then needs the held solution).
     pub(crate) fn held_elsewhere(&self, joint: usize) -> bool {
         self.pins.iter().any(|p| p.0 != joint)

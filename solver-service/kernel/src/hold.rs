@@ -190,6 +190,31 @@ where
     })
 }
 
+/// See [`Chain::nearest_reachable`].
+pub(crate) fn nearest_reachable<T: Real, const D: usize>(
+    c: &Chain<T, D>,
+    m: usize,
+    target: Vector<T, D>,
+) -> Result<Vector<T, D>, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let (lo, hi) = c.held_around(m);
+    let tail = lo.map(|h| side(c, m, h)).transpose()?;
+    let head = hi.map(|h| side(c, m, h)).transpose()?;
+    let sides: Vec<&Side<T, D>> = tail.iter().chain(head.iter()).collect();
+    if sides.is_empty() {
+        return Ok(target);
+    }
+    match check_reach(&sides, &c.current(m), &target) {
+        Ok(()) => Ok(target),
+        Err(ChainError::HeldUnreachable { nearest, .. }) => Ok(Vector::<T, D>::from_3d(
+            &nalgebra::Vector3::new(T::lit(nearest[0]), T::lit(nearest[1]), T::lit(nearest[2])),
+        )),
+        Err(e) => Err(e),
+    }
+}
+
 fn solve<T: Real, const D: usize>(
     s: &mut Side<T, D>,
     target: &Vector<T, D>,

@@ -68,9 +68,15 @@ impl WireWorld for World {
     }
 
     fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
-        if h.n_joints + h.n_angles + h.n_held + h.n_instruments == 0 {
+        if h.n_joints + h.n_angles + h.n_held + h.n_instruments + h.n_pulls == 0 {
             return Elements::Empty;
         }
-        self.elements_for(h.chain, h.n_angles > 0, h.n_held > 0, h.n_instruments > 0)
+        self.elements_for(
+            h.chain,
+            h.n_angles > 0,
+            h.n_held > 0,
+            h.n_instruments > 0,
+            h.n_pulls > 0,
+        )
     }
 }

@@ -7,9 +7,9 @@
 //! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
 
 use shared::{
-    FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_SMOOTH, FLAG_TAKE_OVER, JOINT_HEAD,
-    MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader, Status, SubstepMode, Vec3,
-    WireMethod, WireStrategy,
+    FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_PULL, FLAG_SMOOTH, FLAG_TAKE_OVER,
+    JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader, Status, SubstepMode,
+    Vec3, WireMethod, WireStrategy,
 };
 use tractrix::{Method, MoveOptions, ReachOptions, Strategy, Substeps};
 use world::scene::{ChainKind, ChainSpec};
@@ -80,8 +80,23 @@ pub fn decode<'a>(
         strategy,
     } = check_header(
         h,
-        FLAG_ANGLES | FLAG_TAKE_OVER | FLAG_ORIENT | FLAG_IN_BOX | FLAG_IN_BALL | FLAG_SMOOTH,
+        FLAG_ANGLES
+            | FLAG_TAKE_OVER
+            | FLAG_ORIENT
+            | FLAG_IN_BOX
+            | FLAG_IN_BALL
+            | FLAG_SMOOTH
+            | FLAG_PULL,
     )?;
+    if h.flags & FLAG_PULL != 0
+        && !matches!(command, shared::Command::Move | shared::Command::Instrument)
+    {
+        return Err(refuse!(
+            BadOption,
+            "flag pull (128) is for move and instrument, not {}",
+            command.name()
+        ));
+    }
     if h.flags & FLAG_SMOOTH != 0 && command != shared::Command::Path {
         return Err(refuse!(
             BadOption,
@@ -282,6 +297,7 @@ fn instrument<'a>(at: &At<'_>, points: &'a [Point]) -> Result<Command<'a>, Refus
         centre: points[0],
         axis,
         max_substeps: spec.moves.max_substeps,
+        pull: h.flags & FLAG_PULL != 0,
     })
 }
 
@@ -365,6 +381,7 @@ fn move_or_path<'a>(
         },
         take_over,
         smooth: h.flags & FLAG_SMOOTH != 0,
+        pull: h.flags & FLAG_PULL != 0,
     })
 }
 
@@ -502,6 +519,7 @@ pub fn encode(
             h.n_angles = o.angles;
             h.n_held = o.held;
             h.n_instruments = o.instruments;
+            h.n_pulls = o.pulls;
             h.substeps = o.substeps;
             h.paper_fallbacks = o.paper_fallbacks;
             h.iterations = o.iterations;

@@ -18,7 +18,10 @@ use crate::each_form;
 use crate::elements::{ChainElements, Elements, INSTRUMENT_ELEMENTS, Wants};
 use crate::form::to_point;
 use crate::form::{Geometry, build};
-use crate::moves::{instrument_travel, move_and_carry, push_instrument, reach_with_holds};
+use crate::moves::{
+    instrument_travel, move_and_carry, pull_instrument, pull_move, push_instrument,
+    reach_with_holds,
+};
 use crate::owners::{LOCAL, Owners};
 use crate::refusal::Refusal;
 use crate::refuse;
@@ -199,8 +202,17 @@ impl World {
                         .filter(|f| f.map(|j| j as usize) == Some(joint))
                         .count()
                 });
+                // A pull may try the move several times ([`crate::moves::PULL_TRIES`]); with collision
+                // the kernel's meter bounds every try together.
+                let tries = match *req {
+                    Command::Move { pull: true, .. } if spec.collision.is_none() => {
+                        crate::moves::PULL_TRIES
+                    }
+                    _ => 1,
+                };
                 Ok(n.saturating_mul(substeps)
-                    .saturating_mul(1 + carried as u64))
+                    .saturating_mul(1 + carried as u64)
+                    .saturating_mul(tries))
             }
             // With joint limits each iteration also tries the hierarchy (a second pass).
             Command::Reach { ref options, .. } => Ok(n
@@ -329,15 +341,15 @@ impl World {
             .position(|n| n == name)
             .map(|i| i as u32)
     }
-    /// The sizes the ports must hold: the most elements in a response (joints, rotations, held joints
-    /// and instruments of the largest chain) and the most in a state sample (the same without
+    /// The sizes the ports must hold: the most elements in a response (joints, rotations, held joints,
+    /// instruments and pulls of the largest chain) and the most in a state sample (the same without
     /// rotations).
     pub fn response_sizes(&self) -> (usize, usize) {
         let mut most = (1, 1);
         for (spec, g) in self.specs.iter().zip(&self.geometry) {
             let links = spec.lengths.len();
-            let tail = crate::sizes::MAX_HELD
-                + INSTRUMENT_ELEMENTS * each_form!(g, h => h.instruments().len());
+            let instruments = each_form!(g, h => h.instruments().len());
+            let tail = 2 * crate::sizes::MAX_HELD + (INSTRUMENT_ELEMENTS + 1) * instruments;
             most.0 = most.0.max(2 * links + 1 + tail);
             most.1 = most.1.max(links + 1 + tail);
         }
@@ -358,12 +370,26 @@ impl World {
     /// request. Grasps belong to their client ([`crate::owners`]).
     pub fn apply_for(&mut self, client: u128, req: &Command<'_>) -> Result<Answer, Refusal> {
         if let Command::Move {
+            targets,
+            pull: true,
+            ..
+        } = *req
+            && targets.len() != 1
+        {
+            return Err(refuse!(
+                BadPointCount,
+                "a pull takes one target, not {}",
+                targets.len()
+            ));
+        }
+        if let Command::Move {
             chain,
             joint,
             targets,
             options,
             take_over,
             smooth: true,
+            pull,
         } = *req
         {
             let (samples, options) = self.smooth_samples(chain, joint, targets, &options)?;
@@ -374,6 +400,7 @@ impl World {
                 options,
                 take_over,
                 smooth: false,
+                pull,
             };
             return self.apply_for(client, &straight);
         }
@@ -556,8 +583,23 @@ impl World {
                 joint,
                 targets,
                 ref options,
+                pull,
                 ..
-            } => each_form!(&mut *g, h => move_and_carry(h, joint, targets, options)).map(|m| {
+            } => each_form!(&mut *g, h => {
+                let target = targets[targets.len() - 1];
+                let done = if pull {
+                    pull_move(h, joint, target, options)
+                } else {
+                    move_and_carry(h, joint, targets, options).map(|m| (m, None))
+                };
+                done.map(|(m, stop)| {
+                    if h.chain.is_held(joint) {
+                        h.tension.joint_moved(joint, target, stop);
+                    }
+                    m
+                })
+            })
+            .map(|m| {
                 outcome.substeps = m.substeps;
                 outcome.paper_fallbacks = m.paper_fallbacks;
                 outcome.iterations = m.collision_iterations;
@@ -587,6 +629,7 @@ impl World {
             Command::Reset { .. } => {
                 each_form!(&mut *g, h => {
                     h.chain.copy_from(&h.initial);
+                    h.tension.clear();
                     let initial = std::mem::take(&mut h.instruments_initial);
                     h.instruments_mut().copy_from_slice(&initial);
                     h.instruments_initial = initial;
@@ -598,18 +641,32 @@ impl World {
                 centre,
                 axis,
                 max_substeps,
+                pull,
                 ..
-            } => each_form!(&mut *g, h => push_instrument(h, index, centre, axis, max_substeps))
-                .map(|m| {
-                    outcome.substeps = m.substeps;
-                    outcome.iterations = m.collision_iterations;
-                }),
+            } => each_form!(&mut *g, h => {
+                let done = if pull {
+                    pull_instrument(h, index, centre, axis, max_substeps)
+                } else {
+                    push_instrument(h, index, centre, axis, max_substeps).map(|m| (m, None))
+                };
+                done.map(|(m, stop)| {
+                    h.tension.instrument_moved(index, centre, stop);
+                    m
+                })
+            })
+            .map(|m| {
+                outcome.substeps = m.substeps;
+                outcome.iterations = m.collision_iterations;
+            }),
             Command::Grasp { joint, .. } => {
                 each_form!(&mut *g, h => h.chain.hold(joint)).map_err(Refusal::from)
             }
-            Command::Release { joint, .. } => each_form!(&mut *g, h => h.chain.release(joint))
-                .map(|_| ())
-                .map_err(Refusal::from),
+            Command::Release { joint, .. } => each_form!(&mut *g, h => {
+                h.tension.released(joint);
+                h.chain.release(joint)
+            })
+            .map(|_| ())
+            .map_err(Refusal::from),
             Command::Snapshot | Command::Bundle { .. } => Ok(()),
         };
         #[cfg(test)]
@@ -618,11 +675,13 @@ impl World {
         }
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
+        outcome.pulls = outcome.held + outcome.instruments;
         self.last_work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()));
         match result {
             Ok(()) => {
                 if outcome.changed {
                     self.sequence += 1;
+                    each_form!(&mut *g, h => h.refresh_tension());
                 }
                 Ok(outcome)
             }
@@ -656,27 +715,30 @@ impl World {
         angles: bool,
         held: bool,
         instruments: bool,
+        pulls: bool,
     ) -> Elements<'_> {
         if let Some((_, b)) = self.bundle_of(handle) {
             return Elements::Bundle(b.elements());
         }
-        self.elements_with(handle, angles, held, instruments)
+        self.elements_with(handle, angles, held, instruments, pulls)
     }
 
     /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).
     pub fn elements_of(&self, chain: u32, angles: bool) -> Elements<'_> {
-        self.elements_with(chain, angles, false, false)
+        self.elements_with(chain, angles, false, false, false)
     }
 
     /// A chain's joints, its rotations with `angles`, its held joints with `held` (index, 1 for an
-    /// anchor and 0 for a grasp, 0), its instruments with `instruments` (the wire's three elements
-    /// each: [`INSTRUMENT_ELEMENTS`]).
+    /// anchor and 0 for a grasp, 1 if the stretch to the next held joint is taut), its instruments
+    /// with `instruments` (the wire's three elements each: [`INSTRUMENT_ELEMENTS`]), its pulls with
+    /// `pulls` (one per held joint, then one per instrument: [`crate::tension`]).
     pub fn elements_with(
         &self,
         chain: u32,
         angles: bool,
         held: bool,
         instruments: bool,
+        pulls: bool,
     ) -> Elements<'_> {
         let (Some(g), Some(spec)) = (
             self.geometry.get(chain as usize),
@@ -689,6 +751,7 @@ impl World {
             angles,
             held,
             instruments,
+            pulls,
         };
         match g {
             Geometry::Planar64(h) => Elements::Planar64(ChainElements::new(h, wants, a)),
@@ -715,6 +778,7 @@ mod tests {
             options: w.specs()[0].moves,
             take_over: false,
             smooth: false,
+            pull: false,
         }
     }
 

@@ -31,6 +31,10 @@ pub enum Command<'a> {
         /// smooth key frames: [`tractrix::path`]) instead of straight segments: each segment sampled
         /// into as many points as it has substeps.
         smooth: bool,
+        /// Pull (the wire's `FLAG_PULL`; one target): a move the rope cannot make in full (a held side
+        /// out of reach, contact locked, a joint limit) goes as far toward the target as it can, and
+        /// the rest is the joint's pull ([`crate::tension`]) instead of a refusal.
+        pull: bool,
     },
     /// Bring a fixed-base chain's head to its goal: a point, a pose of the last link, or anywhere in a
     /// region.
@@ -95,6 +99,10 @@ pub enum Command<'a> {
         axis: Option<Point>,
         /// Substep limit (the chain's).
         max_substeps: u32,
+        /// Pull (the wire's `FLAG_PULL`): a pose the rope cannot make way for is taken as far as it
+        /// goes (the centre along the straight line, the axis turned in proportion), and the rest is
+        /// the instrument's pull ([`crate::tension`]) instead of a refusal.
+        pull: bool,
     },
     /// A command to a bundle.
     Bundle {
@@ -152,6 +160,9 @@ pub struct Answer {
     pub held: u32,
     /// Instruments in the response (after the held joints).
     pub instruments: u32,
+    /// Pulls in the response (after the instruments): one per held joint, then one per instrument
+    /// ([`crate::tension`]).
+    pub pulls: u32,
     /// Substeps taken (moves).
     pub substeps: u32,
     /// Paper-form substeps that fell back to the closed form.

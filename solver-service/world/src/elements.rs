@@ -67,6 +67,7 @@ pub(crate) struct Wants {
     pub(crate) angles: bool,
     pub(crate) held: bool,
     pub(crate) instruments: bool,
+    pub(crate) pulls: bool,
 }
 
 /// Joints by a compensated prefix sum (restarted at every held joint, as the kernel sums them), then
@@ -82,6 +83,9 @@ pub struct ChainElements<'a, T: Real, const D: usize> {
     rotations: usize,
     held: usize,
     instruments: &'a [Obstacle<T, D>],
+    /// One per held joint, then one per instrument ([`crate::tension`]); empty unless asked for.
+    pulls: &'a [Point],
+    tension: &'a crate::tension::Tension,
     /// The next held joint whose state restarts the sum, and its index (`usize::MAX`: none left).
     pin: usize,
     pin_at: usize,
@@ -107,6 +111,8 @@ where
             } else {
                 &[]
             },
+            pulls: if wants.pulls { h.tension.pulls() } else { &[] },
+            tension: &h.tension,
             pin: 0,
             pin_at: chain.held_state(0).map_or(usize::MAX, |(j, _)| j),
             anchors,
@@ -212,15 +218,24 @@ where
         if k < self.held {
             let (j, _) = self.chain.held_state(k)?;
             let anchor = self.anchors.contains(&(j as u32));
-            return Some(Point::new(j as f64, if anchor { 1.0 } else { 0.0 }, 0.0));
+            let taut = self.tension.taut(k);
+            return Some(Point::new(
+                j as f64,
+                if anchor { 1.0 } else { 0.0 },
+                if taut { 1.0 } else { 0.0 },
+            ));
         }
         let k = k - self.held;
         let per = INSTRUMENT_ELEMENTS;
-        let Some(o) = self.instruments.get(k / per) else {
+        if let Some(o) = self.instruments.get(k / per) {
+            return Some(instrument_element(o, k % per));
+        }
+        let k = k - self.instruments.len() * per;
+        let Some(p) = self.pulls.get(k) else {
             self.at = i;
             return None;
         };
-        Some(instrument_element(o, k % per))
+        Some(*p)
     }
 }
 

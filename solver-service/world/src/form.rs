@@ -32,6 +32,15 @@ pub struct LiveChain<T: Real, const D: usize> {
     pub(crate) instruments_before: Vec<Obstacle<T, D>>,
     /// For each instrument, the joint it rides with (scene `follows`).
     pub(crate) follows: Vec<Option<usize>>,
+    /// What the hands feel: asked targets that stopped short, and the pulls they give.
+    pub(crate) tension: crate::tension::Tension,
+    /// The rope's length from joint 0 to each joint (`n + 1` sums of the scene's lengths).
+    pub(crate) prefix: Vec<f64>,
+    /// How much shorter than its rope a taut stretch's chord may be ([`crate::tension::taut_slack`]).
+    pub(crate) taut_slack: f64,
+    /// The furthest pose a pulled move reached so far (its chain and instruments).
+    pub(crate) best: Chain<T, D>,
+    pub(crate) instruments_best: Vec<Obstacle<T, D>>,
 }
 
 impl<T: Real, const D: usize> LiveChain<T, D>
@@ -59,6 +68,7 @@ where
             self.instruments_before
                 .extend_from_slice(&m.obstacles[self.instruments_at..]);
         }
+        self.tension.arm_undo();
     }
     /// Puts back the state [`LiveChain::arm_undo`] remembered.
     pub(crate) fn swap_undo(&mut self) {
@@ -69,6 +79,42 @@ where
             now.copy_from_slice(&before);
         }
         self.instruments_before = before;
+        self.tension.swap_undo();
+        self.refresh_tension();
+    }
+    /// Back to the state [`LiveChain::arm_undo`] remembered, keeping that memory (a pulled move's next
+    /// try).
+    pub(crate) fn restore_armed(&mut self) {
+        self.chain.copy_from(&self.before);
+        let before = std::mem::take(&mut self.instruments_before);
+        let now = self.instruments_mut();
+        if now.len() == before.len() {
+            now.copy_from_slice(&before);
+        }
+        self.instruments_before = before;
+    }
+    /// Remembers the state as the furthest a pulled move reached.
+    pub(crate) fn keep_best(&mut self) {
+        self.best.copy_from(&self.chain);
+        let at = self.instruments_at;
+        if let Some((m, _)) = &self.collision {
+            self.instruments_best.clear();
+            self.instruments_best.extend_from_slice(&m.obstacles[at..]);
+        }
+    }
+    /// Puts back the state [`LiveChain::keep_best`] remembered.
+    pub(crate) fn take_best(&mut self) {
+        self.chain.copy_from(&self.best);
+        let best = std::mem::take(&mut self.instruments_best);
+        let now = self.instruments_mut();
+        if now.len() == best.len() {
+            now.copy_from_slice(&best);
+        }
+        self.instruments_best = best;
+    }
+    /// What the hands feel ([`crate::tension`]).
+    pub fn tension(&self) -> &crate::tension::Tension {
+        &self.tension
     }
     /// The instruments' poses as numbers (a sphere: its centre; a capsule: `a` then `b`), for a snapshot.
     pub fn instrument_numbers(&self) -> Vec<Vec<f64>> {
@@ -269,9 +315,15 @@ where
         (model, CollisionWorkspace::new())
     });
     let instruments_at = spec.collision.as_ref().map_or(0, |c| c.obstacles.len());
+    let mut prefix = Vec::with_capacity(spec.lengths.len() + 1);
+    prefix.push(0.0);
+    for l in &spec.lengths {
+        prefix.push(prefix[prefix.len() - 1] + l);
+    }
     let mut h = LiveChain {
         initial: chain.clone(),
         before: chain.clone(),
+        best: chain.clone(),
         chain,
         ws: ReachWorkspace::default(),
         collision,
@@ -282,8 +334,14 @@ where
         follows: spec.collision.as_ref().map_or_else(Vec::new, |c| {
             c.follows.iter().map(|f| f.map(|j| j as usize)).collect()
         }),
+        tension: crate::tension::Tension::default(),
+        taut_slack: crate::tension::taut_slack(spec.moves.held.tolerance, prefix[prefix.len() - 1]),
+        prefix,
+        instruments_best: Vec::new(),
     };
     h.instruments_initial = h.instruments().to_vec();
     h.instruments_before = h.instruments_initial.clone();
+    h.instruments_best = h.instruments_initial.clone();
+    h.refresh_tension();
     Ok(h)
 }

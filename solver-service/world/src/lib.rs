@@ -33,4 +33,5 @@ pub mod refusal;
 pub mod scene;
 pub mod sizes;
 pub mod state;
+pub mod tension;
 pub mod two_cores;

@@ -3,8 +3,9 @@
 //! may be left moved on a refusal: [`crate::World::apply`] restores it.
 
 use crate::command::{Goal, Point};
-use crate::form::{LiveChain, point};
-use crate::refusal::Refusal;
+use crate::form::{LiveChain, point, to_point};
+use crate::refusal::{Cause, Refusal};
+use crate::tension::Stop;
 use nalgebra::Vector3;
 use tractrix::collision::{Obstacle, move_joint_colliding};
 use tractrix::math::{Embed3, Real, Vector};
@@ -255,4 +256,173 @@ where
     };
     let o = reach_goal(&mut g.chain, &goal, &opts, &mut g.ws)?;
     Ok((o.iterations, o.residual.to_f64()))
+}
+
+/// Halvings of a pulled move that stopped short: the furthest point reached is within 2⁻⁶ of the
+/// stretch from the joint to its target (or its nearest reachable point). With the full try and the
+/// nearest point, at most eight solves per request, each metered against the budget.
+pub const PULL_HALVINGS: u32 = 6;
+
+/// Tries a pulled move may take: the full one, the nearest reachable point, the halvings.
+pub const PULL_TRIES: u64 = 2 + PULL_HALVINGS as u64;
+
+/// Why a refusal means "the rope could not go that far" (a pull stops short) rather than bad input.
+fn stops_short(r: &Refusal) -> Option<Stop> {
+    match r.cause {
+        Cause::Unreachable | Cause::NotConverged => Some(Stop::Reach),
+        Cause::Locked => Some(Stop::Contact),
+        Cause::JointLimit => Some(Stop::Limit),
+        _ => None,
+    }
+}
+
+/// A move of `joint` toward `target` that goes as far as the rope lets it ([`crate::tension`]): the
+/// full move; if the rope cannot make it, the nearest point the held sides reach; if that cannot be
+/// made either, [`PULL_HALVINGS`] halvings of the straight line from the joint to it, keeping the
+/// furthest pose made. `None` when the whole move was made; else why it stopped short (the joint may
+/// not have moved at all). Bad input is refused as by a plain move; the budget ends the halvings.
+pub(crate) fn pull_move<T: Real, const D: usize>(
+    g: &mut LiveChain<T, D>,
+    joint: usize,
+    target: Point,
+    opts: &MoveOptions<f64>,
+) -> Result<(MoveOutcome, Option<Stop>), Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let from = to_point(&g.chain.joint(joint));
+    let first = match move_and_carry(g, joint, std::slice::from_ref(&target), opts) {
+        Ok(m) => return Ok((m, None)),
+        Err(e) => e,
+    };
+    let Some(mut stop) = stops_short(&first) else {
+        return Err(first);
+    };
+    g.restore_armed();
+    let mut goal = target;
+    let nearest = if first.cause == Cause::Unreachable {
+        g.chain
+            .nearest_reachable(joint, point(target))
+            .ok()
+            .map(|n| to_point(&n))
+    } else {
+        None
+    };
+    if let Some(n) = nearest {
+        // The nearest point lies on the held sides' shell, which their solves reach only to their
+        // tolerance: taken a few tolerances inside (toward where the joint is), so that the last
+        // side solved still closes on its held joint.
+        let inset = 4.0 * opts.held.tolerance * g.prefix[g.prefix.len() - 1];
+        let back = from - n;
+        goal = if back.norm() > inset {
+            n + back * (inset / back.norm())
+        } else {
+            from
+        };
+        match move_and_carry(g, joint, std::slice::from_ref(&goal), opts) {
+            Ok(m) => return Ok((m, Some(stop))),
+            Err(e) => {
+                stop = stops_short(&e).ok_or(e)?;
+                g.restore_armed();
+            }
+        }
+    }
+    let (mut lo, mut hi) = (0.0, 1.0);
+    let mut best = None;
+    for _ in 0..PULL_HALVINGS {
+        let mid = 0.5 * (lo + hi);
+        let p = from + (goal - from) * mid;
+        match move_and_carry(g, joint, std::slice::from_ref(&p), opts) {
+            Ok(m) => {
+                lo = mid;
+                g.keep_best();
+                best = Some(m);
+            }
+            Err(e) if e.cause == Cause::OverBudget => {
+                g.restore_armed();
+                break;
+            }
+            Err(e) => {
+                if stops_short(&e).is_none() {
+                    return Err(e);
+                }
+                hi = mid;
+            }
+        }
+        g.restore_armed();
+    }
+    if best.is_some() {
+        g.take_best();
+    }
+    Ok((best.unwrap_or_default(), Some(stop)))
+}
+
+/// An instrument's pose taken as far as the rope makes way ([`pull_move`] for a pose): the full pose,
+/// then [`PULL_HALVINGS`] halvings of the way to it (the centre along its straight line, the axis
+/// turned in proportion), keeping the furthest pose made.
+pub(crate) fn pull_instrument<T: Real, const D: usize>(
+    g: &mut LiveChain<T, D>,
+    index: usize,
+    centre: Point,
+    axis: Option<Point>,
+    max_substeps: u32,
+) -> Result<(MoveOutcome, Option<Stop>), Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let Some(from) = g.instruments().get(index).copied() else {
+        return Err(ChainError::BadOption("the chain has no such instrument").into());
+    };
+    let v = |p: &Vector<T, D>| to_point(p);
+    let (c0, a0) = match from {
+        Obstacle::Sphere { center, .. } => (v(&center), None),
+        Obstacle::Capsule { a, b, .. } => ((v(&a) + v(&b)) * 0.5, Some(v(&b) - v(&a))),
+        Obstacle::HalfSpace { .. } => (Point::zeros(), None),
+    };
+    let first = match push_instrument(g, index, centre, axis, max_substeps) {
+        Ok(m) => return Ok((m, None)),
+        Err(e) => e,
+    };
+    let Some(stop) = stops_short(&first) else {
+        return Err(first);
+    };
+    g.restore_armed();
+    let (mut lo, mut hi) = (0.0, 1.0);
+    let mut best = None;
+    for _ in 0..PULL_HALVINGS {
+        let mid = 0.5 * (lo + hi);
+        let c = c0 + (centre - c0) * mid;
+        // The axis turned by `mid` of the angle between the two (normalised lerp is enough: the
+        // halvings only need a pose between the two for every fraction).
+        let ax = match (a0, axis) {
+            (Some(a0), Some(a1)) => {
+                let (a0, a1) = (a0.normalize(), a1.normalize());
+                let w = a0 * (1.0 - mid) + a1 * mid;
+                Some(if w.norm() > 1e-12 { w } else { a0 })
+            }
+            _ => axis,
+        };
+        match push_instrument(g, index, c, ax, max_substeps) {
+            Ok(m) => {
+                lo = mid;
+                g.keep_best();
+                best = Some(m);
+            }
+            Err(e) if e.cause == Cause::OverBudget => {
+                g.restore_armed();
+                break;
+            }
+            Err(e) => {
+                if stops_short(&e).is_none() {
+                    return Err(e);
+                }
+                hi = mid;
+            }
+        }
+        g.restore_armed();
+    }
+    if best.is_some() {
+        g.take_best();
+    }
+    Ok((best.unwrap_or_default(), Some(stop)))
 }

@@ -209,6 +209,7 @@ mod tests {
             options: tractrix::MoveOptions::default(),
             take_over: true,
             smooth: false,
+            pull: false,
         };
         let e = owners.check(a, &take).unwrap_err();
         assert_eq!(e.cause, crate::refusal::Cause::BadOption, "{}", e.reason());
@@ -225,6 +226,7 @@ mod tests {
             options: tractrix::MoveOptions::default(),
             take_over: true,
             smooth: false,
+            pull: false,
         };
         owners.check(a, &own).unwrap();
         let release = Command::Release {

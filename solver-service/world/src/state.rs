@@ -8,6 +8,7 @@ use crate::World;
 use crate::each_form;
 use crate::scene::Precision;
 use crate::sizes::MAX_HELD;
+use crate::tension::Asked;
 use serde::{Deserialize, Serialize};
 use tractrix::Chain;
 use tractrix::math::{Embed3, Real, Vector};
@@ -33,6 +34,11 @@ pub struct ChainState {
     pub instruments: Vec<Vec<f64>>,
     /// The datum joint (the last moved one) and its position: the next move of it starts there.
     pub datum: (u32, Vec<f64>),
+    /// Held joints whose last pulled move stopped short, and where they were asked to go
+    /// ([`crate::tension`]).
+    pub asked_joints: Vec<Asked>,
+    /// Instruments whose last pulled pose stopped short, and their asked centres.
+    pub asked_instruments: Vec<Asked>,
 }
 
 /// The state of every chain of a world, and its sequence number.
@@ -115,6 +121,8 @@ impl World {
                         held,
                         instruments: each_form!(g, g => g.instrument_numbers()),
                         datum,
+                        asked_joints: each_form!(g, g => g.tension().asked().0.to_vec()),
+                        asked_instruments: each_form!(g, g => g.tension().asked().1.to_vec()),
                     }
                 })
                 .collect(),
@@ -172,6 +180,22 @@ impl World {
             each_form!(&mut g, h => {
                 h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held, &s.datum).map_err(pose)?;
                 h.set_instrument_numbers(&s.instruments).map_err(|e| pose(e.to_string()))?;
+                let n_inst = h.instruments().len();
+                if let Some(a) = s.asked_joints.iter().find(|a| !h.chain.is_held(a.at)) {
+                    return Err(pose(format!("asked target of joint {}, which is not held", a.at)));
+                }
+                if let Some(a) = s.asked_instruments.iter().find(|a| a.at >= n_inst) {
+                    return Err(pose(format!("asked target of instrument {}, of {n_inst}", a.at)));
+                }
+                let all = s.asked_joints.iter().chain(&s.asked_instruments);
+                if all.clone().any(|a| !a.target.iter().all(|x| x.is_finite())) {
+                    return Err(pose("an asked target is not finite".into()));
+                }
+                if s.asked_joints.len() > MAX_HELD || s.asked_instruments.len() > n_inst {
+                    return Err(pose("more asked targets than held joints or instruments".into()));
+                }
+                h.tension.set_asked(s.asked_joints.clone(), s.asked_instruments.clone());
+                h.refresh_tension();
             });
             built.push(g);
         }
@@ -268,7 +292,10 @@ mod tests {
     /// Every joint of every chain as bits (computed here from the payload).
     fn bits(w: &World) -> Vec<u64> {
         (0..w.len() as u32)
-            .flat_map(|c| w.elements_with(c, true, true, true).collect::<Vec<_>>())
+            .flat_map(|c| {
+                w.elements_with(c, true, true, true, true)
+                    .collect::<Vec<_>>()
+            })
             .flat_map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
             .collect()
     }
@@ -293,6 +320,7 @@ mod tests {
                 },
                 take_over: false,
                 smooth: false,
+                pull: false,
             })
             .unwrap();
         }
@@ -321,6 +349,7 @@ mod tests {
                 options,
                 take_over: false,
                 smooth: false,
+                pull: false,
             })
             .unwrap();
         }

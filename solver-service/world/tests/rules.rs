@@ -1,10 +1,12 @@
 //! The world's rules, by property: random sequences of commands (moves and paths of any joint,
 //! grasps and releases, an instrument pushed about, resets, a fixed-base reach with joint ranges, a
 //! bundle's heads) on a scene with collision, an instrument, a bend radius, a limited arm and a
-//! bundle. After every command, checked by code written here: a refused command changes nothing
+//! bundle, moves and instrument poses with the pull flag. After every command, checked by code
+//! written here: a refused command changes nothing
 //! (the whole state, bit for bit, and the sequence number); an accepted one keeps every link's length
 //! (1e-12 of it), every grasped joint where it was grasped, bit for bit, and publishes no NaN; the
-//! sequence number counts the accepted changes.
+//! sequence number counts the accepted changes; a pulled move ends no further from its target than
+//! it started, and a held joint's pull is where it is less where it was asked to be.
 
 use proptest::prelude::*;
 use world::World;
@@ -47,11 +49,13 @@ fn joints(w: &World) -> Vec<Vec<Point>> {
     let mut out: Vec<Vec<Point>> = (0..w.len() as u32)
         .map(|c| {
             let n = w.specs()[c as usize].lengths.len() + 1;
-            w.elements_with(c, false, false, false).take(n).collect()
+            w.elements_with(c, false, false, false, false)
+                .take(n)
+                .collect()
         })
         .collect();
     out.push(
-        w.elements_for(w.len() as u32, false, false, false)
+        w.elements_for(w.len() as u32, false, false, false, false)
             .collect(),
     );
     out
@@ -64,10 +68,11 @@ enum Op {
         joint: usize,
         dx: [f64; 3],
         path: bool,
+        pull: bool,
     },
     Grasp(usize),
     Release(usize),
-    Instrument([f64; 3]),
+    Instrument([f64; 3], bool),
     Reset,
     Reach([f64; 2]),
     Hair([f64; 3]),
@@ -76,10 +81,11 @@ enum Op {
 fn op() -> impl Strategy<Value = Op> {
     let v3 = || prop::array::uniform3(-2.0f64..2.0);
     prop_oneof![
-        4 => (0usize..25, v3(), any::<bool>()).prop_map(|(joint, dx, path)| Op::Move { joint, dx, path }),
+        4 => (0usize..25, v3(), any::<bool>(), any::<bool>())
+            .prop_map(|(joint, dx, path, pull)| Op::Move { joint, dx, path: path && !pull, pull }),
         2 => (0usize..25).prop_map(Op::Grasp),
         1 => (0usize..25).prop_map(Op::Release),
-        1 => v3().prop_map(Op::Instrument),
+        1 => (v3(), any::<bool>()).prop_map(|(c, pull)| Op::Instrument(c, pull)),
         1 => Just(Op::Reset),
         2 => prop::array::uniform2(-1.8f64..1.8).prop_map(Op::Reach),
         1 => v3().prop_map(Op::Hair),
@@ -106,17 +112,17 @@ proptest! {
             let targets: Vec<Point>;
             let heads: Vec<Point>;
             let cmd = match &op {
-                Op::Move { joint, dx, path } => {
+                Op::Move { joint, dx, path, pull } => {
                     let from = rope[*joint];
                     let to = from + Point::new(dx[0], dx[1], dx[2]);
                     targets = if *path { vec![(from + to) * 0.5, to] } else { vec![to] };
-                    Command::Move { chain: 0, joint: *joint, targets: &targets, options: moves, take_over: false, smooth: false }
+                    Command::Move { chain: 0, joint: *joint, targets: &targets, options: moves, take_over: false, smooth: false, pull: *pull }
                 }
                 Op::Grasp(j) => Command::Grasp { chain: 0, joint: *j, take_over: false },
                 Op::Release(j) => Command::Release { chain: 0, joint: *j, take_over: false },
-                Op::Instrument(c) => Command::Instrument {
+                Op::Instrument(c, pull) => Command::Instrument {
                     chain: 0, index: 0, centre: Point::new(c[0] + 6.0, c[1] + 3.0, c[2]), axis: None,
-                    max_substeps: moves.max_substeps,
+                    max_substeps: moves.max_substeps, pull: *pull,
                 },
                 Op::Reset => Command::Reset { chain: 0, take_over: false },
                 Op::Reach(t) => Command::Reach { chain: 1, goal: world::command::Goal::Point(Point::new(t[0], t[1], 0.0)), options: reach, angles: false },
@@ -143,13 +149,33 @@ proptest! {
                         // chain's reach tolerance (a fraction of its length) where a held side is
                         // solved as a fixed-base chain. The hand that holds a joint moves it, and it
                         // is held where it lands.
-                        Op::Move { joint, .. } => {
+                        // A pull may stop short, never further from its target than it started; a
+                        // held joint's pull in the payload is where it is less where it was asked.
+                        Op::Move { joint, pull, .. } => {
                             let now = joints(&w)[0][joint];
                             let last = match &cmd { Command::Move { targets, .. } => targets[targets.len() - 1], _ => unreachable!() };
                             let miss = ((now.x - last.x).powi(2) + (now.y - last.y).powi(2) + (now.z - last.z).powi(2)).sqrt();
                             let spec = &w.specs()[0];
                             let bound = spec.reach.tolerance * spec.total_length + 1e-12;
-                            prop_assert!(miss <= bound, "{:?}: joint {} landed {:e} from its target", op, joint, miss);
+                            if pull {
+                                let was = before[0][joint];
+                                let start = ((was.x - last.x).powi(2) + (was.y - last.y).powi(2) + (was.z - last.z).powi(2)).sqrt();
+                                prop_assert!(miss <= start + bound, "{:?}: joint {} pulled from {:e} to {:e} of its target", op, joint, start, miss);
+                                let payload: Vec<Point> = w.elements_with(0, false, true, true, true).collect();
+                                // Joints, held joints, the post (three elements), then one pull per
+                                // held joint and one for the post.
+                                let n = spec.lengths.len() + 1;
+                                let n_held = (payload.len() - n - 4) / 2;
+                                if let Some(k) = payload[n..n + n_held].iter().position(|p| p.x as usize == joint) {
+                                    // Zero when the move was made (to the reach's tolerance).
+                                    let p = payload[n + n_held + 3 + k];
+                                    let want = now - last;
+                                    let made = p == Point::zeros() && miss <= bound;
+                                    prop_assert!(made || (p - want).norm() <= 1e-9 * (1.0 + want.norm()), "{:?}: pull {:?}, the joint is {:?} from its target", op, p, want);
+                                }
+                            } else {
+                                prop_assert!(miss <= bound, "{:?}: joint {} landed {:e} from its target", op, joint, miss);
+                            }
                             if let Some(g) = grasped.iter_mut().find(|g| g.0 == joint) {
                                 g.1 = now;
                             }
