@@ -42,6 +42,7 @@ FLAG_ORIENT = 8  # reach: (head target, direction of the last link)
 FLAG_IN_BOX = 16  # reach: (corner lo, corner hi); no motion inside
 FLAG_IN_BALL = 32  # reach: (centre, (radius, 0, 0)); no motion inside
 FLAG_SMOOTH = 64  # path: the natural cubic spline through the joint and the points (C2)
+FLAG_PULL = 128  # move, instrument: as far as the rope lets; the rest is the pull (see `pulls`)
 KIND = ["free", "fixed-base", "bundle"]
 
 CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
@@ -118,7 +119,8 @@ class ResponseHeader(ctypes.Structure):
         ("n_instruments", ctypes.c_uint32),
         ("limits", ctypes.c_uint32),
         ("limit_value", ctypes.c_double),
-        ("reserved", ctypes.c_uint32 * 4),
+        ("n_pulls", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32 * 3),
     ]
 
     @staticmethod
@@ -134,7 +136,7 @@ _LAYOUT = {
     ResponseHeader: (288, {"status": 0, "n_joints": 12, "sequence": 32, "residual": 56,
                            "n_chains": 64, "n_links": 76, "n_held": 100, "max_step": 104, "name": 128,
                            "reason": 160, "n_instruments": 256, "limits": 260,
-                           "limit_value": 264, "reserved": 272}),
+                           "limit_value": 264, "n_pulls": 272, "reserved": 276}),
 }
 for _t, (_size, _offsets) in _LAYOUT.items():
     assert ctypes.sizeof(_t) == _size, (_t, ctypes.sizeof(_t))
@@ -164,6 +166,19 @@ def instruments(h: ResponseHeader, elements: list) -> list[dict]:
         out.append({"shape": "capsule" if shape else "sphere", "a": list(a), "b": list(b),
                     "radius": radius})
     return out
+
+
+def pulls(h: ResponseHeader, elements: list) -> dict:
+    """What the hands feel (docs/tension.md): {"held": [{"joint", "taut", "pull"}], "instruments":
+    [pull, ...]}. A pull is the vector from where the joint's (instrument's) owner last asked it to be
+    to where the rope let it be: zero while the rope is slack; times a coupling stiffness k it is the
+    force on the hand. `taut`: the stretch from the joint to the next held joint is straight."""
+    held_from = h.n_joints + h.n_angles
+    at = held_from + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments
+    ps = elements[at:at + h.n_pulls]
+    held = [{"joint": int(x), "taut": z != 0.0, "pull": list(ps[k]) if k < len(ps) else [0.0] * 3}
+            for k, (x, _, z) in enumerate(elements[held_from:held_from + h.n_held])]
+    return {"held": held, "instruments": [list(p) for p in ps[h.n_held:]]}
 
 
 def _text(buf):
@@ -246,8 +261,9 @@ class Client:
     def call(self, command: str, chain: int = 0, points: Iterable[Point] = (),
              **fields) -> tuple[ResponseHeader, list[tuple[float, float, float]]]:
         """Sends one request; returns (header, list of (x, y, z): n_joints joints, n_angles rotations,
-        n_held held joints as (index, 1 for an anchor else 0, 0), then n_instruments instruments, three
-        elements each: see `instruments`) or raises ServiceError."""
+        n_held held joints as (index, 1 for an anchor else 0, 1 if taut else 0), then n_instruments
+        instruments, three elements each: see `instruments`, then n_pulls pulls: see `pulls`) or raises
+        ServiceError."""
         points = list(points)
         request = self.client.loan_slice_uninit(len(points))
         for i, p in enumerate(points):
@@ -278,7 +294,7 @@ class Client:
                 time.sleep(0.0001)
         h = response.user_header().contents
         # The wheel's Slice.len() is in bytes (issue #1533): count from our own header.
-        n = h.n_joints + h.n_angles + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments
+        n = h.n_joints + h.n_angles + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments + h.n_pulls
         elements = (Vec3 * n).from_address(response.payload().as_ptr()) if n else []
         out = [(v.x, v.y, v.z) for v in elements]
         copy = ResponseHeader.from_buffer_copy(h)
@@ -327,6 +343,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     m.add_argument("chain")
     m.add_argument("xyz", type=float, nargs=3)
     m.add_argument("--joint", type=int, default=JOINT_HEAD)
+    m.add_argument("--pull", action="store_true",
+                   help="as far as the rope lets; print the rest as the pull instead of refusing")
     p = sub.add_parser("path", help="move a chain's head (or --joint) through points x,y,z ...")
     p.add_argument("chain")
     p.add_argument("points", nargs="+", help="x,y,z")
@@ -357,6 +375,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     i.add_argument("xyz", type=float, nargs=3)
     i.add_argument("--axis", type=float, nargs=3)
     i.add_argument("--index", type=int, default=0, help="the instrument's index in the chain's list")
+    i.add_argument("--pull", action="store_true",
+                   help="as far as the rope makes way; print the rest as the pull instead of refusing")
     b = sub.add_parser("bench", help="N moves of a chain's head around a small circle, back to back: "
                                      "round-trip percentiles (the motion of `latency client`)")
     b.add_argument("chain")
@@ -370,7 +390,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         chain = client.find_chain(a.chain)
         if a.cmd == "move":
-            h, elements = client.call("move", chain, [tuple(a.xyz)], joint=a.joint)
+            h, elements = client.call("move", chain, [tuple(a.xyz)], joint=a.joint,
+                                      flags=FLAG_PULL if a.pull else 0)
         elif a.cmd == "path":
             pts = [tuple(float(x) for x in s.split(",")) for s in a.points]
             h, elements = client.call("path", chain, pts, joint=a.joint,
@@ -393,7 +414,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _bench(client, chain, a.n)
         elif a.cmd == "instrument":
             points = [tuple(a.xyz)] + ([tuple(a.axis)] if a.axis else [])
-            h, elements = client.call("instrument", chain, points, joint=a.index)
+            h, elements = client.call("instrument", chain, points, joint=a.index,
+                                      flags=FLAG_PULL if a.pull else 0)
         else:
             h, elements = client.call(a.cmd, chain)
     except (RuntimeError, ServiceError, KeyError, TimeoutError, ValueError) as e:
@@ -409,6 +431,8 @@ def main(argv: Sequence[str] | None = None) -> int:
            "joints": joints, "held": held}
     if h.n_instruments:
         out["instruments"] = instruments(h, elements)
+    if h.n_pulls:
+        out["pulls"] = pulls(h, elements)
     if a.cmd == "describe":
         out["name"] = _text(h.name)
         out["total_length"] = h.total_length

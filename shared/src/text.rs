@@ -19,9 +19,9 @@
 //! rigid motion `R(rotation)·h0 + target`. Unknown fields are an error.
 
 use crate::{
-    Command, FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_SMOOTH,
-    FLAG_TAKE_OVER, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision, RequestHeader,
-    ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
+    Command, FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_PULL,
+    FLAG_SMOOTH, FLAG_TAKE_OVER, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision,
+    RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use serde::{Deserialize, Serialize};
 
@@ -92,6 +92,10 @@ pub struct TextRequest {
     /// A path along the natural cubic spline through its points ([`crate::FLAG_SMOOTH`]).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub smooth: bool,
+    /// A move or an instrument pose taken as far as the rope lets it, the rest reported as the pull
+    /// ([`crate::FLAG_PULL`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub pull: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub request_id: Option<u64>,
 }
@@ -228,6 +232,15 @@ impl TextRequest {
             }
             h.flags |= FLAG_SMOOTH;
         }
+        if self.pull {
+            if !matches!(command, Command::Move | Command::Instrument) {
+                return Err(format!(
+                    "{}: `pull` is for a move or an instrument",
+                    self.cmd
+                ));
+            }
+            h.flags |= FLAG_PULL;
+        }
         h.request_id = self.request_id.unwrap_or(0);
         let goals = [
             self.direction.is_some(),
@@ -336,6 +349,10 @@ pub struct TextResponse {
     /// The chain's instruments' poses.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub instruments: Vec<TextInstrument>,
+    /// The pull on each instrument (in the order of `instruments`): where it is less where it was
+    /// last asked to be ([`crate::FLAG_PULL`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub instrument_pulls: Vec<[f64; 3]>,
     /// A describe's joint limits in words ([`limits_text`]); empty otherwise.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub limits: String,
@@ -347,6 +364,13 @@ pub struct HeldJoint {
     pub joint: u32,
     /// Declared by the scene (never released), not grasped by a client.
     pub anchor: bool,
+    /// The stretch from this joint to the next held joint toward the head is taut.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub taut: bool,
+    /// The pull on the joint: where it is less where its owner last asked it to be (zero when
+    /// slack; [`crate::FLAG_PULL`]).
+    #[serde(default)]
+    pub pull: [f64; 3],
 }
 
 impl TextResponse {
@@ -375,9 +399,21 @@ impl TextResponse {
             angles: parts.angles.iter().map(|v| v.to_array()).collect(),
             held: parts
                 .held_joints()
-                .map(|(joint, anchor)| HeldJoint { joint, anchor })
+                .zip(parts.taut())
+                .enumerate()
+                .map(|(k, ((joint, anchor), taut))| HeldJoint {
+                    joint,
+                    anchor,
+                    taut,
+                    pull: parts.pulls.get(k).map_or([0.0; 3], |p| p.to_array()),
+                })
                 .collect(),
             instruments: parts.instrument_poses().map(TextInstrument::from).collect(),
+            instrument_pulls: parts
+                .instrument_pulls()
+                .iter()
+                .map(|p| p.to_array())
+                .collect(),
             limits: limits_text(h.limits, h.limit_value),
         }
     }

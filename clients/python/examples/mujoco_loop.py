@@ -10,7 +10,15 @@ service's share of a 1 kHz step is measured, not guessed.
     target/pyenv/bin/python clients/python/examples/mujoco_loop.py --prefix tractrix_ --steps 2000
 
 `--json` prints one JSON object instead, with the capsule centres MuJoCo holds at the end (for a test
-to compare with the service's joints). `--frames DIR` renders four frames of the run offscreen
+to compare with the service's joints).
+
+`--coupling K` is the haptic hand of issue 38: the suture's tail is grasped, the hand's circle takes the
+end beyond the suture's length for part of each turn, and every move is sent with the pull flag. The
+service stops the end where the rope is taut and reports the pull p (where the end is less where the
+hand asked it to be, docs/tension.md); a virtual coupling of stiffness K (N per unit length) turns it
+into the force on the hand, F = K·p, at every 1 kHz step. The loop prints the force's percentiles
+(with `--json`, the hand's position and the force of every step); a haptic device would command its
+motors with it. `--frames DIR` renders four frames of the run offscreen
 (OSMesa, headless) to DIR/mujoco-K.png. Needs `pip install mujoco PyOpenGL` (scripts/python-venv.sh
 installs them) and, for frames, OSMesa (scripts/system-packages.sh).
 """
@@ -31,7 +39,7 @@ import mujoco
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from tractrix_client import JOINT_HEAD, Client, ServiceError  # noqa: E402
+from tractrix_client import FLAG_PULL, JOINT_HEAD, Client, ServiceError, pulls  # noqa: E402
 
 
 def scene_xml(n_links: int, link: float, radius: float) -> str:
@@ -90,11 +98,12 @@ def write_png(path: str, rgb: np.ndarray) -> None:
 
 
 def run(client: Client | None, chain: int, steps: int, rate: float, start,
-        frames: str | None = None) -> tuple[list, list, dict]:
+        frames: str | None = None, coupling: float | None = None) -> tuple[list, list, dict]:
     """The loop: `steps` steps at `rate` Hz; returns the step times (µs), the capsule centres at the
     end and, with the service, the times of its parts (µs): the service call alone and the posing
     of the capsules from the joints. With `frames`, four frames are rendered (outside the timed step)
-    to that directory."""
+    to that directory. With `coupling` (a stiffness), the moves pull (the tail is held by the caller)
+    and the hand's force of every step is in the parts (`hand`, `force`)."""
     n_links = len(start) - 1
     model = mujoco.MjModel.from_xml_string(scene_xml(n_links, float(np.linalg.norm(
         np.subtract(start[1], start[0]))), 0.1))
@@ -104,7 +113,10 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
     place(data, first_link, joints)
     head = np.asarray(start[-1], dtype=float)
     times = []
-    parts = {"service_call": [], "posing": []}
+    parts = {"service_call": [], "posing": [], "hand": [], "force": []}
+    # With the coupling, the circle's centre is a unit behind the end: for part of each turn the hand
+    # is beyond the suture's length from its held tail.
+    centre = head + (np.array([1.0, 0.0, 0.0]) if coupling is not None else 0.0)
     renderer = mujoco.Renderer(model, 360, 640) if frames else None
     shots = {steps * k // 4 + steps // 8 for k in range(4)}
     t0 = time.perf_counter()
@@ -116,16 +128,23 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
             time.sleep(wait)
         s = time.perf_counter_ns()
         a = 2.0 * math.pi * (i % 2000) / 2000.0
-        hand = head + np.array([2.0 * (math.cos(a) - 1.0), 2.0 * math.sin(a), 0.5 * math.sin(2 * a)])
+        hand = centre + np.array([2.0 * (math.cos(a) - 1.0), 2.0 * math.sin(a), 0.5 * math.sin(2 * a)])
         data.mocap_pos[0] = hand
         if client is not None:
             c = time.perf_counter_ns()
-            h, elements = client.call("move", chain, [tuple(hand)], joint=JOINT_HEAD)
+            h, elements = client.call("move", chain, [tuple(hand)], joint=JOINT_HEAD,
+                                      flags=FLAG_PULL if coupling is not None else 0)
             p = time.perf_counter_ns()
             joints = elements[:h.n_joints]
             place(data, first_link, joints)
             parts["service_call"].append((p - c) / 1000.0)
             parts["posing"].append((time.perf_counter_ns() - p) / 1000.0)
+            if coupling is not None:
+                # The virtual coupling: the force on the hand is the stiffness times the pull on the
+                # joint it holds (the head, the last held joint).
+                pull = pulls(h, elements)["held"][-1]["pull"]
+                parts["hand"].append(hand.tolist())
+                parts["force"].append([coupling * x for x in pull])
         mujoco.mj_step(model, data)
         times.append((time.perf_counter_ns() - s) / 1000.0)
         if renderer is not None and i in shots:
@@ -137,10 +156,10 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
     return times, centres, parts
 
 
-def percentiles(times: list) -> dict:
+def percentiles(times: list, unit: str = "us") -> dict:
     t = sorted(times)
     pick = lambda p: t[int(p * (len(t) - 1))]
-    return {"p50_us": pick(0.5), "p99_us": pick(0.99), "max_us": t[-1]}
+    return {f"p50_{unit}": pick(0.5), f"p99_{unit}": pick(0.99), f"max_{unit}": t[-1]}
 
 
 def main() -> int:
@@ -151,6 +170,9 @@ def main() -> int:
     ap.add_argument("--rate", type=float, default=1000.0)
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--frames", help="render four frames to this directory")
+    ap.add_argument("--coupling", type=float,
+                    help="a haptic hand: pull the held suture taut, the force on the hand = this "
+                         "stiffness (N per unit) times the service's pull")
     a = ap.parse_args()
     try:
         client = Client(prefix=a.prefix, wait_for_service=5.0)
@@ -159,7 +181,15 @@ def main() -> int:
         h, elements = client.call("reset", chain)
         start = elements[:h.n_joints]
         alone, _, _ = run(None, chain, a.steps, a.rate, start)
-        with_service, centres, parts = run(client, chain, a.steps, a.rate, start, a.frames)
+        if a.coupling is not None:
+            # The tail held and the end held by the hand: the suture between them can go taut.
+            client.call("grasp", chain, joint=0)
+            client.call("grasp", chain, joint=JOINT_HEAD)
+        with_service, centres, parts = run(client, chain, a.steps, a.rate, start, a.frames,
+                                           a.coupling)
+        if a.coupling is not None:
+            client.call("release", chain, joint=JOINT_HEAD)
+            client.call("release", chain, joint=0)
     except (RuntimeError, ServiceError, KeyError, TimeoutError) as e:
         print(e, file=sys.stderr)
         return 1
@@ -174,6 +204,15 @@ def main() -> int:
         "posing": percentiles(parts["posing"]),
         "capsule_centres": centres,
     }
+    if a.coupling is not None:
+        norms = [math.sqrt(sum(x * x for x in f)) for f in parts["force"]]
+        result["coupling"] = {
+            "stiffness": a.coupling,
+            "force": percentiles(norms, "n"),
+            "taut_steps": sum(1 for n in norms if n > 0.0),
+            "hand": parts["hand"],
+            "forces": parts["force"],
+        }
     if a.json:
         print(json.dumps(result))
     else:
@@ -181,6 +220,12 @@ def main() -> int:
             p = result[k]
             what = "step" if k.startswith("mujoco") else "within a step"
             print(f"{k} ({what}): p50 {p['p50_us']:.1f} us, p99 {p['p99_us']:.1f} us, max {p['max_us']:.1f} us")
+        if a.coupling is not None:
+            c = result["coupling"]
+            f = c["force"]
+            print(f"force on the hand (coupling {a.coupling} N/unit): taut in {c['taut_steps']} of "
+                  f"{a.steps} steps, p50 {f['p50_n']:.3f} N, p99 {f['p99_n']:.3f} N, "
+                  f"max {f['max_n']:.3f} N")
     return 0
 
 

@@ -10,6 +10,7 @@
 //! chainctl snapshot
 //! chainctl grasp rope --joint tail      # held: moves elsewhere leave it where it is
 //! chainctl release rope --joint tail
+//! chainctl move rope --joint head --target 60,0,0 --pull   # as far as the rope lets; prints the pull
 //! chainctl knot reef
 //! ```
 //!
@@ -104,6 +105,10 @@ struct Args {
     /// Also return joint rotations.
     #[arg(long)]
     angles: bool,
+    /// Move, instrument: go as far toward the target as the rope lets, and print the rest as the
+    /// pull (the tension a hand feels) instead of refusing.
+    #[arg(long)]
+    pull: bool,
     /// Grasp, release, move, path, reset: take over other clients' grasps (refused `held` without).
     #[arg(long)]
     take_over: bool,
@@ -182,6 +187,28 @@ fn print(r: &TextResponse, json: bool) -> Result<()> {
             .map(|h| format!("{}{}", h.joint, if h.anchor { " (anchor)" } else { "" }))
             .collect();
         println!("  held: {}", held.join(", "));
+        for h in r.held.iter().filter(|h| h.taut) {
+            println!("  taut: from joint {} to the next held joint", h.joint);
+        }
+    }
+    let pulls = r
+        .held
+        .iter()
+        .map(|h| (format!("joint {}", h.joint), h.pull))
+        .chain(
+            r.instrument_pulls
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (format!("instrument {i}"), *p)),
+        );
+    for (what, p) in pulls.filter(|(_, p)| *p != [0.0; 3]) {
+        let n = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        println!(
+            "  pull on {what}: {n:.6} toward ({:.6}, {:.6}, {:.6})",
+            p[0] / n,
+            p[1] / n,
+            p[2] / n
+        );
     }
     Ok(())
 }
@@ -319,6 +346,7 @@ fn run(a: Args) -> Result<u8> {
         angles: a.angles,
         take_over: a.take_over,
         smooth: a.smooth,
+        pull: a.pull,
         request_id: None,
     };
     let (header, points) = req.to_wire(&|_| None).map_err(anyhow::Error::msg)?;

@@ -184,6 +184,68 @@ fn the_installed_python_package_has_chainctl_s_commands() {
     assert!(at.contains("site-packages"), "imported from {at}");
 }
 
+/// The MuJoCo loop's haptic hand (`--coupling K`, issue 38): the suture's tail is grasped and the hand's
+/// circle takes its end beyond the suture's length for part of each turn, every move sent with the
+/// pull flag. The force the loop reports on the hand must be zero while the hand is within the
+/// suture's length of the tail, K times the over-pull beyond it (so growing with it), pointing back
+/// toward the tail: the over-pull computed here from the hand's positions, the tail and the length.
+#[test]
+fn the_mujoco_loop_turns_the_pull_into_a_force_on_the_hand() {
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let mut c = svc.connect();
+    let d = c
+        .call(RequestHeader::new(Command::Describe, 0), &[])
+        .unwrap();
+    let (length, tail) = (d.header.total_length, d.joints()[0]);
+    let k = 100.0;
+    let out = Process::new(python())
+        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
+        .args(["--prefix", svc.prefix.as_str(), "--steps", "600", "--json"])
+        .args(["--coupling", "100"])
+        .output()
+        .expect("run the MuJoCo loop");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    let hands: Vec<[f64; 3]> = serde_json::from_value(v["coupling"]["hand"].clone()).unwrap();
+    let forces: Vec<[f64; 3]> = serde_json::from_value(v["coupling"]["forces"].clone()).unwrap();
+    assert_eq!(hands.len(), 600);
+    let (mut slack, mut taut) = (0, 0);
+    for (h, f) in hands.iter().zip(&forces) {
+        let r = [h[0] - tail.x, h[1] - tail.y, h[2] - tail.z];
+        let dist = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+        let over = dist - length;
+        let force = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+        if over < -1e-3 {
+            slack += 1;
+            assert!(
+                force <= 1e-6 * k,
+                "hand {over} inside the length, force {force} N"
+            );
+        } else if over > 1e-3 {
+            taut += 1;
+            assert!(
+                (force - k * over).abs() <= 1e-4 * k,
+                "hand {over} beyond the length: force {force} N, not {}",
+                k * over
+            );
+            let back = (f[0] * r[0] + f[1] * r[1] + f[2] * r[2]) / (force * dist);
+            assert!(
+                back < -0.999,
+                "the force points {back} along the hand's direction"
+            );
+        }
+    }
+    assert!(
+        slack > 100 && taut > 100,
+        "{slack} slack and {taut} taut steps"
+    );
+}
+
 /// The MuJoCo loop (clients/python/examples/mujoco_loop.py): MuJoCo steps with the suture's capsules
 /// posed from the service every step; at the end every capsule sits between the two joints the service
 /// holds (midpoints computed here from a Rust client's query); four frames are rendered offscreen.
