@@ -11,6 +11,9 @@
 //! | `chains/NAME/held` | `Points3D`, labelled `anchor J` / `grasp J` (empty when nothing is held) | every state |
 //! | `chains/NAME/at_limit` | `Points3D`, red, labelled `J`: the joints turned to their joint limit ([`LimitView::at_limit`]; empty when none) | every state of a chain with a bend radius or one cone |
 //! | `chains/NAME/instruments/K` | `Capsules3D` (from end `a` to `b`) or `Ellipsoids3D` (a sphere): instrument `K` of the chain in the scene's order | every state of a chain with instruments |
+//! | `chains/NAME/pulls` | `Arrows3D` from each held joint and instrument along its pull (docs/tension.md), labelled with its length (empty when slack) | every state of a chain with held joints or instruments |
+//! | `chains/NAME/taut` | `LineStrips3D`, red: the stretches between held joints that are taut | every state of a chain with held joints |
+//! | `chains/NAME/pull/joint_J`, `chains/NAME/pull/instrument_K` | `Scalars`: the pull's length | every state of a chain with held joints or instruments |
 //! | `chains/NAME/knot` | `TextLog`: the knot's name | when the name changes (free chains only) |
 //! | `chains/NAME/knot_crossings` | `Scalars`: crossings of the reduced diagram | with each identification |
 //! | `bundles/NAME/strands` | `LineStrips3D`, one strip per strand (timeline `bundle_sequence`: the bundle's own count of changes) | every state of a bundle |
@@ -21,6 +24,33 @@
 //! the viewer no more than drawing it.
 
 use std::path::Path;
+
+/// A held joint as a state shows it: its index, whether the scene anchors it, whether the stretch from
+/// it to the next held joint is taut, and its pull (docs/tension.md).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Held {
+    pub joint: u32,
+    pub anchor: bool,
+    pub taut: bool,
+    pub pull: [f64; 3],
+}
+
+impl Held {
+    /// The held joints of a payload with their taut flags and pulls.
+    pub fn of(parts: &shared::Parts<'_>) -> Vec<Held> {
+        parts
+            .held_joints()
+            .zip(parts.taut())
+            .enumerate()
+            .map(|(k, ((joint, anchor), taut))| Held {
+                joint,
+                anchor,
+                taut,
+                pull: parts.pulls.get(k).map_or([0.0; 3], |p| p.to_array()),
+            })
+            .collect()
+    }
+}
 
 /// The default address of a viewer started with `rerun` (its gRPC proxy).
 pub const DEFAULT_URL: &str = "rerun+http://127.0.0.1:9876/proxy";

@@ -67,6 +67,14 @@ int tractrix_client_describe(tractrix_client *client, uint32_t chain, tractrix_R
 /* Moves `joint` (0 = tail, TRACTRIX_JOINT_HEAD = head) straight to `target`. */
 int tractrix_client_move(tractrix_client *client, uint32_t chain, uint32_t joint, tractrix_Vec3 target,
                          tractrix_Vec3 *joints, size_t capacity, size_t *n_joints);
+/* Moves `joint` toward `target` as far as the rope lets it (TRACTRIX_FLAG_PULL: stops short where the
+ * stretch to a held joint is out of length, contact jams or a joint limit is met, instead of being
+ * refused). *pull: where the rope let the joint be less where it was asked to be (zero when slack;
+ * times a coupling stiffness, the force on the hand: docs/tension.md); *taut: 1 when a stretch of rope
+ * from the joint to a neighbouring held joint is straight. Either may be NULL. */
+int tractrix_client_pull(tractrix_client *client, uint32_t chain, uint32_t joint, tractrix_Vec3 target,
+                         tractrix_Vec3 *joints, size_t capacity, size_t *n_joints, tractrix_Vec3 *pull,
+                         int *taut);
 /* Moves `joint` through n_points targets in order (1..4096). */
 int tractrix_client_path(tractrix_client *client, uint32_t chain, uint32_t joint, const tractrix_Vec3 *points,
                          size_t n_points, tractrix_Vec3 *joints, size_t capacity, size_t *n_joints);
@@ -95,14 +103,15 @@ int tractrix_client_instrument(tractrix_client *client, uint32_t chain, uint32_t
                                const tractrix_Vec3 *axis, tractrix_Vec3 *joints, size_t capacity,
                                size_t *n_joints);
 /* Any request: the response header is written to *response (for refusals too), its elements
- * (the whole payload: n_joints + n_angles + n_held + 3 * n_instruments) to (elements, capacity). */
+ * (the whole payload: n_joints + n_angles + n_held + 3 * n_instruments + n_pulls) to (elements,
+ * capacity). */
 int tractrix_client_call(tractrix_client *client, const tractrix_RequestHeader *header,
                          const tractrix_Vec3 *points, size_t n_points, tractrix_ResponseHeader *response,
                          tractrix_Vec3 *elements, size_t capacity);
 
 /* The state stream: every accepted change, in order. `joints` points at the sample's whole payload:
- * n_joints joints, then header->n_held held joints, then 3 * header->n_instruments instrument elements
- * (the header's counts are cut to what the payload holds). */
+ * n_joints joints, then header->n_held held joints, then 3 * header->n_instruments instrument elements,
+ * then header->n_pulls pulls (the header's counts are cut to what the payload holds). */
 typedef void (*tractrix_on_state)(void *user, const tractrix_StateHeader *header, const tractrix_Vec3 *joints,
                                   size_t n_joints);
 int tractrix_stream_open(tractrix_client *client, tractrix_stream **out);

@@ -46,6 +46,20 @@ int main(int argc, char **argv) {
     int rc = tractrix_client_move(c, rope, TRACTRIX_JOINT_HEAD, target, joints, 64, &n);
     if (rc != 0) { fprintf(stderr, "move: %d %s\n", rc, tractrix_client_error(c)); return 1; }
     printf("moved: %zu joints, head %.6f %.6f %.6f\n", n, joints[n - 1].x, joints[n - 1].y, joints[n - 1].z);
+    /* Both ends held, the head pulled along the line from the tail to 2 beyond the rope's length
+     * (42): the head stops where the rope is taut and the rest is the pull a haptic hand would feel. */
+    tractrix_Vec3 pull, tail = joints[0], head = joints[n - 1];
+    int taut = 0;
+    tractrix_Vec3 dir = {head.x - tail.x, head.y - tail.y, head.z - tail.z};
+    double far = 42.0 / sqrt(dir.x * dir.x + dir.y * dir.y + dir.z * dir.z);
+    tractrix_Vec3 beyond = {tail.x + dir.x * far, tail.y + dir.y * far, tail.z + dir.z * far};
+    if (tractrix_client_grasp(c, rope, 0) != 0 || tractrix_client_grasp(c, rope, TRACTRIX_JOINT_HEAD) != 0 ||
+        tractrix_client_pull(c, rope, TRACTRIX_JOINT_HEAD, beyond, joints, 64, &n, &pull, &taut) != 0 ||
+        tractrix_client_release(c, rope, TRACTRIX_JOINT_HEAD) != 0 || tractrix_client_release(c, rope, 0) != 0) {
+        fprintf(stderr, "pull: %s\n", tractrix_client_error(c));
+        return 1;
+    }
+    printf("pulled: %.6f beyond, taut %d\n", sqrt(pull.x * pull.x + pull.y * pull.y + pull.z * pull.z), taut);
     /* A refusal comes back as the service's status, with its reason. */
     tractrix_Vec3 nan_target = {NAN, 0.0, 0.0};
     rc = tractrix_client_move(c, rope, TRACTRIX_JOINT_HEAD, nan_target, joints, 64, &n);

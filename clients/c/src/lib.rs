@@ -479,6 +479,74 @@ pub unsafe extern "C" fn tractrix_client_move(
     )
 }
 
+/// The pull on `joint` in a response (its held pull, or for a joint that is not held where it is less
+/// the target) and whether a stretch of rope that ends at it is taut.
+fn pull_of(h: &ResponseHeader, p: &[Vec3], joint: u32, target: Vec3) -> (Vec3, bool) {
+    let parts = shared::Parts::of_response(h, p);
+    let j = if joint == shared::JOINT_HEAD {
+        parts.joints.len().saturating_sub(1) as u32
+    } else {
+        joint
+    };
+    let taut: Vec<bool> = parts.taut().collect();
+    match parts.held_joints().position(|(k, _)| k == j) {
+        Some(k) => (
+            parts.pulls.get(k).copied().unwrap_or_default(),
+            taut[k] || (k > 0 && taut[k - 1]),
+        ),
+        None => match parts.joints.get(j as usize) {
+            Some(q) => (
+                Vec3::new(q.x - target.x, q.y - target.y, q.z - target.z),
+                false,
+            ),
+            None => (Vec3::default(), false),
+        },
+    }
+}
+
+/// Moves `joint` toward `target` as far as the rope lets it (`TRACTRIX_FLAG_PULL`): a move the rope
+/// cannot make in full (out of length between held joints, contact jammed, a joint limit) stops
+/// short instead of being refused. The joints go to `(joints, capacity)` as with
+/// [`tractrix_client_move`]; the pull on the joint (where the rope let it be less where it was asked
+/// to be: zero when slack; times a coupling stiffness, the force on the hand) to `*pull`, and 1 to
+/// `*taut` when a stretch of rope from it to a neighbouring held joint is taut, else 0 (both may be
+/// null).
+///
+/// # Safety
+///
+/// Every pointer is null or valid as `tractrix_client.h` says (handles from the matching `open` and
+/// not yet closed; buffers valid for their stated capacity; strings NUL-terminated).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn tractrix_client_pull(
+    client: *mut TractrixClient,
+    chain: u32,
+    joint: u32,
+    target: Vec3,
+    joints: *mut Vec3,
+    capacity: usize,
+    n_joints: *mut usize,
+    pull: *mut Vec3,
+    taut: *mut c_int,
+) -> c_int {
+    with_client(client, |conn| {
+        let mut h = RequestHeader::new(Command::Move, chain);
+        h.joint = joint;
+        h.flags = shared::FLAG_PULL;
+        request(conn, h, &[target], |rh, p| {
+            let (v, t) = pull_of(rh, p, joint, target);
+            if !pull.is_null() {
+                // SAFETY: non-null and, by contract, a writable tractrix_Vec3.
+                unsafe { pull.write(v) };
+            }
+            if !taut.is_null() {
+                // SAFETY: non-null and, by contract, a writable int.
+                unsafe { taut.write(c_int::from(t)) };
+            }
+            copy_joints(rh, p, joints, capacity, n_joints)
+        })
+    })
+}
+
 /// Moves `joint` through `n_points` targets in order (at most 4096).
 ///
 /// # Safety

@@ -188,7 +188,14 @@ fn run(a: Args) -> Result<u8> {
             if let Some(v) = &mut rr {
                 match info.bundle {
                     Some((per, _)) => v.bundle_state(h.sequence, h.chain, &joints, per)?,
-                    None => v.state(h.sequence, h.chain, &joints, &held, &instruments)?,
+                    None => v.state(
+                        h.sequence,
+                        h.chain,
+                        &joints,
+                        &held,
+                        &instruments.0,
+                        &instruments.1,
+                    )?,
                 }
             }
             if let Some(w) = &mut csv {
@@ -423,8 +430,8 @@ impl Tally {
 type Read = (
     shared::StateHeader,
     Vec<[f64; 3]>,
-    Vec<(u32, bool)>,
-    Vec<shared::InstrumentPose>,
+    Vec<clients::viewer::Held>,
+    (Vec<shared::InstrumentPose>, Vec<[f64; 3]>),
     bool,
 );
 
@@ -496,8 +503,15 @@ impl Reader {
                             .iter()
                             .map(|p| p.to_array())
                             .collect::<Vec<_>>(),
-                        parts.held_joints().collect::<Vec<_>>(),
-                        parts.instrument_poses().collect::<Vec<_>>(),
+                        clients::viewer::Held::of(&parts),
+                        (
+                            parts.instrument_poses().collect::<Vec<_>>(),
+                            parts
+                                .instrument_pulls()
+                                .iter()
+                                .map(|p| p.to_array())
+                                .collect::<Vec<_>>(),
+                        ),
                     )
                 };
                 while !stop_reader.load(Ordering::Relaxed) {

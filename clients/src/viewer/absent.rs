@@ -34,8 +34,9 @@ impl RerunView {
         _: u64,
         _: u32,
         _: &[[f64; 3]],
-        _: &[(u32, bool)],
+        _: &[super::Held],
         _: &[shared::InstrumentPose],
+        _: &[[f64; 3]],
     ) -> Result<()> {
         match *self {}
     }

@@ -4,8 +4,8 @@ use super::Sink;
 use anyhow::{Context, Result};
 use nalgebra::{UnitQuaternion, Vector3};
 use rerun::{
-    Capsules3D, Color, Ellipsoids3D, FillMode, LineStrips3D, Points3D, Quaternion, Radius,
-    RecordingStream, RecordingStreamBuilder, Scalars, TextLog,
+    Arrows3D, Capsules3D, Color, Ellipsoids3D, FillMode, LineStrips3D, Points3D, Quaternion,
+    Radius, RecordingStream, RecordingStreamBuilder, Scalars, TextLog,
 };
 use shared::InstrumentPose;
 use std::collections::HashMap;
@@ -124,15 +124,16 @@ impl RerunView {
             .set_duration_secs("elapsed", self.start.elapsed().as_secs_f64());
     }
 
-    /// Logs one state: the joints (tail first), the held joints as (index, anchor) and the chain's
-    /// instruments.
+    /// Logs one state: the joints (tail first), the held joints (with their pulls and taut flags),
+    /// the chain's instruments and their pulls.
     pub fn state(
         &mut self,
         sequence: u64,
         chain: u32,
         joints: &[[f64; 3]],
-        held: &[(u32, bool)],
+        held: &[super::Held],
         instruments: &[InstrumentPose],
+        instrument_pulls: &[[f64; 3]],
     ) -> Result<()> {
         if !self.chains.contains_key(&chain) {
             return Ok(());
@@ -166,20 +167,20 @@ impl RerunView {
                 .with_radii([joint_radius])
                 .with_colors([Color::from_rgb(20, 40, 120)]),
         )?;
-        let held_pts: Vec<[f32; 3]> = held
+        let held: Vec<super::Held> = held
             .iter()
-            .filter_map(|&(j, _)| pts.get(j as usize).copied())
+            .filter(|h| (h.joint as usize) < pts.len())
+            .copied()
             .collect();
+        let held_pts: Vec<[f32; 3]> = held.iter().map(|h| pts[h.joint as usize]).collect();
         let labels: Vec<String> = held
             .iter()
-            .filter(|&&(j, _)| (j as usize) < pts.len())
-            .map(|&(j, anchor)| format!("{} {j}", if anchor { "anchor" } else { "grasp" }))
+            .map(|h| format!("{} {}", if h.anchor { "anchor" } else { "grasp" }, h.joint))
             .collect();
         let colors: Vec<Color> = held
             .iter()
-            .filter(|&&(j, _)| (j as usize) < pts.len())
-            .map(|&(_, anchor)| {
-                if anchor {
+            .map(|h| {
+                if h.anchor {
                     Color::from_rgb(150, 20, 20)
                 } else {
                     Color::from_rgb(240, 140, 0)
@@ -211,6 +212,7 @@ impl RerunView {
         for (k, inst) in instruments.iter().enumerate() {
             log_instrument(&self.rec, &format!("{base}/instruments/{k}"), inst)?;
         }
+        log_tension(&self.rec, &base, &pts, &held, instruments, instrument_pulls)?;
         if c.free && joints.len() >= 4 {
             c.unidentified = Some((sequence, joints.to_vec()));
         }
@@ -291,6 +293,72 @@ impl RerunView {
             .map_err(|e| anyhow::anyhow!("flush the Rerun recording: {e}"))?;
         Ok(())
     }
+}
+
+/// The pulls as arrows from their held joints and instruments (and their lengths as scalars), and the
+/// taut stretches in red.
+fn log_tension(
+    rec: &RecordingStream,
+    base: &str,
+    pts: &[[f32; 3]],
+    held: &[super::Held],
+    instruments: &[InstrumentPose],
+    instrument_pulls: &[[f64; 3]],
+) -> Result<()> {
+    if held.is_empty() && instruments.is_empty() {
+        return Ok(());
+    }
+    let len = |p: [f64; 3]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+    let f = |p: [f64; 3]| [p[0] as f32, p[1] as f32, p[2] as f32];
+    let mut origins = Vec::new();
+    let mut vectors = Vec::new();
+    let mut labels = Vec::new();
+    for h in held {
+        rec.log(
+            format!("{base}/pull/joint_{}", h.joint),
+            &Scalars::single(len(h.pull)),
+        )?;
+        if len(h.pull) > 0.0 {
+            origins.push(pts[h.joint as usize]);
+            vectors.push(f(h.pull));
+            labels.push(format!("{:.3}", len(h.pull)));
+        }
+    }
+    for (k, (inst, p)) in instruments.iter().zip(instrument_pulls).enumerate() {
+        rec.log(
+            format!("{base}/pull/instrument_{k}"),
+            &Scalars::single(len(*p)),
+        )?;
+        if len(*p) > 0.0 {
+            let c = [
+                (inst.a.x + inst.b.x) / 2.0,
+                (inst.a.y + inst.b.y) / 2.0,
+                (inst.a.z + inst.b.z) / 2.0,
+            ];
+            origins.push(f(c));
+            vectors.push(f(*p));
+            labels.push(format!("{:.3}", len(*p)));
+        }
+    }
+    rec.log(
+        format!("{base}/pulls"),
+        &Arrows3D::from_vectors(vectors)
+            .with_origins(origins)
+            .with_colors([Color::from_rgb(200, 0, 160)])
+            .with_labels(labels),
+    )?;
+    let taut: Vec<Vec<[f32; 3]>> = held
+        .windows(2)
+        .filter(|w| w[0].taut)
+        .map(|w| pts[w[0].joint as usize..=w[1].joint as usize].to_vec())
+        .collect();
+    rec.log(
+        format!("{base}/taut"),
+        &LineStrips3D::new(taut)
+            .with_radii([Radius::new_ui_points(3.0)])
+            .with_colors([Color::from_rgb(220, 30, 30)]),
+    )?;
+    Ok(())
 }
 
 /// One instrument: a capsule from `a` to `b`, or a sphere, in the instruments' steel grey.

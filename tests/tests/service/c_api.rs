@@ -168,9 +168,13 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
         text.contains("moved: 41 joints, head 38.000000 5.000000 1.000000"),
         "{text}"
     );
-    // grasp, path, release, move: four states, all on the stream, in order.
-    assert!(text.contains("query: state 4, 0 held"), "{text}");
-    assert!(text.contains("streamed 4 states, the last 4"), "{text}");
+    // Both ends held, the head pulled to 42 from the tail along the line through them (the target
+    // computed by the program): the head's pull is the 2 it could not go, and the rope is taut.
+    assert!(text.contains("pulled: 2.000000 beyond, taut 1"), "{text}");
+    // grasp, path, release, move, two grasps, the pull, two releases: nine states, all on the
+    // stream, in order.
+    assert!(text.contains("query: state 9, 0 held"), "{text}");
+    assert!(text.contains("streamed 9 states, the last 9"), "{text}");
     // A NaN target: the service's status (non-finite = 4) and its reason.
     assert!(text.contains("refused: 4 non-finite:"), "{text}");
     assert!(text.contains("small buffer: -7, needs 41"), "{text}");

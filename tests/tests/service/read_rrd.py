@@ -2,7 +2,7 @@
 prints what the viewer test checks, as JSON: per entity its rows and `sequence` values, the rope's
 points at each sequence (and a bundle's `bundle_sequence` values), the held points' labels at each sequence, the text-log lines, the scalars and
 the instruments' shapes (capsules' translations, lengths, quaternions, radii; spheres' centres and
-half sizes).
+half sizes) and the pulls' arrows (vectors, origins).
 
 Usage: read_rrd.py FILE.rrd
 """
@@ -43,7 +43,8 @@ def main():
         if bundle_seqs is not None:
             e.setdefault("bundle_sequences", []).extend(bundle_seqs)
         for suffix in (":strips", ":positions", ":labels", ":text", ":scalars", ":translations",
-                       ":lengths", ":quaternions", ":centers", ":half_sizes", ":radii"):
+                       ":lengths", ":quaternions", ":centers", ":half_sizes", ":radii", ":vectors",
+                       ":origins"):
             values = column(batch, suffix)
             if values is None:
                 continue

@@ -391,6 +391,84 @@ fn watch_draws_the_instruments_where_the_service_has_them() {
     near(&last_of(ball, "half_sizes")[0], [0.5; 3], "sphere radius");
 }
 
+/// Tension in the Rerun view (issue 38): the default rope held at both ends, its head pulled out
+/// along the rope beyond its length with the pull flag. At the last state the recording's pull
+/// arrow starts at the head and is the over-pull back toward the tail, its length is the head's
+/// pull scalar, and the stretch between the holds is drawn taut: the over-pull computed here from
+/// the target, the tail and the rope's length.
+#[test]
+fn watch_draws_the_pull_on_a_held_joint_and_the_taut_stretch() {
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
+    let dir = tempfile::tempdir().unwrap();
+    let rrd = dir.path().join("pull.rrd");
+    let mut c = svc.connect();
+    let d = c
+        .call(RequestHeader::new(Command::Describe, 0), &[])
+        .unwrap();
+    let (length, joints) = (d.header.total_length, d.joints().to_vec());
+    let (tail, head) = (joints[0], joints[joints.len() - 1]);
+    let n = joints.len() - 1;
+    let steps = 5;
+    let (watch, rx) = start_watch(&svc.prefix, &rrd, steps, &[]);
+    for j in [0, JOINT_HEAD] {
+        let mut h = RequestHeader::new(Command::Grasp, 0);
+        h.joint = j;
+        assert!(c.call(h, &[]).unwrap().is_ok());
+    }
+    // Along the rope, 0.5 then 1.5 beyond its length.
+    let along = [
+        (head.x - tail.x) / length,
+        (head.y - tail.y) / length,
+        (head.z - tail.z) / length,
+    ];
+    for over in [0.5, 1.5, 3.0] {
+        let target = Vec3::new(
+            tail.x + along[0] * (length + over),
+            tail.y + along[1] * (length + over),
+            tail.z + along[2] * (length + over),
+        );
+        let mut h = RequestHeader::new(Command::Move, 0);
+        h.flags = shared::FLAG_PULL;
+        let r = c.call(h, &[target]).unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+    }
+    let last_seq = steps as u64;
+    wait_for(watch, &rx);
+    let v = read_rrd(&rrd);
+    let at_last = |entity: &str, what: &str| -> serde_json::Value {
+        v[entity]["values"][what]
+            .as_array()
+            .unwrap_or_else(|| panic!("{entity} has no {what}: {}", v[entity]))
+            .iter()
+            .find(|x| x[0].as_u64() == Some(last_seq))
+            .map(|x| x[1].clone())
+            .unwrap_or_else(|| panic!("{entity}: no {what} at {last_seq}"))
+    };
+    let over = 3.0;
+    let vectors: Vec<[f64; 3]> =
+        serde_json::from_value(at_last("/chains/rope/pulls", "vectors")).unwrap();
+    let origins: Vec<[f64; 3]> =
+        serde_json::from_value(at_last("/chains/rope/pulls", "origins")).unwrap();
+    // Two arrows: the head's own pull and the tail's, carried along the taut rope.
+    assert_eq!(vectors.len(), 2, "{vectors:?}");
+    let k = origins
+        .iter()
+        .position(|o| (o[0] - head.x).abs() < 1e-3 && (o[1] - head.y).abs() < 1e-3)
+        .expect("an arrow from the head");
+    let want = [-along[0] * over, -along[1] * over, -along[2] * over];
+    for (a, b) in vectors[k].iter().zip(want) {
+        assert!((a - b).abs() < 1e-4, "{:?} against {want:?}", vectors[k]);
+    }
+    let scalar = at_last(&format!("/chains/rope/pull/joint_{n}"), "scalars");
+    let s = scalar
+        .as_array()
+        .map_or(scalar.as_f64(), |a| a[0].as_f64())
+        .unwrap();
+    assert!((s - over).abs() < 1e-6, "the head's pull scalar {s}");
+    let strips = at_last("/chains/rope/taut", "strips");
+    assert_eq!(strips.as_array().map(|a| a.len()), Some(1), "{strips}");
+}
+
 /// A bundle in the Rerun view: `watch --save` subscribes to the bundles' stream and logs each state
 /// of the bundle as one line strip per strand, on the bundle's own timeline; the last strips are the
 /// service's last state, strand by strand.
