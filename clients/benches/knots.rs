@@ -426,6 +426,7 @@ fn tie(
             tuck: phase.tuck,
             wrap: None,
             instrument: None,
+            tighten: None,
             waypoints: phase.waypoints,
         };
         let rope: Vec<[f64; 3]> = chain.positions().iter().map(|p| [p.x, p.y, p.z]).collect();

@@ -47,6 +47,13 @@ pub struct Record {
     /// An instrument's new axis direction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f64; 3]>,
+    /// Sent with the pull flag (a tightening pull: as far as the rope lets).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub pull: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 impl Record {
@@ -83,6 +90,35 @@ pub struct HandReport {
     pub splits: u64,
     /// Every move and instrument request sent, in order, the halves of a split move included.
     pub timings: Vec<Timing>,
+    /// How each tightening pull of this hand ended ([`crate::script::Tighten`]).
+    pub tightened: Vec<Tightened>,
+}
+
+/// How a tightening pull ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tightened {
+    /// The turn (1-based).
+    pub turn: usize,
+    /// Requests sent.
+    pub steps: u32,
+    /// How far the joint went.
+    pub travel: f64,
+    /// Why it stopped: `taut` (the stretch from the joint to the next held joint is straight),
+    /// `jammed` (the joint stopped short on contact: the knot at the rope's thickness), `stopped`
+    /// (it stopped short for another reason, or went no further without a pull) or `max-steps`.
+    pub why: &'static str,
+    /// The joint's pull after the last request.
+    pub pull: f64,
+}
+
+impl std::fmt::Display for Tightened {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "tighten turn {}: {} after {} requests, {:.3} pulled, pull {:.3e}",
+            self.turn, self.why, self.steps, self.travel, self.pull
+        )
+    }
 }
 
 /// One request's times.
@@ -381,6 +417,7 @@ fn hold(
             digest: digest(r.joints()),
             command: command.name().into(),
             axis: None,
+            pull: false,
         };
         rec.append_to(w)?;
     }
@@ -445,7 +482,9 @@ fn drive(
             turn,
             chain,
         };
-        if let Some(m) = &turn.instrument {
+        if let Some(g) = &turn.tighten {
+            hand.tighten(joint, idx, &rope, g, &mut tremor)?;
+        } else if let Some(m) = &turn.instrument {
             let Some(now) = instruments.get(m.index as usize) else {
                 bail!(
                     "turn {}: instrument {} of {:?} (it has {})",
@@ -551,6 +590,7 @@ impl TurnRun<'_> {
                     digest: dg,
                     command: Command::Instrument.name().into(),
                     axis: Some(*axis),
+                    pull: false,
                 };
                 r.append_to(w)?;
             }
@@ -669,6 +709,7 @@ impl TurnRun<'_> {
                             digest: dg,
                             command: move_command(),
                             axis: None,
+                            pull: false,
                         }
                         .append_to(w)?;
                     }
@@ -697,6 +738,164 @@ impl TurnRun<'_> {
         }
         Ok(())
     }
+}
+
+impl TurnRun<'_> {
+    /// A tightening pull of `joint` (index `idx`, the rope as `rope`): see [`crate::script::Tighten`].
+    fn tighten(
+        &mut self,
+        joint: u32,
+        idx: usize,
+        rope: &[[f64; 3]],
+        g: &crate::script::Tighten,
+        tremor: &mut crate::script::Tremor,
+    ) -> anyhow::Result<()> {
+        use crate::vec3::{add, norm, scale, sub};
+        let d = self
+            .conn
+            .call(RequestHeader::new(Command::Describe, self.chain), &[])?;
+        let thickness = d.header.thickness;
+        let mut rope = rope.to_vec();
+        let start = rope[idx];
+        let mut still = 0;
+        let mut out = Tightened {
+            turn: self.k + 1,
+            steps: 0,
+            travel: 0.0,
+            why: "max-steps",
+            pull: 0.0,
+        };
+        let pacer = Pacer::new(self.cfg.rate_hz);
+        // A pull over the service's work budget is sent again shorter (halved, at most `SPLITS`
+        // times in a row), as a move is split: the knot under a long pull needs more contact work.
+        let mut speed = g.speed;
+        for i in 0..g.max_steps {
+            pacer.wait(i as usize);
+            if self.conn.node().wait(Duration::ZERO).is_err() {
+                anyhow::bail!("interrupted (SIGINT or SIGTERM)");
+            }
+            let at = rope[idx];
+            let away = match contact_centre(&rope, thickness) {
+                Some(c) if norm(sub(at, c)) > 0.0 => sub(at, c),
+                _ => {
+                    // Along the last link outward (from the joint's neighbour to the joint).
+                    let nb = if idx > 0 { idx - 1 } else { idx + 1 };
+                    sub(at, rope[nb.min(rope.len() - 1)])
+                }
+            };
+            let n = norm(away);
+            if n.is_nan() || n <= 0.0 {
+                out.why = "stopped";
+                break;
+            }
+            let target = tremor.apply(add(at, scale(away, speed / n)));
+            let mut h = RequestHeader::new(Command::Move, self.chain);
+            h.joint = joint;
+            h.flags = shared::FLAG_PULL;
+            let sent = now_ns();
+            let called = Instant::now();
+            let (status, seq, rid, dg, joints, (pull, taut, solve_ns)) = self.conn.call_with(
+                h,
+                &[Vec3::new(target[0], target[1], target[2])],
+                |rh, pts| {
+                    let parts = shared::Parts::of_response(rh, pts);
+                    let j = idx as u32;
+                    let k = parts.held_joints().position(|(q, _)| q == j);
+                    let taut: Vec<bool> = parts.taut().collect();
+                    let pull = k
+                        .and_then(|k| parts.pulls.get(k))
+                        .map_or(0.0, |p| norm(p.to_array()));
+                    let t = k.is_some_and(|k| taut[k] || (k > 0 && taut[k - 1]));
+                    (
+                        rh.status,
+                        rh.sequence,
+                        rh.request_id,
+                        digest(parts.joints),
+                        parts
+                            .joints
+                            .iter()
+                            .map(|p| p.to_array())
+                            .collect::<Vec<_>>(),
+                        (pull, t, rh.solve_ns),
+                    )
+                },
+            )?;
+            out.steps = i + 1;
+            if status == Status::OverBudget as u32 && speed > g.speed / f64::from(1 << SPLITS) {
+                self.report.splits += 1;
+                self.report.time(status, called, solve_ns);
+                speed *= 0.5;
+                continue;
+            }
+            let name = self.report.tally(status, called, solve_ns);
+            if let Some(w) = self.record.as_mut() {
+                Record {
+                    t_ns: sent,
+                    hand: self.cfg.hand.clone(),
+                    turn: self.k as u32,
+                    chain: self.turn.chain.clone(),
+                    joint,
+                    target,
+                    request_id: rid,
+                    status: name.to_string(),
+                    sequence: seq,
+                    digest: dg,
+                    command: move_command(),
+                    axis: None,
+                    pull: true,
+                }
+                .append_to(w)?;
+            }
+            if status != Status::Ok as u32 {
+                out.why = "stopped";
+                break;
+            }
+            speed = (speed * 2.0).min(g.speed);
+            let moved = norm(sub(joints[idx], at));
+            rope = joints;
+            out.pull = pull;
+            out.travel = norm(sub(rope[idx], start));
+            still = if moved < 0.1 * speed { still + 1 } else { 0 };
+            if still >= g.stall {
+                out.why = if taut {
+                    "taut"
+                } else if pull > 0.0 {
+                    "jammed"
+                } else {
+                    "stopped"
+                };
+                break;
+            }
+        }
+        if self.cfg.progress {
+            eprintln!("hand {}: {out}", self.cfg.hand);
+        }
+        self.report.tightened.push(out);
+        Ok(())
+    }
+}
+
+/// The centre of the rope's contacts: the mean of the joints of links that come within two
+/// thicknesses of a link three or more along the rope (a knot's crossings, drawn tight); `None` when
+/// no links do.
+pub fn contact_centre(rope: &[[f64; 3]], thickness: f64) -> Option<[f64; 3]> {
+    use crate::vec3::{add, scale};
+    let reach = 2.0 * thickness.max(1e-12);
+    let n = rope.len().saturating_sub(1);
+    let mut sum = [0.0; 3];
+    let mut count = 0usize;
+    let p = |i: usize| nalgebra::Vector3::from(rope[i]);
+    for (i, joint) in rope.iter().enumerate().take(n) {
+        let touches = (0..n).any(|j| {
+            i.abs_diff(j) >= 3
+                && crate::check::segment_distance(p(i), p(i + 1), p(j), p(j + 1)) < reach
+        });
+        if touches {
+            sum = add(sum, *joint);
+            count += 1;
+        }
+    }
+    (count > 0).then(|| scale(sum, 1.0 / count as f64))
 }
 
 /// Reads recordings (JSON lines), each line checked.
@@ -755,6 +954,9 @@ pub fn replay(
             .unwrap_or(0);
         let command = shared::text::parse_command(&r.command).map_err(anyhow::Error::msg)?;
         let mut h = RequestHeader::new(command, id);
+        if r.pull {
+            h.flags |= shared::FLAG_PULL;
+        }
         h.joint = r.joint;
         let target = Vec3::new(r.target[0], r.target[1], r.target[2]);
         let with_axis;
@@ -841,6 +1043,30 @@ pub fn series_line(s: &Option<tractrix::knot::Series>) -> String {
 }
 
 /// One line describing a knot report, as the tools print it.
+/// The knotted stretch of the chain's knot ([`tractrix::knot::knotted_stretch`]) as a line: its
+/// joints, its length along the rope and in rope diameters; `None` for the unknot.
+pub fn knotted_stretch_line(
+    conn: &mut Connection,
+    chain: u32,
+    k: &tractrix::knot::KnotReport,
+) -> anyhow::Result<Option<String>> {
+    let joints = joints_of(conn, chain)?;
+    let Some((a, b)) = tractrix::knot::knotted_stretch(&joints, k.kind) else {
+        return Ok(None);
+    };
+    let d = conn.call(RequestHeader::new(Command::Describe, chain), &[])?;
+    let length: f64 = joints[a..=b].windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    let thickness = d.header.thickness;
+    Ok(Some(format!(
+        "knotted stretch: joints {a}..={b}, {length:.3} long, {:.1} diameters",
+        if thickness > 0.0 {
+            length / thickness
+        } else {
+            f64::INFINITY
+        }
+    )))
+}
+
 pub fn knot_line(k: &tractrix::knot::KnotReport) -> String {
     format!(
         "knot: {} ({} of {} closures agree; {} crossings, writhe {}, determinant {})",

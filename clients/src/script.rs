@@ -173,9 +173,58 @@ pub struct Turn {
     /// needle driver); such a turn moves nothing else.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub instrument: Option<InstrumentMove>,
+    /// The turn pulls the joint away from the knot until the knot stops shrinking ([`Tighten`]);
+    /// such a turn moves nothing else.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tighten: Option<Tighten>,
     /// Relative to the joint's position when the turn starts.
     #[serde(default)]
     pub waypoints: Vec<[f64; 3]>,
+}
+
+/// A tightening pull, as hands cinch a knot: the hand pulls its joint away from the knot, `speed`
+/// length units per request, every request sent with the pull flag (`FLAG_PULL`: the joint goes as
+/// far as the rope lets it, the rest is its pull; docs/tension.md), until the joint has stopped
+/// (moved less than a tenth of `speed`) for `stall` requests in a row: the rope between the hands is
+/// taut or the knot has jammed. "Away from the knot" is away from the centre of the rope's contacts
+/// (the joints of links within two thicknesses of a link three or more along the rope), recomputed
+/// from every response; along the rope's last link outward when nothing touches. At most `max_steps`
+/// requests.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tighten {
+    /// Length units per request.
+    #[serde(default = "default_tighten_speed")]
+    pub speed: f64,
+    /// Requests in a row that barely move the joint before the pull stops.
+    #[serde(default = "default_tighten_stall")]
+    pub stall: u32,
+    /// Most requests.
+    #[serde(default = "default_tighten_steps")]
+    pub max_steps: u32,
+}
+
+fn default_tighten_speed() -> f64 {
+    0.05
+}
+
+fn default_tighten_stall() -> u32 {
+    8
+}
+
+fn default_tighten_steps() -> u32 {
+    2000
+}
+
+impl Tighten {
+    /// A pull at `speed` units per request with the default stall count and step limit.
+    pub fn at(speed: f64) -> Tighten {
+        Tighten {
+            speed,
+            stall: default_tighten_stall(),
+            max_steps: default_tighten_steps(),
+        }
+    }
 }
 
 /// One overhand throw (see the module docs).
@@ -478,6 +527,26 @@ impl Script {
                     ));
                 }
             }
+            if let Some(g) = &t.tighten {
+                if !(g.speed > 0.0 && g.speed.is_finite() && g.speed <= 1e6) {
+                    return Err(at(format!("tighten.speed {} is not in (0, 1e6]", g.speed)));
+                }
+                if !(1..=10_000).contains(&g.stall) || g.max_steps as usize > MAX_WAYPOINTS {
+                    return Err(at(format!(
+                        "tighten.stall must be in 1..=10000 and tighten.max_steps at most \
+                         {MAX_WAYPOINTS}"
+                    )));
+                }
+                if t.throw.is_some()
+                    || t.wide_loop.is_some()
+                    || t.tuck.is_some()
+                    || t.wrap.is_some()
+                    || t.instrument.is_some()
+                    || !t.waypoints.is_empty()
+                {
+                    return Err(at("a turn that tightens moves nothing else".into()));
+                }
+            }
             if let Some(l) = &t.wide_loop {
                 if loop_frame(l.outward, l.side).is_none() {
                     return Err(at(
@@ -549,6 +618,42 @@ impl Script {
         }
     }
 
+    /// The script followed by a tightening phase (`hand run --tighten SPEED`): every hand pulls the
+    /// rope's end it holds away from the knot ([`Tighten`]) in turn, in the order of the hands, twice
+    /// round (the first round cinches the knot, the second finds whether the other end's pull left
+    /// room). An end is a chain's tail or head some turn of the hand drives; hands that drive neither
+    /// (a hand that only carries an instrument) do not pull.
+    pub fn with_tighten(mut self, speed: f64) -> Script {
+        let mut ends: Vec<(String, String, String)> = Vec::new();
+        for t in &self.turn {
+            let end = t.joint == "tail" || t.joint == "head" || t.joint == "0";
+            let key = (t.hand.clone(), t.chain.clone(), t.joint.clone());
+            if end && t.instrument.is_none() && !ends.contains(&key) {
+                ends.push(key);
+            }
+        }
+        for _ in 0..2 {
+            for (hand, chain, joint) in &ends {
+                if self.turn.len() >= MAX_TURNS {
+                    break;
+                }
+                self.turn.push(Turn {
+                    hand: hand.clone(),
+                    chain: chain.clone(),
+                    joint: joint.clone(),
+                    throw: None,
+                    wide_loop: None,
+                    tuck: None,
+                    wrap: None,
+                    instrument: None,
+                    tighten: Some(Tighten::at(speed)),
+                    waypoints: Vec::new(),
+                });
+            }
+        }
+        self
+    }
+
     /// The hands of the script, in order of first appearance.
     pub fn hands(&self) -> Vec<String> {
         let mut out: Vec<String> = Vec::new();
@@ -578,6 +683,7 @@ impl Script {
             tuck: None,
             wrap: None,
             instrument: None,
+            tighten: None,
             waypoints,
         };
         let two_hands = |second| Script {
@@ -785,6 +891,7 @@ pub fn overhands_held(name: &str, second: Handedness) -> Script {
         tuck: None,
         wrap: None,
         instrument: None,
+        tighten: None,
         waypoints: vec![],
     };
     // Each hand heads away from the rope (B along +x, A along −x), the loop on the +y side.
@@ -875,6 +982,7 @@ fn tie_turn(chain: &str, h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
         tuck: None,
         wrap: None,
         instrument: None,
+        tighten: None,
         waypoints,
     }
 }
@@ -1014,6 +1122,7 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
         tuck: None,
         wrap: None,
         instrument: None,
+        tighten: None,
         waypoints,
     };
     Script {
@@ -1836,6 +1945,7 @@ mod tests {
             tuck: Some(tuck),
             wrap: None,
             instrument: None,
+            tighten: None,
             waypoints: vec![],
         };
         // The end closes the loop just past the rope it crosses (a proper crossing), or 0.4 short of
@@ -1906,6 +2016,7 @@ mod tests {
             }),
             wrap: None,
             instrument: None,
+            tighten: None,
             waypoints: vec![],
         };
         // 65 536 joints leading in along −x, then the loop at the head: found.

@@ -106,6 +106,12 @@ enum Cmd {
         /// contact bench's).
         #[arg(long)]
         timings: Option<PathBuf>,
+        /// After the script, tighten the knot: every hand pulls the end it holds away from the knot,
+        /// this many length units per request, with the pull flag, until the knot stops shrinking
+        /// (taut or jammed), twice round (every hand of a script must get the same value; see
+        /// `Tighten`). With `--identify`, also prints the knotted stretch.
+        #[arg(long)]
+        tighten: Option<f64>,
     },
     /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
     Replay {
@@ -163,6 +169,7 @@ fn run(a: Args) -> Result<u8> {
             perturb,
             tremor,
             timings,
+            tighten,
         } => {
             let view = View::parse(&view).map_err(anyhow::Error::msg)?;
             if !(1..=32).contains(&frames) {
@@ -184,6 +191,9 @@ fn run(a: Args) -> Result<u8> {
                 script.grasp = grasp;
             }
             script.perturb(perturb);
+            if let Some(speed) = tighten {
+                script = script.with_tighten(speed);
+            }
             if let Some(c) = chain {
                 for t in &mut script.turn {
                     t.chain = c.clone();
@@ -240,6 +250,9 @@ fn run(a: Args) -> Result<u8> {
                     r.splits
                 );
             }
+            for t in &r.tightened {
+                println!("hand {hand}: {t}");
+            }
             if r.skipped_turns > 0 {
                 println!(
                     "hand {hand}: {} turns skipped (their path could not be made; see above)",
@@ -273,6 +286,11 @@ fn run(a: Args) -> Result<u8> {
                     .with_context(|| format!("no chain {name:?}"))?;
                 let k = knot_of(&mut conn, id)?;
                 println!("{}", knot_line(&k));
+                if tighten.is_some()
+                    && let Some(line) = clients::hand::knotted_stretch_line(&mut conn, id, &k)?
+                {
+                    println!("{line}");
+                }
                 if let Some(s) = series_of(&mut conn, id, &k)? {
                     println!("{}", series_line(&s));
                 }
