@@ -77,6 +77,13 @@ struct Args {
     /// Pin the viewer to this core (a latency run keeps it off the hands' core).
     #[arg(long)]
     pin: Option<usize>,
+    /// Check every state of each free chain with thickness for links passing through each other
+    /// since its previous state (the swept-volume check, `clients::check::crossings_between`) and for
+    /// non-adjacent capsules closer than the thickness; print each crossing and a count at the end.
+    /// The exit code is 3 when a crossing was seen. Needs every state (`--state-buffer` on the
+    /// service), and it reports the states it missed.
+    #[arg(long)]
+    crossings: bool,
     #[command(flatten)]
     service: ToolArgs,
 }
@@ -95,6 +102,60 @@ struct ChainInfo {
     seen: u64,
     /// A bundle's strands: joints per strand (`links + 1`) and the link length.
     bundle: Option<(usize, f64)>,
+}
+
+/// The swept-volume check of `--crossings`: each free chain's previous state, the crossings seen and
+/// the closest pair of capsules.
+#[derive(Default)]
+struct Crossings {
+    last: std::collections::HashMap<u32, Vec<nalgebra::Vector3<f64>>>,
+    count: u64,
+    states: u64,
+    /// The smallest distance between the axes of links with a thickness of rope between them, over the
+    /// thickness (1: touching; below 1: overlapping).
+    closest: f64,
+}
+
+impl Crossings {
+    fn state(&mut self, sequence: u64, chain: u32, joints: &[[f64; 3]], thickness: f64) {
+        let now: Vec<nalgebra::Vector3<f64>> = joints
+            .iter()
+            .map(|p| nalgebra::Vector3::new(p[0], p[1], p[2]))
+            .collect();
+        if self.states == 0 {
+            self.closest = f64::INFINITY;
+        }
+        self.states += 1;
+        if let Some(d) = clients::check::closest_links_with_rope_between(&now, thickness) {
+            self.closest = self.closest.min(d / thickness);
+        }
+        if let Some(before) = self.last.get(&chain)
+            && before.len() == now.len()
+        {
+            let shortest = now
+                .windows(2)
+                .map(|w| (w[1] - w[0]).norm())
+                .fold(f64::INFINITY, f64::min);
+            for c in clients::check::crossings_between(before, &now, 2, 1e-9 * shortest) {
+                self.count += 1;
+                if self.count <= 20 {
+                    eprintln!(
+                        "watch: crossing at state {sequence} of chain {chain}: links {} and {} pass \
+                         through each other {:.3} of the way from the state before",
+                        c.i, c.j, c.t
+                    );
+                }
+            }
+        }
+        self.last.insert(chain, now);
+    }
+
+    fn report(&self) {
+        eprintln!(
+            "watch: crossings: {} in {} states; closest capsules {:.4} of the thickness apart",
+            self.count, self.states, self.closest
+        );
+    }
 }
 
 /// Missed ranges of sequence numbers listed at the end (all are counted).
@@ -153,6 +214,7 @@ fn run(a: Args) -> Result<u8> {
     if let Some(w) = &mut csv {
         writeln!(w, "sequence,chain,command,request_id,joint,x,y,z")?;
     }
+    let mut crossings = Crossings::default();
     if let Some(dir) = &a.svg {
         std::fs::create_dir_all(dir).with_context(|| format!("create {}", dir.display()))?;
     }
@@ -197,6 +259,9 @@ fn run(a: Args) -> Result<u8> {
                         &instruments.1,
                     )?,
                 }
+            }
+            if a.crossings && info.free && info.bundle.is_none() && info.thickness > 0.0 {
+                crossings.state(h.sequence, h.chain, &joints, info.thickness);
             }
             if let Some(w) = &mut csv {
                 let cmd = Command::from_u32(h.command).map_or("unknown", |c| c.name());
@@ -257,6 +322,12 @@ fn run(a: Args) -> Result<u8> {
         v.finish()?;
     }
     tally.report(states, frames);
+    if a.crossings {
+        crossings.report();
+        if crossings.count > 0 {
+            return Ok(3);
+        }
+    }
     Ok(0)
 }
 

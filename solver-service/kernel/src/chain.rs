@@ -182,6 +182,18 @@ pub enum ChainError {
         /// Worst penetration left, in the chain's length unit.
         penetration: f64,
     },
+    /// A substep of a move with holds would carry a joint farther than half the smallest clearance
+    /// however finely it was split: a link could pass through another (the rope jumping through a
+    /// jammed knot). Nothing moved; to collision handling, the rope is locked.
+    #[error(
+        "locked: a joint would jump {jump:.3e} in one substep at substep {substep}, more than half the clearance"
+    )]
+    Jumped {
+        /// 1-based substep.
+        substep: u32,
+        /// The largest joint displacement of the finest split, in the chain's length unit.
+        jump: f64,
+    },
     /// Collision handling would have done more work than its limit allows
     /// ([`crate::collision::CollisionWorkspace::limit_work`]): stopped before it, nothing moved.
     #[error(

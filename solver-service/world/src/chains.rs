@@ -578,6 +578,7 @@ impl World {
         each_form!(&mut *g, h => if let Some((_, ws)) = h.collision.as_mut() {
             ws.limit_work(budget);
         });
+        let mut tries = crate::moves::Tries::new(budget);
         let result = match *req {
             Command::Move {
                 joint,
@@ -588,7 +589,7 @@ impl World {
             } => each_form!(&mut *g, h => {
                 let target = targets[targets.len() - 1];
                 let done = if pull {
-                    pull_move(h, joint, target, options)
+                    pull_move(h, joint, target, options, &mut tries)
                 } else {
                     move_and_carry(h, joint, targets, options).map(|m| (m, None))
                 };
@@ -645,7 +646,7 @@ impl World {
                 ..
             } => each_form!(&mut *g, h => {
                 let done = if pull {
-                    pull_instrument(h, index, centre, axis, max_substeps)
+                    pull_instrument(h, index, centre, axis, max_substeps, &mut tries)
                 } else {
                     push_instrument(h, index, centre, axis, max_substeps).map(|m| (m, None))
                 };
@@ -676,7 +677,8 @@ impl World {
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
         outcome.pulls = outcome.held + outcome.instruments;
-        self.last_work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()));
+        self.last_work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()))
+            .max(tries.work);
         match result {
             Ok(()) => {
                 if outcome.changed {

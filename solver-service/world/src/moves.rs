@@ -260,7 +260,7 @@ where
 
 /// Halvings of a pulled move that stopped short: the furthest point reached is within 2⁻⁶ of the
 /// stretch from the joint to its target (or its nearest reachable point). With the full try and the
-/// nearest point, at most eight solves per request, each metered against the budget.
+/// nearest point, at most eight solves per request.
 pub const PULL_HALVINGS: u32 = 6;
 
 /// Tries a pulled move may take: the full one, the nearest reachable point, the halvings.
@@ -272,7 +272,43 @@ fn stops_short(r: &Refusal) -> Option<Stop> {
         Cause::Unreachable | Cause::NotConverged => Some(Stop::Reach),
         Cause::Locked => Some(Stop::Contact),
         Cause::JointLimit => Some(Stop::Limit),
+        Cause::OverBudget => Some(Stop::Work),
         _ => None,
+    }
+}
+
+/// The tries of one pull, each metered against its share of the request's budget (with collision:
+/// the full try half of it, the nearest point an eighth, each halving a sixteenth, so the tries
+/// together never pass it), their work summed.
+pub(crate) struct Tries {
+    budget: u64,
+    /// Collision work of the tries so far, in link-steps.
+    pub(crate) work: u64,
+}
+
+impl Tries {
+    pub(crate) fn new(budget: u64) -> Tries {
+        Tries { budget, work: 0 }
+    }
+
+    /// Runs one try with `1/parts` of the budget.
+    fn run<T: Real, const D: usize, R>(
+        &mut self,
+        g: &mut LiveChain<T, D>,
+        parts: u64,
+        f: impl FnOnce(&mut LiveChain<T, D>) -> Result<R, Refusal>,
+    ) -> Result<R, Refusal>
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        if let Some((_, ws)) = g.collision.as_mut() {
+            ws.limit_work(self.budget / parts);
+        }
+        let r = f(g);
+        if let Some((_, ws)) = g.collision.as_ref() {
+            self.work = self.work.saturating_add(ws.work());
+        }
+        r
     }
 }
 
@@ -280,18 +316,23 @@ fn stops_short(r: &Refusal) -> Option<Stop> {
 /// full move; if the rope cannot make it, the nearest point the held sides reach; if that cannot be
 /// made either, [`PULL_HALVINGS`] halvings of the straight line from the joint to it, keeping the
 /// furthest pose made. `None` when the whole move was made; else why it stopped short (the joint may
-/// not have moved at all). Bad input is refused as by a plain move; the budget ends the halvings.
+/// not have moved at all). A try over its share of the budget stops short too ([`Stop::Work`]: the
+/// rope resists more than the budget can resolve). Bad input is refused as by a plain move.
 pub(crate) fn pull_move<T: Real, const D: usize>(
     g: &mut LiveChain<T, D>,
     joint: usize,
     target: Point,
     opts: &MoveOptions<f64>,
+    tries: &mut Tries,
 ) -> Result<(MoveOutcome, Option<Stop>), Refusal>
 where
     Vector<T, D>: Embed3<T>,
 {
     let from = to_point(&g.chain.joint(joint));
-    let first = match move_and_carry(g, joint, std::slice::from_ref(&target), opts) {
+    let one = |g: &mut LiveChain<T, D>, p: Point| {
+        move_and_carry(g, joint, std::slice::from_ref(&p), opts)
+    };
+    let first = match tries.run(g, 2, |g| one(g, target)) {
         Ok(m) => return Ok((m, None)),
         Err(e) => e,
     };
@@ -319,7 +360,7 @@ where
         } else {
             from
         };
-        match move_and_carry(g, joint, std::slice::from_ref(&goal), opts) {
+        match tries.run(g, 8, |g| one(g, goal)) {
             Ok(m) => return Ok((m, Some(stop))),
             Err(e) => {
                 stop = stops_short(&e).ok_or(e)?;
@@ -327,23 +368,33 @@ where
             }
         }
     }
+    let best = halve(g, tries, |g, mid| one(g, from + (goal - from) * mid))?;
+    Ok((best.unwrap_or_default(), Some(stop)))
+}
+
+/// [`PULL_HALVINGS`] halvings of the way from the armed state to a pose (`at(fraction)` makes the
+/// pose at that fraction of the way), keeping the furthest made: its outcome, `None` if none was.
+fn halve<T: Real, const D: usize>(
+    g: &mut LiveChain<T, D>,
+    tries: &mut Tries,
+    mut at: impl FnMut(&mut LiveChain<T, D>, f64) -> Result<MoveOutcome, Refusal>,
+) -> Result<Option<MoveOutcome>, Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
     let (mut lo, mut hi) = (0.0, 1.0);
     let mut best = None;
     for _ in 0..PULL_HALVINGS {
         let mid = 0.5 * (lo + hi);
-        let p = from + (goal - from) * mid;
-        match move_and_carry(g, joint, std::slice::from_ref(&p), opts) {
+        match tries.run(g, 16, |g| at(g, mid)) {
             Ok(m) => {
                 lo = mid;
                 g.keep_best();
                 best = Some(m);
             }
-            Err(e) if e.cause == Cause::OverBudget => {
-                g.restore_armed();
-                break;
-            }
             Err(e) => {
                 if stops_short(&e).is_none() {
+                    g.restore_armed();
                     return Err(e);
                 }
                 hi = mid;
@@ -354,7 +405,7 @@ where
     if best.is_some() {
         g.take_best();
     }
-    Ok((best.unwrap_or_default(), Some(stop)))
+    Ok(best)
 }
 
 /// An instrument's pose taken as far as the rope makes way ([`pull_move`] for a pose): the full pose,
@@ -366,6 +417,7 @@ pub(crate) fn pull_instrument<T: Real, const D: usize>(
     centre: Point,
     axis: Option<Point>,
     max_substeps: u32,
+    tries: &mut Tries,
 ) -> Result<(MoveOutcome, Option<Stop>), Refusal>
 where
     Vector<T, D>: Embed3<T>,
@@ -379,7 +431,9 @@ where
         Obstacle::Capsule { a, b, .. } => ((v(&a) + v(&b)) * 0.5, Some(v(&b) - v(&a))),
         Obstacle::HalfSpace { .. } => (Point::zeros(), None),
     };
-    let first = match push_instrument(g, index, centre, axis, max_substeps) {
+    let first = match tries.run(g, 2, |g| {
+        push_instrument(g, index, centre, axis, max_substeps)
+    }) {
         Ok(m) => return Ok((m, None)),
         Err(e) => e,
     };
@@ -387,10 +441,7 @@ where
         return Err(first);
     };
     g.restore_armed();
-    let (mut lo, mut hi) = (0.0, 1.0);
-    let mut best = None;
-    for _ in 0..PULL_HALVINGS {
-        let mid = 0.5 * (lo + hi);
+    let best = halve(g, tries, |g, mid| {
         let c = c0 + (centre - c0) * mid;
         // The axis turned by `mid` of the angle between the two (normalised lerp is enough: the
         // halvings only need a pose between the two for every fraction).
@@ -402,27 +453,7 @@ where
             }
             _ => axis,
         };
-        match push_instrument(g, index, c, ax, max_substeps) {
-            Ok(m) => {
-                lo = mid;
-                g.keep_best();
-                best = Some(m);
-            }
-            Err(e) if e.cause == Cause::OverBudget => {
-                g.restore_armed();
-                break;
-            }
-            Err(e) => {
-                if stops_short(&e).is_none() {
-                    return Err(e);
-                }
-                hi = mid;
-            }
-        }
-        g.restore_armed();
-    }
-    if best.is_some() {
-        g.take_best();
-    }
+        push_instrument(g, index, c, ax, max_substeps)
+    })?;
     Ok((best.unwrap_or_default(), Some(stop)))
 }

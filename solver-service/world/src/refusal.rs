@@ -142,6 +142,14 @@ impl From<ChainError> for Refusal {
                 r.substeps = substep;
                 r
             }
+            ChainError::Jumped { substep, jump } => {
+                let mut r = refuse!(
+                    Locked,
+                    "a joint would jump {jump:.2e} through the rope at substep {substep}"
+                );
+                r.substeps = substep;
+                r
+            }
             ChainError::HeldUnreachable {
                 held,
                 nearest,

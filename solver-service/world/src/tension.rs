@@ -39,6 +39,9 @@ pub enum Stop {
     Contact,
     /// A joint would have gone beyond its limit.
     Limit,
+    /// Resolving the contacts would have cost more than the request's work budget: the knot resists
+    /// more than one request can resolve.
+    Work,
 }
 
 /// Where a joint or an instrument was last asked to go, when it stopped short.

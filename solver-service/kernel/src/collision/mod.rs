@@ -191,6 +191,8 @@ pub struct Holding {
 #[derive(Clone, Debug, Default)]
 pub struct CollisionWorkspace<T: Real, const D: usize> {
     pos: Vec<Vector<T, D>>,
+    /// The joints before a substep of a move with holds (the displacement guard).
+    pos_before: Vec<Vector<T, D>>,
     backup_links: Vec<Vector<T, D>>,
     tree: ChainTree<T, D>,
     meter: Meter,
@@ -463,16 +465,37 @@ where
     let per_pass = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
     let bound = opts.held.passes_bound(chain.joint_limits().is_some());
     let held_cost = per_pass.saturating_mul(bound);
-    for s in 1..=k {
-        let hand = if s == k {
-            target
-        } else {
-            start + sd * T::lit(s as f64)
+    // The displacement guard: a held side's solve and the re-solves between fixed joints can move a
+    // joint much farther than the hand, and a joint that jumps more than half the smallest clearance
+    // in one substep can carry its link through another (the swept-volume check of the tests and
+    // `watch --crossings` saw a tightening pull of 0.05 move a joint 0.32 through a knot). Such a
+    // substep is done again as two halves from where it started, at most `GUARD_SPLITS` deep; one
+    // that still jumps at the deepest split locks the move.
+    let limit = smallest_clearance(chain, model) * T::lit(0.5);
+    let mut pieces: Vec<(Vector<T, D>, u32)> = Vec::new();
+    let mut from = start;
+    let mut s = 0u32;
+    // Substeps left (`s` counts the ones done) and the stack of split pieces: (hand's end, depth).
+    while s < k || !pieces.is_empty() {
+        let (hand, depth) = match pieces.pop() {
+            Some(p) => p,
+            None => {
+                s += 1;
+                let hand = if s == k {
+                    target
+                } else {
+                    start + sd * T::lit(s as f64)
+                };
+                (hand, 0)
+            }
         };
         if !ws.meter.charge(held_cost) {
             *chain = backup;
             return Err(ws.meter.over(s));
         }
+        let piece_backup = chain.clone();
+        ws.pos_before.resize(chain.n_links() + 1, Vector::zeros());
+        chain.write_positions(&mut ws.pos_before);
         match crate::hold::move_held(chain, joint, hand, &one) {
             Ok(o) => {
                 outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(o.paper_fallbacks);
@@ -507,9 +530,37 @@ where
             *chain = backup;
             return Err(e);
         }
+        chain.write_positions(&mut ws.pos);
+        let jump = ws
+            .pos
+            .iter()
+            .zip(&ws.pos_before)
+            .map(|(a, b)| (a - b).norm())
+            .fold(T::zero(), |m, d| if d > m { d } else { m });
+        if jump > limit {
+            if depth >= GUARD_SPLITS {
+                *chain = backup;
+                return Err(ChainError::Jumped {
+                    substep: s,
+                    jump: jump.to_f64(),
+                });
+            }
+            // Again as two halves: the second half's end first on the stack, popped last.
+            *chain = piece_backup;
+            let mid = from + (hand - from) * T::lit(0.5);
+            pieces.push((hand, depth + 1));
+            pieces.push((mid, depth + 1));
+            outcome.substeps = outcome.substeps.saturating_add(1);
+            continue;
+        }
+        from = hand;
     }
     Ok(outcome)
 }
+
+/// How many times a substep of a move with holds is halved when a joint jumps more than half the
+/// smallest clearance in it (at most 2⁴ pieces).
+const GUARD_SPLITS: u32 = 4;
 
 /// Moves obstacle `which` of `model` to the pose `to` (an instrument: a needle driver's jaws, a forceps
 /// tip), pushing the chain out of its way. The motion is split into substeps that move no point of the
