@@ -303,10 +303,12 @@ impl Tries {
     {
         if let Some((_, ws)) = g.collision.as_mut() {
             ws.limit_work(self.budget / parts);
+            ws.solve_contacts_together(true);
         }
         let r = f(g);
-        if let Some((_, ws)) = g.collision.as_ref() {
+        if let Some((_, ws)) = g.collision.as_mut() {
             self.work = self.work.saturating_add(ws.work());
+            ws.solve_contacts_together(false);
         }
         r
     }

@@ -1,6 +1,7 @@
 //! One resolution pass over the contacts of a chain (capsules on the chain's tree, or the paper's spheres) and
 //! its obstacles: each contact found is pushed apart at once (Gauss–Seidel).
 
+use super::project::Projected;
 use super::query::{
     any_perpendicular, away_from, closest_param_point_segment, closest_params_segment_segment,
     lerp, unit_or_perpendicular,
@@ -12,6 +13,11 @@ use super::{
 };
 use crate::chain::Chain;
 use crate::fixed_base::{ReachOptions, ReachWorkspace, reach};
+
+/// Passes of pushes on a rope with held joints before its contacts and lengths are solved together
+/// ([`super::project`]): most contacts of a move part after one or two pushes; a knot under tension
+/// does not.
+const PROJECT_AFTER: u32 = 2;
 use crate::math::{Embed3, Real, Vector, positive_finite};
 
 /// Resolution passes on `ws.pos` (positions of the chain after the sweep). The hand's joint `m` and the
@@ -31,6 +37,7 @@ where
     let opts = &model.options;
     let mut contacts = 0u32;
     let mut iterations = 0u32;
+    let mut stalled = false;
     let use_tree = opts.self_collision && opts.scheme == Scheme::Capsules;
     let span = neighbour_span(chain.min_length(), opts.thickness);
     let n = chain.n_links() as u64;
@@ -115,6 +122,24 @@ where
             // pull a pushed strand back across what pushed it. No joint may move farther than a
             // substep may move the hand (half the smallest clearance): a rope that cannot give way
             // locks instead of tunnelling.
+            // A knot under tension: after a few passes, every contact and every length solved
+            // together ([`super::project`]), until the projection stalls.
+            if use_tree && ws.together && !stalled && iterations >= PROJECT_AFTER {
+                let step = super::smallest_clearance(chain, model) * T::lit(0.5);
+                let mut pos = std::mem::take(&mut ws.pos);
+                let projected =
+                    super::project::project(&mut pos, chain.lengths(), m, held, model, ws, step);
+                ws.pos = pos;
+                match projected {
+                    Projected::OutOfWork => return Err(Stop::OverWork),
+                    // It found no pose that parts the knot: the pushes go on alone (projecting
+                    // again would cost as much and find the same).
+                    Projected::Stalled | Projected::TooMany | Projected::Unfinished => {
+                        stalled = true
+                    }
+                    Projected::Converged => {}
+                }
+            }
             // The copy of the pushed positions, the outer parts and the check of how far joints moved.
             if !ws
                 .meter
