@@ -286,7 +286,7 @@ fn run(a: Args) -> Result<u8> {
                     .with_context(|| format!("no chain {name:?}"))?;
                 let k = knot_of(&mut conn, id)?;
                 println!("{}", knot_line(&k));
-                if tighten.is_some()
+                if cfg.script.turn.iter().any(|t| t.tighten.is_some())
                     && let Some(line) = clients::hand::knotted_stretch_line(&mut conn, id, &k)?
                 {
                     println!("{line}");

@@ -323,11 +323,15 @@ instruments = ["jaws"]
 
 /// The instruments' poses as the test reads them from a payload, by its own count of the layout
 /// (`n_joints`, then `n_angles`, then `n_held`, then three elements per instrument: `a`, `b`,
-/// `(radius, 1 capsule / 0 sphere, 0)`).
+/// `(radius, 1 capsule / 0 sphere, 0)`, then one pull per held joint and per instrument).
 fn poses_in(payload: &[Vec3], n_joints: u32, n_angles: u32, n_held: u32, n: u32) -> Vec<[f64; 8]> {
     let from = (n_joints + n_angles + n_held) as usize;
-    assert_eq!(payload.len(), from + 3 * n as usize, "payload length");
-    payload[from..]
+    assert_eq!(
+        payload.len(),
+        from + 3 * n as usize + (n_held + n) as usize,
+        "payload length"
+    );
+    payload[from..from + 3 * n as usize]
         .chunks(3)
         .map(|e| {
             [

@@ -31,6 +31,7 @@ mod python;
 mod readme;
 mod signals;
 mod sweep;
+mod tighten;
 mod tools;
 mod viewer;
 

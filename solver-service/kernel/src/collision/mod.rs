@@ -228,12 +228,14 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
         };
     }
 
-    /// Whether the calls that follow solve the contacts of a rope with held joints together with
-    /// its lengths once the first passes have not parted them (the joint projection: a knot under
-    /// tension, whose passes of single pushes only creep). The service's pulls (`FLAG_PULL`, a
-    /// tightening) turn it on; off by default, where the passes alone tie the built-in knots (with
-    /// the projection on every move the instrument tie at 160 links locked 179 of its moves: the
-    /// projection moved joints more than half a clearance).
+    /// Whether the calls that follow treat a rope with held joints as a knot under tension: its
+    /// contacts solved together with its lengths once the first passes have not parted them (the
+    /// joint projection: passes of single pushes only creep there), and no substep that moves a joint
+    /// more than half the smallest clearance (split in halves, at most 16 pieces, else locked: no
+    /// link carried through another). The service's pulls (`FLAG_PULL`, a tightening) turn it on;
+    /// off by default, where the passes alone tie the built-in knots (with the projection on every
+    /// move the instrument tie at 160 links locked 179 of its moves, and with the guard the ties on
+    /// unit links failed).
     pub fn solve_contacts_together(&mut self, on: bool) {
         self.together = on;
     }
@@ -480,12 +482,14 @@ where
     let per_pass = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
     let bound = opts.held.passes_bound(chain.joint_limits().is_some());
     let held_cost = per_pass.saturating_mul(bound);
-    // The displacement guard: a held side's solve and the re-solves between fixed joints can move a
-    // joint much farther than the hand, and a joint that jumps more than half the smallest clearance
-    // in one substep can carry its link through another (the swept-volume check of the tests and
-    // `watch --crossings` saw a tightening pull of 0.05 move a joint 0.32 through a knot). Such a
-    // substep is done again as two halves from where it started, at most `GUARD_SPLITS` deep; one
-    // that still jumps at the deepest split locks the move.
+    // The displacement guard (with `solve_contacts_together`: a pull): a held side's solve and the
+    // re-solves between fixed joints can move a joint much farther than the hand, and a joint that
+    // jumps more than half the smallest clearance in one substep can carry its link through another
+    // (the swept-volume check of the tests and `watch --crossings` saw a tightening pull of 0.05 move
+    // a joint 0.32 through a knot). Such a substep is done again as two halves from where it
+    // started, at most `GUARD_SPLITS` deep; one that still jumps at the deepest split locks the
+    // move. Not on plain moves: on unit links held sides move joints more than half a clearance at
+    // every substep of a tie, and the built-in knots failed to tie with it.
     let limit = smallest_clearance(chain, model) * T::lit(0.5);
     let mut pieces: Vec<(Vector<T, D>, u32)> = Vec::new();
     let mut from = start;
@@ -552,7 +556,7 @@ where
             .zip(&ws.pos_before)
             .map(|(a, b)| (a - b).norm())
             .fold(T::zero(), |m, d| if d > m { d } else { m });
-        if jump > limit {
+        if ws.together && jump > limit {
             if depth >= GUARD_SPLITS {
                 *chain = backup;
                 return Err(ChainError::Jumped {
