@@ -37,6 +37,7 @@ cargo build -q --release --bins
 if [ "$QUICK" = 1 ]; then
   export KERNEL_BENCH_SCALE=0.02 COLLISION_BENCH_ROUNDS=1 JOURNAL_BENCH_N=50 ACCURACY_BENCH_REPS=1
   export HOLDS_BENCH_ROUNDS=1 KNOT_BENCH_RUNS=1 KNOT_BENCH_LINKS=40 CONTACT_BENCH_ONLY=paper
+  export TIGHTEN_BENCH_ONLY=hands
   export LEAN_BENCH_SCALE=0.05 OVERHEAD_BENCH_SCALE=0.05 STRANDS_BENCH_SCALE=0.05 LIMITS_BENCH_SCALE=0.05
   LANG_ARGS="500 1"
   SWEEP_ARGS="4 1"
@@ -97,6 +98,8 @@ block ab-collision "scripts/ab-collision.sh 5d2b880 $AB_ROUNDS" \
   scripts/ab-collision.sh 5d2b880 "$AB_ROUNDS"
 block contact "cargo bench -p clients --bench contact" \
   cargo bench -q -p clients --bench contact
+block tighten "cargo bench -p clients --bench tighten" \
+  cargo bench -q -p clients --bench tighten
 block budget "cargo bench -p solver-service --bench budget" \
   cargo bench -q -p solver-service --bench budget
 block journal "cargo bench -p solver-service --bench journal" \

@@ -1,0 +1,262 @@
+//! How tight the built-in knots get (issue 38): each knot tied by its `hand` processes through the
+//! service, then tightened by the same hands (`hand run --tighten 0.05`: each hand pulls the end it
+//! holds away from the knot with the pull flag until it stops, twice round), and the knotted stretch
+//! measured at the end.
+//!
+//! `cargo bench -p clients --bench tighten` starts, for each row, the release `solver-service` on the
+//! shipped `knots.toml` (its ropes 0.2 thick, its holds, instruments, anchors and work budget) with a
+//! deep state buffer, a `watch --crossings` that checks every published state against the one before
+//! (the swept-volume check, `clients::check::crossings_between`: no link through another), and the
+//! script's hands. The table gives the knot named at the end (the service's identification), the
+//! knotted stretch (the shortest run of joints that, closed far away by itself, is still the knot:
+//! `tractrix::knot::knotted_stretch`) in rope diameters, against the ideal length the issue names
+//! (the open trefoil about 10.1 diameters, Pieranski, Przybyl & Stasiak 2001; square and granny at most
+//! 28.5 by the composite bound of Cantarella, LaPointe & Rawdon; none for the surgeon's knot), how each
+//! tightening pull ended (`taut`, `jammed`: see docs/tension.md), the crossings `watch` found in the
+//! states it read, and the row's time. Rows that fail to tie say so.
+//!
+//! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
+//! `TIGHTEN_BENCH_ONLY=square-held,tie-160` keeps the rows whose script or chain is named.
+
+use anyhow::{Context, Result, bail};
+use clients::process::Proc;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The rows: a built-in script, the chain of `knots.toml`, its links, the knot it ties and that
+/// knot's ideal length in diameters (open trefoil; the composite bound for square and granny).
+const ROWS: &[(&str, &str, usize, &str, Option<f64>)] = &[
+    (
+        "instrument-tie",
+        "tie",
+        40,
+        "trefoil (overhand)",
+        Some(10.1),
+    ),
+    (
+        "instrument-tie",
+        "tie-160",
+        160,
+        "trefoil (overhand)",
+        Some(10.1),
+    ),
+    (
+        "instrument-tie",
+        "tie-320",
+        320,
+        "trefoil (overhand)",
+        Some(10.1),
+    ),
+    ("square-held", "hands", 40, "square", Some(28.5)),
+    ("square-held", "hands-160", 160, "square", Some(28.5)),
+    ("square-held", "hands-320", 320, "square", Some(28.5)),
+    ("granny-held", "hands-160", 160, "granny", Some(28.5)),
+    ("granny-held", "hands-320", 320, "granny", Some(28.5)),
+    ("surgeons-knot", "tie", 40, "surgeon's", None),
+    ("surgeons-knot", "tie-160", 160, "surgeon's", None),
+    ("surgeons-knot", "tie-320", 320, "surgeon's", None),
+];
+
+/// How long one row may take before it is abandoned.
+const ROW_TIMEOUT: Duration = Duration::from_secs(900);
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn release_bin(name: &str) -> Result<PathBuf> {
+    let dir = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join("target"));
+    let p = dir.join("release").join(name);
+    if !p.exists() {
+        bail!(
+            "{} is missing: build the binaries first (cargo build --release --bins)",
+            p.display()
+        );
+    }
+    Ok(p)
+}
+
+/// Children killed and reaped when the row ends.
+struct Children(Vec<std::process::Child>);
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            if matches!(c.try_wait(), Ok(None)) {
+                let _ = c.kill();
+                let _ = c.wait();
+            }
+        }
+    }
+}
+
+struct Row {
+    knot: String,
+    stretch: Option<f64>,
+    pulls: Vec<String>,
+    crossings: String,
+    seconds: f64,
+}
+
+fn wait(c: &mut std::process::Child, started: Instant, what: &str) -> Result<()> {
+    loop {
+        if let Some(s) = c.try_wait()? {
+            if !s.success() {
+                bail!("{what} failed ({s})");
+            }
+            return Ok(());
+        }
+        if started.elapsed() > ROW_TIMEOUT {
+            bail!("{what} took longer than {ROW_TIMEOUT:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
+    let prefix = format!("tighten_{}_{k}_", std::process::id());
+    let scene = workspace().join("solver-service/scenes/knots.toml");
+    let mut svc = Command::new(release_bin("solver-service")?);
+    svc.args(["--prefix", &prefix, "--scene"])
+        .arg(&scene)
+        .args(["--wait", "event", "--no-persist", "--state-buffer", "4096"]);
+    let mut svc = Proc::ready(svc, "solver-service")?;
+    let started = Instant::now();
+    let watch_log = dir.join(format!("{script}-{chain}-watch.err"));
+    let mut children = Children(Vec::new());
+    children.0.push(
+        Command::new(release_bin("watch")?)
+            .args(["--prefix", &prefix, "--chain", chain, "--crossings"])
+            .args(["--duration", "1800"])
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&watch_log)?)
+            .spawn()
+            .context("start watch")?,
+    );
+    // `watch` is listening once it said so.
+    let t0 = Instant::now();
+    while !std::fs::read_to_string(&watch_log)
+        .unwrap_or_default()
+        .contains("listening")
+    {
+        if t0.elapsed() > Duration::from_secs(30) {
+            bail!("watch did not start");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let hand = |h: &str, extra: &[&str]| -> Result<std::process::Child> {
+        Command::new(release_bin("hand")?)
+            .args(["--prefix", &prefix, "run", "--builtin", script, "--hand", h])
+            .args(["--chain", chain, "--quiet", "--turn-timeout", "300"])
+            .args(["--tighten", "0.05"])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .context("start hand")
+    };
+    let mut b = hand("B", &[])?;
+    let mut a = hand("A", &["--identify", chain])?;
+    wait(&mut b, started, "hand B")?;
+    wait(&mut a, started, "hand A")?;
+    let read = |c: &mut std::process::Child| {
+        let mut s = String::new();
+        if let Some(o) = c.stdout.as_mut() {
+            let _ = std::io::Read::read_to_string(o, &mut s);
+        }
+        s
+    };
+    let out = format!("{}{}", read(&mut a), read(&mut b));
+    let seconds = started.elapsed().as_secs_f64();
+    // Let `watch` read what is left, then stop it (SIGINT) and read its count.
+    std::thread::sleep(Duration::from_secs(2));
+    let pid = children.0[0].id();
+    let _ = Command::new("kill")
+        .args(["-INT", &pid.to_string()])
+        .status();
+    let _ = children.0[0].wait();
+    let watched = std::fs::read_to_string(&watch_log).unwrap_or_default();
+    let crossings = watched
+        .lines()
+        .find_map(|l| l.strip_prefix("watch: crossings: "))
+        .and_then(|l| l.split(';').next())
+        .unwrap_or("?")
+        .to_string();
+    let knot = out
+        .lines()
+        .find_map(|l| l.strip_prefix("knot: "))
+        .and_then(|l| l.split_whitespace().next())
+        .unwrap_or("?")
+        .to_string();
+    let stretch = out
+        .lines()
+        .find(|l| l.starts_with("knotted stretch:"))
+        .and_then(|l| l.rsplit(", ").next())
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|x| x.parse().ok());
+    let pulls = out
+        .lines()
+        .filter_map(|l| l.split(": tighten turn ").nth(1))
+        .filter_map(|l| l.split(": ").nth(1))
+        .filter_map(|l| l.split_whitespace().next())
+        .map(str::to_string)
+        .collect();
+    svc.stop();
+    Ok(Row {
+        knot,
+        stretch,
+        pulls,
+        crossings,
+        seconds,
+    })
+}
+
+fn main() -> Result<()> {
+    let only: Vec<String> = std::env::var("TIGHTEN_BENCH_ONLY")
+        .ok()
+        .map(|s| s.split(',').map(str::to_string).collect())
+        .unwrap_or_default();
+    let dir = tempfile::tempdir()?;
+    println!(
+        "| script | chain | links | knot at the end (named by the service) | knotted stretch (rope diameters) | ideal (diameters) | stretch ÷ ideal | how the pulls ended | crossings between consecutive states (swept-volume check) | seconds |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for (k, &(script, chain, links, knot, ideal)) in ROWS.iter().enumerate() {
+        if !only.is_empty() && !only.iter().any(|o| o == script || o == chain) {
+            continue;
+        }
+        match run_row(script, chain, k, dir.path()) {
+            Ok(r) => {
+                let stretch = r.stretch.map_or("—".into(), |s| format!("{s:.1}"));
+                let (ideal_s, ratio) = match (ideal, r.stretch) {
+                    (Some(i), Some(s)) => (format!("{i}"), format!("{:.2}", s / i)),
+                    (Some(i), None) => (format!("{i}"), "—".into()),
+                    (None, _) => ("—".into(), "—".into()),
+                };
+                let mut counts: Vec<(String, usize)> = Vec::new();
+                for p in &r.pulls {
+                    match counts.iter_mut().find(|c| &c.0 == p) {
+                        Some(c) => c.1 += 1,
+                        None => counts.push((p.clone(), 1)),
+                    }
+                }
+                let pulls: Vec<String> = counts.iter().map(|(p, n)| format!("{n} {p}")).collect();
+                println!(
+                    "| `{script}` | `{chain}` | {links} | {} (tied: {knot}) | {stretch} | {ideal_s} | {ratio} | {} | {} | {:.0} |",
+                    r.knot,
+                    pulls.join(", "),
+                    r.crossings,
+                    r.seconds
+                );
+            }
+            Err(e) => println!(
+                "| `{script}` | `{chain}` | {links} | failed: {} | — | — | — | — | — | — |",
+                format!("{e:#}").replace('|', "/")
+            ),
+        }
+    }
+    Ok(())
+}
