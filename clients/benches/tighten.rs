@@ -221,9 +221,9 @@ fn main() -> Result<()> {
         .unwrap_or_default();
     let dir = tempfile::tempdir()?;
     println!(
-        "| script | chain | links | knot at the end (named by the service) | knotted stretch (rope diameters) | ideal (diameters) | stretch ÷ ideal | how the pulls ended | crossings between consecutive states (swept-volume check) | seconds |"
+        "| script | chain | links | the script's knot | knot at the end (named by the service) | knotted stretch (rope diameters) | ideal (diameters) | stretch ÷ ideal | how the pulls ended | crossings between consecutive states (swept-volume check) | seconds (tie and tighten) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for (k, &(script, chain, links, knot, ideal)) in ROWS.iter().enumerate() {
         if !only.is_empty() && !only.iter().any(|o| o == script || o == chain) {
             continue;
@@ -245,7 +245,7 @@ fn main() -> Result<()> {
                 }
                 let pulls: Vec<String> = counts.iter().map(|(p, n)| format!("{n} {p}")).collect();
                 println!(
-                    "| `{script}` | `{chain}` | {links} | {} (tied: {knot}) | {stretch} | {ideal_s} | {ratio} | {} | {} | {:.0} |",
+                    "| `{script}` | `{chain}` | {links} | {knot} | {} | {stretch} | {ideal_s} | {ratio} | {} | {} | {:.0} |",
                     r.knot,
                     pulls.join(", "),
                     r.crossings,
@@ -253,7 +253,7 @@ fn main() -> Result<()> {
                 );
             }
             Err(e) => println!(
-                "| `{script}` | `{chain}` | {links} | failed: {} | — | — | — | — | — | — |",
+                "| `{script}` | `{chain}` | {links} | {knot} | failed: {} | — | — | — | — | — | — |",
                 format!("{e:#}").replace('|', "/")
             ),
         }
