@@ -24,7 +24,7 @@
 //! `CONTACT_BENCH_ONLY=overhand,tie-160` keeps the rows whose script or chain is named.
 
 use anyhow::{Context, Result, bail};
-use clients::process::Proc;
+use clients::process::{Proc, release_bin, workspace};
 use clients::script::Script;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -59,24 +59,6 @@ const ROWS: &[(&str, &str, usize, &str)] = &[
 
 /// How long one row may take before it is abandoned (a row is a few seconds to a few minutes).
 const ROW_TIMEOUT: Duration = Duration::from_secs(900);
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn release_bin(name: &str) -> Result<PathBuf> {
-    let dir = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| workspace().join("target"));
-    let p = dir.join("release").join(name);
-    if !p.exists() {
-        bail!(
-            "{} is missing: build the binaries first (cargo build --release --bins)",
-            p.display()
-        );
-    }
-    Ok(p)
-}
 
 /// A row's hand processes, each with its timings file and its stderr's file; any still running when
 /// the row ends (a failure, a timeout) are killed and reaped.

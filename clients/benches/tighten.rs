@@ -19,8 +19,8 @@
 //! `TIGHTEN_BENCH_ONLY=square-held,tie-160` keeps the rows whose script or chain is named.
 
 use anyhow::{Context, Result, bail};
-use clients::process::Proc;
-use std::path::{Path, PathBuf};
+use clients::process::{Proc, release_bin, workspace};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -60,24 +60,6 @@ const ROWS: &[(&str, &str, usize, &str, Option<f64>)] = &[
 
 /// How long one row may take before it is abandoned.
 const ROW_TIMEOUT: Duration = Duration::from_secs(900);
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn release_bin(name: &str) -> Result<PathBuf> {
-    let dir = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| workspace().join("target"));
-    let p = dir.join("release").join(name);
-    if !p.exists() {
-        bail!(
-            "{} is missing: build the binaries first (cargo build --release --bins)",
-            p.display()
-        );
-    }
-    Ok(p)
-}
 
 /// Children killed and reaped when the row ends.
 struct Children(Vec<std::process::Child>);

@@ -146,3 +146,24 @@ pub fn output_line(cmd: Command, what: &str, timeout: Duration) -> Result<String
     }
     Ok(line)
 }
+
+/// The workspace's root, for benches and tools run from the source tree.
+pub fn workspace() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A release binary of the workspace (`target/release/NAME`, or under `CARGO_TARGET_DIR`); an error
+/// that names the build command when it is missing.
+pub fn release_bin(name: &str) -> Result<std::path::PathBuf> {
+    let dir = std::env::var_os("CARGO_TARGET_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| workspace().join("target"));
+    let p = dir.join("release").join(name);
+    if !p.exists() {
+        bail!(
+            "{} is missing: build the binaries first (cargo build --release --bins)",
+            p.display()
+        );
+    }
+    Ok(p)
+}
