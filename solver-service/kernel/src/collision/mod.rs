@@ -234,8 +234,8 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     /// more than half the smallest clearance (split in halves, at most 16 pieces, else locked: no
     /// link carried through another). The service's pulls (`FLAG_PULL`, a tightening) turn it on;
     /// off by default, where the passes alone tie the built-in knots (with the projection on every
-    /// move the instrument tie at 160 links locked 179 of its moves, and with the guard the ties on
-    /// unit links failed).
+    /// move the instrument ties at 160 links locked many of their moves, and with the guard the ties
+    /// on unit links failed).
     pub fn solve_contacts_together(&mut self, on: bool) {
         self.together = on;
     }
@@ -485,8 +485,8 @@ where
     // The displacement guard (with `solve_contacts_together`: a pull): a held side's solve and the
     // re-solves between fixed joints can move a joint much farther than the hand, and a joint that
     // jumps more than half the smallest clearance in one substep can carry its link through another
-    // (the swept-volume check of the tests and `watch --crossings` saw a tightening pull of 0.05 move
-    // a joint 0.32 through a knot). Such a substep is done again as two halves from where it
+    // (the swept-volume check of `watch --crossings` saw a tightening pull carry a joint several
+    // times farther than the hand, through a knot). Such a substep is done again as two halves from where it
     // started, at most `GUARD_SPLITS` deep; one that still jumps at the deepest split locks the
     // move. Not on plain moves: on unit links held sides move joints more than half a clearance at
     // every substep of a tie, and the built-in knots failed to tie with it.

@@ -292,16 +292,19 @@ where
                 best = Some(merit);
             }
         }
-        // Charged: the links' factorisation, a solve per contact, the dense block.
+        // Charged: the links' factorisation and a solve per contact; each round of the active set
+        // below charges its own.
         let units = (n as u64)
             .saturating_mul(cost::RELAX_PER_LINK)
-            .saturating_mul(1 + r as u64)
-            .saturating_add((r as u64).pow(3) / 4);
+            .saturating_mul(1 + r as u64);
         if !ws.meter.charge(units) {
             outcome = Projected::OutOfWork;
             break;
         }
-        let delta = solve_step(&mut pr, m, held, n);
+        let Some(delta) = solve_step(&mut pr, m, held, n, &mut ws.meter) else {
+            outcome = Projected::OutOfWork;
+            break;
+        };
         // Apply δp = W Jᵀ λ, scaled so that no joint moves more than `step`.
         let longest = delta.iter().fold(T::zero(), |a, d| a.max(d.norm()));
         let scale = if longest > step {
@@ -355,13 +358,16 @@ where
 }
 
 /// One Newton step: the multipliers (`pr.lam_l`, the active contacts' `pr.rhs`) and the joints'
-/// displacement, from the rows and errors in `pr`; the active set found by [`ACTIVE_ROUNDS`] rounds.
+/// displacement, from the rows and errors in `pr`; the active set found by [`ACTIVE_ROUNDS`] rounds,
+/// each charged to `meter` before it runs (the Schur complement, `r² n`, and its elimination, `r³`,
+/// at about six flops a sixteenth of a link-step). `None` when the meter ran out.
 fn solve_step<T: Real, const D: usize>(
     pr: &mut Projection<T, D>,
     m: usize,
     held: &[usize],
     n: usize,
-) -> Vec<Vector<T, D>>
+    meter: &mut super::Meter,
+) -> Option<Vec<Vector<T, D>>>
 where
     Vector<T, D>: Embed3<T>,
 {
@@ -439,7 +445,15 @@ where
     pr.active
         .extend(pr.rows.iter().map(|row| row.gap > T::zero()));
     let mut delta = Vec::new();
+    let (r64, n64) = (r as u64, n as u64);
+    let round = r64
+        .saturating_mul(r64)
+        .saturating_mul(n64.saturating_add(r64))
+        / 6;
     for _round in 0..ACTIVE_ROUNDS {
+        if !meter.charge(round) {
+            return None;
+        }
         pr.s.clear();
         pr.s.resize(r * r, T::zero());
         pr.rhs.clear();
@@ -516,7 +530,7 @@ where
             break;
         }
     }
-    delta
+    Some(delta)
 }
 
 /// Solves the dense `r × r` system `a x = b` in place (`b` becomes `x`) by Gaussian elimination with
