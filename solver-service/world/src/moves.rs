@@ -5,6 +5,7 @@
 use crate::command::{Goal, Point};
 use crate::form::{LiveChain, point, to_point};
 use crate::refusal::{Cause, Refusal};
+use crate::refuse;
 use crate::tension::Stop;
 use nalgebra::Vector3;
 use tractrix::collision::{Obstacle, move_joint_colliding};
@@ -331,8 +332,18 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let from = to_point(&g.chain.joint(joint));
+    // On the boundary of what the held sides reach, the side solved last can close on its held joint
+    // a hair off its last link's length: such a pose is not kept (the pull stops short of it).
     let one = |g: &mut LiveChain<T, D>, p: Point| {
-        move_and_carry(g, joint, std::slice::from_ref(&p), opts)
+        let m = move_and_carry(g, joint, std::slice::from_ref(&p), opts)?;
+        if closes_exactly(g, joint) {
+            Ok(m)
+        } else {
+            Err(refuse!(
+                NotConverged,
+                "the rope closes off its length on a held joint"
+            ))
+        }
     };
     let first = match tries.run(g, 2, |g| one(g, target)) {
         Ok(m) => return Ok((m, None)),
@@ -372,6 +383,23 @@ where
     }
     let best = halve(g, tries, |g, mid| one(g, from + (goal - from) * mid))?;
     Ok((best.unwrap_or_default(), Some(stop)))
+}
+
+/// Whether the two links below the first held joint above `joint` (those the move closes on it) have
+/// their lengths to rounding (64 ε of the length).
+fn closes_exactly<T: Real, const D: usize>(g: &LiveChain<T, D>, joint: usize) -> bool
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let c = &g.chain;
+    let Some(top) = c.held().find(|&h| h > joint) else {
+        return true;
+    };
+    (top.saturating_sub(2).max(joint)..top).all(|k| {
+        let len = (c.joint(k + 1) - c.joint(k)).norm();
+        let want = c.lengths()[k];
+        (len - want).abs() <= T::EPSILON * T::lit(64.0) * want.max(T::one())
+    })
 }
 
 /// [`PULL_HALVINGS`] halvings of the way from the armed state to a pose (`at(fraction)` makes the
