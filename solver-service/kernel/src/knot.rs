@@ -167,6 +167,176 @@ pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
     }
 }
 
+/// Reduced diagrams larger than this are not evaluated by a [`Namer`] made with [`Namer::new`] (a
+/// state sum of 2^c terms: at 12 crossings about 4,000 states), and count as [`KnotType::Other`].
+pub const NAMER_CROSSINGS: usize = 12;
+
+/// How many diagrams a [`Namer`] remembers with their names.
+pub const NAMER_MEMORY: usize = 16;
+
+/// Names a rope's knot fast enough to ask with every state (a haptic frame, a published state): the
+/// incremental form of [`identify`].
+///
+/// It closes the rope once, through a point far away in the direction its two ends leave the rope's
+/// centroid (three times the rope's radius out, as [`identify`] closes it: the ends are extended
+/// outward and joined round the outside), takes the first generic view of that closed curve (of three;
+/// the next when moves I and II leave more crossings than the namer evaluates), finds its crossings
+/// by a sweep along the picture (segments whose ranges overlap, not every pair), and reduces the
+/// diagram by Reidemeister moves I and II in place. The reduced diagram, as a code (its
+/// passages in order along the rope, crossings numbered as first met, each over or under and its
+/// sign), is looked up among the last [`NAMER_MEMORY`] diagrams it named: a rope that moves without
+/// passing through itself mostly keeps its reduced diagram, and then no invariant is computed. Only a
+/// new diagram is named by its Jones polynomial, as [`identify`] names one (up to
+/// the namer's crossing limit; larger is [`KnotType::Other`]).
+///
+/// One closure is one answer: [`identify`] names six and takes the majority, which differs from this
+/// closure's name only while an end is inside the tangle (the knot of an open rope depends on how it
+/// is closed). The buffers are kept; naming a remembered diagram allocates nothing.
+#[derive(Clone, Debug)]
+pub struct Namer {
+    limit: usize,
+    closed: Vec<Vector3<f64>>,
+    sweep: Sweep,
+    view: Diagram,
+    diagram: Diagram,
+    at: Vec<[usize; 2]>,
+    label: Vec<u32>,
+    code: Vec<u32>,
+    known: Vec<(Vec<u32>, KnotType)>,
+    next: usize,
+    evaluations: u64,
+    crossings: usize,
+}
+
+impl Default for Namer {
+    fn default() -> Self {
+        Namer::new()
+    }
+}
+
+impl Namer {
+    /// A namer that evaluates reduced diagrams of up to [`NAMER_CROSSINGS`] crossings.
+    pub fn new() -> Self {
+        Namer::with_limit(NAMER_CROSSINGS)
+    }
+
+    /// A namer that evaluates reduced diagrams of up to `max_crossings` crossings (at most
+    /// [`MAX_EVALUATED_CROSSINGS`]); larger ones are [`KnotType::Other`]. The work of naming a new
+    /// diagram grows as `2^max_crossings`.
+    pub fn with_limit(max_crossings: usize) -> Self {
+        Namer {
+            limit: max_crossings.min(MAX_EVALUATED_CROSSINGS),
+            closed: Vec::new(),
+            sweep: Sweep::default(),
+            view: Diagram::default(),
+            diagram: Diagram::default(),
+            at: Vec::new(),
+            label: Vec::new(),
+            code: Vec::new(),
+            known: Vec::with_capacity(NAMER_MEMORY),
+            next: 0,
+            evaluations: 0,
+            crossings: 0,
+        }
+    }
+
+    /// How many diagrams it has named by their invariant (the rest were remembered).
+    pub fn evaluations(&self) -> u64 {
+        self.evaluations
+    }
+
+    /// Crossings of the last reduced diagram.
+    pub fn crossings(&self) -> usize {
+        self.crossings
+    }
+
+    /// The knot tied in the open chain through `points` (joint positions, tail first), closed as the
+    /// type's documentation says. [`KnotType::Other`] when no view of any closure tried is generic.
+    pub fn name(&mut self, points: &[Vector3<f64>]) -> KnotType {
+        let Some((&first, &last)) = points.first().zip(points.last()) else {
+            return KnotType::Unknot;
+        };
+        let n = points.len() as f64;
+        let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p) / n;
+        let radius = points
+            .iter()
+            .map(|p| (p - centroid).norm())
+            .fold(0.0, f64::max)
+            .max(f64::MIN_POSITIVE);
+        let unit = |v: Vector3<f64>| v.try_normalize(1e-12 * radius);
+        let (a, b) = (first - centroid, last - centroid);
+        // The ends' direction; ends on opposite sides (a rope pulled straight) close to the side.
+        let ends = match (unit(a), unit(b)) {
+            (Some(a), Some(b)) if (a + b).norm() > 0.1 => unit(a + b),
+            (Some(a), Some(b)) => {
+                unit(b - a).and_then(|d| unit(d.cross(&Vector3::new(0.267, 0.534, 0.802))))
+            }
+            (Some(u), None) | (None, Some(u)) => Some(u),
+            (None, None) => None,
+        };
+        // The first closure with a generic view; of its generic views the first whose reduced
+        // diagram is within the limit (a view can leave crossings that moves I and II cannot
+        // remove), else the smallest.
+        let mut best: Option<usize> = None;
+        for u in ends.into_iter().chain(closure_directions()) {
+            self.closed.clear();
+            self.closed.extend_from_slice(points);
+            self.closed.push(centroid + u * (3.0 * radius));
+            for v in projection_directions(&u) {
+                if !self.sweep.project(&self.closed, &v, &mut self.view) {
+                    continue;
+                }
+                self.view.reduce(&mut self.at);
+                let c = self.view.crossings();
+                if best.is_none_or(|b| c < b) {
+                    best = Some(c);
+                    std::mem::swap(&mut self.view, &mut self.diagram);
+                }
+                if c <= self.limit {
+                    break;
+                }
+            }
+            if best.is_some() {
+                break;
+            }
+        }
+        if best.is_none() {
+            return KnotType::Other;
+        }
+        // The reduced diagram's code.
+        self.label.clear();
+        self.label.resize(self.diagram.sign.len(), u32::MAX);
+        self.code.clear();
+        let mut labels = 0;
+        for p in &self.diagram.seq {
+            if self.label[p.crossing] == u32::MAX {
+                self.label[p.crossing] = labels;
+                labels += 1;
+            }
+            let positive = self.diagram.sign[p.crossing] > 0;
+            self.code
+                .push(self.label[p.crossing] << 2 | u32::from(p.over) << 1 | u32::from(positive));
+        }
+        if let Some((_, kind)) = self.known.iter().find(|(c, _)| *c == self.code) {
+            return *kind;
+        }
+        self.evaluations += 1;
+        let kind = if self.crossings > self.limit {
+            KnotType::Other
+        } else {
+            self.diagram.name()
+        };
+        let entry = (self.code.clone(), kind);
+        if self.known.len() < NAMER_MEMORY {
+            self.known.push(entry);
+        } else {
+            self.known[self.next] = entry;
+            self.next = (self.next + 1) % NAMER_MEMORY;
+        }
+        kind
+    }
+}
+
 /// Two knots one after the other along the rope, found by [`in_series`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Series {
@@ -270,6 +440,131 @@ fn projection_directions(u: &Vector3<f64>) -> [Vector3<f64>; 3] {
 }
 
 /// One passage of the rope through a crossing.
+/// The buffers of a projection: the projected points, the segments sorted by their lowest x, the
+/// segments whose x range the sweep is in, and the passages found.
+#[derive(Clone, Debug, Default)]
+struct Sweep {
+    q: Vec<[f64; 3]>,
+    order: Vec<u32>,
+    active: Vec<u32>,
+    passages: Vec<(f64, Passage)>,
+}
+
+impl Sweep {
+    /// Projects the closed polygon `p` (the last point joins the first) along `view` into `d`: its
+    /// crossings found by a sweep along the picture's x axis (only segments whose x and y ranges
+    /// overlap are tested), each with its over/under order and its sign. `false` for a degenerate
+    /// view: a crossing on a joint, two crossings at one point of the rope, strands that meet in
+    /// space, or overlapping parallel segments.
+    fn project(&mut self, p: &[Vector3<f64>], view: &Vector3<f64>, d: &mut Diagram) -> bool {
+        d.seq.clear();
+        d.sign.clear();
+        self.passages.clear();
+        let e1 = view.cross(&Vector3::new(0.577, -0.211, 0.789)).normalize();
+        let e2 = view.cross(&e1);
+        let m = p.len();
+        self.q.clear();
+        self.q
+            .extend(p.iter().map(|x| [x.dot(&e1), x.dot(&e2), x.dot(view)]));
+        let q = &self.q;
+        let scale = q
+            .iter()
+            .map(|x| x[0].abs().max(x[1].abs()))
+            .fold(0.0, f64::max);
+        let eps = 1e-9;
+        let margin = 1e-9 * scale.max(1.0);
+        let x_range = |i: usize| {
+            let (a, b) = (q[i][0], q[(i + 1) % m][0]);
+            (a.min(b), a.max(b))
+        };
+        let y_range = |i: usize| {
+            let (a, b) = (q[i][1], q[(i + 1) % m][1]);
+            (a.min(b), a.max(b))
+        };
+        self.order.clear();
+        self.order.extend(0..m as u32);
+        self.order
+            .sort_unstable_by(|&a, &b| x_range(a as usize).0.total_cmp(&x_range(b as usize).0));
+        self.active.clear();
+        for &s in &self.order {
+            let s = s as usize;
+            let (xs, _) = x_range(s);
+            self.active
+                .retain(|&a| x_range(a as usize).1 >= xs - margin);
+            let (ylo, yhi) = y_range(s);
+            for &a in &self.active {
+                let a = a as usize;
+                let (i, j) = (a.min(s), a.max(s));
+                if j == i + 1 || (i == 0 && j == m - 1) {
+                    continue;
+                }
+                let (alo, ahi) = y_range(a);
+                if ahi < ylo - margin || alo > yhi + margin {
+                    continue;
+                }
+                let (a0, a1) = (q[i], q[(i + 1) % m]);
+                let (b0, b1) = (q[j], q[(j + 1) % m]);
+                let da = (a1[0] - a0[0], a1[1] - a0[1]);
+                let db = (b1[0] - b0[0], b1[1] - b0[1]);
+                let den = da.0 * db.1 - da.1 * db.0;
+                let r = (b0[0] - a0[0], b0[1] - a0[1]);
+                let la = da.0.hypot(da.1);
+                let lb = db.0.hypot(db.1);
+                if den.abs() <= 1e-12 * la * lb {
+                    let off = (r.0 * da.1 - r.1 * da.0).abs();
+                    if off <= margin * la {
+                        let t0 = (r.0 * da.0 + r.1 * da.1) / (la * la);
+                        let t1 = ((b1[0] - a0[0]) * da.0 + (b1[1] - a0[1]) * da.1) / (la * la);
+                        if t0.max(t1) >= 0.0 && t0.min(t1) <= 1.0 {
+                            return false;
+                        }
+                    }
+                    continue;
+                }
+                let s_ = (r.0 * db.1 - r.1 * db.0) / den;
+                let t = (r.0 * da.1 - r.1 * da.0) / den;
+                if !(-eps..=1.0 + eps).contains(&s_) || !(-eps..=1.0 + eps).contains(&t) {
+                    continue;
+                }
+                if s_ < eps || s_ > 1.0 - eps || t < eps || t > 1.0 - eps {
+                    return false; // a crossing on a joint
+                }
+                let ha = a0[2] + (a1[2] - a0[2]) * s_;
+                let hb = b0[2] + (b1[2] - b0[2]) * t;
+                if (ha - hb).abs() <= margin {
+                    return false; // the strands meet in space
+                }
+                let a_over = ha > hb;
+                let x = d.sign.len();
+                let (dover, dunder) = if a_over { (da, db) } else { (db, da) };
+                let c = dover.0 * dunder.1 - dover.1 * dunder.0;
+                d.sign.push(if c > 0.0 { 1 } else { -1 });
+                self.passages.push((
+                    i as f64 + s_,
+                    Passage {
+                        crossing: x,
+                        over: a_over,
+                    },
+                ));
+                self.passages.push((
+                    j as f64 + t,
+                    Passage {
+                        crossing: x,
+                        over: !a_over,
+                    },
+                ));
+            }
+            self.active.push(s as u32);
+        }
+        self.passages.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        if self.passages.windows(2).any(|w| w[1].0 - w[0].0 < eps) {
+            return false; // two crossings at one point of the rope
+        }
+        d.seq.extend(self.passages.iter().map(|p| p.1));
+        true
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Passage {
     crossing: usize,
@@ -277,7 +572,7 @@ struct Passage {
 }
 
 /// A knot diagram: the cyclic sequence of passages and, per crossing, its sign (+1 right-handed).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 struct Diagram {
     seq: Vec<Passage>,
     sign: Vec<i8>,
@@ -287,91 +582,8 @@ impl Diagram {
     /// Projects the closed polygon `p` (the last point joins the first) along `view`. `None` for a
     /// degenerate view.
     fn project(p: &[Vector3<f64>], view: &Vector3<f64>) -> Option<Diagram> {
-        // A frame with e1 × e2 = view, so the picture is the one seen from +view (over = larger depth).
-        let e1 = view.cross(&Vector3::new(0.577, -0.211, 0.789)).normalize();
-        let e2 = view.cross(&e1);
-        let m = p.len();
-        let q: Vec<(f64, f64, f64)> = p
-            .iter()
-            .map(|x| (x.dot(&e1), x.dot(&e2), x.dot(view)))
-            .collect();
-        let scale = q
-            .iter()
-            .map(|x| x.0.abs().max(x.1.abs()))
-            .fold(0.0, f64::max);
-        let eps = 1e-9;
-        let mut passages: Vec<(f64, Passage)> = Vec::new();
-        let mut sign = Vec::new();
-        for i in 0..m {
-            let (a0, a1) = (q[i], q[(i + 1) % m]);
-            for j in i + 2..m {
-                if i == 0 && j == m - 1 {
-                    continue;
-                }
-                let (b0, b1) = (q[j], q[(j + 1) % m]);
-                let da = (a1.0 - a0.0, a1.1 - a0.1);
-                let db = (b1.0 - b0.0, b1.1 - b0.1);
-                let den = da.0 * db.1 - da.1 * db.0;
-                let r = (b0.0 - a0.0, b0.1 - a0.1);
-                let la = da.0.hypot(da.1);
-                let lb = db.0.hypot(db.1);
-                if den.abs() <= 1e-12 * la * lb {
-                    // Parallel: a degenerate view only if the segments overlap on one line.
-                    let off = (r.0 * da.1 - r.1 * da.0).abs();
-                    if off <= 1e-9 * scale.max(1.0) * la {
-                        let t0 = (r.0 * da.0 + r.1 * da.1) / (la * la);
-                        let t1 = ((b1.0 - a0.0) * da.0 + (b1.1 - a0.1) * da.1) / (la * la);
-                        if t0.max(t1) >= 0.0 && t0.min(t1) <= 1.0 {
-                            return None;
-                        }
-                    }
-                    continue;
-                }
-                let s = (r.0 * db.1 - r.1 * db.0) / den;
-                let t = (r.0 * da.1 - r.1 * da.0) / den;
-                if !(-eps..=1.0 + eps).contains(&s) || !(-eps..=1.0 + eps).contains(&t) {
-                    continue;
-                }
-                if s < eps || s > 1.0 - eps || t < eps || t > 1.0 - eps {
-                    return None; // a crossing on a joint
-                }
-                let ha = a0.2 + (a1.2 - a0.2) * s;
-                let hb = b0.2 + (b1.2 - b0.2) * t;
-                if (ha - hb).abs() <= 1e-9 * scale.max(1.0) {
-                    return None; // the strands meet in space
-                }
-                let a_over = ha > hb;
-                let x = sign.len();
-                // Right-handed (positive) when the over strand turns counterclockwise onto the under one.
-                let (dover, dunder) = if a_over { (da, db) } else { (db, da) };
-                let c = dover.0 * dunder.1 - dover.1 * dunder.0;
-                sign.push(if c > 0.0 { 1 } else { -1 });
-                passages.push((
-                    i as f64 + s,
-                    Passage {
-                        crossing: x,
-                        over: a_over,
-                    },
-                ));
-                passages.push((
-                    j as f64 + t,
-                    Passage {
-                        crossing: x,
-                        over: !a_over,
-                    },
-                ));
-            }
-        }
-        passages.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for w in passages.windows(2) {
-            if w[1].0 - w[0].0 < eps {
-                return None; // two crossings at one point of the rope
-            }
-        }
-        Some(Diagram {
-            seq: passages.into_iter().map(|p| p.1).collect(),
-            sign,
-        })
+        let mut d = Diagram::default();
+        Sweep::default().project(p, view, &mut d).then_some(d)
     }
 
     fn crossings(&self) -> usize {
@@ -392,10 +604,17 @@ impl Diagram {
 
     /// Applies Reidemeister I and II moves until none applies.
     fn reduced(mut self) -> Diagram {
+        self.reduce(&mut Vec::new());
+        self
+    }
+
+    /// Reduces the diagram in place by Reidemeister moves I and II until neither applies: `at` is a
+    /// buffer for where each crossing is passed, so each round is linear in the passages.
+    fn reduce(&mut self, at: &mut Vec<[usize; 2]>) {
         loop {
             let n = self.seq.len();
             if n == 0 {
-                return self;
+                return;
             }
             // I: a crossing passed twice in a row (a kink).
             if let Some(k) =
@@ -405,28 +624,32 @@ impl Diagram {
                 continue;
             }
             // II: crossings X, Y passed in a row over-over, and in a row (either order) under-under.
-            let mut found = None;
-            'outer: for k in 0..n {
+            // A crossing's other passage is the other way over, so it is enough that the other
+            // passages of two passages in a row, both over or both under, are in a row too.
+            at.clear();
+            at.resize(self.sign.len(), [usize::MAX; 2]);
+            for (k, p) in self.seq.iter().enumerate() {
+                at[p.crossing][usize::from(p.over)] = k;
+            }
+            let other = |p: &Passage| at[p.crossing][usize::from(!p.over)];
+            let found = (0..n).find_map(|k| {
                 let (a, b) = (self.seq[k], self.seq[(k + 1) % n]);
                 if a.over != b.over {
-                    continue;
+                    return None;
                 }
-                for l in 0..n {
-                    if l == k {
-                        continue;
-                    }
-                    let (c, d) = (self.seq[l], self.seq[(l + 1) % n]);
-                    let same = (c.crossing == a.crossing && d.crossing == b.crossing)
-                        || (c.crossing == b.crossing && d.crossing == a.crossing);
-                    if same && c.over != a.over && d.over != a.over {
-                        found = Some([k, (k + 1) % n, l, (l + 1) % n]);
-                        break 'outer;
-                    }
+                let (oa, ob) = (other(&a), other(&b));
+                let next = |x: usize| (x + 1) % n;
+                if next(oa) == ob {
+                    Some([k, (k + 1) % n, oa, ob])
+                } else if next(ob) == oa {
+                    Some([k, (k + 1) % n, ob, oa])
+                } else {
+                    None
                 }
-            }
+            });
             match found {
                 Some(idx) => self.remove(&idx),
-                None => return self,
+                None => return,
             }
         }
     }

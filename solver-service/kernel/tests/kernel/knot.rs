@@ -320,3 +320,66 @@ fn knots_in_series_are_found_and_single_knots_are_not() {
     let straight: Vec<V> = (0..60).map(|i| V::new(i as f64, 0.0, 0.0)).collect();
     assert!(series(&straight, 24).is_none());
 }
+
+/// The fast namer (`Namer`, one closure, remembered diagrams) names every hand-built rope above as
+/// its construction says, perturbed or not, and moved or turned as a whole; a diagram it has named
+/// is not evaluated again.
+#[test]
+fn the_fast_namer_names_the_hand_built_ropes() {
+    use tractrix::knot::Namer;
+    let five_one = closed_braid(&[1, 1, 1, 1, 1], 2, 16);
+    let cases: Vec<(Vec<V>, KnotType, &str)> = vec![
+        (overhand(0.0, 1.0, 150), KnotType::Trefoil, "trefoil"),
+        (overhand(0.0, -1.0, 150), KnotType::Trefoil, "mirror"),
+        (two_knots(1.0, -1.0), KnotType::Square, "square"),
+        (two_knots(1.0, 1.0), KnotType::Granny, "granny"),
+        (unknotted_curl(150), KnotType::Unknot, "curl"),
+        (five_one.clone(), KnotType::DoubleOverhand, "5₁"),
+        (
+            closed_braid(&[1, 1, 1, 2, -1, 2], 3, 16),
+            KnotType::Other,
+            "5₂",
+        ),
+        (closed_braid(&[1, -2, 1, -2], 3, 40), KnotType::Other, "4₁"),
+        (
+            vec![V::zeros(), V::x(), V::new(2.0, 0.0, 0.0)],
+            KnotType::Unknot,
+            "straight",
+        ),
+    ];
+    // The surgeon's knot: the double overhand and whichever overhand makes it (see above).
+    let surgeons = [1.0, -1.0]
+        .into_iter()
+        .map(|hand| in_series(five_one.clone(), &overhand(0.0, hand, 150)))
+        .find(|r| identify(r).kind == KnotType::Surgeons)
+        .expect("one composition is the surgeon's");
+    let mut rng = Rng(0xFA57);
+    let turn = nalgebra::Rotation3::from_euler_angles(0.4, -1.1, 2.3);
+    for (rope, want, what) in cases
+        .into_iter()
+        .chain([(surgeons, KnotType::Surgeons, "surgeon's")])
+    {
+        let mut namer = Namer::new();
+        let got = namer.name(&rope);
+        assert_eq!(
+            got,
+            want,
+            "{what}: {} crossings, identify {:?}",
+            namer.crossings(),
+            identify(&rope).crossings
+        );
+        let evaluated = namer.evaluations();
+        assert_eq!(namer.name(&rope), want, "{what}, again");
+        assert_eq!(namer.evaluations(), evaluated, "{what}: remembered");
+        let moved: Vec<V> = rope
+            .iter()
+            .map(|p| turn * p + V::new(3.0, -7.0, 11.0))
+            .collect();
+        assert_eq!(namer.name(&moved), want, "{what}, moved and turned");
+        for draw in 0..10 {
+            let p = perturbed(&rope, 0.1, &mut rng);
+            assert_eq!(namer.name(&p), want, "{what}, draw {draw}");
+            assert_eq!(Namer::new().name(&p), want, "{what}, draw {draw}, new");
+        }
+    }
+}
