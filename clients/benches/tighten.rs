@@ -81,6 +81,8 @@ struct Row {
     pulls: Vec<String>,
     crossings: String,
     seconds: f64,
+    /// `watch --name-knots`'s line for the chain (`clients::naming::Naming`).
+    naming: Option<String>,
 }
 
 fn wait(c: &mut std::process::Child, started: Instant, what: &str) -> Result<()> {
@@ -111,7 +113,14 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
     let mut children = Children(Vec::new());
     children.0.push(
         Command::new(release_bin("watch")?)
-            .args(["--prefix", &prefix, "--chain", chain, "--crossings"])
+            .args([
+                "--prefix",
+                &prefix,
+                "--chain",
+                chain,
+                "--crossings",
+                "--name-knots",
+            ])
             .args(["--duration", "1800"])
             .stdout(Stdio::null())
             .stderr(std::fs::File::create(&watch_log)?)
@@ -167,6 +176,10 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         .and_then(|l| l.split(';').next())
         .unwrap_or("?")
         .to_string();
+    let naming = watched
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("watch: knot names of {chain}: ")))
+        .map(str::to_string);
     let knot = out
         .lines()
         .find_map(|l| l.strip_prefix("knot: "))
@@ -193,7 +206,16 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         pulls,
         crossings,
         seconds,
+        naming,
     })
+}
+
+/// The numbers of a `clients::naming::Naming` line, in its order: states, joints, p50, p99, p99.9,
+/// max, evaluated, agreeing, sampled.
+fn naming_numbers(line: &str) -> Vec<f64> {
+    line.split(|c: char| c.is_whitespace() || c == ';')
+        .filter_map(|w| w.parse::<f64>().ok())
+        .collect()
 }
 
 fn main() -> Result<()> {
@@ -202,6 +224,7 @@ fn main() -> Result<()> {
         .map(|s| s.split(',').map(str::to_string).collect())
         .unwrap_or_default();
     let dir = tempfile::tempdir()?;
+    let mut names: Vec<String> = Vec::new();
     println!(
         "| script | chain | links | the script's knot | knot at the end (named by the service) | knotted stretch (rope diameters) | ideal (diameters) | stretch ÷ ideal | how the pulls ended | crossings between consecutive states (swept-volume check) | seconds (tie and tighten) |"
     );
@@ -233,11 +256,42 @@ fn main() -> Result<()> {
                     r.crossings,
                     r.seconds
                 );
+                let aim = match links {
+                    40 => "≤ 20",
+                    320 => "≤ 200",
+                    _ => "—",
+                };
+                names.push(match r.naming.as_deref().map(naming_numbers).as_deref() {
+                    Some(&[states, _, p50, p99, p999, max, evaluated, agreeing, sampled]) => format!(
+                        "| `{script}` | `{chain}` | {links} | {states:.0} | {p50:.1} | {p99:.1} | {p999:.1} | {max:.1} | {aim} | {evaluated:.0} ({:.1} %) | {agreeing:.0} of {sampled:.0} |",
+                        100.0 * evaluated / states.max(1.0)
+                    ),
+                    _ => format!(
+                        "| `{script}` | `{chain}` | {links} | no line from watch: {:?} | — | — | — | — | {aim} | — | — |",
+                        r.naming
+                    ),
+                });
             }
             Err(e) => println!(
                 "| `{script}` | `{chain}` | {links} | {knot} | failed: {} | — | — | — | — | — | — |",
                 format!("{e:#}").replace('|', "/")
             ),
+        }
+    }
+    if !names.is_empty() {
+        println!(
+            "\nThe knot's name with every state: every state `watch` read in the rows above, named in order by \
+             one `tractrix::knot::Namer` after the row (the service and hands stopped), each call timed. \
+             *new diagrams*: states whose reduced diagram the namer had not seen among its last 64, so \
+             its Jones polynomial was computed; *agrees with identify*: of 100 states spread over the \
+             row and the last, those the six-closure `identify` names the same.\n"
+        );
+        println!(
+            "| script | chain | links | states named | µs per state, p50 | p99 | p99.9 | max | aim (µs) | new diagrams | agrees with identify |"
+        );
+        println!("|---|---|---:|---:|---:|---:|---:|---:|---|---:|---:|");
+        for n in names {
+            println!("{n}");
         }
     }
     Ok(())

@@ -9,6 +9,7 @@ pub mod connection;
 pub mod hand;
 pub mod latency;
 pub mod latency_bench;
+pub mod naming;
 pub mod process;
 pub mod reach;
 pub mod render;

@@ -84,6 +84,12 @@ struct Args {
     /// service), and it reports the states it missed.
     #[arg(long)]
     crossings: bool,
+    /// Keep every state of each free chain with thickness, and when the stream ends name each one
+    /// in order with the fast knot namer (`tractrix::knot::Namer`), timed, and a sample with the
+    /// six-closure identification; print one line per chain (`clients::naming`). Needs every
+    /// state (`--state-buffer` on the service).
+    #[arg(long)]
+    name_knots: bool,
     #[command(flatten)]
     service: ToolArgs,
 }
@@ -215,6 +221,7 @@ fn run(a: Args) -> Result<u8> {
         writeln!(w, "sequence,chain,command,request_id,joint,x,y,z")?;
     }
     let mut crossings = Crossings::default();
+    let mut kept: HashMap<u32, Vec<Vec<nalgebra::Vector3<f64>>>> = HashMap::new();
     if let Some(dir) = &a.svg {
         std::fs::create_dir_all(dir).with_context(|| format!("create {}", dir.display()))?;
     }
@@ -262,6 +269,14 @@ fn run(a: Args) -> Result<u8> {
             }
             if a.crossings && info.free && info.bundle.is_none() && info.thickness > 0.0 {
                 crossings.state(h.sequence, h.chain, &joints, info.thickness);
+            }
+            if a.name_knots && info.free && info.bundle.is_none() && info.thickness > 0.0 {
+                kept.entry(h.chain).or_default().push(
+                    joints
+                        .iter()
+                        .map(|p| nalgebra::Vector3::new(p[0], p[1], p[2]))
+                        .collect(),
+                );
             }
             if let Some(w) = &mut csv {
                 let cmd = Command::from_u32(h.command).map_or("unknown", |c| c.name());
@@ -322,6 +337,13 @@ fn run(a: Args) -> Result<u8> {
         v.finish()?;
     }
     tally.report(states, frames);
+    let mut named: Vec<_> = kept.into_iter().collect();
+    named.sort_by_key(|c| c.0);
+    for (c, states) in named {
+        let name = chains.get(&c).map_or("?", |i| i.name.as_str());
+        let n = clients::naming::name_states(&states, 100);
+        eprintln!("watch: knot names of {name}: {n}");
+    }
     if a.crossings {
         crossings.report();
         if crossings.count > 0 {

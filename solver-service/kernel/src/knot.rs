@@ -172,7 +172,7 @@ pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
 pub const NAMER_CROSSINGS: usize = 12;
 
 /// How many diagrams a [`Namer`] remembers with their names.
-pub const NAMER_MEMORY: usize = 16;
+pub const NAMER_MEMORY: usize = 64;
 
 /// Names a rope's knot fast enough to ask with every state (a haptic frame, a published state): the
 /// incremental form of [`identify`].
@@ -180,7 +180,8 @@ pub const NAMER_MEMORY: usize = 16;
 /// It closes the rope once, through a point far away in the direction its two ends leave the rope's
 /// centroid (three times the rope's radius out, as [`identify`] closes it: the ends are extended
 /// outward and joined round the outside), takes the first generic view of that closed curve (of three;
-/// the next when moves I and II leave more crossings than the namer evaluates), finds its crossings
+/// the next when moves I and II leave more crossings than the namer evaluates, and when none of the
+/// three is small enough, the views of [`identify`]'s closures in turn), finds its crossings
 /// by a sweep along the picture (segments whose ranges overlap, not every pair), and reduces the
 /// diagram by Reidemeister moves I and II in place. The reduced diagram, as a code (its
 /// passages in order along the rope, crossings numbered as first met, each over or under and its
@@ -202,7 +203,7 @@ pub struct Namer {
     at: Vec<[usize; 2]>,
     label: Vec<u32>,
     code: Vec<u32>,
-    known: Vec<(Vec<u32>, KnotType)>,
+    known: Vec<(u64, Vec<u32>, KnotType)>,
     next: usize,
     evaluations: u64,
     crossings: usize,
@@ -274,9 +275,9 @@ impl Namer {
             (Some(u), None) | (None, Some(u)) => Some(u),
             (None, None) => None,
         };
-        // The first closure with a generic view; of its generic views the first whose reduced
-        // diagram is within the limit (a view can leave crossings that moves I and II cannot
-        // remove), else the smallest.
+        // The first generic view whose reduced diagram is within the limit (a view can leave
+        // crossings that moves I and II cannot remove), of the ends' closure, else of the next
+        // closures; else the smallest seen.
         let mut best: Option<usize> = None;
         for u in ends.into_iter().chain(closure_directions()) {
             self.closed.clear();
@@ -296,13 +297,14 @@ impl Namer {
                     break;
                 }
             }
-            if best.is_some() {
+            if best.is_some_and(|b| b <= self.limit) {
                 break;
             }
         }
-        if best.is_none() {
+        let Some(crossings) = best else {
             return KnotType::Other;
-        }
+        };
+        self.crossings = crossings;
         // The reduced diagram's code.
         self.label.clear();
         self.label.resize(self.diagram.sign.len(), u32::MAX);
@@ -317,7 +319,15 @@ impl Namer {
             self.code
                 .push(self.label[p.crossing] << 2 | u32::from(p.over) << 1 | u32::from(positive));
         }
-        if let Some((_, kind)) = self.known.iter().find(|(c, _)| *c == self.code) {
+        // FNV-1a of the code: the memory is searched by it, then the code compared.
+        let hash = self.code.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &c| {
+            (h ^ u64::from(c)).wrapping_mul(0x100_0000_01b3)
+        });
+        if let Some((_, _, kind)) = self
+            .known
+            .iter()
+            .find(|(h, c, _)| *h == hash && *c == self.code)
+        {
             return *kind;
         }
         self.evaluations += 1;
@@ -326,7 +336,7 @@ impl Namer {
         } else {
             self.diagram.name()
         };
-        let entry = (self.code.clone(), kind);
+        let entry = (hash, self.code.clone(), kind);
         if self.known.len() < NAMER_MEMORY {
             self.known.push(entry);
         } else {
