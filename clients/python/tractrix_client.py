@@ -43,6 +43,15 @@ FLAG_IN_BOX = 16  # reach: (corner lo, corner hi); no motion inside
 FLAG_IN_BALL = 32  # reach: (centre, (radius, 0, 0)); no motion inside
 FLAG_SMOOTH = 64  # path: the natural cubic spline through the joint and the points (C2)
 FLAG_PULL = 128  # move, instrument: as far as the rope lets; the rest is the pull (see `pulls`)
+
+# The `knot` field of a response: the chain's knot when its scene asks for it (`knot = true`).
+KNOTS = {1: "unknot", 2: "trefoil", 3: "square", 4: "granny", 5: "double-overhand",
+         6: "surgeons", 7: "other"}
+
+
+def knot(h) -> str | None:
+    """The knot the response names (`None` when the chain's scene does not ask for it)."""
+    return KNOTS.get(h.knot)
 KIND = ["free", "fixed-base", "bundle"]
 
 CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
@@ -120,7 +129,8 @@ class ResponseHeader(ctypes.Structure):
         ("limits", ctypes.c_uint32),
         ("limit_value", ctypes.c_double),
         ("n_pulls", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32 * 3),
+        ("knot", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32 * 2),
     ]
 
     @staticmethod
@@ -136,7 +146,8 @@ _LAYOUT = {
     ResponseHeader: (288, {"status": 0, "n_joints": 12, "sequence": 32, "residual": 56,
                            "n_chains": 64, "n_links": 76, "n_held": 100, "max_step": 104, "name": 128,
                            "reason": 160, "n_instruments": 256, "limits": 260,
-                           "limit_value": 264, "n_pulls": 272, "reserved": 276}),
+                           "limit_value": 264, "n_pulls": 272, "knot": 276,
+                           "reserved": 280}),
 }
 for _t, (_size, _offsets) in _LAYOUT.items():
     assert ctypes.sizeof(_t) == _size, (_t, ctypes.sizeof(_t))
@@ -433,6 +444,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         out["instruments"] = instruments(h, elements)
     if h.n_pulls:
         out["pulls"] = pulls(h, elements)
+    if knot(h):
+        out["knot"] = knot(h)
     if a.cmd == "describe":
         out["name"] = _text(h.name)
         out["total_length"] = h.total_length

@@ -89,6 +89,17 @@
 #define TRACTRIX_LIMITS_CONES 3u
 #define TRACTRIX_LIMITS_RANGES 4u
 
+/* The knot field of a response and a state: the chain's knot, for a chain whose scene asks for it
+ * (knot = true); TRACTRIX_KNOT_NOT_ASKED otherwise. */
+#define TRACTRIX_KNOT_NOT_ASKED 0u
+#define TRACTRIX_KNOT_UNKNOT 1u
+#define TRACTRIX_KNOT_TREFOIL 2u
+#define TRACTRIX_KNOT_SQUARE 3u
+#define TRACTRIX_KNOT_GRANNY 4u
+#define TRACTRIX_KNOT_DOUBLE_OVERHAND 5u
+#define TRACTRIX_KNOT_SURGEONS 6u
+#define TRACTRIX_KNOT_OTHER 7u
+
 #define TRACTRIX_TYPE_NAME_VEC3 "tractrix.v2.Vec3"
 #define TRACTRIX_TYPE_NAME_REQUESTHEADER "tractrix.v2.RequestHeader"
 #define TRACTRIX_TYPE_NAME_RESPONSEHEADER "tractrix.v2.ResponseHeader"
@@ -197,7 +208,8 @@ typedef struct tractrix_ResponseHeader {
     uint32_t limits; /* offset 260 */
     double limit_value; /* offset 264 */
     uint32_t n_pulls; /* offset 272 */
-    uint32_t reserved[3]; /* offset 276 */
+    uint32_t knot; /* offset 276 */
+    uint32_t reserved[2]; /* offset 280 */
 } tractrix_ResponseHeader;
 
 /* 48 bytes, align 8. */
@@ -210,7 +222,8 @@ typedef struct tractrix_StateHeader {
     uint64_t request_id; /* offset 24 */
     uint32_t n_instruments; /* offset 32 */
     uint32_t n_pulls; /* offset 36 */
-    uint32_t reserved[2]; /* offset 40 */
+    uint32_t knot; /* offset 40 */
+    uint32_t reserved; /* offset 44 */
 } tractrix_StateHeader;
 
 #ifdef __cplusplus
@@ -273,7 +286,8 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_instruments) == 256, 
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limits) == 260, "tractrix_ResponseHeader.limits offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limit_value) == 264, "tractrix_ResponseHeader.limit_value offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_pulls) == 272, "tractrix_ResponseHeader.n_pulls offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 276, "tractrix_ResponseHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, knot) == 276, "tractrix_ResponseHeader.knot offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 280, "tractrix_ResponseHeader.reserved offset");
 
 TRACTRIX_STATIC_ASSERT(sizeof(tractrix_StateHeader) == 48, "tractrix_StateHeader size");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, sequence) == 0, "tractrix_StateHeader starts with sequence");
@@ -284,6 +298,7 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_held) == 20, "tractrix_S
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, request_id) == 24, "tractrix_StateHeader.request_id offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_instruments) == 32, "tractrix_StateHeader.n_instruments offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_pulls) == 36, "tractrix_StateHeader.n_pulls offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, reserved) == 40, "tractrix_StateHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, knot) == 40, "tractrix_StateHeader.knot offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, reserved) == 44, "tractrix_StateHeader.reserved offset");
 
 #endif /* TRACTRIX_H */

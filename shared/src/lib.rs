@@ -122,7 +122,8 @@
 //! | | limits | 260 | uint32_t |
 //! | | limit_value | 264 | double |
 //! | | n_pulls | 272 | uint32_t |
-//! | | reserved | 276 | `uint32_t[3]` |
+//! | | knot | 276 | uint32_t |
+//! | | reserved | 280 | `uint32_t[2]` |
 //! | StateHeader (48 B, align 8) | sequence | 0 | uint64_t |
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
@@ -131,7 +132,8 @@
 //! | | request_id | 24 | uint64_t |
 //! | | n_instruments | 32 | uint32_t |
 //! | | n_pulls | 36 | uint32_t |
-//! | | reserved | 40 | `uint32_t[2]` |
+//! | | knot | 40 | uint32_t |
+//! | | reserved | 44 | uint32_t |
 //! <!-- layout-table-end -->
 //!
 //! Service names carry no version on purpose: a peer of another protocol version finds the service and
@@ -142,8 +144,9 @@
 //! Versions: v1 had no instruments in payloads and no reserved tail in the response and state headers;
 //! v2 adds `n_instruments` (and the instruments' elements) and zeroed `reserved` words for later fields;
 //! `limits` and `limit_value` (a describe's joint limits, [`LIMITS_NONE`] and the rest) took three of
-//! them within v2 (a v2 peer that does not know them reads zeros: no limits), and `n_pulls` one more
-//! in each header (a v2 peer that does not know it reads the pulls as trailing elements it ignores).
+//! them within v2 (a v2 peer that does not know them reads zeros: no limits), `n_pulls` one more
+//! in each header (a v2 peer that does not know it reads the pulls as trailing elements it ignores),
+//! and `knot` one more in each (a v2 peer that does not know it reads zero: not asked).
 //!
 //! # Enumerations (all `uint32_t`)
 //!
@@ -845,8 +848,43 @@ pub struct ResponseHeader {
     /// from where that joint's or instrument's owner last asked it to be to where the rope let it be:
     /// zero while the rope is slack ([`FLAG_PULL`], docs/tension.md).
     pub n_pulls: u32,
+    /// The knot of the chain after the request, for a chain whose scene asks for it (`knot = true`):
+    /// [`KNOT_UNKNOT`] and the rest ([`knot_name`]); [`KNOT_NOT_ASKED`] (0) otherwise.
+    pub knot: u32,
     /// Must be zero (room for later fields without a layout change).
-    pub reserved: [u32; 3],
+    pub reserved: [u32; 2],
+}
+
+/// [`ResponseHeader::knot`] and [`StateHeader::knot`]: the chain's scene does not ask for its knot.
+pub const KNOT_NOT_ASKED: u32 = 0;
+/// No knot.
+pub const KNOT_UNKNOT: u32 = 1;
+/// The overhand knot (the trefoil), either hand.
+pub const KNOT_TREFOIL: u32 = 2;
+/// The square (reef) knot.
+pub const KNOT_SQUARE: u32 = 3;
+/// The granny knot.
+pub const KNOT_GRANNY: u32 = 4;
+/// The double overhand knot (5₁), the surgeon's first throw.
+pub const KNOT_DOUBLE_OVERHAND: u32 = 5;
+/// The surgeon's knot.
+pub const KNOT_SURGEONS: u32 = 6;
+/// Any other knot (or a diagram too large to name at this rate).
+pub const KNOT_OTHER: u32 = 7;
+
+/// The name of a [`ResponseHeader::knot`] or [`StateHeader::knot`] code, as the tools print it
+/// (`None` for [`KNOT_NOT_ASKED`] and unknown codes).
+pub fn knot_name(code: u32) -> Option<&'static str> {
+    const NAMES: [&str; 7] = [
+        "unknot",
+        "trefoil",
+        "square",
+        "granny",
+        "double-overhand",
+        "surgeons",
+        "other",
+    ];
+    NAMES.get((code as usize).checked_sub(1)?).copied()
 }
 
 /// A describe's [`ResponseHeader::limits`]: the chain has no joint limits.
@@ -894,7 +932,8 @@ impl Default for ResponseHeader {
             limits: 0,
             limit_value: 0.0,
             n_pulls: 0,
-            reserved: [0; 3],
+            knot: 0,
+            reserved: [0; 2],
         }
     }
 }
@@ -944,8 +983,10 @@ pub struct StateHeader {
     pub n_instruments: u32,
     /// Pulls after the instruments in the payload (as in a response).
     pub n_pulls: u32,
+    /// The chain's knot after the change (as in a response: 0 when its scene does not ask).
+    pub knot: u32,
     /// Must be zero (room for later fields without a layout change).
-    pub reserved: [u32; 2],
+    pub reserved: u32,
 }
 
 /// One instrument as a payload carries it ([`INSTRUMENT_ELEMENTS`] elements: `a`, `b`, then
@@ -1143,12 +1184,12 @@ wire_layout!(ResponseHeader, "tractrix.v2.ResponseHeader", size = 288, align = 8
     n_held: "uint32_t" @ 100, max_step: "double" @ 104, total_length: "double" @ 112,
     thickness: "double" @ 120, name: "uint8_t[32]" @ 128, reason: "uint8_t[96]" @ 160,
     n_instruments: "uint32_t" @ 256, limits: "uint32_t" @ 260, limit_value: "double" @ 264,
-    n_pulls: "uint32_t" @ 272, reserved: "uint32_t[3]" @ 276,
+    n_pulls: "uint32_t" @ 272, knot: "uint32_t" @ 276, reserved: "uint32_t[2]" @ 280,
 ]);
 wire_layout!(StateHeader, "tractrix.v2.StateHeader", size = 48, align = 8, [
     sequence: "uint64_t" @ 0, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12, command: "uint32_t" @ 16,
     n_held: "uint32_t" @ 20, request_id: "uint64_t" @ 24, n_instruments: "uint32_t" @ 32,
-    n_pulls: "uint32_t" @ 36, reserved: "uint32_t[2]" @ 40,
+    n_pulls: "uint32_t" @ 36, knot: "uint32_t" @ 40, reserved: "uint32_t" @ 44,
 ]);
 
 /// Every wire type's layout, in the order of the crate docs' table.

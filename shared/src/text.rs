@@ -356,6 +356,9 @@ pub struct TextResponse {
     /// A describe's joint limits in words ([`limits_text`]); empty otherwise.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub limits: String,
+    /// The chain's knot, when its scene asks for it ([`crate::knot_name`]); empty otherwise.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub knot: String,
 }
 
 /// A held joint in a text response.
@@ -415,6 +418,7 @@ impl TextResponse {
                 .map(|p| p.to_array())
                 .collect(),
             limits: limits_text(h.limits, h.limit_value),
+            knot: crate::knot_name(h.knot).unwrap_or_default().to_string(),
         }
     }
 }

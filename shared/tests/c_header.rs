@@ -117,6 +117,17 @@ fn assertions() -> String {
         ("LIMITS_CONE", u64::from(shared::LIMITS_CONE)),
         ("LIMITS_CONES", u64::from(shared::LIMITS_CONES)),
         ("LIMITS_RANGES", u64::from(shared::LIMITS_RANGES)),
+        ("KNOT_NOT_ASKED", u64::from(shared::KNOT_NOT_ASKED)),
+        ("KNOT_UNKNOT", u64::from(shared::KNOT_UNKNOT)),
+        ("KNOT_TREFOIL", u64::from(shared::KNOT_TREFOIL)),
+        ("KNOT_SQUARE", u64::from(shared::KNOT_SQUARE)),
+        ("KNOT_GRANNY", u64::from(shared::KNOT_GRANNY)),
+        (
+            "KNOT_DOUBLE_OVERHAND",
+            u64::from(shared::KNOT_DOUBLE_OVERHAND),
+        ),
+        ("KNOT_SURGEONS", u64::from(shared::KNOT_SURGEONS)),
+        ("KNOT_OTHER", u64::from(shared::KNOT_OTHER)),
     ] {
         check(format!("TRACTRIX_{name} == {v}u"));
     }

@@ -842,7 +842,8 @@ fn serve_one<S: Service, H: Handler>(
         request_id: request.request_id,
         n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize) as u32,
         n_pulls: parts.pulls.len() as u32,
-        reserved: [0; 2],
+        knot: header.knot,
+        reserved: 0,
     };
     let early = match publisher {
         Some(p) if !small => {

@@ -191,6 +191,9 @@ fn print(r: &TextResponse, json: bool) -> Result<()> {
             println!("  taut: from joint {} to the next held joint", h.joint);
         }
     }
+    if !r.knot.is_empty() {
+        println!("  knot: {}", r.knot);
+    }
     let pulls = r
         .held
         .iter()

@@ -495,6 +495,20 @@ fn goal(flags: u32, points: &[Point]) -> Result<Goal, Refusal> {
     })
 }
 
+/// The wire's code of a knot ([`shared::KNOT_UNKNOT`] and the rest).
+pub fn knot_code(k: tractrix::knot::KnotType) -> u32 {
+    use tractrix::knot::KnotType;
+    match k {
+        KnotType::Unknot => shared::KNOT_UNKNOT,
+        KnotType::Trefoil => shared::KNOT_TREFOIL,
+        KnotType::Square => shared::KNOT_SQUARE,
+        KnotType::Granny => shared::KNOT_GRANNY,
+        KnotType::DoubleOverhand => shared::KNOT_DOUBLE_OVERHAND,
+        KnotType::Surgeons => shared::KNOT_SURGEONS,
+        KnotType::Other => shared::KNOT_OTHER,
+    }
+}
+
 /// The response header of a request: from its outcome or its refusal. `sequence` is the state after it;
 /// `chains` is the scene's (for the description). The residual of a landing is measured by the serving
 /// loop once the joints are written (`crate::serve::Handled::landing`).
@@ -520,6 +534,7 @@ pub fn encode(
             h.n_held = o.held;
             h.n_instruments = o.instruments;
             h.n_pulls = o.pulls;
+            h.knot = o.knot.map_or(shared::KNOT_NOT_ASKED, knot_code);
             h.substeps = o.substeps;
             h.paper_fallbacks = o.paper_fallbacks;
             h.iterations = o.iterations;

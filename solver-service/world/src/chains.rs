@@ -49,6 +49,10 @@ pub struct World {
     owners: Owners,
     /// The collision work the kernel's meter charged the last request, in link-steps.
     last_work: u64,
+    /// A knot namer for each chain whose scene asks for its knot (`knot = true`), and the joints it
+    /// reads.
+    namers: Vec<Option<tractrix::knot::Namer>>,
+    knot_points: Vec<Point>,
     /// Tests: the next command panics after the kernel has run (a kernel bug, injected).
     #[cfg(test)]
     panic_after_kernel: bool,
@@ -85,6 +89,12 @@ impl World {
             undo: None,
             owners: Owners::new(scene.chains.len()),
             last_work: 0,
+            namers: scene
+                .chains
+                .iter()
+                .map(|c| c.knot.then(tractrix::knot::Namer::new))
+                .collect(),
+            knot_points: Vec::new(),
             #[cfg(test)]
             panic_after_kernel: false,
         })
@@ -407,12 +417,29 @@ impl World {
         self.undo = None;
         self.owners.begin();
         self.owners.check(client, req)?;
-        let outcome = self.apply_checked(req)?;
+        let mut outcome = self.apply_checked(req)?;
         if let Some(chain) = req.chain() {
             self.owners
                 .record(client, req, &self.specs[chain as usize].anchors);
         }
+        if let Some(chain) = outcome.chain {
+            outcome.knot = self.name_knot(chain);
+        }
         Ok(outcome)
+    }
+
+    /// The knot of `chain` as it is now, for a chain whose scene asks for it (`None` otherwise):
+    /// named by the chain's own [`tractrix::knot::Namer`], so a state whose reduced diagram it has
+    /// named before costs a projection and a lookup (BENCHMARKS, "The knot's name with every state").
+    pub fn name_knot(&mut self, chain: u32) -> Option<tractrix::knot::KnotType> {
+        let namer = self.namers.get_mut(chain as usize)?.as_mut()?;
+        let points = &mut self.knot_points;
+        points.clear();
+        each_form!(&self.geometry[chain as usize], h => {
+            let n = h.chain.n_links();
+            points.extend((0..=n).map(|j| to_point(&h.chain.joint(j))));
+        });
+        Some(namer.name(points))
     }
 
     /// A smooth path's samples: the natural cubic spline through the joint and `targets`, each

@@ -175,6 +175,8 @@ pub struct Answer {
     pub describe: bool,
     /// Whether a bundle answered (its change goes to the bundle stream, not the journal).
     pub bundle: bool,
+    /// The chain's knot after the command, when its scene asks for it (`knot = true`).
+    pub knot: Option<tractrix::knot::KnotType>,
 }
 
 /// The distance between where a joint should be and where it is.

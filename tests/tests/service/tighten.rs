@@ -88,7 +88,7 @@ fn finish(mut child: Child) -> String {
 /// Reads every state of `chain` from the stream on its own thread, asserting that none is missed.
 struct Recorder {
     stop: Arc<AtomicBool>,
-    handle: std::thread::JoinHandle<Vec<(u64, Vec<V>)>>,
+    handle: std::thread::JoinHandle<Vec<(u64, Vec<V>, u32)>>,
 }
 
 impl Recorder {
@@ -125,11 +125,12 @@ impl Recorder {
                                 .iter()
                                 .map(|q| V::new(q.x, q.y, q.z))
                                 .collect::<Vec<_>>(),
+                            h.knot,
                         )
                     })
                     .unwrap();
                 match got {
-                    Some((seq, c, pts)) => {
+                    Some((seq, c, pts, knot)) => {
                         idle_since = None;
                         if seq < next {
                             continue;
@@ -137,7 +138,7 @@ impl Recorder {
                         assert_eq!(seq, next, "a published state was missed");
                         next += 1;
                         if c == chain {
-                            states.push((seq, pts));
+                            states.push((seq, pts, knot));
                         }
                     }
                     None => {
@@ -159,7 +160,7 @@ impl Recorder {
         Recorder { stop, handle }
     }
 
-    fn finish(self) -> Vec<(u64, Vec<V>)> {
+    fn finish(self) -> Vec<(u64, Vec<V>, u32)> {
         self.stop.store(true, Ordering::Relaxed);
         self.handle.join().expect("the recorder")
     }
@@ -196,7 +197,7 @@ fn array(p: &[V]) -> Vec<[f64; 3]> {
 }
 
 /// Ties `builtin` on `chain` with two hands, then tightens it with two hands, checking every state.
-fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64) {
+fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64, knot: u32) {
     let svc = service();
     let mut c = svc.connect();
     let id = c.require_chain(chain).unwrap();
@@ -249,7 +250,7 @@ fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64) {
     // Every state: clearances kept; consecutive states: no link through another.
     assert!(states.len() > 1000, "{} states", states.len());
     let (mut closest, mut crossings) = (f64::INFINITY, 0);
-    for (k, (seq, pts)) in states.iter().enumerate() {
+    for (k, (seq, pts, _)) in states.iter().enumerate() {
         let d = clearance(pts);
         closest = closest.min(d);
         assert!(
@@ -274,7 +275,8 @@ fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64) {
     }
     assert_eq!(crossings, 0);
     // The knot: tied, and the same in every 25th state of the tightening and the last.
-    let tightening: Vec<&(u64, Vec<V>)> = states.iter().filter(|(s, _)| *s > tied_at).collect();
+    let tightening: Vec<&(u64, Vec<V>, u32)> =
+        states.iter().filter(|(s, _, _)| *s > tied_at).collect();
     assert!(
         tightening.len() > 20,
         "{} states of tightening",
@@ -282,11 +284,11 @@ fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64) {
     );
     let tied = states
         .iter()
-        .find(|(s, _)| *s == tied_at)
+        .find(|(s, _, _)| *s == tied_at)
         .map_or(&tightening[0].1, |s| &s.1);
     let (det, views) = tests::knot_check::determinant(&array(tied));
     assert_eq!((det, views >= 2), (determinant, true), "the tied knot");
-    for (k, (seq, pts)) in tightening.iter().enumerate() {
+    for (k, (seq, pts, _)) in tightening.iter().enumerate() {
         if k % 25 == 0 || k + 1 == tightening.len() {
             let (d, v) = tests::knot_check::determinant(&array(pts));
             assert_eq!(
@@ -296,6 +298,19 @@ fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64) {
             );
         }
     }
+    // The knot the service names with every state (the scene asks for it): the script's knot at the
+    // end, consistent with the determinant computed here.
+    let last = tightening.last().expect("states").2;
+    assert_eq!(
+        shared::knot_name(last),
+        shared::knot_name(knot),
+        "the knot the last state carries"
+    );
+    let named = states
+        .iter()
+        .filter(|s| s.2 != shared::KNOT_NOT_ASKED)
+        .count();
+    assert_eq!(named, states.len(), "every state carries the knot");
     println!(
         "{builtin}: {} states checked ({} of the tightening), closest links {closest:.4}, no crossing",
         states.len(),
@@ -305,10 +320,10 @@ fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64) {
 
 #[test]
 fn the_square_knot_at_160_links_tightens_with_no_link_through_another() {
-    tie_and_tighten("square-held", "hands-160", 9);
+    tie_and_tighten("square-held", "hands-160", 9, shared::KNOT_SQUARE);
 }
 
 #[test]
 fn the_surgeons_knot_at_160_links_tightens_with_no_link_through_another() {
-    tie_and_tighten("surgeons-knot", "tie-160", 15);
+    tie_and_tighten("surgeons-knot", "tie-160", 15, shared::KNOT_SURGEONS);
 }

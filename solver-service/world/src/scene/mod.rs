@@ -182,6 +182,9 @@ pub struct ChainSpec {
     pub anchors: Vec<u32>,
     /// Joint limits, only when the chain declares them.
     pub limits: Option<LimitSpec>,
+    /// Whether its knot is named with every answer and state (`knot = true`: free spatial chains;
+    /// [`tractrix::knot::Namer`]).
+    pub knot: bool,
 }
 
 /// A chain's joint limits as its scene declares them, in radians, one entry per joint (the ends'

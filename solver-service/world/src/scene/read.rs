@@ -98,6 +98,7 @@ pub(super) struct RawChain {
     pub max_bends: Field<Vec<f64>>,
     pub joint_range: Field<Vec<f64>>,
     pub joint_ranges: Field<Vec<Vec<f64>>>,
+    pub knot: Field<bool>,
 }
 
 /// 1-based line of a byte offset.

@@ -721,6 +721,18 @@ fn chain(
     )
     .line;
     let anchors = anchors(&f, kind, lengths.len())?;
+    let knot = match &c.knot {
+        Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
+            return Err(f.err(
+                k.span(),
+                "knot",
+                "a knot is named for free spatial chains (a rope), not planar or fixed-base ones"
+                    .into(),
+            ));
+        }
+        Some(k) => *k.get_ref(),
+        None => false,
+    };
     // Free chains must start where positions can hold their link lengths (requests beyond that are
     // refused as too far; a chain that starts there could never be moved).
     let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
@@ -783,6 +795,7 @@ fn chain(
         collision,
         anchors,
         limits,
+        knot,
         moves: MoveOptions {
             method,
             substeps,
