@@ -57,6 +57,13 @@ struct Args {
     /// Keep every Nth state of each chain for the SVG frames.
     #[arg(long, default_value_t = 1)]
     every: u64,
+    /// With --svg: draw only the last state of each chain, when the stream ends.
+    #[arg(long, requires = "svg")]
+    svg_last: bool,
+    /// With --svg: draw only the knotted stretch of a chain whose states carry its knot (the scene's
+    /// `knot = true`; `tractrix::knot::knotted_stretch`) and a fifth of its length either side.
+    #[arg(long, requires = "svg")]
+    svg_knot: bool,
     /// View of the frames, azimuth,elevation in degrees (default: planar chains from above, spatial
     /// ones oblique).
     #[arg(long)]
@@ -233,6 +240,7 @@ fn run(a: Args) -> Result<u8> {
     // Frames are drawn when the queue is empty (drawing takes about a millisecond, while the reader
     // thread goes on reading), at most one per idle turn, and all at the end.
     let mut pending = std::collections::VecDeque::new();
+    let mut last_frames: HashMap<u32, Pending> = HashMap::new();
     eprintln!("watch: listening (Ctrl-C to stop)");
     'outer: loop {
         // Drain what is waiting, then sleep a millisecond: a viewer need not spin.
@@ -295,7 +303,21 @@ fn run(a: Args) -> Result<u8> {
                     View::OBLIQUE
                 });
                 let per = info.bundle.map_or(joints.len(), |(per, _)| per);
-                pending.push_back((info.name.clone(), h.sequence, v, joints, info.planar, per));
+                let frame = (
+                    info.name.clone(),
+                    h.sequence,
+                    h.knot,
+                    v,
+                    joints,
+                    info.planar,
+                    per,
+                    a.svg_knot,
+                );
+                if a.svg_last {
+                    last_frames.insert(h.chain, frame);
+                } else {
+                    pending.push_back(frame);
+                }
             }
             if a.count.is_some_and(|c| states >= c) {
                 break 'outer;
@@ -325,7 +347,9 @@ fn run(a: Args) -> Result<u8> {
         }
     }
     if let Some(dir) = &a.svg {
-        for f in pending {
+        let mut last: Vec<_> = last_frames.into_values().collect();
+        last.sort_by_key(|f| f.1);
+        for f in pending.into_iter().chain(last) {
             frames += draw(dir, f)?;
         }
     }
@@ -664,17 +688,57 @@ impl Drop for Reader {
     }
 }
 
+/// The knotted stretch of a rope whose state names its knot (`knot`, the wire's code) and a fifth of
+/// its length either side; the whole rope when it names none or no stretch carries it.
+fn knotted_part(joints: &[[f64; 3]], knot: u32) -> Vec<[f64; 3]> {
+    use tractrix::knot::KnotType;
+    let kinds = [
+        KnotType::Trefoil,
+        KnotType::Square,
+        KnotType::Granny,
+        KnotType::DoubleOverhand,
+        KnotType::Surgeons,
+    ];
+    let Some(kind) = kinds
+        .into_iter()
+        .find(|k| shared::knot_name(knot) == Some(k.name()))
+    else {
+        return joints.to_vec();
+    };
+    let points: Vec<nalgebra::Vector3<f64>> = joints
+        .iter()
+        .map(|p| nalgebra::Vector3::new(p[0], p[1], p[2]))
+        .collect();
+    match tractrix::knot::knotted_stretch(&points, kind) {
+        Some((a, b)) => {
+            let margin = (b - a) / 5 + 1;
+            joints[a.saturating_sub(margin)..=(b + margin).min(joints.len() - 1)].to_vec()
+        }
+        None => joints.to_vec(),
+    }
+}
+
 /// A frame to draw: chain name, sequence, view, joints, planar, joints per polyline (a bundle's
 /// strand; all of them for a chain).
-type Pending = (String, u64, View, Vec<[f64; 3]>, bool, usize);
+/// A frame to draw: the chain's name, the state's sequence and knot code, the view, the joints,
+/// whether planar, joints per strand, whether to draw only the knotted stretch.
+type Pending = (String, u64, u32, View, Vec<[f64; 3]>, bool, usize, bool);
 
 fn draw(
     dir: &std::path::Path,
-    (name, sequence, view, joints, planar, per): Pending,
+    (name, sequence, knot, view, joints, planar, per, crop): Pending,
 ) -> Result<u64> {
+    let joints = if crop {
+        knotted_part(&joints, knot)
+    } else {
+        joints
+    };
     let file = dir.join(format!("{name}-{sequence:08}.svg"));
     let frame = Frame {
-        label: format!("{name} after change {sequence}"),
+        label: match shared::knot_name(knot) {
+            Some(k) => format!("{name} after change {sequence}: {k} (named by the service)"),
+            None => format!("{name} after change {sequence}"),
+        },
         lines: joints
             .chunks(per.max(1))
             .map(|s| Polyline {
