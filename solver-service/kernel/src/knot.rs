@@ -102,13 +102,7 @@ pub const MAX_EVALUATED_CROSSINGS: usize = 18;
 
 /// Names the knot tied in an open chain through `points` (joint positions, tail first).
 pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
-    let n = points.len().max(1) as f64;
-    let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p) / n;
-    let radius = points
-        .iter()
-        .map(|p| (p - centroid).norm())
-        .fold(0.0, f64::max)
-        .max(f64::MIN_POSITIVE);
+    let (centroid, radius) = centroid_and_radius(points);
     let mut tallies: Vec<(KnotType, u32, Option<Diagram>)> = Vec::new();
     let mut closures = 0;
     let mut closed: Vec<Vector3<f64>> = Vec::with_capacity(points.len() + 1);
@@ -257,13 +251,7 @@ impl Namer {
         let Some((&first, &last)) = points.first().zip(points.last()) else {
             return KnotType::Unknot;
         };
-        let n = points.len() as f64;
-        let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p) / n;
-        let radius = points
-            .iter()
-            .map(|p| (p - centroid).norm())
-            .fold(0.0, f64::max)
-            .max(f64::MIN_POSITIVE);
+        let (centroid, radius) = centroid_and_radius(points);
         let unit = |v: Vector3<f64>| v.try_normalize(1e-12 * radius);
         let (a, b) = (first - centroid, last - centroid);
         // The ends' direction; ends on opposite sides (a rope pulled straight) close to the side.
@@ -421,6 +409,19 @@ pub fn knotted_stretch(points: &[Vector3<f64>], kind: KnotType) -> Option<(usize
         }
     }
     best
+}
+
+/// The points' centroid and their largest distance from it (positive): where a rope is closed from,
+/// and the scale of the closing point's distance.
+fn centroid_and_radius(points: &[Vector3<f64>]) -> (Vector3<f64>, f64) {
+    let n = points.len().max(1) as f64;
+    let centroid = points.iter().fold(Vector3::zeros(), |a, p| a + p) / n;
+    let radius = points
+        .iter()
+        .map(|p| (p - centroid).norm())
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    (centroid, radius)
 }
 
 /// Six closure directions spread over the sphere, none along an axis (ropes are often laid out along
