@@ -165,6 +165,12 @@ pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
 /// state sum of 2^c terms: at 12 crossings about 4,000 states), and count as [`KnotType::Other`].
 pub const NAMER_CROSSINGS: usize = 12;
 
+/// Segment pairs a [`Namer`]'s sweep may test per point of the rope in one view.
+pub const NAMER_PAIRS_PER_POINT: usize = 64;
+
+/// Crossings a [`Namer`]'s view may have before reduction.
+pub const NAMER_RAW_CROSSINGS: usize = 1024;
+
 /// How many diagrams a [`Namer`] remembers with their names.
 pub const NAMER_MEMORY: usize = 64;
 
@@ -247,7 +253,14 @@ impl Namer {
 
     /// The knot tied in the open chain through `points` (joint positions, tail first), closed as the
     /// type's documentation says. [`KnotType::Other`] when no view of any closure tried is generic.
+    /// The work is bounded: each view tests at most [`NAMER_PAIRS_PER_POINT`] segment pairs per
+    /// point and finds at most [`NAMER_RAW_CROSSINGS`] crossings before it counts as not generic
+    /// (a crumpled rope whose every view crosses itself that often is `Other`).
     pub fn name(&mut self, points: &[Vector3<f64>]) -> KnotType {
+        self.sweep.budget = Some((
+            NAMER_PAIRS_PER_POINT * (points.len() + 1),
+            NAMER_RAW_CROSSINGS,
+        ));
         let Some((&first, &last)) = points.first().zip(points.last()) else {
             return KnotType::Unknot;
         };
@@ -455,6 +468,9 @@ fn projection_directions(u: &Vector3<f64>) -> [Vector3<f64>; 3] {
 /// segments whose x range the sweep is in, and the passages found.
 #[derive(Clone, Debug, Default)]
 struct Sweep {
+    /// At most this many segment pairs tested and crossings found per projection, when set (a
+    /// namer's bound on the work of one state); beyond it the view counts as not generic.
+    budget: Option<(usize, usize)>,
     q: Vec<[f64; 3]>,
     order: Vec<u32>,
     active: Vec<u32>,
@@ -497,12 +513,18 @@ impl Sweep {
         self.order
             .sort_unstable_by(|&a, &b| x_range(a as usize).0.total_cmp(&x_range(b as usize).0));
         self.active.clear();
+        let (max_pairs, max_crossings) = self.budget.unwrap_or((usize::MAX, usize::MAX));
+        let mut pairs = 0usize;
         for &s in &self.order {
             let s = s as usize;
             let (xs, _) = x_range(s);
             self.active
                 .retain(|&a| x_range(a as usize).1 >= xs - margin);
             let (ylo, yhi) = y_range(s);
+            pairs += self.active.len();
+            if pairs > max_pairs || d.sign.len() > max_crossings {
+                return false;
+            }
             for &a in &self.active {
                 let a = a as usize;
                 let (i, j) = (a.min(s), a.max(s));

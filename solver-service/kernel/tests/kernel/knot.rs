@@ -383,3 +383,24 @@ fn the_fast_namer_names_the_hand_built_ropes() {
         }
     }
 }
+
+/// The namer's work is bounded: a rope of 20,000 points crumpled into a ball (a random walk kept
+/// inside radius 3), whose every view crosses itself far more often than the namer evaluates, is
+/// `Other`; the same walk's first 30 points (a few crossings) are still named.
+#[test]
+fn the_fast_namer_gives_up_on_a_crumpled_rope() {
+    use tractrix::knot::{NAMER_RAW_CROSSINGS, Namer};
+    let mut rng = Rng(0xC2_0A1);
+    let mut p = V::zeros();
+    let mut walk = Vec::new();
+    for _ in 0..20_000 {
+        let step = V::new(rng.sym(1.0), rng.sym(1.0), rng.sym(1.0)).normalize() * 0.5;
+        p = if (p + step).norm() > 3.0 { p - step } else { p + step };
+        walk.push(p);
+    }
+    let mut namer = Namer::new();
+    assert_eq!(namer.name(&walk), KnotType::Other);
+    assert!(NAMER_RAW_CROSSINGS < 20_000);
+    let short = namer.name(&walk[..30]);
+    assert_eq!(short, identify(&walk[..30]).kind, "a short walk is named");
+}
