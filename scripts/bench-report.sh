@@ -7,7 +7,7 @@
 # together with the command itself; the `header` block gets the machine, the date and the commit. The
 # prose around the blocks says what the tables show, with no figures of its own.
 #
-#   scripts/bench-report.sh                  # about 45 minutes on a 2-core VM; rewrites BENCHMARKS.md
+#   scripts/bench-report.sh                  # about an hour on a 2-core VM; rewrites BENCHMARKS.md
 #   scripts/bench-report.sh --quick OUT.md   # a smoke run with tiny sizes, written to OUT.md instead
 #   scripts/bench-report.sh --only kernel,ik # some blocks only (the header is always rewritten)
 #
@@ -100,6 +100,8 @@ block contact "cargo bench -p clients --bench contact" \
   cargo bench -q -p clients --bench contact
 block tighten "cargo bench -p clients --bench tighten" \
   cargo bench -q -p clients --bench tighten
+block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p clients --bench knots" \
+  env KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-1000}" cargo bench -q -p clients --bench knots
 block budget "cargo bench -p solver-service --bench budget" \
   cargo bench -q -p solver-service --bench budget
 block journal "cargo bench -p solver-service --bench journal" \

@@ -816,6 +816,220 @@ fn bend_radius_table(runs: usize, only: Option<usize>) {
     }
 }
 
+/// The rope of the topology table: the knots bench's rope (40 units, 0.2 thick, capsule collision)
+/// straight along x, as a scene; the work budget of the shipped `knots.toml`.
+const TOPOLOGY_SCENE: &str = r#"
+budget = 2000000
+
+[[chain]]
+name = "rope"
+links = 40
+link_length = 1.0
+base = [0.0, 0.0, 0.0]
+axis = [1.0, 0.0, 0.0]
+thickness = 0.2
+collision = "capsules"
+"#;
+
+/// What one tie-and-tighten run of the topology table saw.
+#[derive(Default)]
+struct Checked {
+    tied: bool,
+    /// The knot after the tightening is the one tied.
+    kept: bool,
+    states: u64,
+    crossings: u64,
+    taut: usize,
+    jammed: usize,
+    /// Pulls that ended otherwise: refused, no direction, or the step limit.
+    other: usize,
+    /// The knotted stretch at the end, in rope diameters.
+    stretch: Option<f64>,
+}
+
+/// The joints of the world's rope.
+fn world_joints(w: &world::World) -> Vec<V> {
+    let n = w.specs()[0].lengths.len() + 1;
+    w.elements_with(0, false, false, false, false)
+        .take(n)
+        .collect()
+}
+
+/// A move of the world's rope.
+fn world_move<'a>(
+    w: &world::World,
+    joint: usize,
+    target: &'a [V],
+    pull: bool,
+) -> world::command::Command<'a> {
+    world::command::Command::Move {
+        chain: 0,
+        joint,
+        targets: target,
+        options: w.specs()[0].moves,
+        take_over: false,
+        smooth: false,
+        pull,
+    }
+}
+
+/// Ties `knot` by the fed loops on the rope held at both ends (`Ends::HeldFed`, perturbed by `rng`),
+/// then tightens it as `hand run --tighten 0.05` does (each end in turn, head first, pulled away from
+/// the knot with the pull flag, 0.05 per request, until it has moved less than a tenth of that for 8
+/// requests; twice round), all through a [`world::World`] in this process. Every accepted state is
+/// checked against the one before by the swept-volume check (`clients::check::crossings_between`).
+fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Checked {
+    use world::command::Command;
+    let mut w = world::World::new(scene).expect("the topology scene's world");
+    let n = w.specs()[0].lengths.len();
+    for joint in [0, n] {
+        w.apply(&Command::Grasp {
+            chain: 0,
+            joint,
+            take_over: false,
+        })
+        .expect("grasp an end");
+    }
+    let mut out = Checked::default();
+    let mut prev = world_joints(&w);
+    let check = |now: Vec<V>, prev: &mut Vec<V>, out: &mut Checked| {
+        out.states += 1;
+        let shortest = now
+            .windows(2)
+            .map(|p| (p[1] - p[0]).norm())
+            .fold(f64::INFINITY, f64::min);
+        out.crossings +=
+            clients::check::crossings_between(prev, &now, 2, 1e-9 * shortest).len() as u64;
+        *prev = now;
+    };
+    let array = |p: &[V]| -> Vec<[f64; 3]> { p.iter().map(|q| [q.x, q.y, q.z]).collect() };
+    for phase in knot.fed(None, false, rng) {
+        let joint = if phase.head { n } else { 0 };
+        let turn = Turn {
+            hand: if phase.head { "B" } else { "A" }.into(),
+            chain: "rope".into(),
+            joint: if phase.head { "head" } else { "tail" }.into(),
+            throw: phase.throw,
+            wide_loop: phase.wide_loop,
+            tuck: phase.tuck,
+            wrap: None,
+            instrument: None,
+            tighten: None,
+            waypoints: phase.waypoints,
+        };
+        for t in turn
+            .targets_on(&array(&prev), joint, 0.05)
+            .unwrap_or_default()
+        {
+            let t = [V::new(t[0], t[1], t[2])];
+            if w.apply(&world_move(&w, joint, &t, false)).is_ok() {
+                check(world_joints(&w), &mut prev, &mut out);
+            }
+        }
+    }
+    out.tied = identify(&prev).kind == knot.expected();
+    for _round in 0..2 {
+        for idx in [n, 0] {
+            let mut still = 0;
+            let mut ended = false;
+            for _ in 0..2000 {
+                let at = prev[idx];
+                let Some(away) = clients::hand::away_from_knot(&array(&prev), idx, THICKNESS)
+                else {
+                    break;
+                };
+                let t = [at + V::from(away) * 0.05];
+                if w.apply(&world_move(&w, idx, &t, true)).is_err() {
+                    break;
+                }
+                check(world_joints(&w), &mut prev, &mut out);
+                still = if (prev[idx] - at).norm() < 0.005 {
+                    still + 1
+                } else {
+                    0
+                };
+                if still >= 8 {
+                    // Held joints (index, anchor, taut toward the head), then their pulls.
+                    let all: Vec<V> = w.elements_with(0, false, true, false, true).collect();
+                    let held = (all.len() - (n + 1)) / 2;
+                    let k = (0..held).find(|&k| all[n + 1 + k].x as usize == idx);
+                    let taut = k
+                        .is_some_and(|k| all[n + 1 + k].z != 0.0 || (k > 0 && all[n + k].z != 0.0));
+                    let pull = k.map_or(0.0, |k| all[n + 1 + held + k].norm());
+                    if taut {
+                        out.taut += 1;
+                    } else if pull > 0.0 {
+                        out.jammed += 1;
+                    } else {
+                        out.other += 1;
+                    }
+                    ended = true;
+                    break;
+                }
+            }
+            if !ended {
+                out.other += 1;
+            }
+        }
+    }
+    let end = identify(&prev).kind;
+    out.kept = out.tied && end == knot.expected();
+    if out.kept
+        && let Some((a, b)) = tractrix::knot::knotted_stretch(&prev, end)
+    {
+        let length: f64 = prev[a..=b].windows(2).map(|p| (p[1] - p[0]).norm()).sum();
+        out.stretch = Some(length / THICKNESS);
+    }
+    out
+}
+
+/// The topology table (issue 38): `runs` perturbed tie-and-tighten runs per knot ([`tie_and_tighten`]),
+/// counting the crossings the swept-volume check finds between consecutive states and the runs whose
+/// knot after the tightening is not the one tied.
+fn topology_table(runs: usize) {
+    let scene = world::scene::parse_scene(TOPOLOGY_SCENE, "topology.toml").expect("the scene");
+    println!(
+        "Tie and tighten, {runs} perturbed runs per knot, through the world in this process (the \
+         service's answer path without the IPC): the rope {LENGTH} units in 40 links, {THICKNESS} \
+         thick, capsule collision, both ends held; the knot tied by the fed loops of *held, straight, \
+         fed loop* above, then tightened as `hand run --tighten 0.05` does. *tied*: runs named the \
+         script's knot by the identification after tying; *kept*: of those, runs named the same after \
+         the tightening; *crossings*: link pairs the swept-volume check (`clients::check`) finds \
+         passing through each other between consecutive accepted states, over every state of every \
+         run; *runs with a topology change*: runs with a crossing, or tied and not kept.\n"
+    );
+    println!(
+        "| knot | runs | tied | kept after tightening | states checked | crossings between consecutive states | runs with a topology change | pulls ended taut / jammed / otherwise | knotted stretch at the end, median (diameters) | seconds |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|");
+    for knot in [Knot::Overhand, Knot::Square, Knot::Granny] {
+        let clock = std::time::Instant::now();
+        let mut rng = Rng(0x70_9010 ^ (knot as u64) << 4);
+        let (mut tied, mut kept, mut states, mut crossings, mut changed) = (0, 0, 0, 0, 0);
+        let (mut taut, mut jammed, mut other) = (0, 0, 0);
+        let mut stretches = Vec::new();
+        for _ in 0..runs {
+            let c = tie_and_tighten(&scene, knot, &mut rng);
+            tied += usize::from(c.tied);
+            kept += usize::from(c.kept);
+            states += c.states;
+            crossings += c.crossings;
+            changed += usize::from(c.crossings > 0 || (c.tied && !c.kept));
+            (taut, jammed, other) = (taut + c.taut, jammed + c.jammed, other + c.other);
+            stretches.extend(c.stretch);
+        }
+        stretches.sort_by(f64::total_cmp);
+        let median = stretches
+            .get(stretches.len() / 2)
+            .map_or("—".to_string(), |s| format!("{s:.1}"));
+        println!(
+            "| {} | {runs} | {tied} | {kept} | {states} | {crossings} | {changed} | {taut} / {jammed} / {other} | {median} | {:.0} |",
+            knot.name(),
+            clock.elapsed().as_secs_f64()
+        );
+    }
+}
+
 fn main() {
     let runs: usize = std::env::var("KNOT_BENCH_RUNS")
         .ok()
@@ -825,6 +1039,11 @@ fn main() {
     let only: Option<usize> = std::env::var("KNOT_BENCH_LINKS")
         .ok()
         .and_then(|s| s.parse().ok());
+    if std::env::var("KNOT_BENCH_TABLES").is_ok_and(|t| t == "topology") {
+        // The topology table only (BENCHMARKS' block `knots-topology`); KNOT_BENCH_RUNS runs per knot.
+        topology_table(runs);
+        return;
+    }
     if std::env::var("KNOT_BENCH_TABLES").is_ok_and(|t| t == "bend" || t == "paths") {
         // The bend-radius tables only (BENCHMARKS' block `knots-bend`); `paths`: its smooth paths'
         // rows alone.

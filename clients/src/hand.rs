@@ -775,20 +775,11 @@ impl TurnRun<'_> {
                 anyhow::bail!("interrupted (SIGINT or SIGTERM)");
             }
             let at = rope[idx];
-            let away = match contact_centre(&rope, thickness) {
-                Some(c) if norm(sub(at, c)) > 0.0 => sub(at, c),
-                _ => {
-                    // Along the last link outward (from the joint's neighbour to the joint).
-                    let nb = if idx > 0 { idx - 1 } else { idx + 1 };
-                    sub(at, rope[nb.min(rope.len() - 1)])
-                }
-            };
-            let n = norm(away);
-            if n.is_nan() || n <= 0.0 {
+            let Some(away) = away_from_knot(&rope, idx, thickness) else {
                 out.why = "stopped";
                 break;
-            }
-            let target = tremor.apply(add(at, scale(away, speed / n)));
+            };
+            let target = tremor.apply(add(at, scale(away, speed)));
             let mut h = RequestHeader::new(Command::Move, self.chain);
             h.joint = joint;
             h.flags = shared::FLAG_PULL;
@@ -873,6 +864,24 @@ impl TurnRun<'_> {
         self.report.tightened.push(out);
         Ok(())
     }
+}
+
+/// The way a tightening pull moves joint `idx`: the unit vector away from the centre of the rope's
+/// contacts ([`contact_centre`]), or along the rope's last link outward when nothing touches; `None`
+/// when neither has a direction.
+pub fn away_from_knot(rope: &[[f64; 3]], idx: usize, thickness: f64) -> Option<[f64; 3]> {
+    use crate::vec3::{norm, scale, sub};
+    let at = rope[idx];
+    let away = match contact_centre(rope, thickness) {
+        Some(c) if norm(sub(at, c)) > 0.0 => sub(at, c),
+        _ => {
+            // Along the last link outward (from the joint's neighbour to the joint).
+            let nb = if idx > 0 { idx - 1 } else { idx + 1 };
+            sub(at, rope[nb.min(rope.len() - 1)])
+        }
+    };
+    let n = norm(away);
+    (n.is_finite() && n > 0.0).then(|| scale(away, 1.0 / n))
 }
 
 /// The centre of the rope's contacts: the mean of the joints of links that come within two

@@ -395,7 +395,11 @@ fn the_fast_namer_gives_up_on_a_crumpled_rope() {
     let mut walk = Vec::new();
     for _ in 0..20_000 {
         let step = V::new(rng.sym(1.0), rng.sym(1.0), rng.sym(1.0)).normalize() * 0.5;
-        p = if (p + step).norm() > 3.0 { p - step } else { p + step };
+        p = if (p + step).norm() > 3.0 {
+            p - step
+        } else {
+            p + step
+        };
         walk.push(p);
     }
     let mut namer = Namer::new();
