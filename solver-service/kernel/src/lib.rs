@@ -21,6 +21,8 @@
 //! * [`chain`]: flat chain state and RESOLUTION-TRACTRIX (head, tail or interior joint moves, substeps).
 //! * [`collision`]: self-collision and obstacles (the paper's spheres, capsules on a tree of boxes
 //!   over the chain), in query, tree and resolve modules.
+//! * [`eyelet`]: fixed points a chain passes through, the rope sliding through each (a suture's entry
+//!   and exit points in tissue).
 //! * [`fixed_base`]: fixed-base manipulators, both of the paper's strategies, workspace checks.
 //! * [`goals`]: Korein & Badler's goals beyond a point for a fixed-base chain: an orientation of the
 //!   last link, a box or a ball for the head.
@@ -48,6 +50,7 @@ pub mod angles;
 pub mod boundary;
 pub mod chain;
 pub mod collision;
+pub mod eyelet;
 pub mod fixed_base;
 pub mod goals;
 #[cfg(feature = "reference")]

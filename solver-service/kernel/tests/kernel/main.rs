@@ -18,6 +18,9 @@
 //!   lock when the rope would pass through them.
 //! * `strands`: many strands at once, against one chain per strand, SIMD against the baseline bit for
 //!   bit, halves on two threads, refusals, lengths over 10⁵ moves.
+//! * `eyelet`: a rope threaded through fixed points slides through them both ways by any length,
+//!   each point on its link to 1e-9 after every move, an interior joint pushed through passes the
+//!   eyelet on, the rope leaves an eyelet when its end slides out.
 //! * `knot`: the identification on ropes built by hand (trefoil, mirror, square, granny, a spiral
 //!   that is no knot), perturbed.
 
@@ -32,6 +35,7 @@ mod chain;
 mod collision;
 mod convergence;
 mod extremes;
+mod eyelet;
 mod fixed_base;
 mod hold;
 mod instrument;

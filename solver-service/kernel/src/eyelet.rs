@@ -1,0 +1,380 @@
+//! Eyelets: fixed points a chain passes through, the rope sliding through each in both directions
+//! (issue 39: a suture through its entry and exit points in tissue).
+//!
+//! An eyelet is a point `P` the chain must pass through: some link's segment contains `P`. The rope
+//! is free to slide through it, and the point of the rope at `P` changes as it does. A move of joint
+//! `m` runs the tractrix out from `m` on each side, as [`Chain::move_joint`] does, link by link; at the
+//! link that passes through an eyelet the follower is not placed by the tractrix but on the ray from
+//! its (moved) leader through `P`, a link length from the leader (the *aim rule*): the link's line
+//! passes through `P` by construction, exactly, and the rope beyond follows from there as from a
+//! moving leader. When the leader has drawn away from `P` by more than a link, the follower stays on
+//! the leader's side and the eyelet passes to the next link, the next follower aimed at `P` too: the
+//! rope slides through by as many links as the pull asks, in one step, with no per-step limit. When a
+//! leader is pushed past `P` (the rope pushed through), the eyelet passes to the link on the leader's
+//! other side and the leader is aimed at `P` from its own leader. When the chain's end slides through,
+//! the chain leaves the eyelet.
+//!
+//! Pushes are split into substeps of at most half the shortest link, so that no joint passes more than
+//! one eyelet in one substep; pulls need none. Two eyelets may not come within one link of each other
+//! along the rope (the link through both would be overconstrained): such a move is refused, the chain
+//! unchanged. Friction (how much of a pull the eyelet lets through) is not modelled here: these
+//! eyelets slide freely.
+//!
+//! Allocation-free per move: the positions are worked on in the caller's [`EyeletWorkspace`].
+
+use crate::chain::{Chain, ChainError};
+use crate::link::tractrix_step;
+use crate::math::{Embed3, Real, Vector};
+
+/// One eyelet of a chain: where it is, and the link that passes through it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Eyelet<T: Real, const D: usize> {
+    /// The fixed point.
+    pub at: Vector<T, D>,
+    /// The link through it (joints `link` and `link + 1`); meaningless once `threaded` is false.
+    pub link: usize,
+    /// Whether the chain still passes through it (false once an end has slid out).
+    pub threaded: bool,
+}
+
+/// Why an eyelet could not be threaded or a threaded move was refused (the chain unchanged).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EyeletError {
+    /// No link of the chain passes within the tolerance of the point.
+    #[error("no link passes through the eyelet at {distance:e} (link {link} comes nearest)")]
+    NotOnChain {
+        /// The nearest link.
+        link: usize,
+        /// Its distance from the point.
+        distance: f64,
+    },
+    /// Two eyelets would lie within one link of each other along the rope.
+    #[error("eyelets {a} and {b} would come within one link of each other along the rope")]
+    TooClose {
+        /// The eyelets, by index.
+        a: usize,
+        /// The eyelets, by index.
+        b: usize,
+    },
+    /// A joint pushed through an eyelet too far from the joint before it to pass the eyelet on:
+    /// the rope would fold through it.
+    #[error("the rope would fold through the eyelet on link {link}")]
+    Fold {
+        /// The link.
+        link: usize,
+    },
+    /// The eyelets are not in the order of their links along the rope.
+    #[error("eyelets must be given in the order of their links along the rope")]
+    Unordered,
+    /// The chain has held joints (eyelets with holds are not built yet).
+    #[error("a chain with held joints cannot move through eyelets yet")]
+    Held,
+    /// The move itself (joint, target, substeps) is not valid.
+    #[error(transparent)]
+    Chain(#[from] ChainError),
+}
+
+impl<T: Real, const D: usize> Eyelet<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    /// The eyelet at `at`, threaded on the link of `chain` whose segment passes nearest to it, if
+    /// within `tolerance` times that link's length.
+    pub fn thread(
+        chain: &Chain<T, D>,
+        at: Vector<T, D>,
+        tolerance: T,
+    ) -> Result<Self, EyeletError> {
+        let (mut best, mut best_d) = (0, T::lit(f64::INFINITY));
+        let mut a = chain.joint(0);
+        for k in 0..chain.n_links() {
+            let b = a + chain.links()[k];
+            let d = segment_point_distance(&a, &b, &at);
+            if d < best_d {
+                (best, best_d) = (k, d);
+            }
+            a = b;
+        }
+        if best_d <= tolerance * chain.lengths()[best] {
+            Ok(Eyelet {
+                at,
+                link: best,
+                threaded: true,
+            })
+        } else {
+            Err(EyeletError::NotOnChain {
+                link: best,
+                distance: best_d.to_f64(),
+            })
+        }
+    }
+
+    /// How far the eyelet's point is from its link's segment (0 when exactly threaded), or `None`
+    /// once the chain has left it.
+    pub fn residual(&self, chain: &Chain<T, D>) -> Option<T> {
+        self.threaded.then(|| {
+            let a = chain.joint(self.link);
+            segment_point_distance(&a, &(a + chain.links()[self.link]), &self.at)
+        })
+    }
+}
+
+/// The distance from `p` to the segment `a`–`b`.
+fn segment_point_distance<T: Real, const D: usize>(
+    a: &Vector<T, D>,
+    b: &Vector<T, D>,
+    p: &Vector<T, D>,
+) -> T {
+    let ab = b - a;
+    let l2 = ab.norm_squared();
+    let t = if l2 > T::zero() {
+        ((p - a).dot(&ab) / l2).max(T::zero()).min(T::one())
+    } else {
+        T::zero()
+    };
+    (a + ab * t - p).norm()
+}
+
+/// The positions a threaded move works on, kept between moves.
+#[derive(Clone, Debug, Default)]
+pub struct EyeletWorkspace<T: Real, const D: usize> {
+    old: Vec<Vector<T, D>>,
+    new: Vec<Vector<T, D>>,
+    saved: Vec<(usize, bool)>,
+}
+
+impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
+    /// An empty workspace (it grows to the chain on the first move).
+    pub fn new() -> Self {
+        EyeletWorkspace {
+            old: Vec::new(),
+            new: Vec::new(),
+            saved: Vec::new(),
+        }
+    }
+}
+
+/// What a threaded move did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Threaded {
+    /// Substeps taken.
+    pub substeps: u32,
+    /// Eyelets the chain left during the move (an end slid out).
+    pub left: u32,
+}
+
+/// Moves joint `joint` of `chain` straight to `target` with the chain threaded through `eyelets`
+/// (given in the order of their links along the rope; their links and `threaded` flags are updated).
+/// At most `max_substeps` substeps (a push is split into substeps of at most half the shortest link).
+/// Refused, changing nothing (chain and eyelets), when the chain has held joints, the eyelets are out
+/// of order or would come within a link of each other, or the move is invalid.
+pub fn move_threaded<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    target: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    ws: &mut EyeletWorkspace<T, D>,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = chain.n_links();
+    if joint > n {
+        return Err(ChainError::JointOutOfRange { joint, last: n }.into());
+    }
+    if !crate::math::all_finite(&target) {
+        return Err(ChainError::NonFinite.into());
+    }
+    if chain.held().len() > 0 {
+        return Err(EyeletError::Held);
+    }
+    let threaded = || eyelets.iter().filter(|e| e.threaded).map(|e| e.link);
+    if threaded().zip(threaded().skip(1)).any(|(a, b)| b <= a) {
+        return Err(EyeletError::Unordered);
+    }
+    ws.old.resize(n + 1, Vector::zeros());
+    ws.new.resize(n + 1, Vector::zeros());
+    chain.write_positions(&mut ws.new);
+    ws.saved.clear();
+    ws.saved
+        .extend(eyelets.iter().map(|e| (e.link, e.threaded)));
+    let lengths = chain.lengths();
+    let shortest = chain.min_length();
+    let from = ws.new[joint];
+    let way = target - from;
+    let k = (way.norm() / (shortest * T::lit(0.5))).ceil().max(T::one());
+    if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
+        return Err(ChainError::TooManySubsteps {
+            required: k.to_f64().min(u64::MAX as f64) as u64,
+            limit: max_substeps,
+        }
+        .into());
+    }
+    let steps = k.to_f64() as u32;
+    let mut out = Threaded::default();
+    for s in 1..=steps {
+        std::mem::swap(&mut ws.old, &mut ws.new);
+        let to = from + way * (T::lit(f64::from(s)) / k);
+        match substep(&ws.old, &mut ws.new, lengths, joint, to, eyelets) {
+            Ok(left) => out.left += left,
+            Err(e) => {
+                for (e, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
+                    (e.link, e.threaded) = (link, on);
+                }
+                return Err(e);
+            }
+        }
+        out.substeps = s;
+    }
+    chain.set_positions(&ws.new)?;
+    Ok(out)
+}
+
+/// One straight substep of joint `m` to `to`: `old` the positions before, `new` written.
+fn substep<T: Real, const D: usize>(
+    old: &[Vector<T, D>],
+    new: &mut [Vector<T, D>],
+    lengths: &[T],
+    m: usize,
+    to: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+) -> Result<u32, EyeletError> {
+    let n = lengths.len();
+    new[m] = to;
+    // The moved joint pushed through an eyelet on a link beside it (the link aimed from it would
+    // turn over): the eyelet passes to the link on its other side.
+    for e in eyelets.iter_mut().filter(|e| e.threaded) {
+        if m > 0
+            && m < n
+            && e.link == m - 1
+            && turns_over(&old[m], &old[m - 1], &to, &e.at, lengths[m - 1])
+        {
+            e.link = m;
+        } else if m > 0
+            && m < n
+            && e.link == m
+            && turns_over(&old[m], &old[m + 1], &to, &e.at, lengths[m])
+        {
+            e.link = m - 1;
+        }
+    }
+    let mut left = 0;
+    left += side(old, new, lengths, m, eyelets, false)?;
+    left += side(old, new, lengths, m, eyelets, true)?;
+    // No two eyelets within one link of each other.
+    let mut last: Option<(usize, usize)> = None;
+    for (i, e) in eyelets.iter().enumerate().filter(|(_, e)| e.threaded) {
+        if let Some((a, link)) = last
+            && e.link <= link + 1
+        {
+            return Err(EyeletError::TooClose { a, b: i });
+        }
+        last = Some((i, e.link));
+    }
+    Ok(left)
+}
+
+/// Whether the link from a leader now at `now` (before the move at `was`, its follower at `other`),
+/// aimed at `p`, would point the other way than it did: the leader went through the eyelet.
+fn turns_over<T: Real, const D: usize>(
+    was: &Vector<T, D>,
+    other: &Vector<T, D>,
+    now: &Vector<T, D>,
+    p: &Vector<T, D>,
+    len: T,
+) -> bool {
+    let follower = aim(now, p, len, &(was - other));
+    (now - follower).dot(&(was - other)) < T::zero()
+}
+
+/// The walk from `m` toward the head (`up`) or the tail: each follower placed by the tractrix from its
+/// leader's displacement, or by the aim rule at an eyelet's link. Returns the eyelets left.
+fn side<T: Real, const D: usize>(
+    old: &[Vector<T, D>],
+    new: &mut [Vector<T, D>],
+    lengths: &[T],
+    m: usize,
+    eyelets: &mut [Eyelet<T, D>],
+    up: bool,
+) -> Result<u32, EyeletError> {
+    let n = lengths.len();
+    let mut left = 0;
+    let mut i = m;
+    // Whether the leader was placed by the aim rule or is the moved joint (then it is on its side of
+    // the eyelet ahead by construction, and its old link says nothing after a slide).
+    let mut aimed = true;
+    loop {
+        let f = if up {
+            if i == n {
+                break;
+            }
+            i + 1
+        } else {
+            if i == 0 {
+                break;
+            }
+            i - 1
+        };
+        let link = i.min(f);
+        let len = lengths[link];
+        let Some(e) = eyelets.iter_mut().find(|e| e.threaded && e.link == link) else {
+            // The tractrix: the link as follower − leader, the leader's displacement.
+            let step = tractrix_step(&(old[f] - old[i]), &(new[i] - old[i]), len);
+            new[f] = old[f] + step.tail_shift;
+            aimed = false;
+            i = f;
+            continue;
+        };
+        if !aimed && turns_over(&old[i], &old[f], &new[i], &e.at, len) {
+            // The leader (placed by the tractrix) was pushed through the eyelet: the eyelet passes
+            // to the link behind it, whose leader is aimed at it; the follower then follows by the
+            // tractrix. A leader too far from the eyelet to reach it would fold the rope: refused.
+            let back = if up { i - 1 } else { i + 1 };
+            let back_len = lengths[i.min(back)];
+            if (new[back] - e.at).norm() > back_len {
+                return Err(EyeletError::Fold { link });
+            }
+            e.link = i.min(back);
+            new[i] = aim(&new[back], &e.at, back_len, &(old[i] - old[back]));
+            let step = tractrix_step(&(old[f] - old[i]), &(new[i] - old[i]), len);
+            new[f] = old[f] + step.tail_shift;
+            aimed = false;
+            i = f;
+            continue;
+        }
+        aimed = true;
+        let dist = (new[i] - e.at).norm();
+        new[f] = aim(&new[i], &e.at, len, &(old[i] - old[f]));
+        if dist > len {
+            // Slid through: the follower stays on the leader's side; the eyelet passes to the next
+            // link, or the chain leaves it at its end.
+            if f == 0 || f == n {
+                e.threaded = false;
+                left += 1;
+            } else {
+                e.link = if up { f } else { f - 1 };
+            }
+        }
+        i = f;
+    }
+    Ok(left)
+}
+
+/// The follower of a leader at `leader` whose link passes through `p`: a link length from the leader
+/// toward `p` (along `fallback`, the link's direction from follower to leader before the move, when
+/// the leader is on `p`).
+fn aim<T: Real, const D: usize>(
+    leader: &Vector<T, D>,
+    p: &Vector<T, D>,
+    len: T,
+    fallback: &Vector<T, D>,
+) -> Vector<T, D> {
+    let d = leader - p;
+    let dist = d.norm();
+    if dist > T::zero() {
+        leader - d * (len / dist)
+    } else {
+        leader - fallback * (len / fallback.norm())
+    }
+}

@@ -1,0 +1,185 @@
+//! Eyelets (`tractrix::eyelet`): a rope threaded through fixed points slides through them both ways,
+//! exactly. Every check is computed here: the distance from an eyelet's point to its link's segment,
+//! the link lengths from the joints, and for a straight rope pulled or pushed along its own axis the
+//! expected joints (the whole rope translated along the axis, since a straight rope follows its head
+//! along its line).
+
+use nalgebra::Vector3;
+use tractrix::Chain;
+use tractrix::eyelet::{Eyelet, EyeletError, EyeletWorkspace, move_threaded};
+
+type V = Vector3<f64>;
+
+/// SplitMix64, for reproducible moves.
+struct Rng(u64);
+impl Rng {
+    fn unit(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn sym(&mut self, a: f64) -> f64 {
+        a * (2.0 * self.unit() - 1.0)
+    }
+}
+
+fn rope() -> Chain<f64, 3> {
+    Chain::straight(40, 1.0, V::zeros(), V::x()).unwrap()
+}
+
+/// The distance from `p` to the segment `a`–`b`, computed here.
+fn to_segment(a: V, b: V, p: V) -> f64 {
+    let ab = b - a;
+    let t = ((p - a).dot(&ab) / ab.dot(&ab)).clamp(0.0, 1.0);
+    (a + ab * t - p).norm()
+}
+
+/// Every threaded eyelet's point lies on its link's segment, to `tol` of a link; every link is 1 long
+/// to 1e-12.
+fn check(chain: &Chain<f64, 3>, eyelets: &[Eyelet<f64, 3>], tol: f64, what: &str) {
+    let p = chain.positions();
+    for (k, w) in p.windows(2).enumerate() {
+        let l = (w[1] - w[0]).norm();
+        assert!((l - 1.0).abs() < 1e-12, "{what}: link {k} is {l}");
+    }
+    for (i, e) in eyelets.iter().enumerate().filter(|(_, e)| e.threaded) {
+        let d = to_segment(p[e.link], p[e.link + 1], e.at);
+        assert!(d <= tol, "{what}: eyelet {i} is {d:e} from link {}", e.link);
+    }
+}
+
+#[test]
+fn an_eyelet_is_threaded_on_the_link_through_it() {
+    let r = rope();
+    let e = Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap();
+    assert_eq!((e.link, e.threaded), (10, true));
+    let far = Eyelet::thread(&r, V::new(10.5, 0.3, 0.0), 1e-9).unwrap_err();
+    assert!(
+        matches!(far, EyeletError::NotOnChain { link: 10, .. }),
+        "{far:?}"
+    );
+}
+
+#[test]
+fn a_straight_rope_slides_through_both_ways_by_any_length() {
+    let mut ws = EyeletWorkspace::new();
+    // Pulled along its axis by 7.3 at the head, then pushed back by 3 (a push is split into
+    // substeps): every joint translated along x; the eyelet on the link that now holds x = 10.5.
+    for (pull, link) in [(7.3, 3), (-3.0, 13)] {
+        let mut r = rope();
+        let mut e = [Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap()];
+        let before = r.positions();
+        move_threaded(
+            &mut r,
+            40,
+            V::new(40.0 + pull, 0.0, 0.0),
+            &mut e,
+            1000,
+            &mut ws,
+        )
+        .unwrap();
+        for (k, (a, b)) in before.iter().zip(r.positions()).enumerate() {
+            assert!(
+                (b - a - V::new(pull, 0.0, 0.0)).norm() < 1e-9,
+                "joint {k}: {b:?}"
+            );
+        }
+        assert_eq!(e[0].link, link, "pull {pull}");
+        check(&r, &e, 1e-9, &format!("pull {pull}"));
+    }
+    // The same from the tail: pulled 5 away along −x.
+    let mut r = rope();
+    let mut e = [Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap()];
+    move_threaded(&mut r, 0, V::new(-5.0, 0.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    assert_eq!(e[0].link, 15);
+    check(&r, &e, 1e-9, "tail pull");
+}
+
+#[test]
+fn an_interior_joint_pushed_through_passes_the_eyelet_to_its_other_side() {
+    let mut ws = EyeletWorkspace::new();
+    let mut r = rope();
+    let mut e = [Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap()];
+    assert_eq!(e[0].link, 10);
+    move_threaded(&mut r, 10, V::new(11.0, 0.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    let p = r.positions();
+    for (k, q) in p.iter().enumerate() {
+        assert!(
+            (q - V::new(k as f64 + 1.0, 0.0, 0.0)).norm() < 1e-9,
+            "joint {k}: {q:?}"
+        );
+    }
+    assert_eq!(e[0].link, 9);
+    check(&r, &e, 1e-9, "pushed through");
+}
+
+#[test]
+fn the_rope_leaves_an_eyelet_when_its_end_slides_out() {
+    let mut ws = EyeletWorkspace::new();
+    let mut r = rope();
+    let mut e = [Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap()];
+    let t = move_threaded(&mut r, 40, V::new(52.0, 0.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    assert_eq!(t.left, 1);
+    assert!(!e[0].threaded);
+    assert!(e[0].residual(&r).is_none());
+    // The tail came through: it lies past the eyelet on the head's side.
+    assert!(r.joint(0).x > 10.5);
+}
+
+#[test]
+fn random_moves_keep_every_eyelet_on_its_link() {
+    // Two eyelets on a rope whose head and tail and interior joints are sent to random targets: after
+    // every accepted move both points lie on their links to 1e-9 of a link and every length is 1 to
+    // 1e-12; a refused move (eyelets within a link of each other, or the rope folding through one)
+    // changes nothing.
+    let mut rng = Rng(0xE7E1);
+    let mut ws = EyeletWorkspace::new();
+    let mut r = rope();
+    let mut e = [
+        Eyelet::thread(&r, V::new(12.5, 0.0, 0.0), 1e-9).unwrap(),
+        Eyelet::thread(&r, V::new(27.5, 0.0, 0.0), 1e-9).unwrap(),
+    ];
+    let (mut accepted, mut refused, mut slid) = (0, 0, 0);
+    for k in 0..4000 {
+        if e.iter().any(|e| !e.threaded) {
+            break;
+        }
+        let joint = match k % 3 {
+            0 => 40,
+            1 => 0,
+            _ => (rng.unit() * 41.0) as usize,
+        };
+        let at = r.joint(joint);
+        let to = at + V::new(rng.sym(1.5), rng.sym(1.5), rng.sym(1.5));
+        let (before, links) = (r.positions(), e.map(|e| e.link));
+        match move_threaded(&mut r, joint, to, &mut e, 1000, &mut ws) {
+            Ok(_) => {
+                accepted += 1;
+                slid += usize::from(e.map(|e| e.link) != links);
+                check(
+                    &r,
+                    &e,
+                    1e-9,
+                    &format!(
+                        "move {k}: joint {joint}, links {links:?} -> {:?}",
+                        e.map(|e| e.link)
+                    ),
+                );
+                assert!((r.joint(joint) - to).norm() < 1e-9, "move {k} landed");
+            }
+            Err(EyeletError::TooClose { .. } | EyeletError::Fold { .. }) => {
+                refused += 1;
+                assert_eq!(r.positions(), before, "move {k}: refused, unchanged");
+                assert_eq!(e.map(|e| e.link), links);
+            }
+            Err(x) => panic!("move {k}: {x}"),
+        }
+    }
+    println!("{accepted} accepted, {slid} slid, {refused} refused");
+    assert!(
+        accepted > 1000 && slid > 100,
+        "{accepted} accepted, {slid} slid, {refused} refused"
+    );
+}
