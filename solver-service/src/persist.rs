@@ -37,12 +37,13 @@ use std::path::{Path, PathBuf};
 use world::World;
 use world::state::State;
 
-/// The snapshot body's format: the magic number, then the world's [`State`] ("TRX6": since the
-/// pulls' asked targets).
-const SNAPSHOT_MAGIC: u32 = 0x5452_5836; // "TRX6"
+/// The snapshot body's format: the magic number, then the world's [`State`] ("TRX7": since the
+/// chains' eyelets).
+const SNAPSHOT_MAGIC: u32 = 0x5452_5837; // "TRX7"
 /// Formats of earlier versions, refused with a message (their state is not read: start without
 /// `--restore`).
-const OLDER_SNAPSHOTS: [(u32, &str); 5] = [
+const OLDER_SNAPSHOTS: [(u32, &str); 6] = [
+    (0x5452_5836, "TRX6"),
     (0x5452_5835, "TRX5"),
     (0x5452_5834, "TRX4"),
     (0x5452_5833, "TRX3"),

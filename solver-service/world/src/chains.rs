@@ -575,6 +575,13 @@ impl World {
         let changes = match *req {
             Command::Grasp { joint, .. } => {
                 let held = each_form!(&*g, h => h.chain.is_held(joint));
+                if !self.specs[chain as usize].eyelets.is_empty() {
+                    return Err(refuse!(
+                        WrongChainKind,
+                        "chain {:?} passes through eyelets: it cannot be grasped yet",
+                        self.specs[chain as usize].name
+                    ));
+                }
                 if !held && held_now >= crate::sizes::MAX_HELD {
                     return Err(refuse!(
                         BadOption,
@@ -657,6 +664,7 @@ impl World {
             Command::Reset { .. } => {
                 each_form!(&mut *g, h => {
                     h.chain.copy_from(&h.initial);
+                    h.eyelets.clone_from(&h.eyelets_initial);
                     h.tension.clear();
                     let initial = std::mem::take(&mut h.instruments_initial);
                     h.instruments_mut().copy_from_slice(&initial);

@@ -7,6 +7,7 @@ use crate::command::Point;
 use crate::scene::ChainSpec;
 use nalgebra::Vector3;
 use tractrix::collision::{CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle};
+use tractrix::eyelet::{Eyelet, EyeletWorkspace};
 use tractrix::math::{Embed3, Real, Vector};
 use tractrix::{Chain, ChainError, ReachWorkspace};
 
@@ -41,6 +42,14 @@ pub struct LiveChain<T: Real, const D: usize> {
     /// The furthest pose a pulled move reached so far (its chain and instruments).
     pub(crate) best: Chain<T, D>,
     pub(crate) instruments_best: Vec<Obstacle<T, D>>,
+    /// The eyelets the chain passes through (scene `eyelets`): now, at the scene's start (reset),
+    /// before the last change (undo) and at the furthest pose of a pulled move; and the buffers of a
+    /// threaded move.
+    pub(crate) eyelets: Vec<Eyelet<T, D>>,
+    pub(crate) eyelets_initial: Vec<Eyelet<T, D>>,
+    pub(crate) eyelets_before: Vec<Eyelet<T, D>>,
+    pub(crate) eyelets_best: Vec<Eyelet<T, D>>,
+    pub(crate) eyelet_ws: EyeletWorkspace<T, D>,
 }
 
 impl<T: Real, const D: usize> LiveChain<T, D>
@@ -69,6 +78,7 @@ where
                 .extend_from_slice(&m.obstacles[self.instruments_at..]);
         }
         self.tension.arm_undo();
+        self.eyelets_before.clone_from(&self.eyelets);
     }
     /// Puts back the state [`LiveChain::arm_undo`] remembered.
     pub(crate) fn swap_undo(&mut self) {
@@ -79,6 +89,7 @@ where
             now.copy_from_slice(&before);
         }
         self.instruments_before = before;
+        std::mem::swap(&mut self.eyelets, &mut self.eyelets_before);
         self.tension.swap_undo();
         self.refresh_tension();
     }
@@ -86,6 +97,7 @@ where
     /// try).
     pub(crate) fn restore_armed(&mut self) {
         self.chain.copy_from(&self.before);
+        self.eyelets.clone_from(&self.eyelets_before);
         let before = std::mem::take(&mut self.instruments_before);
         let now = self.instruments_mut();
         if now.len() == before.len() {
@@ -96,6 +108,7 @@ where
     /// Remembers the state as the furthest a pulled move reached.
     pub(crate) fn keep_best(&mut self) {
         self.best.copy_from(&self.chain);
+        self.eyelets_best.clone_from(&self.eyelets);
         let at = self.instruments_at;
         if let Some((m, _)) = &self.collision {
             self.instruments_best.clear();
@@ -105,12 +118,17 @@ where
     /// Puts back the state [`LiveChain::keep_best`] remembered.
     pub(crate) fn take_best(&mut self) {
         self.chain.copy_from(&self.best);
+        self.eyelets.clone_from(&self.eyelets_best);
         let best = std::mem::take(&mut self.instruments_best);
         let now = self.instruments_mut();
         if now.len() == best.len() {
             now.copy_from_slice(&best);
         }
         self.instruments_best = best;
+    }
+    /// The eyelets the chain passes through (or has left).
+    pub fn eyelets(&self) -> &[Eyelet<T, D>] {
+        &self.eyelets
     }
     /// What the hands feel ([`crate::tension`]).
     pub fn tension(&self) -> &crate::tension::Tension {
@@ -338,7 +356,23 @@ where
         taut_slack: crate::tension::taut_slack(spec.moves.held.tolerance, prefix[prefix.len() - 1]),
         prefix,
         instruments_best: Vec::new(),
+        eyelets: spec
+            .eyelets
+            .iter()
+            .map(|&(at, link)| Eyelet {
+                at: point(at),
+                link,
+                threaded: true,
+            })
+            .collect(),
+        eyelets_initial: Vec::new(),
+        eyelets_before: Vec::new(),
+        eyelets_best: Vec::new(),
+        eyelet_ws: EyeletWorkspace::new(),
     };
+    h.eyelets_initial = h.eyelets.clone();
+    h.eyelets_before = h.eyelets.clone();
+    h.eyelets_best = h.eyelets.clone();
     h.instruments_initial = h.instruments().to_vec();
     h.instruments_before = h.instruments_initial.clone();
     h.instruments_best = h.instruments_initial.clone();

@@ -188,7 +188,29 @@ where
         }
         Ok(())
     };
-    if let Some((model, ws)) = &mut g.collision {
+    if !g.eyelets.is_empty() {
+        // Each target is a straight move through the eyelets.
+        let mut total = MoveOutcome::default();
+        for t in targets {
+            let p: Vector<T, D> = point(*t);
+            let LiveChain {
+                chain,
+                eyelets,
+                eyelet_ws,
+                ..
+            } = g;
+            let o = tractrix::eyelet::move_threaded(
+                chain,
+                joint,
+                p,
+                eyelets,
+                opts.max_substeps,
+                eyelet_ws,
+            )?;
+            total.substeps = total.substeps.saturating_add(o.substeps);
+        }
+        Ok(total)
+    } else if let Some((model, ws)) = &mut g.collision {
         // Each target is a straight move with collision.
         let mut total = MoveOutcome::default();
         for t in targets {

@@ -116,6 +116,29 @@ macro_rules! refuse {
         $crate::refusal::Refusal::new($crate::refusal::Cause::$cause, format_args!($($fmt)*))
     };
 }
+impl From<tractrix::eyelet::EyeletError> for Refusal {
+    fn from(e: tractrix::eyelet::EyeletError) -> Self {
+        use tractrix::eyelet::EyeletError;
+        match e {
+            EyeletError::Chain(c) => c.into(),
+            EyeletError::Fold { link } => {
+                refuse!(
+                    Locked,
+                    "the rope would fold through the eyelet on link {link}"
+                )
+            }
+            EyeletError::TooClose { a, b } => refuse!(
+                Locked,
+                "eyelets {a} and {b} would come within one link of each other"
+            ),
+            EyeletError::Held => refuse!(Held, "a chain with eyelets cannot be held yet"),
+            e @ (EyeletError::NotOnChain { .. } | EyeletError::Unordered) => {
+                refuse!(Internal, "eyelets: {e}")
+            }
+        }
+    }
+}
+
 impl From<ChainError> for Refusal {
     fn from(e: ChainError) -> Self {
         match e {

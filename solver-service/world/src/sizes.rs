@@ -10,6 +10,8 @@ pub const MAX_LINKS: usize = 65_536;
 pub const MAX_NAME_BYTES: usize = 31;
 /// Most held joints (anchors and grasps) one chain may have; a grasp beyond is refused.
 pub const MAX_HELD: usize = 64;
+/// Most eyelets one chain may pass through.
+pub const MAX_EYELETS: usize = 64;
 /// Most grasps one client may own on one chain, so that one client cannot take all [`MAX_HELD`] slots.
 pub const MAX_GRASPS_PER_CLIENT: usize = 16;
 /// Most joints (strands × (links + 1)) of one bundle.

@@ -39,6 +39,9 @@ pub struct ChainState {
     pub asked_joints: Vec<Asked>,
     /// Instruments whose last pulled pose stopped short, and their asked centres.
     pub asked_instruments: Vec<Asked>,
+    /// The scene's eyelets in order: the link through each, and whether the chain still passes
+    /// through it.
+    pub eyelets: Vec<(u32, bool)>,
 }
 
 /// The state of every chain of a world, and its sequence number.
@@ -123,6 +126,11 @@ impl World {
                         datum,
                         asked_joints: each_form!(g, g => g.tension().asked().0.to_vec()),
                         asked_instruments: each_form!(g, g => g.tension().asked().1.to_vec()),
+                        eyelets: each_form!(g, g => g
+                            .eyelets()
+                            .iter()
+                            .map(|e| (e.link as u32, e.threaded))
+                            .collect()),
                     }
                 })
                 .collect(),
@@ -196,12 +204,57 @@ impl World {
                 }
                 h.tension.set_asked(s.asked_joints.clone(), s.asked_instruments.clone());
                 h.refresh_tension();
+                set_eyelets(h, &s.eyelets).map_err(pose)?;
             });
             built.push(g);
         }
         self.install(built, state.sequence);
         Ok(())
     }
+}
+
+/// The eyelets of a restored chain: the scene's, each on the link the state says, passing through it
+/// while threaded (to 1e-9 of the link in f64, a thousand roundings in f32), in order and two links
+/// apart.
+fn set_eyelets<T: Real, const D: usize>(
+    h: &mut crate::form::LiveChain<T, D>,
+    eyelets: &[(u32, bool)],
+) -> Result<(), String>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if eyelets.len() != h.eyelets.len() {
+        return Err(format!(
+            "{} eyelets, the scene has {}",
+            eyelets.len(),
+            h.eyelets.len()
+        ));
+    }
+    let mut last: Option<u32> = None;
+    for (k, &(link, threaded)) in eyelets.iter().enumerate() {
+        if link as usize >= h.chain.n_links() {
+            return Err(format!("eyelet {k} on link {link}, past the head"));
+        }
+        h.eyelets[k].link = link as usize;
+        h.eyelets[k].threaded = threaded;
+        if !threaded {
+            continue;
+        }
+        if last.is_some_and(|l| link < l + 2) {
+            return Err(format!(
+                "eyelet {k} on link {link}, less than two links after the one before"
+            ));
+        }
+        last = Some(link);
+        let off = h.eyelets[k].residual(&h.chain).map_or(0.0, |r| r.to_f64());
+        let scale = h.chain.lengths()[link as usize]
+            .to_f64()
+            .max(h.eyelets[k].at.norm().to_f64());
+        if off.is_nan() || off > scale * (1e3 * T::EPSILON.to_f64()).max(1e-9) {
+            return Err(format!("eyelet {k} is {off:e} off link {link}"));
+        }
+    }
+    Ok(())
 }
 
 type HeldParts = Vec<(u32, Vec<f64>, Vec<f64>)>;

@@ -182,6 +182,10 @@ pub struct ChainSpec {
     pub anchors: Vec<u32>,
     /// Joint limits, only when the chain declares them.
     pub limits: Option<LimitSpec>,
+    /// Fixed points the chain passes through from the start, the rope sliding through each
+    /// (`eyelets`: free chains without collision or anchors; [`tractrix::eyelet`]), in order along
+    /// the rope, each with the link through it.
+    pub eyelets: Vec<(Vector3<f64>, usize)>,
     /// Whether its knot is named with every answer and state (`knot = true`: free spatial chains;
     /// [`tractrix::knot::Namer`]).
     pub knot: bool,

@@ -99,6 +99,7 @@ pub(super) struct RawChain {
     pub joint_range: Field<Vec<f64>>,
     pub joint_ranges: Field<Vec<Vec<f64>>>,
     pub knot: Field<bool>,
+    pub eyelets: Field<Vec<Vec<f64>>>,
 }
 
 /// 1-based line of a byte offset.

@@ -11,8 +11,8 @@ use super::{
 };
 use super::{ChainKind, Precision};
 use crate::sizes::{
-    MAX_BUNDLE_JOINTS, MAX_BUNDLE_STRANDS, MAX_CHAINS, MAX_HELD, MAX_LINKS, MAX_NAME_BYTES,
-    max_coordinate,
+    MAX_BUNDLE_JOINTS, MAX_BUNDLE_STRANDS, MAX_CHAINS, MAX_EYELETS, MAX_HELD, MAX_LINKS,
+    MAX_NAME_BYTES, max_coordinate,
 };
 use nalgebra::Vector3;
 use std::ops::Range;
@@ -721,6 +721,7 @@ fn chain(
     )
     .line;
     let anchors = anchors(&f, kind, lengths.len())?;
+    let eyelets = eyelets(&f, kind, &points, &lengths, &anchors, scheme.is_some())?;
     let knot = match &c.knot {
         Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
             return Err(f.err(
@@ -796,6 +797,7 @@ fn chain(
         anchors,
         limits,
         knot,
+        eyelets,
         moves: MoveOptions {
             method,
             substeps,
@@ -883,6 +885,67 @@ fn anchors(f: &Fields<'_>, kind: ChainKind, n_links: usize) -> Result<Vec<u32>, 
             v
         }
     })
+}
+
+/// The chain's `eyelets`: points on its links (within 1e-9 of a link), at most [`MAX_EYELETS`], at
+/// least two links apart along the rope, on a free chain with no collision and no anchors; sorted
+/// along the rope, each with its link.
+fn eyelets(
+    f: &Fields<'_>,
+    kind: ChainKind,
+    points: &[Vector3<f64>],
+    lengths: &[f64],
+    anchors: &[u32],
+    collision: bool,
+) -> Result<Vec<(Vector3<f64>, usize)>, SceneError> {
+    let Some(e) = &f.c.eyelets else {
+        return Ok(Vec::new());
+    };
+    let err = |what: String| Err(f.err(e.span(), "eyelets", what));
+    if kind != ChainKind::Free {
+        return err("eyelets are for free chains".into());
+    }
+    if collision || !anchors.is_empty() {
+        return err("a chain with eyelets cannot have collision or anchors yet".into());
+    }
+    if e.get_ref().len() > MAX_EYELETS {
+        return err(format!("at most {MAX_EYELETS} eyelets"));
+    }
+    let mut out = Vec::with_capacity(e.get_ref().len());
+    for (i, v) in e.get_ref().iter().enumerate() {
+        let p = match v.as_slice() {
+            [x, y] if f.dims == 2 => Vector3::new(*x, *y, 0.0),
+            [x, y, z] if f.dims == 3 || *z == 0.0 => Vector3::new(*x, *y, *z),
+            _ => return err(format!("eyelet {i}: a point has {} numbers", f.dims)),
+        };
+        if !p.iter().all(|x| x.is_finite()) {
+            return err(format!("eyelet {i}: {v:?} is not finite"));
+        }
+        let (link, d) = points
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| {
+                let ab = w[1] - w[0];
+                let t = ((p - w[0]).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+                (k, (w[0] + ab * t - p).norm())
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((0, f64::INFINITY));
+        if d > 1e-9 * lengths.get(link).copied().unwrap_or(0.0) {
+            return err(format!(
+                "eyelet {i} at {v:?} is not on the chain (link {link} passes {d:e} from it)"
+            ));
+        }
+        out.push((p, link));
+    }
+    out.sort_by_key(|e| e.1);
+    if let Some(w) = out.windows(2).find(|w| w[1].1 < w[0].1 + 2) {
+        return err(format!(
+            "eyelets on links {} and {} are less than two links apart",
+            w[0].1, w[1].1
+        ));
+    }
+    Ok(out)
 }
 
 /// The chain's `max_substeps`, and its `substeps` or `max_step` (not both).
