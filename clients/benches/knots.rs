@@ -850,7 +850,7 @@ struct Checked {
 /// The joints of the world's rope.
 fn world_joints(w: &world::World) -> Vec<V> {
     let n = w.specs()[0].lengths.len() + 1;
-    w.elements_with(0, false, false, false, false)
+    w.elements_with(0, false, false, false, (false, false))
         .take(n)
         .collect()
 }
@@ -950,7 +950,9 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
                 };
                 if still >= 8 {
                     // Held joints (index, anchor, taut toward the head), then their pulls.
-                    let all: Vec<V> = w.elements_with(0, false, true, false, true).collect();
+                    let all: Vec<V> = w
+                        .elements_with(0, false, true, false, (true, false))
+                        .collect();
                     let held = (all.len() - (n + 1)) / 2;
                     let k = (0..held).find(|&k| all[n + 1 + k].x as usize == idx);
                     let taut = k

@@ -130,7 +130,8 @@ class ResponseHeader(ctypes.Structure):
         ("limit_value", ctypes.c_double),
         ("n_pulls", ctypes.c_uint32),
         ("knot", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32 * 2),
+        ("n_eyelets", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
     ]
 
     @staticmethod
@@ -147,7 +148,7 @@ _LAYOUT = {
                            "n_chains": 64, "n_links": 76, "n_held": 100, "max_step": 104, "name": 128,
                            "reason": 160, "n_instruments": 256, "limits": 260,
                            "limit_value": 264, "n_pulls": 272, "knot": 276,
-                           "reserved": 280}),
+                           "n_eyelets": 280, "reserved": 284}),
 }
 for _t, (_size, _offsets) in _LAYOUT.items():
     assert ctypes.sizeof(_t) == _size, (_t, ctypes.sizeof(_t))
@@ -156,6 +157,7 @@ for _t, (_size, _offsets) in _LAYOUT.items():
 
 
 INSTRUMENT_ELEMENTS = 3
+EYELET_ELEMENTS = 2  # an eyelet: its point, then (link, 1 threaded / 0 left, 0)
 
 
 LIMITS = {1: "bend-radius", 2: "cone", 3: "cones", 4: "ranges"}
@@ -190,6 +192,16 @@ def pulls(h: ResponseHeader, elements: list) -> dict:
     held = [{"joint": int(x), "taut": z != 0.0, "pull": list(ps[k]) if k < len(ps) else [0.0] * 3}
             for k, (x, _, z) in enumerate(elements[held_from:held_from + h.n_held])]
     return {"held": held, "instruments": [list(p) for p in ps[h.n_held:]]}
+
+
+def eyelets(h: ResponseHeader, elements: list) -> list[dict]:
+    """The eyelets the chain passes through (the scene's `eyelets`, in order along the rope):
+    [{"at", "link", "threaded"}]; `link` is the link through the point while `threaded`."""
+    at = (h.n_joints + h.n_angles + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments
+          + h.n_pulls)
+    es = elements[at:at + EYELET_ELEMENTS * h.n_eyelets]
+    return [{"at": list(es[k]), "link": int(es[k + 1][0]), "threaded": es[k + 1][1] != 0.0}
+            for k in range(0, len(es) - 1, EYELET_ELEMENTS)]
 
 
 def _text(buf):
@@ -305,7 +317,8 @@ class Client:
                 time.sleep(0.0001)
         h = response.user_header().contents
         # The wheel's Slice.len() is in bytes (issue #1533): count from our own header.
-        n = h.n_joints + h.n_angles + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments + h.n_pulls
+        n = (h.n_joints + h.n_angles + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments + h.n_pulls
+             + EYELET_ELEMENTS * h.n_eyelets)
         elements = (Vec3 * n).from_address(response.payload().as_ptr()) if n else []
         out = [(v.x, v.y, v.z) for v in elements]
         copy = ResponseHeader.from_buffer_copy(h)
@@ -446,6 +459,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         out["pulls"] = pulls(h, elements)
     if knot(h):
         out["knot"] = knot(h)
+    if h.n_eyelets:
+        out["eyelets"] = eyelets(h, elements)
     if a.cmd == "describe":
         out["name"] = _text(h.name)
         out["total_length"] = h.total_length

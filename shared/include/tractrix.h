@@ -50,9 +50,13 @@
 #define TRACTRIX_MAX_GRASPS_PER_CLIENT 16u
 #define TRACTRIX_MAX_INSTRUMENTS 64u
 #define TRACTRIX_INSTRUMENT_ELEMENTS 3u
+/* Eyelets a chain may pass through, and elements per eyelet: its point, then (link, 1 threaded, 0). */
+#define TRACTRIX_MAX_EYELETS 64u
+#define TRACTRIX_EYELET_ELEMENTS 2u
 #define TRACTRIX_MAX_RESPONSE_ELEMENTS \
     (2u * TRACTRIX_MAX_LINKS + 1u + 2u * TRACTRIX_MAX_HELD + \
-     (TRACTRIX_INSTRUMENT_ELEMENTS + 1u) * TRACTRIX_MAX_INSTRUMENTS)
+     (TRACTRIX_INSTRUMENT_ELEMENTS + 1u) * TRACTRIX_MAX_INSTRUMENTS + \
+     TRACTRIX_EYELET_ELEMENTS * TRACTRIX_MAX_EYELETS)
 #define TRACTRIX_MAX_PATH_POINTS 4096u
 #define TRACTRIX_MAX_CHAINS 256u
 #define TRACTRIX_NAME_LEN 32u
@@ -209,7 +213,8 @@ typedef struct tractrix_ResponseHeader {
     double limit_value; /* offset 264 */
     uint32_t n_pulls; /* offset 272 */
     uint32_t knot; /* offset 276 */
-    uint32_t reserved[2]; /* offset 280 */
+    uint32_t n_eyelets; /* offset 280 */
+    uint32_t reserved; /* offset 284 */
 } tractrix_ResponseHeader;
 
 /* 48 bytes, align 8. */
@@ -223,7 +228,7 @@ typedef struct tractrix_StateHeader {
     uint32_t n_instruments; /* offset 32 */
     uint32_t n_pulls; /* offset 36 */
     uint32_t knot; /* offset 40 */
-    uint32_t reserved; /* offset 44 */
+    uint32_t n_eyelets; /* offset 44 */
 } tractrix_StateHeader;
 
 #ifdef __cplusplus
@@ -287,7 +292,8 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limits) == 260, "tractr
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limit_value) == 264, "tractrix_ResponseHeader.limit_value offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_pulls) == 272, "tractrix_ResponseHeader.n_pulls offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, knot) == 276, "tractrix_ResponseHeader.knot offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 280, "tractrix_ResponseHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_eyelets) == 280, "tractrix_ResponseHeader.n_eyelets offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 284, "tractrix_ResponseHeader.reserved offset");
 
 TRACTRIX_STATIC_ASSERT(sizeof(tractrix_StateHeader) == 48, "tractrix_StateHeader size");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, sequence) == 0, "tractrix_StateHeader starts with sequence");
@@ -299,6 +305,6 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, request_id) == 24, "tractr
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_instruments) == 32, "tractrix_StateHeader.n_instruments offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_pulls) == 36, "tractrix_StateHeader.n_pulls offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, knot) == 40, "tractrix_StateHeader.knot offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, reserved) == 44, "tractrix_StateHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, n_eyelets) == 44, "tractrix_StateHeader.n_eyelets offset");
 
 #endif /* TRACTRIX_H */

@@ -37,7 +37,10 @@
 //!    two ends of the axis (equal for a sphere), then `(radius, 0 for a sphere or 1 for a capsule, 0)`,
 //!    then `n_pulls` pulls, one per held joint and then one per instrument: the vector from where its
 //!    owner last asked it to be to where the rope let it be (zero when slack; with a virtual coupling
-//!    of stiffness `k` the force on the hand is `k` times it; [`FLAG_PULL`]).
+//!    of stiffness `k` the force on the hand is `k` times it; [`FLAG_PULL`]), then `n_eyelets`
+//!    eyelets the chain passes through (the scene's, in order along the rope), two elements each
+//!    ([`EyeletState`]): the point, then `(link through it, 1 while threaded or 0 once the rope has
+//!    left it, 0)`.
 //!    A chain without instruments has `n_instruments = 0`. An error response carries no elements. The chain's description (name, kind, sizes, defaults) comes with [`Command::Describe`]
 //!    only.
 //!
@@ -123,7 +126,8 @@
 //! | | limit_value | 264 | double |
 //! | | n_pulls | 272 | uint32_t |
 //! | | knot | 276 | uint32_t |
-//! | | reserved | 280 | `uint32_t[2]` |
+//! | | n_eyelets | 280 | uint32_t |
+//! | | reserved | 284 | uint32_t |
 //! | StateHeader (48 B, align 8) | sequence | 0 | uint64_t |
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
@@ -133,7 +137,7 @@
 //! | | n_instruments | 32 | uint32_t |
 //! | | n_pulls | 36 | uint32_t |
 //! | | knot | 40 | uint32_t |
-//! | | reserved | 44 | uint32_t |
+//! | | n_eyelets | 44 | uint32_t |
 //! <!-- layout-table-end -->
 //!
 //! Service names carry no version on purpose: a peer of another protocol version finds the service and
@@ -146,7 +150,8 @@
 //! `limits` and `limit_value` (a describe's joint limits, [`LIMITS_NONE`] and the rest) took three of
 //! them within v2 (a v2 peer that does not know them reads zeros: no limits), `n_pulls` one more
 //! in each header (a v2 peer that does not know it reads the pulls as trailing elements it ignores),
-//! and `knot` one more in each (a v2 peer that does not know it reads zero: not asked).
+//! `knot` one more in each (a v2 peer that does not know it reads zero: not asked), and `n_eyelets`
+//! one more in each (the state header's last: its next field needs a v3).
 //!
 //! # Enumerations (all `uint32_t`)
 //!
@@ -185,6 +190,11 @@ pub const MAX_GRASPS_PER_CLIENT: u32 = 16;
 pub const MAX_INSTRUMENTS: u32 = 64;
 /// Elements per instrument in a payload (see [`InstrumentPose`]).
 pub const INSTRUMENT_ELEMENTS: u32 = 3;
+/// Most eyelets one chain passes through (scene `eyelets`).
+pub const MAX_EYELETS: u32 = 64;
+/// Elements of one eyelet in a payload ([`EyeletState`]): its point, then `(link, 1 threaded / 0
+/// left, 0)`.
+pub const EYELET_ELEMENTS: u32 = 2;
 
 /// Protocol version; it is part of every type name.
 pub const PROTOCOL_VERSION: u32 = 2;
@@ -217,9 +227,13 @@ pub const DEFAULT_PREFIX: &str = "tractrix_";
 
 /// Most links in one chain. Bounds scenes, snapshots and the response memory (24 B per joint).
 pub const MAX_LINKS: u32 = 65_536;
-/// Most elements in a response: joints, one rotation per link, held joints, instruments and pulls.
-pub const MAX_RESPONSE_ELEMENTS: u32 =
-    2 * MAX_LINKS + 1 + 2 * MAX_HELD + (INSTRUMENT_ELEMENTS + 1) * MAX_INSTRUMENTS;
+/// Most elements in a response: joints, one rotation per link, held joints, instruments, pulls and
+/// eyelets.
+pub const MAX_RESPONSE_ELEMENTS: u32 = 2 * MAX_LINKS
+    + 1
+    + 2 * MAX_HELD
+    + (INSTRUMENT_ELEMENTS + 1) * MAX_INSTRUMENTS
+    + EYELET_ELEMENTS * MAX_EYELETS;
 /// Most points in one [`Command::Path`] request.
 pub const MAX_PATH_POINTS: u32 = 4096;
 /// Most chains in one scene.
@@ -851,8 +865,11 @@ pub struct ResponseHeader {
     /// The knot of the chain after the request, for a chain whose scene asks for it (`knot = true`):
     /// [`KNOT_UNKNOT`] and the rest ([`knot_name`]); [`KNOT_NOT_ASKED`] (0) otherwise.
     pub knot: u32,
+    /// Eyelets after the pulls ([`EYELET_ELEMENTS`] elements each), for a chain whose scene has
+    /// them.
+    pub n_eyelets: u32,
     /// Must be zero (room for later fields without a layout change).
-    pub reserved: [u32; 2],
+    pub reserved: u32,
 }
 
 /// [`ResponseHeader::knot`] and [`StateHeader::knot`]: the chain's scene does not ask for its knot.
@@ -933,7 +950,8 @@ impl Default for ResponseHeader {
             limit_value: 0.0,
             n_pulls: 0,
             knot: 0,
-            reserved: [0; 2],
+            n_eyelets: 0,
+            reserved: 0,
         }
     }
 }
@@ -985,8 +1003,8 @@ pub struct StateHeader {
     pub n_pulls: u32,
     /// The chain's knot after the change (as in a response: 0 when its scene does not ask).
     pub knot: u32,
-    /// Must be zero (room for later fields without a layout change).
-    pub reserved: u32,
+    /// Eyelets after the pulls in the payload (as in a response).
+    pub n_eyelets: u32,
 }
 
 /// One instrument as a payload carries it ([`INSTRUMENT_ELEMENTS`] elements: `a`, `b`, then
@@ -1034,17 +1052,31 @@ pub struct Parts<'a> {
     pub instruments: &'a [Vec3],
     /// One pull per held joint, then one per instrument.
     pub pulls: &'a [Vec3],
+    /// [`EYELET_ELEMENTS`] elements per eyelet.
+    pub eyelets: &'a [Vec3],
+}
+
+/// One eyelet as a payload carries it ([`EYELET_ELEMENTS`] elements).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EyeletState {
+    /// The fixed point the rope passes through.
+    pub at: Vec3,
+    /// The link through it (joints `link` and `link + 1`), while threaded.
+    pub link: u32,
+    /// Whether the rope still passes through it (false once an end has slid out).
+    pub threaded: bool,
 }
 
 impl<'a> Parts<'a> {
-    /// Cuts `payload` into `n_joints`, `n_angles`, `n_held`, `n_instruments` and `n_pulls` parts.
+    /// Cuts `payload` into `n_joints`, `n_angles`, `n_held`, `n_instruments`, `n_pulls` and
+    /// `n_eyelets` parts.
     pub fn new(
         payload: &'a [Vec3],
         n_joints: u32,
         n_angles: u32,
         n_held: u32,
         n_inst: u32,
-        n_pulls: u32,
+        (n_pulls, n_eyelets): (u32, u32),
     ) -> Self {
         let mut rest = payload;
         let mut take = |n: usize| {
@@ -1057,12 +1089,14 @@ impl<'a> Parts<'a> {
         let held = take(n_held as usize);
         let instruments = take((n_inst as usize).saturating_mul(INSTRUMENT_ELEMENTS as usize));
         let pulls = take(n_pulls as usize);
+        let eyelets = take((n_eyelets as usize).saturating_mul(EYELET_ELEMENTS as usize));
         Parts {
             joints,
             angles,
             held,
             instruments,
             pulls,
+            eyelets,
         }
     }
     /// The parts of a response's payload.
@@ -1073,12 +1107,19 @@ impl<'a> Parts<'a> {
             h.n_angles,
             h.n_held,
             h.n_instruments,
-            h.n_pulls,
+            (h.n_pulls, h.n_eyelets),
         )
     }
     /// The parts of a state sample's payload (no rotations).
     pub fn of_state(h: &StateHeader, payload: &'a [Vec3]) -> Self {
-        Self::new(payload, h.n_joints, 0, h.n_held, h.n_instruments, h.n_pulls)
+        Self::new(
+            payload,
+            h.n_joints,
+            0,
+            h.n_held,
+            h.n_instruments,
+            (h.n_pulls, h.n_eyelets),
+        )
     }
     /// The held joints: `(index, anchor of the scene)`.
     pub fn held_joints(&self) -> impl Iterator<Item = (u32, bool)> + 'a {
@@ -1099,6 +1140,16 @@ impl<'a> Parts<'a> {
     /// The pull on each instrument (in the scene's order).
     pub fn instrument_pulls(&self) -> &'a [Vec3] {
         self.pulls.get(self.held.len()..).unwrap_or(&[])
+    }
+    /// The eyelets.
+    pub fn eyelet_states(&self) -> impl Iterator<Item = EyeletState> + 'a {
+        self.eyelets
+            .chunks_exact(EYELET_ELEMENTS as usize)
+            .map(|e| EyeletState {
+                at: e[0],
+                link: e[1].x as u32,
+                threaded: e[1].y != 0.0,
+            })
     }
     /// The instruments.
     pub fn instrument_poses(&self) -> impl Iterator<Item = InstrumentPose> + 'a {
@@ -1184,12 +1235,13 @@ wire_layout!(ResponseHeader, "tractrix.v2.ResponseHeader", size = 288, align = 8
     n_held: "uint32_t" @ 100, max_step: "double" @ 104, total_length: "double" @ 112,
     thickness: "double" @ 120, name: "uint8_t[32]" @ 128, reason: "uint8_t[96]" @ 160,
     n_instruments: "uint32_t" @ 256, limits: "uint32_t" @ 260, limit_value: "double" @ 264,
-    n_pulls: "uint32_t" @ 272, knot: "uint32_t" @ 276, reserved: "uint32_t[2]" @ 280,
+    n_pulls: "uint32_t" @ 272, knot: "uint32_t" @ 276, n_eyelets: "uint32_t" @ 280,
+    reserved: "uint32_t" @ 284,
 ]);
 wire_layout!(StateHeader, "tractrix.v2.StateHeader", size = 48, align = 8, [
     sequence: "uint64_t" @ 0, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12, command: "uint32_t" @ 16,
     n_held: "uint32_t" @ 20, request_id: "uint64_t" @ 24, n_instruments: "uint32_t" @ 32,
-    n_pulls: "uint32_t" @ 36, knot: "uint32_t" @ 40, reserved: "uint32_t" @ 44,
+    n_pulls: "uint32_t" @ 36, knot: "uint32_t" @ 40, n_eyelets: "uint32_t" @ 44,
 ]);
 
 /// Every wire type's layout, in the order of the crate docs' table.

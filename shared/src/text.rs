@@ -356,9 +356,23 @@ pub struct TextResponse {
     /// A describe's joint limits in words ([`limits_text`]); empty otherwise.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub limits: String,
+    /// The eyelets the chain passes through (the scene's, in order along the rope).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub eyelets: Vec<TextEyelet>,
     /// The chain's knot, when its scene asks for it ([`crate::knot_name`]); empty otherwise.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub knot: String,
+}
+
+/// An eyelet in a text response ([`crate::EyeletState`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TextEyelet {
+    /// The fixed point.
+    pub at: [f64; 3],
+    /// The link through it.
+    pub link: u32,
+    /// Whether the rope still passes through it.
+    pub threaded: bool,
 }
 
 /// A held joint in a text response.
@@ -419,6 +433,14 @@ impl TextResponse {
                 .collect(),
             limits: limits_text(h.limits, h.limit_value),
             knot: crate::knot_name(h.knot).unwrap_or_default().to_string(),
+            eyelets: parts
+                .eyelet_states()
+                .map(|e| TextEyelet {
+                    at: e.at.to_array(),
+                    link: e.link,
+                    threaded: e.threaded,
+                })
+                .collect(),
         }
     }
 }

@@ -84,6 +84,8 @@ fn assertions() -> String {
             u64::from(shared::MAX_GRASPS_PER_CLIENT),
         ),
         ("MAX_INSTRUMENTS", u64::from(shared::MAX_INSTRUMENTS)),
+        ("MAX_EYELETS", u64::from(shared::MAX_EYELETS)),
+        ("EYELET_ELEMENTS", u64::from(shared::EYELET_ELEMENTS)),
         (
             "INSTRUMENT_ELEMENTS",
             u64::from(shared::INSTRUMENT_ELEMENTS),

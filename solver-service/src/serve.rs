@@ -464,7 +464,10 @@ fn answer_timed<H: Handler>(
         header.solve_ns = t0.elapsed().as_nanos() as u64;
     }
     let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
-    let n = (header.n_joints + header.n_angles + header.n_held + header.n_pulls) as usize + inst;
+    let eyelets = (header.n_eyelets * shared::EYELET_ELEMENTS) as usize;
+    let n = (header.n_joints + header.n_angles + header.n_held + header.n_pulls) as usize
+        + inst
+        + eyelets;
     (handled, n)
 }
 
@@ -832,7 +835,8 @@ fn serve_one<S: Service, H: Handler>(
     // The sample: the response's joints, held joints, instruments and pulls (not its rotations).
     let parts = shared::Parts::of_response(&header, resp.payload());
     let (nj, na) = (parts.joints.len(), header.n_angles as usize);
-    let n_state = nj + parts.held.len() + parts.instruments.len() + parts.pulls.len();
+    let n_state =
+        nj + parts.held.len() + parts.instruments.len() + parts.pulls.len() + parts.eyelets.len();
     let state_header = StateHeader {
         sequence: header.sequence,
         chain: header.chain,
@@ -843,15 +847,24 @@ fn serve_one<S: Service, H: Handler>(
         n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize) as u32,
         n_pulls: parts.pulls.len() as u32,
         knot: header.knot,
-        reserved: 0,
+        n_eyelets: (parts.eyelets.len() / shared::EYELET_ELEMENTS as usize) as u32,
     };
     let early = match publisher {
         Some(p) if !small => {
-            let (joints, held, instruments, pulls) =
-                (parts.joints, parts.held, parts.instruments, parts.pulls);
+            let (joints, held, instruments, pulls, eyelets) = (
+                parts.joints,
+                parts.held,
+                parts.instruments,
+                parts.pulls,
+                parts.eyelets,
+            );
             state_sample(p, n_state, state_header, |s| {
                 // One memcpy when there are only joints (a bundle), else element by element.
-                if held.is_empty() && instruments.is_empty() && pulls.is_empty() {
+                if held.is_empty()
+                    && instruments.is_empty()
+                    && pulls.is_empty()
+                    && eyelets.is_empty()
+                {
                     s.write_from_slice(joints)
                 } else {
                     let nh = held.len();
@@ -863,8 +876,10 @@ fn serve_one<S: Service, H: Handler>(
                         } else if i < nj + nh + instruments.len() {
                             instruments[i - nj - nh]
                         } else {
+                            let k = i - nj - nh - instruments.len();
                             pulls
-                                .get(i - nj - nh - instruments.len())
+                                .get(k)
+                                .or_else(|| eyelets.get(k - pulls.len()))
                                 .copied()
                                 .unwrap_or_default()
                         }

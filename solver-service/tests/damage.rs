@@ -21,7 +21,7 @@ fn scene() -> Scene {
 /// Every joint's bits, the held joints and the sequence: the whole state a client can see.
 fn state(set: &World) -> (Vec<u64>, u64) {
     let bits = set
-        .elements_with(0, true, true, false, false)
+        .elements_with(0, true, true, false, (false, false))
         .collect::<Vec<_>>()
         .iter()
         .flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])

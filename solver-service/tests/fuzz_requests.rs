@@ -322,7 +322,7 @@ fn snapshot(set: &World) -> Vec<Vec<[u64; 3]>> {
     (0..set.len() as u32)
         .map(|c| {
             let mut v: Vec<[u64; 3]> = set
-                .elements_with(c, false, true, true, false)
+                .elements_with(c, false, true, true, (false, false))
                 .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
                 .collect();
             let poses = set.instrument_poses(c);
@@ -390,12 +390,12 @@ fn check_invariants(set: &World) -> Result<(), TestCaseError> {
                 parts & 8 != 0,
             );
             let all: Vec<Vec3> = set
-                .elements_with(c as u32, a, h, i, p)
+                .elements_with(c as u32, a, h, i, (p, false))
                 .map(Vec3::from)
                 .collect();
             for n in [all.len(), all.len() / 2, 1, 0] {
                 let mut got = vec![Vec3::new(7.0, 7.0, 7.0)];
-                set.elements_with(c as u32, a, h, i, p)
+                set.elements_with(c as u32, a, h, i, (p, false))
                     .gather_into(&mut got, n);
                 prop_assert_eq!(bits(&got[..1]), bits(&[Vec3::new(7.0, 7.0, 7.0)]));
                 prop_assert_eq!(

@@ -882,6 +882,7 @@ pub unsafe extern "C" fn tractrix_stream_next(
                 n_instruments: (parts.instruments.len() / shared::INSTRUMENT_ELEMENTS as usize)
                     as u32,
                 n_pulls: parts.pulls.len() as u32,
+                n_eyelets: (parts.eyelets.len() / shared::EYELET_ELEMENTS as usize) as u32,
                 ..*h
             };
             f(user, &h, p.as_ptr(), parts.joints.len());

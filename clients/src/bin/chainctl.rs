@@ -191,6 +191,16 @@ fn print(r: &TextResponse, json: bool) -> Result<()> {
             println!("  taut: from joint {} to the next held joint", h.joint);
         }
     }
+    for (k, e) in r.eyelets.iter().enumerate() {
+        if e.threaded {
+            println!(
+                "  eyelet {k} at ({:.6}, {:.6}, {:.6}): link {}",
+                e.at[0], e.at[1], e.at[2], e.link
+            );
+        } else {
+            println!("  eyelet {k}: left");
+        }
+    }
     if !r.knot.is_empty() {
         println!("  knot: {}", r.knot);
     }

@@ -68,7 +68,7 @@ impl WireWorld for World {
     }
 
     fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
-        if h.n_joints + h.n_angles + h.n_held + h.n_instruments + h.n_pulls == 0 {
+        if h.n_joints + h.n_angles + h.n_held + h.n_instruments + h.n_pulls + h.n_eyelets == 0 {
             return Elements::Empty;
         }
         self.elements_for(
@@ -76,7 +76,7 @@ impl WireWorld for World {
             h.n_angles > 0,
             h.n_held > 0,
             h.n_instruments > 0,
-            h.n_pulls > 0,
+            (h.n_pulls > 0, h.n_eyelets > 0),
         )
     }
 }

@@ -534,6 +534,7 @@ pub fn encode(
             h.n_held = o.held;
             h.n_instruments = o.instruments;
             h.n_pulls = o.pulls;
+            h.n_eyelets = o.eyelets;
             h.knot = o.knot.map_or(shared::KNOT_NOT_ASKED, knot_code);
             h.substeps = o.substeps;
             h.paper_fallbacks = o.paper_fallbacks;

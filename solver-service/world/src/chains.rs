@@ -712,6 +712,7 @@ impl World {
         outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
         outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
         outcome.pulls = outcome.held + outcome.instruments;
+        outcome.eyelets = each_form!(&*g, h => h.eyelets.len()) as u32;
         self.last_work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()))
             .max(tries.work);
         match result {
@@ -752,30 +753,31 @@ impl World {
         angles: bool,
         held: bool,
         instruments: bool,
-        pulls: bool,
+        (pulls, eyelets): (bool, bool),
     ) -> Elements<'_> {
         if let Some((_, b)) = self.bundle_of(handle) {
             return Elements::Bundle(b.elements());
         }
-        self.elements_with(handle, angles, held, instruments, pulls)
+        self.elements_with(handle, angles, held, instruments, (pulls, eyelets))
     }
 
     /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).
     pub fn elements_of(&self, chain: u32, angles: bool) -> Elements<'_> {
-        self.elements_with(chain, angles, false, false, false)
+        self.elements_with(chain, angles, false, false, (false, false))
     }
 
     /// A chain's joints, its rotations with `angles`, its held joints with `held` (index, 1 for an
     /// anchor and 0 for a grasp, 1 if the stretch to the next held joint is taut), its instruments
     /// with `instruments` (the wire's three elements each: [`INSTRUMENT_ELEMENTS`]), its pulls with
-    /// `pulls` (one per held joint, then one per instrument: [`crate::tension`]).
+    /// `pulls` (one per held joint, then one per instrument: [`crate::tension`]), its eyelets with
+    /// `eyelets` (two elements each: the point, then `(link, 1 threaded / 0 left, 0)`).
     pub fn elements_with(
         &self,
         chain: u32,
         angles: bool,
         held: bool,
         instruments: bool,
-        pulls: bool,
+        (pulls, eyelets): (bool, bool),
     ) -> Elements<'_> {
         let (Some(g), Some(spec)) = (
             self.geometry.get(chain as usize),
@@ -789,6 +791,7 @@ impl World {
             held,
             instruments,
             pulls,
+            eyelets,
         };
         match g {
             Geometry::Planar64(h) => Elements::Planar64(ChainElements::new(h, wants, a)),

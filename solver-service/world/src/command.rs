@@ -163,6 +163,9 @@ pub struct Answer {
     /// Pulls in the response (after the instruments): one per held joint, then one per instrument
     /// ([`crate::tension`]).
     pub pulls: u32,
+    /// Eyelets in the response (after the pulls, two elements each: the point, then the link
+    /// through it and whether the chain still passes through it).
+    pub eyelets: u32,
     /// Substeps taken (moves).
     pub substeps: u32,
     /// Paper-form substeps that fell back to the closed form.

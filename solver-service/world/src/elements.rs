@@ -68,6 +68,7 @@ pub(crate) struct Wants {
     pub(crate) held: bool,
     pub(crate) instruments: bool,
     pub(crate) pulls: bool,
+    pub(crate) eyelets: bool,
 }
 
 /// Joints by a compensated prefix sum (restarted at every held joint, as the kernel sums them), then
@@ -86,6 +87,8 @@ pub struct ChainElements<'a, T: Real, const D: usize> {
     /// One per held joint, then one per instrument ([`crate::tension`]); empty unless asked for.
     pulls: &'a [Point],
     tension: &'a crate::tension::Tension,
+    /// The eyelets, two elements each; empty unless asked for.
+    eyelets: &'a [tractrix::eyelet::Eyelet<T, D>],
     /// The next held joint whose state restarts the sum, and its index (`usize::MAX`: none left).
     pin: usize,
     pin_at: usize,
@@ -113,6 +116,7 @@ where
             },
             pulls: if wants.pulls { h.tension.pulls() } else { &[] },
             tension: &h.tension,
+            eyelets: if wants.eyelets { &h.eyelets } else { &[] },
             pin: 0,
             pin_at: chain.held_state(0).map_or(usize::MAX, |(j, _)| j),
             anchors,
@@ -231,11 +235,19 @@ where
             return Some(instrument_element(o, k % per));
         }
         let k = k - self.instruments.len() * per;
-        let Some(p) = self.pulls.get(k) else {
+        if let Some(p) = self.pulls.get(k) {
+            return Some(*p);
+        }
+        let k = k - self.pulls.len();
+        let Some(e) = self.eyelets.get(k / 2) else {
             self.at = i;
             return None;
         };
-        Some(*p)
+        Some(if k.is_multiple_of(2) {
+            to_point(&e.at)
+        } else {
+            Point::new(e.link as f64, if e.threaded { 1.0 } else { 0.0 }, 0.0)
+        })
     }
 }
 

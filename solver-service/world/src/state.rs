@@ -346,7 +346,7 @@ mod tests {
     fn bits(w: &World) -> Vec<u64> {
         (0..w.len() as u32)
             .flat_map(|c| {
-                w.elements_with(c, true, true, true, true)
+                w.elements_with(c, true, true, true, (true, true))
                     .collect::<Vec<_>>()
             })
             .flat_map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])

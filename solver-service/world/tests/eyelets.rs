@@ -18,7 +18,7 @@ eyelets = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]]
 const EYELETS: [[f64; 3]; 2] = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]];
 
 fn joints(w: &World) -> Vec<Point> {
-    w.elements_with(0, false, false, false, false)
+    w.elements_with(0, false, false, false, (false, false))
         .take(41)
         .collect()
 }

@@ -49,13 +49,13 @@ fn joints(w: &World) -> Vec<Vec<Point>> {
     let mut out: Vec<Vec<Point>> = (0..w.len() as u32)
         .map(|c| {
             let n = w.specs()[c as usize].lengths.len() + 1;
-            w.elements_with(c, false, false, false, false)
+            w.elements_with(c, false, false, false, (false, false))
                 .take(n)
                 .collect()
         })
         .collect();
     out.push(
-        w.elements_for(w.len() as u32, false, false, false, false)
+        w.elements_for(w.len() as u32, false, false, false, (false, false))
             .collect(),
     );
     out
@@ -161,7 +161,7 @@ proptest! {
                                 let was = before[0][joint];
                                 let start = ((was.x - last.x).powi(2) + (was.y - last.y).powi(2) + (was.z - last.z).powi(2)).sqrt();
                                 prop_assert!(miss <= start + bound, "{:?}: joint {} pulled from {:e} to {:e} of its target", op, joint, start, miss);
-                                let payload: Vec<Point> = w.elements_with(0, false, true, true, true).collect();
+                                let payload: Vec<Point> = w.elements_with(0, false, true, true, (true, false)).collect();
                                 // Joints, held joints, the post (three elements), then one pull per
                                 // held joint and one for the post.
                                 let n = spec.lengths.len() + 1;

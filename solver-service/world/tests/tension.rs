@@ -25,7 +25,9 @@ struct Parts {
 
 fn parts(w: &World, instruments: usize) -> Parts {
     let n = w.specs()[0].lengths.len() + 1;
-    let all: Vec<Point> = w.elements_with(0, false, true, true, true).collect();
+    let all: Vec<Point> = w
+        .elements_with(0, false, true, true, (true, false))
+        .collect();
     let n_held = (all.len() - n - 3 * instruments - instruments) / 2;
     Parts {
         joints: all[..n].to_vec(),

@@ -1,0 +1,77 @@
+//! Eyelets on the wire, through the service's answer path: a response about a chain whose scene has
+//! eyelets carries them after the pulls (`n_eyelets`, two elements each), and each threaded eyelet's
+//! point lies on the link the payload names, as the test computes from the payload's joints.
+
+use shared::{Command, Parts, RequestHeader, Status, Vec3};
+use solver_service::serve::respond;
+use solver_service::service::Solver;
+use std::time::Duration;
+use world::World;
+use world::owners::LOCAL;
+use world::scene::parse_scene;
+
+const SCENE: &str = r#"
+[[chain]]
+name = "suture"
+links = 40
+link_length = 1.0
+eyelets = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]]
+
+[[chain]]
+name = "plain"
+links = 4
+link_length = 1.0
+"#;
+
+fn to_segment(a: Vec3, b: Vec3, p: Vec3) -> f64 {
+    let (a, b, p) = (a.to_array(), b.to_array(), p.to_array());
+    let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+    let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let t = (dot(ap, ab) / dot(ab, ab)).clamp(0.0, 1.0);
+    let d = [ap[0] - ab[0] * t, ap[1] - ab[1] * t, ap[2] - ab[2] * t];
+    dot(d, d).sqrt()
+}
+
+#[test]
+fn a_response_carries_the_eyelets_on_their_links() {
+    let world = World::new(&parse_scene(SCENE, "suture.toml").unwrap()).unwrap();
+    let mut solver = Solver::new(world, None, Duration::from_secs(3600));
+    let mut out = Vec::new();
+    let mut m = RequestHeader::new(Command::Move, 0);
+    m.joint = 40;
+    for (k, target) in [[41.0, 5.0, 2.0], [43.0, 3.0, -2.0], [42.0, -4.0, 0.0]]
+        .into_iter()
+        .enumerate()
+    {
+        let (h, _) = respond(
+            &mut solver,
+            LOCAL,
+            &m,
+            &[Vec3::new(target[0], target[1], target[2])],
+            &mut out,
+        );
+        assert_eq!(h.status, Status::Ok as u32, "{}", h.reason_str());
+        assert_eq!(h.n_eyelets, 2);
+        assert_eq!(out.len() as u32, h.n_joints + 2 * h.n_eyelets, "move {k}");
+        let parts = Parts::of_response(&h, &out);
+        let eyelets: Vec<_> = parts.eyelet_states().collect();
+        assert_eq!(eyelets.len(), 2);
+        for (i, e) in eyelets.iter().enumerate() {
+            assert!(e.threaded, "move {k}: eyelet {i}");
+            let l = e.link as usize;
+            let d = to_segment(parts.joints[l], parts.joints[l + 1], e.at);
+            assert!(d < 1e-9, "move {k}: eyelet {i} {d:e} off link {l}");
+        }
+        assert_eq!(eyelets[0].at, Vec3::new(10.5, 0.0, 0.0));
+    }
+    // A chain without eyelets answers none.
+    let (h, _) = respond(
+        &mut solver,
+        LOCAL,
+        &RequestHeader::new(Command::Query, 1),
+        &[],
+        &mut out,
+    );
+    assert_eq!((h.n_eyelets, out.len()), (0, 5));
+}
