@@ -36,7 +36,7 @@ cargo build -q --release --bins
 
 if [ "$QUICK" = 1 ]; then
   export KERNEL_BENCH_SCALE=0.02 COLLISION_BENCH_ROUNDS=1 JOURNAL_BENCH_N=50 ACCURACY_BENCH_REPS=1
-  export HOLDS_BENCH_ROUNDS=1 KNOT_BENCH_RUNS=1 KNOT_BENCH_LINKS=40 CONTACT_BENCH_ONLY=paper
+  export HOLDS_BENCH_ROUNDS=1 EYELET_BENCH_ROUNDS=1 EYELET_BENCH_MOVES=10000 KNOT_BENCH_RUNS=1 KNOT_BENCH_LINKS=40 CONTACT_BENCH_ONLY=paper
   export TIGHTEN_BENCH_ONLY=hands
   export LEAN_BENCH_SCALE=0.05 OVERHEAD_BENCH_SCALE=0.05 STRANDS_BENCH_SCALE=0.05 LIMITS_BENCH_SCALE=0.05
   LANG_ARGS="500 1"
@@ -116,6 +116,8 @@ block sweep "scripts/sweep-bench.sh scaling $SWEEP_ARGS" \
   scripts/sweep-bench.sh scaling $SWEEP_ARGS
 block knots-bend "KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS=4 cargo bench -p clients --bench knots" \
   env KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-4}" cargo bench -q -p clients --bench knots
+block eyelets "cargo bench -p tractrix --bench eyelets" \
+  cargo bench -q -p tractrix --bench eyelets
 block limits "cargo bench -p tractrix --bench limits" \
   cargo bench -q -p tractrix --bench limits
 block goals "cargo bench -p tractrix --bench goals" \

@@ -14,8 +14,8 @@
 //! other side and the leader is aimed at `P` from its own leader. When the chain's end slides through,
 //! the chain leaves the eyelet.
 //!
-//! Pushes are split into substeps of at most half the shortest link, so that no joint passes more than
-//! one eyelet in one substep; pulls need none. Two eyelets may not come within one link of each other
+//! A move is split into substeps of at most half the shortest link, so that a push carries no joint
+//! past more than one eyelet in one substep (the aim rule alone would pull through by any length). Two eyelets may not come within one link of each other
 //! along the rope (the link through both would be overconstrained): such a move is refused, the chain
 //! unchanged. Friction (how much of a pull the eyelet lets through) is not modelled here: these
 //! eyelets slide freely.
@@ -165,7 +165,8 @@ pub struct Threaded {
 
 /// Moves joint `joint` of `chain` straight to `target` with the chain threaded through `eyelets`
 /// (given in the order of their links along the rope; their links and `threaded` flags are updated).
-/// At most `max_substeps` substeps (a push is split into substeps of at most half the shortest link).
+/// At most `max_substeps` substeps (the move is split into substeps of at most half the shortest
+/// link).
 /// Refused, changing nothing (chain and eyelets), when the chain has held joints, the eyelets are out
 /// of order or would come within a link of each other, or the move is invalid.
 pub fn move_threaded<T: Real, const D: usize>(

@@ -1,0 +1,197 @@
+//! What eyelets cost per move and how exactly the rope keeps to them (issue 39).
+//!
+//! `cargo bench -p tractrix --bench eyelets` prints two Markdown tables (as BENCHMARKS.md shows them).
+//!
+//! *Cost*: a rope of `n` unit links straight along x, its head moved a tenth of a link at a time round
+//! a circle of radius 1 through where it started (so the rope slides back and forth through its
+//! eyelets): the plain move (`Chain::move_joint`, one substep) against the threaded move
+//! (`tractrix::eyelet::move_threaded`) through 1 and 4 eyelets spread along the rope. Moves are
+//! timed one by one, the cases interleaved in rounds so the machine's noise falls on all alike;
+//! median and 99th percentile per move, and the median's ratio to the plain move.
+//!
+//! *Accuracy*: a rope of 40 unit links through two eyelets, its head and tail sent in turn to random
+//! points within 3 units of where they started (so the rope slides both ways, a few links each time),
+//! `EYELET_BENCH_MOVES` moves (default 10⁶). After every move the bench's own code measures each
+//! eyelet's distance from its link's segment and, every 1000th move, every link's length from the
+//! joints. `EYELET_BENCH_ROUNDS` (default 20) sets the cost table's rounds.
+
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
+
+use nalgebra::Vector3;
+use std::hint::black_box;
+use std::time::Instant;
+use tractrix::eyelet::{Eyelet, EyeletWorkspace, move_threaded};
+use tractrix::{Chain, MoveOptions, Substeps};
+
+type V = Vector3<f64>;
+
+/// Moves per case per round.
+const MOVES: usize = 200;
+
+fn rope(n: usize) -> Chain<f64, 3> {
+    Chain::straight(n, 1.0, V::zeros(), V::x()).expect("a rope")
+}
+
+/// `k` eyelets spread evenly along a rope of `n` links, half-way along their links.
+fn eyelets(r: &Chain<f64, 3>, n: usize, k: usize) -> Vec<Eyelet<f64, 3>> {
+    (1..=k)
+        .map(|i| {
+            let at = V::new((i * n / (k + 1)) as f64 + 0.5, 0.0, 0.0);
+            Eyelet::thread(r, at, 1e-9).expect("on the rope")
+        })
+        .collect()
+}
+
+fn percentile(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+/// The distance from `p` to the segment `a`–`b` (the bench's own).
+fn to_segment(a: V, b: V, p: V) -> f64 {
+    let ab = b - a;
+    let t = ((p - a).dot(&ab) / ab.dot(&ab)).clamp(0.0, 1.0);
+    (a + ab * t - p).norm()
+}
+
+fn cost(rounds: usize) {
+    println!(
+        "| links | case | median ns/move | p99 ns/move | median ÷ plain move |\n|---:|---|---:|---:|---:|"
+    );
+    let opts = MoveOptions {
+        substeps: Substeps::Fixed(1),
+        ..MoveOptions::default()
+    };
+    for n in [40usize, 320] {
+        let cases = [0usize, 1, 4];
+        let mut ropes: Vec<Chain<f64, 3>> = cases.iter().map(|_| rope(n)).collect();
+        let mut eys: Vec<Vec<Eyelet<f64, 3>>> = cases
+            .iter()
+            .zip(&ropes)
+            .map(|(&k, r)| eyelets(r, n, k))
+            .collect();
+        let mut ws = EyeletWorkspace::new();
+        let mut times: Vec<Vec<f64>> = vec![Vec::new(); cases.len()];
+        let start = V::new(n as f64, 0.0, 0.0);
+        let mut step = 0usize;
+        for _ in 0..rounds {
+            for (c, &k) in cases.iter().enumerate() {
+                for s in 0..MOVES {
+                    let a = 0.1 * (step + s) as f64;
+                    let t = start + V::new(a.cos() - 1.0, a.sin(), 0.0);
+                    let clock = Instant::now();
+                    if k == 0 {
+                        black_box(ropes[c].move_joint(n, t, &opts)).expect("a free move");
+                    } else {
+                        black_box(move_threaded(
+                            &mut ropes[c],
+                            n,
+                            t,
+                            &mut eys[c],
+                            1000,
+                            &mut ws,
+                        ))
+                        .expect("a threaded move");
+                    }
+                    times[c].push(clock.elapsed().as_nanos() as f64);
+                }
+            }
+            step += MOVES;
+        }
+        let plain = percentile(&mut times[0].clone(), 0.5);
+        for (c, &k) in cases.iter().enumerate() {
+            let what = match k {
+                0 => "plain move (no eyelet)".to_string(),
+                1 => "through 1 eyelet".to_string(),
+                _ => format!("through {k} eyelets"),
+            };
+            let med = percentile(&mut times[c], 0.5);
+            let p99 = percentile(&mut times[c], 0.99);
+            println!(
+                "| {n} | {what} | {med:.0} | {p99:.0} | {:.2} |",
+                med / plain
+            );
+        }
+    }
+}
+
+/// SplitMix64.
+struct Rng(u64);
+impl Rng {
+    fn unit(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn sym(&mut self, a: f64) -> f64 {
+        a * (2.0 * self.unit() - 1.0)
+    }
+}
+
+fn accuracy(moves: usize) {
+    let mut rng = Rng(0xE7E_1E7);
+    let mut r = rope(40);
+    let mut e = vec![
+        Eyelet::thread(&r, V::new(12.5, 0.0, 0.0), 1e-9).expect("on the rope"),
+        Eyelet::thread(&r, V::new(27.5, 0.0, 0.0), 1e-9).expect("on the rope"),
+    ];
+    let homes = [V::zeros(), V::new(40.0, 0.0, 0.0)];
+    let mut ws = EyeletWorkspace::new();
+    let (mut refused, mut slid, mut worst_eyelet, mut worst_length) =
+        (0usize, 0usize, 0.0f64, 0.0f64);
+    let mut p = r.positions();
+    let clock = Instant::now();
+    for k in 0..moves {
+        let (joint, home) = if k % 2 == 0 {
+            (40, homes[1])
+        } else {
+            (0, homes[0])
+        };
+        let t = home + V::new(rng.sym(3.0), rng.sym(3.0), rng.sym(3.0));
+        let links = [e[0].link, e[1].link];
+        if move_threaded(&mut r, joint, t, &mut e, 1000, &mut ws).is_err() {
+            refused += 1;
+            continue;
+        }
+        slid += usize::from(links != [e[0].link, e[1].link]);
+        r.write_positions(&mut p);
+        for x in e.iter().filter(|x| x.threaded) {
+            worst_eyelet = worst_eyelet.max(to_segment(p[x.link], p[x.link + 1], x.at));
+        }
+        if k % 1000 == 0 || k + 1 == moves {
+            for w in p.windows(2) {
+                worst_length = worst_length.max(((w[1] - w[0]).norm() - 1.0).abs());
+            }
+        }
+    }
+    let threaded = e.iter().filter(|x| x.threaded).count();
+    println!(
+        "\n| moves | refused (folding through an eyelet, or eyelets within a link) | moves that slid an eyelet to another link | eyelets still threaded at the end | largest distance from an eyelet to its link (links) | largest link-length error (links) | seconds |\n|---:|---:|---:|---:|---:|---:|---:|"
+    );
+    println!(
+        "| {moves} | {refused} | {slid} | {threaded} of 2 | {worst_eyelet:.1e} | {worst_length:.1e} | {:.1} |",
+        clock.elapsed().as_secs_f64()
+    );
+}
+
+fn main() {
+    let rounds = std::env::var("EYELET_BENCH_ROUNDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .filter(|&r: &usize| r > 0)
+        .unwrap_or(20);
+    let moves = std::env::var("EYELET_BENCH_MOVES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .filter(|&m: &usize| m > 0)
+        .unwrap_or(1_000_000);
+    cost(rounds);
+    accuracy(moves);
+}
