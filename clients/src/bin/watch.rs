@@ -272,6 +272,7 @@ fn run(a: Args) -> Result<u8> {
                         &held,
                         &instruments.0,
                         &instruments.1,
+                        &instruments.2,
                     )?,
                 }
             }
@@ -548,7 +549,11 @@ type Read = (
     shared::StateHeader,
     Vec<[f64; 3]>,
     Vec<clients::viewer::Held>,
-    (Vec<shared::InstrumentPose>, Vec<[f64; 3]>),
+    (
+        Vec<shared::InstrumentPose>,
+        Vec<[f64; 3]>,
+        Vec<shared::EyeletState>,
+    ),
     bool,
 );
 
@@ -628,6 +633,7 @@ impl Reader {
                                 .iter()
                                 .map(|p| p.to_array())
                                 .collect::<Vec<_>>(),
+                            parts.eyelet_states().collect::<Vec<_>>(),
                         ),
                     )
                 };

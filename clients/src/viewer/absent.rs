@@ -37,6 +37,7 @@ impl RerunView {
         _: &[super::Held],
         _: &[shared::InstrumentPose],
         _: &[[f64; 3]],
+        _: &[shared::EyeletState],
     ) -> Result<()> {
         match *self {}
     }

@@ -134,6 +134,7 @@ impl RerunView {
         held: &[super::Held],
         instruments: &[InstrumentPose],
         instrument_pulls: &[[f64; 3]],
+        eyelets: &[shared::EyeletState],
     ) -> Result<()> {
         if !self.chains.contains_key(&chain) {
             return Ok(());
@@ -211,6 +212,32 @@ impl RerunView {
         }
         for (k, inst) in instruments.iter().enumerate() {
             log_instrument(&self.rec, &format!("{base}/instruments/{k}"), inst)?;
+        }
+        if !eyelets.is_empty() {
+            // The points the rope passes through: green while threaded, grey once it has left.
+            self.rec.log(
+                format!("{base}/eyelets"),
+                &Points3D::new(
+                    eyelets
+                        .iter()
+                        .map(|e| [e.at.x as f32, e.at.y as f32, e.at.z as f32]),
+                )
+                .with_radii([held_radius])
+                .with_colors(eyelets.iter().map(|e| {
+                    if e.threaded {
+                        Color::from_rgb(20, 160, 60)
+                    } else {
+                        Color::from_rgb(150, 150, 150)
+                    }
+                }))
+                .with_labels(eyelets.iter().map(|e| {
+                    if e.threaded {
+                        format!("link {}", e.link)
+                    } else {
+                        "left".to_string()
+                    }
+                })),
+            )?;
         }
         log_tension(&self.rec, &base, &pts, &held, instruments, instrument_pulls)?;
         if c.free && joints.len() >= 4 {
