@@ -25,6 +25,16 @@
 
 use std::path::Path;
 
+/// What a chain's state shows beside its joints: its held joints, its instruments and their pulls,
+/// and its eyelets.
+#[derive(Debug, Clone, Copy)]
+pub struct Around<'a> {
+    pub held: &'a [Held],
+    pub instruments: &'a [shared::InstrumentPose],
+    pub instrument_pulls: &'a [[f64; 3]],
+    pub eyelets: &'a [shared::EyeletState],
+}
+
 /// A held joint as a state shows it: its index, whether the scene anchors it, whether the stretch from
 /// it to the next held joint is taut, and its pull (docs/tension.md).
 #[derive(Debug, Clone, Copy, PartialEq)]

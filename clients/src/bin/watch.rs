@@ -269,10 +269,12 @@ fn run(a: Args) -> Result<u8> {
                         h.sequence,
                         h.chain,
                         &joints,
-                        &held,
-                        &instruments.0,
-                        &instruments.1,
-                        &instruments.2,
+                        clients::viewer::Around {
+                            held: &held,
+                            instruments: &instruments.0,
+                            instrument_pulls: &instruments.1,
+                            eyelets: &instruments.2,
+                        },
                     )?,
                 }
             }

@@ -34,10 +34,7 @@ impl RerunView {
         _: u64,
         _: u32,
         _: &[[f64; 3]],
-        _: &[super::Held],
-        _: &[shared::InstrumentPose],
-        _: &[[f64; 3]],
-        _: &[shared::EyeletState],
+        _: super::Around<'_>,
     ) -> Result<()> {
         match *self {}
     }

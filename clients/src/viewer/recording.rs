@@ -125,17 +125,20 @@ impl RerunView {
     }
 
     /// Logs one state: the joints (tail first), the held joints (with their pulls and taut flags),
-    /// the chain's instruments and their pulls.
+    /// the chain's instruments and their pulls, its eyelets.
     pub fn state(
         &mut self,
         sequence: u64,
         chain: u32,
         joints: &[[f64; 3]],
-        held: &[super::Held],
-        instruments: &[InstrumentPose],
-        instrument_pulls: &[[f64; 3]],
-        eyelets: &[shared::EyeletState],
+        around: super::Around<'_>,
     ) -> Result<()> {
+        let super::Around {
+            held,
+            instruments,
+            instrument_pulls,
+            eyelets,
+        } = around;
         if !self.chains.contains_key(&chain) {
             return Ok(());
         }

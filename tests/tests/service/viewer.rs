@@ -627,3 +627,78 @@ fn the_view_marks_the_joints_at_their_bend_limit() {
     let logged: Vec<String> = serde_json::from_value(at_last).unwrap();
     assert_eq!(logged, expected);
 }
+
+/// Issue 39: the Rerun view draws a chain's eyelets where the scene put them, each labelled with
+/// the link through it. The service's rope is moved twice; at the last state the recording's eyelet
+/// points are the scene's and their labels name the links that the test finds passing through them
+/// in the last response's joints (the nearest segment, computed here).
+#[test]
+fn watch_draws_the_eyelets_on_the_links_through_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("suture.toml");
+    let points = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]];
+    std::fs::write(
+        &scene,
+        "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\n\
+         eyelets = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]]\n",
+    )
+    .unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--no-persist",
+            "--wait",
+            "event",
+        ],
+    );
+    let rrd = dir.path().join("eyelets.rrd");
+    let (watch, rx) = start_watch(&svc.prefix, &rrd, 2, &[]);
+    let mut c = svc.connect();
+    let mut joints = Vec::new();
+    for t in [Vec3::new(41.0, 5.0, 2.0), Vec3::new(43.0, 3.0, -2.0)] {
+        let mut h = RequestHeader::new(Command::Move, 0);
+        h.joint = JOINT_HEAD;
+        let r = c.call(h, &[t]).unwrap();
+        assert!(r.is_ok(), "{}", r.header.reason_str());
+        joints = r.joints().to_vec();
+    }
+    wait_for(watch, &rx);
+    let links: Vec<String> = points
+        .iter()
+        .map(|p| {
+            let p = Vec3::new(p[0], p[1], p[2]);
+            let d = |k: usize| {
+                let (a, b) = (joints[k], joints[k + 1]);
+                let ab = [b.x - a.x, b.y - a.y, b.z - a.z];
+                let ap = [p.x - a.x, p.y - a.y, p.z - a.z];
+                let t = ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2])
+                    / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]))
+                    .clamp(0.0, 1.0);
+                let e = [ap[0] - ab[0] * t, ap[1] - ab[1] * t, ap[2] - ab[2] * t];
+                (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
+            };
+            let k = (0..joints.len() - 1)
+                .min_by(|&a, &b| d(a).total_cmp(&d(b)))
+                .unwrap();
+            assert!(d(k) < 1e-9, "the rope passes {:e} from {p:?}", d(k));
+            format!("link {k}")
+        })
+        .collect();
+    let v = read_rrd(&rrd);
+    let e = &v["/chains/suture/eyelets"]["values"];
+    let last = |what: &str| -> serde_json::Value {
+        e[what]
+            .as_array()
+            .unwrap_or_else(|| panic!("no {what}: {e}"))
+            .iter()
+            .find(|x| x[0].as_u64() == Some(2))
+            .map(|x| x[1].clone())
+            .unwrap_or_else(|| panic!("no {what} at state 2: {e}"))
+    };
+    let at: Vec<[f64; 3]> = serde_json::from_value(last("positions")).unwrap();
+    assert_eq!(at, points);
+    let labels: Vec<String> = serde_json::from_value(last("labels")).unwrap();
+    assert_eq!(labels, links);
+}
