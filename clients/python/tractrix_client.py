@@ -55,7 +55,7 @@ def knot(h) -> str | None:
 KIND = ["free", "fixed-base", "bundle"]
 
 CMD = {"move": 1, "path": 2, "reach": 3, "query": 4, "reset": 5, "describe": 6, "snapshot": 7,
-       "grasp": 8, "release": 9, "instrument": 10}
+       "grasp": 8, "release": 9, "instrument": 10, "eyelet": 11}
 STATUS = [
     "ok", "unknown-command", "unknown-chain", "joint-out-of-range", "non-finite", "bad-option",
     "bad-point-count", "unreachable", "not-converged", "too-many-substeps", "wrong-chain-kind",

@@ -120,7 +120,8 @@ enum tractrix_command {
     TRACTRIX_CMD_SNAPSHOT = 7,
     TRACTRIX_CMD_GRASP = 8,
     TRACTRIX_CMD_RELEASE = 9,
-    TRACTRIX_CMD_INSTRUMENT = 10
+    TRACTRIX_CMD_INSTRUMENT = 10,
+    TRACTRIX_CMD_EYELET = 11
 };
 
 /* Statuses (ResponseHeader.status); on error, `reason` says why and the state is unchanged. */

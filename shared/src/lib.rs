@@ -156,7 +156,7 @@
 //! # Enumerations (all `uint32_t`)
 //!
 //! * [`Command`]: 1 move, 2 path, 3 reach, 4 query, 5 reset, 6 describe, 7 snapshot, 8 grasp, 9
-//!   release, 10 instrument.
+//!   release, 10 instrument, 11 eyelet.
 //! * [`Status`]: 0 ok, then one value per error (see the type).
 //! * `joint`: the joint index, 0 = tail; [`JOINT_HEAD`] (`0xFFFFFFFF`) = the head whatever the length.
 //! * `method` ([`WireMethod`]): 0 chain default, 1 closed-form tractrix, 2 the paper's form, 3
@@ -519,6 +519,10 @@ pub enum Command {
     /// pushing the chain out of its way: payload `[centre]` for a sphere, `[centre, axis direction]`
     /// for a capsule. A push the rope cannot give way to is `Locked` and changes nothing.
     Instrument = 10,
+    /// Move eyelet `joint` of the chain (its index in the scene's `eyelets`) to the one point: tissue
+    /// that a simulator moves. The rope's point at the eyelet goes with it (the link through it is
+    /// carried), the rope on each side follows; an eyelet the rope has left just moves.
+    Eyelet = 11,
 }
 
 impl Command {
@@ -534,6 +538,7 @@ impl Command {
             Command::Grasp => "grasp",
             Command::Release => "release",
             Command::Instrument => "instrument",
+            Command::Eyelet => "eyelet",
         }
     }
     /// Whether an accepted command of this kind changes the state (and is journaled and published).
@@ -547,6 +552,7 @@ impl Command {
                 | Command::Grasp
                 | Command::Release
                 | Command::Instrument
+                | Command::Eyelet
         )
     }
 }
@@ -711,7 +717,8 @@ macro_rules! wire_enum_from_u32 {
     )*};
 }
 wire_enum_from_u32! {
-    Command { Move, Path, Reach, Query, Reset, Describe, Snapshot, Grasp, Release, Instrument }
+    Command { Move, Path, Reach, Query, Reset, Describe, Snapshot, Grasp, Release, Instrument,
+              Eyelet }
     Status { Ok, UnknownCommand, UnknownChain, JointOutOfRange, NonFinite, BadOption, BadPointCount,
              Unreachable, NotConverged, TooManySubsteps, WrongChainKind, OffPlane, PersistenceFailed,
              Internal, Locked, TooFar, OverBudget, JointLimit, Held }
@@ -1330,7 +1337,8 @@ mod tests {
         assert_eq!(Command::from_u32(8), Some(Command::Grasp));
         assert_eq!(Command::from_u32(9), Some(Command::Release));
         assert_eq!(Command::from_u32(10), Some(Command::Instrument));
-        assert_eq!(Command::from_u32(11), None);
+        assert_eq!(Command::from_u32(11), Some(Command::Eyelet));
+        assert_eq!(Command::from_u32(12), None);
         assert_eq!(Status::from_u32(14), Some(Status::Locked));
         assert_eq!(Status::from_u32(15), Some(Status::TooFar));
         assert_eq!(Status::from_u32(16), Some(Status::OverBudget));

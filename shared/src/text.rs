@@ -8,6 +8,7 @@
 //! {"cmd":"reach","chain":"arm","target":[1.2,0.8],"tolerance":1e-9,"angles":true}
 //! {"cmd":"query","chain":"snake"}
 //! {"cmd":"instrument","chain":"suture","joint":0,"target":[3,1,0],"axis":[0,0,1]}
+//! {"cmd":"eyelet","chain":"suture","joint":0,"target":[10.5,2,0]}
 //! ```
 //!
 //! Field names are those of [`RequestHeader`]; `chain` is a name or an index, `joint` is `"head"`,
@@ -317,6 +318,12 @@ impl TextRequest {
                     p.push(parse_point(a)?);
                 }
                 p
+            }
+            Command::Eyelet => {
+                let t = self.target.as_ref().ok_or_else(|| {
+                    "eyelet: field `target` (where it goes) is missing".to_string()
+                })?;
+                vec![parse_point(t)?]
             }
             _ => Vec::new(),
         };

@@ -75,3 +75,63 @@ fn a_response_carries_the_eyelets_on_their_links() {
     );
     assert_eq!((h.n_eyelets, out.len()), (0, 5));
 }
+
+#[test]
+fn the_eyelet_command_moves_an_eyelet_and_the_rope_with_it() {
+    let world = World::new(&parse_scene(SCENE, "suture.toml").unwrap()).unwrap();
+    let mut solver = Solver::new(world, None, Duration::from_secs(3600));
+    let mut out = Vec::new();
+    // Eyelet 0 (at 10.5 on the straight rope, on link 10) moved sideways by 2: the link through it is
+    // carried, so joints 10 and 11 move by exactly that.
+    let mut h = RequestHeader::new(Command::Eyelet, 0);
+    h.joint = 0;
+    let (r, _) = respond(
+        &mut solver,
+        LOCAL,
+        &h,
+        &[Vec3::new(10.5, 2.0, 0.0)],
+        &mut out,
+    );
+    assert_eq!(r.status, Status::Ok as u32, "{}", r.reason_str());
+    let parts = Parts::of_response(&r, &out);
+    assert_eq!(parts.joints[10], Vec3::new(10.0, 2.0, 0.0));
+    assert_eq!(parts.joints[11], Vec3::new(11.0, 2.0, 0.0));
+    let e: Vec<_> = parts.eyelet_states().collect();
+    assert_eq!(e[0].at, Vec3::new(10.5, 2.0, 0.0));
+    for (i, e) in e.iter().enumerate() {
+        let l = e.link as usize;
+        let d = to_segment(parts.joints[l], parts.joints[l + 1], e.at);
+        assert!(d < 1e-9, "eyelet {i} {d:e} off link {l}");
+    }
+    // An eyelet that does not exist, and a chain without eyelets: refused, nothing changed.
+    let before = out.clone();
+    h.joint = 2;
+    let (r, _) = respond(
+        &mut solver,
+        LOCAL,
+        &h,
+        &[Vec3::new(1.0, 1.0, 0.0)],
+        &mut out,
+    );
+    assert_ne!(r.status, Status::Ok as u32);
+    assert!(r.reason_str().contains("eyelets"), "{}", r.reason_str());
+    let (q, _) = respond(
+        &mut solver,
+        LOCAL,
+        &RequestHeader::new(Command::Query, 0),
+        &[],
+        &mut out,
+    );
+    assert_eq!(q.status, Status::Ok as u32);
+    assert_eq!(out, before);
+    let mut h = RequestHeader::new(Command::Eyelet, 1);
+    h.joint = 0;
+    let (r, _) = respond(
+        &mut solver,
+        LOCAL,
+        &h,
+        &[Vec3::new(1.0, 1.0, 0.0)],
+        &mut out,
+    );
+    assert_ne!(r.status, Status::Ok as u32);
+}

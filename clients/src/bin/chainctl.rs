@@ -11,6 +11,7 @@
 //! chainctl grasp rope --joint tail      # held: moves elsewhere leave it where it is
 //! chainctl release rope --joint tail
 //! chainctl move rope --joint head --target 60,0,0 --pull   # as far as the rope lets; prints the pull
+//! chainctl eyelet suture --joint 0 --target 10.5,2,0            # tissue moved: the rope goes with it
 //! chainctl knot reef
 //! ```
 //!
@@ -39,6 +40,9 @@ enum Cmd {
     /// Move an instrument of the chain (`--joint` = its index in the chain's `instruments` list) to
     /// `--target` (its centre), turned to `--axis` (capsules), pushing the chain.
     Instrument,
+    /// Move an eyelet of the chain (`--joint` = its index in the scene's `eyelets`, default 0) to
+    /// `--target`, carrying the rope's point at it (tissue that moves).
+    Eyelet,
     /// Query the chain and name the knot tied in it (unknot, trefoil, square, granny, double-overhand, surgeons, other).
     Knot,
 }
@@ -331,7 +335,9 @@ fn run(a: Args) -> Result<u8> {
         joint: Some(match a.joint.parse::<u32>() {
             Ok(i) => JointRef::Index(i),
             // An instrument by default: the chain's first.
-            Err(_) if a.command == Cmd::Instrument && a.joint == "head" => JointRef::Index(0),
+            Err(_) if matches!(a.command, Cmd::Instrument | Cmd::Eyelet) && a.joint == "head" => {
+                JointRef::Index(0)
+            }
             Err(_) => JointRef::Named(a.joint.clone()),
         }),
         target: a.target.as_deref().map(point).transpose()?,

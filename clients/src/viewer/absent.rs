@@ -29,13 +29,7 @@ impl RerunView {
         match *self {}
     }
     /// Unreachable (no value exists).
-    pub fn state(
-        &mut self,
-        _: u64,
-        _: u32,
-        _: &[[f64; 3]],
-        _: super::Around<'_>,
-    ) -> Result<()> {
+    pub fn state(&mut self, _: u64, _: u32, _: &[[f64; 3]], _: super::Around<'_>) -> Result<()> {
         match *self {}
     }
     /// Unreachable (no value exists).

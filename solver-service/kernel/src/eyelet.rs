@@ -263,7 +263,12 @@ fn substep<T: Real, const D: usize>(
     let mut left = 0;
     left += side(old, new, lengths, m, eyelets, false)?;
     left += side(old, new, lengths, m, eyelets, true)?;
-    // No two eyelets within one link of each other.
+    apart(eyelets)?;
+    Ok(left)
+}
+
+/// No two threaded eyelets within one link of each other.
+fn apart<T: Real, const D: usize>(eyelets: &[Eyelet<T, D>]) -> Result<(), EyeletError> {
     let mut last: Option<(usize, usize)> = None;
     for (i, e) in eyelets.iter().enumerate().filter(|(_, e)| e.threaded) {
         if let Some((a, link)) = last
@@ -273,7 +278,86 @@ fn substep<T: Real, const D: usize>(
         }
         last = Some((i, e.link));
     }
-    Ok(left)
+    Ok(())
+}
+
+/// Moves eyelet `index` straight to `to` (tissue that a simulator moves), carrying the rope's point
+/// at it: the link through the eyelet is translated with it, and the rope on each side follows by the
+/// tractrix (and the aim rule at the other eyelets), as from a moved joint. An eyelet the rope has
+/// left just moves. Split into substeps of at most half the shortest link, at most `max_substeps`;
+/// refused, changing nothing, as [`move_threaded`] is.
+pub fn move_eyelet<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    index: usize,
+    to: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    ws: &mut EyeletWorkspace<T, D>,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let Some(&e) = eyelets.get(index) else {
+        return Err(ChainError::BadOption("no such eyelet").into());
+    };
+    if !crate::math::all_finite(&to) {
+        return Err(ChainError::NonFinite.into());
+    }
+    if !e.threaded {
+        eyelets[index].at = to;
+        return Ok(Threaded::default());
+    }
+    if chain.held().len() > 0 {
+        return Err(EyeletError::Held);
+    }
+    let n = chain.n_links();
+    ws.old.resize(n + 1, Vector::zeros());
+    ws.new.resize(n + 1, Vector::zeros());
+    chain.write_positions(&mut ws.new);
+    ws.saved.clear();
+    ws.saved
+        .extend(eyelets.iter().map(|e| (e.link, e.threaded)));
+    let lengths = chain.lengths();
+    let from = e.at;
+    let way = to - from;
+    let k = (way.norm() / (chain.min_length() * T::lit(0.5)))
+        .ceil()
+        .max(T::one());
+    if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
+        return Err(ChainError::TooManySubsteps {
+            required: k.to_f64().min(u64::MAX as f64) as u64,
+            limit: max_substeps,
+        }
+        .into());
+    }
+    let steps = k.to_f64() as u32;
+    let mut out = Threaded::default();
+    for s in 1..=steps {
+        std::mem::swap(&mut ws.old, &mut ws.new);
+        let at = from + way * (T::lit(f64::from(s)) / k);
+        let shift = at - eyelets[index].at;
+        let link = eyelets[index].link;
+        eyelets[index].at = at;
+        let (old, new) = (&ws.old, &mut ws.new);
+        new[link] = old[link] + shift;
+        new[link + 1] = old[link + 1] + shift;
+        let walked = side(old, new, lengths, link, eyelets, false)
+            .and_then(|a| Ok(a + side(old, new, lengths, link + 1, eyelets, true)?))
+            .and_then(|left| apart(eyelets).map(|()| left));
+        match walked {
+            Ok(left) => out.left += left,
+            Err(err) => {
+                for (x, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
+                    (x.link, x.threaded) = (link, on);
+                }
+                eyelets[index].at = from;
+                return Err(err);
+            }
+        }
+        out.substeps = s;
+    }
+    chain.set_positions(&ws.new)?;
+    Ok(out)
 }
 
 /// Whether the link from a leader now at `now` (before the move at `was`, its follower at `other`),

@@ -140,6 +140,7 @@ pub fn decode<'a>(
         shared::Command::Move | shared::Command::Reach => 1..=1,
         shared::Command::Path => 1..=MAX_PATH_POINTS as usize,
         shared::Command::Instrument => 1..=2,
+        shared::Command::Eyelet => 1..=1,
         _ => 0..=0,
     };
     if !expected.contains(&points.len()) {
@@ -197,6 +198,12 @@ pub fn decode<'a>(
             take_over,
         }),
         shared::Command::Snapshot => Ok(Command::Snapshot),
+        shared::Command::Eyelet => Ok(Command::Eyelet {
+            chain: h.chain,
+            index: h.joint as usize,
+            at: points[0],
+            max_substeps: spec.moves.max_substeps,
+        }),
     }
 }
 

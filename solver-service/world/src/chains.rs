@@ -258,6 +258,35 @@ impl World {
                 }
                 Ok(n.saturating_mul(k as u64))
             }
+            // Substeps of half the shortest link over the way the eyelet goes.
+            Command::Eyelet {
+                index,
+                at,
+                max_substeps,
+                ..
+            } => {
+                let from = each_form!(&self.geometry[chain as usize], h => {
+                    h.eyelets.get(index).map(|e| to_point(&e.at))
+                })
+                .ok_or_else(|| {
+                    refuse!(
+                        BadOption,
+                        "chain {:?} has {} eyelets, not {}",
+                        spec.name,
+                        spec.eyelets.len(),
+                        index + 1
+                    )
+                })?;
+                let k = ((at - from).norm() / (0.5 * spec.shortest)).ceil().max(1.0);
+                if !(k.is_finite() && k <= f64::from(max_substeps)) {
+                    return Err(ChainError::TooManySubsteps {
+                        required: if k.is_finite() { k as u64 } else { u64::MAX },
+                        limit: max_substeps,
+                    }
+                    .into());
+                }
+                Ok(n.saturating_mul(k as u64))
+            }
             Command::Query { .. }
             | Command::Describe { .. }
             | Command::Reset { .. }
@@ -697,6 +726,26 @@ impl World {
             Command::Grasp { joint, .. } => {
                 each_form!(&mut *g, h => h.chain.hold(joint)).map_err(Refusal::from)
             }
+            Command::Eyelet {
+                index,
+                at,
+                max_substeps,
+                ..
+            } => each_form!(&mut *g, h => {
+                let crate::form::LiveChain {
+                    chain, eyelets, eyelet_ws, ..
+                } = h;
+                tractrix::eyelet::move_eyelet(
+                    chain,
+                    index,
+                    crate::form::point(at),
+                    eyelets,
+                    max_substeps,
+                    eyelet_ws,
+                )
+            })
+            .map(|m| outcome.substeps = m.substeps)
+            .map_err(Refusal::from),
             Command::Release { joint, .. } => each_form!(&mut *g, h => {
                 h.tension.released(joint);
                 h.chain.release(joint)

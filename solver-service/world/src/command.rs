@@ -104,6 +104,18 @@ pub enum Command<'a> {
         /// the instrument's pull ([`crate::tension`]) instead of a refusal.
         pull: bool,
     },
+    /// Move an eyelet of the chain to a new point, carrying the rope's point at it
+    /// ([`tractrix::eyelet::move_eyelet`]).
+    Eyelet {
+        /// Chain handle.
+        chain: u32,
+        /// The eyelet's index in the scene's `eyelets`.
+        index: usize,
+        /// Where it goes.
+        at: Point,
+        /// Substep limit (the chain's).
+        max_substeps: u32,
+    },
     /// A command to a bundle.
     Bundle {
         /// Wire handle (after the chains').
@@ -126,7 +138,8 @@ impl Command<'_> {
             | Command::Reset { chain, .. }
             | Command::Grasp { chain, .. }
             | Command::Release { chain, .. }
-            | Command::Instrument { chain, .. } => Some(chain),
+            | Command::Instrument { chain, .. }
+            | Command::Eyelet { chain, .. } => Some(chain),
             Command::Snapshot | Command::Bundle { .. } => None,
         }
     }
@@ -141,6 +154,7 @@ impl Command<'_> {
                 | Command::Grasp { .. }
                 | Command::Release { .. }
                 | Command::Instrument { .. }
+                | Command::Eyelet { .. }
         ) || matches!(self, Command::Bundle { op, .. } if op.changes_state())
     }
 }

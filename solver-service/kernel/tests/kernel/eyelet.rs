@@ -183,3 +183,55 @@ fn random_moves_keep_every_eyelet_on_its_link() {
         "{accepted} accepted, {slid} slid, {refused} refused"
     );
 }
+
+#[test]
+fn a_moving_eyelet_carries_the_rope_with_it() {
+    use tractrix::eyelet::move_eyelet;
+    let mut ws = EyeletWorkspace::new();
+    // Along the rope's axis by 5: the straight rope is translated as a whole (computed here).
+    let mut r = rope();
+    let mut e = [
+        Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap(),
+        Eyelet::thread(&r, V::new(25.5, 0.0, 0.0), 1e-9).unwrap(),
+    ];
+    let before = r.positions();
+    move_eyelet(&mut r, 0, V::new(15.5, 0.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    for (k, (a, b)) in before.iter().zip(r.positions()).enumerate() {
+        assert!(
+            (b - a - V::new(5.0, 0.0, 0.0)).norm() < 1e-9,
+            "joint {k}: {b:?}"
+        );
+    }
+    // The other eyelet stayed where it was: the rope slid through it.
+    assert_eq!((e[0].link, e[1].link), (10, 20));
+    check(&r, &e, 1e-9, "along the axis");
+    // Sideways by 3: the link through it is carried (its joints moved by exactly the shift), the rope
+    // follows on both sides and stays on the other eyelet.
+    let mut r = rope();
+    let mut e = [
+        Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap(),
+        Eyelet::thread(&r, V::new(25.5, 0.0, 0.0), 1e-9).unwrap(),
+    ];
+    move_eyelet(&mut r, 0, V::new(10.5, 3.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    let p = r.positions();
+    assert!(
+        (p[10] - V::new(10.0, 3.0, 0.0)).norm() < 1e-9,
+        "{:?}",
+        p[10]
+    );
+    assert!(
+        (p[11] - V::new(11.0, 3.0, 0.0)).norm() < 1e-9,
+        "{:?}",
+        p[11]
+    );
+    assert_eq!(e[0].at, V::new(10.5, 3.0, 0.0));
+    check(&r, &e, 1e-9, "sideways");
+    // An eyelet the rope has left just moves.
+    let mut r = rope();
+    let mut e = [Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap()];
+    move_threaded(&mut r, 40, V::new(52.0, 0.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    let before = r.positions();
+    move_eyelet(&mut r, 0, V::new(0.0, 9.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    assert_eq!(r.positions(), before);
+    assert_eq!(e[0].at, V::new(0.0, 9.0, 0.0));
+}
