@@ -50,6 +50,8 @@ pub struct LiveChain<T: Real, const D: usize> {
     pub(crate) eyelets_before: Vec<Eyelet<T, D>>,
     pub(crate) eyelets_best: Vec<Eyelet<T, D>>,
     pub(crate) eyelet_ws: EyeletWorkspace<T, D>,
+    /// The block of tissue the head pierces (scene `tissue`: its lower and upper corners).
+    pub(crate) tissue: Option<(Point, Point)>,
 }
 
 impl<T: Real, const D: usize> LiveChain<T, D>
@@ -369,6 +371,7 @@ where
         eyelets_before: Vec::new(),
         eyelets_best: Vec::new(),
         eyelet_ws: EyeletWorkspace::new(),
+        tissue: spec.tissue,
     };
     h.eyelets_initial = h.eyelets.clone();
     h.eyelets_before = h.eyelets.clone();

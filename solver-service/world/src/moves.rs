@@ -188,11 +188,13 @@ where
         }
         Ok(())
     };
-    if !g.eyelets.is_empty() {
-        // Each target is a straight move through the eyelets.
+    if !g.eyelets.is_empty() || g.tissue.is_some() {
+        // Each target is a straight move through the eyelets; a head that goes into or out of the
+        // tissue makes an eyelet where the rope crosses its surface.
         let mut total = MoveOutcome::default();
         for t in targets {
             let p: Vector<T, D> = point(*t);
+            let before = to_point(&g.chain.joint(g.chain.n_links()));
             let LiveChain {
                 chain,
                 eyelets,
@@ -208,6 +210,9 @@ where
                 eyelet_ws,
             )?;
             total.substeps = total.substeps.saturating_add(o.substeps);
+            if joint == g.chain.n_links() {
+                pierce(g, before)?;
+            }
         }
         Ok(total)
     } else if let Some((model, ws)) = &mut g.collision {
@@ -235,6 +240,98 @@ where
         let LiveChain { chain, targets, .. } = g;
         Ok(chain.move_along(joint, targets, &opts)?)
     }
+}
+
+/// Whether `p` lies inside the box `lo`–`hi`.
+fn inside(p: &Point, (lo, hi): &(Point, Point)) -> bool {
+    (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k])
+}
+
+/// Where the segment `a`–`b` (one end inside the box, the other outside) crosses the box's surface:
+/// the parameter along it (the slab method from the end outside).
+fn surface_crossing(a: &Point, b: &Point, bx: &(Point, Point)) -> Option<Point> {
+    let (out, into) = if inside(a, bx) { (b, a) } else { (a, b) };
+    let d = into - out;
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if out[k] < bx.0[k] || out[k] > bx.1[k] {
+                return None;
+            }
+            continue;
+        }
+        let (mut u, mut v) = ((bx.0[k] - out[k]) / d[k], (bx.1[k] - out[k]) / d[k]);
+        if u > v {
+            std::mem::swap(&mut u, &mut v);
+        }
+        t0 = t0.max(u);
+        t1 = t1.min(v);
+    }
+    (t0 <= t1).then(|| out + d * t0)
+}
+
+/// After a move of the head: when it went into or out of the tissue, an eyelet is made where the
+/// rope crosses the tissue's surface nearest the head (on the first link back from the head with
+/// one end inside and one outside), in order along the rope. Refused (the caller undoes the move)
+/// when that eyelet would lie within a link of another or the chain has the most eyelets.
+fn pierce<T: Real, const D: usize>(
+    g: &mut LiveChain<T, D>,
+    head_before: Point,
+) -> Result<(), Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let Some(bx) = g.tissue else {
+        return Ok(());
+    };
+    let n = g.chain.n_links();
+    let head = to_point(&g.chain.joint(n));
+    if inside(&head, &bx) == inside(&head_before, &bx) {
+        return Ok(());
+    }
+    let mut b = head;
+    for k in (0..n).rev() {
+        let a = to_point(&g.chain.joint(k));
+        if inside(&a, &bx) != inside(&b, &bx) {
+            let Some(at) = surface_crossing(&a, &b, &bx) else {
+                return Ok(());
+            };
+            if g.eyelets.len() >= crate::sizes::MAX_EYELETS {
+                return Err(refuse!(
+                    BadOption,
+                    "the chain passes through {} eyelets, the most there may be",
+                    g.eyelets.len()
+                ));
+            }
+            if let Some(e) = g
+                .eyelets
+                .iter()
+                .find(|e| e.threaded && e.link.abs_diff(k) < 2)
+            {
+                return Err(refuse!(
+                    Locked,
+                    "the rope would cross the tissue's surface on link {k}, within a link of the \
+                     eyelet on link {} (a wider bite or a finer suture)",
+                    e.link
+                ));
+            }
+            let at: Vector<T, D> = point(at);
+            let e = tractrix::eyelet::Eyelet {
+                at,
+                link: k,
+                threaded: true,
+            };
+            let i = g
+                .eyelets
+                .iter()
+                .position(|x| x.threaded && x.link > k)
+                .unwrap_or(g.eyelets.len());
+            g.eyelets.insert(i, e);
+            return Ok(());
+        }
+        b = a;
+    }
+    Ok(())
 }
 
 /// A reach on one fixed-base chain: iterations and residual.

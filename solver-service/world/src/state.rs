@@ -39,9 +39,9 @@ pub struct ChainState {
     pub asked_joints: Vec<Asked>,
     /// Instruments whose last pulled pose stopped short, and their asked centres.
     pub asked_instruments: Vec<Asked>,
-    /// The scene's eyelets in order: the link through each, and whether the chain still passes
-    /// through it.
-    pub eyelets: Vec<(u32, bool)>,
+    /// The chain's eyelets in order (the scene's, and those its head made in tissue): the point
+    /// (`dims` numbers), the link through it, and whether the chain still passes through it.
+    pub eyelets: Vec<(Vec<f64>, u32, bool)>,
 }
 
 /// The state of every chain of a world, and its sequence number.
@@ -129,7 +129,10 @@ impl World {
                         eyelets: each_form!(g, g => g
                             .eyelets()
                             .iter()
-                            .map(|e| (e.link as u32, e.threaded))
+                            .map(|e| {
+                                let at = e.at.iter().map(|x| x.to_f64()).collect();
+                                (at, e.link as u32, e.threaded)
+                            })
                             .collect()),
                     }
                 })
@@ -204,7 +207,7 @@ impl World {
                 }
                 h.tension.set_asked(s.asked_joints.clone(), s.asked_instruments.clone());
                 h.refresh_tension();
-                set_eyelets(h, &s.eyelets).map_err(pose)?;
+                set_eyelets(h, &s.eyelets, d.tissue.is_some()).map_err(pose)?;
             });
             built.push(g);
         }
@@ -213,30 +216,51 @@ impl World {
     }
 }
 
-/// The eyelets of a restored chain: the scene's, each on the link the state says, passing through it
-/// while threaded (to 1e-9 of the link in f64, a thousand roundings in f32), in order and two links
-/// apart.
+/// The eyelets of a restored chain: the scene's (any number up to the most, made by the head in the
+/// chain's tissue, when it has tissue), each on the link the state says, passing through it while
+/// threaded (to 1e-9 of the link in f64, a thousand roundings in f32), in order and two links apart.
 fn set_eyelets<T: Real, const D: usize>(
     h: &mut crate::form::LiveChain<T, D>,
-    eyelets: &[(u32, bool)],
+    eyelets: &[(Vec<f64>, u32, bool)],
+    tissue: bool,
 ) -> Result<(), String>
 where
     Vector<T, D>: Embed3<T>,
 {
-    if eyelets.len() != h.eyelets.len() {
+    let scene = &h.eyelets_initial;
+    let same_points = eyelets.len() == scene.len()
+        && eyelets.iter().zip(scene).all(|(e, s)| {
+            e.0.len() == D && e.0.iter().zip(s.at.iter()).all(|(a, b)| *a == b.to_f64())
+        });
+    if !tissue && !same_points {
         return Err(format!(
-            "{} eyelets, the scene has {}",
+            "{} eyelets that are not the scene's {}",
             eyelets.len(),
-            h.eyelets.len()
+            scene.len()
         ));
     }
+    if eyelets.len() > crate::sizes::MAX_EYELETS {
+        return Err(format!(
+            "{} eyelets, at most {}",
+            eyelets.len(),
+            crate::sizes::MAX_EYELETS
+        ));
+    }
+    h.eyelets.clear();
     let mut last: Option<u32> = None;
-    for (k, &(link, threaded)) in eyelets.iter().enumerate() {
+    for (k, (at, link, threaded)) in eyelets.iter().enumerate() {
+        let (link, threaded) = (*link, *threaded);
         if link as usize >= h.chain.n_links() {
             return Err(format!("eyelet {k} on link {link}, past the head"));
         }
-        h.eyelets[k].link = link as usize;
-        h.eyelets[k].threaded = threaded;
+        if at.len() != D || !at.iter().all(|x| x.is_finite()) {
+            return Err(format!("eyelet {k}: {at:?} is not a point"));
+        }
+        h.eyelets.push(tractrix::eyelet::Eyelet {
+            at: Vector::<T, D>::from_iterator(at.iter().map(|&x| T::lit(x))),
+            link: link as usize,
+            threaded,
+        });
         if !threaded {
             continue;
         }

@@ -35,7 +35,11 @@ fn off_rope(j: &[Point], p: Point) -> f64 {
 }
 
 fn threaded(w: &World) -> Vec<(u32, bool)> {
-    w.state().chains[0].eyelets.clone()
+    w.state().chains[0]
+        .eyelets
+        .iter()
+        .map(|e| (e.1, e.2))
+        .collect()
 }
 
 fn check(w: &World, what: &str) {
@@ -110,7 +114,7 @@ fn the_rope_slides_through_its_eyelets_and_undo_reset_and_snapshots_keep_them() 
     assert_eq!((joints(&x), threaded(&x)), before);
     // A state whose eyelet is not on its link is refused, changing nothing.
     let mut bad = state.clone();
-    bad.chains[0].eyelets[0].0 += 3;
+    bad.chains[0].eyelets[0].1 += 3;
     let mut y = World::new(&scene).unwrap();
     assert!(y.restore(&bad).is_err());
     assert_eq!(threaded(&y), [(10, true), (25, true)]);
@@ -169,4 +173,73 @@ fn eyelets_off_the_rope_too_close_or_with_collision_are_scene_errors() {
         let e = parse_scene(&text, "s.toml").unwrap_err().to_string();
         assert!(e.contains("eyelets") && e.contains(says), "{e}");
     }
+}
+
+/// The head of a suture pierces a block of tissue (`tissue = [[lo], [hi]]`): going in through the top
+/// face makes an entry eyelet where the rope crosses it, coming out an exit eyelet; pulled on, the
+/// suture slides through both. Checked here: each eyelet lies on the top face (z = 0) and on the rope
+/// (the nearest segment of the joints, to 1e-9), and both stay on the rope as it is pulled through.
+#[test]
+fn a_needle_through_tissue_makes_an_entry_and_an_exit_eyelet() {
+    let text = r#"
+[[chain]]
+name = "suture"
+links = 60
+link_length = 0.5
+base = [0.0, 0.0, 2.0]
+tissue = [[31.0, -5.0, -3.0], [40.0, 5.0, 0.0]]
+"#;
+    let scene = parse_scene(text, "stitch.toml").unwrap();
+    let mut w = World::new(&scene).unwrap();
+    let points = |w: &World| -> Vec<Point> {
+        w.state().chains[0]
+            .eyelets
+            .iter()
+            .map(|e| Point::new(e.0[0], e.0[1], e.0[2]))
+            .collect()
+    };
+    let joints = |w: &World| -> Vec<Point> {
+        w.elements_with(0, false, false, false, (false, false))
+            .take(61)
+            .collect()
+    };
+    let mut counts = Vec::new();
+    for t in [
+        [32.0, 0.0, 1.0],
+        [32.5, 0.0, -1.0],
+        [34.0, 0.0, -2.0],
+        [35.5, 0.0, -1.0],
+        [36.0, 0.0, 1.0],
+        [38.0, 0.0, 2.0],
+        [40.0, 0.0, 3.0],
+        [42.0, 0.0, 4.0],
+    ] {
+        let p = [Point::new(t[0], t[1], t[2])];
+        w.apply(&go(&w, 60, &p)).unwrap();
+        let (e, j) = (points(&w), joints(&w));
+        counts.push(e.len());
+        for p in &e {
+            assert!(p.z.abs() < 1e-12 && (31.0..=40.0).contains(&p.x), "{p:?}");
+            let d = off_rope(&j, *p);
+            assert!(d < 1e-9, "eyelet {p:?} is {d:e} off the rope");
+        }
+        for (k, l) in j.windows(2).enumerate() {
+            assert!(((l[1] - l[0]).norm() - 0.5).abs() < 1e-12, "link {k}");
+        }
+    }
+    // In at the second target, out at the fifth.
+    assert_eq!(counts, [0, 1, 1, 1, 2, 2, 2, 2]);
+    let e = points(&w);
+    assert!(e[0].x < e[1].x, "entry before exit along x: {e:?}");
+    // Reset: back to the scene's (none); a snapshot keeps the made ones.
+    let state = w.state();
+    let mut x = World::new(&scene).unwrap();
+    x.restore(&state).unwrap();
+    assert_eq!(points(&x), e);
+    w.apply(&Command::Reset {
+        chain: 0,
+        take_over: false,
+    })
+    .unwrap();
+    assert!(points(&w).is_empty());
 }

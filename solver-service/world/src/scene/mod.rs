@@ -186,6 +186,9 @@ pub struct ChainSpec {
     /// (`eyelets`: free chains without collision or anchors; [`tractrix::eyelet`]), in order along
     /// the rope, each with the link through it.
     pub eyelets: Vec<(Vector3<f64>, usize)>,
+    /// A block of tissue the chain's head pierces (`tissue = [[lo], [hi]]`, an axis-aligned box):
+    /// where the head goes in or out through its surface an eyelet is made, on the link there.
+    pub tissue: Option<(Vector3<f64>, Vector3<f64>)>,
     /// Whether its knot is named with every answer and state (`knot = true`: free spatial chains;
     /// [`tractrix::knot::Namer`]).
     pub knot: bool,

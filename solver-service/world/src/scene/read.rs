@@ -100,6 +100,7 @@ pub(super) struct RawChain {
     pub joint_ranges: Field<Vec<Vec<f64>>>,
     pub knot: Field<bool>,
     pub eyelets: Field<Vec<Vec<f64>>>,
+    pub tissue: Field<Vec<Vec<f64>>>,
 }
 
 /// 1-based line of a byte offset.

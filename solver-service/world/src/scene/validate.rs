@@ -722,6 +722,7 @@ fn chain(
     .line;
     let anchors = anchors(&f, kind, lengths.len())?;
     let eyelets = eyelets(&f, kind, &points, &lengths, &anchors, scheme.is_some())?;
+    let tissue = tissue(&f, kind, &anchors, scheme.is_some())?;
     let knot = match &c.knot {
         Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
             return Err(f.err(
@@ -798,6 +799,7 @@ fn chain(
         limits,
         knot,
         eyelets,
+        tissue,
         moves: MoveOptions {
             method,
             substeps,
@@ -946,6 +948,43 @@ fn eyelets(
         ));
     }
     Ok(out)
+}
+
+/// A box's lower and upper corners.
+type Corners = (Vector3<f64>, Vector3<f64>);
+
+/// The chain's `tissue`: two corners `[lo, hi]` of a box, `lo` below `hi` on every axis, on a free
+/// spatial chain with no collision and no anchors (as for eyelets).
+fn tissue(
+    f: &Fields<'_>,
+    kind: ChainKind,
+    anchors: &[u32],
+    collision: bool,
+) -> Result<Option<Corners>, SceneError> {
+    let Some(t) = &f.c.tissue else {
+        return Ok(None);
+    };
+    let err = |what: String| Err(f.err(t.span(), "tissue", what));
+    if kind != ChainKind::Free || f.dims != 3 {
+        return err("tissue is for free spatial chains".into());
+    }
+    if collision || !anchors.is_empty() {
+        return err("a chain through tissue cannot have collision or anchors yet".into());
+    }
+    let corner = |v: &Vec<f64>| match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Some(Vector3::new(*x, *y, *z)),
+        _ => None,
+    };
+    match t.get_ref().as_slice() {
+        [a, b] => match (corner(a), corner(b)) {
+            (Some(lo), Some(hi)) if (0..3).all(|k| lo[k] < hi[k]) => Ok(Some((lo, hi))),
+            _ => err(
+                "two corners [[x, y, z], [x, y, z]], the first below the second on every axis"
+                    .into(),
+            ),
+        },
+        _ => err("two corners [[x, y, z], [x, y, z]]".into()),
+    }
 }
 
 /// The chain's `max_substeps`, and its `substeps` or `max_step` (not both).
