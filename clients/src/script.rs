@@ -845,6 +845,34 @@ impl Script {
                     ],
                 )],
             }),
+            // The needle's pass of a stitch (chain `suture-80` of `stitch.toml`, the head the
+            // needle's end): down into the tissue 4.5 before the head's start, under the incision
+            // (x = 28) 2.2 deep, up and out 11.5 on, then drawing the suture through until about 4
+            // units of tail are left before the entry. Where the head
+            // goes in and comes out the service makes the entry and exit eyelets. Not grasped: a
+            // chain through eyelets cannot be held yet.
+            "needle-pass" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: false,
+                turn: vec![turn(
+                    "A",
+                    "suture-80",
+                    "head",
+                    None,
+                    vec![
+                        [3.0, 0.0, -1.0],
+                        [4.5, 0.0, -2.8],
+                        [6.0, 0.0, -3.8],
+                        [8.0, 0.0, -4.2],
+                        [10.0, 0.0, -3.8],
+                        [11.5, 0.0, -2.8],
+                        [12.5, 0.0, -1.0],
+                        [14.0, 0.0, 0.5],
+                        [17.0, 0.0, 2.0],
+                    ],
+                )],
+            }),
             _ => None,
         }
     }
@@ -1150,6 +1178,7 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
 /// throughout (two knots in series: the square knot's type, not a reef). `square-held` and
 /// `granny-held` tie the two-handed knots round each other (chain `hands`: the long end wound round
 /// B's finger, B's end drawn through), `instrument-granny` the granny by instrument tie.
+/// `needle-pass` takes a suture's needle through tissue and out (chain `suture-80` of `stitch.toml`).
 pub const BUILTINS: &[&str] = &[
     "overhand",
     "overhand-wide",
@@ -1170,6 +1199,7 @@ pub const BUILTINS: &[&str] = &[
     "surgeons-knot",
     "instrument-square",
     "instrument-granny",
+    "needle-pass",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.

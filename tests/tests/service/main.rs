@@ -30,6 +30,7 @@ mod limits;
 mod python;
 mod readme;
 mod signals;
+mod stitch;
 mod sweep;
 mod tighten;
 mod tools;

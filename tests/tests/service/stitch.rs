@@ -1,0 +1,109 @@
+//! Issue 39, the needle's pass of a stitch through the service: a `hand` process runs the built-in
+//! `needle-pass` on the sutures of `stitch.toml` (80 and 160 links, 20 units each), taking the head
+//! (the needle's end) into the block of tissue, under the incision and out, then drawing the suture
+//! through. Checked on the last state by code of the test: two eyelets, both threaded, on the tissue's
+//! top face (z = 0) on either side of the incision (x = 28); each lies on the rope (the nearest
+//! segment of the joints, to 1e-9); every link keeps its length; and a tail is left before the entry
+//! (its length along the rope, computed here, is printed).
+
+use shared::{Command, Parts, RequestHeader, Vec3};
+use std::process::{Child, Command as Process, Stdio};
+use std::time::{Duration, Instant};
+use tests::{Service, bin, unique_prefix};
+
+fn finish(mut child: Child) -> String {
+    let deadline = Instant::now() + Duration::from_secs(300);
+    loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            let mut out = String::new();
+            std::io::Read::read_to_string(child.stdout.as_mut().unwrap(), &mut out).unwrap();
+            assert!(st.success(), "hand failed: {st}\n{out}");
+            return out;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("the hand did not finish within 300 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The nearest segment of the rope to `p`: its index, the distance, and how far along it `p` falls.
+fn nearest(j: &[Vec3], p: Vec3) -> (usize, f64, f64) {
+    let v = |a: Vec3| [a.x, a.y, a.z];
+    let (p, mut best) = (v(p), (0, f64::INFINITY, 0.0));
+    for k in 0..j.len() - 1 {
+        let (a, b) = (v(j[k]), v(j[k + 1]));
+        let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+        let l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+        let t = ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / l2).clamp(0.0, 1.0);
+        let e = [ap[0] - ab[0] * t, ap[1] - ab[1] * t, ap[2] - ab[2] * t];
+        let d = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        if d < best.1 {
+            best = (k, d, t * l2.sqrt());
+        }
+    }
+    best
+}
+
+fn needle_pass(chain: &str, link: f64) {
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../solver-service/scenes/stitch.toml"
+    );
+    let svc = Service::start(
+        &unique_prefix(),
+        &["--scene", scene, "--no-persist", "--wait", "event"],
+    );
+    let hand = Process::new(bin("hand"))
+        .args(["--prefix", &svc.prefix, "run", "--quiet"])
+        .args(["--builtin", "needle-pass", "--chain", chain])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("spawn hand");
+    finish(hand);
+    let mut c = svc.connect();
+    let id = c.require_chain(chain).unwrap();
+    let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    let parts = Parts::of_response(&r.header, &r.payload);
+    let joints = parts.joints;
+    for (k, w) in joints.windows(2).enumerate() {
+        let (a, b) = (w[0], w[1]);
+        let l = ((b.x - a.x).powi(2) + (b.y - a.y).powi(2) + (b.z - a.z).powi(2)).sqrt();
+        assert!((l - link).abs() < 1e-12, "{chain}: link {k} is {l}");
+    }
+    let eyelets: Vec<_> = parts.eyelet_states().collect();
+    assert_eq!(eyelets.len(), 2, "{chain}: {eyelets:?}");
+    let (entry, exit) = (eyelets[0], eyelets[1]);
+    for e in [entry, exit] {
+        assert!(e.threaded, "{chain}: {e:?}");
+        assert!(e.at.z.abs() < 1e-12, "{chain}: not on the top face: {e:?}");
+        let (_, d, _) = nearest(joints, e.at);
+        assert!(d < 1e-9, "{chain}: eyelet {e:?} is {d:e} off the rope");
+    }
+    assert!(
+        (22.0..28.0).contains(&entry.at.x) && (28.0..34.0).contains(&exit.at.x),
+        "{chain}: in at {:?}, out at {:?}",
+        entry.at,
+        exit.at
+    );
+    let (k, _, along) = nearest(joints, entry.at);
+    let tail = k as f64 * link + along;
+    println!(
+        "{chain}: in at x = {:.3}, out at x = {:.3}, a tail of {tail:.2} before the entry",
+        entry.at.x, exit.at.x
+    );
+    assert!(tail > 1.0, "{chain}: only {tail} of tail left");
+}
+
+#[test]
+fn the_needle_passes_through_the_tissue_at_80_links() {
+    needle_pass("suture-80", 0.25);
+}
+
+#[test]
+fn the_needle_passes_through_the_tissue_at_160_links() {
+    needle_pass("suture-160", 0.125);
+}
