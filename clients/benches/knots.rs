@@ -148,6 +148,24 @@ struct Phase {
     waypoints: Vec<[f64; 3]>,
 }
 
+impl Phase {
+    /// The phase as a script's turn on the bench's rope (hand B at the head, A at the tail).
+    fn turn(self) -> Turn {
+        Turn {
+            hand: if self.head { "B" } else { "A" }.into(),
+            chain: "rope".into(),
+            joint: if self.head { "head" } else { "tail" }.into(),
+            throw: self.throw,
+            wide_loop: self.wide_loop,
+            tuck: self.tuck,
+            wrap: None,
+            instrument: None,
+            tighten: None,
+            waypoints: self.waypoints,
+        }
+    }
+}
+
 impl Knot {
     fn name(self) -> &'static str {
         match self {
@@ -416,19 +434,9 @@ fn tie(
         _ => knot.phases(u, rng),
     };
     for phase in phases {
-        let joint = if phase.head { n } else { 0 };
-        let turn = Turn {
-            hand: if phase.head { "B" } else { "A" }.into(),
-            chain: "rope".into(),
-            joint: if phase.head { "head" } else { "tail" }.into(),
-            throw: phase.throw,
-            wide_loop: phase.wide_loop,
-            tuck: phase.tuck,
-            wrap: None,
-            instrument: None,
-            tighten: None,
-            waypoints: phase.waypoints,
-        };
+        let head = phase.head;
+        let joint = if head { n } else { 0 };
+        let turn = phase.turn();
         let rope: Vec<[f64; 3]> = chain.positions().iter().map(|p| [p.x, p.y, p.z]).collect();
         for t in turn.targets_on(&rope, joint, 0.05).unwrap_or_default() {
             moves += 1;
@@ -448,7 +456,7 @@ fn tie(
             let r = identify(&chain.positions());
             eprintln!(
                 "  after {} phase: {} ({}/{}), head {:?}, tail {:?}, refused {refused}/{moves}, held iterations {iters} (max {max_iters})",
-                if phase.head { "head" } else { "tail" },
+                if head { "head" } else { "tail" },
                 r.kind.name(),
                 r.agreeing,
                 r.closures,
@@ -905,18 +913,7 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
     let array = |p: &[V]| -> Vec<[f64; 3]> { p.iter().map(|q| [q.x, q.y, q.z]).collect() };
     for phase in knot.fed(None, false, rng) {
         let joint = if phase.head { n } else { 0 };
-        let turn = Turn {
-            hand: if phase.head { "B" } else { "A" }.into(),
-            chain: "rope".into(),
-            joint: if phase.head { "head" } else { "tail" }.into(),
-            throw: phase.throw,
-            wide_loop: phase.wide_loop,
-            tuck: phase.tuck,
-            wrap: None,
-            instrument: None,
-            tighten: None,
-            waypoints: phase.waypoints,
-        };
+        let turn = phase.turn();
         for t in turn
             .targets_on(&array(&prev), joint, 0.05)
             .unwrap_or_default()

@@ -92,6 +92,27 @@ pub fn stderr_lines(child: &mut std::process::Child) -> std::sync::mpsc::Receive
 }
 
 /// Path of a workspace binary, built on demand if the test runner did not build it.
+/// Waits (300 s at most) for a `hand` process whose stdout is piped to finish successfully and
+/// returns what it printed (its output is small: `--quiet` or a report).
+pub fn hand_output(mut child: std::process::Child) -> String {
+    let deadline = std::time::Instant::now() + Duration::from_secs(300);
+    loop {
+        if let Some(st) = child.try_wait().expect("wait for the hand") {
+            let mut out = String::new();
+            if let Some(o) = child.stdout.as_mut() {
+                std::io::Read::read_to_string(o, &mut out).expect("read the hand's output");
+            }
+            assert!(st.success(), "hand failed: {st}\n{out}");
+            return out;
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("a hand did not finish within 300 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 pub fn bin(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("test executable path");
     let dir = exe

@@ -154,6 +154,45 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
     }
 }
 
+impl<T: Real, const D: usize> EyeletWorkspace<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    /// Sized to `chain`, its positions in `new`, the eyelets' links and flags saved (for a refusal).
+    fn begin(&mut self, chain: &Chain<T, D>, eyelets: &[Eyelet<T, D>]) {
+        let n = chain.n_links();
+        self.old.resize(n + 1, Vector::zeros());
+        self.new.resize(n + 1, Vector::zeros());
+        chain.write_positions(&mut self.new);
+        self.saved.clear();
+        self.saved
+            .extend(eyelets.iter().map(|e| (e.link, e.threaded)));
+    }
+}
+
+/// The substeps of a move along `way`: at most half the shortest link each, at most `max_substeps`
+/// (their count as `T` and as a number).
+fn substeps<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    way: &Vector<T, D>,
+    max_substeps: u32,
+) -> Result<(T, u32), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let k = (way.norm() / (chain.min_length() * T::lit(0.5)))
+        .ceil()
+        .max(T::one());
+    if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
+        return Err(ChainError::TooManySubsteps {
+            required: k.to_f64().min(u64::MAX as f64) as u64,
+            limit: max_substeps,
+        }
+        .into());
+    }
+    Ok((k, k.to_f64() as u32))
+}
+
 /// What a threaded move did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Threaded {
@@ -194,25 +233,11 @@ where
     if threaded().zip(threaded().skip(1)).any(|(a, b)| b <= a) {
         return Err(EyeletError::Unordered);
     }
-    ws.old.resize(n + 1, Vector::zeros());
-    ws.new.resize(n + 1, Vector::zeros());
-    chain.write_positions(&mut ws.new);
-    ws.saved.clear();
-    ws.saved
-        .extend(eyelets.iter().map(|e| (e.link, e.threaded)));
+    ws.begin(chain, eyelets);
     let lengths = chain.lengths();
-    let shortest = chain.min_length();
     let from = ws.new[joint];
     let way = target - from;
-    let k = (way.norm() / (shortest * T::lit(0.5))).ceil().max(T::one());
-    if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
-        return Err(ChainError::TooManySubsteps {
-            required: k.to_f64().min(u64::MAX as f64) as u64,
-            limit: max_substeps,
-        }
-        .into());
-    }
-    let steps = k.to_f64() as u32;
+    let (k, steps) = substeps(chain, &way, max_substeps)?;
     let mut out = Threaded::default();
     for s in 1..=steps {
         std::mem::swap(&mut ws.old, &mut ws.new);
@@ -310,27 +335,11 @@ where
     if chain.held().len() > 0 {
         return Err(EyeletError::Held);
     }
-    let n = chain.n_links();
-    ws.old.resize(n + 1, Vector::zeros());
-    ws.new.resize(n + 1, Vector::zeros());
-    chain.write_positions(&mut ws.new);
-    ws.saved.clear();
-    ws.saved
-        .extend(eyelets.iter().map(|e| (e.link, e.threaded)));
+    ws.begin(chain, eyelets);
     let lengths = chain.lengths();
     let from = e.at;
     let way = to - from;
-    let k = (way.norm() / (chain.min_length() * T::lit(0.5)))
-        .ceil()
-        .max(T::one());
-    if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
-        return Err(ChainError::TooManySubsteps {
-            required: k.to_f64().min(u64::MAX as f64) as u64,
-            limit: max_substeps,
-        }
-        .into());
-    }
-    let steps = k.to_f64() as u32;
+    let (k, steps) = substeps(chain, &way, max_substeps)?;
     let mut out = Threaded::default();
     for s in 1..=steps {
         std::mem::swap(&mut ws.old, &mut ws.new);

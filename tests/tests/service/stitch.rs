@@ -7,26 +7,8 @@
 //! (its length along the rope, computed here, is printed).
 
 use shared::{Command, Parts, RequestHeader, Vec3};
-use std::process::{Child, Command as Process, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command as Process, Stdio};
 use tests::{Service, bin, unique_prefix};
-
-fn finish(mut child: Child) -> String {
-    let deadline = Instant::now() + Duration::from_secs(300);
-    loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            let mut out = String::new();
-            std::io::Read::read_to_string(child.stdout.as_mut().unwrap(), &mut out).unwrap();
-            assert!(st.success(), "hand failed: {st}\n{out}");
-            return out;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            panic!("the hand did not finish within 300 s");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
 
 /// The nearest segment of the rope to `p`: its index, the distance, and how far along it `p` falls.
 fn nearest(j: &[Vec3], p: Vec3) -> (usize, f64, f64) {
@@ -62,7 +44,7 @@ fn needle_pass(chain: &str, link: f64) {
         .stdout(Stdio::piped())
         .spawn()
         .expect("spawn hand");
-    finish(hand);
+    tests::hand_output(hand);
     let mut c = svc.connect();
     let id = c.require_chain(chain).unwrap();
     let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();

@@ -63,26 +63,9 @@ fn two_hands(svc: &Service, args: &[&str], chain: &str) -> String {
     };
     let b = spawn("B", &[]);
     let a = spawn("A", &["--identify", chain]);
-    let out_b = finish(b);
-    let out_a = finish(a);
+    let out_b = tests::hand_output(b);
+    let out_a = tests::hand_output(a);
     format!("{out_a}{out_b}")
-}
-
-fn finish(mut child: Child) -> String {
-    let deadline = Instant::now() + Duration::from_secs(300);
-    loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            let mut out = String::new();
-            std::io::Read::read_to_string(child.stdout.as_mut().unwrap(), &mut out).unwrap();
-            assert!(st.success(), "hand failed: {st}\n{out}");
-            return out;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            panic!("a hand did not finish within 300 s");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 /// Reads every state of `chain` from the stream on its own thread, asserting that none is missed.

@@ -10,20 +10,7 @@ use tractrix::eyelet::{Eyelet, EyeletError, EyeletWorkspace, move_threaded};
 
 type V = Vector3<f64>;
 
-/// SplitMix64, for reproducible moves.
-struct Rng(u64);
-impl Rng {
-    fn unit(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn sym(&mut self, a: f64) -> f64 {
-        a * (2.0 * self.unit() - 1.0)
-    }
-}
+use crate::support::Rng;
 
 fn rope() -> Chain<f64, 3> {
     Chain::straight(40, 1.0, V::zeros(), V::x()).unwrap()
@@ -149,10 +136,21 @@ fn random_moves_keep_every_eyelet_on_its_link() {
         let joint = match k % 3 {
             0 => 40,
             1 => 0,
-            _ => (rng.unit() * 41.0) as usize,
+            _ => rng.below(41),
         };
-        let at = r.joint(joint);
-        let to = at + V::new(rng.sym(1.5), rng.sym(1.5), rng.sym(1.5));
+        // The ends about where they started (the rope slides back and forth, staying threaded), an
+        // interior joint about where it is.
+        let at = match joint {
+            40 => V::new(40.0, 0.0, 0.0),
+            0 => V::zeros(),
+            _ => r.joint(joint),
+        };
+        let to = at
+            + V::new(
+                rng.range(-1.5, 1.5),
+                rng.range(-1.5, 1.5),
+                rng.range(-1.5, 1.5),
+            );
         let (before, links) = (r.positions(), e.map(|e| e.link));
         match move_threaded(&mut r, joint, to, &mut e, 1000, &mut ws) {
             Ok(_) => {
