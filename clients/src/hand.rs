@@ -996,6 +996,44 @@ pub fn replay(
     Ok(out)
 }
 
+/// The eyelets chain `chain` passes through, in one line, and the rope's length from its tail to the
+/// first of them (the tail a stitch leaves before its entry point); `None` for a chain with none.
+pub fn eyelets_line(conn: &mut Connection, chain: u32) -> anyhow::Result<Option<String>> {
+    let r = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
+    anyhow::ensure!(r.is_ok(), "query refused: {}", r.header.reason_str());
+    let parts = r.parts();
+    let eyelets: Vec<_> = parts.eyelet_states().collect();
+    if eyelets.is_empty() {
+        return Ok(None);
+    }
+    let p = |v: shared::Vec3| nalgebra::Vector3::new(v.x, v.y, v.z);
+    let threaded: Vec<_> = eyelets.iter().filter(|e| e.threaded).collect();
+    let places: Vec<String> = threaded
+        .iter()
+        .map(|e| {
+            format!(
+                "({:.3}, {:.3}, {:.3}) on link {}",
+                e.at.x, e.at.y, e.at.z, e.link
+            )
+        })
+        .collect();
+    let mut line = format!(
+        "eyelets: {} threaded of {}{}{}",
+        threaded.len(),
+        eyelets.len(),
+        if places.is_empty() { "" } else { ": " },
+        places.join(", ")
+    );
+    if let Some(first) = threaded.first() {
+        let j = parts.joints;
+        let k = first.link as usize;
+        let before: f64 = j[..=k].windows(2).map(|w| (p(w[1]) - p(w[0])).norm()).sum();
+        let tail = before + (p(first.at) - p(j[k])).norm();
+        line.push_str(&format!("; rope before the first: {tail:.9}"));
+    }
+    Ok(Some(line))
+}
+
 /// Queries chain `chain` and names the knot tied in it.
 pub fn knot_of(conn: &mut Connection, chain: u32) -> anyhow::Result<tractrix::knot::KnotReport> {
     Ok(tractrix::knot::identify(&joints_of(conn, chain)?))

@@ -294,6 +294,9 @@ fn run(a: Args) -> Result<u8> {
                 if let Some(s) = series_of(&mut conn, id, &k)? {
                     println!("{}", series_line(&s));
                 }
+                if let Some(line) = clients::hand::eyelets_line(&mut conn, id)? {
+                    println!("{line}");
+                }
             }
             Ok(if r.refused.is_empty() { 0 } else { 1 })
         }

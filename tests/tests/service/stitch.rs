@@ -40,11 +40,18 @@ fn needle_pass(chain: &str, link: f64) {
     );
     let hand = Process::new(bin("hand"))
         .args(["--prefix", &svc.prefix, "run", "--quiet"])
-        .args(["--builtin", "needle-pass", "--chain", chain])
+        .args([
+            "--builtin",
+            "needle-pass",
+            "--chain",
+            chain,
+            "--identify",
+            chain,
+        ])
         .stdout(Stdio::piped())
         .spawn()
         .expect("spawn hand");
-    tests::hand_output(hand);
+    let out = tests::hand_output(hand);
     let mut c = svc.connect();
     let id = c.require_chain(chain).unwrap();
     let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
@@ -78,6 +85,18 @@ fn needle_pass(chain: &str, link: f64) {
         entry.at.x, exit.at.x
     );
     assert!(tail > 1.0, "{chain}: only {tail} of tail left");
+    // The hand's report of the eyelets names both and the same tail.
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("eyelets: "))
+        .unwrap_or_else(|| panic!("{chain}: no eyelets line: {out}"));
+    assert!(line.starts_with("eyelets: 2 threaded of 2"), "{line}");
+    let reported: f64 = line
+        .rsplit("rope before the first: ")
+        .next()
+        .and_then(|x| x.trim().parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!((reported - tail).abs() < 1e-6, "{line} against {tail}");
 }
 
 #[test]
