@@ -280,6 +280,7 @@ impl Namer {
         // crossings that moves I and II cannot remove), of the ends' closure, else of the next
         // closures; else the smallest seen.
         let mut best: Option<usize> = None;
+        let mut closed_by = Vector3::zeros();
         for u in ends.into_iter().chain(closure_directions()) {
             self.closed.clear();
             self.closed.extend_from_slice(points);
@@ -292,6 +293,7 @@ impl Namer {
                 let c = self.view.crossings();
                 if best.is_none_or(|b| c < b) {
                     best = Some(c);
+                    closed_by = u;
                     std::mem::swap(&mut self.view, &mut self.diagram);
                 }
                 if c <= self.limit {
@@ -332,11 +334,29 @@ impl Namer {
             return *kind;
         }
         self.evaluations += 1;
-        let kind = if self.crossings > self.limit {
+        // A new diagram: its closed curve seen from the closure's other views may reduce to fewer
+        // crossings (the same knot; the state sum costs 2^c), and the smallest is named. The
+        // memory keeps it under the first view's code, which the next state will look up.
+        let mut named = std::mem::take(&mut self.diagram);
+        if named.crossings() > 3 {
+            self.closed.clear();
+            self.closed.extend_from_slice(points);
+            self.closed.push(centroid + closed_by * (3.0 * radius));
+            for v in projection_directions(&closed_by) {
+                if self.sweep.project(&self.closed, &v, &mut self.view) {
+                    self.view.reduce(&mut self.at);
+                    if self.view.crossings() < named.crossings() {
+                        std::mem::swap(&mut self.view, &mut named);
+                    }
+                }
+            }
+        }
+        let kind = if named.crossings() > self.limit {
             KnotType::Other
         } else {
-            self.diagram.name()
+            named.name()
         };
+        self.diagram = named;
         let entry = (hash, self.code.clone(), kind);
         if self.known.len() < NAMER_MEMORY {
             self.known.push(entry);
