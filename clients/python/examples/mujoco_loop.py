@@ -39,11 +39,17 @@ import mujoco
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from tractrix_client import FLAG_PULL, JOINT_HEAD, Client, ServiceError, pulls  # noqa: E402
+from tractrix_client import FLAG_PULL, JOINT_HEAD, Client, ServiceError, eyelets, pulls  # noqa: E402
 
 
-def scene_xml(n_links: int, link: float, radius: float) -> str:
-    """A table, a ball, the hand and one mocap capsule per link (along its body's x axis)."""
+def scene_xml(n_links: int, link: float, radius: float, n_eyelets: int = 0) -> str:
+    """A table, a ball, the hand, a small green mocap sphere per eyelet the suture passes through
+    (its entry and exit points in tissue) and one mocap capsule per link (along its body's x axis)."""
+    rings = "\n".join(
+        f'<body name="eyelet{k}" mocap="true"><geom type="sphere" size="{2.5 * radius}" '
+        f'rgba="0.1 0.7 0.3 1" contype="0" conaffinity="0"/></body>'
+        for k in range(n_eyelets)
+    )
     links = "\n".join(
         f'<body name="link{i}" mocap="true"><geom type="capsule" size="{radius}" '
         f'fromto="{-link / 2} 0 0 {link / 2} 0 0" rgba="0.8 0.7 0.5 1" contype="0" conaffinity="0"/></body>'
@@ -59,6 +65,7 @@ def scene_xml(n_links: int, link: float, radius: float) -> str:
     <body name="ball" pos="20 5 2"><freejoint/><geom type="sphere" size="0.8" rgba="0.8 0.2 0.2 1"/></body>
     <body name="driver" mocap="true"><geom type="box" size="0.3 0.15 0.15" rgba="0.6 0.6 0.6 1"
       contype="0" conaffinity="0"/></body>
+    {rings}
     {links}
   </worldbody>
 </mujoco>"""
@@ -98,17 +105,23 @@ def write_png(path: str, rgb: np.ndarray) -> None:
 
 
 def run(client: Client | None, chain: int, steps: int, rate: float, start,
-        frames: str | None = None, coupling: float | None = None) -> tuple[list, list, dict]:
+        frames: str | None = None, coupling: float | None = None,
+        rings: list | None = None) -> tuple[list, list, dict]:
     """The loop: `steps` steps at `rate` Hz; returns the step times (µs), the capsule centres at the
     end and, with the service, the times of its parts (µs): the service call alone and the posing
     of the capsules from the joints. With `frames`, four frames are rendered (outside the timed step)
     to that directory. With `coupling` (a stiffness), the moves pull (the tail is held by the caller)
-    and the hand's force of every step is in the parts (`hand`, `force`)."""
+    and the hand's force of every step is in the parts (`hand`, `force`). `rings`: the eyelets the
+    suture passes through at the start (`tractrix_client.eyelets`), moved each step to where the
+    service has them (`eyelets` in the parts: their last positions)."""
     n_links = len(start) - 1
+    rings = rings or []
     model = mujoco.MjModel.from_xml_string(scene_xml(n_links, float(np.linalg.norm(
-        np.subtract(start[1], start[0]))), 0.1))
+        np.subtract(start[1], start[0]))), 0.1, len(rings)))
     data = mujoco.MjData(model)
-    first_link = 1  # mocap ids: the driver is 0, the links follow
+    for k, e in enumerate(rings):
+        data.mocap_pos[1 + k] = e["at"]
+    first_link = 1 + len(rings)  # mocap ids: the driver is 0, the eyelets, then the links
     joints = start
     place(data, first_link, joints)
     head = np.asarray(start[-1], dtype=float)
@@ -137,6 +150,8 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
             p = time.perf_counter_ns()
             joints = elements[:h.n_joints]
             place(data, first_link, joints)
+            for k, e in enumerate(eyelets(h, elements)[:len(rings)]):
+                data.mocap_pos[1 + k] = e["at"]
             parts["service_call"].append((p - c) / 1000.0)
             parts["posing"].append((time.perf_counter_ns() - p) / 1000.0)
             if coupling is not None:
@@ -153,6 +168,7 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
     if renderer is not None:
         renderer.close()
     centres = data.geom_xpos[model.ngeom - n_links:].tolist()
+    parts["eyelets"] = [data.mocap_pos[1 + k].tolist() for k in range(len(rings))]
     return times, centres, parts
 
 
@@ -180,13 +196,14 @@ def main() -> int:
         # From the scene's rope, whatever an earlier run left.
         h, elements = client.call("reset", chain)
         start = elements[:h.n_joints]
+        rings = eyelets(h, elements)
         alone, _, _ = run(None, chain, a.steps, a.rate, start)
         if a.coupling is not None:
             # The tail held and the end held by the hand: the suture between them can go taut.
             client.call("grasp", chain, joint=0)
             client.call("grasp", chain, joint=JOINT_HEAD)
         with_service, centres, parts = run(client, chain, a.steps, a.rate, start, a.frames,
-                                           a.coupling)
+                                           a.coupling, rings)
         if a.coupling is not None:
             client.call("release", chain, joint=JOINT_HEAD)
             client.call("release", chain, joint=0)
@@ -203,6 +220,8 @@ def main() -> int:
         "service_call": percentiles(parts["service_call"]),
         "posing": percentiles(parts["posing"]),
         "capsule_centres": centres,
+        # Where the MuJoCo scene draws the eyelets at the end (the service's points).
+        "eyelets": parts["eyelets"],
     }
     if a.coupling is not None:
         norms = [math.sqrt(sum(x * x for x in f)) for f in parts["force"]]

@@ -306,3 +306,63 @@ fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
         );
     }
 }
+
+/// Issue 39: the MuJoCo loop knows a suture's eyelets. On a scene whose rope passes through two
+/// eyelets the loop adds a sphere per eyelet and moves each to where the service has it every step;
+/// at the end they are at the scene's points, and the service's rope (queried here) passes through
+/// each (the nearest segment, computed here, to 1e-9).
+#[test]
+fn the_mujoco_loop_draws_the_suture_s_eyelets() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("suture.toml");
+    let points = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]];
+    std::fs::write(
+        &scene,
+        "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\n\
+         eyelets = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]]\n",
+    )
+    .unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--no-persist",
+            "--wait",
+            "event",
+        ],
+    );
+    let out = Process::new(python())
+        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
+        .args(["--prefix", svc.prefix.as_str(), "--chain", "suture"])
+        .args(["--steps", "200", "--json"])
+        .output()
+        .expect("run the MuJoCo loop");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    let drawn: Vec<[f64; 3]> = serde_json::from_value(v["eyelets"].clone()).unwrap();
+    assert_eq!(drawn, points);
+    let mut c = svc.connect();
+    let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    let j = q.joints();
+    for p in points {
+        let d = (0..j.len() - 1)
+            .map(|k| {
+                let (a, b) = (j[k], j[k + 1]);
+                let ab = [b.x - a.x, b.y - a.y, b.z - a.z];
+                let ap = [p[0] - a.x, p[1] - a.y, p[2] - a.z];
+                let t = ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2])
+                    / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]))
+                    .clamp(0.0, 1.0);
+                let e = [ap[0] - ab[0] * t, ap[1] - ab[1] * t, ap[2] - ab[2] * t];
+                (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(d < 1e-9, "the rope passes {d:e} from the eyelet at {p:?}");
+    }
+}
