@@ -292,6 +292,86 @@ fn substep<T: Real, const D: usize>(
     Ok(left)
 }
 
+/// [`move_threaded`] with collision: after every substep the chain's contacts are resolved as a
+/// move's are ([`crate::collision`]), with the moved joint and the two joints of every threaded
+/// eyelet's link fixed, so that each eyelet stays exactly on its link while the rope elsewhere is
+/// pushed apart and re-solved between the fixed joints. Substeps are at most half the shortest link
+/// and at most half the smallest clearance. Refused, changing nothing, as [`move_threaded`] is, and
+/// when the contacts cannot be resolved (locked) or would take more work than the workspace's meter
+/// allows.
+#[allow(clippy::too_many_arguments)]
+pub fn move_threaded_colliding<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    target: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    model: &crate::collision::CollisionModel<T, D>,
+    cws: &mut crate::collision::CollisionWorkspace<T, D>,
+    ws: &mut EyeletWorkspace<T, D>,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = chain.n_links();
+    if joint > n {
+        return Err(ChainError::JointOutOfRange { joint, last: n }.into());
+    }
+    if !crate::math::all_finite(&target) {
+        return Err(ChainError::NonFinite.into());
+    }
+    if chain.held().len() > 0 {
+        return Err(EyeletError::Held);
+    }
+    let backup = chain.clone();
+    ws.begin(chain, eyelets);
+    let from = ws.new[joint];
+    let way = target - from;
+    // Substeps of at most half a link and half the smallest clearance.
+    let half = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
+    let (k, _) = substeps(chain, &way, max_substeps)?;
+    let k = k.max((way.norm() / half).ceil());
+    if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
+        return Err(ChainError::TooManySubsteps {
+            required: k.to_f64().min(u64::MAX as f64) as u64,
+            limit: max_substeps,
+        }
+        .into());
+    }
+    let steps = k.to_f64() as u32;
+    let mut out = Threaded::default();
+    let mut fixed: Vec<usize> = Vec::new();
+    for s in 1..=steps {
+        chain.write_positions(&mut ws.old);
+        let to = from + way * (T::lit(f64::from(s)) / k);
+        let done =
+            substep(&ws.old, &mut ws.new, chain.lengths(), joint, to, eyelets).and_then(|left| {
+                chain.set_positions(&ws.new)?;
+                fixed.clear();
+                for e in eyelets.iter().filter(|e| e.threaded) {
+                    fixed.extend([e.link, e.link + 1]);
+                }
+                fixed.retain(|&j| j != joint);
+                fixed.sort_unstable();
+                fixed.dedup();
+                crate::collision::resolve_fixed(chain, joint, &fixed, s, model, cws)?;
+                Ok(left)
+            });
+        match done {
+            Ok(left) => out.left += left,
+            Err(err) => {
+                chain.copy_from(&backup);
+                for (e, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
+                    (e.link, e.threaded) = (link, on);
+                }
+                return Err(err);
+            }
+        }
+        out.substeps = s;
+    }
+    Ok(out)
+}
+
 /// No two threaded eyelets within one link of each other.
 fn apart<T: Real, const D: usize>(eyelets: &[Eyelet<T, D>]) -> Result<(), EyeletError> {
     let mut last: Option<(usize, usize)> = None;

@@ -733,16 +733,22 @@ impl World {
                 ..
             } => each_form!(&mut *g, h => {
                 let crate::form::LiveChain {
-                    chain, eyelets, eyelet_ws, ..
+                    chain, eyelets, eyelet_ws, collision, ..
                 } = h;
-                tractrix::eyelet::move_eyelet(
-                    chain,
-                    index,
-                    crate::form::point(at),
-                    eyelets,
-                    max_substeps,
-                    eyelet_ws,
-                )
+                if collision.is_some() {
+                    Err(tractrix::eyelet::EyeletError::Chain(ChainError::BadOption(
+                        "moving an eyelet of a chain with collision is not built yet",
+                    )))
+                } else {
+                    tractrix::eyelet::move_eyelet(
+                        chain,
+                        index,
+                        crate::form::point(at),
+                        eyelets,
+                        max_substeps,
+                        eyelet_ws,
+                    )
+                }
             })
             .map(|m| outcome.substeps = m.substeps)
             .map_err(Refusal::from),

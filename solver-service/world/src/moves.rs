@@ -199,16 +199,29 @@ where
                 chain,
                 eyelets,
                 eyelet_ws,
+                collision,
                 ..
             } = g;
-            let o = tractrix::eyelet::move_threaded(
-                chain,
-                joint,
-                p,
-                eyelets,
-                opts.max_substeps,
-                eyelet_ws,
-            )?;
+            let o = match collision {
+                Some((model, cws)) => tractrix::eyelet::move_threaded_colliding(
+                    chain,
+                    joint,
+                    p,
+                    eyelets,
+                    opts.max_substeps,
+                    model,
+                    cws,
+                    eyelet_ws,
+                )?,
+                None => tractrix::eyelet::move_threaded(
+                    chain,
+                    joint,
+                    p,
+                    eyelets,
+                    opts.max_substeps,
+                    eyelet_ws,
+                )?,
+            };
             total.substeps = total.substeps.saturating_add(o.substeps);
             if joint == g.chain.n_links() {
                 pierce(g, before)?;

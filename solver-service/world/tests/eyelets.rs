@@ -149,7 +149,7 @@ fn the_tail_slides_out_of_an_eyelet_and_the_rope_cannot_be_grasped() {
 }
 
 #[test]
-fn eyelets_off_the_rope_too_close_or_with_collision_are_scene_errors() {
+fn eyelets_off_the_rope_too_close_or_with_anchors_are_scene_errors() {
     let with = |extra: &str, eyelets: &str| {
         format!(
             "[[chain]]\nname = \"s\"\nlinks = 40\nlink_length = 1.0\n{extra}eyelets = {eyelets}\n"
@@ -160,13 +160,6 @@ fn eyelets_off_the_rope_too_close_or_with_collision_are_scene_errors() {
         (
             with("", "[[10.5, 0.0, 0.0], [11.5, 0.0, 0.0]]"),
             "two links apart",
-        ),
-        (
-            with(
-                "thickness = 0.2\ncollision = \"capsules\"\n",
-                "[[10.5, 0.0, 0.0]]",
-            ),
-            "collision",
         ),
         (with("anchors = [0]\n", "[[10.5, 0.0, 0.0]]"), "anchors"),
     ] {

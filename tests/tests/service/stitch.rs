@@ -3,8 +3,8 @@
 //! (the needle's end) into the block of tissue, under the incision and out, then drawing the suture
 //! through. Checked on the last state by code of the test: two eyelets, both threaded, on the tissue's
 //! top face (z = 0) on either side of the incision (x = 28); each lies on the rope (the nearest
-//! segment of the joints, to 1e-9); every link keeps its length; and a tail is left before the entry
-//! (its length along the rope, computed here, is printed).
+//! segment of the joints, to 1e-9); every link keeps its length; the suture's capsules are a thickness
+//! apart; and a tail is left before the entry (its length along the rope, computed here, is printed).
 
 use shared::{Command, Parts, RequestHeader, Vec3};
 use std::process::{Command as Process, Stdio};
@@ -63,6 +63,25 @@ fn needle_pass(chain: &str, link: f64) {
         let l = ((b.x - a.x).powi(2) + (b.y - a.y).powi(2) + (b.z - a.z).powi(2)).sqrt();
         assert!((l - link).abs() < 1e-12, "{chain}: link {k} is {l}");
     }
+    // The suture's capsules (0.1 thick) are apart: links two or more apart along the rope at least a
+    // thickness apart, less the 1 % tolerance (the clients' segment distance, not the service's).
+    let v = |p: Vec3| nalgebra::Vector3::new(p.x, p.y, p.z);
+    let mut closest = f64::INFINITY;
+    for i in 0..joints.len() - 1 {
+        for j in i + 2..joints.len() - 1 {
+            let d = clients::check::segment_distance(
+                v(joints[i]),
+                v(joints[i + 1]),
+                v(joints[j]),
+                v(joints[j + 1]),
+            );
+            closest = closest.min(d);
+        }
+    }
+    assert!(
+        closest >= 0.1 * 0.99 - 1e-9,
+        "{chain}: links {closest} apart"
+    );
     let eyelets: Vec<_> = parts.eyelet_states().collect();
     assert_eq!(eyelets.len(), 2, "{chain}: {eyelets:?}");
     let (entry, exit) = (eyelets[0], eyelets[1]);

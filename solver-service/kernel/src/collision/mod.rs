@@ -349,6 +349,31 @@ impl<T: Real> Stop<T> {
     }
 }
 
+/// Resolves the contacts of `chain` as it stands, with joint `m` (the hand) and the joints `fixed`
+/// (ascending, without `m`) never moving, as a move's substep does: pushes, then the rope between
+/// fixed joints re-solved as fixed-base chains. For moves that place the chain by other means (an
+/// eyelet's threaded move: [`crate::eyelet`]). The chain is left as the passes left it on an error
+/// (the caller restores it); `substep` names the substep in the error.
+pub(crate) fn resolve_fixed<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    m: usize,
+    fixed: &[usize],
+    substep: u32,
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<(u32, u32), ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    model.options.validate()?;
+    ws.pos.resize(chain.n_links() + 1, Vector::zeros());
+    chain.write_positions(&mut ws.pos);
+    let hand = ws.pos[m];
+    let out = resolve(chain, m, fixed, model, ws).map_err(|stop| stop.error(substep, &ws.meter));
+    chain.place_origin_from(m, hand);
+    out
+}
+
 /// Moves joint `joint` along the straight segment to `target` like [`Chain::move_joint`], keeping links
 /// apart from each other and from the model's obstacles after every substep (see the module docs). On
 /// any error, [`ChainError::Locked`] included, the chain is unchanged.
@@ -801,7 +826,7 @@ where
 }
 
 /// The smallest clearance any contact of this chain can have: half of what a substep may move.
-pub(super) fn smallest_clearance<T: Real, const D: usize>(
+pub(crate) fn smallest_clearance<T: Real, const D: usize>(
     chain: &Chain<T, D>,
     model: &CollisionModel<T, D>,
 ) -> T

@@ -721,8 +721,12 @@ fn chain(
     )
     .line;
     let anchors = anchors(&f, kind, lengths.len())?;
-    let eyelets = eyelets(&f, kind, &points, &lengths, &anchors, scheme.is_some())?;
-    let tissue = tissue(&f, kind, &anchors, scheme.is_some())?;
+    let has_instruments = c
+        .instruments
+        .as_ref()
+        .is_some_and(|i| !i.get_ref().is_empty());
+    let eyelets = eyelets(&f, kind, &points, &lengths, &anchors, has_instruments)?;
+    let tissue = tissue(&f, kind, &anchors, has_instruments)?;
     let knot = match &c.knot {
         Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
             return Err(f.err(
@@ -898,7 +902,7 @@ fn eyelets(
     points: &[Vector3<f64>],
     lengths: &[f64],
     anchors: &[u32],
-    collision: bool,
+    instruments: bool,
 ) -> Result<Vec<(Vector3<f64>, usize)>, SceneError> {
     let Some(e) = &f.c.eyelets else {
         return Ok(Vec::new());
@@ -907,8 +911,8 @@ fn eyelets(
     if kind != ChainKind::Free {
         return err("eyelets are for free chains".into());
     }
-    if collision || !anchors.is_empty() {
-        return err("a chain with eyelets cannot have collision or anchors yet".into());
+    if instruments || !anchors.is_empty() {
+        return err("a chain with eyelets cannot have instruments or anchors yet".into());
     }
     if e.get_ref().len() > MAX_EYELETS {
         return err(format!("at most {MAX_EYELETS} eyelets"));
@@ -959,7 +963,7 @@ fn tissue(
     f: &Fields<'_>,
     kind: ChainKind,
     anchors: &[u32],
-    collision: bool,
+    instruments: bool,
 ) -> Result<Option<Corners>, SceneError> {
     let Some(t) = &f.c.tissue else {
         return Ok(None);
@@ -968,8 +972,8 @@ fn tissue(
     if kind != ChainKind::Free || f.dims != 3 {
         return err("tissue is for free spatial chains".into());
     }
-    if collision || !anchors.is_empty() {
-        return err("a chain through tissue cannot have collision or anchors yet".into());
+    if instruments || !anchors.is_empty() {
+        return err("a chain through tissue cannot have instruments or anchors yet".into());
     }
     let corner = |v: &Vec<f64>| match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Some(Vector3::new(*x, *y, *z)),
