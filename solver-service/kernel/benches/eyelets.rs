@@ -3,9 +3,11 @@
 //! `cargo bench -p tractrix --bench eyelets` prints two Markdown tables (as BENCHMARKS.md shows them).
 //!
 //! *Cost*: a rope of `n` unit links straight along x, its head moved a tenth of a link at a time round
-//! a circle of radius 1 through where it started (so the rope slides back and forth through its
-//! eyelets): the plain move (`Chain::move_joint`, one substep) against the threaded move
-//! (`tractrix::eyelet::move_threaded`) through 1 and 4 eyelets spread along the rope. Moves are
+//! a circle of radius 1 across the rope's line through where it started (so the rope slides back and
+//! forth through its eyelets, and never folds onto itself): the plain move (`Chain::move_joint`, one substep) against the threaded move
+//! (`tractrix::eyelet::move_threaded`) through 1 and 4 eyelets spread along the rope; and with capsule
+//! collision (0.2 thick, nothing touching on this path: the detection's cost), the move with
+//! collision (`move_joint_colliding`) against the threaded one (`move_threaded_colliding`). Moves are
 //! timed one by one, the cases interleaved in rounds so the machine's noise falls on all alike;
 //! median and 99th percentile per move, and the median's ratio to the plain move.
 //!
@@ -25,7 +27,10 @@
 use nalgebra::Vector3;
 use std::hint::black_box;
 use std::time::Instant;
-use tractrix::eyelet::{Eyelet, EyeletWorkspace, move_threaded};
+use tractrix::collision::{
+    CollisionModel, CollisionOptions, CollisionWorkspace, move_joint_colliding,
+};
+use tractrix::eyelet::{Eyelet, EyeletWorkspace, move_threaded, move_threaded_colliding};
 use tractrix::{Chain, MoveOptions, Substeps};
 
 type V = Vector3<f64>;
@@ -61,42 +66,82 @@ fn to_segment(a: V, b: V, p: V) -> f64 {
 
 fn cost(rounds: usize) {
     println!(
-        "| links | case | median ns/move | p99 ns/move | median ÷ plain move |\n|---:|---|---:|---:|---:|"
+        "| links | case | median ns/move | p99 ns/move | median ÷ plain move (of its kind) |\n|---:|---|---:|---:|---:|"
     );
     let opts = MoveOptions {
         substeps: Substeps::Fixed(1),
         ..MoveOptions::default()
     };
+    let model = CollisionModel {
+        options: CollisionOptions::default(),
+        obstacles: vec![],
+        holding: vec![],
+    };
     for n in [40usize, 320] {
-        let cases = [0usize, 1, 4];
+        // (eyelets, with capsule collision)
+        let cases = [
+            (0usize, false),
+            (1, false),
+            (4, false),
+            (0, true),
+            (4, true),
+        ];
         let mut ropes: Vec<Chain<f64, 3>> = cases.iter().map(|_| rope(n)).collect();
         let mut eys: Vec<Vec<Eyelet<f64, 3>>> = cases
             .iter()
             .zip(&ropes)
-            .map(|(&k, r)| eyelets(r, n, k))
+            .map(|(&(k, _), r)| eyelets(r, n, k))
             .collect();
         let mut ws = EyeletWorkspace::new();
+        let mut cws = CollisionWorkspace::new();
         let mut times: Vec<Vec<f64>> = vec![Vec::new(); cases.len()];
         let start = V::new(n as f64, 0.0, 0.0);
         let mut step = 0usize;
         for _ in 0..rounds {
-            for (c, &k) in cases.iter().enumerate() {
+            for (c, &(k, colliding)) in cases.iter().enumerate() {
                 for s in 0..MOVES {
                     let a = 0.1 * (step + s) as f64;
-                    let t = start + V::new(a.cos() - 1.0, a.sin(), 0.0);
+                    let t = start + V::new(0.0, a.sin(), a.cos() - 1.0);
                     let clock = Instant::now();
-                    if k == 0 {
-                        black_box(ropes[c].move_joint(n, t, &opts)).expect("a free move");
-                    } else {
-                        black_box(move_threaded(
-                            &mut ropes[c],
-                            n,
-                            t,
-                            &mut eys[c],
-                            1000,
-                            &mut ws,
-                        ))
-                        .expect("a threaded move");
+                    match (k, colliding) {
+                        (0, false) => {
+                            black_box(ropes[c].move_joint(n, t, &opts)).expect("a free move");
+                        }
+                        (0, true) => {
+                            black_box(move_joint_colliding(
+                                &mut ropes[c],
+                                n,
+                                t,
+                                &opts,
+                                &model,
+                                &mut cws,
+                            ))
+                            .expect("a move with collision");
+                        }
+                        (_, false) => {
+                            black_box(move_threaded(
+                                &mut ropes[c],
+                                n,
+                                t,
+                                &mut eys[c],
+                                1000,
+                                &mut ws,
+                            ))
+                            .expect("a threaded move");
+                        }
+                        (_, true) => {
+                            black_box(move_threaded_colliding(
+                                &mut ropes[c],
+                                n,
+                                t,
+                                &mut eys[c],
+                                1000,
+                                &model,
+                                &mut cws,
+                                &mut ws,
+                            ))
+                            .expect("a threaded move with collision");
+                        }
                     }
                     times[c].push(clock.elapsed().as_nanos() as f64);
                 }
@@ -104,18 +149,19 @@ fn cost(rounds: usize) {
             step += MOVES;
         }
         let plain = percentile(&mut times[0].clone(), 0.5);
-        for (c, &k) in cases.iter().enumerate() {
-            let what = match k {
-                0 => "plain move (no eyelet)".to_string(),
-                1 => "through 1 eyelet".to_string(),
-                _ => format!("through {k} eyelets"),
+        let plain_colliding = percentile(&mut times[3].clone(), 0.5);
+        for (c, &(k, colliding)) in cases.iter().enumerate() {
+            let what = match (k, colliding) {
+                (0, false) => "plain move (no eyelet)".to_string(),
+                (0, true) => "plain move, capsule collision".to_string(),
+                (1, false) => "through 1 eyelet".to_string(),
+                (_, false) => format!("through {k} eyelets"),
+                (_, true) => format!("through {k} eyelets, capsule collision"),
             };
+            let base = if colliding { plain_colliding } else { plain };
             let med = percentile(&mut times[c], 0.5);
             let p99 = percentile(&mut times[c], 0.99);
-            println!(
-                "| {n} | {what} | {med:.0} | {p99:.0} | {:.2} |",
-                med / plain
-            );
+            println!("| {n} | {what} | {med:.0} | {p99:.0} | {:.2} |", med / base);
         }
     }
 }
