@@ -92,6 +92,25 @@ pub fn stderr_lines(child: &mut std::process::Child) -> std::sync::mpsc::Receive
 }
 
 /// Path of a workspace binary, built on demand if the test runner did not build it.
+/// The nearest link of the rope through `joints` to the point `p`: its index, the distance, and how
+/// far along the link the nearest point lies (the tests' own geometry, not the service's).
+pub fn nearest_link(joints: &[shared::Vec3], p: [f64; 3]) -> (usize, f64, f64) {
+    let mut best = (0, f64::INFINITY, 0.0);
+    for k in 0..joints.len().saturating_sub(1) {
+        let (a, b) = (joints[k].to_array(), joints[k + 1].to_array());
+        let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+        let l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+        let t = ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / l2).clamp(0.0, 1.0);
+        let e = [ap[0] - ab[0] * t, ap[1] - ab[1] * t, ap[2] - ab[2] * t];
+        let d = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        if d < best.1 {
+            best = (k, d, t * l2.sqrt());
+        }
+    }
+    best
+}
+
 /// Waits (300 s at most) for a `hand` process whose stdout is piped to finish successfully and
 /// returns what it printed (its output is small: `--quiet` or a report).
 pub fn hand_output(mut child: std::process::Child) -> String {

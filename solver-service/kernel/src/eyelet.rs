@@ -141,6 +141,9 @@ pub struct EyeletWorkspace<T: Real, const D: usize> {
     old: Vec<Vector<T, D>>,
     new: Vec<Vector<T, D>>,
     saved: Vec<(usize, bool)>,
+    /// A threaded move with collision: the chain before it, and the joints its resolution fixes.
+    backup: Option<Chain<T, D>>,
+    fixed: Vec<usize>,
 }
 
 impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
@@ -150,6 +153,8 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
             old: Vec::new(),
             new: Vec::new(),
             saved: Vec::new(),
+            backup: None,
+            fixed: Vec::new(),
         }
     }
 }
@@ -219,20 +224,7 @@ pub fn move_threaded<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    let n = chain.n_links();
-    if joint > n {
-        return Err(ChainError::JointOutOfRange { joint, last: n }.into());
-    }
-    if !crate::math::all_finite(&target) {
-        return Err(ChainError::NonFinite.into());
-    }
-    if chain.held().len() > 0 {
-        return Err(EyeletError::Held);
-    }
-    let threaded = || eyelets.iter().filter(|e| e.threaded).map(|e| e.link);
-    if threaded().zip(threaded().skip(1)).any(|(a, b)| b <= a) {
-        return Err(EyeletError::Unordered);
-    }
+    admit(chain, joint, &target, eyelets)?;
     ws.begin(chain, eyelets);
     let lengths = chain.lengths();
     let from = ws.new[joint];
@@ -313,17 +305,11 @@ pub fn move_threaded_colliding<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    let n = chain.n_links();
-    if joint > n {
-        return Err(ChainError::JointOutOfRange { joint, last: n }.into());
+    admit(chain, joint, &target, eyelets)?;
+    match &mut ws.backup {
+        Some(b) if b.n_links() == chain.n_links() => b.copy_from(chain),
+        b => *b = Some(chain.clone()),
     }
-    if !crate::math::all_finite(&target) {
-        return Err(ChainError::NonFinite.into());
-    }
-    if chain.held().len() > 0 {
-        return Err(EyeletError::Held);
-    }
-    let backup = chain.clone();
     ws.begin(chain, eyelets);
     let from = ws.new[joint];
     let way = target - from;
@@ -340,13 +326,13 @@ where
     }
     let steps = k.to_f64() as u32;
     let mut out = Threaded::default();
-    let mut fixed: Vec<usize> = Vec::new();
     for s in 1..=steps {
         chain.write_positions(&mut ws.old);
         let to = from + way * (T::lit(f64::from(s)) / k);
         let done =
             substep(&ws.old, &mut ws.new, chain.lengths(), joint, to, eyelets).and_then(|left| {
                 chain.set_positions(&ws.new)?;
+                let fixed = &mut ws.fixed;
                 fixed.clear();
                 for e in eyelets.iter().filter(|e| e.threaded) {
                     fixed.extend([e.link, e.link + 1]);
@@ -354,13 +340,15 @@ where
                 fixed.retain(|&j| j != joint);
                 fixed.sort_unstable();
                 fixed.dedup();
-                crate::collision::resolve_fixed(chain, joint, &fixed, s, model, cws)?;
+                crate::collision::resolve_fixed(chain, joint, fixed, s, model, cws)?;
                 Ok(left)
             });
         match done {
             Ok(left) => out.left += left,
             Err(err) => {
-                chain.copy_from(&backup);
+                if let Some(b) = &ws.backup {
+                    chain.copy_from(b);
+                }
                 for (e, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
                     (e.link, e.threaded) = (link, on);
                 }
@@ -370,6 +358,34 @@ where
         out.substeps = s;
     }
     Ok(out)
+}
+
+/// Whether a threaded move of `joint` to `target` may run: the joint on the chain, the target finite,
+/// no held joints, the threaded eyelets in the order of their links.
+fn admit<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    joint: usize,
+    target: &Vector<T, D>,
+    eyelets: &[Eyelet<T, D>],
+) -> Result<(), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = chain.n_links();
+    if joint > n {
+        return Err(ChainError::JointOutOfRange { joint, last: n }.into());
+    }
+    if !crate::math::all_finite(target) {
+        return Err(ChainError::NonFinite.into());
+    }
+    if chain.held().len() > 0 {
+        return Err(EyeletError::Held);
+    }
+    let threaded = || eyelets.iter().filter(|e| e.threaded).map(|e| e.link);
+    if threaded().zip(threaded().skip(1)).any(|(a, b)| b <= a) {
+        return Err(EyeletError::Unordered);
+    }
+    Ok(())
 }
 
 /// No two threaded eyelets within one link of each other.

@@ -351,18 +351,7 @@ fn the_mujoco_loop_draws_the_suture_s_eyelets() {
     let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
     let j = q.joints();
     for p in points {
-        let d = (0..j.len() - 1)
-            .map(|k| {
-                let (a, b) = (j[k], j[k + 1]);
-                let ab = [b.x - a.x, b.y - a.y, b.z - a.z];
-                let ap = [p[0] - a.x, p[1] - a.y, p[2] - a.z];
-                let t = ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2])
-                    / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]))
-                    .clamp(0.0, 1.0);
-                let e = [ap[0] - ab[0] * t, ap[1] - ab[1] * t, ap[2] - ab[2] * t];
-                (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
-            })
-            .fold(f64::INFINITY, f64::min);
+        let (_, d, _) = tests::nearest_link(j, p);
         assert!(d < 1e-9, "the rope passes {d:e} from the eyelet at {p:?}");
     }
 }

@@ -10,25 +10,6 @@ use shared::{Command, Parts, RequestHeader, Vec3};
 use std::process::{Command as Process, Stdio};
 use tests::{Service, bin, unique_prefix};
 
-/// The nearest segment of the rope to `p`: its index, the distance, and how far along it `p` falls.
-fn nearest(j: &[Vec3], p: Vec3) -> (usize, f64, f64) {
-    let v = |a: Vec3| [a.x, a.y, a.z];
-    let (p, mut best) = (v(p), (0, f64::INFINITY, 0.0));
-    for k in 0..j.len() - 1 {
-        let (a, b) = (v(j[k]), v(j[k + 1]));
-        let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
-        let l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
-        let t = ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / l2).clamp(0.0, 1.0);
-        let e = [ap[0] - ab[0] * t, ap[1] - ab[1] * t, ap[2] - ab[2] * t];
-        let d = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
-        if d < best.1 {
-            best = (k, d, t * l2.sqrt());
-        }
-    }
-    best
-}
-
 fn needle_pass(chain: &str, link: f64) {
     let scene = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -88,7 +69,7 @@ fn needle_pass(chain: &str, link: f64) {
     for e in [entry, exit] {
         assert!(e.threaded, "{chain}: {e:?}");
         assert!(e.at.z.abs() < 1e-12, "{chain}: not on the top face: {e:?}");
-        let (_, d, _) = nearest(joints, e.at);
+        let (_, d, _) = tests::nearest_link(joints, e.at.to_array());
         assert!(d < 1e-9, "{chain}: eyelet {e:?} is {d:e} off the rope");
     }
     assert!(
@@ -97,7 +78,7 @@ fn needle_pass(chain: &str, link: f64) {
         entry.at,
         exit.at
     );
-    let (k, _, along) = nearest(joints, entry.at);
+    let (k, _, along) = tests::nearest_link(joints, entry.at.to_array());
     let tail = k as f64 * link + along;
     println!(
         "{chain}: in at x = {:.3}, out at x = {:.3}, a tail of {tail:.2} before the entry",

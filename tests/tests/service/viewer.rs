@@ -668,21 +668,8 @@ fn watch_draws_the_eyelets_on_the_links_through_them() {
     let links: Vec<String> = points
         .iter()
         .map(|p| {
-            let p = Vec3::new(p[0], p[1], p[2]);
-            let d = |k: usize| {
-                let (a, b) = (joints[k], joints[k + 1]);
-                let ab = [b.x - a.x, b.y - a.y, b.z - a.z];
-                let ap = [p.x - a.x, p.y - a.y, p.z - a.z];
-                let t = ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2])
-                    / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]))
-                    .clamp(0.0, 1.0);
-                let e = [ap[0] - ab[0] * t, ap[1] - ab[1] * t, ap[2] - ab[2] * t];
-                (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
-            };
-            let k = (0..joints.len() - 1)
-                .min_by(|&a, &b| d(a).total_cmp(&d(b)))
-                .unwrap();
-            assert!(d(k) < 1e-9, "the rope passes {:e} from {p:?}", d(k));
+            let (k, d, _) = tests::nearest_link(&joints, *p);
+            assert!(d < 1e-9, "the rope passes {d:e} from {p:?}");
             format!("link {k}")
         })
         .collect();
