@@ -418,6 +418,53 @@ pub fn move_eyelet<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    eyelet_moves(chain, index, to, eyelets, max_substeps, ws, None)
+}
+
+/// [`move_eyelet`] with collision: after every substep the contacts are resolved as in
+/// [`move_threaded_colliding`], the joints of every threaded eyelet's link fixed; the substeps are
+/// also at most half the smallest clearance.
+#[allow(clippy::too_many_arguments)]
+pub fn move_eyelet_colliding<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    index: usize,
+    to: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    model: &crate::collision::CollisionModel<T, D>,
+    cws: &mut crate::collision::CollisionWorkspace<T, D>,
+    ws: &mut EyeletWorkspace<T, D>,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    eyelet_moves(
+        chain,
+        index,
+        to,
+        eyelets,
+        max_substeps,
+        ws,
+        Some((model, cws)),
+    )
+}
+
+/// The substeps of [`move_eyelet`], with collision when `collision` is given.
+fn eyelet_moves<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    index: usize,
+    to: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    ws: &mut EyeletWorkspace<T, D>,
+    mut collision: Option<(
+        &crate::collision::CollisionModel<T, D>,
+        &mut crate::collision::CollisionWorkspace<T, D>,
+    )>,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
     let Some(&e) = eyelets.get(index) else {
         return Err(ChainError::BadOption("no such eyelet").into());
     };
@@ -431,11 +478,28 @@ where
     if chain.held().len() > 0 {
         return Err(EyeletError::Held);
     }
+    if collision.is_some() {
+        match &mut ws.backup {
+            Some(b) if b.n_links() == chain.n_links() => b.copy_from(chain),
+            b => *b = Some(chain.clone()),
+        }
+    }
     ws.begin(chain, eyelets);
-    let lengths = chain.lengths();
     let from = e.at;
     let way = to - from;
-    let (k, steps) = substeps(chain, &way, max_substeps)?;
+    let (mut k, _) = substeps(chain, &way, max_substeps)?;
+    if let Some((model, _)) = &collision {
+        let half = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
+        k = k.max((way.norm() / half).ceil());
+        if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
+            return Err(ChainError::TooManySubsteps {
+                required: k.to_f64().min(u64::MAX as f64) as u64,
+                limit: max_substeps,
+            }
+            .into());
+        }
+    }
+    let steps = k.to_f64() as u32;
     let mut out = Threaded::default();
     for s in 1..=steps {
         std::mem::swap(&mut ws.old, &mut ws.new);
@@ -443,12 +507,36 @@ where
         let shift = at - eyelets[index].at;
         let link = eyelets[index].link;
         eyelets[index].at = at;
+        let lengths = chain.lengths();
         let (old, new) = (&ws.old, &mut ws.new);
         new[link] = old[link] + shift;
         new[link + 1] = old[link + 1] + shift;
-        let walked = side(old, new, lengths, link, eyelets, false)
+        let mut walked = side(old, new, lengths, link, eyelets, false)
             .and_then(|a| Ok(a + side(old, new, lengths, link + 1, eyelets, true)?))
             .and_then(|left| apart(eyelets).map(|()| left));
+        if let (Ok(_), Some((model, cws))) = (&walked, collision.as_mut()) {
+            // The contacts, the links through the eyelets fixed; the next substep starts from the
+            // resolved pose.
+            let fixed = &mut ws.fixed;
+            fixed.clear();
+            for e in eyelets.iter().filter(|e| e.threaded) {
+                fixed.extend([e.link, e.link + 1]);
+            }
+            fixed.retain(|&j| j != link);
+            fixed.sort_unstable();
+            fixed.dedup();
+            let resolved = chain
+                .set_positions(&ws.new)
+                .map_err(EyeletError::from)
+                .and_then(|()| {
+                    crate::collision::resolve_fixed(chain, link, fixed, s, model, cws)
+                        .map_err(EyeletError::from)
+                });
+            match resolved {
+                Ok(_) => chain.write_positions(&mut ws.new),
+                Err(err) => walked = Err(err),
+            }
+        }
         match walked {
             Ok(left) => out.left += left,
             Err(err) => {
@@ -456,12 +544,17 @@ where
                     (x.link, x.threaded) = (link, on);
                 }
                 eyelets[index].at = from;
+                if let (Some(_), Some(b)) = (&collision, &ws.backup) {
+                    chain.copy_from(b);
+                }
                 return Err(err);
             }
         }
         out.substeps = s;
     }
-    chain.set_positions(&ws.new)?;
+    if collision.is_none() {
+        chain.set_positions(&ws.new)?;
+    }
     Ok(out)
 }
 

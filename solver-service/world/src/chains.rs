@@ -735,19 +735,25 @@ impl World {
                 let crate::form::LiveChain {
                     chain, eyelets, eyelet_ws, collision, ..
                 } = h;
-                if collision.is_some() {
-                    Err(tractrix::eyelet::EyeletError::Chain(ChainError::BadOption(
-                        "moving an eyelet of a chain with collision is not built yet",
-                    )))
-                } else {
-                    tractrix::eyelet::move_eyelet(
+                match collision {
+                    Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
+                        chain,
+                        index,
+                        crate::form::point(at),
+                        eyelets,
+                        max_substeps,
+                        model,
+                        cws,
+                        eyelet_ws,
+                    ),
+                    None => tractrix::eyelet::move_eyelet(
                         chain,
                         index,
                         crate::form::point(at),
                         eyelets,
                         max_substeps,
                         eyelet_ws,
-                    )
+                    ),
                 }
             })
             .map(|m| outcome.substeps = m.substeps)

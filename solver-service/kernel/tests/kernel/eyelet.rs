@@ -335,3 +335,80 @@ fn with_collision_the_rope_keeps_its_eyelets_and_its_thickness() {
         "{accepted} {resolved} {refused} {would_touch}"
     );
 }
+
+/// A moved eyelet with capsule collision: where nothing touches, the link through it is carried by
+/// exactly the shift; moved so that the rope is dragged back along itself, every accepted
+/// move keeps the eyelets on their links and links two or more apart a thickness apart (computed
+/// here), and a refusal changes nothing.
+#[test]
+fn a_moved_eyelet_with_collision_keeps_the_rope_apart() {
+    use tractrix::collision::{CollisionModel, CollisionOptions, CollisionWorkspace};
+    use tractrix::eyelet::move_eyelet_colliding;
+    let model = CollisionModel {
+        options: CollisionOptions::default(),
+        obstacles: vec![],
+        holding: vec![],
+    };
+    let (mut ws, mut cws) = (EyeletWorkspace::new(), CollisionWorkspace::new());
+    let two = |r: &Chain<f64, 3>| {
+        [
+            Eyelet::thread(r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap(),
+            Eyelet::thread(r, V::new(25.5, 0.0, 0.0), 1e-9).unwrap(),
+        ]
+    };
+    // Sideways where nothing touches: the link through it carried by exactly the shift.
+    let mut b = rope();
+    let mut eb = two(&b);
+    let to = V::new(10.5, 3.0, 1.0);
+    move_eyelet_colliding(&mut b, 0, to, &mut eb, 1000, &model, &mut cws, &mut ws).unwrap();
+    let p = b.positions();
+    assert!(
+        (p[10] - V::new(10.0, 3.0, 1.0)).norm() < 1e-9,
+        "{:?}",
+        p[10]
+    );
+    assert!(
+        (p[11] - V::new(11.0, 3.0, 1.0)).norm() < 1e-9,
+        "{:?}",
+        p[11]
+    );
+    check(&b, &eb, 1e-9, "sideways");
+    // Dragged along the rope toward the other eyelet and back across it, in steps.
+    let mut rng = Rng(0xE7E);
+    let (mut accepted, mut refused, mut parted) = (0, 0, 0);
+    for k in 0..200 {
+        let at = eb[0].at;
+        let t = at
+            + V::new(
+                rng.range(-1.0, 1.5),
+                rng.range(-0.8, 0.8),
+                rng.range(-0.4, 0.4),
+            );
+        let (before, links) = (b.positions(), eb.map(|e| e.link));
+        let (mut free, mut free_e) = (b.clone(), eb);
+        let touch = tractrix::eyelet::move_eyelet(&mut free, 0, t, &mut free_e, 1000, &mut ws)
+            .is_ok()
+            && clearance(&free.positions()) < 0.2 * 0.99;
+        match move_eyelet_colliding(&mut b, 0, t, &mut eb, 1000, &model, &mut cws, &mut ws) {
+            Ok(_) => {
+                accepted += 1;
+                parted += usize::from(touch);
+                check(&b, &eb, 1e-9, &format!("move {k}"));
+                let c = clearance(&b.positions());
+                assert!(c >= 0.2 * (1.0 - 0.01) - 1e-9, "move {k}: links {c} apart");
+            }
+            Err(_) => {
+                refused += 1;
+                assert_eq!(b.positions(), before, "move {k}: refused, unchanged");
+                assert_eq!(eb.map(|e| e.link), links);
+            }
+        }
+    }
+    println!(
+        "{accepted} accepted ({parted} parted links that would have touched), {refused} refused"
+    );
+    assert!(
+        accepted > 100 && parted > 10,
+        "{accepted} accepted, {parted} parted, {refused} refused"
+    );
+}
