@@ -92,6 +92,40 @@ pub fn stderr_lines(child: &mut std::process::Child) -> std::sync::mpsc::Receive
 }
 
 /// Path of a workspace binary, built on demand if the test runner did not build it.
+/// A scene of one rope, `suture`: 40 unit links straight along x from the origin, threaded through the
+/// eyelets [`SUTURE_EYELETS`]; and a service started on it (its scene file in the returned folder).
+pub const SUTURE_EYELETS: [[f64; 3]; 2] = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]];
+
+/// A service on the scene of [`SUTURE_EYELETS`] (the folder holds its scene file: keep it while the
+/// service runs).
+pub fn suture_service() -> (Service, tempfile::TempDir) {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let scene = dir.path().join("suture.toml");
+    let points: Vec<String> = SUTURE_EYELETS
+        .iter()
+        .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
+        .collect();
+    std::fs::write(
+        &scene,
+        format!(
+            "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\neyelets = [{}]\n",
+            points.join(", ")
+        ),
+    )
+    .expect("write the scene");
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--scene",
+            scene.to_str().expect("a UTF-8 path"),
+            "--no-persist",
+            "--wait",
+            "event",
+        ],
+    );
+    (svc, dir)
+}
+
 /// The nearest link of the rope through `joints` to the point `p`: its index, the distance, and how
 /// far along the link the nearest point lies (the tests' own geometry, not the service's).
 pub fn nearest_link(joints: &[shared::Vec3], p: [f64; 3]) -> (usize, f64, f64) {

@@ -163,6 +163,15 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D>
 where
     Vector<T, D>: Embed3<T>,
 {
+    /// Keeps a copy of `chain` to put back if a move with collision is refused (no allocation once
+    /// warm).
+    fn keep(&mut self, chain: &Chain<T, D>) {
+        match &mut self.backup {
+            Some(b) if b.n_links() == chain.n_links() => b.copy_from(chain),
+            b => *b = Some(chain.clone()),
+        }
+    }
+
     /// Sized to `chain`, its positions in `new`, the eyelets' links and flags saved (for a refusal).
     fn begin(&mut self, chain: &Chain<T, D>, eyelets: &[Eyelet<T, D>]) {
         let n = chain.n_links();
@@ -306,25 +315,12 @@ where
     Vector<T, D>: Embed3<T>,
 {
     admit(chain, joint, &target, eyelets)?;
-    match &mut ws.backup {
-        Some(b) if b.n_links() == chain.n_links() => b.copy_from(chain),
-        b => *b = Some(chain.clone()),
-    }
+    ws.keep(chain);
     ws.begin(chain, eyelets);
     let from = ws.new[joint];
     let way = target - from;
-    // Substeps of at most half a link and half the smallest clearance.
-    let half = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
     let (k, _) = substeps(chain, &way, max_substeps)?;
-    let k = k.max((way.norm() / half).ceil());
-    if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
-        return Err(ChainError::TooManySubsteps {
-            required: k.to_f64().min(u64::MAX as f64) as u64,
-            limit: max_substeps,
-        }
-        .into());
-    }
-    let steps = k.to_f64() as u32;
+    let (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
     let mut out = Threaded::default();
     for s in 1..=steps {
         chain.write_positions(&mut ws.old);
@@ -332,15 +328,7 @@ where
         let done =
             substep(&ws.old, &mut ws.new, chain.lengths(), joint, to, eyelets).and_then(|left| {
                 chain.set_positions(&ws.new)?;
-                let fixed = &mut ws.fixed;
-                fixed.clear();
-                for e in eyelets.iter().filter(|e| e.threaded) {
-                    fixed.extend([e.link, e.link + 1]);
-                }
-                fixed.retain(|&j| j != joint);
-                fixed.sort_unstable();
-                fixed.dedup();
-                crate::collision::resolve_fixed(chain, joint, fixed, s, model, cws)?;
+                resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
                 Ok(left)
             });
         match done {
@@ -358,6 +346,55 @@ where
         out.substeps = s;
     }
     Ok(out)
+}
+
+/// The substeps `k` of a move along `way` raised to at most half the smallest clearance each (no
+/// link passes another within a substep), at most `max_substeps`.
+fn clearance_substeps<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    model: &crate::collision::CollisionModel<T, D>,
+    way: &Vector<T, D>,
+    k: T,
+    max_substeps: u32,
+) -> Result<(T, u32), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let half = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
+    let k = k.max((way.norm() / half).ceil());
+    if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
+        return Err(ChainError::TooManySubsteps {
+            required: k.to_f64().min(u64::MAX as f64) as u64,
+            limit: max_substeps,
+        }
+        .into());
+    }
+    Ok((k, k.to_f64() as u32))
+}
+
+/// Resolves the chain's contacts after a substep of a threaded move: `hand` and the two joints of
+/// every threaded eyelet's link fixed (their list built in `fixed`).
+fn resolve_threaded<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    hand: usize,
+    eyelets: &[Eyelet<T, D>],
+    substep: u32,
+    model: &crate::collision::CollisionModel<T, D>,
+    cws: &mut crate::collision::CollisionWorkspace<T, D>,
+    fixed: &mut Vec<usize>,
+) -> Result<(), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    fixed.clear();
+    for e in eyelets.iter().filter(|e| e.threaded) {
+        fixed.extend([e.link, e.link + 1]);
+    }
+    fixed.retain(|&j| j != hand);
+    fixed.sort_unstable();
+    fixed.dedup();
+    crate::collision::resolve_fixed(chain, hand, fixed, substep, model, cws)?;
+    Ok(())
 }
 
 /// Whether a threaded move of `joint` to `target` may run: the joint on the chain, the target finite,
@@ -479,27 +516,15 @@ where
         return Err(EyeletError::Held);
     }
     if collision.is_some() {
-        match &mut ws.backup {
-            Some(b) if b.n_links() == chain.n_links() => b.copy_from(chain),
-            b => *b = Some(chain.clone()),
-        }
+        ws.keep(chain);
     }
     ws.begin(chain, eyelets);
     let from = e.at;
     let way = to - from;
-    let (mut k, _) = substeps(chain, &way, max_substeps)?;
+    let (mut k, mut steps) = substeps(chain, &way, max_substeps)?;
     if let Some((model, _)) = &collision {
-        let half = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
-        k = k.max((way.norm() / half).ceil());
-        if k.to_f64().is_nan() || k > T::lit(f64::from(max_substeps.max(1))) {
-            return Err(ChainError::TooManySubsteps {
-                required: k.to_f64().min(u64::MAX as f64) as u64,
-                limit: max_substeps,
-            }
-            .into());
-        }
+        (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
     }
-    let steps = k.to_f64() as u32;
     let mut out = Threaded::default();
     for s in 1..=steps {
         std::mem::swap(&mut ws.old, &mut ws.new);
@@ -517,20 +542,11 @@ where
         if let (Ok(_), Some((model, cws))) = (&walked, collision.as_mut()) {
             // The contacts, the links through the eyelets fixed; the next substep starts from the
             // resolved pose.
-            let fixed = &mut ws.fixed;
-            fixed.clear();
-            for e in eyelets.iter().filter(|e| e.threaded) {
-                fixed.extend([e.link, e.link + 1]);
-            }
-            fixed.retain(|&j| j != link);
-            fixed.sort_unstable();
-            fixed.dedup();
             let resolved = chain
                 .set_positions(&ws.new)
                 .map_err(EyeletError::from)
                 .and_then(|()| {
-                    crate::collision::resolve_fixed(chain, link, fixed, s, model, cws)
-                        .map_err(EyeletError::from)
+                    resolve_threaded(chain, link, eyelets, s, model, cws, &mut ws.fixed)
                 });
             match resolved {
                 Ok(_) => chain.write_positions(&mut ws.new),

@@ -313,25 +313,8 @@ fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
 /// each (the nearest segment, computed here, to 1e-9).
 #[test]
 fn the_mujoco_loop_draws_the_suture_s_eyelets() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("suture.toml");
-    let points = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]];
-    std::fs::write(
-        &scene,
-        "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\n\
-         eyelets = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]]\n",
-    )
-    .unwrap();
-    let svc = Service::start(
-        &unique_prefix(),
-        &[
-            "--scene",
-            scene.to_str().unwrap(),
-            "--no-persist",
-            "--wait",
-            "event",
-        ],
-    );
+    let (svc, _scene) = tests::suture_service();
+    let points = tests::SUTURE_EYELETS;
     let out = Process::new(python())
         .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
         .args(["--prefix", svc.prefix.as_str(), "--chain", "suture"])

@@ -634,25 +634,8 @@ fn the_view_marks_the_joints_at_their_bend_limit() {
 /// in the last response's joints (the nearest segment, computed here).
 #[test]
 fn watch_draws_the_eyelets_on_the_links_through_them() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("suture.toml");
-    let points = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]];
-    std::fs::write(
-        &scene,
-        "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\n\
-         eyelets = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]]\n",
-    )
-    .unwrap();
-    let svc = Service::start(
-        &unique_prefix(),
-        &[
-            "--scene",
-            scene.to_str().unwrap(),
-            "--no-persist",
-            "--wait",
-            "event",
-        ],
-    );
+    let (svc, dir) = tests::suture_service();
+    let points = tests::SUTURE_EYELETS;
     let rrd = dir.path().join("eyelets.rrd");
     let (watch, rx) = start_watch(&svc.prefix, &rrd, 2, &[]);
     let mut c = svc.connect();
