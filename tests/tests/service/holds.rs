@@ -270,7 +270,12 @@ fn anchors_hold_from_the_start_and_holds_survive_kill_9() {
 /// grips are taken before the first move and let go after the last.
 #[test]
 fn two_holding_hands_alternate_and_the_idle_hand_never_moves() {
-    let svc = Service::start(&unique_prefix(), &["--wait", "event", "--no-persist"]);
+    // A buffer deeper than the whole run's states: the watcher below sleeps between reads, and on
+    // a loaded machine it may be away for longer than the default 64 states (it checks none is missed).
+    let svc = Service::start(
+        &unique_prefix(),
+        &["--wait", "event", "--no-persist", "--state-buffer", "1024"],
+    );
     let dir = tempfile::tempdir().unwrap();
     let script = dir.path().join("alternate.toml");
     let mut text = String::from("name = \"alternate\"\nmax_step = 0.1\n");
@@ -292,6 +297,7 @@ fn two_holding_hands_alternate_and_the_idle_hand_never_moves() {
     let mut c = svc.connect();
     let q0 = c.call(req(Command::Query, 0, 0), &[]).unwrap();
     let n = q0.joints().len();
+    let seq0 = q0.header.sequence;
     // Every state of the rope from here on: (sequence, command, held joints, tail, head).
     type Seen = (u64, u32, u32, [u64; 3], [u64; 3]);
     let prefix = svc.prefix.clone();
@@ -308,6 +314,7 @@ fn two_holding_hands_alternate_and_the_idle_hand_never_moves() {
         ready_tx.send(()).unwrap();
         let mut seen: Vec<Seen> = Vec::new();
         let mut idle = None;
+        let mut next = seq0 + 1;
         loop {
             let got = stream
                 .try_next(|h, p| {
@@ -322,12 +329,14 @@ fn two_holding_hands_alternate_and_the_idle_hand_never_moves() {
                     )
                 })
                 .unwrap();
+            if let Some((seq, ..)) = got {
+                idle = None;
+                assert_eq!(seq, next, "a published state was missed");
+                next += 1;
+            }
             match got {
-                Some((seq, 0, cmd, held, tail, head)) => {
-                    idle = None;
-                    seen.push((seq, cmd, held, tail, head));
-                }
-                Some(_) => idle = None,
+                Some((seq, 0, cmd, held, tail, head)) => seen.push((seq, cmd, held, tail, head)),
+                Some(_) => {}
                 None => {
                     if flag.load(std::sync::atomic::Ordering::Relaxed) {
                         let t = *idle.get_or_insert_with(Instant::now);

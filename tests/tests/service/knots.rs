@@ -23,7 +23,17 @@ fn knot_service() -> Service {
     );
     Service::start(
         &unique_prefix(),
-        &["--scene", scene, "--wait", "event", "--no-persist"],
+        // The watchers check that no state is missed: a buffer of a second of states at the hands'
+        // 1 kHz (the default 64 is 64 ms, too short for a watcher starved on a loaded machine).
+        &[
+            "--scene",
+            scene,
+            "--wait",
+            "event",
+            "--no-persist",
+            "--state-buffer",
+            "1024",
+        ],
     )
 }
 
