@@ -66,9 +66,24 @@ pub enum EyeletError {
     /// The eyelets are not in the order of their links along the rope.
     #[error("eyelets must be given in the order of their links along the rope")]
     Unordered,
-    /// The chain has held joints (eyelets with holds are not built yet).
-    #[error("a chain with held joints cannot move through eyelets yet")]
+    /// An eyelet moved on a chain with held joints (not built yet; threaded moves keep held joints).
+    #[error("an eyelet cannot be moved on a chain with held joints yet")]
     Held,
+    /// A walk along the rope slid an eyelet past the joint where it had to stop (a held joint): the
+    /// rope pulled taut against it. Internal to a move with held joints, which reports it as not
+    /// converged.
+    #[error("the rope slid through an eyelet past joint {joint}")]
+    PastStop {
+        /// The joint.
+        joint: usize,
+    },
+    /// A move with held joints closes the rope on each held joint by its two nearest links: an
+    /// eyelet may not lie on them, nor the moved joint within a link of the held one.
+    #[error("a threaded move cannot close on held joint {held}: an eyelet or the moved joint is within two links of it")]
+    NearHeld {
+        /// The held joint.
+        held: usize,
+    },
     /// The move itself (joint, target, substeps) is not valid.
     #[error(transparent)]
     Chain(#[from] ChainError),
@@ -136,14 +151,27 @@ fn segment_point_distance<T: Real, const D: usize>(
 }
 
 /// The positions a threaded move works on, kept between moves.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct EyeletWorkspace<T: Real, const D: usize> {
     old: Vec<Vector<T, D>>,
     new: Vec<Vector<T, D>>,
     saved: Vec<(usize, bool)>,
+    /// A move with held joints: the positions of the walks back from a held joint.
+    alt: Vec<Vector<T, D>>,
     /// A threaded move with collision: the chain before it, and the joints its resolution fixes.
     backup: Option<Chain<T, D>>,
     fixed: Vec<usize>,
+    /// A move with held joints: how closely the rope must meet each held joint (a fraction of the
+    /// rope's length between it and the moved joint) before the closing links take up the rest, and
+    /// the most alternations per substep ([`EyeletWorkspace::with_holds`]).
+    held_tolerance: f64,
+    held_iterations: u32,
+}
+
+impl<T: Real, const D: usize> Default for EyeletWorkspace<T, D> {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
@@ -153,9 +181,22 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
             old: Vec::new(),
             new: Vec::new(),
             saved: Vec::new(),
+            alt: Vec::new(),
             backup: None,
             fixed: Vec::new(),
+            held_tolerance: 1e-9,
+            held_iterations: 1000,
         }
+    }
+
+    /// How a threaded move of a chain with held joints converges: the alternation stops when the
+    /// rope meets each held joint within `tolerance` of the rope's length between it and the moved
+    /// joint (at least 64 ε), and is refused as not converged after `max_iterations` alternations
+    /// in a substep. The defaults: 1e-9 and 1000, as [`crate::ReachOptions`]'.
+    pub fn with_holds(mut self, tolerance: f64, max_iterations: u32) -> Self {
+        self.held_tolerance = tolerance;
+        self.held_iterations = max_iterations.max(1);
+        self
     }
 }
 
@@ -177,6 +218,7 @@ where
         let n = chain.n_links();
         self.old.resize(n + 1, Vector::zeros());
         self.new.resize(n + 1, Vector::zeros());
+        self.alt.resize(n + 1, Vector::zeros());
         chain.write_positions(&mut self.new);
         self.saved.clear();
         self.saved
@@ -214,6 +256,8 @@ pub struct Threaded {
     pub substeps: u32,
     /// Eyelets the chain left during the move (an end slid out).
     pub left: u32,
+    /// Forward-and-back alternations spent on the rope between the moved joint and held joints.
+    pub held_iterations: u32,
 }
 
 /// Moves joint `joint` of `chain` straight to `target` with the chain threaded through `eyelets`
@@ -235,6 +279,7 @@ where
 {
     admit(chain, joint, &target, eyelets)?;
     ws.begin(chain, eyelets);
+    let holds = Holds::of(chain, joint, &target, eyelets, ws)?;
     let lengths = chain.lengths();
     let from = ws.new[joint];
     let way = target - from;
@@ -243,8 +288,11 @@ where
     for s in 1..=steps {
         std::mem::swap(&mut ws.old, &mut ws.new);
         let to = from + way * (T::lit(f64::from(s)) / k);
-        match substep(&ws.old, &mut ws.new, lengths, joint, to, eyelets) {
-            Ok(left) => out.left += left,
+        match substep(&ws.old, &mut ws.new, &mut ws.alt, lengths, joint, to, eyelets, &holds) {
+            Ok((left, iterations)) => {
+                out.left += left;
+                out.held_iterations += iterations;
+            }
             Err(e) => {
                 for (e, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
                     (e.link, e.threaded) = (link, on);
@@ -254,20 +302,124 @@ where
         }
         out.substeps = s;
     }
-    chain.set_positions(&ws.new)?;
+    set_threaded(chain, joint, &ws.new)?;
     Ok(out)
 }
 
-/// One straight substep of joint `m` to `to`: `old` the positions before, `new` written.
+/// Writes a threaded move's positions into the chain; a held moved joint is held where it landed.
+fn set_threaded<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    positions: &[Vector<T, D>],
+) -> Result<(), ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    chain.set_positions(positions)?;
+    chain.repin(joint);
+    Ok(())
+}
+
+/// The held joints a threaded move keeps: the nearest on each side of the moved joint (where it is
+/// held), how closely the alternation must meet each (absolute), and the most alternations.
+struct Holds<T: Real, const D: usize> {
+    tail: Option<(usize, Vector<T, D>, T)>,
+    head: Option<(usize, Vector<T, D>, T)>,
+    max_iterations: u32,
+}
+
+impl<T: Real, const D: usize> Holds<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    /// The holds around `m` (none on a chain without held joints). Refused when the target is out of
+    /// the reach the rope allows from a held joint through the eyelets between (the nearest point it
+    /// reaches named), or a held joint is too near the moved joint or an eyelet to close on.
+    fn of(
+        chain: &Chain<T, D>,
+        m: usize,
+        target: &Vector<T, D>,
+        eyelets: &[Eyelet<T, D>],
+        ws: &EyeletWorkspace<T, D>,
+    ) -> Result<Self, EyeletError> {
+        let (lo, hi) = chain.held_around(m);
+        let tol = T::lit(ws.held_tolerance).max(T::EPSILON * T::lit(64.0));
+        let pos = &ws.new;
+        let lengths = chain.lengths();
+        let one = |h: usize| -> Result<(usize, Vector<T, D>, T), EyeletError> {
+            let (a, b) = (h.min(m), h.max(m));
+            // The two links the move closes on the held joint.
+            let closing = if h > m { h.saturating_sub(2) } else { h };
+            if b - a < 2
+                || eyelets
+                    .iter()
+                    .any(|e| e.threaded && (closing..closing + 2).contains(&e.link))
+            {
+                return Err(EyeletError::NearHeld { held: h });
+            }
+            let rope = lengths[a..b].iter().fold(T::zero(), |x, &l| x + l);
+            // The shortest way the rope can take: from the held joint through the eyelets between,
+            // in order, to the target.
+            let mut at = pos[h];
+            let mut used = T::zero();
+            let between = |e: &&Eyelet<T, D>| e.threaded && e.link >= a && e.link < b;
+            let mut walk = |e: &Eyelet<T, D>| {
+                used += (e.at - at).norm();
+                at = e.at;
+            };
+            if h < m {
+                eyelets.iter().filter(between).for_each(&mut walk);
+            } else {
+                eyelets.iter().rev().filter(between).for_each(&mut walk);
+            }
+            let last = (target - at).norm();
+            if used + last > rope {
+                let spare = (rope - used).max(T::zero());
+                let nearest = if last > T::zero() {
+                    at + (target - at) * (spare / last)
+                } else {
+                    at
+                };
+                let n3 = nearest.to_3d();
+                return Err(ChainError::HeldUnreachable {
+                    held: h,
+                    nearest: [n3.x.to_f64(), n3.y.to_f64(), n3.z.to_f64()],
+                    residual: (used + last - rope).to_f64(),
+                }
+                .into());
+            }
+            Ok((h, pos[h], tol * rope))
+        };
+        Ok(Holds {
+            tail: lo.map(one).transpose()?,
+            head: hi.map(one).transpose()?,
+            max_iterations: ws.held_iterations,
+        })
+    }
+}
+
+/// One straight substep of joint `m` to `to`: `old` the positions before, `new` written (`alt` the
+/// scratch of the walks back from held joints). Returns the eyelets left and the alternations spent
+/// on held sides.
+#[allow(clippy::too_many_arguments)]
 fn substep<T: Real, const D: usize>(
     old: &[Vector<T, D>],
     new: &mut [Vector<T, D>],
+    alt: &mut [Vector<T, D>],
     lengths: &[T],
     m: usize,
     to: Vector<T, D>,
     eyelets: &mut [Eyelet<T, D>],
-) -> Result<u32, EyeletError> {
+    holds: &Holds<T, D>,
+) -> Result<(u32, u32), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
     let n = lengths.len();
+    if holds.tail.is_some() || holds.head.is_some() {
+        // The rope beyond a held joint is not walked: it stays where it was.
+        new.copy_from_slice(old);
+    }
     new[m] = to;
     // The moved joint pushed through an eyelet on a link beside it (the link aimed from it would
     // turn over): the eyelet passes to the link on its other side.
@@ -286,11 +438,93 @@ fn substep<T: Real, const D: usize>(
             e.link = m - 1;
         }
     }
-    let mut left = 0;
-    left += side(old, new, lengths, m, eyelets, false)?;
-    left += side(old, new, lengths, m, eyelets, true)?;
+    let (mut left, mut iterations) = (0, 0);
+    for (up, hold) in [(false, holds.tail), (true, holds.head)] {
+        match hold {
+            None => left += side(old, new, lengths, m, eyelets, up, None)?,
+            Some((h, at, tol)) => {
+                let (l, i) = held_side(
+                    old,
+                    new,
+                    alt,
+                    lengths,
+                    m,
+                    (h, at, tol),
+                    eyelets,
+                    holds.max_iterations,
+                )?;
+                left += l;
+                iterations += i;
+            }
+        }
+    }
     apart(eyelets)?;
-    Ok(left)
+    Ok((left, iterations))
+}
+
+/// The rope from the moved joint `m` (at `new[m]`) to the held joint `h` (held at `at`): walked from
+/// `m` to `h`, then, while the walk misses `at` by more than `tol`, walked back from `h` put on `at`
+/// to `m` and out from `m` put back on its goal again (the forward and backward passes of FABRIK,
+/// each a tractrix walk with the aim rule at the eyelets between). When the walk from `m` meets `at`
+/// within `tol`, the two links before `h` are placed by the closed-form two-link solution from the
+/// joint two links back, so that the rope meets `at` exactly with every length kept. Returns the
+/// eyelets left (none: the rope cannot leave an eyelet between) and the alternations.
+#[allow(clippy::too_many_arguments)]
+fn held_side<T: Real, const D: usize>(
+    old: &[Vector<T, D>],
+    new: &mut [Vector<T, D>],
+    alt: &mut [Vector<T, D>],
+    lengths: &[T],
+    m: usize,
+    (h, at, tol): (usize, Vector<T, D>, T),
+    eyelets: &mut [Eyelet<T, D>],
+    max_iterations: u32,
+) -> Result<(u32, u32), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let up = h > m;
+    // A walk that slides an eyelet past its last joint, or (back from the held joint) pushes the
+    // rope to fold through an eyelet, is an alternation that does not converge.
+    let past = |e: EyeletError| match e {
+        EyeletError::PastStop { .. } | EyeletError::Fold { .. } => {
+            EyeletError::Chain(ChainError::HeldNotConverged {
+                iterations: 0,
+                residual: f64::INFINITY,
+            })
+        }
+        e => e,
+    };
+    let mut miss = T::zero();
+    for it in 1..=max_iterations {
+        let left = if it == 1 {
+            side(old, new, lengths, m, eyelets, up, Some(h))
+        } else {
+            side(alt, new, lengths, m, eyelets, up, Some(h))
+        }
+        .map_err(past)?;
+        miss = (new[h] - at).norm();
+        if miss <= tol {
+            // Close on the held joint: joints c2 (kept), c1 (placed), h. The two links cannot close
+            // when they are stretched straight (a taut rope): then the alternation goes on.
+            let (c1, c2) = if up { (h - 1, h - 2) } else { (h + 1, h + 2) };
+            let (a1, a2) = (lengths[c1.min(c2)], lengths[c1.min(h)]);
+            let (l1, l2) =
+                crate::fixed_base::two_link(&new[c2], &at, a1, a2, &(new[c1] - new[c2]));
+            if (new[c2] + l1 + l2 - at).norm() <= (a1 + a2) * T::EPSILON * T::lit(64.0) {
+                new[c1] = new[c2] + l1;
+                new[h] = at;
+                return Ok((left, it));
+            }
+        }
+        alt[h] = at;
+        side(new, alt, lengths, h, eyelets, !up, Some(m)).map_err(past)?;
+    }
+    Err(ChainError::HeldNotConverged {
+        iterations: max_iterations,
+        residual: miss.to_f64(),
+    }
+    .into())
 }
 
 /// [`move_threaded`] with collision: after every substep the chain's contacts are resolved as a
@@ -317,6 +551,7 @@ where
     admit(chain, joint, &target, eyelets)?;
     ws.keep(chain);
     ws.begin(chain, eyelets);
+    let holds = Holds::of(chain, joint, &target, eyelets, ws)?;
     let from = ws.new[joint];
     let way = target - from;
     let (k, _) = substeps(chain, &way, max_substeps)?;
@@ -325,14 +560,26 @@ where
     for s in 1..=steps {
         chain.write_positions(&mut ws.old);
         let to = from + way * (T::lit(f64::from(s)) / k);
-        let done =
-            substep(&ws.old, &mut ws.new, chain.lengths(), joint, to, eyelets).and_then(|left| {
-                chain.set_positions(&ws.new)?;
-                resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
-                Ok(left)
-            });
+        let done = substep(
+            &ws.old,
+            &mut ws.new,
+            &mut ws.alt,
+            chain.lengths(),
+            joint,
+            to,
+            eyelets,
+            &holds,
+        )
+        .and_then(|left| {
+            set_threaded(chain, joint, &ws.new)?;
+            resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
+            Ok(left)
+        });
         match done {
-            Ok(left) => out.left += left,
+            Ok((left, iterations)) => {
+                out.left += left;
+                out.held_iterations += iterations;
+            }
             Err(err) => {
                 if let Some(b) = &ws.backup {
                     chain.copy_from(b);
@@ -390,6 +637,7 @@ where
     for e in eyelets.iter().filter(|e| e.threaded) {
         fixed.extend([e.link, e.link + 1]);
     }
+    fixed.extend(chain.held());
     fixed.retain(|&j| j != hand);
     fixed.sort_unstable();
     fixed.dedup();
@@ -414,9 +662,6 @@ where
     }
     if !crate::math::all_finite(target) {
         return Err(ChainError::NonFinite.into());
-    }
-    if chain.held().len() > 0 {
-        return Err(EyeletError::Held);
     }
     let threaded = || eyelets.iter().filter(|e| e.threaded).map(|e| e.link);
     if threaded().zip(threaded().skip(1)).any(|(a, b)| b <= a) {
@@ -536,8 +781,8 @@ where
         let (old, new) = (&ws.old, &mut ws.new);
         new[link] = old[link] + shift;
         new[link + 1] = old[link + 1] + shift;
-        let mut walked = side(old, new, lengths, link, eyelets, false)
-            .and_then(|a| Ok(a + side(old, new, lengths, link + 1, eyelets, true)?))
+        let mut walked = side(old, new, lengths, link, eyelets, false, None)
+            .and_then(|a| Ok(a + side(old, new, lengths, link + 1, eyelets, true, None)?))
             .and_then(|left| apart(eyelets).map(|()| left));
         if let (Ok(_), Some((model, cws))) = (&walked, collision.as_mut()) {
             // The contacts, the links through the eyelets fixed; the next substep starts from the
@@ -596,6 +841,7 @@ fn side<T: Real, const D: usize>(
     m: usize,
     eyelets: &mut [Eyelet<T, D>],
     up: bool,
+    stop: Option<usize>,
 ) -> Result<u32, EyeletError> {
     let n = lengths.len();
     let mut left = 0;
@@ -604,6 +850,9 @@ fn side<T: Real, const D: usize>(
     // the eyelet ahead by construction, and its old link says nothing after a slide).
     let mut aimed = true;
     loop {
+        if stop == Some(i) {
+            break;
+        }
         let f = if up {
             if i == n {
                 break;
@@ -647,8 +896,11 @@ fn side<T: Real, const D: usize>(
         new[f] = aim(&new[i], &e.at, len, &(old[i] - old[f]));
         if dist > len {
             // Slid through: the follower stays on the leader's side; the eyelet passes to the next
-            // link, or the chain leaves it at its end.
-            if f == 0 || f == n {
+            // link, or the chain leaves it at its end. Not past the walk's last joint (a held
+            // joint): the rope is pulled taut against it.
+            if stop == Some(f) {
+                return Err(EyeletError::PastStop { joint: f });
+            } else if f == 0 || f == n {
                 e.threaded = false;
                 left += 1;
             } else {

@@ -412,3 +412,146 @@ fn a_moved_eyelet_with_collision_keeps_the_rope_apart() {
         "{accepted} accepted, {parted} parted, {refused} refused"
     );
 }
+
+/// The length of the shortest way from `from` through `points` in order to `to`, computed here.
+fn way_through(from: V, points: &[V], to: V) -> f64 {
+    let mut at = from;
+    let mut sum = 0.0;
+    for &p in points.iter().chain([&to]) {
+        sum += (p - at).norm();
+        at = p;
+    }
+    sum
+}
+
+#[test]
+fn a_held_tail_stays_while_the_head_pulls_the_rope_through_an_eyelet() {
+    // The rope through an eyelet at x = 10.5, its head first taken sideways (slack on the head's
+    // side), then its tail held. The head is sent to random targets about the eyelet: after every
+    // accepted move the tail is where it was bit for bit, the head on its target, the point on its
+    // link to 1e-9 and every length 1 to 1e-12. A target the rope cannot reach (the way from the tail
+    // through the eyelet to it, computed here, longer than the rope) is refused with a nearest point
+    // the rope reaches, nothing changed; the nearest point is then reached.
+    let mut rng = Rng(0x4E1D);
+    let mut ws = EyeletWorkspace::new();
+    let mut r = rope();
+    let mut e = [Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap()];
+    move_threaded(&mut r, 0, V::new(7.0, 5.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    move_threaded(&mut r, 40, V::new(24.0, 9.0, 2.0), &mut e, 1000, &mut ws).unwrap();
+    r.hold(0).unwrap();
+    let tail = r.joint(0);
+    let (mut accepted, mut unreachable, mut reached_nearest, mut stuck) = (0, 0, 0, 0);
+    let mut links = std::collections::BTreeSet::new();
+    let mut goal = r.joint(40);
+    for k in 0..600 {
+        // Goals on a shell about the eyelet, some beyond what the rope reaches (about 34 through it),
+        // each walked to in moves of at most 3 until reached or refused.
+        let head = r.joint(40);
+        if (goal - head).norm() < 1e-9 {
+            let d = rng.dir3();
+            goal = V::new(10.5, 0.0, 0.0) + V::new(d.x.abs(), d.y, d.z) * rng.range(18.0, 40.0);
+        }
+        let to = head + (goal - head) * (3.0 / (goal - head).norm()).min(1.0);
+        let way = way_through(tail, &[e[0].at], to);
+        let (before, link) = (r.positions(), e[0].link);
+        match move_threaded(&mut r, 40, to, &mut e, 1000, &mut ws) {
+            Ok(_) => {
+                accepted += 1;
+                links.insert(e[0].link);
+                assert!(way <= 40.0 + 1e-9, "move {k}: reached a target {way} away");
+                assert_eq!(r.joint(0), tail, "move {k}: the held tail moved");
+                assert!((r.joint(40) - to).norm() < 1e-9, "move {k} landed");
+                check(&r, &e, 1e-9, &format!("move {k}"));
+            }
+            Err(EyeletError::Chain(tractrix::ChainError::HeldUnreachable { nearest, .. })) => {
+                unreachable += 1;
+                goal = head;
+                assert!(way > 40.0 - 1e-9, "move {k}: {way} refused as out of reach");
+                assert_eq!(r.positions(), before, "move {k}: refused, unchanged");
+                assert_eq!(e[0].link, link);
+                // A hair inside the nearest point (toward the head): reached.
+                let n = V::new(nearest[0], nearest[1], nearest[2]);
+                let inside = n + (head - n) * (1e-6 / (head - n).norm().max(1e-6));
+                if move_threaded(&mut r, 40, inside, &mut e, 1000, &mut ws).is_ok() {
+                    reached_nearest += 1;
+                    assert_eq!(r.joint(0), tail);
+                    check(&r, &e, 1e-9, &format!("move {k}, the nearest point"));
+                    assert!(way_through(tail, &[e[0].at], r.joint(40)) <= 40.0 + 1e-9);
+                }
+            }
+            Err(EyeletError::Chain(tractrix::ChainError::HeldNotConverged { .. })) => {
+                stuck += 1;
+                goal = head;
+                assert_eq!(r.positions(), before, "move {k}: refused, unchanged");
+            }
+            Err(x) => panic!("move {k}: {x}"),
+        }
+    }
+    println!(
+        "{accepted} accepted, {unreachable} out of reach ({reached_nearest} nearest points \
+         reached), {stuck} not converged, eyelet on links {links:?}"
+    );
+    // The rope slid through (the eyelet on more than one link) and most moves were made; near a
+    // taut rope the alternation converges slowly and some moves are refused as not converged.
+    assert!(
+        accepted >= 300 && unreachable > 10 && links.len() >= 3,
+        "{accepted} accepted, {stuck} not converged, links {links:?}"
+    );
+    assert!(reached_nearest >= unreachable / 2, "{reached_nearest}");
+}
+
+#[test]
+fn a_grasp_between_two_holds_moves_the_rope_through_an_eyelet_on_one_side() {
+    // Both ends held; an eyelet on the tail's side of a grasped interior joint; the grasp moved about:
+    // both holds stay bit for bit, the eyelet on its link, every length kept.
+    let mut rng = Rng(0xB07);
+    let mut ws = EyeletWorkspace::new();
+    let mut r = rope();
+    let mut e = [Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap()];
+    // Slack on both sides of the eyelet (a rope straight from a hold to an eyelet cannot be pushed
+    // through it: the tractrix does not buckle a straight rope).
+    move_threaded(&mut r, 0, V::new(2.0, 4.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    move_threaded(&mut r, 30, V::new(27.0, 6.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    move_threaded(&mut r, 40, V::new(32.0, 2.0, 1.0), &mut e, 1000, &mut ws).unwrap();
+    r.hold(0).unwrap();
+    r.hold(40).unwrap();
+    r.hold(30).unwrap();
+    let (tail, head, grasp) = (r.joint(0), r.joint(40), r.joint(30));
+    let mut accepted = 0;
+    let mut links = std::collections::BTreeSet::new();
+    for k in 0..300 {
+        // About where the grasp started, at most 1.5 from where it is.
+        let to = grasp + rng.dir3() * rng.range(0.0, 6.0);
+        let now = r.joint(30);
+        let to = now + (to - now) * (1.5 / (to - now).norm()).min(1.0);
+        let before = r.positions();
+        match move_threaded(&mut r, 30, to, &mut e, 1000, &mut ws) {
+            Ok(_) => {
+                accepted += 1;
+                links.insert(e[0].link);
+                assert_eq!((r.joint(0), r.joint(40)), (tail, head), "move {k}");
+                assert!((r.joint(30) - to).norm() < 1e-9, "move {k} landed");
+                check(&r, &e, 1e-9, &format!("move {k}"));
+            }
+            Err(EyeletError::Chain(
+                tractrix::ChainError::HeldUnreachable { .. }
+                | tractrix::ChainError::HeldNotConverged { .. },
+            )) => assert_eq!(r.positions(), before, "move {k}: refused, unchanged"),
+            Err(x) => panic!("move {k}: {x}"),
+        }
+    }
+    println!("{accepted} accepted, eyelet on links {links:?}");
+    assert!(accepted > 200, "{accepted} {links:?}");
+}
+
+#[test]
+fn a_hold_too_near_an_eyelet_to_close_on_is_refused() {
+    let mut ws = EyeletWorkspace::new();
+    let mut r = rope();
+    let mut e = [Eyelet::thread(&r, V::new(1.5, 0.0, 0.0), 1e-9).unwrap()];
+    r.hold(0).unwrap();
+    let before = r.positions();
+    let err = move_threaded(&mut r, 40, V::new(38.0, 3.0, 0.0), &mut e, 1000, &mut ws).unwrap_err();
+    assert!(matches!(err, EyeletError::NearHeld { held: 0 }), "{err:?}");
+    assert_eq!(r.positions(), before);
+}
