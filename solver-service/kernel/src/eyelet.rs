@@ -20,6 +20,21 @@
 //! unchanged. Friction (how much of a pull the eyelet lets through) is not modelled here: these
 //! eyelets slide freely.
 //!
+//! **Held joints.** On a side of the moved joint with a held joint (an anchor, a grasp), the rope
+//! between them is a fixed-base chain threaded through the eyelets between: the walk from the moved
+//! joint to the held one and the walk back from the held joint (put back where it is held) to the
+//! moved one alternate, as FABRIK's passes do, each a tractrix walk with the aim rule; when the walk
+//! out meets the held joint within a tolerance, the two links before it close on it in closed form.
+//! A nearly taut rope passes each correction on almost undamped, so after a few alternations Korein
+//! & Badler's reach hierarchy finishes from the last pose: from the held joint outward each link
+//! keeps its direction unless the rope after it could then no longer reach the target through the
+//! eyelets ahead, and the last two links close on the target. The held joints stay bit for bit, the
+//! moved joint lands on its target, and every length and eyelet is exact. A target farther from the
+//! held joint, along the shortest way through the eyelets between, than the rope between them is
+//! refused with the nearest point that way reaches; within about a link of taut a move may be refused
+//! as not converged (a link passes straight through an eyelet, so the rope cannot bend at it). An
+//! eyelet may not lie on the two links next to a held joint on the moved joint's side.
+//!
 //! Allocation-free per move: the positions are worked on in the caller's [`EyeletWorkspace`].
 
 use crate::chain::{Chain, ChainError};
@@ -79,7 +94,9 @@ pub enum EyeletError {
     },
     /// A move with held joints closes the rope on each held joint by its two nearest links: an
     /// eyelet may not lie on them, nor the moved joint within a link of the held one.
-    #[error("a threaded move cannot close on held joint {held}: an eyelet or the moved joint is within two links of it")]
+    #[error(
+        "a threaded move cannot close on held joint {held}: an eyelet or the moved joint is within two links of it"
+    )]
     NearHeld {
         /// The held joint.
         held: usize,
@@ -156,8 +173,10 @@ pub struct EyeletWorkspace<T: Real, const D: usize> {
     old: Vec<Vector<T, D>>,
     new: Vec<Vector<T, D>>,
     saved: Vec<(usize, bool)>,
-    /// A move with held joints: the positions of the walks back from a held joint.
+    /// A move with held joints: the positions of the walks back from a held joint, and the eyelets
+    /// ahead of the reach hierarchy's walk.
     alt: Vec<Vector<T, D>>,
+    ahead: Vec<(usize, T)>,
     /// A threaded move with collision: the chain before it, and the joints its resolution fixes.
     backup: Option<Chain<T, D>>,
     fixed: Vec<usize>,
@@ -182,17 +201,19 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
             new: Vec::new(),
             saved: Vec::new(),
             alt: Vec::new(),
+            ahead: Vec::new(),
             backup: None,
             fixed: Vec::new(),
             held_tolerance: 1e-9,
-            held_iterations: 1000,
+            held_iterations: 16,
         }
     }
 
     /// How a threaded move of a chain with held joints converges: the alternation stops when the
     /// rope meets each held joint within `tolerance` of the rope's length between it and the moved
-    /// joint (at least 64 ε), and is refused as not converged after `max_iterations` alternations
-    /// in a substep. The defaults: 1e-9 and 1000, as [`crate::ReachOptions`]'.
+    /// joint (at least 64 ε); after `max_iterations` alternations in a substep Korein & Badler's reach
+    /// hierarchy finishes it (as [`crate::ReachOptions::hierarchy_after`] does for a fixed-base
+    /// chain). The defaults: 1e-9 and 16.
     pub fn with_holds(mut self, tolerance: f64, max_iterations: u32) -> Self {
         self.held_tolerance = tolerance;
         self.held_iterations = max_iterations.max(1);
@@ -264,8 +285,9 @@ pub struct Threaded {
 /// (given in the order of their links along the rope; their links and `threaded` flags are updated).
 /// At most `max_substeps` substeps (the move is split into substeps of at most half the shortest
 /// link).
-/// Refused, changing nothing (chain and eyelets), when the chain has held joints, the eyelets are out
-/// of order or would come within a link of each other, or the move is invalid.
+/// Held joints stay where they are (see the module docs). Refused, changing nothing (chain and
+/// eyelets), when the eyelets are out of order or would come within a link of each other, the target
+/// is out of the held rope's reach, a held side does not converge, or the move is invalid.
 pub fn move_threaded<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     joint: usize,
@@ -288,7 +310,17 @@ where
     for s in 1..=steps {
         std::mem::swap(&mut ws.old, &mut ws.new);
         let to = from + way * (T::lit(f64::from(s)) / k);
-        match substep(&ws.old, &mut ws.new, &mut ws.alt, lengths, joint, to, eyelets, &holds) {
+        match substep(
+            &ws.old,
+            &mut ws.new,
+            &mut ws.alt,
+            lengths,
+            joint,
+            to,
+            eyelets,
+            &holds,
+            &mut ws.ahead,
+        ) {
             Ok((left, iterations)) => {
                 out.left += left;
                 out.held_iterations += iterations;
@@ -411,6 +443,7 @@ fn substep<T: Real, const D: usize>(
     to: Vector<T, D>,
     eyelets: &mut [Eyelet<T, D>],
     holds: &Holds<T, D>,
+    ahead: &mut Vec<(usize, T)>,
 ) -> Result<(u32, u32), EyeletError>
 where
     Vector<T, D>: Embed3<T>,
@@ -452,6 +485,7 @@ where
                     (h, at, tol),
                     eyelets,
                     holds.max_iterations,
+                    ahead,
                 )?;
                 left += l;
                 iterations += i;
@@ -479,38 +513,40 @@ fn held_side<T: Real, const D: usize>(
     (h, at, tol): (usize, Vector<T, D>, T),
     eyelets: &mut [Eyelet<T, D>],
     max_iterations: u32,
+    ahead: &mut Vec<(usize, T)>,
 ) -> Result<(u32, u32), EyeletError>
 where
     Vector<T, D>: Embed3<T>,
 {
     let up = h > m;
-    // A walk that slides an eyelet past its last joint, or (back from the held joint) pushes the
-    // rope to fold through an eyelet, is an alternation that does not converge.
-    let past = |e: EyeletError| match e {
-        EyeletError::PastStop { .. } | EyeletError::Fold { .. } => {
-            EyeletError::Chain(ChainError::HeldNotConverged {
-                iterations: 0,
-                residual: f64::INFINITY,
-            })
-        }
-        e => e,
-    };
+    let goal = new[m];
+    // Whether `alt` holds the last pose that meets the held joint (else `old` does).
+    let mut from_alt = false;
     let mut miss = T::zero();
-    for it in 1..=max_iterations {
-        let left = if it == 1 {
-            side(old, new, lengths, m, eyelets, up, Some(h))
-        } else {
+    // A walk that slides an eyelet past its last joint, or (back from the held joint) pushes the
+    // rope to fold through an eyelet, ends the alternation: the reach hierarchy finishes.
+    let stalls =
+        |e: &EyeletError| matches!(e, EyeletError::PastStop { .. } | EyeletError::Fold { .. });
+    let mut it = 0;
+    while it < max_iterations {
+        it += 1;
+        let walked = if from_alt {
             side(alt, new, lengths, m, eyelets, up, Some(h))
-        }
-        .map_err(past)?;
+        } else {
+            side(old, new, lengths, m, eyelets, up, Some(h))
+        };
+        let left = match walked {
+            Ok(left) => left,
+            Err(e) if stalls(&e) => break,
+            Err(e) => return Err(e),
+        };
         miss = (new[h] - at).norm();
         if miss <= tol {
             // Close on the held joint: joints c2 (kept), c1 (placed), h. The two links cannot close
             // when they are stretched straight (a taut rope): then the alternation goes on.
             let (c1, c2) = if up { (h - 1, h - 2) } else { (h + 1, h + 2) };
             let (a1, a2) = (lengths[c1.min(c2)], lengths[c1.min(h)]);
-            let (l1, l2) =
-                crate::fixed_base::two_link(&new[c2], &at, a1, a2, &(new[c1] - new[c2]));
+            let (l1, l2) = crate::fixed_base::two_link(&new[c2], &at, a1, a2, &(new[c1] - new[c2]));
             if (new[c2] + l1 + l2 - at).norm() <= (a1 + a2) * T::EPSILON * T::lit(64.0) {
                 new[c1] = new[c2] + l1;
                 new[h] = at;
@@ -518,13 +554,147 @@ where
             }
         }
         alt[h] = at;
-        side(new, alt, lengths, h, eyelets, !up, Some(m)).map_err(past)?;
+        match side(new, alt, lengths, h, eyelets, !up, Some(m)) {
+            Ok(_) => from_alt = true,
+            Err(e) if stalls(&e) => {
+                from_alt = false;
+                break;
+            }
+            Err(e) => return Err(e),
+        }
     }
-    Err(ChainError::HeldNotConverged {
-        iterations: max_iterations,
-        residual: miss.to_f64(),
+    // Not converged (a nearly taut rope passes each correction on almost undamped): the reach
+    // hierarchy finishes from the last pose that meets the held joint.
+    let src: &[Vector<T, D>] = if from_alt { alt } else { old };
+    finish(src, new, lengths, (h, at), m, goal, eyelets, ahead).map_err(|_| {
+        ChainError::HeldNotConverged {
+            iterations: it,
+            residual: miss.to_f64(),
+        }
+    })?;
+    Ok((0, it))
+}
+
+/// Korein & Badler's reach hierarchy for the rope from the held joint `h` (at `at`) to the moved
+/// joint `m` through the eyelets between, from the pose `src`, written into `dst`: from `h` outward
+/// each link keeps its direction unless the rope left could then no longer reach `target` through
+/// the eyelets ahead (the way from the link's end through them to the target longer than the rope
+/// after it), when it turns only as much as needed. A link whose leader is within its length of the
+/// next eyelet passes through it (aimed at its point) when it is the link that passed through it
+/// before, or when the rope left allows no other way; the last two links close on the target in
+/// closed form (lengths exact). One pass, exact for a target the rope reaches through the eyelets.
+#[allow(clippy::too_many_arguments)]
+fn finish<T: Real, const D: usize>(
+    src: &[Vector<T, D>],
+    dst: &mut [Vector<T, D>],
+    lengths: &[T],
+    (h, at): (usize, Vector<T, D>),
+    m: usize,
+    target: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    ahead: &mut Vec<(usize, T)>,
+) -> Result<(), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let up = m > h;
+    let k = if up { m - h } else { h - m };
+    let joint = |i: usize| if up { h + i } else { h - i };
+    let link_of = |i: usize| if up { h + i } else { h - i - 1 };
+    let (lo, hi) = (h.min(m), h.max(m));
+    let fail = || EyeletError::NearHeld { held: h };
+    if k < 2 {
+        return Err(fail());
     }
-    .into())
+    // The eyelets between, in the walk's order, each with the way from it through the ones after it
+    // to the target.
+    ahead.clear();
+    let between = |e: &Eyelet<T, D>| e.threaded && e.link >= lo && e.link < hi;
+    if up {
+        ahead.extend(
+            eyelets
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| between(e))
+                .map(|(i, _)| (i, T::zero())),
+        );
+    } else {
+        ahead.extend(
+            eyelets
+                .iter()
+                .enumerate()
+                .rev()
+                .filter(|(_, e)| between(e))
+                .map(|(i, _)| (i, T::zero())),
+        );
+    }
+    let mut way = T::zero();
+    let mut next = target;
+    for (i, g) in ahead.iter_mut().rev() {
+        way += (next - eyelets[*i].at).norm();
+        next = eyelets[*i].at;
+        *g = way;
+    }
+    let longest = (0..k).fold(T::zero(), |x, i| x.max(lengths[link_of(i)]));
+    let mut material = (0..k).fold(T::zero(), |x, i| x + lengths[link_of(i)]);
+    let slack = |x: T| x * T::EPSILON * T::lit(64.0);
+    let mut x = at;
+    dst[h] = at;
+    let mut a = 0;
+    for i in 0..k - 2 {
+        let l = lengths[link_of(i)];
+        material -= l;
+        let c = src[joint(i + 1)] - src[joint(i)];
+        let keep = x + c * (l / c.norm());
+        let y = if let Some(&(idx, g)) = ahead.get(a) {
+            let q = eyelets[idx].at;
+            let d = (x - q).norm();
+            // The end must stay within `rho` of the eyelet for the rope after it to get there and on.
+            let rho = material - g;
+            let through = (d <= l)
+                .then(|| aim(&x, &q, l, &c))
+                .filter(|y| match ahead.get(a + 1) {
+                    Some(&(i2, g2)) => {
+                        (y - eyelets[i2].at).norm() + g2 <= material + slack(material)
+                    }
+                    None => (y - target).norm() <= material + slack(material),
+                });
+            let forced = d <= l && rho <= l - d + slack(l + material);
+            match through {
+                Some(y) if forced || eyelets[idx].link == link_of(i) => {
+                    eyelets[idx].link = link_of(i);
+                    a += 1;
+                    y
+                }
+                _ if forced => return Err(fail()),
+                _ if (keep - q).norm() <= rho => keep,
+                _ => x + crate::fixed_base::two_link(&x, &q, l, rho.max(T::zero()), &c).0,
+            }
+        } else {
+            let inner = (longest * T::lit(2.0) - material).max(T::zero());
+            let dk = (keep - target).norm();
+            if dk > material || dk < inner {
+                let want = dk.max(inner).min(material);
+                x + crate::fixed_base::two_link(&x, &target, l, want, &c).0
+            } else {
+                keep
+            }
+        };
+        dst[joint(i + 1)] = y;
+        x = y;
+    }
+    if a < ahead.len() {
+        return Err(fail());
+    }
+    let (a1, a2) = (lengths[link_of(k - 2)], lengths[link_of(k - 1)]);
+    let c = src[joint(k - 1)] - src[joint(k - 2)];
+    let (l1, l2) = crate::fixed_base::two_link(&x, &target, a1, a2, &c);
+    if (x + l1 + l2 - target).norm() > slack(a1 + a2) * T::lit(16.0) {
+        return Err(fail());
+    }
+    dst[joint(k - 1)] = x + l1;
+    dst[m] = target;
+    Ok(())
 }
 
 /// [`move_threaded`] with collision: after every substep the chain's contacts are resolved as a
@@ -569,6 +739,7 @@ where
             to,
             eyelets,
             &holds,
+            &mut ws.ahead,
         )
         .and_then(|left| {
             set_threaded(chain, joint, &ws.new)?;
