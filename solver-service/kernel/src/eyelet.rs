@@ -660,14 +660,30 @@ where
                     None => (y - target).norm() <= material + slack(material),
                 });
             let forced = d <= l && rho <= l - d + slack(l + material);
+            // A link passes straight through an eyelet, so the rope cannot bend there: it is led
+            // to a point half a link before the eyelet on the line from where it goes next, and
+            // through it from there.
+            let after = ahead.get(a + 1).map_or(target, |&(i2, _)| eyelets[i2].at);
+            let back = q - after;
+            let half = l * T::lit(0.5);
+            let lead = if back.norm() > T::zero() {
+                q + back * (half / back.norm())
+            } else {
+                q
+            };
+            let rho_lead = rho - half;
+            let led = (keep - lead).norm() <= rho_lead;
             match through {
-                Some(y) if forced || eyelets[idx].link == link_of(i) => {
+                Some(y) if forced || eyelets[idx].link == link_of(i) || !led => {
                     eyelets[idx].link = link_of(i);
                     a += 1;
                     y
                 }
                 _ if forced => return Err(fail()),
-                _ if (keep - q).norm() <= rho => keep,
+                _ if led || (rho_lead < T::zero() && (keep - q).norm() <= rho) => keep,
+                _ if rho_lead >= T::zero() => {
+                    x + crate::fixed_base::two_link(&x, &lead, l, rho_lead, &c).0
+                }
                 _ => x + crate::fixed_base::two_link(&x, &q, l, rho.max(T::zero()), &c).0,
             }
         } else {
@@ -817,7 +833,7 @@ where
 }
 
 /// Whether a threaded move of `joint` to `target` may run: the joint on the chain, the target finite,
-/// no held joints, the threaded eyelets in the order of their links.
+/// the threaded eyelets in the order of their links.
 fn admit<T: Real, const D: usize>(
     chain: &Chain<T, D>,
     joint: usize,

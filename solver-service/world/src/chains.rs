@@ -604,13 +604,6 @@ impl World {
         let changes = match *req {
             Command::Grasp { joint, .. } => {
                 let held = each_form!(&*g, h => h.chain.is_held(joint));
-                if !self.specs[chain as usize].eyelets.is_empty() {
-                    return Err(refuse!(
-                        WrongChainKind,
-                        "chain {:?} passes through eyelets: it cannot be grasped yet",
-                        self.specs[chain as usize].name
-                    ));
-                }
                 if !held && held_now >= crate::sizes::MAX_HELD {
                     return Err(refuse!(
                         BadOption,

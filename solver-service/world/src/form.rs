@@ -370,7 +370,15 @@ where
         eyelets_initial: Vec::new(),
         eyelets_before: Vec::new(),
         eyelets_best: Vec::new(),
-        eyelet_ws: EyeletWorkspace::new(),
+        // A held side through eyelets alternates as many times as a fixed-base solve iterates
+        // before the reach hierarchy finishes it.
+        eyelet_ws: EyeletWorkspace::new().with_holds(
+            spec.moves.held.tolerance,
+            match spec.moves.held.hierarchy_after {
+                0 => 16,
+                k => k,
+            },
+        ),
         tissue: spec.tissue,
     };
     h.eyelets_initial = h.eyelets.clone();

@@ -131,7 +131,19 @@ impl From<tractrix::eyelet::EyeletError> for Refusal {
                 Locked,
                 "eyelets {a} and {b} would come within one link of each other"
             ),
-            EyeletError::Held => refuse!(Held, "a chain with eyelets cannot be held yet"),
+            EyeletError::Held => refuse!(
+                Held,
+                "an eyelet cannot be moved on a chain with held joints yet"
+            ),
+            EyeletError::NearHeld { held } => refuse!(
+                Held,
+                "held joint {held} is within two links of an eyelet or of the moved joint: the \
+                 rope cannot close on it"
+            ),
+            EyeletError::PastStop { joint } => refuse!(
+                NotConverged,
+                "the rope slid through an eyelet past joint {joint}"
+            ),
             e @ (EyeletError::NotOnChain { .. } | EyeletError::Unordered) => {
                 refuse!(Internal, "eyelets: {e}")
             }

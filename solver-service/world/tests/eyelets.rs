@@ -129,7 +129,7 @@ fn the_rope_slides_through_its_eyelets_and_undo_reset_and_snapshots_keep_them() 
 }
 
 #[test]
-fn the_tail_slides_out_of_an_eyelet_and_the_rope_cannot_be_grasped() {
+fn the_tail_slides_out_of_an_eyelet() {
     let scene = parse_scene(ROPE, "suture.toml").unwrap();
     let mut w = World::new(&scene).unwrap();
     // 12 units along the rope's line: the tail (at 0) passes the first eyelet (at 10.5), not the
@@ -138,18 +138,86 @@ fn the_tail_slides_out_of_an_eyelet_and_the_rope_cannot_be_grasped() {
     let t = threaded(&w);
     assert!(!t[0].1 && t[1].1, "{t:?}");
     check(&w, "slid out");
-    let r = w
-        .apply(&Command::Grasp {
-            chain: 0,
-            joint: 40,
-            take_over: false,
-        })
-        .unwrap_err();
-    assert!(r.reason().contains("eyelets"), "{}", r.reason());
+}
+
+/// A hand grasps the suture's tail and another pulls the head: the rope slides through both eyelets
+/// while the tail stays bit for bit, until the pull is refused as out of reach or not converged,
+/// nothing changed; a snapshot keeps the grasp and the threading.
+#[test]
+fn a_grasped_tail_stays_while_the_head_pulls_the_rope_through_both_eyelets() {
+    let scene = parse_scene(ROPE, "suture.toml").unwrap();
+    let mut w = World::new(&scene).unwrap();
+    // Slack behind the first eyelet: the tail taken round toward it.
+    for p in [Point::new(3.0, 4.0, 0.0), Point::new(8.0, 5.0, 1.0)] {
+        w.apply(&go(&w, 0, &[p])).unwrap();
+    }
+    w.apply(&Command::Grasp {
+        chain: 0,
+        joint: 0,
+        take_over: false,
+    })
+    .unwrap();
+    let tail = joints(&w)[0];
+    let start = threaded(&w);
+    // The head pulled away along the rope's line in steps of 0.5 until refused.
+    let mut steps = 0;
+    let refusal = loop {
+        let head = joints(&w)[40];
+        let before = (joints(&w), threaded(&w));
+        match w.apply(&go(&w, 40, &[head + Point::new(0.5, 0.0, 0.0)])) {
+            Ok(_) => {
+                steps += 1;
+                let j = joints(&w);
+                assert_eq!(j[0], tail, "step {steps}: the grasped tail moved");
+                assert!((j[40] - head - Point::new(0.5, 0.0, 0.0)).norm() < 1e-9);
+                check(&w, &format!("step {steps}"));
+            }
+            Err(r) => {
+                assert_eq!((joints(&w), threaded(&w)), before, "refused, unchanged");
+                break r;
+            }
+        }
+        assert!(steps < 100, "the rope never came taut");
+    };
+    let end = threaded(&w);
+    // The way from the tail through both eyelets to the head, computed here: within two links of
+    // the rope's 40.
+    let j = joints(&w);
+    let way = (Point::from(EYELETS[0]) - tail).norm()
+        + (Point::from(EYELETS[1]) - Point::from(EYELETS[0])).norm()
+        + (j[40] - Point::from(EYELETS[1])).norm();
+    println!(
+        "{steps} steps, eyelets {start:?} -> {end:?}, way {way:.3}: {}",
+        refusal.reason()
+    );
+    // The rope slid through both by several links. Not yet taut: with the rope between the two
+    // eyelets straight, the pull stops some units short (docs/eyelets.md, "Held joints").
+    assert!(
+        end[0].0 + 3 <= start[0].0 && end[1].0 + 3 <= start[1].0,
+        "{start:?} -> {end:?}"
+    );
+    assert!(way <= 40.0 + 1e-9, "{way}");
+    assert!(
+        matches!(
+            refusal.cause,
+            world::refusal::Cause::NotConverged | world::refusal::Cause::Unreachable
+        ),
+        "{}",
+        refusal.reason()
+    );
+    // A snapshot keeps the grasp and the threading.
+    let mut x = World::new(&scene).unwrap();
+    x.restore(&w.state()).unwrap();
+    assert_eq!((joints(&x), threaded(&x)), (joints(&w), threaded(&w)));
+    assert!(
+        x.apply(&go(&x, 40, &[joints(&x)[40] + Point::new(0.0, 0.3, 0.0)]))
+            .is_ok()
+    );
+    assert_eq!(joints(&x)[0], tail, "the restored grasp holds");
 }
 
 #[test]
-fn eyelets_off_the_rope_too_close_or_with_anchors_are_scene_errors() {
+fn eyelets_off_the_rope_too_close_or_beside_an_anchor_are_scene_errors() {
     let with = |extra: &str, eyelets: &str| {
         format!(
             "[[chain]]\nname = \"s\"\nlinks = 40\nlink_length = 1.0\n{extra}eyelets = {eyelets}\n"
@@ -161,7 +229,10 @@ fn eyelets_off_the_rope_too_close_or_with_anchors_are_scene_errors() {
             with("", "[[10.5, 0.0, 0.0], [11.5, 0.0, 0.0]]"),
             "two links apart",
         ),
-        (with("anchors = [0]\n", "[[10.5, 0.0, 0.0]]"), "anchors"),
+        (
+            with("anchors = [11]\n", "[[10.5, 0.0, 0.0]]"),
+            "within two links of anchor 11",
+        ),
     ] {
         let e = parse_scene(&text, "s.toml").unwrap_err().to_string();
         assert!(e.contains("eyelets") && e.contains(says), "{e}");

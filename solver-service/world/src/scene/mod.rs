@@ -183,7 +183,7 @@ pub struct ChainSpec {
     /// Joint limits, only when the chain declares them.
     pub limits: Option<LimitSpec>,
     /// Fixed points the chain passes through from the start, the rope sliding through each
-    /// (`eyelets`: free chains without collision or anchors; [`tractrix::eyelet`]), in order along
+    /// (`eyelets`: free chains without instruments; [`tractrix::eyelet`]), in order along
     /// the rope, each with the link through it.
     pub eyelets: Vec<(Vector3<f64>, usize)>,
     /// A block of tissue the chain's head pierces (`tissue = [[lo], [hi]]`, an axis-aligned box):

@@ -726,7 +726,7 @@ fn chain(
         .as_ref()
         .is_some_and(|i| !i.get_ref().is_empty());
     let eyelets = eyelets(&f, kind, &points, &lengths, &anchors, has_instruments)?;
-    let tissue = tissue(&f, kind, &anchors, has_instruments)?;
+    let tissue = tissue(&f, kind, has_instruments)?;
     let knot = match &c.knot {
         Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
             return Err(f.err(
@@ -911,8 +911,8 @@ fn eyelets(
     if kind != ChainKind::Free {
         return err("eyelets are for free chains".into());
     }
-    if instruments || !anchors.is_empty() {
-        return err("a chain with eyelets cannot have instruments or anchors yet".into());
+    if instruments {
+        return err("a chain with eyelets cannot have instruments yet".into());
     }
     if e.get_ref().len() > MAX_EYELETS {
         return err(format!("at most {MAX_EYELETS} eyelets"));
@@ -951,6 +951,17 @@ fn eyelets(
             w[0].1, w[1].1
         ));
     }
+    // A move closes the rope on a held joint by the two links beside it.
+    for &(_, link) in &out {
+        if let Some(a) = anchors
+            .iter()
+            .find(|&&a| link + 2 > a as usize && link < a as usize + 2)
+        {
+            return err(format!(
+                "the eyelet on link {link} lies within two links of anchor {a}"
+            ));
+        }
+    }
     Ok(out)
 }
 
@@ -958,11 +969,10 @@ fn eyelets(
 type Corners = (Vector3<f64>, Vector3<f64>);
 
 /// The chain's `tissue`: two corners `[lo, hi]` of a box, `lo` below `hi` on every axis, on a free
-/// spatial chain with no collision and no anchors (as for eyelets).
+/// spatial chain with no instruments (as for eyelets).
 fn tissue(
     f: &Fields<'_>,
     kind: ChainKind,
-    anchors: &[u32],
     instruments: bool,
 ) -> Result<Option<Corners>, SceneError> {
     let Some(t) = &f.c.tissue else {
@@ -972,8 +982,8 @@ fn tissue(
     if kind != ChainKind::Free || f.dims != 3 {
         return err("tissue is for free spatial chains".into());
     }
-    if instruments || !anchors.is_empty() {
-        return err("a chain through tissue cannot have instruments or anchors yet".into());
+    if instruments {
+        return err("a chain through tissue cannot have instruments yet".into());
     }
     let corner = |v: &Vec<f64>| match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Some(Vector3::new(*x, *y, *z)),
