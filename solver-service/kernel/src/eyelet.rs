@@ -782,6 +782,41 @@ where
     Ok(out)
 }
 
+/// Moves obstacle `which` of `model` (an instrument) to the pose `to`, pushing the threaded chain
+/// out of its way as [`crate::collision::push_by_obstacle`] does, with the two joints of every
+/// threaded eyelet's link kept where they are besides the held joints: each eyelet stays exactly on
+/// its link (the rope does not slide through an eyelet under an instrument's push). A contact only
+/// those joints could part locks the push; on any error the chain is unchanged.
+pub fn push_threaded<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    model: &crate::collision::CollisionModel<T, D>,
+    which: usize,
+    to: &crate::collision::Obstacle<T, D>,
+    eyelets: &[Eyelet<T, D>],
+    max_substeps: u32,
+    cws: &mut crate::collision::CollisionWorkspace<T, D>,
+    ws: &mut EyeletWorkspace<T, D>,
+) -> Result<crate::chain::MoveOutcome, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    ws.fixed.clear();
+    for e in eyelets.iter().filter(|e| e.threaded) {
+        ws.fixed.extend([e.link, e.link + 1]);
+    }
+    ws.fixed.sort_unstable();
+    ws.fixed.dedup();
+    Ok(crate::collision::push_fixing(
+        chain,
+        model,
+        which,
+        to,
+        max_substeps,
+        &ws.fixed,
+        cws,
+    )?)
+}
+
 /// The substeps `k` of a move along `way` raised to at most half the smallest clearance each (no
 /// link passes another within a substep), at most `max_substeps`.
 fn clearance_substeps<T: Real, const D: usize>(

@@ -112,14 +112,27 @@ where
                 },
                 other => other,
             };
-            let m = tractrix::collision::push_by_obstacle(
-                &mut g.chain,
-                model,
-                at,
-                &to,
-                opts.max_substeps,
-                ws,
-            )?;
+            let m = if g.eyelets.is_empty() {
+                tractrix::collision::push_by_obstacle(
+                    &mut g.chain,
+                    model,
+                    at,
+                    &to,
+                    opts.max_substeps,
+                    ws,
+                )?
+            } else {
+                tractrix::eyelet::push_threaded(
+                    &mut g.chain,
+                    model,
+                    at,
+                    &to,
+                    &g.eyelets,
+                    opts.max_substeps,
+                    ws,
+                    &mut g.eyelet_ws,
+                )?
+            };
             model.obstacles[at] = to;
             outcome.substeps = outcome.substeps.saturating_add(m.substeps);
             outcome.collision_iterations = outcome
@@ -145,7 +158,21 @@ where
         return Err(ChainError::BadOption("the chain has no instruments").into());
     };
     let to = instrument_pose(&model.obstacles[at], centre, axis);
-    let m = tractrix::collision::push_by_obstacle(&mut g.chain, model, at, &to, max_substeps, ws)?;
+    let m = if g.eyelets.is_empty() {
+        tractrix::collision::push_by_obstacle(&mut g.chain, model, at, &to, max_substeps, ws)?
+    } else {
+        // The links through the eyelets stay (the rope does not slide through them under a push).
+        tractrix::eyelet::push_threaded(
+            &mut g.chain,
+            model,
+            at,
+            &to,
+            &g.eyelets,
+            max_substeps,
+            ws,
+            &mut g.eyelet_ws,
+        )?
+    };
     model.obstacles[at] = to;
     Ok(m)
 }

@@ -626,6 +626,23 @@ pub fn push_by_obstacle<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    push_fixing(chain, model, which, to, max_substeps, &[], ws)
+}
+
+/// [`push_by_obstacle`] with the joints `also` (ascending) kept where they are besides the held ones
+/// (the links through a chain's eyelets: [`crate::eyelet::push_threaded`]).
+pub(crate) fn push_fixing<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    model: &CollisionModel<T, D>,
+    which: usize,
+    to: &Obstacle<T, D>,
+    max_substeps: u32,
+    also: &[usize],
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
     model.options.validate()?;
     let Some(from) = model.obstacles.get(which) else {
         return Err(ChainError::BadOption("no such instrument"));
@@ -648,7 +665,9 @@ where
     }
     let k = (needed.ceil() as u32).max(1);
     // The joint that stays: the first held one, else the one farthest from the instrument.
-    let held: Vec<usize> = chain.held().collect();
+    let mut held: Vec<usize> = chain.held().chain(also.iter().copied()).collect();
+    held.sort_unstable();
+    held.dedup();
     ws.pos.resize(chain.n_links() + 1, Vector::zeros());
     chain.write_positions(&mut ws.pos);
     let (m, rest): (usize, &[usize]) = match held.split_first() {

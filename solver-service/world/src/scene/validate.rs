@@ -721,12 +721,8 @@ fn chain(
     )
     .line;
     let anchors = anchors(&f, kind, lengths.len())?;
-    let has_instruments = c
-        .instruments
-        .as_ref()
-        .is_some_and(|i| !i.get_ref().is_empty());
-    let eyelets = eyelets(&f, kind, &points, &lengths, &anchors, has_instruments)?;
-    let tissue = tissue(&f, kind, has_instruments)?;
+    let eyelets = eyelets(&f, kind, &points, &lengths, &anchors)?;
+    let tissue = tissue(&f, kind)?;
     let knot = match &c.knot {
         Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
             return Err(f.err(
@@ -902,7 +898,6 @@ fn eyelets(
     points: &[Vector3<f64>],
     lengths: &[f64],
     anchors: &[u32],
-    instruments: bool,
 ) -> Result<Vec<(Vector3<f64>, usize)>, SceneError> {
     let Some(e) = &f.c.eyelets else {
         return Ok(Vec::new());
@@ -910,9 +905,6 @@ fn eyelets(
     let err = |what: String| Err(f.err(e.span(), "eyelets", what));
     if kind != ChainKind::Free {
         return err("eyelets are for free chains".into());
-    }
-    if instruments {
-        return err("a chain with eyelets cannot have instruments yet".into());
     }
     if e.get_ref().len() > MAX_EYELETS {
         return err(format!("at most {MAX_EYELETS} eyelets"));
@@ -969,21 +961,14 @@ fn eyelets(
 type Corners = (Vector3<f64>, Vector3<f64>);
 
 /// The chain's `tissue`: two corners `[lo, hi]` of a box, `lo` below `hi` on every axis, on a free
-/// spatial chain with no instruments (as for eyelets).
-fn tissue(
-    f: &Fields<'_>,
-    kind: ChainKind,
-    instruments: bool,
-) -> Result<Option<Corners>, SceneError> {
+/// spatial chain.
+fn tissue(f: &Fields<'_>, kind: ChainKind) -> Result<Option<Corners>, SceneError> {
     let Some(t) = &f.c.tissue else {
         return Ok(None);
     };
     let err = |what: String| Err(f.err(t.span(), "tissue", what));
     if kind != ChainKind::Free || f.dims != 3 {
         return err("tissue is for free spatial chains".into());
-    }
-    if instruments {
-        return err("a chain through tissue cannot have instruments yet".into());
     }
     let corner = |v: &Vec<f64>| match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Some(Vector3::new(*x, *y, *z)),
