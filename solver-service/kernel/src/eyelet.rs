@@ -787,6 +787,7 @@ where
 /// threaded eyelet's link kept where they are besides the held joints: each eyelet stays exactly on
 /// its link (the rope does not slide through an eyelet under an instrument's push). A contact only
 /// those joints could part locks the push; on any error the chain is unchanged.
+#[allow(clippy::too_many_arguments)]
 pub fn push_threaded<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     model: &crate::collision::CollisionModel<T, D>,
