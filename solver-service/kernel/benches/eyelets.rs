@@ -1,6 +1,7 @@
 //! What eyelets cost per move and how exactly the rope keeps to them (issue 39).
 //!
-//! `cargo bench -p tractrix --bench eyelets` prints two Markdown tables (as BENCHMARKS.md shows them).
+//! `cargo bench -p tractrix --bench eyelets` prints three Markdown tables (as BENCHMARKS.md shows
+//! them).
 //!
 //! *Cost*: a rope of `n` unit links straight along x, its head moved a tenth of a link at a time round
 //! a circle of radius 1 across the rope's line through where it started (so the rope slides back and
@@ -10,6 +11,8 @@
 //! collision (`move_joint_colliding`) against the threaded one (`move_threaded_colliding`). Moves are
 //! timed one by one, the cases interleaved in rounds so the machine's noise falls on all alike;
 //! median and 99th percentile per move, and the median's ratio to the plain move.
+//!
+//! *Held*: see [`held`].
 //!
 //! *Accuracy*: a rope of 40 unit links through two eyelets, its head and tail sent in turn to random
 //! points within 3 units of where they started (so the rope slides both ways, a few links each time),
@@ -166,6 +169,111 @@ fn cost(rounds: usize) {
     }
 }
 
+/// *Held*: the same circle of moves on a rope whose tail is held (a grasp), after its head was first
+/// taken in to three quarters of the rope's length and aside by a tenth (slack between the hold and
+/// the head): the held move without eyelets (`Chain::move_joint`, the held side a fixed-base solve)
+/// against the threaded move through 1 and 4 eyelets, whose held side alternates tractrix walks and
+/// is finished by the reach hierarchy after `alternations` (the knob `EyeletWorkspace::with_holds`;
+/// a scene's `hierarchy_after`). Besides the time: the alternations per substep, the moves refused,
+/// and the largest distance of an eyelet from its link and of the held tail from where it was held,
+/// measured by the bench's own code after every move.
+fn held(rounds: usize) {
+    println!(
+        "\n| links | case | alternations before the hierarchy | median ns/move | p99 ns/move | median ÷ held move without eyelets | alternations per substep (mean) | refused | largest distance from an eyelet to its link (links) | largest move of the held tail |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
+    let opts = MoveOptions {
+        substeps: Substeps::Fixed(1),
+        ..MoveOptions::default()
+    };
+    for n in [40usize, 320] {
+        // (eyelets, alternations before the hierarchy)
+        let cases = [(0usize, 0u32), (1, 4), (1, 16), (1, 64), (4, 16)];
+        let centre = V::new(0.75 * n as f64, 0.1 * n as f64, 0.0);
+        let mut ropes: Vec<Chain<f64, 3>> = Vec::new();
+        let mut eys: Vec<Vec<Eyelet<f64, 3>>> = Vec::new();
+        let mut wss: Vec<EyeletWorkspace<f64, 3>> = Vec::new();
+        for &(k, alternations) in &cases {
+            let mut r = rope(n);
+            let mut e = eyelets(&r, n, k);
+            let mut ws = EyeletWorkspace::new().with_holds(1e-9, alternations.max(1));
+            move_threaded(&mut r, n, centre, &mut e, 100_000, &mut ws).expect("slack");
+            r.hold(0).expect("a hold");
+            ropes.push(r);
+            eys.push(e);
+            wss.push(ws);
+        }
+        let tails: Vec<V> = ropes.iter().map(|r| r.joint(0)).collect();
+        let mut times: Vec<Vec<f64>> = vec![Vec::new(); cases.len()];
+        let mut stats = vec![(0u64, 0u64, 0usize, 0.0f64, 0.0f64); cases.len()];
+        let mut p = Vec::new();
+        let mut step = 0usize;
+        for _ in 0..rounds {
+            for (c, &(k, _)) in cases.iter().enumerate() {
+                for s in 0..MOVES {
+                    let a = 0.1 * (step + s) as f64;
+                    let t = centre + V::new(0.0, a.sin(), a.cos() - 1.0);
+                    let clock = Instant::now();
+                    let done = if k == 0 {
+                        black_box(ropes[c].move_joint(n, t, &opts)).map(|o| (o.substeps, 0))
+                    } else {
+                        black_box(move_threaded(
+                            &mut ropes[c],
+                            n,
+                            t,
+                            &mut eys[c],
+                            1000,
+                            &mut wss[c],
+                        ))
+                        .map(|o| (o.substeps, o.held_iterations))
+                        .map_err(|_| tractrix::ChainError::NonFinite)
+                    };
+                    times[c].push(clock.elapsed().as_nanos() as f64);
+                    let st = &mut stats[c];
+                    match done {
+                        Ok((substeps, alternations)) => {
+                            st.0 += u64::from(substeps);
+                            st.1 += u64::from(alternations);
+                        }
+                        Err(_) => st.2 += 1,
+                    }
+                    p.resize(n + 1, V::zeros());
+                    ropes[c].write_positions(&mut p);
+                    for x in eys[c].iter().filter(|x| x.threaded) {
+                        st.3 = st.3.max(to_segment(p[x.link], p[x.link + 1], x.at));
+                    }
+                    st.4 = st.4.max((p[0] - tails[c]).norm());
+                }
+            }
+            step += MOVES;
+        }
+        let base = percentile(&mut times[0].clone(), 0.5);
+        for (c, &(k, alternations)) in cases.iter().enumerate() {
+            let what = match k {
+                0 => "held move (no eyelet)".to_string(),
+                1 => "through 1 eyelet".to_string(),
+                _ => format!("through {k} eyelets"),
+            };
+            let alt = if k == 0 {
+                "-".to_string()
+            } else {
+                alternations.to_string()
+            };
+            let med = percentile(&mut times[c], 0.5);
+            let p99 = percentile(&mut times[c], 0.99);
+            let (substeps, alts, refused, off, tail) = stats[c];
+            let per = if k == 0 {
+                "-".to_string()
+            } else {
+                format!("{:.1}", alts as f64 / substeps.max(1) as f64)
+            };
+            println!(
+                "| {n} | {what} | {alt} | {med:.0} | {p99:.0} | {:.2} | {per} | {refused} | {off:.1e} | {tail:.1e} |",
+                med / base
+            );
+        }
+    }
+}
+
 /// SplitMix64.
 struct Rng(u64);
 impl Rng {
@@ -239,5 +347,6 @@ fn main() {
         .filter(|&m: &usize| m > 0)
         .unwrap_or(1_000_000);
     cost(rounds);
+    held(rounds);
     accuracy(moves);
 }
