@@ -849,8 +849,8 @@ impl Script {
             // needle's end): down into the tissue 4.5 before the head's start, under the incision
             // (x = 28) 2.2 deep, up and out 11.5 on, then drawing the suture through until about 4
             // units of tail are left before the entry. Where the head
-            // goes in and comes out the service makes the entry and exit eyelets. Not grasped: a
-            // chain through eyelets cannot be held yet.
+            // goes in and comes out the service makes the entry and exit eyelets. Not grasped: the
+            // head is the moved joint; nothing else holds the suture.
             "needle-pass" => Some(Script {
                 name: name.into(),
                 max_step: 0.05,
@@ -872,6 +872,34 @@ impl Script {
                         [17.0, 0.0, 2.0],
                     ],
                 )],
+            }),
+            // The same pass with two hands (chain `suture-held-80` of `stitch.toml`, laid across the
+            // table from (20, -5, 2) along y): the forceps (hand B) hold the tail where it lies, the
+            // driver (hand A) holds the head and takes it to above the entry, into the tissue, under
+            // the incision and out, drawing the suture through both eyelets toward the held tail.
+            "needle-pass-held" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: true,
+                turn: vec![
+                    turn("B", "suture-held-80", "tail", None, vec![[0.0, 0.0, 0.0]]),
+                    turn(
+                        "A",
+                        "suture-held-80",
+                        "head",
+                        None,
+                        vec![
+                            [3.0, -15.0, -1.0],
+                            [4.5, -15.0, -2.8],
+                            [6.0, -15.0, -3.8],
+                            [8.0, -15.0, -4.2],
+                            [10.0, -15.0, -3.8],
+                            [11.5, -15.0, -2.8],
+                            [12.5, -15.0, -1.0],
+                            [14.0, -15.0, 0.5],
+                        ],
+                    ),
+                ],
             }),
             _ => None,
         }
@@ -1200,6 +1228,7 @@ pub const BUILTINS: &[&str] = &[
     "instrument-square",
     "instrument-granny",
     "needle-pass",
+    "needle-pass-held",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.

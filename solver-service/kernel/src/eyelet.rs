@@ -174,9 +174,9 @@ pub struct EyeletWorkspace<T: Real, const D: usize> {
     new: Vec<Vector<T, D>>,
     saved: Vec<(usize, bool)>,
     /// A move with held joints: the positions of the walks back from a held joint, and the eyelets
-    /// ahead of the reach hierarchy's walk.
+    /// ahead of the reach hierarchy's walk (index, the way from it to the target, its link before).
     alt: Vec<Vector<T, D>>,
-    ahead: Vec<(usize, T)>,
+    ahead: Vec<(usize, T, usize)>,
     /// A threaded move with collision: the chain before it, and the joints its resolution fixes.
     backup: Option<Chain<T, D>>,
     fixed: Vec<usize>,
@@ -443,7 +443,7 @@ fn substep<T: Real, const D: usize>(
     to: Vector<T, D>,
     eyelets: &mut [Eyelet<T, D>],
     holds: &Holds<T, D>,
-    ahead: &mut Vec<(usize, T)>,
+    ahead: &mut Vec<(usize, T, usize)>,
 ) -> Result<(u32, u32), EyeletError>
 where
     Vector<T, D>: Embed3<T>,
@@ -513,7 +513,7 @@ fn held_side<T: Real, const D: usize>(
     (h, at, tol): (usize, Vector<T, D>, T),
     eyelets: &mut [Eyelet<T, D>],
     max_iterations: u32,
-    ahead: &mut Vec<(usize, T)>,
+    ahead: &mut Vec<(usize, T, usize)>,
 ) -> Result<(u32, u32), EyeletError>
 where
     Vector<T, D>: Embed3<T>,
@@ -564,9 +564,20 @@ where
         }
     }
     // Not converged (a nearly taut rope passes each correction on almost undamped): the reach
-    // hierarchy finishes from the last pose that meets the held joint.
+    // hierarchy finishes from the last pose that meets the held joint, walking from the moved joint
+    // on its goal and closing on the held joint (no eyelet lies on the two links next to it; one may
+    // lie next to the moved joint, as where a needle has just pierced).
     let src: &[Vector<T, D>] = if from_alt { alt } else { old };
-    finish(src, new, lengths, (h, at), m, goal, eyelets, ahead).map_err(|_| {
+    // From the held joint first (closing on the moved joint's goal); when an eyelet lies next to
+    // the moved joint or the rope next to the held one is too taut for that, from the moved joint.
+    let first = finish(src, new, lengths, (h, at), m, goal, eyelets, ahead);
+    if first.is_ok() {
+        return Ok((0, it));
+    }
+    for &(i, _, link) in ahead.iter() {
+        eyelets[i].link = link;
+    }
+    finish(src, new, lengths, (m, goal), h, at, eyelets, ahead).map_err(|_| {
         ChainError::HeldNotConverged {
             iterations: it,
             residual: miss.to_f64(),
@@ -575,14 +586,15 @@ where
     Ok((0, it))
 }
 
-/// Korein & Badler's reach hierarchy for the rope from the held joint `h` (at `at`) to the moved
-/// joint `m` through the eyelets between, from the pose `src`, written into `dst`: from `h` outward
+/// Korein & Badler's reach hierarchy for the rope from joint `h` (put on `at`) to joint `m` (put on
+/// `target`) through the eyelets between, from the pose `src`, written into `dst`: from `h` outward
 /// each link keeps its direction unless the rope left could then no longer reach `target` through
 /// the eyelets ahead (the way from the link's end through them to the target longer than the rope
 /// after it), when it turns only as much as needed. A link whose leader is within its length of the
 /// next eyelet passes through it (aimed at its point) when it is the link that passed through it
 /// before, or when the rope left allows no other way; the last two links close on the target in
 /// closed form (lengths exact). One pass, exact for a target the rope reaches through the eyelets.
+/// (A threaded move walks it from the moved joint to the held one.)
 #[allow(clippy::too_many_arguments)]
 fn finish<T: Real, const D: usize>(
     src: &[Vector<T, D>],
@@ -592,7 +604,7 @@ fn finish<T: Real, const D: usize>(
     m: usize,
     target: Vector<T, D>,
     eyelets: &mut [Eyelet<T, D>],
-    ahead: &mut Vec<(usize, T)>,
+    ahead: &mut Vec<(usize, T, usize)>,
 ) -> Result<(), EyeletError>
 where
     Vector<T, D>: Embed3<T>,
@@ -616,7 +628,7 @@ where
                 .iter()
                 .enumerate()
                 .filter(|(_, e)| between(e))
-                .map(|(i, _)| (i, T::zero())),
+                .map(|(i, e)| (i, T::zero(), e.link)),
         );
     } else {
         ahead.extend(
@@ -625,12 +637,12 @@ where
                 .enumerate()
                 .rev()
                 .filter(|(_, e)| between(e))
-                .map(|(i, _)| (i, T::zero())),
+                .map(|(i, e)| (i, T::zero(), e.link)),
         );
     }
     let mut way = T::zero();
     let mut next = target;
-    for (i, g) in ahead.iter_mut().rev() {
+    for (i, g, _) in ahead.iter_mut().rev() {
         way += (next - eyelets[*i].at).norm();
         next = eyelets[*i].at;
         *g = way;
@@ -641,12 +653,13 @@ where
     let mut x = at;
     dst[h] = at;
     let mut a = 0;
-    for i in 0..k - 2 {
+    let mut i = 0;
+    while i + 2 < k {
         let l = lengths[link_of(i)];
         material -= l;
         let c = src[joint(i + 1)] - src[joint(i)];
         let keep = x + c * (l / c.norm());
-        let y = if let Some(&(idx, g)) = ahead.get(a) {
+        let y = if let Some(&(idx, g, _)) = ahead.get(a) {
             let q = eyelets[idx].at;
             let d = (x - q).norm();
             // The end must stay within `rho` of the eyelet for the rope after it to get there and on.
@@ -654,7 +667,7 @@ where
             let through = (d <= l)
                 .then(|| aim(&x, &q, l, &c))
                 .filter(|y| match ahead.get(a + 1) {
-                    Some(&(i2, g2)) => {
+                    Some(&(i2, g2, _)) => {
                         (y - eyelets[i2].at).norm() + g2 <= material + slack(material)
                     }
                     None => (y - target).norm() <= material + slack(material),
@@ -663,7 +676,9 @@ where
             // A link passes straight through an eyelet, so the rope cannot bend there: it is led
             // to a point half a link before the eyelet on the line from where it goes next, and
             // through it from there.
-            let after = ahead.get(a + 1).map_or(target, |&(i2, _)| eyelets[i2].at);
+            let after = ahead
+                .get(a + 1)
+                .map_or(target, |&(i2, _, _)| eyelets[i2].at);
             let back = q - after;
             let half = l * T::lit(0.5);
             let lead = if back.norm() > T::zero() {
@@ -679,7 +694,36 @@ where
                     a += 1;
                     y
                 }
-                _ if forced => return Err(fail()),
+                _ if forced => {
+                    // Nearly taut, and the link from here through the eyelet would leave the rope
+                    // after it too short: this link and the next are laid on the line from the
+                    // eyelet to where the rope goes next (the next through the eyelet), so that the
+                    // rope passes it straight toward there.
+                    let Some((y, z)) = (i + 3 < k)
+                        .then(|| aligned_pass(&x, &q, &after, l, lengths[link_of(i + 1)]))
+                        .flatten()
+                    else {
+                        return Err(fail());
+                    };
+                    let left = material - lengths[link_of(i + 1)];
+                    let ok = match ahead.get(a + 1) {
+                        Some(&(i2, g2, _)) => {
+                            (z - eyelets[i2].at).norm() + g2 <= left + slack(material)
+                        }
+                        None => (z - target).norm() <= left + slack(material),
+                    };
+                    if !ok {
+                        return Err(fail());
+                    }
+                    eyelets[idx].link = link_of(i + 1);
+                    a += 1;
+                    dst[joint(i + 1)] = y;
+                    dst[joint(i + 2)] = z;
+                    material = left;
+                    x = z;
+                    i += 2;
+                    continue;
+                }
                 _ if led || (rho_lead < T::zero() && (keep - q).norm() <= rho) => keep,
                 _ if rho_lead >= T::zero() => {
                     x + crate::fixed_base::two_link(&x, &lead, l, rho_lead, &c).0
@@ -698,6 +742,7 @@ where
         };
         dst[joint(i + 1)] = y;
         x = y;
+        i += 1;
     }
     if a < ahead.len() {
         return Err(fail());
@@ -705,12 +750,46 @@ where
     let (a1, a2) = (lengths[link_of(k - 2)], lengths[link_of(k - 1)]);
     let c = src[joint(k - 1)] - src[joint(k - 2)];
     let (l1, l2) = crate::fixed_base::two_link(&x, &target, a1, a2, &c);
-    if (x + l1 + l2 - target).norm() > slack(a1 + a2) * T::lit(16.0) {
+    if (x + l1 + l2 - target).norm() > slack(a1 + a2) * T::lit(64.0) {
         return Err(fail());
     }
     dst[joint(k - 1)] = x + l1;
     dst[m] = target;
     Ok(())
+}
+
+/// Two links from `x` (lengths `l1`, `l2`) with the second through the eyelet at `q` and both on the
+/// line from `q` toward `after`: the joint between them behind `q` on that line, the end beyond it.
+/// `None` when no point of that line behind `q` within the second link lies at `l1` from `x`.
+fn aligned_pass<T: Real, const D: usize>(
+    x: &Vector<T, D>,
+    q: &Vector<T, D>,
+    after: &Vector<T, D>,
+    l1: T,
+    l2: T,
+) -> Option<(Vector<T, D>, Vector<T, D>)> {
+    let v = after - q;
+    let vn = v.norm();
+    if !(vn > T::zero()) {
+        return None;
+    }
+    let u = v / vn;
+    // The joint between at q − t·u, t in [0, l2]: |x − q + t·u| = l1.
+    let w = x - q;
+    let b = w.dot(&u);
+    let disc = b * b - w.norm_squared() + l1 * l1;
+    if disc < T::zero() {
+        return None;
+    }
+    let r = disc.sqrt();
+    let t = [-b + r, -b - r]
+        .into_iter()
+        .filter(|t| *t >= T::zero() && *t <= l2)
+        .fold(None, |best: Option<T>, t| {
+            Some(best.map_or(t, |b| b.max(t)))
+        })?;
+    let y = q - u * t;
+    Some((y, y + u * l2))
 }
 
 /// [`move_threaded`] with collision: after every substep the chain's contacts are resolved as a
