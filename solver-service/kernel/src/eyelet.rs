@@ -770,7 +770,7 @@ fn aligned_pass<T: Real, const D: usize>(
 ) -> Option<(Vector<T, D>, Vector<T, D>)> {
     let v = after - q;
     let vn = v.norm();
-    if !(vn > T::zero()) {
+    if vn.partial_cmp(&T::zero()) != Some(core::cmp::Ordering::Greater) {
         return None;
     }
     let u = v / vn;
