@@ -5,47 +5,48 @@
 //! top face (z = 0) on either side of the incision (x = 28); each lies on the rope (the nearest
 //! segment of the joints, to 1e-9); every link keeps its length; the suture's capsules are a thickness
 //! apart; and a tail is left before the entry (its length along the rope, computed here, is printed).
+//!
+//! With two hands (`needle-pass-held` on `suture-held-80` and `suture-held-160`): the forceps (hand
+//! B) hold the tail while the driver (hand A) passes the needle and draws the suture through both
+//! eyelets. Every state published is read (none missed) and checked the same way, and the held tail
+//! is bit for bit where it was in each.
 
-use shared::{Command, Parts, RequestHeader, Vec3};
+use shared::{Command, EyeletState, Parts, RequestHeader, Vec3};
 use std::process::{Command as Process, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 use tests::{Service, bin, unique_prefix};
 
-fn needle_pass(chain: &str, link: f64) {
+fn stitch_service(extra: &[&str]) -> Service {
     let scene = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../solver-service/scenes/stitch.toml"
     );
-    let svc = Service::start(
-        &unique_prefix(),
-        &["--scene", scene, "--no-persist", "--wait", "event"],
-    );
-    let hand = Process::new(bin("hand"))
+    let mut args = vec!["--scene", scene, "--no-persist", "--wait", "event"];
+    args.extend_from_slice(extra);
+    Service::start(&unique_prefix(), &args)
+}
+
+fn hand(svc: &Service, script: &str, chain: &str, extra: &[&str]) -> std::process::Child {
+    Process::new(bin("hand"))
         .args(["--prefix", &svc.prefix, "run", "--quiet"])
-        .args([
-            "--builtin",
-            "needle-pass",
-            "--chain",
-            chain,
-            "--identify",
-            chain,
-        ])
+        .args(["--builtin", script, "--chain", chain])
+        .args(extra)
         .stdout(Stdio::piped())
         .spawn()
-        .expect("spawn hand");
-    let out = tests::hand_output(hand);
-    let mut c = svc.connect();
-    let id = c.require_chain(chain).unwrap();
-    let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
-    assert!(r.is_ok(), "{}", r.header.reason_str());
-    let parts = Parts::of_response(&r.header, &r.payload);
-    let joints = parts.joints;
+        .expect("spawn hand")
+}
+
+/// One state of a suture: every link `link` long to 1e-12, links two or more apart along the rope a
+/// thickness (0.1) apart less the 1 % tolerance (the clients' segment distance, not the service's),
+/// and every threaded eyelet on the rope (the nearest segment of the joints, to 1e-9).
+fn check_state(joints: &[Vec3], eyelets: &[EyeletState], link: f64, what: &str) {
     for (k, w) in joints.windows(2).enumerate() {
         let (a, b) = (w[0], w[1]);
         let l = ((b.x - a.x).powi(2) + (b.y - a.y).powi(2) + (b.z - a.z).powi(2)).sqrt();
-        assert!((l - link).abs() < 1e-12, "{chain}: link {k} is {l}");
+        assert!((l - link).abs() < 1e-12, "{what}: link {k} is {l}");
     }
-    // The suture's capsules (0.1 thick) are apart: links two or more apart along the rope at least a
-    // thickness apart, less the 1 % tolerance (the clients' segment distance, not the service's).
     let v = |p: Vec3| nalgebra::Vector3::new(p.x, p.y, p.z);
     let mut closest = f64::INFINITY;
     for i in 0..joints.len() - 1 {
@@ -61,16 +62,24 @@ fn needle_pass(chain: &str, link: f64) {
     }
     assert!(
         closest >= 0.1 * 0.99 - 1e-9,
-        "{chain}: links {closest} apart"
+        "{what}: links {closest} apart"
     );
-    let eyelets: Vec<_> = parts.eyelet_states().collect();
+    for e in eyelets.iter().filter(|e| e.threaded) {
+        let (_, d, _) = tests::nearest_link(joints, e.at.to_array());
+        assert!(d < 1e-9, "{what}: eyelet {e:?} is {d:e} off the rope");
+    }
+}
+
+/// The last state of a pass: two eyelets, both threaded, on the tissue's top face (z = 0) on either
+/// side of the incision (x = 28); the state's own checks; a tail before the entry, its length along
+/// the rope (computed here) the same as `hand --identify` reports in `out`. Returns the tail.
+fn check_pass(joints: &[Vec3], eyelets: &[EyeletState], link: f64, chain: &str, out: &str) -> f64 {
+    check_state(joints, eyelets, link, chain);
     assert_eq!(eyelets.len(), 2, "{chain}: {eyelets:?}");
     let (entry, exit) = (eyelets[0], eyelets[1]);
     for e in [entry, exit] {
         assert!(e.threaded, "{chain}: {e:?}");
         assert!(e.at.z.abs() < 1e-12, "{chain}: not on the top face: {e:?}");
-        let (_, d, _) = tests::nearest_link(joints, e.at.to_array());
-        assert!(d < 1e-9, "{chain}: eyelet {e:?} is {d:e} off the rope");
     }
     assert!(
         (22.0..28.0).contains(&entry.at.x) && (28.0..34.0).contains(&exit.at.x),
@@ -97,6 +106,118 @@ fn needle_pass(chain: &str, link: f64) {
         .and_then(|x| x.trim().parse().ok())
         .unwrap_or_else(|| panic!("{line}"));
     assert!((reported - tail).abs() < 1e-6, "{line} against {tail}");
+    tail
+}
+
+fn needle_pass(chain: &str, link: f64) {
+    let svc = stitch_service(&[]);
+    let out = tests::hand_output(hand(&svc, "needle-pass", chain, &["--identify", chain]));
+    let mut c = svc.connect();
+    let id = c.require_chain(chain).unwrap();
+    let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    assert!(r.is_ok(), "{}", r.header.reason_str());
+    let parts = Parts::of_response(&r.header, &r.payload);
+    let eyelets: Vec<_> = parts.eyelet_states().collect();
+    check_pass(parts.joints, &eyelets, link, chain, &out);
+}
+
+/// A published state of one chain: its sequence number, joints, held joints and eyelets.
+type Seen = (u64, Vec<Vec3>, Vec<Vec3>, Vec<EyeletState>);
+
+/// Two hands on `chain` (`needle-pass-held`): the forceps (hand B) hold the tail, the driver (hand
+/// A) passes the needle and draws the suture through. Every state the service publishes from before
+/// the hands start is read (none missed, beside a deep state buffer) and checked by code of the test:
+/// the held tail bit for bit where it was, each state's lengths, thickness and eyelets
+/// ([`check_state`]); then the last state as a pass ([`check_pass`]).
+fn two_hands_pass(chain: &str, link: f64) {
+    let svc = stitch_service(&["--state-buffer", "4096"]);
+    let mut c = svc.connect();
+    let id = c.require_chain(chain).unwrap();
+    let q0 = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    let tail = q0.joints()[0];
+    let seq0 = q0.header.sequence;
+    let prefix = svc.prefix.clone();
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    let (ready_tx, ready) = std::sync::mpsc::channel();
+    let watcher = std::thread::spawn(move || -> Vec<Seen> {
+        let conn = clients::Connection::connect(clients::ConnectOptions {
+            prefix,
+            ..clients::ConnectOptions::default()
+        })
+        .unwrap();
+        let stream = conn.subscribe().unwrap();
+        ready_tx.send(()).unwrap();
+        let (mut seen, mut next, mut idle) = (Vec::new(), seq0 + 1, None);
+        loop {
+            let got = stream
+                .try_next(|h, p| {
+                    let parts = Parts::of_state(h, p);
+                    (
+                        h.sequence,
+                        h.chain,
+                        parts.joints.to_vec(),
+                        parts.held.to_vec(),
+                        parts.eyelet_states().collect::<Vec<_>>(),
+                    )
+                })
+                .unwrap();
+            match got {
+                Some((seq, ch, joints, held, eyelets)) => {
+                    idle = None;
+                    assert_eq!(seq, next, "a published state was missed");
+                    next += 1;
+                    if ch == id {
+                        seen.push((seq, joints, held, eyelets));
+                    }
+                }
+                None => {
+                    if flag.load(Ordering::Relaxed) {
+                        let t = *idle.get_or_insert_with(Instant::now);
+                        if t.elapsed() > Duration::from_millis(300) {
+                            return seen;
+                        }
+                    }
+                    std::thread::sleep(Duration::from_micros(200));
+                }
+            }
+        }
+    });
+    ready
+        .recv_timeout(Duration::from_secs(20))
+        .expect("the watcher subscribes");
+    let b = hand(&svc, "needle-pass-held", chain, &["--hand", "B"]);
+    let a = hand(
+        &svc,
+        "needle-pass-held",
+        chain,
+        &["--hand", "A", "--identify", chain],
+    );
+    let out = tests::hand_output(a);
+    let out_b = tests::hand_output(b);
+    stop.store(true, Ordering::Relaxed);
+    let seen = watcher.join().unwrap();
+    for o in [&out, &out_b] {
+        assert!(o.contains(" 0 locked"), "{o}");
+    }
+    assert!(
+        out.contains("595 requests, 595 ok"),
+        "every move of the pass accepted: {out}"
+    );
+    // Every state: the tail held (from B's grip on) and where it was, bit for bit.
+    let moved = seen.iter().filter(|s| !s.3.is_empty()).count();
+    assert!(moved > 200, "{chain}: {moved} states through the tissue");
+    for (seq, joints, held, eyelets) in &seen {
+        let what = format!("{chain}, state {seq}");
+        if held.iter().any(|h| h.x == 0.0) {
+            assert_eq!(joints[0], tail, "{what}: the held tail moved");
+        }
+        check_state(joints, eyelets, link, &what);
+    }
+    let (_, joints, held, eyelets) = seen.last().expect("states were published");
+    assert!(held.is_empty(), "{chain}: the hands let go at the end");
+    let t = check_pass(joints, eyelets, link, chain, &out);
+    println!("{chain}: {} states, each checked; tail {t:.2}", seen.len());
 }
 
 #[test]
@@ -107,4 +228,14 @@ fn the_needle_passes_through_the_tissue_at_80_links() {
 #[test]
 fn the_needle_passes_through_the_tissue_at_160_links() {
     needle_pass("suture-160", 0.125);
+}
+
+#[test]
+fn two_hands_pass_the_needle_with_the_tail_in_forceps_at_80_links() {
+    two_hands_pass("suture-held-80", 0.25);
+}
+
+#[test]
+fn two_hands_pass_the_needle_with_the_tail_in_forceps_at_160_links() {
+    two_hands_pass("suture-held-160", 0.125);
 }
