@@ -306,6 +306,12 @@ fn run(a: Args) -> Result<u8> {
                     View::OBLIQUE
                 });
                 let per = info.bundle.map_or(joints.len(), |(per, _)| per);
+                let eyelets = instruments
+                    .2
+                    .iter()
+                    .filter(|e| e.threaded)
+                    .map(|e| e.at.to_array())
+                    .collect();
                 let frame = (
                     info.name.clone(),
                     h.sequence,
@@ -315,6 +321,7 @@ fn run(a: Args) -> Result<u8> {
                     info.planar,
                     per,
                     a.svg_knot,
+                    eyelets,
                 );
                 if a.svg_last {
                     last_frames.insert(h.chain, frame);
@@ -729,12 +736,23 @@ fn knotted_part(joints: &[[f64; 3]], knot: u32) -> Vec<[f64; 3]> {
 /// A frame to draw: chain name, sequence, view, joints, planar, joints per polyline (a bundle's
 /// strand; all of them for a chain).
 /// A frame to draw: the chain's name, the state's sequence and knot code, the view, the joints,
-/// whether planar, joints per strand, whether to draw only the knotted stretch.
-type Pending = (String, u64, u32, View, Vec<[f64; 3]>, bool, usize, bool);
+/// whether planar, joints per strand, whether to draw only the knotted stretch, the threaded eyelets'
+/// points (drawn as marks).
+type Pending = (
+    String,
+    u64,
+    u32,
+    View,
+    Vec<[f64; 3]>,
+    bool,
+    usize,
+    bool,
+    Vec<[f64; 3]>,
+);
 
 fn draw(
     dir: &std::path::Path,
-    (name, sequence, knot, view, joints, planar, per, crop): Pending,
+    (name, sequence, knot, view, joints, planar, per, crop, eyelets): Pending,
 ) -> Result<u64> {
     let joints = if crop {
         knotted_part(&joints, knot)
@@ -742,10 +760,18 @@ fn draw(
         joints
     };
     let file = dir.join(format!("{name}-{sequence:08}.svg"));
+    let eyelets = if crop { Vec::new() } else { eyelets };
+    let eyelets_note = if eyelets.is_empty() {
+        ""
+    } else {
+        " (crosses: eyelets)"
+    };
     let frame = Frame {
         label: match shared::knot_name(knot) {
-            Some(k) => format!("{name} after change {sequence}: {k} (named by the service)"),
-            None => format!("{name} after change {sequence}"),
+            Some(k) => {
+                format!("{name} after change {sequence}: {k} (named by the service){eyelets_note}")
+            }
+            None => format!("{name} after change {sequence}{eyelets_note}"),
         },
         lines: joints
             .chunks(per.max(1))
@@ -755,7 +781,7 @@ fn draw(
                 markers: planar,
             })
             .collect(),
-        marks: vec![],
+        marks: eyelets,
     };
     write_frames_svg(&file, &name, &[frame], view, 1)?;
     Ok(1)
