@@ -875,20 +875,29 @@ impl Script {
             }),
             // The same pass with two hands (chain `suture-held-80` of `stitch.toml`, laid across the
             // table from (20, -5, 2) along y): the forceps (hand B) hold the tail where it lies, the
-            // driver (hand A) holds the head and takes it to above the entry, into the tissue, under
-            // the incision and out, drawing the suture through both eyelets toward the held tail.
+            // driver (hand A) holds the head and swings it round the forceps to above the entry
+            // (sideways, then on, the suture following like a snake: moved back along its own line,
+            // a tractrix rope is pushed end on and piles up), into the tissue, under the incision and
+            // out, drawing the suture through both eyelets toward the held tail.
             "needle-pass-held" => Some(Script {
                 name: name.into(),
                 max_step: 0.05,
                 grasp: true,
                 turn: vec![
-                    turn("B", "suture-held-80", "tail", None, vec![[0.0, 0.0, 0.0]]),
+                    // A little toward the needle (a grip perturbed by up to 0.1 stays within the
+                    // rope's reach: the suture lies straight between the hands).
+                    turn("B", "suture-held-80", "tail", None, vec![[0.0, 0.3, 0.0]]),
                     turn(
                         "A",
                         "suture-held-80",
                         "head",
                         None,
                         vec![
+                            [3.0, -1.0, 0.0],
+                            [6.0, -3.0, 0.0],
+                            [8.0, -7.0, 0.0],
+                            [8.0, -12.0, -0.5],
+                            [6.0, -15.0, -1.0],
                             [3.0, -15.0, -1.0],
                             [4.5, -15.0, -2.8],
                             [6.0, -15.0, -3.8],
@@ -896,7 +905,7 @@ impl Script {
                             [10.0, -15.0, -3.8],
                             [11.5, -15.0, -2.8],
                             [12.5, -15.0, -1.0],
-                            [14.0, -15.0, 0.5],
+                            [13.0, -15.0, 0.0],
                         ],
                     ),
                 ],

@@ -540,6 +540,7 @@ where
             Err(e) if stalls(&e) => break,
             Err(e) => return Err(e),
         };
+        let before = miss;
         miss = (new[h] - at).norm();
         if miss <= tol {
             // Close on the held joint: joints c2 (kept), c1 (placed), h. The two links cannot close
@@ -553,8 +554,15 @@ where
                 return Ok((left, it));
             }
         }
+        // A stalled alternation (a straight stretch passes the correction on undamped: a rope
+        // pushed along its own line) is left to the hierarchy at once.
+        let stalled = it > 2 && miss > before * T::lit(STALL);
         alt[h] = at;
         match side(new, alt, lengths, h, eyelets, !up, Some(m)) {
+            Ok(_) if stalled => {
+                from_alt = true;
+                break;
+            }
             Ok(_) => from_alt = true,
             Err(e) if stalls(&e) => {
                 from_alt = false;
@@ -568,16 +576,17 @@ where
     // on its goal and closing on the held joint (no eyelet lies on the two links next to it; one may
     // lie next to the moved joint, as where a needle has just pierced).
     let src: &[Vector<T, D>] = if from_alt { alt } else { old };
-    // From the held joint first (closing on the moved joint's goal); when an eyelet lies next to
-    // the moved joint or the rope next to the held one is too taut for that, from the moved joint.
-    let first = finish(src, new, lengths, (h, at), m, goal, eyelets, ahead);
+    // From the moved joint first (closing on the held joint: the rope by the hand keeps the shape the
+    // walks gave it); when the rope next to the held joint is too taut to close on it, from the held
+    // joint (closing on the moved joint's goal).
+    let first = finish(src, new, lengths, (m, goal), h, at, eyelets, ahead);
     if first.is_ok() {
         return Ok((0, it));
     }
     for &(i, _, link) in ahead.iter() {
         eyelets[i].link = link;
     }
-    finish(src, new, lengths, (m, goal), h, at, eyelets, ahead).map_err(|_| {
+    finish(src, new, lengths, (h, at), m, goal, eyelets, ahead).map_err(|_| {
         ChainError::HeldNotConverged {
             iterations: it,
             residual: miss.to_f64(),
@@ -585,6 +594,9 @@ where
     })?;
     Ok((0, it))
 }
+
+/// An alternation whose miss shrinks by less than this factor in one round has stalled.
+const STALL: f64 = 0.9;
 
 /// Korein & Badler's reach hierarchy for the rope from joint `h` (put on `at`) to joint `m` (put on
 /// `target`) through the eyelets between, from the pose `src`, written into `dst`: from `h` outward
@@ -659,7 +671,7 @@ where
         material -= l;
         let c = src[joint(i + 1)] - src[joint(i)];
         let keep = x + c * (l / c.norm());
-        let y = if let Some(&(idx, g, _)) = ahead.get(a) {
+        let y = if let Some(&(idx, g, old_link)) = ahead.get(a) {
             let q = eyelets[idx].at;
             let d = (x - q).norm();
             // The end must stay within `rho` of the eyelet for the rope after it to get there and on.
@@ -688,8 +700,16 @@ where
             };
             let rho_lead = rho - half;
             let led = (keep - lead).norm() <= rho_lead;
+            // At or past the link that passed through the eyelet before: the rope is led to it
+            // straight (the shape kept from the last pose may wander off; the eyelet passed as
+            // near its old link as can be).
+            let due = if up {
+                link_of(i) >= old_link
+            } else {
+                link_of(i) <= old_link
+            };
             match through {
-                Some(y) if forced || eyelets[idx].link == link_of(i) || !led => {
+                Some(y) if forced || due || !led => {
                     eyelets[idx].link = link_of(i);
                     a += 1;
                     y
@@ -723,6 +743,10 @@ where
                     x = z;
                     i += 2;
                     continue;
+                }
+                _ if due => {
+                    let want = ((x - lead).norm() - l).max(T::zero());
+                    x + crate::fixed_base::two_link(&x, &lead, l, want, &c).0
                 }
                 _ if led || (rho_lead < T::zero() && (keep - q).norm() <= rho) => keep,
                 _ if rho_lead >= T::zero() => {

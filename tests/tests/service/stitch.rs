@@ -127,14 +127,14 @@ type Seen = (u64, Vec<Vec3>, Vec<Vec3>, Vec<EyeletState>);
 /// Two hands on `chain` (`needle-pass-held`): the forceps (hand B) hold the tail, the driver (hand
 /// A) passes the needle and draws the suture through. Every state the service publishes from before
 /// the hands start is read (none missed, beside a deep state buffer) and checked by code of the test:
-/// the held tail bit for bit where it was, each state's lengths, thickness and eyelets
-/// ([`check_state`]); then the last state as a pass ([`check_pass`]).
+/// while the needle moves, the tail held bit for bit where the forceps put it; each state's lengths,
+/// thickness and eyelets ([`check_state`]); then the last state as a pass ([`check_pass`]).
 fn two_hands_pass(chain: &str, link: f64) {
     let svc = stitch_service(&["--state-buffer", "4096"]);
     let mut c = svc.connect();
     let id = c.require_chain(chain).unwrap();
     let q0 = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
-    let tail = q0.joints()[0];
+    let (tail, head) = (q0.joints()[0], q0.joints()[q0.joints().len() - 1]);
     let seq0 = q0.header.sequence;
     let prefix = svc.prefix.clone();
     let stop = Arc::new(AtomicBool::new(false));
@@ -200,20 +200,41 @@ fn two_hands_pass(chain: &str, link: f64) {
     for o in [&out, &out_b] {
         assert!(o.contains(" 0 locked"), "{o}");
     }
+    // Every move of the pass accepted: "hand A: N requests, N ok, 0 locked".
+    let line = out
+        .lines()
+        .find(|l| l.contains(" requests, "))
+        .unwrap_or_else(|| panic!("no summary: {out}"));
+    let counts: Vec<&str> = line.split_whitespace().collect();
     assert!(
-        out.contains("595 requests, 595 ok"),
-        "every move of the pass accepted: {out}"
+        counts.len() >= 5 && counts[2] == counts[4] && !line.contains("refused"),
+        "every move of the pass accepted: {line}"
     );
-    // Every state: the tail held (from B's grip on) and where it was, bit for bit.
+    // Every state: while the driver moves the needle (the head away from where the scene laid it;
+    // the forceps place the tail first), the tail is held and where the forceps left it, bit for bit.
     let moved = seen.iter().filter(|s| !s.3.is_empty()).count();
     assert!(moved > 200, "{chain}: {moved} states through the tissue");
+    let held_at = seen
+        .iter()
+        .find(|s| s.1[s.1.len() - 1] != head)
+        .map(|s| s.1[0])
+        .expect("the driver moved the needle");
+    assert!(held_at != tail, "{chain}: the forceps placed the tail");
+    let mut held_states = 0;
     for (seq, joints, held, eyelets) in &seen {
         let what = format!("{chain}, state {seq}");
-        if held.iter().any(|h| h.x == 0.0) {
-            assert_eq!(joints[0], tail, "{what}: the held tail moved");
+        if joints[joints.len() - 1] != head && held.iter().any(|h| h.x == 0.0) {
+            held_states += 1;
+            assert_eq!(joints[0], held_at, "{what}: the held tail moved");
         }
         check_state(joints, eyelets, link, &what);
     }
+    // Held in every state of the driver's moves (the releases at the end excepted).
+    let driven = seen.iter().filter(|s| s.1[s.1.len() - 1] != head).count();
+    assert!(
+        held_states + 2 >= driven,
+        "{chain}: {held_states} of {driven}"
+    );
     let (_, joints, held, eyelets) = seen.last().expect("states were published");
     assert!(held.is_empty(), "{chain}: the hands let go at the end");
     let t = check_pass(joints, eyelets, link, chain, &out);

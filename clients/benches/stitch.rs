@@ -1,0 +1,246 @@
+//! The needle's pass with two hands, perturbed (issue 39): how often it succeeds and what a move costs.
+//!
+//! `cargo bench -p clients --bench stitch` runs, for each held suture of the shipped `stitch.toml`
+//! (`suture-held-80`, `suture-held-160`), `STITCH_BENCH_RUNS` (default 16) runs of the built-in
+//! `needle-pass-held` through the release `solver-service`: hand B (the forceps) holds the tail, hand A
+//! (the driver) takes the needle's end into the tissue, under the incision and out and draws the
+//! suture through, both hands perturbed as a person's (`hand run --perturb SEED`: sizes ±10 %,
+//! directions ±0.05, waypoints moved by up to 0.1, a tremor of 0.02 on every step) and as fast as the
+//! service answers (`--rate 0`). A run passes when both hands finish (a hand whose move is refused,
+//! the rope too taut for it, goes on: the refused requests and the runs that had one are counted
+//! apart) and the bench's own code finds, in the last state: two eyelets, both threaded, on the
+//! tissue's top face (|z| < 1e-9)
+//! on either side of the incision (x = 28); each eyelet on the rope to 1e-9 (its distance from the
+//! nearest link's segment); every link its length to 1e-12; the tail where the forceps hold it (within
+//! 0.2 of where the script puts it: the perturbed grip and tremor); and more than a unit of suture
+//! before the entry. The service's own time per request (`solve_ns`) is pooled over the runs; the
+//! machine's own noise is measured first.
+//!
+//! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
+
+use anyhow::{Context, Result, bail};
+use clients::process::{Proc, release_bin, workspace};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The held sutures: chain, links, link length.
+const SUTURES: [(&str, usize, f64); 2] = [
+    ("suture-held-80", 80, 0.25),
+    ("suture-held-160", 160, 0.125),
+];
+/// Where the forceps hold their tails: where `stitch.toml` lays them, 0.3 toward the needle.
+const TAIL: [f64; 3] = [20.0, -4.7, 2.0];
+/// How long one run may take.
+const RUN_TIMEOUT: Duration = Duration::from_secs(300);
+
+/// One run: whether it passed (else why not), the tail before the entry, the service's times (ns) and
+/// the refused requests.
+struct Run {
+    failure: Option<String>,
+    tail: f64,
+    solve: Vec<u64>,
+    refused: usize,
+    /// 1 when some request of the run was refused.
+    refusals: usize,
+}
+
+fn distance_to_segment(a: [f64; 3], b: [f64; 3], p: [f64; 3]) -> (f64, f64) {
+    let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+    let l2 = ab.iter().map(|x| x * x).sum::<f64>();
+    let t = (ap.iter().zip(&ab).map(|(x, y)| x * y).sum::<f64>() / l2).clamp(0.0, 1.0);
+    let d = (0..3)
+        .map(|k| (a[k] + ab[k] * t - p[k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    (d, t)
+}
+
+fn run(chain: &str, link: f64, seed: u64, dir: &Path) -> Result<Run> {
+    let prefix = format!("stitch_{}_{seed}_", std::process::id());
+    let scene = workspace().join("solver-service/scenes/stitch.toml");
+    let mut svc = Command::new(release_bin("solver-service")?);
+    svc.args(["--prefix", &prefix, "--scene"])
+        .arg(&scene)
+        .args(["--wait", "event", "--no-persist"]);
+    let mut svc = Proc::ready(svc, "solver-service")?;
+    let started = Instant::now();
+    let mut hands = Vec::new();
+    for h in ["B", "A"] {
+        let file = dir.join(format!("{chain}-{seed}-{h}.txt"));
+        let child = Command::new(release_bin("hand")?)
+            .args(["--prefix", &prefix, "run", "--builtin", "needle-pass-held"])
+            .args(["--hand", h, "--chain", chain, "--rate", "0", "--quiet"])
+            .args(["--turn-timeout", "120", "--perturb", &seed.to_string()])
+            .arg("--timings")
+            .arg(&file)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .context("start hand")?;
+        hands.push((child, file));
+    }
+    let mut out = Run {
+        failure: None,
+        tail: f64::NAN,
+        solve: Vec::new(),
+        refused: 0,
+        refusals: 0,
+    };
+    for (child, file) in &mut hands {
+        let status = loop {
+            if let Some(s) = child.try_wait()? {
+                break s;
+            }
+            if started.elapsed() > RUN_TIMEOUT {
+                let _ = child.kill();
+                let _ = child.wait();
+                bail!("a hand took longer than {RUN_TIMEOUT:?}");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let text = std::fs::read_to_string(&*file).unwrap_or_default();
+        let mut refused = 0;
+        for line in text.lines().filter(|l| !l.starts_with('#')) {
+            let f: Vec<&str> = line.split_whitespace().collect();
+            let [_, solve_us, status] = f[..] else {
+                bail!("{}: bad line {line:?}", file.display());
+            };
+            out.solve
+                .push((solve_us.parse::<f64>()? * 1e3).round() as u64);
+            if status != "ok" {
+                refused += 1;
+            }
+        }
+        out.refused += refused;
+        // A hand exits 1 when a request of it was refused (counted apart); anything else fails.
+        if !(status.success() || (status.code() == Some(1) && refused > 0)) {
+            out.failure
+                .get_or_insert(format!("a hand failed ({status})"));
+        }
+    }
+    if out.refused > 0 {
+        out.refusals = 1;
+    }
+    // The last state, checked here.
+    let mut conn = clients::Connection::connect(clients::ConnectOptions {
+        prefix: prefix.clone(),
+        ..clients::ConnectOptions::default()
+    })?;
+    let id = conn.require_chain(chain)?;
+    let r = conn.call(shared::RequestHeader::new(shared::Command::Query, id), &[])?;
+    let parts = shared::Parts::of_response(&r.header, &r.payload);
+    let joints: Vec<[f64; 3]> = parts.joints.iter().map(|p| p.to_array()).collect();
+    let eyelets: Vec<shared::EyeletState> = parts.eyelet_states().collect();
+    drop(conn);
+    svc.stop();
+    let mut fail = |why: String| {
+        out.failure.get_or_insert(why);
+    };
+    for (k, w) in joints.windows(2).enumerate() {
+        let l = (0..3)
+            .map(|i| (w[1][i] - w[0][i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if (l - link).abs() > 1e-12 {
+            fail(format!("link {k} is {l}"));
+        }
+    }
+    if (0..3)
+        .map(|i| (joints[0][i] - TAIL[i]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+        > 0.2
+    {
+        fail(format!("the tail is at {:?}", joints[0]));
+    }
+    let on_face = eyelets.len() == 2
+        && eyelets.iter().all(|e| e.threaded && e.at.z.abs() < 1e-9)
+        && (22.0..28.0).contains(&eyelets[0].at.x)
+        && (28.0..34.0).contains(&eyelets[1].at.x);
+    if !on_face {
+        fail(format!("eyelets {eyelets:?}"));
+    } else {
+        for e in &eyelets {
+            let p = e.at.to_array();
+            let (d, _) = joints
+                .windows(2)
+                .map(|w| distance_to_segment(w[0], w[1], p))
+                .fold((f64::INFINITY, 0.0), |a, b| if b.0 < a.0 { b } else { a });
+            if d > 1e-9 {
+                fail(format!("an eyelet {d:e} off the rope"));
+            }
+        }
+        // The suture before the entry, along the rope.
+        let p = eyelets[0].at.to_array();
+        let (k, (_, t)) = joints
+            .windows(2)
+            .map(|w| distance_to_segment(w[0], w[1], p))
+            .enumerate()
+            .fold(
+                (0, (f64::INFINITY, 0.0)),
+                |a, b| if b.1.0 < a.1.0 { b } else { a },
+            );
+        out.tail = (k as f64 + t) * link;
+        if out.tail <= 1.0 {
+            fail(format!("only {:.2} of tail", out.tail));
+        }
+    }
+    Ok(out)
+}
+
+fn pct(v: &[u64], q: f64) -> f64 {
+    v[((v.len() - 1) as f64 * q).round() as usize] as f64 / 1e3
+}
+
+fn main() -> Result<()> {
+    let runs: u64 = std::env::var("STITCH_BENCH_RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .filter(|&r| r > 0)
+        .unwrap_or(16);
+    let dir = tempfile::tempdir()?;
+    clients::latency_bench::noise(&mut std::io::stdout(), 2000, 1.0)?;
+    println!(
+        "| suture | links | runs | passed | suture before the entry, median (units) | runs with a refused request | requests | refused | p50 µs | p99 µs | p99.9 µs | max µs |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (chain, links, link) in SUTURES {
+        let (mut passed, mut tails, mut solve, mut refused) = (0, Vec::new(), Vec::new(), 0);
+        let mut with_refusals = 0;
+        for seed in 1..=runs {
+            match run(chain, link, seed, dir.path()) {
+                Ok(r) => {
+                    refused += r.refused;
+                    with_refusals += r.refusals;
+                    solve.extend(r.solve);
+                    match r.failure {
+                        None => {
+                            passed += 1;
+                            tails.push(r.tail);
+                        }
+                        Some(why) => eprintln!("stitch bench: {chain}, seed {seed}: {why}"),
+                    }
+                }
+                Err(e) => eprintln!("stitch bench: {chain}, seed {seed}: {e:#}"),
+            }
+        }
+        solve.sort_unstable();
+        tails.sort_by(f64::total_cmp);
+        let tail = tails.get(tails.len() / 2).copied().unwrap_or(f64::NAN);
+        if solve.is_empty() {
+            println!("| {chain} | {links} | {runs} | {passed} | – | – | 0 | – | – | – | – | – |");
+            continue;
+        }
+        println!(
+            "| {chain} | {links} | {runs} | {passed} | {tail:.2} | {with_refusals} | {} | {refused} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            solve.len(),
+            pct(&solve, 0.5),
+            pct(&solve, 0.99),
+            pct(&solve, 0.999),
+            pct(&solve, 1.0),
+        );
+    }
+    Ok(())
+}
