@@ -118,6 +118,8 @@ block knots-bend "KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS=4 cargo bench -p client
   env KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-4}" cargo bench -q -p clients --bench knots
 block eyelets "cargo bench -p tractrix --bench eyelets" \
   cargo bench -q -p tractrix --bench eyelets
+block stitch "cargo bench -p clients --bench stitch" \
+  cargo bench -q -p clients --bench stitch
 block limits "cargo bench -p tractrix --bench limits" \
   cargo bench -q -p tractrix --bench limits
 block goals "cargo bench -p tractrix --bench goals" \
