@@ -185,6 +185,8 @@ pub struct EyeletWorkspace<T: Real, const D: usize> {
     /// the most alternations per substep ([`EyeletWorkspace::with_holds`]).
     held_tolerance: f64,
     held_iterations: u32,
+    /// Friction at the eyelets ([`EyeletWorkspace::with_friction`]).
+    friction: f64,
 }
 
 impl<T: Real, const D: usize> Default for EyeletWorkspace<T, D> {
@@ -206,7 +208,24 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
             fixed: Vec::new(),
             held_tolerance: 1e-9,
             held_iterations: 16,
+            friction: 0.0,
         }
+    }
+
+    /// Friction at the eyelets: 0 (the default) lets the rope slide through them freely, dragged
+    /// by the tractrix; any positive value makes it stick in each while the rope on the moved
+    /// joint's side can make the move without sliding (the link through each eyelet then stays put,
+    /// as if both its joints were held, and nothing beyond it moves), and slide, as without
+    /// friction, only when it cannot: the rope there is taut. With an inextensible, massless rope
+    /// Coulomb friction decides no more than that: how large it is would only change the force a
+    /// taut rope needs to slide, which a kinematic solve does not compute (docs/eyelets.md).
+    pub fn with_friction(mut self, friction: f64) -> Self {
+        self.friction = if friction.is_finite() {
+            friction.max(0.0)
+        } else {
+            f64::INFINITY
+        };
+        self
     }
 
     /// How a threaded move of a chain with held joints converges: the alternation stops when the
@@ -279,6 +298,9 @@ pub struct Threaded {
     pub left: u32,
     /// Forward-and-back alternations spent on the rope between the moved joint and held joints.
     pub held_iterations: u32,
+    /// Whether the rope stuck in the eyelets (friction, [`EyeletWorkspace::with_friction`]): the
+    /// links through them did not move.
+    pub stuck: bool,
 }
 
 /// Moves joint `joint` of `chain` straight to `target` with the chain threaded through `eyelets`
@@ -299,9 +321,52 @@ pub fn move_threaded<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    let stick = sticks(eyelets, ws);
+    match threaded_once(chain, joint, target, eyelets, max_substeps, ws, stick) {
+        Err(e) if stick && taut(&e) => {
+            threaded_once(chain, joint, target, eyelets, max_substeps, ws, false)
+        }
+        Ok(mut o) => {
+            o.stuck = stick;
+            Ok(o)
+        }
+        r => r,
+    }
+}
+
+/// Whether a move sticks the rope in the eyelets first: friction, and an eyelet threaded.
+fn sticks<T: Real, const D: usize>(eyelets: &[Eyelet<T, D>], ws: &EyeletWorkspace<T, D>) -> bool {
+    ws.friction > 0.0 && eyelets.iter().any(|e| e.threaded)
+}
+
+/// Whether a refusal says the rope on the moved joint's side could not make the move with the
+/// eyelets stuck (it is taut, or a stuck eyelet lies too near to close on): it then slides.
+fn taut(e: &EyeletError) -> bool {
+    matches!(
+        e,
+        EyeletError::NearHeld { .. }
+            | EyeletError::Chain(
+                ChainError::HeldUnreachable { .. } | ChainError::HeldNotConverged { .. }
+            )
+    )
+}
+
+/// One try of [`move_threaded`], the rope stuck in the eyelets (`stick`) or sliding.
+fn threaded_once<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    target: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    ws: &mut EyeletWorkspace<T, D>,
+    stick: bool,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
     admit(chain, joint, &target, eyelets)?;
     ws.begin(chain, eyelets);
-    let holds = Holds::of(chain, joint, &target, eyelets, ws)?;
+    let holds = Holds::of(chain, joint, &target, eyelets, ws, stick)?;
     let lengths = chain.lengths();
     let from = ws.new[joint];
     let way = target - from;
@@ -373,8 +438,21 @@ where
         target: &Vector<T, D>,
         eyelets: &[Eyelet<T, D>],
         ws: &EyeletWorkspace<T, D>,
+        stick: bool,
     ) -> Result<Self, EyeletError> {
-        let (lo, hi) = chain.held_around(m);
+        let (mut lo, mut hi) = chain.held_around(m);
+        if stick {
+            // The rope stuck in an eyelet: both joints of the link through it held.
+            for e in eyelets.iter().filter(|e| e.threaded) {
+                for j in [e.link, e.link + 1] {
+                    if j < m {
+                        lo = Some(lo.map_or(j, |l| l.max(j)));
+                    } else if j > m {
+                        hi = Some(hi.map_or(j, |h| h.min(j)));
+                    }
+                }
+            }
+        }
         let tol = T::lit(ws.held_tolerance).max(T::EPSILON * T::lit(64.0));
         let pos = &ws.new;
         let lengths = chain.lengths();
@@ -837,10 +915,51 @@ pub fn move_threaded_colliding<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    let stick = sticks(eyelets, ws);
+    let mut once = |chain: &mut Chain<T, D>, eyelets: &mut [Eyelet<T, D>], stick| {
+        threaded_colliding_once(
+            chain,
+            joint,
+            target,
+            eyelets,
+            max_substeps,
+            (model, &mut *cws),
+            &mut *ws,
+            stick,
+        )
+    };
+    match once(chain, eyelets, stick) {
+        Err(e) if stick && taut(&e) => once(chain, eyelets, false),
+        Ok(mut o) => {
+            o.stuck = stick;
+            Ok(o)
+        }
+        r => r,
+    }
+}
+
+/// One try of [`move_threaded_colliding`], the rope stuck in the eyelets (`stick`) or sliding.
+#[allow(clippy::too_many_arguments)]
+fn threaded_colliding_once<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    target: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    (model, cws): (
+        &crate::collision::CollisionModel<T, D>,
+        &mut crate::collision::CollisionWorkspace<T, D>,
+    ),
+    ws: &mut EyeletWorkspace<T, D>,
+    stick: bool,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
     admit(chain, joint, &target, eyelets)?;
     ws.keep(chain);
     ws.begin(chain, eyelets);
-    let holds = Holds::of(chain, joint, &target, eyelets, ws)?;
+    let holds = Holds::of(chain, joint, &target, eyelets, ws, stick)?;
     let from = ws.new[joint];
     let way = target - from;
     let (k, _) = substeps(chain, &way, max_substeps)?;

@@ -372,13 +372,15 @@ where
         eyelets_best: Vec::new(),
         // A held side through eyelets alternates as many times as a fixed-base solve iterates
         // before the reach hierarchy finishes it.
-        eyelet_ws: EyeletWorkspace::new().with_holds(
-            spec.moves.held.tolerance,
-            match spec.moves.held.hierarchy_after {
-                0 => 16,
-                k => k,
-            },
-        ),
+        eyelet_ws: EyeletWorkspace::new()
+            .with_holds(
+                spec.moves.held.tolerance,
+                match spec.moves.held.hierarchy_after {
+                    0 => 16,
+                    k => k,
+                },
+            )
+            .with_friction(spec.eyelet_friction),
         tissue: spec.tissue,
     };
     h.eyelets_initial = h.eyelets.clone();

@@ -404,3 +404,54 @@ fn segment_gap(p0: Point, p1: Point, q0: Point, q1: Point) -> f64 {
         .map(|i| to_seg(p0 + (p1 - p0) * (i as f64 / 200.0)))
         .fold(f64::INFINITY, f64::min)
 }
+
+/// `eyelet_friction`: with friction the rope sticks in the eyelets while the head moves within what
+/// the rope on its side reaches (the joints beyond the first eyelet bit for bit where they were), and
+/// slides once that side is taut; without, the same moves draw rope through. Friction on a chain
+/// without eyelets or tissue, or below 0, is a scene error.
+#[test]
+fn with_friction_the_rope_sticks_in_the_eyelets_until_pulled_taut() {
+    let with = |friction: &str| {
+        let text = format!("{ROPE}eyelet_friction = {friction}\n");
+        World::new(&parse_scene(&text, "friction.toml").unwrap()).unwrap()
+    };
+    let moves = [Point::new(34.0, 5.0, 0.0), Point::new(30.0, -4.0, 2.0)];
+    let mut w = with("0.5");
+    let start = joints(&w);
+    for p in moves {
+        w.apply(&go(&w, 40, &[p])).unwrap();
+        check(&w, "stuck");
+    }
+    assert_eq!(threaded(&w), [(10, true), (25, true)]);
+    assert_eq!(
+        joints(&w)[..=26],
+        start[..=26],
+        "the rope beyond the eyelet moved"
+    );
+    let mut free = with("0");
+    for p in moves {
+        free.apply(&go(&free, 40, &[p])).unwrap();
+    }
+    assert_ne!(
+        joints(&free)[..=26],
+        start[..=26],
+        "without friction it is drawn through"
+    );
+    // Pulled 20 past the second eyelet (its side has 14.5 of rope): it slides.
+    w.apply(&go(&w, 40, &[Point::new(45.0, 3.0, 0.0)])).unwrap();
+    check(&w, "slid");
+    let t = threaded(&w);
+    assert!(t[1].0 < 25 && t[0].0 < 10, "{t:?}");
+    for (extra, says) in [
+        ("eyelet_friction = -1.0\n", "not a finite number"),
+        ("eyelet_friction = 1.0\n", "eyelets or tissue"),
+    ] {
+        let text = if says == "eyelets or tissue" {
+            format!("[[chain]]\nname = \"r\"\nlinks = 4\nlink_length = 1.0\n{extra}")
+        } else {
+            format!("{ROPE}{extra}")
+        };
+        let e = parse_scene(&text, "f.toml").unwrap_err().to_string();
+        assert!(e.contains("eyelet_friction") && e.contains(says), "{e}");
+    }
+}

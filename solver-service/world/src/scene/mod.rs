@@ -35,6 +35,9 @@
 //! | `min_bend_radius` | positive length | – | a rope's bend radius: a cone `2·atan(L / 2R)` at each joint (`L` its shorter link) |
 //! | `max_bend` / `max_bends` | degrees in [0, 180] / list of `links + 1` | – | a cone at every joint / per joint (the ends' entries are ignored) |
 //! | `joint_range` / `joint_ranges` | `[lo, hi]` degrees / list of `links + 1` pairs | – | signed range of every joint / per joint; planar chains only |
+//! | `eyelets` | list of points on the chain | `[]` | fixed points the rope slides through (free chains; docs/eyelets.md) |
+//! | `tissue` | `[lo, hi]` box corners | – | a block the head pierces, making eyelets (free spatial chains) |
+//! | `eyelet_friction` | number ≥ 0 | 0 | 0: the rope slides freely through the eyelets; more: it sticks in them until the pulled side is taut |
 //!
 //! At most one of the limit fields (`tractrix::limits`): the angle at joint `j` is the turn from link
 //! `j` to link `j + 1` (0 where the chain runs straight; counter-clockwise positive in the plane), the
@@ -192,6 +195,9 @@ pub struct ChainSpec {
     /// Whether its knot is named with every answer and state (`knot = true`: free spatial chains;
     /// [`tractrix::knot::Namer`]).
     pub knot: bool,
+    /// Friction at its eyelets (`eyelet_friction`, ≥ 0; 0 slides freely, more sticks the rope in
+    /// them until the pulled side is taut: [`tractrix::eyelet::EyeletWorkspace::with_friction`]).
+    pub eyelet_friction: f64,
 }
 
 /// A chain's joint limits as its scene declares them, in radians, one entry per joint (the ends'

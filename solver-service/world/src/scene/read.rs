@@ -101,6 +101,7 @@ pub(super) struct RawChain {
     pub knot: Field<bool>,
     pub eyelets: Field<Vec<Vec<f64>>>,
     pub tissue: Field<Vec<Vec<f64>>>,
+    pub eyelet_friction: Field<f64>,
 }
 
 /// 1-based line of a byte offset.

@@ -723,6 +723,24 @@ fn chain(
     let anchors = anchors(&f, kind, lengths.len())?;
     let eyelets = eyelets(&f, kind, &points, &lengths, &anchors)?;
     let tissue = tissue(&f, kind)?;
+    let eyelet_friction = match &c.eyelet_friction {
+        Some(x) if eyelets.is_empty() && tissue.is_none() => {
+            return Err(f.err(
+                x.span(),
+                "eyelet_friction",
+                "friction is for a chain with eyelets or tissue".into(),
+            ));
+        }
+        Some(x) if x.get_ref().is_finite() && *x.get_ref() >= 0.0 => *x.get_ref(),
+        Some(x) => {
+            return Err(f.err(
+                x.span(),
+                "eyelet_friction",
+                format!("{} is not a finite number ≥ 0", x.get_ref()),
+            ));
+        }
+        None => 0.0,
+    };
     let knot = match &c.knot {
         Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
             return Err(f.err(
@@ -798,6 +816,7 @@ fn chain(
         anchors,
         limits,
         knot,
+        eyelet_friction,
         eyelets,
         tissue,
         moves: MoveOptions {
