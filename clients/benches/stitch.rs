@@ -16,6 +16,12 @@
 //! before the entry. The service's own time per request (`solve_ns`) is pooled over the runs; the
 //! machine's own noise is measured first.
 //!
+//! A second table is the instrument ties over a bite: the built-in `instrument-tie` and
+//! `surgeons-knot` on the `stitch-tie` sutures of `stitch.toml` (40 and 80 links, the rope through an
+//! entry and an exit eyelet where knots.toml's `tie` is anchored), with the scene's eyelet friction
+//! and without it, unperturbed: the knot the service names at the end, the refusals, how far the
+//! eyelets slid, and the time per request ([`ties`]).
+//!
 //! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
 
 use anyhow::{Context, Result, bail};
@@ -57,38 +63,43 @@ fn distance_to_segment(a: [f64; 3], b: [f64; 3], p: [f64; 3]) -> (f64, f64) {
     (d, t)
 }
 
-fn run(chain: &str, link: f64, seed: u64, dir: &Path) -> Result<Run> {
-    let prefix = format!("stitch_{}_{seed}_", std::process::id());
-    let scene = workspace().join("solver-service/scenes/stitch.toml");
+/// The service on `scene` and the hands of `script` on `chain` (hands `B` then `A`, with `extra`
+/// arguments), as fast as it answers, each writing its request times: the service (still running, for
+/// the caller to query), its prefix, every request's `solve_ns`, the refused requests, and why a hand
+/// failed (a hand exits 1 when a request of it was refused, counted apart; anything else fails).
+fn hands(
+    scene: &Path,
+    script: &str,
+    chain: &str,
+    extra: &[String],
+    tag: &str,
+    dir: &Path,
+) -> Result<(Proc, String, Vec<u64>, usize, Option<String>)> {
+    let prefix = format!("stitch_{}_{tag}_", std::process::id());
     let mut svc = Command::new(release_bin("solver-service")?);
     svc.args(["--prefix", &prefix, "--scene"])
-        .arg(&scene)
+        .arg(scene)
         .args(["--wait", "event", "--no-persist"]);
-    let mut svc = Proc::ready(svc, "solver-service")?;
+    let svc = Proc::ready(svc, "solver-service")?;
     let started = Instant::now();
-    let mut hands = Vec::new();
+    let mut children = Vec::new();
     for h in ["B", "A"] {
-        let file = dir.join(format!("{chain}-{seed}-{h}.txt"));
+        let file = dir.join(format!("{tag}-{h}.txt"));
         let child = Command::new(release_bin("hand")?)
-            .args(["--prefix", &prefix, "run", "--builtin", "needle-pass-held"])
+            .args(["--prefix", &prefix, "run", "--builtin", script])
             .args(["--hand", h, "--chain", chain, "--rate", "0", "--quiet"])
-            .args(["--turn-timeout", "120", "--perturb", &seed.to_string()])
+            .args(["--turn-timeout", "120"])
+            .args(extra)
             .arg("--timings")
             .arg(&file)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
             .context("start hand")?;
-        hands.push((child, file));
+        children.push((child, file));
     }
-    let mut out = Run {
-        failure: None,
-        tail: f64::NAN,
-        solve: Vec::new(),
-        refused: 0,
-        refusals: 0,
-    };
-    for (child, file) in &mut hands {
+    let (mut solve, mut refused_all, mut failure) = (Vec::new(), 0, None);
+    for (child, file) in &mut children {
         let status = loop {
             if let Some(s) = child.try_wait()? {
                 break s;
@@ -107,33 +118,53 @@ fn run(chain: &str, link: f64, seed: u64, dir: &Path) -> Result<Run> {
             let [_, solve_us, status] = f[..] else {
                 bail!("{}: bad line {line:?}", file.display());
             };
-            out.solve
-                .push((solve_us.parse::<f64>()? * 1e3).round() as u64);
+            solve.push((solve_us.parse::<f64>()? * 1e3).round() as u64);
             if status != "ok" {
                 refused += 1;
             }
         }
-        out.refused += refused;
-        // A hand exits 1 when a request of it was refused (counted apart); anything else fails.
+        refused_all += refused;
         if !(status.success() || (status.code() == Some(1) && refused > 0)) {
-            out.failure
-                .get_or_insert(format!("a hand failed ({status})"));
+            failure.get_or_insert(format!("a hand failed ({status})"));
         }
     }
-    if out.refused > 0 {
-        out.refusals = 1;
-    }
-    // The last state, checked here.
+    Ok((svc, prefix, solve, refused_all, failure))
+}
+
+/// The chain's joints and eyelets as the service has them.
+fn query(prefix: &str, chain: &str) -> Result<(Vec<[f64; 3]>, Vec<shared::EyeletState>)> {
     let mut conn = clients::Connection::connect(clients::ConnectOptions {
-        prefix: prefix.clone(),
+        prefix: prefix.to_string(),
         ..clients::ConnectOptions::default()
     })?;
     let id = conn.require_chain(chain)?;
     let r = conn.call(shared::RequestHeader::new(shared::Command::Query, id), &[])?;
     let parts = shared::Parts::of_response(&r.header, &r.payload);
-    let joints: Vec<[f64; 3]> = parts.joints.iter().map(|p| p.to_array()).collect();
-    let eyelets: Vec<shared::EyeletState> = parts.eyelet_states().collect();
-    drop(conn);
+    Ok((
+        parts.joints.iter().map(|p| p.to_array()).collect(),
+        parts.eyelet_states().collect(),
+    ))
+}
+
+fn run(chain: &str, link: f64, seed: u64, dir: &Path) -> Result<Run> {
+    let scene = workspace().join("solver-service/scenes/stitch.toml");
+    let (mut svc, prefix, solve, refused, failure) = hands(
+        &scene,
+        "needle-pass-held",
+        chain,
+        &["--perturb".into(), seed.to_string()],
+        &format!("{chain}-{seed}"),
+        dir,
+    )?;
+    let mut out = Run {
+        failure,
+        tail: f64::NAN,
+        solve,
+        refused,
+        refusals: usize::from(refused > 0),
+    };
+    // The last state, checked here.
+    let (joints, eyelets) = query(&prefix, chain)?;
     svc.stop();
     let mut fail = |why: String| {
         out.failure.get_or_insert(why);
@@ -190,6 +221,74 @@ fn run(chain: &str, link: f64, seed: u64, dir: &Path) -> Result<Run> {
     Ok(out)
 }
 
+/// The instrument ties over a bite: each built-in tie on each `stitch-tie` suture of `stitch.toml`,
+/// with the scene's friction and without (the scene copied with `eyelet_friction = 0`), unperturbed:
+/// the knot the service names at the end (`chainctl knot`), the refused requests, how far the bite's
+/// eyelets slid along the rope (links, the bench's own reading of the eyelets' links before and
+/// after), and the service's time per request.
+fn ties(dir: &Path) -> Result<()> {
+    let text = std::fs::read_to_string(workspace().join("solver-service/scenes/stitch.toml"))?;
+    let frictionless = dir.join("stitch-frictionless.toml");
+    std::fs::write(
+        &frictionless,
+        text.replace("eyelet_friction = 1.0", "eyelet_friction = 0.0"),
+    )?;
+    let shipped = workspace().join("solver-service/scenes/stitch.toml");
+    println!(
+        "\n| script | suture | links | eyelet friction | knot at the end | requests | refused | eyelets slid (links) | p50 µs | p99.9 µs | max µs |"
+    );
+    println!("|---|---|---:|---:|---|---:|---:|---|---:|---:|---:|");
+    for script in ["instrument-tie", "surgeons-knot"] {
+        for (chain, links) in [("stitch-tie", 40), ("stitch-tie-80", 80)] {
+            for (friction, scene) in [("1", &shipped), ("0", &frictionless)] {
+                let tag = format!("{script}-{chain}-{friction}");
+                let row = (|| -> Result<String> {
+                    let (mut svc, prefix, mut solve, refused, failure) =
+                        hands(scene, script, chain, &[], &tag, dir)?;
+                    let (_, after) = query(&prefix, chain)?;
+                    let out = Command::new(release_bin("chainctl")?)
+                        .args(["--prefix", &prefix, "knot", chain, "--json"])
+                        .output()
+                        .context("chainctl knot")?;
+                    svc.stop();
+                    if let Some(f) = failure {
+                        bail!("{f}");
+                    }
+                    let text = String::from_utf8_lossy(&out.stdout);
+                    let knot = text
+                        .split("\"knot\":\"")
+                        .nth(1)
+                        .and_then(|s| s.split('"').next())
+                        .unwrap_or("?")
+                        .to_string();
+                    // The scene's eyelets lie on links these suture's joints put them (the bench's
+                    // own: a straight rope along x from the origin).
+                    let link_len = 40.0 / links as f64;
+                    let slid: Vec<String> = after
+                        .iter()
+                        .map(|e| {
+                            let start = (e.at.x / link_len).floor() as i64;
+                            format!("{:+}", e.link as i64 - start)
+                        })
+                        .collect();
+                    solve.sort_unstable();
+                    Ok(format!(
+                        "{knot} | {} | {refused} | {} | {:.1} | {:.1} | {:.1}",
+                        solve.len(),
+                        slid.join(", "),
+                        pct(&solve, 0.5),
+                        pct(&solve, 0.999),
+                        pct(&solve, 1.0)
+                    ))
+                })()
+                .unwrap_or_else(|e| format!("failed: {e} | | | | | | "));
+                println!("| {script} | {chain} | {links} | {friction} | {row} |");
+            }
+        }
+    }
+    Ok(())
+}
+
 fn pct(v: &[u64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize] as f64 / 1e3
 }
@@ -242,5 +341,5 @@ fn main() -> Result<()> {
             pct(&solve, 1.0),
         );
     }
-    Ok(())
+    ties(dir.path())
 }
