@@ -74,7 +74,7 @@ fn hands(
     extra: &[String],
     tag: &str,
     dir: &Path,
-) -> Result<(Proc, String, Vec<u64>, usize, Option<String>)> {
+) -> Result<Ran> {
     let prefix = format!("stitch_{}_{tag}_", std::process::id());
     let mut svc = Command::new(release_bin("solver-service")?);
     svc.args(["--prefix", &prefix, "--scene"])
@@ -128,7 +128,23 @@ fn hands(
             failure.get_or_insert(format!("a hand failed ({status})"));
         }
     }
-    Ok((svc, prefix, solve, refused_all, failure))
+    Ok(Ran {
+        svc,
+        prefix,
+        solve,
+        refused: refused_all,
+        failure,
+    })
+}
+
+/// What [`hands`] leaves: the service (still running), its prefix, every request's `solve_ns`, the
+/// refused requests, and why a hand failed.
+struct Ran {
+    svc: Proc,
+    prefix: String,
+    solve: Vec<u64>,
+    refused: usize,
+    failure: Option<String>,
 }
 
 /// The chain's joints and eyelets as the service has them.
@@ -148,7 +164,13 @@ fn query(prefix: &str, chain: &str) -> Result<(Vec<[f64; 3]>, Vec<shared::Eyelet
 
 fn run(chain: &str, link: f64, seed: u64, dir: &Path) -> Result<Run> {
     let scene = workspace().join("solver-service/scenes/stitch.toml");
-    let (mut svc, prefix, solve, refused, failure) = hands(
+    let Ran {
+        mut svc,
+        prefix,
+        solve,
+        refused,
+        failure,
+    } = hands(
         &scene,
         "needle-pass-held",
         chain,
@@ -243,8 +265,13 @@ fn ties(dir: &Path) -> Result<()> {
             for (friction, scene) in [("1", &shipped), ("0", &frictionless)] {
                 let tag = format!("{script}-{chain}-{friction}");
                 let row = (|| -> Result<String> {
-                    let (mut svc, prefix, mut solve, refused, failure) =
-                        hands(scene, script, chain, &[], &tag, dir)?;
+                    let Ran {
+                        mut svc,
+                        prefix,
+                        mut solve,
+                        refused,
+                        failure,
+                    } = hands(scene, script, chain, &[], &tag, dir)?;
                     let (_, after) = query(&prefix, chain)?;
                     let out = Command::new(release_bin("chainctl")?)
                         .args(["--prefix", &prefix, "knot", chain, "--json"])
