@@ -670,7 +670,27 @@ fn instrument_tie_on(
     crossings: std::ops::RangeInclusive<u32>,
     determinant: u64,
 ) {
-    let svc = knot_service();
+    instrument_tie_in(
+        knot_service(),
+        script,
+        chain,
+        link,
+        kind,
+        crossings,
+        determinant,
+    );
+}
+
+/// [`instrument_tie_on`] on the service `svc` (its scene has `chain`); returns it for more checks.
+fn instrument_tie_in(
+    svc: Service,
+    script: &str,
+    chain: &str,
+    link: f64,
+    kind: KnotType,
+    crossings: std::ops::RangeInclusive<u32>,
+    determinant: u64,
+) -> Service {
     let id = svc.connect().find_chain(chain).unwrap().unwrap();
     // The links the driver holds: within its reach of the tail (its radius 0.8, half its length 7
     // and half the thickness 0.1: 7.9 units, rounded up to links, and one more; 9 on unit links),
@@ -773,6 +793,65 @@ fn instrument_tie_on(
         (driver_again.a.to_array(), driver_again.b.to_array()),
         (driver.a.to_array(), driver.b.to_array())
     );
+    svc
+}
+
+/// Issue 39: the surgeon's knot by instrument tie over a bite through tissue: `stitch.toml`'s
+/// `stitch-tie` (40 links) and `stitch-tie-80`, the suture of `tie` with its anchor replaced by an
+/// entry and an exit eyelet, the rope sticking in them by friction. Checked as the instrument ties
+/// are (every state, the knot by the tests' own determinant, the replay), and at the end both eyelets
+/// threaded on the rope (to 1e-9, measured here) on the links the scene put them on: the bite held
+/// while the knot was tied.
+#[test]
+fn two_hands_tie_the_surgeons_knot_over_a_bite_with_friction() {
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../solver-service/scenes/stitch.toml"
+    );
+    for (chain, link, points) in [
+        ("stitch-tie", 1.0, [14.5, 17.5]),
+        ("stitch-tie-80", 0.5, [15.25, 16.75]),
+    ] {
+        let svc = Service::start(
+            &unique_prefix(),
+            &[
+                "--scene",
+                scene,
+                "--wait",
+                "event",
+                "--no-persist",
+                "--state-buffer",
+                "1024",
+            ],
+        );
+        let svc = instrument_tie_in(
+            svc,
+            "surgeons-knot",
+            chain,
+            link,
+            KnotType::Surgeons,
+            8..=u32::MAX,
+            15,
+        );
+        let id = svc.connect().find_chain(chain).unwrap().unwrap();
+        let q = svc
+            .connect()
+            .call(RequestHeader::new(Command::Query, id), &[])
+            .unwrap();
+        let parts = shared::Parts::of_response(&q.header, &q.payload);
+        let eyelets: Vec<_> = parts.eyelet_states().collect();
+        assert_eq!(eyelets.len(), 2, "{chain}: {eyelets:?}");
+        for (e, x) in eyelets.iter().zip(points) {
+            assert!(e.threaded && e.at.x == x, "{chain}: {e:?}");
+            let (k, d, _) = tests::nearest_link(parts.joints, e.at.to_array());
+            assert!(d < 1e-9, "{chain}: eyelet {e:?} {d:e} off the rope");
+            assert_eq!(
+                k,
+                (x / link).floor() as usize,
+                "{chain}: the rope slid: {e:?}"
+            );
+        }
+    }
 }
 
 /// Two hand processes, started together, take turns on the 80-unit rope.
