@@ -63,8 +63,13 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
+/// Runs `compiler` with `args`, under the umask 022: iceoryx2 0.10 sets the process's umask while it
+/// binds a socket (`UnixDatagramSocket::bind`), so a compiler spawned by one test thread while another
+/// connects inherits an owner-only umask, and the linker writes the program without its execute bits
+/// ("Permission denied" running it; seen on a loaded CI runner).
 fn compile(compiler: &str, args: &[&str]) {
-    let out = Process::new(compiler)
+    let out = Process::new("sh")
+        .args(["-c", "umask 022; exec \"$0\" \"$@\"", compiler])
         .args(args)
         .output()
         .unwrap_or_else(|e| panic!("run {compiler}: {e}"));

@@ -233,8 +233,10 @@ fn the_readme_quick_start_of_every_language_moves_the_rope() {
                 .replace("target/release", &lib.display().to_string())
                 .replace("/tmp/", &format!("{}/", dir.path().display()))
                 .replace("--release", "--profile test");
+            // Under the umask 022: see `c_api::compile` (iceoryx2 sets the process's umask while it
+            // binds a socket; a program linked meanwhile lacked its execute bits on a loaded runner).
             let out = Process::new("sh")
-                .args(["-c", &cmd])
+                .args(["-c", &format!("umask 022; {cmd}")])
                 .current_dir(&root)
                 .env("TRACTRIX_IOX_PREFIX", &svc.prefix)
                 .output()
