@@ -112,27 +112,14 @@ where
                 },
                 other => other,
             };
-            let m = if g.eyelets.is_empty() {
-                tractrix::collision::push_by_obstacle(
-                    &mut g.chain,
-                    model,
-                    at,
-                    &to,
-                    opts.max_substeps,
-                    ws,
-                )?
-            } else {
-                tractrix::eyelet::push_threaded(
-                    &mut g.chain,
-                    model,
-                    at,
-                    &to,
-                    &g.eyelets,
-                    opts.max_substeps,
-                    ws,
-                    &mut g.eyelet_ws,
-                )?
-            };
+            let m = push(
+                &mut g.chain,
+                (model, ws),
+                at,
+                &to,
+                (&g.eyelets, &mut g.eyelet_ws),
+                opts.max_substeps,
+            )?;
             model.obstacles[at] = to;
             outcome.substeps = outcome.substeps.saturating_add(m.substeps);
             outcome.collision_iterations = outcome
@@ -158,23 +145,42 @@ where
         return Err(ChainError::BadOption("the chain has no instruments").into());
     };
     let to = instrument_pose(&model.obstacles[at], centre, axis);
-    let m = if g.eyelets.is_empty() {
-        tractrix::collision::push_by_obstacle(&mut g.chain, model, at, &to, max_substeps, ws)?
-    } else {
-        // The links through the eyelets stay (the rope does not slide through them under a push).
-        tractrix::eyelet::push_threaded(
-            &mut g.chain,
-            model,
-            at,
-            &to,
-            &g.eyelets,
-            max_substeps,
-            ws,
-            &mut g.eyelet_ws,
-        )?
-    };
+    let m = push(
+        &mut g.chain,
+        (model, ws),
+        at,
+        &to,
+        (&g.eyelets, &mut g.eyelet_ws),
+        max_substeps,
+    )?;
     model.obstacles[at] = to;
     Ok(m)
+}
+
+/// Instrument `at` of the model pushed to the pose `to`, the chain giving way; on a chain with eyelets
+/// the links through them stay (the rope does not slide through them under a push).
+fn push<T: Real, const D: usize>(
+    chain: &mut tractrix::Chain<T, D>,
+    (model, ws): (
+        &tractrix::collision::CollisionModel<T, D>,
+        &mut tractrix::collision::CollisionWorkspace<T, D>,
+    ),
+    at: usize,
+    to: &Obstacle<T, D>,
+    (eyelets, ews): (
+        &[tractrix::eyelet::Eyelet<T, D>],
+        &mut tractrix::eyelet::EyeletWorkspace<T, D>,
+    ),
+    max_substeps: u32,
+) -> Result<MoveOutcome, Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    Ok(if eyelets.is_empty() {
+        tractrix::collision::push_by_obstacle(chain, model, at, to, max_substeps, ws)?
+    } else {
+        tractrix::eyelet::push_threaded(chain, model, at, to, eyelets, max_substeps, ws, ews)?
+    })
 }
 
 /// A move or a path of `joint` on one chain (held sides solved as fixed-base chains). The chain may

@@ -16,6 +16,23 @@ fn rope() -> Chain<f64, 3> {
     Chain::straight(40, 1.0, V::zeros(), V::x()).unwrap()
 }
 
+/// Capsule self-collision at the default options (thickness 0.2), nothing else.
+fn capsules() -> tractrix::collision::CollisionModel<f64, 3> {
+    tractrix::collision::CollisionModel {
+        options: tractrix::collision::CollisionOptions::default(),
+        obstacles: vec![],
+        holding: vec![],
+    }
+}
+
+/// Eyelets at x = 10.5 and 25.5 on the straight rope.
+fn two_eyelets(r: &Chain<f64, 3>) -> [Eyelet<f64, 3>; 2] {
+    [
+        Eyelet::thread(r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap(),
+        Eyelet::thread(r, V::new(25.5, 0.0, 0.0), 1e-9).unwrap(),
+    ]
+}
+
 /// The distance from `p` to the segment `a`–`b`, computed here.
 fn to_segment(a: V, b: V, p: V) -> f64 {
     let ab = b - a;
@@ -188,10 +205,7 @@ fn a_moving_eyelet_carries_the_rope_with_it() {
     let mut ws = EyeletWorkspace::new();
     // Along the rope's axis by 5: the straight rope is translated as a whole (computed here).
     let mut r = rope();
-    let mut e = [
-        Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap(),
-        Eyelet::thread(&r, V::new(25.5, 0.0, 0.0), 1e-9).unwrap(),
-    ];
+    let mut e = two_eyelets(&r);
     let before = r.positions();
     move_eyelet(&mut r, 0, V::new(15.5, 0.0, 0.0), &mut e, 1000, &mut ws).unwrap();
     for (k, (a, b)) in before.iter().zip(r.positions()).enumerate() {
@@ -206,10 +220,7 @@ fn a_moving_eyelet_carries_the_rope_with_it() {
     // Sideways by 3: the link through it is carried (its joints moved by exactly the shift), the rope
     // follows on both sides and stays on the other eyelet.
     let mut r = rope();
-    let mut e = [
-        Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap(),
-        Eyelet::thread(&r, V::new(25.5, 0.0, 0.0), 1e-9).unwrap(),
-    ];
+    let mut e = two_eyelets(&r);
     move_eyelet(&mut r, 0, V::new(10.5, 3.0, 0.0), &mut e, 1000, &mut ws).unwrap();
     let p = r.positions();
     assert!(
@@ -274,20 +285,13 @@ fn clearance(p: &[V]) -> f64 {
 /// moves without collision bring links closer than that: the test exercises contact.
 #[test]
 fn with_collision_the_rope_keeps_its_eyelets_and_its_thickness() {
-    use tractrix::collision::{CollisionModel, CollisionOptions, CollisionWorkspace};
+    use tractrix::collision::CollisionWorkspace;
     use tractrix::eyelet::move_threaded_colliding;
-    let model = CollisionModel {
-        options: CollisionOptions::default(),
-        obstacles: vec![],
-        holding: vec![],
-    };
+    let model = capsules();
     let mut rng = Rng(0xC011);
     let (mut ws, mut cws) = (EyeletWorkspace::new(), CollisionWorkspace::new());
     let mut r = rope();
-    let mut e = [
-        Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap(),
-        Eyelet::thread(&r, V::new(25.5, 0.0, 0.0), 1e-9).unwrap(),
-    ];
+    let mut e = two_eyelets(&r);
     let mut free = r.clone();
     let (mut accepted, mut refused, mut would_touch, mut resolved) = (0, 0, 0, 0);
     // First over the rope's middle, then round about it.
@@ -627,20 +631,13 @@ fn with_collision_a_held_tail_stays_and_the_rope_keeps_its_thickness() {
     // rope's middle and moved about it with capsule collision: after every accepted move the tail is
     // where it was bit for bit, each point on its link, and links two or more apart a thickness apart
     // (less the 1 % tolerance), all computed here; a refusal changes nothing.
-    use tractrix::collision::{CollisionModel, CollisionOptions, CollisionWorkspace};
+    use tractrix::collision::CollisionWorkspace;
     use tractrix::eyelet::move_threaded_colliding;
-    let model = CollisionModel {
-        options: CollisionOptions::default(),
-        obstacles: vec![],
-        holding: vec![],
-    };
+    let model = capsules();
     let mut rng = Rng(0x4E1DC);
     let (mut ws, mut cws) = (EyeletWorkspace::new(), CollisionWorkspace::new());
     let mut r = rope();
-    let mut e = [
-        Eyelet::thread(&r, V::new(10.5, 0.0, 0.0), 1e-9).unwrap(),
-        Eyelet::thread(&r, V::new(25.5, 0.0, 0.0), 1e-9).unwrap(),
-    ];
+    let mut e = two_eyelets(&r);
     for p in [V::new(3.0, 4.0, 0.0), V::new(7.0, 5.0, 1.0)] {
         move_threaded(&mut r, 0, p, &mut e, 1000, &mut ws).unwrap();
     }
