@@ -17,23 +17,28 @@
 //! A move is split into substeps of at most half the shortest link, so that a push carries no joint
 //! past more than one eyelet in one substep (the aim rule alone would pull through by any length). Two eyelets may not come within one link of each other
 //! along the rope (the link through both would be overconstrained): such a move is refused, the chain
-//! unchanged. Friction (how much of a pull the eyelet lets through) is not modelled here: these
-//! eyelets slide freely.
+//! unchanged.
 //!
 //! **Held joints.** On a side of the moved joint with a held joint (an anchor, a grasp), the rope
 //! between them is a fixed-base chain threaded through the eyelets between: the walk from the moved
 //! joint to the held one and the walk back from the held joint (put back where it is held) to the
 //! moved one alternate, as FABRIK's passes do, each a tractrix walk with the aim rule; when the walk
 //! out meets the held joint within a tolerance, the two links before it close on it in closed form.
-//! A nearly taut rope passes each correction on almost undamped, so after a few alternations Korein
-//! & Badler's reach hierarchy finishes from the last pose: from the held joint outward each link
-//! keeps its direction unless the rope after it could then no longer reach the target through the
-//! eyelets ahead, and the last two links close on the target. The held joints stay bit for bit, the
-//! moved joint lands on its target, and every length and eyelet is exact. A target farther from the
-//! held joint, along the shortest way through the eyelets between, than the rope between them is
-//! refused with the nearest point that way reaches; within about a link of taut a move may be refused
-//! as not converged (a link passes straight through an eyelet, so the rope cannot bend at it). An
-//! eyelet may not lie on the two links next to a held joint on the moved joint's side.
+//! A nearly taut rope passes each correction on almost undamped, so after a few alternations (or one
+//! that stalls) Korein & Badler's reach hierarchy finishes from the last pose: from the moved joint
+//! on its target (else from the held joint) each link keeps its direction unless the rope after it
+//! could then no longer reach the far end through the eyelets ahead, the rope is led straight to an
+//! eyelet from the link that passed through it before, and the last two links close on the far end.
+//! The held joints stay bit for bit, the moved joint lands on its target, and every length and eyelet
+//! is exact. A target farther from the held joint, along the shortest way through the eyelets
+//! between, than the rope between them is refused with the nearest point that way reaches; within
+//! about a link of taut a move may be refused as not converged (a link passes straight through an
+//! eyelet, so the rope cannot bend at it). An eyelet may not lie on the two links next to a held
+//! joint on the moved joint's side.
+//!
+//! **Friction** ([`EyeletWorkspace::with_friction`]): above 0 a move first holds the rope in every
+//! eyelet (both joints of the link through it, as held joints) and slides it only when the rope on
+//! the moved joint's side is taut.
 //!
 //! Allocation-free per move: the positions are worked on in the caller's [`EyeletWorkspace`].
 
