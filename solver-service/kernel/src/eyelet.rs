@@ -38,7 +38,7 @@
 //!
 //! **Friction** ([`EyeletWorkspace::with_friction`]): above 0 a move first holds the rope in every
 //! eyelet (both joints of the link through it, as held joints) and slides it only when the rope on
-//! the moved joint's side is taut.
+//! the moved joint's side is taut; infinite friction never slides.
 //!
 //! Allocation-free per move: the positions are worked on in the caller's [`EyeletWorkspace`].
 
@@ -221,9 +221,11 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
     /// by the tractrix; any positive value makes it stick in each while the rope on the moved
     /// joint's side can make the move without sliding (the link through each eyelet then stays put,
     /// as if both its joints were held, and nothing beyond it moves), and slide, as without
-    /// friction, only when it cannot: the rope there is taut. With an inextensible, massless rope
-    /// Coulomb friction decides no more than that: how large it is would only change the force a
-    /// taut rope needs to slide, which a kinematic solve does not compute (docs/eyelets.md).
+    /// friction, only when it cannot: the rope there is taut. Infinite friction never slides: the
+    /// eyelets act as holds, and a move the rope cannot make is refused. With an inextensible,
+    /// massless rope Coulomb friction decides no more than that: how large a finite friction is would
+    /// only change the force a taut rope needs to slide, which a kinematic solve does not compute
+    /// (docs/eyelets.md).
     pub fn with_friction(mut self, friction: f64) -> Self {
         self.friction = if friction.is_finite() {
             friction.max(0.0)
@@ -328,7 +330,7 @@ where
 {
     let stick = sticks(eyelets, ws);
     match threaded_once(chain, joint, target, eyelets, max_substeps, ws, stick) {
-        Err(e) if stick && taut(&e) => {
+        Err(e) if stick && taut(&e) && ws.friction.is_finite() => {
             threaded_once(chain, joint, target, eyelets, max_substeps, ws, false)
         }
         Ok(mut o) => {
@@ -921,6 +923,7 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let stick = sticks(eyelets, ws);
+    let slides = ws.friction.is_finite();
     let mut once = |chain: &mut Chain<T, D>, eyelets: &mut [Eyelet<T, D>], stick| {
         threaded_colliding_once(
             chain,
@@ -934,7 +937,7 @@ where
         )
     };
     match once(chain, eyelets, stick) {
-        Err(e) if stick && taut(&e) => once(chain, eyelets, false),
+        Err(e) if stick && taut(&e) && slides => once(chain, eyelets, false),
         Ok(mut o) => {
             o.stuck = stick;
             Ok(o)

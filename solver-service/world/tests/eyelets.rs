@@ -443,7 +443,7 @@ fn with_friction_the_rope_sticks_in_the_eyelets_until_pulled_taut() {
     let t = threaded(&w);
     assert!(t[1].0 < 25 && t[0].0 < 10, "{t:?}");
     for (extra, says) in [
-        ("eyelet_friction = -1.0\n", "not a finite number"),
+        ("eyelet_friction = -1.0\n", "not a number ≥ 0"),
         ("eyelet_friction = 1.0\n", "eyelets or tissue"),
     ] {
         let text = if says == "eyelets or tissue" {

@@ -728,9 +728,23 @@ fn with_friction_the_rope_sticks_in_the_eyelet_until_the_pulled_side_is_taut() {
         "without friction the same moves leave the far side: {:?}",
         e0[0].link
     );
-    // Pulled 30 from the eyelet (its side has 19.5 of rope): with friction it slides now.
-    let mut ws = EyeletWorkspace::new().with_friction(1.0);
+    // Pulled 30 from the eyelet (its side has 19.5 of rope): with infinite friction the eyelet acts
+    // as a hold and the pull is refused, nothing changed; with friction it slides now.
     let (mut r, mut e) = (r, e);
+    let before = (r.positions(), e[0].link);
+    let mut hold = EyeletWorkspace::new().with_friction(f64::INFINITY);
+    let refused = move_threaded(&mut r, 40, V::new(50.0, 4.0, 0.0), &mut e, 1000, &mut hold);
+    assert!(
+        matches!(
+            refused,
+            Err(EyeletError::Chain(
+                tractrix::ChainError::HeldUnreachable { .. }
+            ))
+        ),
+        "{refused:?}"
+    );
+    assert_eq!((r.positions(), e[0].link), before);
+    let mut ws = EyeletWorkspace::new().with_friction(1.0);
     let o = move_threaded(&mut r, 40, V::new(50.0, 4.0, 0.0), &mut e, 1000, &mut ws).unwrap();
     assert!(!o.stuck && e[0].link < 20, "{o:?} {:?}", e[0]);
     assert_ne!(r.joint(0), far[0], "the far side followed");

@@ -37,7 +37,7 @@
 //! | `joint_range` / `joint_ranges` | `[lo, hi]` degrees / list of `links + 1` pairs | – | signed range of every joint / per joint; planar chains only |
 //! | `eyelets` | list of points on the chain | `[]` | fixed points the rope slides through (free chains; docs/eyelets.md) |
 //! | `tissue` | `[lo, hi]` box corners | – | a block the head pierces, making eyelets (free spatial chains) |
-//! | `eyelet_friction` | number ≥ 0 | 0 | 0: the rope slides freely through the eyelets; more: it sticks in them until the pulled side is taut |
+//! | `eyelet_friction` | number ≥ 0, or `inf` | 0 | 0: the rope slides freely through the eyelets; more: it sticks in them until the pulled side is taut; `inf`: it never slides |
 //!
 //! At most one of the limit fields (`tractrix::limits`): the angle at joint `j` is the turn from link
 //! `j` to link `j + 1` (0 where the chain runs straight; counter-clockwise positive in the plane), the

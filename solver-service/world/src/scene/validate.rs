@@ -731,12 +731,12 @@ fn chain(
                 "friction is for a chain with eyelets or tissue".into(),
             ));
         }
-        Some(x) if x.get_ref().is_finite() && *x.get_ref() >= 0.0 => *x.get_ref(),
+        Some(x) if *x.get_ref() >= 0.0 => *x.get_ref(),
         Some(x) => {
             return Err(f.err(
                 x.span(),
                 "eyelet_friction",
-                format!("{} is not a finite number ≥ 0", x.get_ref()),
+                format!("{} is not a number ≥ 0 (or inf)", x.get_ref()),
             ));
         }
         None => 0.0,
