@@ -143,12 +143,24 @@ impl World {
             } => {
                 // With held joints, each side up to a held joint iterates the fixed-base method: at
                 // most `hierarchy_after` tractrix passes, then the hierarchy's one pass.
-                let held = each_form!(&self.geometry[chain as usize], h => h.chain.held().any(|j| j != joint));
+                let (held, threaded) = each_form!(&self.geometry[chain as usize], h => (
+                    h.chain.held().any(|j| j != joint),
+                    h.eyelets.iter().any(|e| e.threaded),
+                ));
+                // Friction holds the links through the eyelets as held joints.
+                let sticks = threaded && spec.eyelet_friction > 0.0;
                 // With joint limits the hierarchy's pose is kept only when it lands within them, so
                 // the passes may run to `max_iterations`, each with a try of the hierarchy (two);
                 // boundary following takes its passes from these (`ReachOptions::passes_bound`).
-                let passes = if held {
-                    options.held.passes_bound(spec.limits.is_some())
+                // Through eyelets each alternation walks out and back (two passes), and with
+                // friction a stuck try that finds the rope taut is tried again sliding (twice).
+                let passes = if held || sticks {
+                    let p = options.held.passes_bound(spec.limits.is_some());
+                    match (threaded, sticks) {
+                        (false, _) => p,
+                        (true, false) => p.saturating_mul(2),
+                        (true, true) => p.saturating_mul(4),
+                    }
                 } else {
                     1
                 };
