@@ -328,11 +328,39 @@ pub fn move_threaded<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    threaded(chain, joint, target, eyelets, max_substeps, ws, None)
+}
+
+/// A threaded move, with collision when `collision` is given: stuck in the eyelets first when there
+/// is friction, sliding when that finds the rope taut (and the friction finite).
+fn threaded<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    target: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    ws: &mut EyeletWorkspace<T, D>,
+    mut collision: Option<Collision<'_, T, D>>,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
     let stick = sticks(eyelets, ws);
-    match threaded_once(chain, joint, target, eyelets, max_substeps, ws, stick) {
-        Err(e) if stick && taut(&e) && ws.friction.is_finite() => {
-            threaded_once(chain, joint, target, eyelets, max_substeps, ws, false)
-        }
+    let slides = ws.friction.is_finite();
+    let mut once = |chain: &mut Chain<T, D>, eyelets: &mut [Eyelet<T, D>], stick| {
+        let collision = collision.as_mut().map(|(m, c)| (*m, &mut **c));
+        threaded_once(
+            chain,
+            (joint, target),
+            eyelets,
+            max_substeps,
+            &mut *ws,
+            stick,
+            collision,
+        )
+    };
+    match once(chain, eyelets, stick) {
+        Err(e) if stick && taut(&e) && slides => once(chain, eyelets, false),
         Ok(mut o) => {
             o.stuck = stick;
             Ok(o)
@@ -340,6 +368,12 @@ where
         r => r,
     }
 }
+
+/// A collision model and its workspace, for the moves that resolve contacts.
+type Collision<'a, T, const D: usize> = (
+    &'a crate::collision::CollisionModel<T, D>,
+    &'a mut crate::collision::CollisionWorkspace<T, D>,
+);
 
 /// Whether a move sticks the rope in the eyelets first: friction, and an eyelet threaded.
 fn sticks<T: Real, const D: usize>(eyelets: &[Eyelet<T, D>], ws: &EyeletWorkspace<T, D>) -> bool {
@@ -358,55 +392,80 @@ fn taut(e: &EyeletError) -> bool {
     )
 }
 
-/// One try of [`move_threaded`], the rope stuck in the eyelets (`stick`) or sliding.
+/// One try of a threaded move, the rope stuck in the eyelets (`stick`) or sliding; with collision,
+/// the contacts resolved after every substep and the chain restored from the workspace's backup on a
+/// refusal.
 fn threaded_once<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
-    joint: usize,
-    target: Vector<T, D>,
+    (joint, target): (usize, Vector<T, D>),
     eyelets: &mut [Eyelet<T, D>],
     max_substeps: u32,
     ws: &mut EyeletWorkspace<T, D>,
     stick: bool,
+    mut collision: Option<Collision<'_, T, D>>,
 ) -> Result<Threaded, EyeletError>
 where
     Vector<T, D>: Embed3<T>,
 {
     admit(chain, joint, &target, eyelets)?;
+    if collision.is_some() {
+        ws.keep(chain);
+    }
     ws.begin(chain, eyelets);
     let holds = Holds::of(chain, joint, &target, eyelets, ws, stick)?;
-    let lengths = chain.lengths();
     let from = ws.new[joint];
     let way = target - from;
-    let (k, steps) = substeps(chain, &way, max_substeps)?;
+    let (mut k, mut steps) = substeps(chain, &way, max_substeps)?;
+    if let Some((model, _)) = &collision {
+        (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
+    }
     let mut out = Threaded::default();
     for s in 1..=steps {
-        std::mem::swap(&mut ws.old, &mut ws.new);
+        if collision.is_some() {
+            // The pose the last resolution left.
+            chain.write_positions(&mut ws.old);
+        } else {
+            std::mem::swap(&mut ws.old, &mut ws.new);
+        }
         let to = from + way * (T::lit(f64::from(s)) / k);
-        match substep(
+        let done = substep(
             &ws.old,
             &mut ws.new,
             &mut ws.alt,
-            lengths,
+            chain.lengths(),
             joint,
             to,
             eyelets,
             &holds,
             &mut ws.ahead,
-        ) {
+        )
+        .and_then(|left| {
+            if let Some((model, cws)) = collision.as_mut() {
+                set_threaded(chain, joint, &ws.new)?;
+                resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
+            }
+            Ok(left)
+        });
+        match done {
             Ok((left, iterations)) => {
                 out.left += left;
                 out.held_iterations += iterations;
             }
-            Err(e) => {
+            Err(err) => {
+                if let (Some(_), Some(b)) = (&collision, &ws.backup) {
+                    chain.copy_from(b);
+                }
                 for (e, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
                     (e.link, e.threaded) = (link, on);
                 }
-                return Err(e);
+                return Err(err);
             }
         }
         out.substeps = s;
     }
-    set_threaded(chain, joint, &ws.new)?;
+    if collision.is_none() {
+        set_threaded(chain, joint, &ws.new)?;
+    }
     Ok(out)
 }
 
@@ -922,94 +981,15 @@ pub fn move_threaded_colliding<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    let stick = sticks(eyelets, ws);
-    let slides = ws.friction.is_finite();
-    let mut once = |chain: &mut Chain<T, D>, eyelets: &mut [Eyelet<T, D>], stick| {
-        threaded_colliding_once(
-            chain,
-            joint,
-            target,
-            eyelets,
-            max_substeps,
-            (model, &mut *cws),
-            &mut *ws,
-            stick,
-        )
-    };
-    match once(chain, eyelets, stick) {
-        Err(e) if stick && taut(&e) && slides => once(chain, eyelets, false),
-        Ok(mut o) => {
-            o.stuck = stick;
-            Ok(o)
-        }
-        r => r,
-    }
-}
-
-/// One try of [`move_threaded_colliding`], the rope stuck in the eyelets (`stick`) or sliding.
-#[allow(clippy::too_many_arguments)]
-fn threaded_colliding_once<T: Real, const D: usize>(
-    chain: &mut Chain<T, D>,
-    joint: usize,
-    target: Vector<T, D>,
-    eyelets: &mut [Eyelet<T, D>],
-    max_substeps: u32,
-    (model, cws): (
-        &crate::collision::CollisionModel<T, D>,
-        &mut crate::collision::CollisionWorkspace<T, D>,
-    ),
-    ws: &mut EyeletWorkspace<T, D>,
-    stick: bool,
-) -> Result<Threaded, EyeletError>
-where
-    Vector<T, D>: Embed3<T>,
-{
-    admit(chain, joint, &target, eyelets)?;
-    ws.keep(chain);
-    ws.begin(chain, eyelets);
-    let holds = Holds::of(chain, joint, &target, eyelets, ws, stick)?;
-    let from = ws.new[joint];
-    let way = target - from;
-    let (k, _) = substeps(chain, &way, max_substeps)?;
-    let (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
-    let mut out = Threaded::default();
-    for s in 1..=steps {
-        chain.write_positions(&mut ws.old);
-        let to = from + way * (T::lit(f64::from(s)) / k);
-        let done = substep(
-            &ws.old,
-            &mut ws.new,
-            &mut ws.alt,
-            chain.lengths(),
-            joint,
-            to,
-            eyelets,
-            &holds,
-            &mut ws.ahead,
-        )
-        .and_then(|left| {
-            set_threaded(chain, joint, &ws.new)?;
-            resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
-            Ok(left)
-        });
-        match done {
-            Ok((left, iterations)) => {
-                out.left += left;
-                out.held_iterations += iterations;
-            }
-            Err(err) => {
-                if let Some(b) = &ws.backup {
-                    chain.copy_from(b);
-                }
-                for (e, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
-                    (e.link, e.threaded) = (link, on);
-                }
-                return Err(err);
-            }
-        }
-        out.substeps = s;
-    }
-    Ok(out)
+    threaded(
+        chain,
+        joint,
+        target,
+        eyelets,
+        max_substeps,
+        ws,
+        Some((model, cws)),
+    )
 }
 
 /// Moves obstacle `which` of `model` (an instrument) to the pose `to`, pushing the threaded chain
