@@ -1172,10 +1172,7 @@ fn eyelet_moves<T: Real, const D: usize>(
     eyelets: &mut [Eyelet<T, D>],
     max_substeps: u32,
     ws: &mut EyeletWorkspace<T, D>,
-    mut collision: Option<(
-        &crate::collision::CollisionModel<T, D>,
-        &mut crate::collision::CollisionWorkspace<T, D>,
-    )>,
+    mut collision: Option<Collision<'_, T, D>>,
 ) -> Result<Threaded, EyeletError>
 where
     Vector<T, D>: Embed3<T>,

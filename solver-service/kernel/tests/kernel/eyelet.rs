@@ -25,6 +25,20 @@ fn capsules() -> tractrix::collision::CollisionModel<f64, 3> {
     }
 }
 
+/// Whether the same move of the head without collision, from the same pose (copied into `free`),
+/// brings links closer than the thickness (0.2) less the 1 % tolerance.
+fn touches_without_collision(
+    r: &Chain<f64, 3>,
+    mut e: [Eyelet<f64, 3>; 2],
+    to: V,
+    free: &mut Chain<f64, 3>,
+    ws: &mut EyeletWorkspace<f64, 3>,
+) -> bool {
+    free.copy_from(r);
+    move_threaded(free, 40, to, &mut e, 10_000, ws).is_ok()
+        && clearance(&free.positions()) < 0.2 * 0.99
+}
+
 /// Eyelets at x = 10.5 and 25.5 on the straight rope.
 fn two_eyelets(r: &Chain<f64, 3>) -> [Eyelet<f64, 3>; 2] {
     [
@@ -308,11 +322,7 @@ fn with_collision_the_rope_keeps_its_eyelets_and_its_thickness() {
                 )
         };
         let (before, links) = (r.positions(), e.map(|e| e.link));
-        // The same move without collision, from the same pose: does it bring links too close?
-        free.copy_from(&r);
-        let mut free_e = e;
-        let touch = move_threaded(&mut free, 40, to, &mut free_e, 10_000, &mut ws).is_ok()
-            && clearance(&free.positions()) < 0.2 * 0.99;
+        let touch = touches_without_collision(&r, e, to, &mut free, &mut ws);
         match move_threaded_colliding(&mut r, 40, to, &mut e, 10_000, &model, &mut cws, &mut ws) {
             Ok(_) => {
                 accepted += 1;
@@ -659,11 +669,7 @@ fn with_collision_a_held_tail_stays_and_the_rope_keeps_its_thickness() {
                 )
         };
         let (before, links) = (r.positions(), e.map(|e| e.link));
-        // The same move without collision, from the same pose: does it bring links too close?
-        free.copy_from(&r);
-        let mut free_e = e;
-        let touch = move_threaded(&mut free, 40, to, &mut free_e, 10_000, &mut ws).is_ok()
-            && clearance(&free.positions()) < 0.2 * 0.99;
+        let touch = touches_without_collision(&r, e, to, &mut free, &mut ws);
         match move_threaded_colliding(&mut r, 40, to, &mut e, 10_000, &model, &mut cws, &mut ws) {
             Ok(_) => {
                 accepted += 1;
