@@ -442,6 +442,7 @@ where
         .and_then(|left| {
             if let Some((model, cws)) = collision.as_mut() {
                 set_threaded(chain, joint, &ws.new)?;
+                cws.pass_through(through_block(&ws.new, chain.min_length(), eyelets, model));
                 resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
             }
             Ok(left)
@@ -1017,6 +1018,9 @@ where
     }
     ws.fixed.sort_unstable();
     ws.fixed.dedup();
+    ws.old.resize(chain.n_links() + 1, Vector::zeros());
+    chain.write_positions(&mut ws.old);
+    cws.pass_through(through_block(&ws.old, chain.min_length(), eyelets, model));
     Ok(crate::collision::push_fixing(
         chain,
         model,
@@ -1026,6 +1030,58 @@ where
         &ws.fixed,
         cws,
     )?)
+}
+
+/// The links of a rope at `pos` that pass through the model's block (tissue,
+/// [`crate::collision::Obstacle::Block`]): from the link before the first threaded eyelet's to the
+/// link after the last one's; to the head while the rope has gone in and not out (an odd number of
+/// eyelets: the needle on its way through, its way out made an eyelet only after the move); and,
+/// while the head is within a thickness of the block (the needle's point going in), from the link
+/// before the first one back from the head that is not. Each span is widened by the links within a
+/// thickness of its ends (at least one): the eyelet link's joints, which the resolution keeps where
+/// they are, lie within a link of the surface, so the rope beside them may lie on it or dip into it
+/// (seen at 160 links, a joint beside the entry 0.08 under the surface, the rope pushed out of the
+/// block there locked the pull). Empty when the model has no block.
+fn through_block<T: Real, const D: usize>(
+    pos: &[Vector<T, D>],
+    min_length: T,
+    eyelets: &[Eyelet<T, D>],
+    model: &crate::collision::CollisionModel<T, D>,
+) -> core::ops::Range<usize> {
+    let Some((lo, hi)) = model.obstacles.iter().find_map(|o| match o {
+        crate::collision::Obstacle::Block { lo, hi } => Some((lo, hi)),
+        _ => None,
+    }) else {
+        return 0..0;
+    };
+    let n = pos.len() - 1;
+    let margin = model.options.thickness;
+    let inside =
+        |p: &Vector<T, D>| (0..D).all(|k| lo[k] - margin <= p[k] && p[k] <= hi[k] + margin);
+    let mut span: Option<(usize, usize)> = None;
+    let mut widen = |a: usize, b: usize| {
+        span = Some(span.map_or((a, b), |(x, y)| (x.min(a), y.max(b))));
+    };
+    // The links within a thickness of a span's end, and one more.
+    let beside = 1 + (margin / min_length).ceil().to_f64().min(n as f64) as usize;
+    let mut threaded = eyelets.iter().filter(|e| e.threaded).map(|e| e.link);
+    if let Some(first) = threaded.next() {
+        let (count, last) = threaded.fold((1usize, first), |(c, _), l| (c + 1, l));
+        let end = if count % 2 == 1 {
+            n
+        } else {
+            (last + 1 + beside).min(n)
+        };
+        widen(first.saturating_sub(beside), end);
+    }
+    if inside(&pos[n]) {
+        let mut j = n;
+        while j > 0 && inside(&pos[j]) {
+            j -= 1;
+        }
+        widen(j.saturating_sub(beside), n);
+    }
+    span.map_or(0..0, |(a, b)| a..b)
 }
 
 /// The substeps `k` of a move along `way` raised to at most half the smallest clearance each (no

@@ -260,7 +260,7 @@ where
         Obstacle::Sphere { center, radius } => (center, center, radius, false),
         Obstacle::Capsule { a, b, radius } => (a, b, radius, true),
         // Never an instrument (the scene declares spheres and capsules only).
-        Obstacle::HalfSpace { .. } => return Point::zeros(),
+        Obstacle::HalfSpace { .. } | Obstacle::Block { .. } => return Point::zeros(),
     };
     match e {
         0 => to_point(&a),

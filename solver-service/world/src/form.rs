@@ -144,7 +144,7 @@ where
                 let pts: Vec<Vector<T, D>> = match o {
                     Obstacle::Sphere { center, .. } => vec![*center],
                     Obstacle::Capsule { a, b, .. } => vec![*a, *b],
-                    Obstacle::HalfSpace { .. } => vec![],
+                    Obstacle::HalfSpace { .. } | Obstacle::Block { .. } => vec![],
                 };
                 pts.iter()
                     .flat_map(|p| p.iter().map(|x| x.to_f64()).collect::<Vec<_>>())
@@ -258,7 +258,7 @@ fn holding(spec: &ChainSpec, c: &crate::scene::CollisionSpec) -> Vec<tractrix::c
             let extent = match o {
                 Obstacle::Sphere { radius, .. } => *radius,
                 Obstacle::Capsule { a, b, radius } => radius + 0.5 * (b - a).norm(),
-                Obstacle::HalfSpace { .. } => 0.0,
+                Obstacle::HalfSpace { .. } | Obstacle::Block { .. } => 0.0,
             };
             let reach = ((extent + 0.5 * c.options.thickness) / spec.shortest).ceil();
             let reach = if reach.is_finite() {
@@ -267,7 +267,7 @@ fn holding(spec: &ChainSpec, c: &crate::scene::CollisionSpec) -> Vec<tractrix::c
                 n
             };
             Some(tractrix::collision::Holding {
-                obstacle: c.obstacles.len() + k,
+                obstacle: c.obstacles.len() + usize::from(spec.tissue.is_some()) + k,
                 links: j.saturating_sub(reach)..(j + reach).min(n),
             })
         })
@@ -312,10 +312,18 @@ where
                 point: v(point),
                 normal: v(normal),
             },
+            Obstacle::Block { lo, hi } => Obstacle::Block {
+                lo: v(lo),
+                hi: v(hi),
+            },
         };
+        // The scene's obstacles, the chain's tissue (a block the rope stays out of but between its
+        // eyelets), then its instruments.
+        let tissue = spec.tissue.map(|(lo, hi)| Obstacle::Block { lo, hi });
         let obstacles: Vec<Obstacle<T, D>> = c
             .obstacles
             .iter()
+            .chain(tissue.as_ref())
             .chain(c.instruments.iter().map(|(_, o)| o))
             .map(convert)
             .collect();
@@ -334,7 +342,9 @@ where
         };
         (model, CollisionWorkspace::new())
     });
-    let instruments_at = spec.collision.as_ref().map_or(0, |c| c.obstacles.len());
+    let instruments_at = spec.collision.as_ref().map_or(0, |c| {
+        c.obstacles.len() + usize::from(spec.tissue.is_some())
+    });
     let mut prefix = Vec::with_capacity(spec.lengths.len() + 1);
     prefix.push(0.0);
     for l in &spec.lengths {

@@ -624,7 +624,7 @@ where
     let (c0, a0) = match from {
         Obstacle::Sphere { center, .. } => (v(&center), None),
         Obstacle::Capsule { a, b, .. } => ((v(&a) + v(&b)) * 0.5, Some(v(&b) - v(&a))),
-        Obstacle::HalfSpace { .. } => (Point::zeros(), None),
+        Obstacle::HalfSpace { .. } | Obstacle::Block { .. } => (Point::zeros(), None),
     };
     let first = match tries.run(g, 2, |g| {
         push_instrument(g, index, centre, axis, max_substeps)

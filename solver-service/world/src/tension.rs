@@ -249,7 +249,8 @@ where
                             tractrix::collision::Obstacle::Capsule { a, b, .. } => {
                                 (to_point(&a) + to_point(&b)) * 0.5
                             }
-                            tractrix::collision::Obstacle::HalfSpace { .. } => Point::zeros(),
+                            tractrix::collision::Obstacle::HalfSpace { .. }
+                            | tractrix::collision::Obstacle::Block { .. } => Point::zeros(),
                         };
                         centre - Point::from(a.target)
                     }),

@@ -68,6 +68,65 @@ fn check_state(joints: &[Vec3], eyelets: &[EyeletState], link: f64, what: &str) 
         let (_, d, _) = tests::nearest_link(joints, e.at.to_array());
         assert!(d < 1e-9, "{what}: eyelet {e:?} is {d:e} off the rope");
     }
+    check_out_of_tissue(joints, eyelets, what);
+}
+
+/// The tissue of every chain of `stitch.toml`: the block from `TISSUE.0` to `TISSUE.1`.
+const TISSUE: ([f64; 3], [f64; 3]) = ([22.0, -6.0, -3.0], [34.0, 6.0, 0.0]);
+
+/// The rope keeps out of the tissue but where it passes through: every link at least the rope's
+/// radius (0.05, to the collision tolerance of 1 %) from the block, by 101 samples along it, except
+/// the links from two before the first eyelet's link to two after the last one's, and, while the
+/// needle is in (an odd number of eyelets, or the head within a thickness of the block), on to the
+/// head from two before the first joint back from the head outside that margin.
+fn check_out_of_tissue(joints: &[Vec3], eyelets: &[EyeletState], what: &str) {
+    let (lo, hi) = TISSUE;
+    let p = |q: Vec3| [q.x, q.y, q.z];
+    let outside = |q: [f64; 3]| {
+        (0..3)
+            .map(|k| (lo[k] - q[k]).max(q[k] - hi[k]).max(0.0).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let near = |q: [f64; 3]| (0..3).all(|k| lo[k] - 0.1 <= q[k] && q[k] <= hi[k] + 0.1);
+    let n = joints.len() - 1;
+    let threaded: Vec<usize> = eyelets
+        .iter()
+        .filter(|e| e.threaded)
+        .map(|e| e.link as usize)
+        .collect();
+    let mut through = Vec::new();
+    if let (Some(&first), Some(&last)) = (threaded.first(), threaded.last()) {
+        let end = if threaded.len() % 2 == 1 { n } else { last + 3 };
+        through.push(first.saturating_sub(2)..end);
+    }
+    if near(p(joints[n])) {
+        let mut j = n;
+        while j > 0 && near(p(joints[j])) {
+            j -= 1;
+        }
+        through.push(j.saturating_sub(2)..n);
+    }
+    for (k, w) in joints.windows(2).enumerate() {
+        if through.iter().any(|r| r.contains(&k)) {
+            continue;
+        }
+        let (a, b) = (p(w[0]), p(w[1]));
+        let d = (0..=100)
+            .map(|i| {
+                let t = f64::from(i) / 100.0;
+                outside([
+                    a[0] + (b[0] - a[0]) * t,
+                    a[1] + (b[1] - a[1]) * t,
+                    a[2] + (b[2] - a[2]) * t,
+                ])
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            d >= 0.05 * 0.99 - 1e-9,
+            "{what}: link {k} is {d} from the tissue ({through:?} pass through it)"
+        );
+    }
 }
 
 /// The last state of a pass: two eyelets, both threaded, on the tissue's top face (z = 0) on either

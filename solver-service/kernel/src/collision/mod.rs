@@ -91,6 +91,15 @@ pub enum Obstacle<T: Real, const D: usize> {
         /// Unit normal, pointing to the free side.
         normal: Vector<T, D>,
     },
+    /// An axis-aligned block (a slab of tissue): the chain stays outside it, except the links that
+    /// pass through it between the eyelets on its surface (a stitch's bite,
+    /// [`CollisionWorkspace::pass_through`]).
+    Block {
+        /// The corner with the smallest coordinates.
+        lo: Vector<T, D>,
+        /// The corner with the largest coordinates.
+        hi: Vector<T, D>,
+    },
 }
 
 /// Knobs of collision handling. Each trades speed for how strictly links are kept apart.
@@ -201,6 +210,8 @@ pub struct CollisionWorkspace<T: Real, const D: usize> {
     /// Solve the contacts of a rope with held joints together with its lengths after its first
     /// passes ([`project`]).
     together: bool,
+    /// Links that pass through the blocks ([`CollisionWorkspace::pass_through`]).
+    through: core::ops::Range<usize>,
 }
 
 impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
@@ -214,8 +225,8 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     /// cost of one link following its tractrix once, and charged *before* it is done: every tractrix
     /// sweep (one per link per substep), every held side's solve (its bound, [`ReachOptions::passes_bound`]),
     /// and each collision pass's tree (an eighth per link to refit it, a sixteenth per pair of boxes
-    /// tested), candidate pairs (three eighths per pair tested; the paper's spheres all pairs at once), obstacles (one per link
-    /// each), re-straightening (one per link), relaxation iterations (half a link-step per link) and re-solves (four per
+    /// tested), candidate pairs (three eighths per pair tested; the paper's spheres all pairs at once), obstacles (three eighths of a link-step per link per
+    /// obstacle, three link-steps for a block), re-straightening (one per link), relaxation iterations (half a link-step per link) and re-solves (four per
     /// link per iteration, the iterations capped by what is left). A call that would pass the limit
     /// stops before it, leaves the chain unchanged and returns [`ChainError::OverWork`]; so the work
     /// done never exceeds the limit, whatever the chain, the scene's `max_iterations` or the contacts.
@@ -238,6 +249,14 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     /// on unit links failed).
     pub fn solve_contacts_together(&mut self, on: bool) {
         self.together = on;
+    }
+
+    /// Links `links` pass through the model's blocks ([`Obstacle::Block`]: a suture between the
+    /// eyelets of its bite, and from the last one to a needle still in the tissue) and are not tested
+    /// against them; every other link is. The eyelets' moves ([`crate::eyelet`]) set it from the
+    /// rope before each resolution; empty by default (a block is solid).
+    pub fn pass_through(&mut self, links: core::ops::Range<usize>) {
+        self.through = links;
     }
 
     /// The work charged since the last [`CollisionWorkspace::limit_work`] (or since the workspace was
@@ -266,6 +285,20 @@ pub(super) mod cost {
     pub const SPHERE_PAIR: u64 = 2;
     /// One link tested against one obstacle.
     pub const OBSTACLE_PER_LINK: u64 = 6;
+    /// One link tested against a block: the golden-section search's 47 signed distances, each
+    /// about a sixteenth of a link-step (not timed alone; charged for every link, the box test
+    /// that skips most of them aside).
+    pub const BLOCK_PER_LINK: u64 = 3 * LINK_STEP;
+
+    /// What testing one link against `ob` is charged.
+    pub fn obstacle_per_link<T: crate::math::Real, const D: usize>(
+        ob: &super::Obstacle<T, D>,
+    ) -> u64 {
+        match ob {
+            super::Obstacle::Block { .. } => BLOCK_PER_LINK,
+            _ => OBSTACLE_PER_LINK,
+        }
+    }
     /// Re-straightening, per link.
     pub const RESTRAIGHTEN_PER_LINK: u64 = 4;
     /// One iteration of the relaxation (a fast projection: a tridiagonal solve), per link: set from
@@ -782,6 +815,7 @@ where
                 ((*a + *b) * half, (*a1 + *b1) * half, h0, h1)
             }
             (Obstacle::HalfSpace { .. }, _) => return bad("a plane does not move"),
+            (Obstacle::Block { .. }, _) => return bad("a block does not move"),
             _ => return bad("an instrument keeps its shape"),
         };
         if !finite(&c1) {
@@ -845,6 +879,25 @@ where
 }
 
 /// The smallest clearance any contact of this chain can have: half of what a substep may move.
+/// The links not tested against obstacle `k` of `model`: those it holds, and for a block those that
+/// pass through it (`through`).
+pub(super) fn untested<T: Real, const D: usize>(
+    model: &CollisionModel<T, D>,
+    k: usize,
+    through: &core::ops::Range<usize>,
+) -> [core::ops::Range<usize>; 2] {
+    let held = model
+        .holding
+        .iter()
+        .find(|h| h.obstacle == k)
+        .map_or(0..0, |h| h.links.clone());
+    let through = match model.obstacles.get(k) {
+        Some(Obstacle::Block { .. }) => through.clone(),
+        _ => 0..0,
+    };
+    [held, through]
+}
+
 pub(crate) fn smallest_clearance<T: Real, const D: usize>(
     chain: &Chain<T, D>,
     model: &CollisionModel<T, D>,
@@ -856,8 +909,14 @@ where
         Scheme::Capsules => model.options.thickness,
         Scheme::PaperSpheres => chain.min_length(),
     };
-    // A link against an obstacle has at least half a link's clearance.
-    if model.obstacles.is_empty() {
+    // A link against an obstacle has at least half a link's clearance; a block at least as thick as
+    // that clearance on every axis cannot be crossed in a substep that moves a joint half of it (a
+    // joint that goes in is pushed back out the side it came in by), and leaves it.
+    let thick_block = |o: &Obstacle<T, D>| match o {
+        Obstacle::Block { lo, hi } => (0..D).all(|k| hi[k] - lo[k] >= link * T::lit(2.0)),
+        _ => false,
+    };
+    if model.obstacles.iter().all(thick_block) {
         link
     } else {
         link * T::lit(0.5)

@@ -20,8 +20,8 @@
 //! and `r` contacts. The hand's joint and the held joints do not move (inverse mass zero).
 
 use super::query::{
-    away_from, closest_param_point_segment, closest_params_segment_segment, lerp,
-    unit_or_perpendicular,
+    away_from, closest_param_point_segment, closest_param_segment_block,
+    closest_params_segment_segment, lerp, unit_or_perpendicular,
 };
 use super::{CollisionModel, CollisionWorkspace, Obstacle, Scheme, cost, neighbour_span};
 use crate::math::{Embed3, Real, Vector, positive_finite};
@@ -158,24 +158,25 @@ where
         return Some(());
     }
     for (k, ob) in model.obstacles.iter().enumerate() {
-        let held_links = model
-            .holding
-            .iter()
-            .find(|h| h.obstacle == k)
-            .map_or(0..0, |h| h.links.clone());
+        let skip = super::untested(model, k, &ws.through);
         if !ws
             .meter
-            .charge((n as u64).saturating_mul(cost::OBSTACLE_PER_LINK))
+            .charge((n as u64).saturating_mul(cost::obstacle_per_link(ob)))
         {
             return None;
         }
         let link_r = c * half;
         for i in 0..n {
-            if held_links.contains(&i) {
+            if skip.iter().any(|r| r.contains(&i)) {
                 continue;
             }
             let (a, b) = (pos[i], pos[i + 1]);
             let (s, normal, dist, clearance) = match ob {
+                Obstacle::Block { lo, hi } => {
+                    let s = closest_param_segment_block(&a, &b, lo, hi);
+                    let (nrm, dist, _) = away_from(ob, &lerp(&a, &b, s), &(b - a));
+                    (s, nrm, dist, link_r)
+                }
                 Obstacle::HalfSpace { point, normal } => {
                     let (da, db) = ((a - point).dot(normal), (b - point).dot(normal));
                     let s = if da <= db { T::zero() } else { T::one() };

@@ -73,7 +73,92 @@ where
             )
         }
         Obstacle::HalfSpace { point, normal } => (*normal, (p - point).dot(normal), T::zero()),
+        Obstacle::Block { lo, hi } => {
+            let (n, sd) = block_signed_distance(lo, hi, p);
+            (n, sd, T::zero())
+        }
     }
+}
+
+/// The signed distance from the axis-aligned block `lo`–`hi` to `p` (its distance outside, minus its
+/// depth inside) and the unit direction out of the block at `p` (from the block's nearest point
+/// outside; along the nearest face's normal inside).
+pub fn block_signed_distance<T: Real, const D: usize>(
+    lo: &Vector<T, D>,
+    hi: &Vector<T, D>,
+    p: &Vector<T, D>,
+) -> (Vector<T, D>, T) {
+    let mut d = Vector::<T, D>::zeros();
+    for k in 0..D {
+        d[k] = if p[k] < lo[k] {
+            p[k] - lo[k]
+        } else if p[k] > hi[k] {
+            p[k] - hi[k]
+        } else {
+            T::zero()
+        };
+    }
+    let out = d.norm();
+    if out > T::zero() {
+        return (d / out, out);
+    }
+    // Inside (or on the surface): out through the nearest face.
+    let mut best = (T::max_value().unwrap_or_else(T::one), 0usize, T::one());
+    for k in 0..D {
+        let (below, above) = (p[k] - lo[k], hi[k] - p[k]);
+        if below < best.0 {
+            best = (below, k, -T::one());
+        }
+        if above < best.0 {
+            best = (above, k, T::one());
+        }
+    }
+    let mut n = Vector::<T, D>::zeros();
+    n[best.1] = best.2;
+    (n, -best.0)
+}
+
+/// Parameter in `[0, 1]` of the point of segment `a`–`b` with the least signed distance to the block
+/// `lo`–`hi` ([`block_signed_distance`]): the point nearest the block, or the deepest inside it. The
+/// signed distance to a convex set is convex along a segment, so a golden-section search finds it
+/// (to 1e-9 of the segment).
+pub fn closest_param_segment_block<T: Real, const D: usize>(
+    a: &Vector<T, D>,
+    b: &Vector<T, D>,
+    lo: &Vector<T, D>,
+    hi: &Vector<T, D>,
+) -> T {
+    let f = |s: T| block_signed_distance(lo, hi, &lerp(a, b, s)).1;
+    let g = T::lit(0.618_033_988_749_894_9);
+    let (mut x0, mut x1) = (T::zero(), T::one());
+    let mut c = x1 - (x1 - x0) * g;
+    let mut d = x0 + (x1 - x0) * g;
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..44 {
+        if fc <= fd {
+            x1 = d;
+            d = c;
+            fd = fc;
+            c = x1 - (x1 - x0) * g;
+            fc = f(c);
+        } else {
+            x0 = c;
+            c = d;
+            fc = fd;
+            d = x0 + (x1 - x0) * g;
+            fd = f(d);
+        }
+    }
+    // The ends too: the minimum of a convex function on a segment may sit at an end exactly.
+    let mid = (x0 + x1) * T::lit(0.5);
+    let mut best = (f(mid), mid);
+    for s in [T::zero(), T::one()] {
+        let v = f(s);
+        if v < best.0 {
+            best = (v, s);
+        }
+    }
+    best.1
 }
 
 #[inline]

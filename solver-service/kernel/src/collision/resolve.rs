@@ -3,8 +3,8 @@
 
 use super::project::Projected;
 use super::query::{
-    any_perpendicular, away_from, closest_param_point_segment, closest_params_segment_segment,
-    lerp, unit_or_perpendicular,
+    any_perpendicular, away_from, closest_param_point_segment, closest_param_segment_block,
+    closest_params_segment_segment, lerp, unit_or_perpendicular,
 };
 use super::tree::ChainTree;
 use super::{
@@ -51,8 +51,11 @@ where
         }
     }
     .saturating_add(
-        n.saturating_mul(model.obstacles.len() as u64)
-            .saturating_mul(cost::OBSTACLE_PER_LINK),
+        model
+            .obstacles
+            .iter()
+            .map(|ob| n.saturating_mul(cost::obstacle_per_link(ob)))
+            .fold(0u64, u64::saturating_add),
     );
     loop {
         if !ws.meter.charge(detection) {
@@ -90,12 +93,8 @@ where
             return Err(Stop::OverWork);
         }
         for (k, ob) in model.obstacles.iter().enumerate() {
-            let held_links = model
-                .holding
-                .iter()
-                .find(|h| h.obstacle == k)
-                .map_or(0..0, |h| h.links.clone());
-            pass.obstacle(&mut ws.pos, ob, opts, held_links);
+            let skip = super::untested(model, k, &ws.through);
+            pass.obstacle(&mut ws.pos, ob, opts, skip);
         }
         if pass.blocked {
             // Only a held joint (or the hand) could give way: locked at once.
@@ -594,13 +593,13 @@ impl<T: Real> Pass<'_, T> {
         pos: &mut [Vector<T, D>],
         ob: &Obstacle<T, D>,
         opts: &CollisionOptions<T>,
-        held_links: core::ops::Range<usize>,
+        skip: [core::ops::Range<usize>; 2],
     ) where
         Vector<T, D>: Embed3<T>,
     {
         let half = T::lit(0.5);
         for i in 0..pos.len() - 1 {
-            if held_links.contains(&i) {
+            if skip.iter().any(|r| r.contains(&i)) {
                 continue;
             }
             let (a, b) = (pos[i], pos[i + 1]);
@@ -615,6 +614,14 @@ impl<T: Real> Pass<'_, T> {
                     let c = (a + b) * half;
                     let (n, dist, r) = away_from(ob, &c, &(b - a));
                     (half, n, link_r + r - dist, link_r + r)
+                }
+                (Scheme::Capsules, Obstacle::Block { lo, hi }) => {
+                    if boxes_apart(&a, &b, lo, hi, link_r) {
+                        continue;
+                    }
+                    let s = closest_param_segment_block(&a, &b, lo, hi);
+                    let (n, dist, _) = away_from(ob, &lerp(&a, &b, s), &(b - a));
+                    (s, n, link_r - dist, link_r)
                 }
                 (Scheme::Capsules, Obstacle::HalfSpace { point, normal }) => {
                     let (da, db) = ((a - point).dot(normal), (b - point).dot(normal));

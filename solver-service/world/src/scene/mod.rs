@@ -36,7 +36,7 @@
 //! | `max_bend` / `max_bends` | degrees in [0, 180] / list of `links + 1` | – | a cone at every joint / per joint (the ends' entries are ignored) |
 //! | `joint_range` / `joint_ranges` | `[lo, hi]` degrees / list of `links + 1` pairs | – | signed range of every joint / per joint; planar chains only |
 //! | `eyelets` | list of points on the chain | `[]` | fixed points the rope slides through (free chains; docs/eyelets.md) |
-//! | `tissue` | `[lo, hi]` box corners | – | a block the head pierces, making eyelets (free spatial chains) |
+//! | `tissue` | `[lo, hi]` box corners | – | a block the head pierces, making eyelets (free spatial chains); with collision, the rope stays out of it but where it passes through |
 //! | `eyelet_friction` | number ≥ 0, or `inf` | 0 | 0: the rope slides freely through the eyelets; more: it sticks in them until the pulled side is taut; `inf`: it never slides |
 //!
 //! At most one of the limit fields (`tractrix::limits`): the angle at joint `j` is the turn from link
@@ -190,7 +190,8 @@ pub struct ChainSpec {
     /// the rope, each with the link through it.
     pub eyelets: Vec<(Vector3<f64>, usize)>,
     /// A block of tissue the chain's head pierces (`tissue = [[lo], [hi]]`, an axis-aligned box):
-    /// where the head goes in or out through its surface an eyelet is made, on the link there.
+    /// where the head goes in or out through its surface an eyelet is made, on the link there. With
+    /// collision it is also an obstacle the rope stays out of, but where it passes through.
     pub tissue: Option<(Vector3<f64>, Vector3<f64>)>,
     /// Whether its knot is named with every answer and state (`knot = true`: free spatial chains;
     /// [`tractrix::knot::Namer`]).

@@ -1516,5 +1516,7 @@ fn in_plane(o: &Obstacle<f64, 3>) -> bool {
         Obstacle::Sphere { center, .. } => center.z == 0.0,
         Obstacle::Capsule { a, b, .. } => a.z == 0.0 && b.z == 0.0,
         Obstacle::HalfSpace { point, normal } => point.z == 0.0 && normal.z == 0.0,
+        // Never a scene's obstacle (a chain's tissue is spatial).
+        Obstacle::Block { .. } => false,
     }
 }
