@@ -131,7 +131,7 @@ class ResponseHeader(ctypes.Structure):
         ("n_pulls", ctypes.c_uint32),
         ("knot", ctypes.c_uint32),
         ("n_eyelets", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
+        ("n_tissue", ctypes.c_uint32),
     ]
 
     @staticmethod
@@ -148,7 +148,7 @@ _LAYOUT = {
                            "n_chains": 64, "n_links": 76, "n_held": 100, "max_step": 104, "name": 128,
                            "reason": 160, "n_instruments": 256, "limits": 260,
                            "limit_value": 264, "n_pulls": 272, "knot": 276,
-                           "n_eyelets": 280, "reserved": 284}),
+                           "n_eyelets": 280, "n_tissue": 284}),
 }
 for _t, (_size, _offsets) in _LAYOUT.items():
     assert ctypes.sizeof(_t) == _size, (_t, ctypes.sizeof(_t))
@@ -158,6 +158,7 @@ for _t, (_size, _offsets) in _LAYOUT.items():
 
 INSTRUMENT_ELEMENTS = 3
 EYELET_ELEMENTS = 2  # an eyelet: its point, then (link, 1 threaded / 0 left, 0)
+TISSUE_ELEMENTS = 2  # a describe's block of tissue: its corners lo and hi
 
 
 LIMITS = {1: "bend-radius", 2: "cone", 3: "cones", 4: "ranges"}
@@ -202,6 +203,16 @@ def eyelets(h: ResponseHeader, elements: list) -> list[dict]:
     es = elements[at:at + EYELET_ELEMENTS * h.n_eyelets]
     return [{"at": list(es[k]), "link": int(es[k + 1][0]), "threaded": es[k + 1][1] != 0.0}
             for k in range(0, len(es) - 1, EYELET_ELEMENTS)]
+
+
+def tissue(h: ResponseHeader, elements: list) -> dict | None:
+    """A describe's block of tissue (scene `tissue`): {"lo", "hi"}, its corners; None without."""
+    if not h.n_tissue:
+        return None
+    at = (h.n_joints + h.n_angles + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments
+          + h.n_pulls + EYELET_ELEMENTS * h.n_eyelets)
+    lo, hi = elements[at:at + TISSUE_ELEMENTS]
+    return {"lo": list(lo), "hi": list(hi)}
 
 
 def _text(buf):
@@ -318,7 +329,7 @@ class Client:
         h = response.user_header().contents
         # The wheel's Slice.len() is in bytes (issue #1533): count from our own header.
         n = (h.n_joints + h.n_angles + h.n_held + INSTRUMENT_ELEMENTS * h.n_instruments + h.n_pulls
-             + EYELET_ELEMENTS * h.n_eyelets)
+             + EYELET_ELEMENTS * h.n_eyelets + TISSUE_ELEMENTS * h.n_tissue)
         elements = (Vec3 * n).from_address(response.payload().as_ptr()) if n else []
         out = [(v.x, v.y, v.z) for v in elements]
         copy = ResponseHeader.from_buffer_copy(h)
@@ -466,6 +477,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         out["total_length"] = h.total_length
         if h.limits:
             out["limits"] = limits(h)
+        if h.n_tissue:
+            out["tissue"] = tissue(h, elements)
     if a.cmd == "reach":
         out["residual"] = h.residual
     print(json.dumps(out))

@@ -53,10 +53,12 @@
 /* Eyelets a chain may pass through, and elements per eyelet: its point, then (link, 1 threaded, 0). */
 #define TRACTRIX_MAX_EYELETS 64u
 #define TRACTRIX_EYELET_ELEMENTS 2u
+/* Elements of a chain's block of tissue in a describe's payload: its corners lo and hi. */
+#define TRACTRIX_TISSUE_ELEMENTS 2u
 #define TRACTRIX_MAX_RESPONSE_ELEMENTS \
     (2u * TRACTRIX_MAX_LINKS + 1u + 2u * TRACTRIX_MAX_HELD + \
      (TRACTRIX_INSTRUMENT_ELEMENTS + 1u) * TRACTRIX_MAX_INSTRUMENTS + \
-     TRACTRIX_EYELET_ELEMENTS * TRACTRIX_MAX_EYELETS)
+     TRACTRIX_EYELET_ELEMENTS * TRACTRIX_MAX_EYELETS + TRACTRIX_TISSUE_ELEMENTS)
 #define TRACTRIX_MAX_PATH_POINTS 4096u
 #define TRACTRIX_MAX_CHAINS 256u
 #define TRACTRIX_NAME_LEN 32u
@@ -215,7 +217,7 @@ typedef struct tractrix_ResponseHeader {
     uint32_t n_pulls; /* offset 272 */
     uint32_t knot; /* offset 276 */
     uint32_t n_eyelets; /* offset 280 */
-    uint32_t reserved; /* offset 284 */
+    uint32_t n_tissue; /* offset 284: describe: 1 when the tissue's two corners follow the eyelets */
 } tractrix_ResponseHeader;
 
 /* 48 bytes, align 8. */
@@ -294,7 +296,7 @@ TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, limit_value) == 264, "t
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_pulls) == 272, "tractrix_ResponseHeader.n_pulls offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, knot) == 276, "tractrix_ResponseHeader.knot offset");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_eyelets) == 280, "tractrix_ResponseHeader.n_eyelets offset");
-TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, reserved) == 284, "tractrix_ResponseHeader.reserved offset");
+TRACTRIX_STATIC_ASSERT(offsetof(tractrix_ResponseHeader, n_tissue) == 284, "tractrix_ResponseHeader.n_tissue offset");
 
 TRACTRIX_STATIC_ASSERT(sizeof(tractrix_StateHeader) == 48, "tractrix_StateHeader size");
 TRACTRIX_STATIC_ASSERT(offsetof(tractrix_StateHeader, sequence) == 0, "tractrix_StateHeader starts with sequence");

@@ -40,7 +40,8 @@
 //!    of stiffness `k` the force on the hand is `k` times it; [`FLAG_PULL`]), then `n_eyelets`
 //!    eyelets the chain passes through (the scene's, in order along the rope), two elements each
 //!    ([`EyeletState`]): the point, then `(link through it, 1 while threaded or 0 once the rope has
-//!    left it, 0)`.
+//!    left it, 0)`, then, in a [`Command::Describe`] of a chain with tissue, `n_tissue` (1) blocks of
+//!    tissue, two elements each ([`TISSUE_ELEMENTS`]): the block's corners `lo` and `hi`.
 //!    A chain without instruments has `n_instruments = 0`. An error response carries no elements. The chain's description (name, kind, sizes, defaults) comes with [`Command::Describe`]
 //!    only.
 //!
@@ -127,7 +128,7 @@
 //! | | n_pulls | 272 | uint32_t |
 //! | | knot | 276 | uint32_t |
 //! | | n_eyelets | 280 | uint32_t |
-//! | | reserved | 284 | uint32_t |
+//! | | n_tissue | 284 | uint32_t |
 //! | StateHeader (48 B, align 8) | sequence | 0 | uint64_t |
 //! | | chain | 8 | uint32_t |
 //! | | n_joints | 12 | uint32_t |
@@ -195,6 +196,9 @@ pub const MAX_EYELETS: u32 = 64;
 /// Elements of one eyelet in a payload ([`EyeletState`]): its point, then `(link, 1 threaded / 0
 /// left, 0)`.
 pub const EYELET_ELEMENTS: u32 = 2;
+/// Elements of a chain's block of tissue in a describe's payload (scene `tissue`): its corners `lo`
+/// and `hi`.
+pub const TISSUE_ELEMENTS: u32 = 2;
 
 /// Protocol version; it is part of every type name.
 pub const PROTOCOL_VERSION: u32 = 2;
@@ -233,7 +237,8 @@ pub const MAX_RESPONSE_ELEMENTS: u32 = 2 * MAX_LINKS
     + 1
     + 2 * MAX_HELD
     + (INSTRUMENT_ELEMENTS + 1) * MAX_INSTRUMENTS
-    + EYELET_ELEMENTS * MAX_EYELETS;
+    + EYELET_ELEMENTS * MAX_EYELETS
+    + TISSUE_ELEMENTS;
 /// Most points in one [`Command::Path`] request.
 pub const MAX_PATH_POINTS: u32 = 4096;
 /// Most chains in one scene.
@@ -875,8 +880,10 @@ pub struct ResponseHeader {
     /// Eyelets after the pulls ([`EYELET_ELEMENTS`] elements each), for a chain whose scene has
     /// them.
     pub n_eyelets: u32,
-    /// Must be zero (room for later fields without a layout change).
-    pub reserved: u32,
+    /// `describe`: 1 when the chain has a block of tissue (scene `tissue`), its two corners after the
+    /// eyelets ([`TISSUE_ELEMENTS`]); 0 otherwise and in every other response. (It was `reserved`,
+    /// always zero, before: the layout is unchanged.)
+    pub n_tissue: u32,
 }
 
 /// [`ResponseHeader::knot`] and [`StateHeader::knot`]: the chain's scene does not ask for its knot.
@@ -958,7 +965,7 @@ impl Default for ResponseHeader {
             n_pulls: 0,
             knot: 0,
             n_eyelets: 0,
-            reserved: 0,
+            n_tissue: 0,
         }
     }
 }
@@ -1061,6 +1068,8 @@ pub struct Parts<'a> {
     pub pulls: &'a [Vec3],
     /// [`EYELET_ELEMENTS`] elements per eyelet.
     pub eyelets: &'a [Vec3],
+    /// A describe's block of tissue: its corners `lo` and `hi` ([`TISSUE_ELEMENTS`]), or empty.
+    pub tissue: &'a [Vec3],
 }
 
 /// One eyelet as a payload carries it ([`EYELET_ELEMENTS`] elements).
@@ -1104,18 +1113,41 @@ impl<'a> Parts<'a> {
             instruments,
             pulls,
             eyelets,
+            tissue: &[],
         }
     }
     /// The parts of a response's payload.
     pub fn of_response(h: &ResponseHeader, payload: &'a [Vec3]) -> Self {
-        Self::new(
+        let mut parts = Self::new(
             payload,
             h.n_joints,
             h.n_angles,
             h.n_held,
             h.n_instruments,
             (h.n_pulls, h.n_eyelets),
-        )
+        );
+        let used = [
+            parts.joints,
+            parts.angles,
+            parts.held,
+            parts.instruments,
+            parts.pulls,
+            parts.eyelets,
+        ]
+        .iter()
+        .map(|p| p.len())
+        .sum::<usize>();
+        let rest = &payload[used..];
+        let n = (h.n_tissue as usize).saturating_mul(TISSUE_ELEMENTS as usize);
+        parts.tissue = &rest[..n.min(rest.len())];
+        parts
+    }
+    /// A describe's block of tissue: its corners `(lo, hi)`.
+    pub fn tissue_box(&self) -> Option<(Vec3, Vec3)> {
+        match self.tissue {
+            [lo, hi, ..] => Some((*lo, *hi)),
+            _ => None,
+        }
     }
     /// The parts of a state sample's payload (no rotations).
     pub fn of_state(h: &StateHeader, payload: &'a [Vec3]) -> Self {
@@ -1243,7 +1275,7 @@ wire_layout!(ResponseHeader, "tractrix.v2.ResponseHeader", size = 288, align = 8
     thickness: "double" @ 120, name: "uint8_t[32]" @ 128, reason: "uint8_t[96]" @ 160,
     n_instruments: "uint32_t" @ 256, limits: "uint32_t" @ 260, limit_value: "double" @ 264,
     n_pulls: "uint32_t" @ 272, knot: "uint32_t" @ 276, n_eyelets: "uint32_t" @ 280,
-    reserved: "uint32_t" @ 284,
+    n_tissue: "uint32_t" @ 284,
 ]);
 wire_layout!(StateHeader, "tractrix.v2.StateHeader", size = 48, align = 8, [
     sequence: "uint64_t" @ 0, chain: "uint32_t" @ 8, n_joints: "uint32_t" @ 12, command: "uint32_t" @ 16,

@@ -86,6 +86,7 @@ fn assertions() -> String {
         ("MAX_INSTRUMENTS", u64::from(shared::MAX_INSTRUMENTS)),
         ("MAX_EYELETS", u64::from(shared::MAX_EYELETS)),
         ("EYELET_ELEMENTS", u64::from(shared::EYELET_ELEMENTS)),
+        ("TISSUE_ELEMENTS", u64::from(shared::TISSUE_ELEMENTS)),
         (
             "INSTRUMENT_ELEMENTS",
             u64::from(shared::INSTRUMENT_ELEMENTS),

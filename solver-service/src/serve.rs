@@ -465,9 +465,11 @@ fn answer_timed<H: Handler>(
     }
     let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
     let eyelets = (header.n_eyelets * shared::EYELET_ELEMENTS) as usize;
+    let tissue = (header.n_tissue * shared::TISSUE_ELEMENTS) as usize;
     let n = (header.n_joints + header.n_angles + header.n_held + header.n_pulls) as usize
         + inst
-        + eyelets;
+        + eyelets
+        + tissue;
     (handled, n)
 }
 

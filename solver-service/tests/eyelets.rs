@@ -135,3 +135,60 @@ fn the_eyelet_command_moves_an_eyelet_and_the_rope_with_it() {
     );
     assert_ne!(r.status, Status::Ok as u32);
 }
+
+/// A describe of a chain with tissue carries the block's corners after the eyelets (`n_tissue` 1, two
+/// elements), exactly as the scene gives them; other commands on it, and a describe of a chain
+/// without tissue, carry none.
+#[test]
+fn a_describe_carries_the_chain_s_tissue() {
+    let text = r#"
+[[chain]]
+name = "stitched"
+links = 20
+link_length = 0.5
+base = [0.0, 0.0, 2.0]
+tissue = [[12.0, -4.0, -3.0], [20.0, 4.0, 0.0]]
+"#;
+    let scene = format!("{text}{SCENE}");
+    let world = World::new(&parse_scene(&scene, "tissue.toml").unwrap()).unwrap();
+    let mut solver = Solver::new(world, None, Duration::from_secs(3600));
+    let mut out = Vec::new();
+    let (h, _) = respond(
+        &mut solver,
+        LOCAL,
+        &RequestHeader::new(Command::Describe, 0),
+        &[],
+        &mut out,
+    );
+    assert_eq!(h.status, Status::Ok as u32, "{}", h.reason_str());
+    assert_eq!((h.n_eyelets, h.n_tissue), (0, 1));
+    assert_eq!(out.len() as u32, h.n_joints + 2);
+    assert_eq!(
+        &out[out.len() - 2..],
+        &[Vec3::new(12.0, -4.0, -3.0), Vec3::new(20.0, 4.0, 0.0)]
+    );
+    let parts = Parts::of_response(&h, &out);
+    assert_eq!(
+        parts.tissue_box(),
+        Some((Vec3::new(12.0, -4.0, -3.0), Vec3::new(20.0, 4.0, 0.0)))
+    );
+    assert_eq!(parts.joints.len() as u32, h.n_joints);
+    // A query of the same chain, and a describe of a chain without tissue: none.
+    for (command, chain) in [(Command::Query, 0), (Command::Describe, 1)] {
+        let (h, _) = respond(
+            &mut solver,
+            LOCAL,
+            &RequestHeader::new(command, chain),
+            &[],
+            &mut out,
+        );
+        assert_eq!(h.status, Status::Ok as u32, "{}", h.reason_str());
+        assert_eq!(h.n_tissue, 0, "{command:?} of chain {chain}");
+        assert_eq!(
+            out.len() as u32,
+            h.n_joints + h.n_angles + 2 * h.n_eyelets,
+            "{command:?} of chain {chain}"
+        );
+        assert_eq!(Parts::of_response(&h, &out).tissue_box(), None);
+    }
+}

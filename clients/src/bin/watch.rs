@@ -115,6 +115,8 @@ struct ChainInfo {
     seen: u64,
     /// A bundle's strands: joints per strand (`links + 1`) and the link length.
     bundle: Option<(usize, f64)>,
+    /// The chain's block of tissue (scene `tissue`): its corners, from the describe.
+    tissue: Option<([f64; 3], [f64; 3])>,
 }
 
 /// The swept-volume check of `--crossings`: each free chain's previous state, the crossings seen and
@@ -207,7 +209,12 @@ fn run(a: Args) -> Result<u8> {
         for (&c, info) in &chains {
             match (watched(info), info.bundle) {
                 (false, _) => {}
-                (true, None) => v.add_chain(c, &info.name, info.thickness, info.free, info.limit),
+                (true, None) => {
+                    v.add_chain(c, &info.name, info.thickness, info.free, info.limit);
+                    if let Some(t) = info.tissue {
+                        v.tissue(c, t)?;
+                    }
+                }
                 (true, Some(_)) => v.add_bundle(c, &info.name),
             }
         }
@@ -322,6 +329,7 @@ fn run(a: Args) -> Result<u8> {
                     per,
                     a.svg_knot,
                     eyelets,
+                    info.tissue,
                 );
                 if a.svg_last {
                     last_frames.insert(h.chain, frame);
@@ -413,6 +421,10 @@ fn describe(conn: &mut clients::Connection) -> Result<(Chains, HashMap<u32, u64>
                 seen: 0,
                 bundle: (d.header.kind == ChainKind::Bundle as u32 && links > 0)
                     .then(|| (links + 1, d.header.total_length / links as f64)),
+                tissue: d
+                    .parts()
+                    .tissue_box()
+                    .map(|(lo, hi)| (lo.to_array(), hi.to_array())),
             },
         );
     }
@@ -737,7 +749,7 @@ fn knotted_part(joints: &[[f64; 3]], knot: u32) -> Vec<[f64; 3]> {
 /// strand; all of them for a chain).
 /// A frame to draw: the chain's name, the state's sequence and knot code, the view, the joints,
 /// whether planar, joints per strand, whether to draw only the knotted stretch, the threaded eyelets'
-/// points (drawn as marks).
+/// points (drawn as marks), the chain's tissue (drawn as a box).
 type Pending = (
     String,
     u64,
@@ -748,11 +760,38 @@ type Pending = (
     usize,
     bool,
     Vec<[f64; 3]>,
+    Option<([f64; 3], [f64; 3])>,
 );
+
+/// The twelve edges of the box `lo`–`hi` as polylines: the bottom and top rectangles and the four
+/// uprights.
+fn box_edges((lo, hi): ([f64; 3], [f64; 3])) -> Vec<Vec<[f64; 3]>> {
+    let corner = |x: bool, y: bool, z: f64| {
+        [
+            if x { hi[0] } else { lo[0] },
+            if y { hi[1] } else { lo[1] },
+            z,
+        ]
+    };
+    let ring = |z| {
+        vec![
+            corner(false, false, z),
+            corner(true, false, z),
+            corner(true, true, z),
+            corner(false, true, z),
+            corner(false, false, z),
+        ]
+    };
+    let mut edges = vec![ring(lo[2]), ring(hi[2])];
+    for (x, y) in [(false, false), (true, false), (true, true), (false, true)] {
+        edges.push(vec![corner(x, y, lo[2]), corner(x, y, hi[2])]);
+    }
+    edges
+}
 
 fn draw(
     dir: &std::path::Path,
-    (name, sequence, knot, view, joints, planar, per, crop, eyelets): Pending,
+    (name, sequence, knot, view, joints, planar, per, crop, eyelets, tissue): Pending,
 ) -> Result<u64> {
     let joints = if crop {
         knotted_part(&joints, knot)
@@ -773,13 +812,21 @@ fn draw(
             }
             None => format!("{name} after change {sequence}{eyelets_note}"),
         },
-        lines: joints
-            .chunks(per.max(1))
-            .map(|s| Polyline {
+        lines: tissue
+            .filter(|_| !crop)
+            .map(box_edges)
+            .unwrap_or_default()
+            .into_iter()
+            .map(|edge| Polyline {
+                joints: edge,
+                color: (210, 150, 130),
+                markers: false,
+            })
+            .chain(joints.chunks(per.max(1)).map(|s| Polyline {
                 joints: s.to_vec(),
                 color: (20, 60, 160),
                 markers: planar,
-            })
+            }))
             .collect(),
         marks: eyelets,
     };

@@ -29,6 +29,10 @@ impl RerunView {
         match *self {}
     }
     /// Unreachable (no value exists).
+    pub fn tissue(&mut self, _chain: u32, _corners: ([f64; 3], [f64; 3])) -> Result<()> {
+        match *self {}
+    }
+    /// Unreachable (no value exists).
     pub fn state(&mut self, _: u64, _: u32, _: &[[f64; 3]], _: super::Around<'_>) -> Result<()> {
         match *self {}
     }

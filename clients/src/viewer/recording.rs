@@ -82,6 +82,21 @@ impl RerunView {
         );
     }
 
+    /// Logs a chain's block of tissue (its corners `lo` and `hi`), static: a box in a flesh colour.
+    pub fn tissue(&mut self, chain: u32, (lo, hi): ([f64; 3], [f64; 3])) -> Result<()> {
+        let Some(c) = self.chains.get(&chain) else {
+            return Ok(());
+        };
+        let f = |v: [f64; 3]| v.map(|x| x as f32);
+        let size = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+        self.rec.log_static(
+            format!("chains/{}/tissue", c.name),
+            &rerun::Boxes3D::from_mins_and_sizes([f(lo)], [f(size)])
+                .with_colors([Color::from_rgb(210, 150, 130)]),
+        )?;
+        Ok(())
+    }
+
     /// Declares a bundle: its strands are drawn as one line strip each.
     pub fn add_bundle(&mut self, chain: u32, name: &str) {
         self.bundles.insert(chain, name.to_owned());

@@ -1277,6 +1277,7 @@ where
                 .set_positions(&ws.new)
                 .map_err(EyeletError::from)
                 .and_then(|()| {
+                    cws.pass_through(through_block(&ws.new, chain.min_length(), eyelets, model));
                     resolve_threaded(chain, link, eyelets, s, model, cws, &mut ws.fixed)
                 });
             match resolved {

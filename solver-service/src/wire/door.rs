@@ -76,7 +76,7 @@ impl WireWorld for World {
             h.n_angles > 0,
             h.n_held > 0,
             h.n_instruments > 0,
-            (h.n_pulls > 0, h.n_eyelets > 0),
+            (h.n_pulls > 0, h.n_eyelets > 0, h.n_tissue > 0),
         )
     }
 }

@@ -542,6 +542,7 @@ pub fn encode(
             h.n_instruments = o.instruments;
             h.n_pulls = o.pulls;
             h.n_eyelets = o.eyelets;
+            h.n_tissue = o.tissue;
             h.knot = o.knot.map_or(shared::KNOT_NOT_ASKED, knot_code);
             h.substeps = o.substeps;
             h.paper_fallbacks = o.paper_fallbacks;

@@ -400,7 +400,14 @@ impl World {
         for (spec, g) in self.specs.iter().zip(&self.geometry) {
             let links = spec.lengths.len();
             let instruments = each_form!(g, h => h.instruments().len());
-            let tail = 2 * crate::sizes::MAX_HELD + (INSTRUMENT_ELEMENTS + 1) * instruments;
+            // Eyelets (the scene's, and those a needle makes in tissue) and the tissue's corners.
+            let eyelets = if !spec.eyelets.is_empty() || spec.tissue.is_some() {
+                2 * crate::sizes::MAX_EYELETS + 2
+            } else {
+                0
+            };
+            let tail =
+                2 * crate::sizes::MAX_HELD + (INSTRUMENT_ELEMENTS + 1) * instruments + eyelets;
             most.0 = most.0.max(2 * links + 1 + tail);
             most.1 = most.1.max(links + 1 + tail);
         }
@@ -693,6 +700,7 @@ impl World {
             }
             Command::Describe { .. } => {
                 outcome.describe = true;
+                outcome.tissue = u32::from(each_form!(&*g, h => h.tissue.is_some()));
                 Ok(())
             }
             Command::Reset { .. } => {
@@ -819,12 +827,22 @@ impl World {
         angles: bool,
         held: bool,
         instruments: bool,
-        (pulls, eyelets): (bool, bool),
+        (pulls, eyelets, tissue): (bool, bool, bool),
     ) -> Elements<'_> {
         if let Some((_, b)) = self.bundle_of(handle) {
             return Elements::Bundle(b.elements());
         }
-        self.elements_with(handle, angles, held, instruments, (pulls, eyelets))
+        self.elements_wanting(
+            handle,
+            Wants {
+                angles,
+                held,
+                instruments,
+                pulls,
+                eyelets,
+                tissue,
+            },
+        )
     }
 
     /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).
@@ -845,6 +863,21 @@ impl World {
         instruments: bool,
         (pulls, eyelets): (bool, bool),
     ) -> Elements<'_> {
+        self.elements_wanting(
+            chain,
+            Wants {
+                angles,
+                held,
+                instruments,
+                pulls,
+                eyelets,
+                tissue: false,
+            },
+        )
+    }
+
+    /// The elements [`World::elements_with`] lists, and the chain's tissue with `wants.tissue`.
+    fn elements_wanting(&self, chain: u32, wants: Wants) -> Elements<'_> {
         let (Some(g), Some(spec)) = (
             self.geometry.get(chain as usize),
             self.specs.get(chain as usize),
@@ -852,13 +885,6 @@ impl World {
             return Elements::Empty;
         };
         let a = &spec.anchors[..];
-        let wants = Wants {
-            angles,
-            held,
-            instruments,
-            pulls,
-            eyelets,
-        };
         match g {
             Geometry::Planar64(h) => Elements::Planar64(ChainElements::new(h, wants, a)),
             Geometry::Spatial64(h) => Elements::Spatial64(ChainElements::new(h, wants, a)),

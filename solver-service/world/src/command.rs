@@ -180,6 +180,9 @@ pub struct Answer {
     /// Eyelets in the response (after the pulls, two elements each: the point, then the link
     /// through it and whether the chain still passes through it).
     pub eyelets: u32,
+    /// Blocks of tissue in the response (after the eyelets, two elements each: the corners `lo` and
+    /// `hi`): 1 in a describe of a chain with tissue, else 0.
+    pub tissue: u32,
     /// Substeps taken (moves).
     pub substeps: u32,
     /// Paper-form substeps that fell back to the closed form.

@@ -69,6 +69,7 @@ pub(crate) struct Wants {
     pub(crate) instruments: bool,
     pub(crate) pulls: bool,
     pub(crate) eyelets: bool,
+    pub(crate) tissue: bool,
 }
 
 /// Joints by a compensated prefix sum (restarted at every held joint, as the kernel sums them), then
@@ -89,6 +90,8 @@ pub struct ChainElements<'a, T: Real, const D: usize> {
     tension: &'a crate::tension::Tension,
     /// The eyelets, two elements each; empty unless asked for.
     eyelets: &'a [tractrix::eyelet::Eyelet<T, D>],
+    /// The tissue's corners; none unless asked for.
+    tissue: Option<(Point, Point)>,
     /// The next held joint whose state restarts the sum, and its index (`usize::MAX`: none left).
     pin: usize,
     pin_at: usize,
@@ -117,6 +120,7 @@ where
             pulls: if wants.pulls { h.tension.pulls() } else { &[] },
             tension: &h.tension,
             eyelets: if wants.eyelets { &h.eyelets } else { &[] },
+            tissue: h.tissue.filter(|_| wants.tissue),
             pin: 0,
             pin_at: chain.held_state(0).map_or(usize::MAX, |(j, _)| j),
             anchors,
@@ -240,8 +244,15 @@ where
         }
         let k = k - self.pulls.len();
         let Some(e) = self.eyelets.get(k / 2) else {
-            self.at = i;
-            return None;
+            let k = k - 2 * self.eyelets.len();
+            return match (self.tissue, k) {
+                (Some((lo, _)), 0) => Some(lo),
+                (Some((_, hi)), 1) => Some(hi),
+                _ => {
+                    self.at = i;
+                    None
+                }
+            };
         };
         Some(if k.is_multiple_of(2) {
             to_point(&e.at)

@@ -55,7 +55,7 @@ fn joints(w: &World) -> Vec<Vec<Point>> {
         })
         .collect();
     out.push(
-        w.elements_for(w.len() as u32, false, false, false, (false, false))
+        w.elements_for(w.len() as u32, false, false, false, (false, false, false))
             .collect(),
     );
     out
