@@ -95,6 +95,9 @@ pub fn stderr_lines(child: &mut std::process::Child) -> std::sync::mpsc::Receive
 /// A scene of one rope, `suture`: 40 unit links straight along x from the origin, threaded through the
 /// eyelets [`SUTURE_EYELETS`]; and a service started on it (its scene file in the returned folder).
 pub const SUTURE_EYELETS: [[f64; 3]; 2] = [[10.5, 0.0, 0.0], [25.5, 0.0, 0.0]];
+/// The block of tissue of the same scene (its corners), under the rope between the eyelets: the
+/// describe carries it, the viewers draw it.
+pub const SUTURE_TISSUE: ([f64; 3], [f64; 3]) = ([12.0, -3.0, -4.0], [24.0, 3.0, -1.0]);
 
 /// A service on the scene of [`SUTURE_EYELETS`] (the folder holds its scene file: keep it while the
 /// service runs).
@@ -108,8 +111,11 @@ pub fn suture_service() -> (Service, tempfile::TempDir) {
     std::fs::write(
         &scene,
         format!(
-            "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\neyelets = [{}]\n",
-            points.join(", ")
+            "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\neyelets = [{}]\n\
+             tissue = [{:?}, {:?}]\n",
+            points.join(", "),
+            SUTURE_TISSUE.0,
+            SUTURE_TISSUE.1
         ),
     )
     .expect("write the scene");

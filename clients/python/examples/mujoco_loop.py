@@ -39,12 +39,23 @@ import mujoco
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from tractrix_client import FLAG_PULL, JOINT_HEAD, Client, ServiceError, eyelets, pulls  # noqa: E402
+from tractrix_client import (FLAG_PULL, JOINT_HEAD, Client, ServiceError, eyelets,  # noqa: E402
+                             pulls, tissue)
 
 
-def scene_xml(n_links: int, link: float, radius: float, n_eyelets: int = 0) -> str:
+def scene_xml(n_links: int, link: float, radius: float, n_eyelets: int = 0,
+              block: dict | None = None) -> str:
     """A table, a ball, the hand, a small green mocap sphere per eyelet the suture passes through
-    (its entry and exit points in tissue) and one mocap capsule per link (along its body's x axis)."""
+    (its entry and exit points in tissue), the suture's block of tissue if it has one (a static box
+    that nothing collides with: the service keeps the suture out of it) and one mocap capsule per link
+    (along its body's x axis)."""
+    slab = ""
+    if block is not None:
+        lo, hi = np.asarray(block["lo"]), np.asarray(block["hi"])
+        c, half = (lo + hi) / 2.0, (hi - lo) / 2.0
+        slab = (f'<geom name="tissue" type="box" pos="{c[0]} {c[1]} {c[2]}" '
+                f'size="{half[0]} {half[1]} {half[2]}" rgba="0.85 0.6 0.5 0.6" '
+                f'contype="0" conaffinity="0"/>')
     rings = "\n".join(
         f'<body name="eyelet{k}" mocap="true"><geom type="sphere" size="{2.5 * radius}" '
         f'rgba="0.1 0.7 0.3 1" contype="0" conaffinity="0"/></body>'
@@ -65,6 +76,7 @@ def scene_xml(n_links: int, link: float, radius: float, n_eyelets: int = 0) -> s
     <body name="ball" pos="20 5 2"><freejoint/><geom type="sphere" size="0.8" rgba="0.8 0.2 0.2 1"/></body>
     <body name="driver" mocap="true"><geom type="box" size="0.3 0.15 0.15" rgba="0.6 0.6 0.6 1"
       contype="0" conaffinity="0"/></body>
+    {slab}
     {rings}
     {links}
   </worldbody>
@@ -106,18 +118,19 @@ def write_png(path: str, rgb: np.ndarray) -> None:
 
 def run(client: Client | None, chain: int, steps: int, rate: float, start,
         frames: str | None = None, coupling: float | None = None,
-        rings: list | None = None) -> tuple[list, list, dict]:
+        rings: list | None = None, block: dict | None = None) -> tuple[list, list, dict]:
     """The loop: `steps` steps at `rate` Hz; returns the step times (µs), the capsule centres at the
     end and, with the service, the times of its parts (µs): the service call alone and the posing
     of the capsules from the joints. With `frames`, four frames are rendered (outside the timed step)
     to that directory. With `coupling` (a stiffness), the moves pull (the tail is held by the caller)
     and the hand's force of every step is in the parts (`hand`, `force`). `rings`: the eyelets the
     suture passes through at the start (`tractrix_client.eyelets`), moved each step to where the
-    service has them (`eyelets` in the parts: their last positions)."""
+    service has them (`eyelets` in the parts: their last positions). `block`: the suture's tissue
+    (`tractrix_client.tissue` of a describe), drawn as a box."""
     n_links = len(start) - 1
     rings = rings or []
     model = mujoco.MjModel.from_xml_string(scene_xml(n_links, float(np.linalg.norm(
-        np.subtract(start[1], start[0]))), 0.1, len(rings)))
+        np.subtract(start[1], start[0]))), 0.1, len(rings), block))
     data = mujoco.MjData(model)
     for k, e in enumerate(rings):
         data.mocap_pos[1 + k] = e["at"]
@@ -169,6 +182,9 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
         renderer.close()
     centres = data.geom_xpos[model.ngeom - n_links:].tolist()
     parts["eyelets"] = [data.mocap_pos[1 + k].tolist() for k in range(len(rings))]
+    slab = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "tissue")
+    parts["tissue"] = ({"centre": model.geom_pos[slab].tolist(), "half": model.geom_size[slab].tolist()}
+                       if slab >= 0 else None)
     return times, centres, parts
 
 
@@ -197,13 +213,14 @@ def main() -> int:
         h, elements = client.call("reset", chain)
         start = elements[:h.n_joints]
         rings = eyelets(h, elements)
-        alone, _, _ = run(None, chain, a.steps, a.rate, start)
+        block = tissue(*client.call("describe", chain))
+        alone, _, _ = run(None, chain, a.steps, a.rate, start, block=block)
         if a.coupling is not None:
             # The tail held and the end held by the hand: the suture between them can go taut.
             client.call("grasp", chain, joint=0)
             client.call("grasp", chain, joint=JOINT_HEAD)
         with_service, centres, parts = run(client, chain, a.steps, a.rate, start, a.frames,
-                                           a.coupling, rings)
+                                           a.coupling, rings, block)
         if a.coupling is not None:
             client.call("release", chain, joint=JOINT_HEAD)
             client.call("release", chain, joint=0)
@@ -222,6 +239,8 @@ def main() -> int:
         "capsule_centres": centres,
         # Where the MuJoCo scene draws the eyelets at the end (the service's points).
         "eyelets": parts["eyelets"],
+        # The suture's tissue as the MuJoCo model holds it (its box's centre and half sizes).
+        "tissue": parts["tissue"],
     }
     if a.coupling is not None:
         norms = [math.sqrt(sum(x * x for x in f)) for f in parts["force"]]

@@ -330,6 +330,14 @@ fn the_mujoco_loop_draws_the_suture_s_eyelets() {
     let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
     let drawn: Vec<[f64; 3]> = serde_json::from_value(v["eyelets"].clone()).unwrap();
     assert_eq!(drawn, points);
+    // The suture's tissue (from the describe) is a box of the MuJoCo model, where the scene put it.
+    let (lo, hi) = tests::SUTURE_TISSUE;
+    let centre: [f64; 3] = serde_json::from_value(v["tissue"]["centre"].clone()).unwrap();
+    let half: [f64; 3] = serde_json::from_value(v["tissue"]["half"].clone()).unwrap();
+    for k in 0..3 {
+        assert_eq!(centre[k], (lo[k] + hi[k]) / 2.0, "{}", v["tissue"]);
+        assert_eq!(half[k], (hi[k] - lo[k]) / 2.0, "{}", v["tissue"]);
+    }
     let mut c = svc.connect();
     let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
     let j = q.joints();

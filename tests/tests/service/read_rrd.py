@@ -2,7 +2,8 @@
 prints what the viewer test checks, as JSON: per entity its rows and `sequence` values, the rope's
 points at each sequence (and a bundle's `bundle_sequence` values), the held points' labels at each sequence, the text-log lines, the scalars and
 the instruments' shapes (capsules' translations, lengths, quaternions, radii; spheres' centres and
-half sizes) and the pulls' arrows (vectors, origins).
+half sizes) and the pulls' arrows (vectors, origins); of static entities (a chain's tissue) their
+centres and half sizes, under `static`.
 
 Usage: read_rrd.py FILE.rrd
 """
@@ -27,9 +28,14 @@ def column(batch, suffix):
 def main():
     entities = {}
     for chunk in RrdReader(sys.argv[1]).stream():
-        if chunk.is_static:
-            continue
         batch = chunk.to_record_batch()
+        if chunk.is_static:
+            e = entities.setdefault(chunk.entity_path, {"rows": 0, "sequences": [], "values": {}})
+            for suffix in (":centers", ":half_sizes"):
+                values = column(batch, suffix)
+                if values is not None:
+                    e.setdefault("static", {})[suffix[1:]] = values
+            continue
         seqs = column(batch, "sequence")
         if seqs is None:
             continue

@@ -671,4 +671,22 @@ fn watch_draws_the_eyelets_on_the_links_through_them() {
     assert_eq!(at, points);
     let labels: Vec<String> = serde_json::from_value(last("labels")).unwrap();
     assert_eq!(labels, links);
+    // The chain's tissue, from the describe: one static box, its centre and half sizes the scene's.
+    let (lo, hi) = tests::SUTURE_TISSUE;
+    let t = &v["/chains/suture/tissue"]["static"];
+    // (Rows of instances: one row, one box.)
+    let centres: Vec<Vec<[f64; 3]>> = serde_json::from_value(t["centers"].clone())
+        .unwrap_or_else(|e| panic!("no tissue box ({e}): {t}"));
+    let halves: Vec<Vec<[f64; 3]>> = serde_json::from_value(t["half_sizes"].clone()).unwrap();
+    assert_eq!((centres.len(), centres[0].len()), (1, 1), "{t}");
+    for k in 0..3 {
+        assert!(
+            (centres[0][0][k] - (lo[k] + hi[k]) / 2.0).abs() < 1e-5,
+            "{t}"
+        );
+        assert!(
+            (halves[0][0][k] - (hi[k] - lo[k]) / 2.0).abs() < 1e-5,
+            "{t}"
+        );
+    }
 }
