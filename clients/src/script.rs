@@ -910,6 +910,33 @@ impl Script {
                     ),
                 ],
             }),
+            // The needle's pass of the whole stitch (chain `stitch-80` of `stitch.toml`, laid along
+            // +x from x = -25 to the needle's end at x = 15, half a unit above the tissue): down
+            // into the tissue just past the head's start, 1.2 deep, out 1.3 on, and the suture drawn
+            // on along +x until its tail, free, is near x = 0 (the tail before the entry about as
+            // long as `stitch-tie-80`'s, so that its instrument tie follows). Not grasped: the
+            // tail must slide toward the entry.
+            "stitch-pass" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: false,
+                turn: vec![turn(
+                    "A",
+                    "stitch-80",
+                    "head",
+                    None,
+                    vec![
+                        [0.15, 0.0, -0.4],
+                        [0.35, 0.0, -0.9],
+                        [0.75, 0.0, -1.2],
+                        [1.15, 0.0, -0.9],
+                        [1.35, 0.0, -0.4],
+                        [1.55, 0.0, 0.1],
+                        [1.8, 0.0, 0.5],
+                        [24.85, 0.0, 0.5],
+                    ],
+                )],
+            }),
             _ => None,
         }
     }
@@ -1238,6 +1265,7 @@ pub const BUILTINS: &[&str] = &[
     "instrument-granny",
     "needle-pass",
     "needle-pass-held",
+    "stitch-pass",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.

@@ -64,6 +64,16 @@ struct Args {
     /// `knot = true`; `tractrix::knot::knotted_stretch`) and a fifth of its length either side.
     #[arg(long, requires = "svg")]
     svg_knot: bool,
+    /// Write one SVG of a chain's key frames to FILE when the stream ends: its first state, each
+    /// state after which its held joints or its eyelets changed (a hand took or let go of it, a
+    /// needle went into or out of tissue) or another end began to move (the head, the tail, or
+    /// neither: an instrument), and its last; at most `--sheet-frames` of them (spread evenly when
+    /// there are more). Needs exactly one `--chain`.
+    #[arg(long, value_name = "FILE.svg")]
+    sheet: Option<PathBuf>,
+    /// Most frames of `--sheet`.
+    #[arg(long, default_value_t = 8, requires = "sheet")]
+    sheet_frames: usize,
     /// View of the frames, azimuth,elevation in degrees (default: planar chains from above, spatial
     /// ones oblique).
     #[arg(long)]
@@ -234,6 +244,10 @@ fn run(a: Args) -> Result<u8> {
     if let Some(w) = &mut csv {
         writeln!(w, "sequence,chain,command,request_id,joint,x,y,z")?;
     }
+    if a.sheet.is_some() && a.chain.len() != 1 {
+        anyhow::bail!("--sheet draws one chain: give exactly one --chain");
+    }
+    let mut sheet = Sheet::default();
     let mut crossings = Crossings::default();
     let mut kept: HashMap<u32, Vec<Vec<nalgebra::Vector3<f64>>>> = HashMap::new();
     if let Some(dir) = &a.svg {
@@ -287,6 +301,9 @@ fn run(a: Args) -> Result<u8> {
             }
             if a.crossings && info.free && info.bundle.is_none() && info.thickness > 0.0 {
                 crossings.state(h.sequence, h.chain, &joints, info.thickness);
+            }
+            if a.sheet.is_some() {
+                sheet.state(h.sequence, &joints, &held, &instruments.2);
             }
             if a.name_knots && info.free && info.bundle.is_none() && info.thickness > 0.0 {
                 kept.entry(h.chain).or_default().push(
@@ -370,6 +387,22 @@ fn run(a: Args) -> Result<u8> {
         for f in pending.into_iter().chain(last) {
             frames += draw(dir, f)?;
         }
+    }
+    if let (Some(file), Some(info)) = (
+        &a.sheet,
+        chains.values().find(|i| a.chain.contains(&i.name)),
+    ) {
+        let v = view.unwrap_or(if info.planar {
+            View::TOP
+        } else {
+            View::OBLIQUE
+        });
+        let n = sheet.write(file, &info.name, info.tissue, v, a.sheet_frames)?;
+        eprintln!(
+            "watch: {n} key frames of {} in {}",
+            info.name,
+            file.display()
+        );
     }
     if let Some(w) = &mut csv {
         w.flush()?;
@@ -762,6 +795,144 @@ type Pending = (
     Vec<[f64; 3]>,
     Option<([f64; 3], [f64; 3])>,
 );
+
+/// A state of `--sheet`: its sequence, joints and threaded eyelets' points.
+type Shot = (u64, Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+/// The key frames of `--sheet`: the states after which the chain's held joints or eyelets changed
+/// or another end began to move, and the last one.
+#[derive(Default)]
+struct Sheet {
+    /// Each key frame, and what changed after it.
+    kept: Vec<(Shot, String)>,
+    last: Option<Shot>,
+    /// The held joints and the threaded eyelets' links of the last state, and which end moved into
+    /// it.
+    was: Option<(Vec<u32>, Vec<u32>, &'static str)>,
+}
+
+impl Sheet {
+    fn state(
+        &mut self,
+        sequence: u64,
+        joints: &[[f64; 3]],
+        held: &[clients::viewer::Held],
+        eyelets: &[shared::EyeletState],
+    ) {
+        let now = (
+            held.iter().map(|h| h.joint).collect::<Vec<_>>(),
+            eyelets
+                .iter()
+                .filter(|e| e.threaded)
+                .map(|e| e.link)
+                .collect::<Vec<_>>(),
+        );
+        let marks = eyelets
+            .iter()
+            .filter(|e| e.threaded)
+            .map(|e| e.at.to_array())
+            .collect::<Vec<_>>();
+        // Which end moved into this state: the head first (a free tail trails a moved head); the
+        // rope moved by neither end, an instrument; a state that moved nothing (a grasp) keeps the
+        // last.
+        let moved_before = self.was.as_ref().map_or("", |w| w.2);
+        let mover = match &self.last {
+            Some((_, j, _)) if j.len() == joints.len() && !joints.is_empty() => {
+                if j[j.len() - 1] != joints[joints.len() - 1] {
+                    "the head moves"
+                } else if j[0] != joints[0] {
+                    "the tail moves"
+                } else if j != joints {
+                    "an instrument moves"
+                } else {
+                    moved_before
+                }
+            }
+            _ => "",
+        };
+        match &self.was {
+            None => self
+                .kept
+                .push(((sequence, joints.to_vec(), marks.clone()), "first".into())),
+            Some((held_was, eyelets_was, moved)) => {
+                let what = if held_was != &now.0 {
+                    Some(if held_was.len() < now.0.len() {
+                        "held"
+                    } else {
+                        "let go"
+                    })
+                } else if eyelets_was.len() != now.1.len() {
+                    Some("an eyelet made")
+                } else if !moved.is_empty() && *moved != mover {
+                    Some(mover)
+                } else {
+                    None
+                };
+                if let (Some(what), Some(shot)) = (what, self.last.take())
+                    && self.kept.last().is_none_or(|k| k.0.0 != shot.0)
+                {
+                    self.kept.push((shot, format!("before: {what}")));
+                }
+            }
+        }
+        self.was = Some((now.0, now.1, mover));
+        self.last = Some((sequence, joints.to_vec(), marks));
+    }
+
+    /// Writes the sheet; returns the frames drawn.
+    fn write(
+        mut self,
+        file: &std::path::Path,
+        name: &str,
+        tissue: Option<([f64; 3], [f64; 3])>,
+        view: View,
+        most: usize,
+    ) -> Result<usize> {
+        if let Some(shot) = self.last.take()
+            && self.kept.last().is_none_or(|k| k.0.0 != shot.0)
+        {
+            self.kept.push((shot, "last".into()));
+        }
+        let n = self.kept.len();
+        let most = most.max(2);
+        // Spread evenly when there are more, the first and the last kept.
+        let picked: Vec<usize> = if n <= most {
+            (0..n).collect()
+        } else {
+            (0..most).map(|k| k * (n - 1) / (most - 1)).collect()
+        };
+        let frames: Vec<Frame> = picked
+            .into_iter()
+            .map(|k| {
+                let ((s, joints, marks), what) = &self.kept[k];
+                Frame {
+                    label: format!("{name} after change {s} ({what})"),
+                    lines: tissue
+                        .map(box_edges)
+                        .unwrap_or_default()
+                        .into_iter()
+                        .map(|edge| Polyline {
+                            joints: edge,
+                            color: (210, 150, 130),
+                            markers: false,
+                        })
+                        .chain(std::iter::once(Polyline {
+                            joints: joints.clone(),
+                            color: (20, 60, 160),
+                            markers: false,
+                        }))
+                        .collect(),
+                    marks: marks.clone(),
+                }
+            })
+            .collect();
+        if let Some(dir) = file.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("create {}", dir.display()))?;
+        }
+        write_frames_svg(file, name, &frames, view, 4)?;
+        Ok(frames.len())
+    }
+}
 
 /// The twelve edges of the box `lo`–`hi` as polylines: the bottom and top rectangles and the four
 /// uprights.

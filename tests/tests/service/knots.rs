@@ -673,23 +673,21 @@ fn instrument_tie_on(
     instrument_tie_in(
         knot_service(),
         script,
-        chain,
-        link,
-        kind,
-        crossings,
-        determinant,
+        (chain, link),
+        (kind, crossings, determinant),
+        &[],
     );
 }
 
 /// [`instrument_tie_on`] on the service `svc` (its scene has `chain`); returns it for more checks.
-fn instrument_tie_in(
+/// `before`: recordings of what was done to the chain before the tie (a needle's pass), replayed
+/// with the tie's.
+pub(super) fn instrument_tie_in(
     svc: Service,
     script: &str,
-    chain: &str,
-    link: f64,
-    kind: KnotType,
-    crossings: std::ops::RangeInclusive<u32>,
-    determinant: u64,
+    (chain, link): (&str, f64),
+    (kind, crossings, determinant): (KnotType, std::ops::RangeInclusive<u32>, u64),
+    before: &[std::path::PathBuf],
 ) -> Service {
     let id = svc.connect().find_chain(chain).unwrap().unwrap();
     // The links the driver holds: within its reach of the tail (its radius 0.8, half its length 7
@@ -777,6 +775,7 @@ fn instrument_tie_in(
         .arg("--prefix")
         .arg(&svc.prefix)
         .arg("replay")
+        .args(before)
         .arg(rec("A"))
         .arg(rec("B"))
         .output()
@@ -827,11 +826,9 @@ fn two_hands_tie_the_surgeons_knot_over_a_bite_with_friction() {
         let svc = instrument_tie_in(
             svc,
             "surgeons-knot",
-            chain,
-            link,
-            KnotType::Surgeons,
-            8..=u32::MAX,
-            15,
+            (chain, link),
+            (KnotType::Surgeons, 8..=u32::MAX, 15),
+            &[],
         );
         let id = svc.connect().find_chain(chain).unwrap().unwrap();
         let q = svc

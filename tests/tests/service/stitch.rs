@@ -10,6 +10,9 @@
 //! B) hold the tail while the driver (hand A) passes the needle and draws the suture through both
 //! eyelets. Every state published is read (none missed) and checked the same way, and the held tail
 //! is bit for bit where it was in each.
+//!
+//! The whole stitch on one suture (`stitch-80`): the pass, then the surgeon's knot over the bite by
+//! two hands, every state of both checked.
 
 use shared::{Command, EyeletState, Parts, RequestHeader, Vec3};
 use std::process::{Command as Process, Stdio};
@@ -42,6 +45,24 @@ fn hand(svc: &Service, script: &str, chain: &str, extra: &[&str]) -> std::proces
 /// thickness (0.1) apart less the 1 % tolerance (the clients' segment distance, not the service's),
 /// and every threaded eyelet on the rope (the nearest segment of the joints, to 1e-9).
 fn check_state(joints: &[Vec3], eyelets: &[EyeletState], link: f64, what: &str) {
+    check_state_of(joints, eyelets, link, SUTURE, what);
+}
+
+/// A suture's thickness and its tissue (the block's corners).
+#[derive(Clone, Copy)]
+struct Body {
+    thickness: f64,
+    tissue: ([f64; 3], [f64; 3]),
+}
+
+/// The sutures of `stitch.toml` that pass the needle: 0.1 thick, their block of tissue.
+const SUTURE: Body = Body {
+    thickness: 0.1,
+    tissue: ([22.0, -6.0, -3.0], [34.0, 6.0, 0.0]),
+};
+
+/// [`check_state`] for a suture of thickness and tissue `body`.
+fn check_state_of(joints: &[Vec3], eyelets: &[EyeletState], link: f64, body: Body, what: &str) {
     for (k, w) in joints.windows(2).enumerate() {
         let (a, b) = (w[0], w[1]);
         let l = ((b.x - a.x).powi(2) + (b.y - a.y).powi(2) + (b.z - a.z).powi(2)).sqrt();
@@ -61,26 +82,24 @@ fn check_state(joints: &[Vec3], eyelets: &[EyeletState], link: f64, what: &str) 
         }
     }
     assert!(
-        closest >= 0.1 * 0.99 - 1e-9,
+        closest >= body.thickness * 0.99 - 1e-9,
         "{what}: links {closest} apart"
     );
     for e in eyelets.iter().filter(|e| e.threaded) {
         let (_, d, _) = tests::nearest_link(joints, e.at.to_array());
         assert!(d < 1e-9, "{what}: eyelet {e:?} is {d:e} off the rope");
     }
-    check_out_of_tissue(joints, eyelets, what);
+    check_out_of_tissue(joints, eyelets, body, what);
 }
 
-/// The tissue of every chain of `stitch.toml`: the block from `TISSUE.0` to `TISSUE.1`.
-const TISSUE: ([f64; 3], [f64; 3]) = ([22.0, -6.0, -3.0], [34.0, 6.0, 0.0]);
-
 /// The rope keeps out of the tissue but where it passes through: every link at least the rope's
-/// radius (0.05, to the collision tolerance of 1 %) from the block, by 101 samples along it, except
+/// radius (to the collision tolerance of 1 %) from the block, by 101 samples along it, except
 /// the links from two before the first eyelet's link to two after the last one's, and, while the
 /// needle is in (an odd number of eyelets, or the head within a thickness of the block), on to the
 /// head from two before the first joint back from the head outside that margin.
-fn check_out_of_tissue(joints: &[Vec3], eyelets: &[EyeletState], what: &str) {
-    let (lo, hi) = TISSUE;
+fn check_out_of_tissue(joints: &[Vec3], eyelets: &[EyeletState], body: Body, what: &str) {
+    let (lo, hi) = body.tissue;
+    let t = body.thickness;
     let p = |q: Vec3| [q.x, q.y, q.z];
     let outside = |q: [f64; 3]| {
         (0..3)
@@ -88,7 +107,7 @@ fn check_out_of_tissue(joints: &[Vec3], eyelets: &[EyeletState], what: &str) {
             .sum::<f64>()
             .sqrt()
     };
-    let near = |q: [f64; 3]| (0..3).all(|k| lo[k] - 0.1 <= q[k] && q[k] <= hi[k] + 0.1);
+    let near = |q: [f64; 3]| (0..3).all(|k| lo[k] - t <= q[k] && q[k] <= hi[k] + t);
     let n = joints.len() - 1;
     let threaded: Vec<usize> = eyelets
         .iter()
@@ -123,7 +142,7 @@ fn check_out_of_tissue(joints: &[Vec3], eyelets: &[EyeletState], what: &str) {
             })
             .fold(f64::INFINITY, f64::min);
         assert!(
-            d >= 0.05 * 0.99 - 1e-9,
+            d >= 0.5 * t * 0.99 - 1e-9,
             "{what}: link {k} is {d} from the tissue ({through:?} pass through it)"
         );
     }
@@ -183,6 +202,76 @@ fn needle_pass(chain: &str, link: f64) {
 /// A published state of one chain: its sequence number, joints, held joints and eyelets.
 type Seen = (u64, Vec<Vec3>, Vec<Vec3>, Vec<EyeletState>);
 
+/// Reads every state the service publishes after `seq0` on chain `id` on a thread of its own, from
+/// before the caller's hands start (it returns once subscribed) until [`AllStates::finish`]; a
+/// missed state fails the test.
+struct AllStates {
+    stop: Arc<AtomicBool>,
+    watcher: std::thread::JoinHandle<Vec<Seen>>,
+}
+
+impl AllStates {
+    fn start(svc: &Service, id: u32, seq0: u64) -> Self {
+        let prefix = svc.prefix.clone();
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let (ready_tx, ready) = std::sync::mpsc::channel();
+        let watcher = std::thread::spawn(move || -> Vec<Seen> {
+            let conn = clients::Connection::connect(clients::ConnectOptions {
+                prefix,
+                ..clients::ConnectOptions::default()
+            })
+            .unwrap();
+            let stream = conn.subscribe().unwrap();
+            ready_tx.send(()).unwrap();
+            let (mut seen, mut next, mut idle) = (Vec::new(), seq0 + 1, None);
+            loop {
+                let got = stream
+                    .try_next(|h, p| {
+                        let parts = Parts::of_state(h, p);
+                        (
+                            h.sequence,
+                            h.chain,
+                            parts.joints.to_vec(),
+                            parts.held.to_vec(),
+                            parts.eyelet_states().collect::<Vec<_>>(),
+                        )
+                    })
+                    .unwrap();
+                match got {
+                    Some((seq, ch, joints, held, eyelets)) => {
+                        idle = None;
+                        assert_eq!(seq, next, "a published state was missed");
+                        next += 1;
+                        if ch == id {
+                            seen.push((seq, joints, held, eyelets));
+                        }
+                    }
+                    None => {
+                        if flag.load(Ordering::Relaxed) {
+                            let t = *idle.get_or_insert_with(Instant::now);
+                            if t.elapsed() > Duration::from_millis(300) {
+                                return seen;
+                            }
+                        }
+                        std::thread::sleep(Duration::from_micros(200));
+                    }
+                }
+            }
+        });
+        ready
+            .recv_timeout(Duration::from_secs(20))
+            .expect("the watcher subscribes");
+        AllStates { stop, watcher }
+    }
+
+    /// Every state read, once the stream has been idle for 300 ms after the call.
+    fn finish(self) -> Vec<Seen> {
+        self.stop.store(true, Ordering::Relaxed);
+        self.watcher.join().unwrap()
+    }
+}
+
 /// Two hands on `chain` (`needle-pass-held`): the forceps (hand B) hold the tail, the driver (hand
 /// A) passes the needle and draws the suture through. Every state the service publishes from before
 /// the hands start is read (none missed, beside a deep state buffer) and checked by code of the test:
@@ -195,56 +284,7 @@ fn two_hands_pass(chain: &str, link: f64) {
     let q0 = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
     let (tail, head) = (q0.joints()[0], q0.joints()[q0.joints().len() - 1]);
     let seq0 = q0.header.sequence;
-    let prefix = svc.prefix.clone();
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    let (ready_tx, ready) = std::sync::mpsc::channel();
-    let watcher = std::thread::spawn(move || -> Vec<Seen> {
-        let conn = clients::Connection::connect(clients::ConnectOptions {
-            prefix,
-            ..clients::ConnectOptions::default()
-        })
-        .unwrap();
-        let stream = conn.subscribe().unwrap();
-        ready_tx.send(()).unwrap();
-        let (mut seen, mut next, mut idle) = (Vec::new(), seq0 + 1, None);
-        loop {
-            let got = stream
-                .try_next(|h, p| {
-                    let parts = Parts::of_state(h, p);
-                    (
-                        h.sequence,
-                        h.chain,
-                        parts.joints.to_vec(),
-                        parts.held.to_vec(),
-                        parts.eyelet_states().collect::<Vec<_>>(),
-                    )
-                })
-                .unwrap();
-            match got {
-                Some((seq, ch, joints, held, eyelets)) => {
-                    idle = None;
-                    assert_eq!(seq, next, "a published state was missed");
-                    next += 1;
-                    if ch == id {
-                        seen.push((seq, joints, held, eyelets));
-                    }
-                }
-                None => {
-                    if flag.load(Ordering::Relaxed) {
-                        let t = *idle.get_or_insert_with(Instant::now);
-                        if t.elapsed() > Duration::from_millis(300) {
-                            return seen;
-                        }
-                    }
-                    std::thread::sleep(Duration::from_micros(200));
-                }
-            }
-        }
-    });
-    ready
-        .recv_timeout(Duration::from_secs(20))
-        .expect("the watcher subscribes");
+    let watched = AllStates::start(&svc, id, seq0);
     let b = hand(&svc, "needle-pass-held", chain, &["--hand", "B"]);
     let a = hand(
         &svc,
@@ -254,8 +294,7 @@ fn two_hands_pass(chain: &str, link: f64) {
     );
     let out = tests::hand_output(a);
     let out_b = tests::hand_output(b);
-    stop.store(true, Ordering::Relaxed);
-    let seen = watcher.join().unwrap();
+    let seen = watched.finish();
     for o in [&out, &out_b] {
         assert!(o.contains(" 0 locked"), "{o}");
     }
@@ -318,4 +357,167 @@ fn two_hands_pass_the_needle_with_the_tail_in_forceps_at_80_links() {
 #[test]
 fn two_hands_pass_the_needle_with_the_tail_in_forceps_at_160_links() {
     two_hands_pass("suture-held-160", 0.125);
+}
+
+/// `stitch.toml`'s `stitch-80`: 0.2 thick, its block of tissue.
+const STITCH_80: Body = Body {
+    thickness: 0.2,
+    tissue: ([12.0, -4.0, -3.0], [20.0, 4.0, 0.0]),
+};
+
+/// Issue 39, the whole stitch on one suture (`stitch-80`, 80 links of 0.5): the needle's pass by one
+/// hand (`stitch-pass`: into the tissue, out 1.1 on, the suture drawn through with its tail free),
+/// then the instrument tie of a surgeon's knot over the bite by two hands (`surgeons-knot`: A the
+/// long end, B the tail with the needle driver). Every state of both phases is read (none missed)
+/// and checked by the test's own code: lengths, the thickness apart, each threaded eyelet on the rope,
+/// the rope out of the tissue but where it passes through. After the pass: both eyelets on the
+/// tissue's top face, the tail before the entry about as long as `stitch-tie-80`'s (15.25). The tie is
+/// checked as the instrument ties are (`knots::instrument_tie_in`: the swept-volume check of every
+/// state, the surgeon's knot by the tests' own determinant, 15, one knot and not two in series, the
+/// driver carried), and the pass's recording and the hands' replay bit for bit. At the end both
+/// eyelets still on the rope on the links the pass left them on: the bite held while the knot was
+/// tied over it.
+#[test]
+fn the_whole_stitch_passes_the_needle_and_ties_the_surgeons_knot_over_the_bite() {
+    let chain = "stitch-80";
+    let link = 0.5;
+    let svc = stitch_service(&["--state-buffer", "4096"]);
+    let mut c = svc.connect();
+    let id = c.require_chain(chain).unwrap();
+    let seq0 = c
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap()
+        .header
+        .sequence;
+    let watched = AllStates::start(&svc, id, seq0);
+    let dir = tempfile::tempdir().unwrap();
+    let pass_record = dir.path().join("pass.jsonl");
+    let out = tests::hand_output(hand(
+        &svc,
+        "stitch-pass",
+        chain,
+        &[
+            "--identify",
+            chain,
+            "--record",
+            pass_record.to_str().unwrap(),
+        ],
+    ));
+    assert!(out.contains(" 0 locked"), "{out}");
+    let q = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    let parts = Parts::of_response(&q.header, &q.payload);
+    let after_pass: Vec<_> = parts.eyelet_states().collect();
+    assert_eq!(after_pass.len(), 2, "{after_pass:?}");
+    for e in &after_pass {
+        assert!(e.threaded && e.at.z.abs() < 1e-12, "{e:?}");
+        assert!((12.0..20.0).contains(&e.at.x), "{e:?}");
+    }
+    let (k, _, along) = tests::nearest_link(parts.joints, after_pass[0].at.to_array());
+    let tail = k as f64 * link + along;
+    assert!((tail - 15.25).abs() < 0.5, "tail before the entry {tail}");
+    // The tie over the bite, on the same suture.
+    let svc = super::knots::instrument_tie_in(
+        svc,
+        "surgeons-knot",
+        (chain, link),
+        (tractrix::knot::KnotType::Surgeons, 8..=u32::MAX, 15),
+        std::slice::from_ref(&pass_record),
+    );
+    let seen = watched.finish();
+    assert!(seen.len() > 3000, "{} states", seen.len());
+    for (seq, joints, _, eyelets) in &seen {
+        check_state_of(
+            joints,
+            eyelets,
+            link,
+            STITCH_80,
+            &format!("{chain}, state {seq}"),
+        );
+    }
+    // The bite held: the same two eyelets, threaded, on the links the pass left them on.
+    let q = svc
+        .connect()
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap();
+    let parts = Parts::of_response(&q.header, &q.payload);
+    let last: Vec<_> = parts.eyelet_states().collect();
+    assert_eq!(last, after_pass);
+    for e in &last {
+        let (_, d, _) = tests::nearest_link(parts.joints, e.at.to_array());
+        assert!(d < 1e-9, "eyelet {e:?} {d:e} off the rope");
+    }
+}
+
+/// `watch --sheet`: one SVG of a chain's key frames. Beside the one-hand needle pass on `suture-80`
+/// (420 states): the first state, the state before each of the two eyelets was made, and the last,
+/// each a panel labelled with its state, and the tissue from the describe drawn in each.
+#[test]
+fn watch_draws_the_key_frames_of_a_pass_in_one_svg() {
+    let svc = stitch_service(&["--state-buffer", "1024"]);
+    let dir = tempfile::tempdir().unwrap();
+    let sheet = dir.path().join("sheet.svg");
+    let log = dir.path().join("watch.log");
+    let mut watch = Process::new(bin("watch"))
+        .args(["--prefix", &svc.prefix, "--chain", "suture-80", "--sheet"])
+        .arg(&sheet)
+        .args(["--count", "420", "--duration", "200"])
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .expect("spawn watch");
+    let t0 = Instant::now();
+    while !std::fs::read_to_string(&log)
+        .unwrap_or_default()
+        .contains("listening")
+    {
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "watch did not start"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = tests::hand_output(hand(&svc, "needle-pass", "suture-80", &[]));
+    assert!(out.contains(" 0 locked"), "{out}");
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = watch.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "watch did not stop"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let said = std::fs::read_to_string(&log).unwrap();
+    assert!(status.success(), "{said}");
+    assert!(said.contains("4 key frames of suture-80"), "{said}");
+    let svg = std::fs::read_to_string(&sheet).unwrap();
+    let labels: Vec<&str> = svg
+        .match_indices("suture-80 after change ")
+        .map(|(at, _)| {
+            let rest = &svg[at..];
+            &rest[..rest.find(')').map_or(rest.len(), |e| e + 1)]
+        })
+        .collect();
+    assert_eq!(labels.len(), 4, "{labels:?}");
+    assert!(labels[0].ends_with("(first)"), "{labels:?}");
+    assert!(
+        labels[1..3]
+            .iter()
+            .all(|l| l.ends_with("(before: an eyelet made)")),
+        "{labels:?}"
+    );
+    assert!(labels[3].ends_with("(last)"), "{labels:?}");
+    // The tissue: each panel has the block's edges, drawn in its flesh colour (shaded with depth:
+    // red above blue, where the rope is blue above red).
+    let tissue_lines = svg
+        .match_indices("stroke=\"#")
+        .filter(|(at, _)| {
+            let hex = &svg[at + 9..at + 15];
+            let c = |k: usize| u8::from_str_radix(&hex[k..k + 2], 16).unwrap_or(0);
+            c(0) > c(4).saturating_add(30)
+        })
+        .count();
+    assert!(tissue_lines >= 4 * 6, "{tissue_lines} tissue lines");
 }
