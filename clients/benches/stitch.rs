@@ -22,6 +22,12 @@
 //! and without it, unperturbed: the knot the service names at the end, the refusals, how far the
 //! eyelets slid, and the time per request ([`ties`]).
 //!
+//! A third table is the whole stitch ([`whole`]): on `stitch-80`, the needle's pass by one hand
+//! (`stitch-pass`, the tail free) and then the surgeon's knot over the bite by two hands
+//! (`surgeons-knot`), all three hands perturbed with the run's seed, `STITCH_BENCH_RUNS` runs. A run
+//! succeeds when the service names the surgeon's knot at the end and the bench's own code finds both
+//! eyelets threaded and on the rope (to 1e-9).
+//!
 //! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
 
 use anyhow::{Context, Result, bail};
@@ -316,6 +322,171 @@ fn ties(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// One hand process's run on `prefix` (`--rate 0`, `--quiet`), its `solve_ns` in µs and status
+/// appended from its timings; `Err` when it fails for another reason than refused moves.
+fn one_hand(prefix: &str, args: &[&str], file: &Path, solve: &mut Vec<u64>) -> Result<usize> {
+    let mut child = Command::new(release_bin("hand")?)
+        .args(["--prefix", prefix, "run", "--rate", "0", "--quiet"])
+        .args(["--turn-timeout", "120"])
+        .args(args)
+        .arg("--timings")
+        .arg(file)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .context("start hand")?;
+    let started = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait()? {
+            break s;
+        }
+        if started.elapsed() > RUN_TIMEOUT {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!("a hand took longer than {RUN_TIMEOUT:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let text = std::fs::read_to_string(file).unwrap_or_default();
+    let mut refused = 0;
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let [_, solve_us, status] = f[..] else {
+            bail!("{}: bad line {line:?}", file.display());
+        };
+        solve.push((solve_us.parse::<f64>()? * 1e3).round() as u64);
+        if status != "ok" {
+            refused += 1;
+        }
+    }
+    if !(status.success() || (status.code() == Some(1) && refused > 0)) {
+        bail!("a hand failed ({status})");
+    }
+    Ok(refused)
+}
+
+/// The whole stitch on `stitch-80`, `runs` perturbed runs (see the module docs).
+fn whole(runs: u64, dir: &Path) -> Result<()> {
+    let chain = "stitch-80";
+    let scene = workspace().join("solver-service/scenes/stitch.toml");
+    let (mut tied, mut with_refusals, mut refused) = (0, 0, 0);
+    let (mut pass_solve, mut tie_solve) = (Vec::new(), Vec::new());
+    for seed in 1..=runs {
+        let outcome = (|| -> Result<bool> {
+            let prefix = format!("stitch_{}_whole_{seed}_", std::process::id());
+            let mut svc = Command::new(release_bin("solver-service")?);
+            svc.args(["--prefix", &prefix, "--scene"])
+                .arg(&scene)
+                .args(["--wait", "event", "--no-persist"]);
+            let mut svc = Proc::ready(svc, "solver-service")?;
+            let s = seed.to_string();
+            let mut r = one_hand(
+                &prefix,
+                &[
+                    "--builtin",
+                    "stitch-pass",
+                    "--chain",
+                    chain,
+                    "--perturb",
+                    &s,
+                ],
+                &dir.join(format!("whole-{seed}-pass.txt")),
+                &mut pass_solve,
+            )?;
+            let b = std::thread::scope(|scope| -> Result<usize> {
+                let b = scope.spawn(|| {
+                    let mut solve = Vec::new();
+                    let r = one_hand(
+                        &prefix,
+                        &[
+                            "--builtin",
+                            "surgeons-knot",
+                            "--hand",
+                            "B",
+                            "--chain",
+                            chain,
+                            "--perturb",
+                            &s,
+                        ],
+                        &dir.join(format!("whole-{seed}-B.txt")),
+                        &mut solve,
+                    );
+                    r.map(|r| (r, solve))
+                });
+                r += one_hand(
+                    &prefix,
+                    &[
+                        "--builtin",
+                        "surgeons-knot",
+                        "--hand",
+                        "A",
+                        "--chain",
+                        chain,
+                        "--perturb",
+                        &s,
+                    ],
+                    &dir.join(format!("whole-{seed}-A.txt")),
+                    &mut tie_solve,
+                )?;
+                let (rb, solve) = b.join().map_err(|_| anyhow::anyhow!("hand B panicked"))??;
+                tie_solve.extend(solve);
+                Ok(rb)
+            })?;
+            r += b;
+            refused += r;
+            with_refusals += usize::from(r > 0);
+            let (joints, eyelets) = query(&prefix, chain)?;
+            let out = Command::new(release_bin("chainctl")?)
+                .args(["--prefix", &prefix, "knot", chain, "--json"])
+                .output()
+                .context("chainctl knot")?;
+            svc.stop();
+            let knot = String::from_utf8_lossy(&out.stdout).contains("\"knot\":\"surgeons\"");
+            // The bench's own check of the bite: both eyelets threaded, each on the rope.
+            let on_rope = eyelets.len() == 2
+                && eyelets.iter().all(|e| {
+                    let p = e.at.to_array();
+                    e.threaded
+                        && joints
+                            .windows(2)
+                            .map(|w| distance_to_segment(w[0], w[1], p).0)
+                            .fold(f64::INFINITY, f64::min)
+                            < 1e-9
+                });
+            Ok(knot && on_rope)
+        })();
+        match outcome {
+            Ok(true) => tied += 1,
+            Ok(false) => eprintln!(
+                "stitch bench: the whole stitch, seed {seed}: no surgeon's knot over the bite"
+            ),
+            Err(e) => eprintln!("stitch bench: the whole stitch, seed {seed}: {e:#}"),
+        }
+    }
+    pass_solve.sort_unstable();
+    tie_solve.sort_unstable();
+    println!(
+        "\n| suture | links | runs | surgeon's knot over the bite | runs with a refused request | refused | pass: requests | p50 µs | p99.9 µs | tie: requests | p50 µs | p99 µs | p99.9 µs | max µs |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    if pass_solve.is_empty() || tie_solve.is_empty() {
+        println!("| {chain} | 80 | {runs} | {tied} | – | – | – | – | – | – | – | – | – | – |");
+        return Ok(());
+    }
+    println!(
+        "| {chain} | 80 | {runs} | {tied} | {with_refusals} | {refused} | {} | {:.1} | {:.1} | {} | {:.1} | {:.1} | {:.1} | {:.1} |",
+        pass_solve.len(),
+        pct(&pass_solve, 0.5),
+        pct(&pass_solve, 0.999),
+        tie_solve.len(),
+        pct(&tie_solve, 0.5),
+        pct(&tie_solve, 0.99),
+        pct(&tie_solve, 0.999),
+        pct(&tie_solve, 1.0),
+    );
+    Ok(())
+}
+
 fn pct(v: &[u64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize] as f64 / 1e3
 }
@@ -368,5 +539,6 @@ fn main() -> Result<()> {
             pct(&solve, 1.0),
         );
     }
-    ties(dir.path())
+    ties(dir.path())?;
+    whole(runs, dir.path())
 }
