@@ -9,6 +9,7 @@
 #
 #   scripts/stitch.sh [OUT_DIR]      # default target/stitch: stitch.rrd, stitch.svg
 #   PICTURE=docs/stitch.svg scripts/stitch.sh    # also copies the key frames there (the README's)
+#   CHAIN=stitch-160 scripts/stitch.sh           # the 160-link suture
 #
 # Open the recording with `rerun target/stitch/stitch.rrd`. `--perturb SEED` perturbs both hands'
 # turns (the bench `cargo bench -p clients --bench stitch` runs 16 seeds):
@@ -22,12 +23,13 @@ cargo build -q --release -p solver-service -p clients --bins
 # `watch` with the Rerun recorder (the feature `rerun`), in the test suite's profile for it.
 cargo build -q -p clients --features rerun --bin watch --profile viewer
 prefix="stitch_$$_"
+CHAIN=${CHAIN:-stitch-80}
 tmp=$(mktemp -d)
 trap 'kill $svc $watcher 2>/dev/null || true; rm -rf "$tmp"' EXIT
 target/release/solver-service --prefix "$prefix" --scene solver-service/scenes/stitch.toml --no-persist \
   --wait event --state-buffer 4096 >"$tmp/service.log" 2>&1 &
 svc=$!
-target/viewer/watch --prefix "$prefix" --wait-for-service 30 --chain stitch-80 --save "$out/stitch.rrd" \
+target/viewer/watch --prefix "$prefix" --wait-for-service 30 --chain "$CHAIN" --save "$out/stitch.rrd" \
   --sheet "$out/stitch.svg" --view=-90,20 >"$tmp/watch.log" 2>&1 &
 watcher=$!
 # Every state from the first: the hands start once `watch` listens.
@@ -37,15 +39,15 @@ for _ in $(seq 600); do
 done
 grep -q "listening" "$tmp/watch.log" || { cat "$tmp/watch.log"; echo "watch did not start" >&2; exit 1; }
 hand() {
-  target/release/hand --prefix "$prefix" --wait-for-service 30 run --chain stitch-80 --quiet \
+  target/release/hand --prefix "$prefix" --wait-for-service 30 run --chain "$CHAIN" --quiet \
     --turn-timeout 300 "$@"
 }
 echo "== the needle's pass (hand A)"
-hand --builtin stitch-pass --identify stitch-80 "$@"
+hand --builtin stitch-pass --identify "$CHAIN" "$@"
 echo "== the surgeon's knot over the bite (hands A and B)"
 hand --builtin surgeons-knot --hand A "$@" >"$tmp/a.log" 2>&1 &
 a=$!
-hand --builtin surgeons-knot --hand B --identify stitch-80 "$@"
+hand --builtin surgeons-knot --hand B --identify "$CHAIN" "$@"
 wait $a || { cat "$tmp/a.log"; exit 1; }
 grep -h "requests" "$tmp/a.log" || true
 sleep 1

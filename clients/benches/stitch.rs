@@ -22,7 +22,7 @@
 //! and without it, unperturbed: the knot the service names at the end, the refusals, how far the
 //! eyelets slid, and the time per request ([`ties`]).
 //!
-//! A third table is the whole stitch ([`whole`]): on `stitch-80`, the needle's pass by one hand
+//! A third table is the whole stitch ([`whole`]): on `stitch-80` and `stitch-160`, the needle's pass by one hand
 //! (`stitch-pass`, the tail free) and then the surgeon's knot over the bite by two hands
 //! (`surgeons-knot`), all three hands perturbed with the run's seed, `STITCH_BENCH_RUNS` runs. A run
 //! succeeds when the service names the surgeon's knot at the end and the bench's own code finds both
@@ -365,15 +365,27 @@ fn one_hand(prefix: &str, args: &[&str], file: &Path, solve: &mut Vec<u64>) -> R
     Ok(refused)
 }
 
-/// The whole stitch on `stitch-80`, `runs` perturbed runs (see the module docs).
+/// The whole stitch on `stitch-80` and `stitch-160`, `runs` perturbed runs each (see the module
+/// docs).
 fn whole(runs: u64, dir: &Path) -> Result<()> {
-    let chain = "stitch-80";
+    println!(
+        "\n| suture | links | runs | surgeon's knot over the bite | runs with a refused request | refused | pass: requests | p50 µs | p99.9 µs | tie: requests | p50 µs | p99 µs | p99.9 µs | max µs |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for (chain, links) in [("stitch-80", 80), ("stitch-160", 160)] {
+        whole_on(chain, links, runs, dir)?;
+    }
+    Ok(())
+}
+
+/// [`whole`]'s row of one suture.
+fn whole_on(chain: &str, links: usize, runs: u64, dir: &Path) -> Result<()> {
     let scene = workspace().join("solver-service/scenes/stitch.toml");
     let (mut tied, mut with_refusals, mut refused) = (0, 0, 0);
     let (mut pass_solve, mut tie_solve) = (Vec::new(), Vec::new());
     for seed in 1..=runs {
         let outcome = (|| -> Result<bool> {
-            let prefix = format!("stitch_{}_whole_{seed}_", std::process::id());
+            let prefix = format!("stitch_{}_whole_{links}_{seed}_", std::process::id());
             let mut svc = Command::new(release_bin("solver-service")?);
             svc.args(["--prefix", &prefix, "--scene"])
                 .arg(&scene)
@@ -390,7 +402,7 @@ fn whole(runs: u64, dir: &Path) -> Result<()> {
                     "--perturb",
                     &s,
                 ],
-                &dir.join(format!("whole-{seed}-pass.txt")),
+                &dir.join(format!("whole-{links}-{seed}-pass.txt")),
                 &mut pass_solve,
             )?;
             let b = std::thread::scope(|scope| -> Result<usize> {
@@ -408,7 +420,7 @@ fn whole(runs: u64, dir: &Path) -> Result<()> {
                             "--perturb",
                             &s,
                         ],
-                        &dir.join(format!("whole-{seed}-B.txt")),
+                        &dir.join(format!("whole-{links}-{seed}-B.txt")),
                         &mut solve,
                     );
                     r.map(|r| (r, solve))
@@ -425,7 +437,7 @@ fn whole(runs: u64, dir: &Path) -> Result<()> {
                         "--perturb",
                         &s,
                     ],
-                    &dir.join(format!("whole-{seed}-A.txt")),
+                    &dir.join(format!("whole-{links}-{seed}-A.txt")),
                     &mut tie_solve,
                 )?;
                 let (rb, solve) = b.join().map_err(|_| anyhow::anyhow!("hand B panicked"))??;
@@ -465,16 +477,12 @@ fn whole(runs: u64, dir: &Path) -> Result<()> {
     }
     pass_solve.sort_unstable();
     tie_solve.sort_unstable();
-    println!(
-        "\n| suture | links | runs | surgeon's knot over the bite | runs with a refused request | refused | pass: requests | p50 µs | p99.9 µs | tie: requests | p50 µs | p99 µs | p99.9 µs | max µs |"
-    );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     if pass_solve.is_empty() || tie_solve.is_empty() {
-        println!("| {chain} | 80 | {runs} | {tied} | – | – | – | – | – | – | – | – | – | – |");
+        println!("| {chain} | {links} | {runs} | {tied} | – | – | – | – | – | – | – | – | – | – |");
         return Ok(());
     }
     println!(
-        "| {chain} | 80 | {runs} | {tied} | {with_refusals} | {refused} | {} | {:.1} | {:.1} | {} | {:.1} | {:.1} | {:.1} | {:.1} |",
+        "| {chain} | {links} | {runs} | {tied} | {with_refusals} | {refused} | {} | {:.1} | {:.1} | {} | {:.1} | {:.1} | {:.1} | {:.1} |",
         pass_solve.len(),
         pct(&pass_solve, 0.5),
         pct(&pass_solve, 0.999),

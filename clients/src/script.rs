@@ -910,12 +910,14 @@ impl Script {
                     ),
                 ],
             }),
-            // The needle's pass of the whole stitch (chain `stitch-80` of `stitch.toml`, laid along
-            // +x from x = -25 to the needle's end at x = 15, half a unit above the tissue): down
-            // into the tissue just past the head's start, 1.2 deep, out 1.3 on, and the suture drawn
-            // on along +x until its tail, free, is near x = 0 (the tail before the entry about as
-            // long as `stitch-tie-80`'s, so that its instrument tie follows). Not grasped: the
-            // tail must slide toward the entry.
+            // The needle's pass of the whole stitch (chain `stitch-80` or `stitch-160` of
+            // `stitch.toml`, laid along +x from x = -25 to the needle's end at x = 15, half a unit
+            // above the tissue): down into the tissue just past the head's start, 1.2 deep, out 1.5
+            // on, and the suture drawn on along +x and up until its tail, free, is near x = 0 (the
+            // tail before the entry about as long as `stitch-tie-80`'s, so that its instrument tie
+            // follows). The pull rises 1.5: drawn level, the 160-link suture lay along the tissue's
+            // top beyond the exit, and pushing it out of the tissue locked the pull. Not grasped:
+            // the tail must slide toward the entry.
             "stitch-pass" => Some(Script {
                 name: name.into(),
                 max_step: 0.05,
@@ -933,7 +935,7 @@ impl Script {
                         [1.75, 0.0, -0.4],
                         [1.95, 0.0, 0.1],
                         [2.2, 0.0, 0.5],
-                        [24.85, 0.0, 0.5],
+                        [24.85, 0.0, 1.5],
                     ],
                 )],
             }),

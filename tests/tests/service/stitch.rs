@@ -359,14 +359,15 @@ fn two_hands_pass_the_needle_with_the_tail_in_forceps_at_160_links() {
     two_hands_pass("suture-held-160", 0.125);
 }
 
-/// `stitch.toml`'s `stitch-80`: 0.2 thick, its block of tissue.
-const STITCH_80: Body = Body {
+/// `stitch.toml`'s `stitch-80` and `stitch-160`: 0.2 thick, their block of tissue.
+const STITCH: Body = Body {
     thickness: 0.2,
     tissue: ([12.0, -4.0, -3.0], [20.0, 4.0, 0.0]),
 };
 
-/// Issue 39, the whole stitch on one suture (`stitch-80`, 80 links of 0.5): the needle's pass by one
-/// hand (`stitch-pass`: into the tissue, out 1.1 on, the suture drawn through with its tail free),
+/// Issue 39, the whole stitch on one suture (`stitch-80`, 80 links of 0.5; `stitch-160`, 160 of
+/// 0.25): the needle's pass by one
+/// hand (`stitch-pass`: into the tissue, out 1.5 on, the suture drawn through with its tail free),
 /// then the instrument tie of a surgeon's knot over the bite by two hands (`surgeons-knot`: A the
 /// long end, B the tail with the needle driver). Every state of both phases is read (none missed)
 /// and checked by the test's own code: lengths, the thickness apart, each threaded eyelet on the rope,
@@ -377,10 +378,7 @@ const STITCH_80: Body = Body {
 /// driver carried), and the pass's recording and the hands' replay bit for bit. At the end both
 /// eyelets still on the rope on the links the pass left them on: the bite held while the knot was
 /// tied over it.
-#[test]
-fn the_whole_stitch_passes_the_needle_and_ties_the_surgeons_knot_over_the_bite() {
-    let chain = "stitch-80";
-    let link = 0.5;
+fn whole_stitch(chain: &str, link: f64) {
     let svc = stitch_service(&["--state-buffer", "4096"]);
     let mut c = svc.connect();
     let id = c.require_chain(chain).unwrap();
@@ -430,7 +428,7 @@ fn the_whole_stitch_passes_the_needle_and_ties_the_surgeons_knot_over_the_bite()
             joints,
             eyelets,
             link,
-            STITCH_80,
+            STITCH,
             &format!("{chain}, state {seq}"),
         );
     }
@@ -520,4 +518,14 @@ fn watch_draws_the_key_frames_of_a_pass_in_one_svg() {
         })
         .count();
     assert!(tissue_lines >= 4 * 6, "{tissue_lines} tissue lines");
+}
+
+#[test]
+fn the_whole_stitch_passes_the_needle_and_ties_the_surgeons_knot_over_the_bite_at_80_links() {
+    whole_stitch("stitch-80", 0.5);
+}
+
+#[test]
+fn the_whole_stitch_passes_the_needle_and_ties_the_surgeons_knot_over_the_bite_at_160_links() {
+    whole_stitch("stitch-160", 0.25);
 }
