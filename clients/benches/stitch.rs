@@ -22,8 +22,8 @@
 //! and without it, unperturbed: the knot the service names at the end, the refusals, how far the
 //! eyelets slid, and the time per request ([`ties`]).
 //!
-//! A third table is the whole stitch ([`whole`]): on `stitch-80` and `stitch-160`, the needle's pass by one hand
-//! (`stitch-pass`, the tail free) and then the surgeon's knot over the bite by two hands
+//! A third table is the whole stitch ([`whole`]): on `stitch-80` and `stitch-160`, the needle's pass
+//! by one hand (`stitch-pass`, the tail free) and then the surgeon's knot over the bite by two hands
 //! (`surgeons-knot`), all three hands perturbed with the run's seed, `STITCH_BENCH_RUNS` runs. A run
 //! succeeds when the service names the surgeon's knot at the end and the bench's own code finds both
 //! eyelets threaded and on the rope (to 1e-9).
@@ -470,9 +470,9 @@ fn whole_on(chain: &str, links: usize, runs: u64, dir: &Path) -> Result<()> {
         match outcome {
             Ok(true) => tied += 1,
             Ok(false) => eprintln!(
-                "stitch bench: the whole stitch, seed {seed}: no surgeon's knot over the bite"
+                "stitch bench: the whole stitch on {chain}, seed {seed}: no surgeon's knot over the bite"
             ),
-            Err(e) => eprintln!("stitch bench: the whole stitch, seed {seed}: {e:#}"),
+            Err(e) => eprintln!("stitch bench: the whole stitch on {chain}, seed {seed}: {e:#}"),
         }
     }
     pass_solve.sort_unstable();
