@@ -117,18 +117,7 @@ fn hands(
             }
             std::thread::sleep(Duration::from_millis(20));
         };
-        let text = std::fs::read_to_string(&*file).unwrap_or_default();
-        let mut refused = 0;
-        for line in text.lines().filter(|l| !l.starts_with('#')) {
-            let f: Vec<&str> = line.split_whitespace().collect();
-            let [_, solve_us, status] = f[..] else {
-                bail!("{}: bad line {line:?}", file.display());
-            };
-            solve.push((solve_us.parse::<f64>()? * 1e3).round() as u64);
-            if status != "ok" {
-                refused += 1;
-            }
-        }
+        let refused = timings(file, &mut solve)?;
         refused_all += refused;
         if !(status.success() || (status.code() == Some(1) && refused > 0)) {
             failure.get_or_insert(format!("a hand failed ({status})"));
@@ -322,6 +311,23 @@ fn ties(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// A hand's `--timings` file: every request's `solve_ns` appended to `solve`; returns the refused.
+fn timings(file: &Path, solve: &mut Vec<u64>) -> Result<usize> {
+    let text = std::fs::read_to_string(file).unwrap_or_default();
+    let mut refused = 0;
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let [_, solve_us, status] = f[..] else {
+            bail!("{}: bad line {line:?}", file.display());
+        };
+        solve.push((solve_us.parse::<f64>()? * 1e3).round() as u64);
+        if status != "ok" {
+            refused += 1;
+        }
+    }
+    Ok(refused)
+}
+
 /// One hand process's run on `prefix` (`--rate 0`, `--quiet`), its `solve_ns` in µs and status
 /// appended from its timings; `Err` when it fails for another reason than refused moves.
 fn one_hand(prefix: &str, args: &[&str], file: &Path, solve: &mut Vec<u64>) -> Result<usize> {
@@ -347,18 +353,7 @@ fn one_hand(prefix: &str, args: &[&str], file: &Path, solve: &mut Vec<u64>) -> R
         }
         std::thread::sleep(Duration::from_millis(20));
     };
-    let text = std::fs::read_to_string(file).unwrap_or_default();
-    let mut refused = 0;
-    for line in text.lines().filter(|l| !l.starts_with('#')) {
-        let f: Vec<&str> = line.split_whitespace().collect();
-        let [_, solve_us, status] = f[..] else {
-            bail!("{}: bad line {line:?}", file.display());
-        };
-        solve.push((solve_us.parse::<f64>()? * 1e3).round() as u64);
-        if status != "ok" {
-            refused += 1;
-        }
-    }
+    let refused = timings(file, solve)?;
     if !(status.success() || (status.code() == Some(1) && refused > 0)) {
         bail!("a hand failed ({status})");
     }

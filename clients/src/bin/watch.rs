@@ -907,15 +907,7 @@ impl Sheet {
                 let ((s, joints, marks), what) = &self.kept[k];
                 Frame {
                     label: format!("{name} after change {s} ({what})"),
-                    lines: tissue
-                        .map(box_edges)
-                        .unwrap_or_default()
-                        .into_iter()
-                        .map(|edge| Polyline {
-                            joints: edge,
-                            color: (210, 150, 130),
-                            markers: false,
-                        })
+                    lines: tissue_lines(tissue)
                         .chain(std::iter::once(Polyline {
                             joints: joints.clone(),
                             color: (20, 60, 160),
@@ -932,6 +924,19 @@ impl Sheet {
         write_frames_svg(file, name, &frames, view, 4)?;
         Ok(frames.len())
     }
+}
+
+/// The edges of a chain's tissue as polylines in its flesh colour (none without tissue).
+fn tissue_lines(tissue: Option<([f64; 3], [f64; 3])>) -> impl Iterator<Item = Polyline> {
+    tissue
+        .map(box_edges)
+        .unwrap_or_default()
+        .into_iter()
+        .map(|edge| Polyline {
+            joints: edge,
+            color: (210, 150, 130),
+            markers: false,
+        })
 }
 
 /// The twelve edges of the box `lo`–`hi` as polylines: the bottom and top rectangles and the four
@@ -983,16 +988,7 @@ fn draw(
             }
             None => format!("{name} after change {sequence}{eyelets_note}"),
         },
-        lines: tissue
-            .filter(|_| !crop)
-            .map(box_edges)
-            .unwrap_or_default()
-            .into_iter()
-            .map(|edge| Polyline {
-                joints: edge,
-                color: (210, 150, 130),
-                markers: false,
-            })
+        lines: tissue_lines(tissue.filter(|_| !crop))
             .chain(joints.chunks(per.max(1)).map(|s| Polyline {
                 joints: s.to_vec(),
                 color: (20, 60, 160),
