@@ -819,8 +819,9 @@ impl World {
 
     /// The payload of an answer about `handle`: a chain's joints (tail first), then with `angles` one
     /// rotation vector per joint (joint 0: from +x to link 1; joint i: from link i to link i+1), its
-    /// held joints with `held`, its instruments with `instruments`; a bundle's joints. Written in
-    /// order, with no intermediate buffer; nothing for an unknown handle.
+    /// held joints with `held`, its instruments with `instruments`, then its pulls, eyelets and
+    /// tissue (a describe's: the block's corners) as the last three ask; a bundle's joints. Written
+    /// in order, with no intermediate buffer; nothing for an unknown handle.
     pub fn elements_for(
         &self,
         handle: u32,
