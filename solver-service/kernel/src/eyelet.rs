@@ -1040,7 +1040,7 @@ where
 /// before the first one back from the head that is not. Each span is widened by the links within a
 /// thickness of its ends (at least one): the eyelet link's joints, which the resolution keeps where
 /// they are, lie within a link of the surface, so the rope beside them may lie on it or dip into it
-/// (seen at 160 links, a joint beside the entry 0.08 under the surface, the rope pushed out of the
+/// (seen at 160 links, a joint beside the entry under the surface, the rope pushed out of the
 /// block there locked the pull). Empty when the model has no block.
 fn through_block<T: Real, const D: usize>(
     pos: &[Vector<T, D>],
