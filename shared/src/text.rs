@@ -369,6 +369,9 @@ pub struct TextResponse {
     /// The chain's knot, when its scene asks for it ([`crate::knot_name`]); empty otherwise.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub knot: String,
+    /// A describe's block of tissue (scene `tissue`): its corners `lo` and `hi`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tissue: Option<[[f64; 3]; 2]>,
 }
 
 /// An eyelet in a text response ([`crate::EyeletState`]).
@@ -448,6 +451,9 @@ impl TextResponse {
                     threaded: e.threaded,
                 })
                 .collect(),
+            tissue: parts
+                .tissue_box()
+                .map(|(lo, hi)| [lo.to_array(), hi.to_array()]),
         }
     }
 }

@@ -173,6 +173,9 @@ tissue = [[12.0, -4.0, -3.0], [20.0, 4.0, 0.0]]
         Some((Vec3::new(12.0, -4.0, -3.0), Vec3::new(20.0, 4.0, 0.0)))
     );
     assert_eq!(parts.joints.len() as u32, h.n_joints);
+    // The text form (`chainctl --json`, the batch mode) carries it too.
+    let text = shared::text::TextResponse::from_wire(&h, &out);
+    assert_eq!(text.tissue, Some([[12.0, -4.0, -3.0], [20.0, 4.0, 0.0]]));
     // A query of the same chain, and a describe of a chain without tissue: none.
     for (command, chain) in [(Command::Query, 0), (Command::Describe, 1)] {
         let (h, _) = respond(

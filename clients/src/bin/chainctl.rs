@@ -205,6 +205,12 @@ fn print(r: &TextResponse, json: bool) -> Result<()> {
             println!("  eyelet {k}: left");
         }
     }
+    if let Some([lo, hi]) = r.tissue {
+        println!(
+            "  tissue: from ({:.6}, {:.6}, {:.6}) to ({:.6}, {:.6}, {:.6})",
+            lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
+        );
+    }
     if !r.knot.is_empty() {
         println!("  knot: {}", r.knot);
     }
