@@ -444,6 +444,27 @@ where
                 set_threaded(chain, joint, &ws.new)?;
                 cws.pass_through(through_block(&ws.new, chain.min_length(), eyelets, model));
                 resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
+                if cws.together() {
+                    // A pull (a tightening): no joint may jump more than half the smallest
+                    // clearance in a substep, or its link could be carried through another between
+                    // the checks (`watch --crossings` saw a tightened surgeon's knot over a bite lose
+                    // its second throw so). The pull stops there instead: the knot has jammed.
+                    chain.write_positions(&mut ws.new);
+                    let limit = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
+                    let jump = ws
+                        .new
+                        .iter()
+                        .zip(&ws.old)
+                        .map(|(a, b)| (a - b).norm())
+                        .fold(T::zero(), |m, d| if d > m { d } else { m });
+                    if jump > limit {
+                        return Err(ChainError::Jumped {
+                            substep: s,
+                            jump: jump.to_f64(),
+                        }
+                        .into());
+                    }
+                }
             }
             Ok(left)
         });

@@ -675,19 +675,19 @@ fn instrument_tie_on(
         script,
         (chain, link),
         (kind, crossings, determinant),
-        &[],
+        (&[], &[]),
     );
 }
 
 /// [`instrument_tie_on`] on the service `svc` (its scene has `chain`); returns it for more checks.
 /// `before`: recordings of what was done to the chain before the tie (a needle's pass), replayed
-/// with the tie's.
+/// with the tie's; `extra`: more arguments for both hands (`--tighten 0.05`).
 pub(super) fn instrument_tie_in(
     svc: Service,
     script: &str,
     (chain, link): (&str, f64),
     (kind, crossings, determinant): (KnotType, std::ops::RangeInclusive<u32>, u64),
-    before: &[std::path::PathBuf],
+    (before, extra): (&[std::path::PathBuf], &[&str]),
 ) -> Service {
     let id = svc.connect().find_chain(chain).unwrap().unwrap();
     // The links the driver holds: within its reach of the tail (its radius 0.8, half its length 7
@@ -701,19 +701,18 @@ pub(super) fn instrument_tie_in(
         .iter()
         .map(|h| {
             let r = rec(h).display().to_string();
-            hand(
-                &svc,
-                &[
-                    "--builtin",
-                    script,
-                    "--hand",
-                    h,
-                    "--record",
-                    &r,
-                    "--chain",
-                    chain,
-                ],
-            )
+            let mut args = vec![
+                "--builtin",
+                script,
+                "--hand",
+                h,
+                "--record",
+                &r,
+                "--chain",
+                chain,
+            ];
+            args.extend_from_slice(extra);
+            hand(&svc, &args)
         })
         .collect();
     for h in hands {
@@ -722,7 +721,11 @@ pub(super) fn instrument_tie_in(
     let seen = w.finish_all();
     eprintln!("{script}: smallest gap to the driver {}", seen.gap);
     assert_never_passed_through(seen.checked, seen.min, 1000);
-    assert_eq!(seen.both_moved, 0, "a state moved both ends at once");
+    // Each state moves one hand's end. (With `--tighten` a hand lets go of its end after its last
+    // pull while the other still pulls, dragging the freed end: not counted there.)
+    if extra.is_empty() {
+        assert_eq!(seen.both_moved, 0, "a state moved both ends at once");
+    }
     assert!(seen.gap.is_finite(), "no state carried the driver");
     assert!(
         seen.gap >= (0.8 + 0.5 * THICKNESS) * -TOLERANCE,
@@ -828,7 +831,7 @@ fn two_hands_tie_the_surgeons_knot_over_a_bite_with_friction() {
             "surgeons-knot",
             (chain, link),
             (KnotType::Surgeons, 8..=u32::MAX, 15),
-            &[],
+            (&[], &[]),
         );
         let id = svc.connect().find_chain(chain).unwrap().unwrap();
         let q = svc

@@ -259,6 +259,11 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
         self.through = links;
     }
 
+    /// Whether [`CollisionWorkspace::solve_contacts_together`] is on (a pull).
+    pub(crate) fn together(&self) -> bool {
+        self.together
+    }
+
     /// The work charged since the last [`CollisionWorkspace::limit_work`] (or since the workspace was
     /// made), in link-steps (rounded up).
     pub fn work(&self) -> u64 {
