@@ -106,17 +106,7 @@ fn hands(
     }
     let (mut solve, mut refused_all, mut failure) = (Vec::new(), 0, None);
     for (child, file) in &mut children {
-        let status = loop {
-            if let Some(s) = child.try_wait()? {
-                break s;
-            }
-            if started.elapsed() > RUN_TIMEOUT {
-                let _ = child.kill();
-                let _ = child.wait();
-                bail!("a hand took longer than {RUN_TIMEOUT:?}");
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        };
+        let status = wait_for(child, started)?;
         let refused = timings(file, &mut solve)?;
         refused_all += refused;
         if !(status.success() || (status.code() == Some(1) && refused > 0)) {
@@ -311,6 +301,21 @@ fn ties(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Waits for a hand process until [`RUN_TIMEOUT`] after `started` (then kills it: an error).
+fn wait_for(child: &mut std::process::Child, started: Instant) -> Result<std::process::ExitStatus> {
+    loop {
+        if let Some(s) = child.try_wait()? {
+            return Ok(s);
+        }
+        if started.elapsed() > RUN_TIMEOUT {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!("a hand took longer than {RUN_TIMEOUT:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// A hand's `--timings` file: every request's `solve_ns` appended to `solve`; returns the refused.
 fn timings(file: &Path, solve: &mut Vec<u64>) -> Result<usize> {
     let text = std::fs::read_to_string(file).unwrap_or_default();
@@ -341,18 +346,7 @@ fn one_hand(prefix: &str, args: &[&str], file: &Path, solve: &mut Vec<u64>) -> R
         .stderr(Stdio::null())
         .spawn()
         .context("start hand")?;
-    let started = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait()? {
-            break s;
-        }
-        if started.elapsed() > RUN_TIMEOUT {
-            let _ = child.kill();
-            let _ = child.wait();
-            bail!("a hand took longer than {RUN_TIMEOUT:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let status = wait_for(&mut child, Instant::now())?;
     let refused = timings(file, solve)?;
     if !(status.success() || (status.code() == Some(1) && refused > 0)) {
         bail!("a hand failed ({status})");
