@@ -17,10 +17,14 @@ const THICKNESS: f64 = 0.2;
 const TOLERANCE: f64 = 0.01;
 
 fn knot_service() -> Service {
-    let scene = concat!(
+    service_on(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../solver-service/scenes/knots.toml"
-    );
+    ))
+}
+
+/// A service on the scene file `scene`, with the state buffer the watchers need.
+fn service_on(scene: &str) -> Service {
     Service::start(
         &unique_prefix(),
         // The watchers check that no state is missed: a buffer of a second of states at the hands'
@@ -814,18 +818,7 @@ fn two_hands_tie_the_surgeons_knot_over_a_bite_with_friction() {
         ("stitch-tie", 1.0, [14.5, 17.5]),
         ("stitch-tie-80", 0.5, [15.25, 16.75]),
     ] {
-        let svc = Service::start(
-            &unique_prefix(),
-            &[
-                "--scene",
-                scene,
-                "--wait",
-                "event",
-                "--no-persist",
-                "--state-buffer",
-                "1024",
-            ],
-        );
+        let svc = service_on(scene);
         let svc = instrument_tie_in(
             svc,
             "surgeons-knot",
