@@ -86,9 +86,6 @@ pub enum EyeletError {
     /// The eyelets are not in the order of their links along the rope.
     #[error("eyelets must be given in the order of their links along the rope")]
     Unordered,
-    /// An eyelet moved on a chain with held joints (not built yet; threaded moves keep held joints).
-    #[error("an eyelet cannot be moved on a chain with held joints yet")]
-    Held,
     /// A walk along the rope slid an eyelet past the joint where it had to stop (a held joint): the
     /// rope pulled taut against it. Internal to a move with held joints, which reports it as not
     /// converged.
@@ -541,59 +538,80 @@ where
                 }
             }
         }
-        let tol = T::lit(ws.held_tolerance).max(T::EPSILON * T::lit(64.0));
-        let pos = &ws.new;
-        let lengths = chain.lengths();
-        let one = |h: usize| -> Result<(usize, Vector<T, D>, T), EyeletError> {
-            let (a, b) = (h.min(m), h.max(m));
-            // The two links the move closes on the held joint.
-            let closing = if h > m { h.saturating_sub(2) } else { h };
-            if b - a < 2
-                || eyelets
-                    .iter()
-                    .any(|e| e.threaded && (closing..closing + 2).contains(&e.link))
-            {
-                return Err(EyeletError::NearHeld { held: h });
-            }
-            let rope = lengths[a..b].iter().fold(T::zero(), |x, &l| x + l);
-            // The shortest way the rope can take: from the held joint through the eyelets between,
-            // in order, to the target.
-            let mut at = pos[h];
-            let mut used = T::zero();
-            let between = |e: &&Eyelet<T, D>| e.threaded && e.link >= a && e.link < b;
-            let mut walk = |e: &Eyelet<T, D>| {
-                used += (e.at - at).norm();
-                at = e.at;
-            };
-            if h < m {
-                eyelets.iter().filter(between).for_each(&mut walk);
-            } else {
-                eyelets.iter().rev().filter(between).for_each(&mut walk);
-            }
-            let last = (target - at).norm();
-            if used + last > rope {
-                let spare = (rope - used).max(T::zero());
-                let nearest = if last > T::zero() {
-                    at + (target - at) * (spare / last)
-                } else {
-                    at
-                };
-                let n3 = nearest.to_3d();
-                return Err(ChainError::HeldUnreachable {
-                    held: h,
-                    nearest: [n3.x.to_f64(), n3.y.to_f64(), n3.z.to_f64()],
-                    residual: (used + last - rope).to_f64(),
-                }
-                .into());
-            }
-            Ok((h, pos[h], tol * rope))
-        };
+        let tol = held_tolerance(ws);
+        let one = |h| hold(chain, m, h, target, eyelets, &ws.new, tol);
         Ok(Holds {
             tail: lo.map(one).transpose()?,
             head: hi.map(one).transpose()?,
             max_iterations: ws.held_iterations,
         })
     }
+}
+
+/// How closely the rope must meet a held joint, as a fraction of the rope between (at least 64 ε).
+fn held_tolerance<T: Real, const D: usize>(ws: &EyeletWorkspace<T, D>) -> T {
+    T::lit(ws.held_tolerance).max(T::EPSILON * T::lit(64.0))
+}
+
+/// Held joint `h` as a move of joint `m` to `target` keeps it: where it is held (in `pos`) and how
+/// closely the rope must meet it. Refused when the target is out of the reach the rope allows from
+/// `h` through the eyelets between (the nearest point it reaches named), or `h` is too near the
+/// moved joint or an eyelet to close on.
+fn hold<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    m: usize,
+    h: usize,
+    target: &Vector<T, D>,
+    eyelets: &[Eyelet<T, D>],
+    pos: &[Vector<T, D>],
+    tol: T,
+) -> Result<(usize, Vector<T, D>, T), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let lengths = chain.lengths();
+    let (a, b) = (h.min(m), h.max(m));
+    // The two links the move closes on the held joint.
+    let closing = if h > m { h.saturating_sub(2) } else { h };
+    if b - a < 2
+        || eyelets
+            .iter()
+            .any(|e| e.threaded && (closing..closing + 2).contains(&e.link))
+    {
+        return Err(EyeletError::NearHeld { held: h });
+    }
+    let rope = lengths[a..b].iter().fold(T::zero(), |x, &l| x + l);
+    // The shortest way the rope can take: from the held joint through the eyelets between, in
+    // order, to the target.
+    let mut at = pos[h];
+    let mut used = T::zero();
+    let between = |e: &&Eyelet<T, D>| e.threaded && e.link >= a && e.link < b;
+    let mut walk = |e: &Eyelet<T, D>| {
+        used += (e.at - at).norm();
+        at = e.at;
+    };
+    if h < m {
+        eyelets.iter().filter(between).for_each(&mut walk);
+    } else {
+        eyelets.iter().rev().filter(between).for_each(&mut walk);
+    }
+    let last = (target - at).norm();
+    if used + last > rope {
+        let spare = (rope - used).max(T::zero());
+        let nearest = if last > T::zero() {
+            at + (target - at) * (spare / last)
+        } else {
+            at
+        };
+        let n3 = nearest.to_3d();
+        return Err(ChainError::HeldUnreachable {
+            held: h,
+            nearest: [n3.x.to_f64(), n3.y.to_f64(), n3.z.to_f64()],
+            residual: (used + last - rope).to_f64(),
+        }
+        .into());
+    }
+    Ok((h, pos[h], tol * rope))
 }
 
 /// One straight substep of joint `m` to `to`: `old` the positions before, `new` written (`alt` the
@@ -1264,15 +1282,33 @@ where
         eyelets[index].at = to;
         return Ok(Threaded::default());
     }
-    if chain.held().len() > 0 {
-        return Err(EyeletError::Held);
-    }
     if collision.is_some() {
         ws.keep(chain);
     }
     ws.begin(chain, eyelets);
     let from = e.at;
     let way = to - from;
+    // Held joints: the rope from each joint of the carried link to the nearest held joint on its
+    // side is a held side, as in a threaded move of that joint (the link's own joints may not be
+    // held).
+    let link = e.link;
+    if let Some(h) = [link, link + 1].into_iter().find(|&j| chain.is_held(j)) {
+        return Err(EyeletError::NearHeld { held: h });
+    }
+    let holds = if chain.held().len() == 0 {
+        None
+    } else {
+        let tol = held_tolerance(ws);
+        let side_hold = |m: usize, h: Option<usize>| {
+            h.map(|h| hold(chain, m, h, &(ws.new[m] + way), eyelets, &ws.new, tol))
+                .transpose()
+        };
+        Some(Holds {
+            tail: side_hold(link, chain.held_around(link).0)?,
+            head: side_hold(link + 1, chain.held_around(link + 1).1)?,
+            max_iterations: ws.held_iterations,
+        })
+    };
     let (mut k, mut steps) = substeps(chain, &way, max_substeps)?;
     if let Some((model, _)) = &collision {
         (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
@@ -1280,16 +1316,43 @@ where
     let mut out = Threaded::default();
     for s in 1..=steps {
         std::mem::swap(&mut ws.old, &mut ws.new);
-        let at = from + way * (T::lit(f64::from(s)) / k);
+        // The last substep lands on the target exactly.
+        let at = if s == steps {
+            to
+        } else {
+            from + way * (T::lit(f64::from(s)) / k)
+        };
         let shift = at - eyelets[index].at;
         let link = eyelets[index].link;
         eyelets[index].at = at;
         let lengths = chain.lengths();
-        let (old, new) = (&ws.old, &mut ws.new);
+        let EyeletWorkspace {
+            old,
+            new,
+            alt,
+            ahead,
+            ..
+        } = &mut *ws;
+        if holds.is_some() {
+            // The rope beyond a held joint is not walked: it stays where it was.
+            new.copy_from_slice(old);
+        }
         new[link] = old[link] + shift;
         new[link + 1] = old[link + 1] + shift;
-        let mut walked = side(old, new, lengths, link, eyelets, false, None)
-            .and_then(|a| Ok(a + side(old, new, lengths, link + 1, eyelets, true, None)?))
+        let mut one_side = |m: usize, up: bool| {
+            let hold = holds
+                .as_ref()
+                .and_then(|h| if up { h.head } else { h.tail });
+            match hold {
+                None => side(old, new, lengths, m, eyelets, up, None),
+                Some(hold) => {
+                    let max = holds.as_ref().map_or(1, |h| h.max_iterations);
+                    held_side(old, new, alt, lengths, m, hold, eyelets, max, ahead).map(|(l, _)| l)
+                }
+            }
+        };
+        let mut walked = one_side(link, false)
+            .and_then(|a| Ok(a + one_side(link + 1, true)?))
             .and_then(|left| apart(eyelets).map(|()| left));
         if let (Ok(_), Some((model, cws))) = (&walked, collision.as_mut()) {
             // The contacts, the links through the eyelets fixed; the next substep starts from the

@@ -131,10 +131,6 @@ impl From<tractrix::eyelet::EyeletError> for Refusal {
                 Locked,
                 "eyelets {a} and {b} would come within one link of each other"
             ),
-            EyeletError::Held => refuse!(
-                Held,
-                "an eyelet cannot be moved on a chain with held joints yet"
-            ),
             EyeletError::NearHeld { held } => refuse!(
                 Held,
                 "held joint {held} is within two links of an eyelet or of the moved joint: the \

@@ -455,3 +455,77 @@ fn with_friction_the_rope_sticks_in_the_eyelets_until_pulled_taut() {
         assert!(e.contains("eyelet_friction") && e.contains(says), "{e}");
     }
 }
+
+/// Tissue that a simulator moves while a hand holds the suture: the tail grasped and the head
+/// anchored by a second grasp, each eyelet moved about by the `eyelet` command. After every accepted
+/// move both grasps are where they were bit for bit, the eyelet is where it was sent, and each point
+/// lies on the rope with every length kept (computed here); a move out of the rope's reach is refused,
+/// nothing changed. Undo puts the eyelet back.
+#[test]
+fn tissue_moved_under_a_grasped_suture_keeps_the_grasps() {
+    let scene = parse_scene(ROPE, "suture.toml").unwrap();
+    let mut w = World::new(&scene).unwrap();
+    for (joint, p) in [
+        (0, Point::new(4.0, 4.0, 0.0)),
+        (40, Point::new(33.0, 4.0, 1.0)),
+    ] {
+        w.apply(&go(&w, joint, &[p])).unwrap();
+        w.apply(&Command::Grasp {
+            chain: 0,
+            joint,
+            take_over: false,
+        })
+        .unwrap();
+    }
+    let (tail, head) = (joints(&w)[0], joints(&w)[40]);
+    let eyelet = |w: &World, i: usize| {
+        let p = &w.state().chains[0].eyelets[i].0;
+        Point::new(p[0], p[1], p[2])
+    };
+    let moved = |w: &World, index: usize, at: Point| Command::Eyelet {
+        chain: 0,
+        index,
+        at,
+        max_substeps: w.specs()[0].moves.max_substeps,
+    };
+    let mut accepted = 0;
+    for k in 0..40 {
+        let i = k % 2;
+        let a = k as f64 * 0.7;
+        let at = Point::from(EYELETS[i]) + Point::new(0.0, 1.5 * a.sin(), 0.8 * a.cos());
+        match w.apply(&moved(&w, i, at)) {
+            Ok(_) => {
+                accepted += 1;
+                let j = joints(&w);
+                assert_eq!((j[0], j[40]), (tail, head), "move {k}: a grasp moved");
+                assert_eq!(eyelet(&w, i), at, "move {k}");
+                for (e, l) in [(eyelet(&w, 0), 0), (eyelet(&w, 1), 1)] {
+                    let d = off_rope(&j, e);
+                    assert!(d < 1e-9, "move {k}: eyelet {l} is {d:e} off the rope");
+                }
+                for (n, l) in j.windows(2).enumerate() {
+                    let len = (l[1] - l[0]).norm();
+                    assert!((len - 1.0).abs() < 1e-12, "move {k}: link {n} is {len}");
+                }
+            }
+            Err(r) => panic!("move {k} refused: {}", r.reason()),
+        }
+    }
+    assert_eq!(accepted, 40);
+    // Undo puts the last moved eyelet and the rope back.
+    let (j, at) = (joints(&w), eyelet(&w, 1));
+    w.apply(&moved(&w, 1, at + Point::new(0.0, 0.0, 0.5)))
+        .unwrap();
+    w.undo();
+    assert_eq!((joints(&w), eyelet(&w, 1)), (j, at));
+    // Far beyond what the rope from the tail allows: refused, nothing changed.
+    let far = tail + (eyelet(&w, 0) - tail).normalize() * 60.0;
+    let before = (joints(&w), eyelet(&w, 0));
+    let r = w.apply(&moved(&w, 0, far)).unwrap_err();
+    assert_eq!((joints(&w), eyelet(&w, 0)), before, "{}", r.reason());
+    assert!(
+        matches!(r.cause, world::refusal::Cause::Unreachable),
+        "{}",
+        r.reason()
+    );
+}

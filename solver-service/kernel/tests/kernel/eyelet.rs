@@ -756,3 +756,146 @@ fn with_friction_the_rope_sticks_in_the_eyelet_until_the_pulled_side_is_taut() {
     assert_ne!(r.joint(0), far[0], "the far side followed");
     check(&r, &e, 1e-9, "the pull through");
 }
+
+/// Tissue moved while a hand holds the suture: the rope through two eyelets, slack on both sides,
+/// its tail and head held; each eyelet dragged about its start in steps. After every accepted move
+/// both holds are where they were bit for bit, the moved eyelet is on its target, every point on its
+/// link to 1e-9 and every length 1 to 1e-12 (all computed here). A refusal is only one the rope's
+/// reach explains (out of reach, not converged near taut, a hold within two links) and changes
+/// nothing; one eyelet dragged 2 away from the tail beyond what the rope between allows (the way
+/// computed here) is refused as out of reach.
+#[test]
+fn tissue_moved_under_a_held_rope_keeps_the_holds_and_the_eyelets() {
+    use tractrix::eyelet::move_eyelet;
+    let mut rng = Rng(0x7155);
+    let mut ws = EyeletWorkspace::new();
+    let mut r = rope();
+    let mut e = two_eyelets(&r);
+    // Slack between each end and its eyelet and between the eyelets.
+    move_threaded(&mut r, 0, V::new(4.0, 4.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    move_threaded(&mut r, 40, V::new(33.0, 4.0, 1.0), &mut e, 1000, &mut ws).unwrap();
+    move_threaded(&mut r, 18, V::new(18.0, 2.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    r.hold(0).unwrap();
+    r.hold(40).unwrap();
+    let (tail, head) = (r.joint(0), r.joint(40));
+    // A sideways shift first: the link through the eyelet carried by exactly the shift.
+    let (link, p0) = (e[0].link, r.positions());
+    let shift = V::new(0.0, 0.5, 0.25);
+    move_eyelet(&mut r, 0, e[0].at + shift, &mut e, 1000, &mut ws).unwrap();
+    let p = r.positions();
+    for j in [link, link + 1] {
+        assert!(
+            (p[j] - p0[j] - shift).norm() < 1e-9,
+            "joint {j}: {:?}",
+            p[j]
+        );
+    }
+    assert_eq!((r.joint(0), r.joint(40)), (tail, head));
+    check(&r, &e, 1e-9, "sideways");
+    let starts = [e[0].at, e[1].at];
+    let (mut accepted, mut refused) = (0, 0);
+    let mut seen = std::collections::BTreeSet::new();
+    for k in 0..400 {
+        let i = k % 2;
+        let now = e[i].at;
+        let goal = starts[i] + rng.dir3() * rng.range(0.0, 3.0);
+        let to = now + (goal - now) * (0.7 / (goal - now).norm().max(0.7));
+        let (before, links) = (r.positions(), e.map(|e| e.link));
+        match move_eyelet(&mut r, i, to, &mut e, 1000, &mut ws) {
+            Ok(_) => {
+                accepted += 1;
+                assert_eq!(
+                    (r.joint(0), r.joint(40)),
+                    (tail, head),
+                    "move {k}: a hold moved"
+                );
+                assert_eq!(e[i].at, to, "move {k}: the eyelet is not on its target");
+                check(&r, &e, 1e-9, &format!("move {k}"));
+                seen.insert(e.map(|e| e.link));
+            }
+            Err(
+                EyeletError::NearHeld { .. }
+                | EyeletError::Chain(
+                    tractrix::ChainError::HeldUnreachable { .. }
+                    | tractrix::ChainError::HeldNotConverged { .. },
+                ),
+            ) => {
+                refused += 1;
+                assert_eq!(r.positions(), before, "move {k}: refused, unchanged");
+                assert_eq!(e.map(|e| e.link), links);
+                assert_eq!(e[i].at, now);
+            }
+            Err(x) => panic!("move {k}: {x}"),
+        }
+    }
+    println!("{accepted} accepted, {refused} refused, links {seen:?}");
+    // The rope slid through the eyelets as the tissue moved (their links changed).
+    assert!(
+        accepted >= 350 && seen.len() >= 2,
+        "{accepted} accepted, {refused} refused, links {seen:?}"
+    );
+    // Beyond the rope's reach from the tail: the rope between the tail and the first eyelet's link
+    // is `link` long (unit links), the eyelet a part of the link further; a point farther than all
+    // of that plus the link is out of reach whatever slides.
+    let material = (e[0].link + 1) as f64;
+    let away = (e[0].at - tail).normalize();
+    let far = tail + away * (material + 2.0);
+    let (before, at) = (r.positions(), e[0].at);
+    let err = move_eyelet(&mut r, 0, far, &mut e, 1000, &mut ws).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            EyeletError::Chain(tractrix::ChainError::HeldUnreachable { .. })
+        ),
+        "{err:?}"
+    );
+    assert_eq!((r.positions(), e[0].at), (before, at));
+}
+
+/// The same with capsule collision (thickness 0.2): the holds bit for bit, each point on its link,
+/// links two or more apart a thickness apart less the 1 % tolerance (computed here), a refusal
+/// changing nothing.
+#[test]
+fn tissue_moved_under_a_held_rope_with_collision_keeps_its_thickness() {
+    use tractrix::collision::CollisionWorkspace;
+    use tractrix::eyelet::move_eyelet_colliding;
+    let model = capsules();
+    let mut rng = Rng(0x7156);
+    let (mut ws, mut cws) = (EyeletWorkspace::new(), CollisionWorkspace::new());
+    let mut r = rope();
+    let mut e = two_eyelets(&r);
+    move_threaded(&mut r, 0, V::new(4.0, 4.0, 0.0), &mut e, 1000, &mut ws).unwrap();
+    move_threaded(&mut r, 40, V::new(33.0, 4.0, 1.0), &mut e, 1000, &mut ws).unwrap();
+    r.hold(0).unwrap();
+    r.hold(40).unwrap();
+    let (tail, head) = (r.joint(0), r.joint(40));
+    let starts = [e[0].at, e[1].at];
+    let (mut accepted, mut refused) = (0, 0);
+    for k in 0..200 {
+        let i = k % 2;
+        let now = e[i].at;
+        let goal = starts[i] + rng.dir3() * rng.range(0.0, 2.5);
+        let to = now + (goal - now) * (0.5 / (goal - now).norm().max(0.5));
+        let (before, links) = (r.positions(), e.map(|e| e.link));
+        match move_eyelet_colliding(&mut r, i, to, &mut e, 10_000, &model, &mut cws, &mut ws) {
+            Ok(_) => {
+                accepted += 1;
+                assert_eq!(
+                    (r.joint(0), r.joint(40)),
+                    (tail, head),
+                    "move {k}: a hold moved"
+                );
+                check(&r, &e, 1e-9, &format!("move {k}"));
+                let c = clearance(&r.positions());
+                assert!(c >= 0.2 * (1.0 - 0.01) - 1e-9, "move {k}: links {c} apart");
+            }
+            Err(_) => {
+                refused += 1;
+                assert_eq!(r.positions(), before, "move {k}: refused, unchanged");
+                assert_eq!(e.map(|e| e.link), links);
+            }
+        }
+    }
+    println!("{accepted} accepted, {refused} refused");
+    assert!(accepted >= 150, "{accepted} accepted, {refused} refused");
+}
