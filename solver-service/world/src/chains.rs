@@ -664,7 +664,13 @@ impl World {
             } => each_form!(&mut *g, h => {
                 let target = targets[targets.len() - 1];
                 let done = if pull {
-                    pull_move(h, joint, target, options, &mut tries)
+                    pull_move(h, joint, target, options, &mut tries).map(|(m, stop)| {
+                        if stop.is_some() {
+                            let pulled = (to_point(&h.chain.joint(joint)) - target).norm();
+                            crate::moves::give_way(h, pulled, options.max_substeps);
+                        }
+                        (m, stop)
+                    })
                 } else {
                     move_and_carry(h, joint, targets, options).map(|m| (m, None))
                 };

@@ -52,6 +52,8 @@ pub struct LiveChain<T: Real, const D: usize> {
     pub(crate) eyelet_ws: EyeletWorkspace<T, D>,
     /// The block of tissue the head pierces (scene `tissue`: its lower and upper corners).
     pub(crate) tissue: Option<(Point, Point)>,
+    /// Tissue that gives (scene `incision`, `tissue_give`, `wound_margin`).
+    pub(crate) wound: Option<crate::scene::Wound>,
 }
 
 impl<T: Real, const D: usize> LiveChain<T, D>
@@ -392,6 +394,7 @@ where
             )
             .with_friction(spec.eyelet_friction),
         tissue: spec.tissue,
+        wound: spec.wound,
     };
     h.eyelets_initial = h.eyelets.clone();
     h.eyelets_before = h.eyelets.clone();

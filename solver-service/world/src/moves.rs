@@ -550,6 +550,58 @@ where
     Ok((best.unwrap_or_default(), Some(stop)))
 }
 
+/// Tissue that gives ([`crate::scene::Wound`]): after a pull that stopped `pulled` short, each
+/// threaded eyelet is moved toward the incision's plane along its normal by the tissue's give times
+/// `pulled`, no nearer the plane than the wound's margin, carrying the rope's point at it (an eyelet
+/// move, the held joints kept). An eyelet the rope cannot follow (out of reach, the contacts, the
+/// request's work budget) stays where it is: the tissue does not give there.
+pub(crate) fn give_way<T: Real, const D: usize>(
+    g: &mut LiveChain<T, D>,
+    pulled: f64,
+    max_substeps: u32,
+) where
+    Vector<T, D>: Embed3<T>,
+{
+    let Some(w) = g.wound else {
+        return;
+    };
+    for i in 0..g.eyelets.len() {
+        let e = g.eyelets[i];
+        if !e.threaded {
+            continue;
+        }
+        let at = to_point(&e.at);
+        let off = (at - w.point).dot(&w.normal);
+        let step = (w.give * pulled).min(off.abs() - w.margin);
+        if !(step > 0.0) {
+            continue;
+        }
+        let to: Vector<T, D> = point(at - w.normal * (step * off.signum()));
+        let moved = match g.collision.as_mut() {
+            Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
+                &mut g.chain,
+                i,
+                to,
+                &mut g.eyelets,
+                max_substeps,
+                model,
+                cws,
+                &mut g.eyelet_ws,
+            ),
+            None => tractrix::eyelet::move_eyelet(
+                &mut g.chain,
+                i,
+                to,
+                &mut g.eyelets,
+                max_substeps,
+                &mut g.eyelet_ws,
+            ),
+        };
+        // A refused eyelet move changes nothing.
+        let _ = moved;
+    }
+}
+
 /// Whether the two links below the first held joint above `joint` (those the move closes on it) have
 /// their lengths to rounding (64 ε of the length).
 fn closes_exactly<T: Real, const D: usize>(g: &LiveChain<T, D>, joint: usize) -> bool

@@ -529,3 +529,139 @@ fn tissue_moved_under_a_grasped_suture_keeps_the_grasps() {
         r.reason()
     );
 }
+
+/// Tissue that gives: a suture through a bite of two eyelets across an incision at x = 18, its tail
+/// grasped above the incision, its head pulled up from beside it with the pull flag, as the two ends
+/// of a stitch pull its loop up from the tissue. Once the rope is taut each
+/// pull stops short, and the tissue gives: both eyelets are drawn toward the incision by the give
+/// times the pull, along its normal, until each is the wound's margin from it (the wound closed).
+/// Checked here every request: the grasp bit for bit, each eyelet on the rope, every length kept,
+/// the eyelets' distance never growing and at the end the margins' sum apart. The same suture
+/// without the incision never moves its eyelets.
+#[test]
+fn tissue_that_gives_draws_the_eyelets_to_the_incision_under_a_blocked_pull() {
+    let wound = "tissue = [[5.0, -5.0, -3.0], [30.0, 5.0, 0.0]]\nincision = [[18.0, 0.0, 0.0], \
+                 [1.0, 0.0, 0.0]]\ntissue_give = 0.5\nwound_margin = 6.0\n";
+    let pulled_on = |extra: &str| {
+        let text = format!("{ROPE}{extra}");
+        let scene = parse_scene(&text, "suture.toml").unwrap();
+        let mut w = World::new(&scene).unwrap();
+        w.apply(&go(&w, 0, &[Point::new(18.0, -1.0, 6.0)])).unwrap();
+        w.apply(&go(&w, 40, &[Point::new(18.0, 1.0, 6.0)])).unwrap();
+        w.apply(&Command::Grasp {
+            chain: 0,
+            joint: 0,
+            take_over: false,
+        })
+        .unwrap();
+        let tail = joints(&w)[0];
+        let eyelets = |w: &World| -> Vec<Point> {
+            w.state().chains[0]
+                .eyelets
+                .iter()
+                .map(|e| Point::new(e.0[0], e.0[1], e.0[2]))
+                .collect()
+        };
+        let mut gaps = vec![];
+        for k in 0..80 {
+            let head = joints(&w)[40];
+            let pull = Command::Move {
+                chain: 0,
+                joint: 40,
+                targets: &[head + Point::new(0.0, 0.0, 0.4)],
+                options: w.specs()[0].moves,
+                take_over: false,
+                smooth: false,
+                pull: true,
+            };
+            w.apply(&pull)
+                .unwrap_or_else(|r| panic!("request {k}: {}", r.reason()));
+            let j = joints(&w);
+            assert_eq!(j[0], tail, "request {k}: the grasp moved");
+            for (n, l) in j.windows(2).enumerate() {
+                let len = (l[1] - l[0]).norm();
+                assert!((len - 1.0).abs() < 1e-12, "request {k}: link {n} is {len}");
+            }
+            let e = eyelets(&w);
+            for p in &e {
+                let d = off_rope(&j, *p);
+                assert!(d < 1e-9, "request {k}: eyelet {p:?} is {d:e} off the rope");
+                assert!(
+                    (p.y, p.z) == (0.0, 0.0),
+                    "request {k}: off the incision's normal"
+                );
+            }
+            gaps.push(e[1].x - e[0].x);
+        }
+        gaps
+    };
+    let gaps = pulled_on(wound);
+    println!("the eyelets' distance: {:?}", &gaps[..]);
+    assert!(gaps.windows(2).all(|g| g[1] <= g[0]), "{gaps:?}");
+    assert_eq!(gaps[0], 15.0, "the first pulls take up slack");
+    assert!(gaps[gaps.len() / 4] > 12.0, "closed gradually: {gaps:?}");
+    let last = gaps[gaps.len() - 1];
+    assert!((last - 12.0).abs() < 1e-9, "closed to the margins: {last}");
+    // Rigid tissue: the eyelets stay.
+    let rigid = pulled_on("tissue = [[5.0, -5.0, -3.0], [30.0, 5.0, 0.0]]\n");
+    assert!(rigid.iter().all(|&g| g == 15.0), "{rigid:?}");
+}
+
+/// A wound's fields are validated with line and field: an incision needs tissue and a give, the
+/// give and the margin need an incision, the normal may not be zero, the give must be positive.
+#[test]
+fn a_wound_s_fields_are_scene_errors_with_line_and_field() {
+    let base = "[[chain]]\nname = \"s\"\nlinks = 40\nlink_length = 1.0\n";
+    let tissue = "tissue = [[5.0, -5.0, -3.0], [30.0, 5.0, 0.0]]\n";
+    let inc = "incision = [[18.0, 0.0, 0.0], [1.0, 0.0, 0.0]]\n";
+    for (extra, field, line, says) in [
+        (
+            format!("{inc}tissue_give = 0.5\n"),
+            "incision",
+            5,
+            "`tissue`",
+        ),
+        (format!("{tissue}{inc}"), "incision", 6, "tissue_give"),
+        (
+            format!("{tissue}tissue_give = 0.5\n"),
+            "tissue_give",
+            6,
+            "incision",
+        ),
+        (
+            format!("{tissue}wound_margin = 1.0\n"),
+            "wound_margin",
+            6,
+            "incision",
+        ),
+        (
+            format!("{tissue}incision = [[18.0, 0.0, 0.0], [0.0, 0.0, 0.0]]\ntissue_give = 1\n"),
+            "incision",
+            6,
+            "normal not zero",
+        ),
+        (
+            format!("{tissue}{inc}tissue_give = -1.0\n"),
+            "tissue_give",
+            7,
+            "positive",
+        ),
+        (
+            format!("{tissue}{inc}tissue_give = 1.0\nwound_margin = -2.0\n"),
+            "wound_margin",
+            8,
+            "≥ 0",
+        ),
+    ] {
+        let text = format!("{base}{extra}");
+        let e = parse_scene(&text, "s.toml").unwrap_err().to_string();
+        assert!(
+            e.contains(field) && e.contains(says) && e.contains(&format!(":{line}")),
+            "{e}\n{text}"
+        );
+    }
+    let ok = format!("{base}{tissue}{inc}tissue_give = 0.5\nwound_margin = 0.75\n");
+    let s = parse_scene(&ok, "s.toml").unwrap();
+    let w = s.chains[0].wound.unwrap();
+    assert_eq!((w.give, w.margin), (0.5, 0.75));
+}

@@ -37,6 +37,9 @@
 //! | `joint_range` / `joint_ranges` | `[lo, hi]` degrees / list of `links + 1` pairs | – | signed range of every joint / per joint; planar chains only |
 //! | `eyelets` | list of points on the chain | `[]` | fixed points the rope slides through (free chains; docs/eyelets.md) |
 //! | `tissue` | `[lo, hi]` box corners | – | a block the head pierces, making eyelets (free spatial chains); with collision, the rope stays out of it but where it passes through |
+//! | `incision` | `[point, normal]` | – | the plane of the incision a stitch closes (needs `tissue` and `tissue_give`) |
+//! | `tissue_give` | number > 0 | – | after a request whose pull stopped short, each threaded eyelet moves this much per unit of pull toward the incision (needs `incision`) |
+//! | `wound_margin` | number ≥ 0 | 0 | how near the incision an eyelet may be drawn: the wound is closed when every eyelet is this far from it |
 //! | `eyelet_friction` | number ≥ 0, or `inf` | 0 | 0: the rope slides freely through the eyelets; more: it sticks in them until the pulled side is taut; `inf`: it never slides |
 //!
 //! At most one of the limit fields (`tractrix::limits`): the angle at joint `j` is the turn from link
@@ -199,6 +202,25 @@ pub struct ChainSpec {
     /// Friction at its eyelets (`eyelet_friction`, ≥ 0; 0 slides freely, more sticks the rope in
     /// them until the pulled side is taut: [`tractrix::eyelet::EyeletWorkspace::with_friction`]).
     pub eyelet_friction: f64,
+    /// Tissue that gives (`incision`, `tissue_give`, `wound_margin`): the wound the stitch closes.
+    pub wound: Option<Wound>,
+}
+
+/// Tissue that gives: the plane of the incision the stitch closes, and how the eyelets are drawn
+/// toward it. After a request whose pull stopped short (the rope taut or its knot jammed), each
+/// threaded eyelet moves toward the plane, along its normal, by `give` times the pull's length, no
+/// nearer the plane than `margin`: the tissue flows under the suture's pull, as a dashpot does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wound {
+    /// A point of the incision's plane.
+    pub point: Vector3<f64>,
+    /// Its unit normal.
+    pub normal: Vector3<f64>,
+    /// How far an eyelet moves per unit of blocked pull, each request (`tissue_give`, > 0).
+    pub give: f64,
+    /// How near the plane an eyelet may come (`wound_margin`, ≥ 0): the wound is closed when
+    /// every eyelet is this far from it.
+    pub margin: f64,
 }
 
 /// A chain's joint limits as its scene declares them, in radians, one entry per joint (the ends'

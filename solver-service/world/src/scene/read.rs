@@ -102,6 +102,9 @@ pub(super) struct RawChain {
     pub eyelets: Field<Vec<Vec<f64>>>,
     pub tissue: Field<Vec<Vec<f64>>>,
     pub eyelet_friction: Field<f64>,
+    pub incision: Field<Vec<Vec<f64>>>,
+    pub tissue_give: Field<f64>,
+    pub wound_margin: Field<f64>,
 }
 
 /// 1-based line of a byte offset.

@@ -7,7 +7,7 @@ const MAX_BUDGET: i64 = 1_000_000_000;
 use super::read::{Field, RawBundle, RawChain, RawObstacle, RawScene, line_of};
 use super::{
     BundleSpec, ChainSpec, CollisionSpec, LimitSpec, MAX_INSTRUMENTS, MAX_OBSTACLES,
-    MAX_SCENE_BUNDLE_JOINTS, MAX_SCENE_LINKS, MAX_SUBSTEPS_LIMIT, Scene, SceneError, shapes,
+    MAX_SCENE_BUNDLE_JOINTS, MAX_SCENE_LINKS, MAX_SUBSTEPS_LIMIT, Scene, SceneError, Wound, shapes,
 };
 use super::{ChainKind, Precision};
 use crate::sizes::{
@@ -741,6 +741,7 @@ fn chain(
         }
         None => 0.0,
     };
+    let wound = wound(&f, tissue.is_some())?;
     let knot = match &c.knot {
         Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
             return Err(f.err(
@@ -819,6 +820,7 @@ fn chain(
         eyelet_friction,
         eyelets,
         tissue,
+        wound,
         moves: MoveOptions {
             method,
             substeps,
@@ -1003,6 +1005,63 @@ fn tissue(f: &Fields<'_>, kind: ChainKind) -> Result<Option<Corners>, SceneError
         },
         _ => err("two corners [[x, y, z], [x, y, z]]".into()),
     }
+}
+
+/// The chain's wound: `incision = [point, normal]` with `tissue_give` (> 0) and `wound_margin`
+/// (≥ 0, default 0), on a chain with `tissue`; all three or none but the margin.
+fn wound(f: &Fields<'_>, has_tissue: bool) -> Result<Option<Wound>, SceneError> {
+    let c = f.c;
+    let Some(inc) = &c.incision else {
+        for (x, name) in [
+            (&c.tissue_give, "tissue_give"),
+            (&c.wound_margin, "wound_margin"),
+        ] {
+            if let Some(x) = x {
+                return Err(f.err(x.span(), name, "needs an `incision`".into()));
+            }
+        }
+        return Ok(None);
+    };
+    let err = |what: String| Err(f.err(inc.span(), "incision", what));
+    if !has_tissue {
+        return err("an incision is for a chain with `tissue`".into());
+    }
+    let v = |v: &Vec<f64>| match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Some(Vector3::new(*x, *y, *z)),
+        _ => None,
+    };
+    let (point, normal) = match inc.get_ref().as_slice() {
+        [a, b] => match (v(a), v(b)) {
+            (Some(p), Some(n)) if n.norm() > 1e-12 && n.norm().is_finite() => (p, n.normalize()),
+            _ => {
+                return err(
+                    "a point and a normal [[x, y, z], [nx, ny, nz]], the normal not zero".into(),
+                );
+            }
+        },
+        _ => return err("a point and a normal [[x, y, z], [nx, ny, nz]]".into()),
+    };
+    let Some(g) = &c.tissue_give else {
+        return err("needs `tissue_give`: how far the tissue gives per unit of pull".into());
+    };
+    let give = f.positive(g, "tissue_give")?;
+    let margin = match &c.wound_margin {
+        Some(m) if m.get_ref().is_finite() && *m.get_ref() >= 0.0 => *m.get_ref(),
+        Some(m) => {
+            return Err(f.err(
+                m.span(),
+                "wound_margin",
+                format!("{} is not a number ≥ 0", m.get_ref()),
+            ));
+        }
+        None => 0.0,
+    };
+    Ok(Some(Wound {
+        point,
+        normal,
+        give,
+        margin,
+    }))
 }
 
 /// The chain's `max_substeps`, and its `substeps` or `max_step` (not both).
