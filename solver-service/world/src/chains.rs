@@ -224,11 +224,19 @@ impl World {
                         .filter(|f| f.map(|j| j as usize) == Some(joint))
                         .count()
                 });
-                // A pull may try the move several times ([`crate::moves::PULL_TRIES`]); with collision
-                // the kernel's meter bounds every try together.
+                // A pull may try the move several times ([`crate::moves::PULL_TRIES`]), and on tissue
+                // that gives move each threaded eyelet by up to the give times the way
+                // ([`crate::moves::give_way`]); with collision the kernel's meter bounds every try
+                // together.
                 let tries = match *req {
                     Command::Move { pull: true, .. } if spec.collision.is_none() => {
-                        crate::moves::PULL_TRIES
+                        let give = spec.wound.map_or(0, |w| {
+                            let threaded = each_form!(&self.geometry[chain as usize], h => {
+                                h.eyelets.iter().filter(|e| e.threaded).count() as u64
+                            });
+                            threaded.saturating_mul(w.give.ceil().clamp(1.0, 1e9) as u64)
+                        });
+                        crate::moves::PULL_TRIES.saturating_add(give)
                     }
                     _ => 1,
                 };
@@ -667,7 +675,7 @@ impl World {
                     pull_move(h, joint, target, options, &mut tries).map(|(m, stop)| {
                         if stop.is_some() {
                             let pulled = (to_point(&h.chain.joint(joint)) - target).norm();
-                            crate::moves::give_way(h, pulled, options.max_substeps);
+                            crate::moves::give_way(h, pulled, options.max_substeps, &mut tries);
                         }
                         (m, stop)
                     })

@@ -444,8 +444,9 @@ fn stops_short(r: &Refusal) -> Option<Stop> {
 }
 
 /// The tries of one pull, each metered against its share of the request's budget (with collision:
-/// the full try half of it, the nearest point an eighth, each halving a sixteenth, so the tries
-/// together never pass it), their work summed.
+/// the full try half of it, the nearest point a sixteenth, each halving a sixteenth, and the moves of
+/// tissue that gives ([`give_way`]) a sixteenth together, so the tries together never pass it),
+/// their work summed.
 pub(crate) struct Tries {
     budget: u64,
     /// Collision work of the tries so far, in link-steps.
@@ -538,7 +539,7 @@ where
         } else {
             from
         };
-        match tries.run(g, 8, |g| one(g, goal)) {
+        match tries.run(g, 16, |g| one(g, goal)) {
             Ok(m) => return Ok((m, Some(stop))),
             Err(e) => {
                 stop = stops_short(&e).ok_or(e)?;
@@ -559,12 +560,15 @@ pub(crate) fn give_way<T: Real, const D: usize>(
     g: &mut LiveChain<T, D>,
     pulled: f64,
     max_substeps: u32,
+    tries: &mut Tries,
 ) where
     Vector<T, D>: Embed3<T>,
 {
     let Some(w) = g.wound else {
         return;
     };
+    // With collision the eyelets' moves share a sixteenth of the request's budget.
+    let shares = 16 * g.eyelets.iter().filter(|e| e.threaded).count().max(1) as u64;
     for i in 0..g.eyelets.len() {
         let e = g.eyelets[i];
         if !e.threaded {
@@ -577,7 +581,12 @@ pub(crate) fn give_way<T: Real, const D: usize>(
             continue;
         }
         let to: Vector<T, D> = point(at - w.normal * (step * off.signum()));
-        let moved = match g.collision.as_mut() {
+        // Metered, but not as a pull (an eyelet move resolves its contacts pass by pass).
+        if let Some((_, ws)) = g.collision.as_mut() {
+            ws.limit_work(tries.budget / shares);
+        }
+        // A refused eyelet move changes nothing: the tissue does not give there.
+        let _ = match g.collision.as_mut() {
             Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
                 &mut g.chain,
                 i,
@@ -597,8 +606,9 @@ pub(crate) fn give_way<T: Real, const D: usize>(
                 &mut g.eyelet_ws,
             ),
         };
-        // A refused eyelet move changes nothing.
-        let _ = moved;
+        if let Some((_, ws)) = g.collision.as_mut() {
+            tries.work = tries.work.saturating_add(ws.work());
+        }
     }
 }
 
