@@ -2,7 +2,9 @@
 # The whole stitch (issue 39), one command: on `stitch.toml`'s 80-link suture `stitch-80`, the
 # needle's pass (hand A alone: into the tissue, out, the suture drawn through until its tail is
 # about 15 units long), then the instrument tie of a surgeon's knot over the bite by two hands (A the
-# long end, B the tail with the needle driver riding on it). `watch` reads every state: it saves a
+# long end, B the tail with the needle driver riding on it), tightened (each hand pulls its end until
+# it stops; the scene's tissue gives, so the pulls draw the eyelets toward the incision: the wound
+# closes). `watch` reads every state: it saves a
 # Rerun recording and draws one SVG of the key frames (the first state, the needle going in and out,
 # each change of the hand that moves, the last). Prints each hand's report: the eyelets, the tail
 # before the entry and, at the end, the knot. Seconds after the builds.
@@ -44,10 +46,10 @@ hand() {
 }
 echo "== the needle's pass (hand A)"
 hand --builtin stitch-pass --identify "$CHAIN" "$@"
-echo "== the surgeon's knot over the bite (hands A and B)"
-hand --builtin surgeons-knot --hand A "$@" >"$tmp/a.log" 2>&1 &
+echo "== the surgeon's knot over the bite, tightened (hands A and B)"
+hand --builtin surgeons-knot --hand A --tighten 0.05 "$@" >"$tmp/a.log" 2>&1 &
 a=$!
-hand --builtin surgeons-knot --hand B --identify "$CHAIN" "$@"
+hand --builtin surgeons-knot --hand B --tighten 0.05 --identify "$CHAIN" "$@"
 wait $a || { cat "$tmp/a.log"; exit 1; }
 grep -h "requests" "$tmp/a.log" || true
 sleep 1

@@ -24,9 +24,12 @@
 //!
 //! A third table is the whole stitch ([`whole`]): on `stitch-80` and `stitch-160`, the needle's pass
 //! by one hand (`stitch-pass`, the tail free) and then the surgeon's knot over the bite by two hands
-//! (`surgeons-knot`), all three hands perturbed with the run's seed, `STITCH_BENCH_RUNS` runs. A run
-//! succeeds when the service names the surgeon's knot at the end and the bench's own code finds both
-//! eyelets threaded and on the rope (to 1e-9).
+//! (`surgeons-knot`), tightened (`--tighten 0.05`: each hand pulls its end until it stops), all three
+//! hands perturbed with the run's seed, `STITCH_BENCH_RUNS` runs. A run succeeds when the service
+//! names the surgeon's knot at the end and the bench's own code finds both eyelets threaded and on the
+//! rope (to 1e-9). The wound: the eyelets' distance after the pass and at the end, measured by the
+//! bench on the queried eyelets (the scene's tissue gives: `wound_margin` 0.5 either side of the
+//! incision, so closed is 1.0 apart).
 //!
 //! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
 
@@ -358,9 +361,9 @@ fn one_hand(prefix: &str, args: &[&str], file: &Path, solve: &mut Vec<u64>) -> R
 /// docs).
 fn whole(runs: u64, dir: &Path) -> Result<()> {
     println!(
-        "\n| suture | links | runs | surgeon's knot over the bite | runs with a refused request | refused | pass: requests | p50 µs | p99.9 µs | tie: requests | p50 µs | p99 µs | p99.9 µs | max µs |"
+        "\n| suture | links | runs | surgeon's knot over the bite, tightened | eyelets apart after the pass, median | at the end, median | wound closed (1.0 apart) | runs with a refused request | refused | pass: requests | p50 µs | p99.9 µs | tie and tighten: requests | p50 µs | p99 µs | p99.9 µs | max µs |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (chain, links) in [("stitch-80", 80), ("stitch-160", 160)] {
         whole_on(chain, links, runs, dir)?;
     }
@@ -372,8 +375,14 @@ fn whole_on(chain: &str, links: usize, runs: u64, dir: &Path) -> Result<()> {
     let scene = workspace().join("solver-service/scenes/stitch.toml");
     let (mut tied, mut with_refusals, mut refused) = (0, 0, 0);
     let (mut pass_solve, mut tie_solve) = (Vec::new(), Vec::new());
+    // The eyelets' distance after the pass and at the end, of the runs that tied the knot.
+    let (mut opened, mut ended, mut closed) = (Vec::new(), Vec::new(), 0);
+    let gap = |e: &[shared::EyeletState]| {
+        let (a, b) = (e[0].at.to_array(), e[1].at.to_array());
+        (0..3).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt()
+    };
     for seed in 1..=runs {
-        let outcome = (|| -> Result<bool> {
+        let outcome = (|| -> Result<Option<(f64, f64)>> {
             let prefix = format!("stitch_{}_whole_{links}_{seed}_", std::process::id());
             let mut svc = Command::new(release_bin("solver-service")?);
             svc.args(["--prefix", &prefix, "--scene"])
@@ -394,6 +403,10 @@ fn whole_on(chain: &str, links: usize, runs: u64, dir: &Path) -> Result<()> {
                 &dir.join(format!("whole-{links}-{seed}-pass.txt")),
                 &mut pass_solve,
             )?;
+            let (_, passed) = query(&prefix, chain)?;
+            if passed.len() != 2 {
+                bail!("{} eyelets after the pass", passed.len());
+            }
             let b = std::thread::scope(|scope| -> Result<usize> {
                 let b = scope.spawn(|| {
                     let mut solve = Vec::new();
@@ -408,6 +421,8 @@ fn whole_on(chain: &str, links: usize, runs: u64, dir: &Path) -> Result<()> {
                             chain,
                             "--perturb",
                             &s,
+                            "--tighten",
+                            "0.05",
                         ],
                         &dir.join(format!("whole-{links}-{seed}-B.txt")),
                         &mut solve,
@@ -425,6 +440,8 @@ fn whole_on(chain: &str, links: usize, runs: u64, dir: &Path) -> Result<()> {
                         chain,
                         "--perturb",
                         &s,
+                        "--tighten",
+                        "0.05",
                     ],
                     &dir.join(format!("whole-{links}-{seed}-A.txt")),
                     &mut tie_solve,
@@ -454,11 +471,16 @@ fn whole_on(chain: &str, links: usize, runs: u64, dir: &Path) -> Result<()> {
                             .fold(f64::INFINITY, f64::min)
                             < 1e-9
                 });
-            Ok(knot && on_rope)
+            Ok((knot && on_rope).then(|| (gap(&passed), gap(&eyelets))))
         })();
         match outcome {
-            Ok(true) => tied += 1,
-            Ok(false) => eprintln!(
+            Ok(Some((a, b))) => {
+                tied += 1;
+                opened.push(a);
+                ended.push(b);
+                closed += usize::from(b <= 1.0 + 1e-9);
+            }
+            Ok(None) => eprintln!(
                 "stitch bench: the whole stitch on {chain}, seed {seed}: no surgeon's knot over the bite"
             ),
             Err(e) => eprintln!("stitch bench: the whole stitch on {chain}, seed {seed}: {e:#}"),
@@ -466,12 +488,20 @@ fn whole_on(chain: &str, links: usize, runs: u64, dir: &Path) -> Result<()> {
     }
     pass_solve.sort_unstable();
     tie_solve.sort_unstable();
-    if pass_solve.is_empty() || tie_solve.is_empty() {
-        println!("| {chain} | {links} | {runs} | {tied} | – | – | – | – | – | – | – | – | – | – |");
+    if pass_solve.is_empty() || tie_solve.is_empty() || opened.is_empty() {
+        println!(
+            "| {chain} | {links} | {runs} | {tied} | – | – | – | – | – | – | – | – | – | – | – | – | – |"
+        );
         return Ok(());
     }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
     println!(
-        "| {chain} | {links} | {runs} | {tied} | {with_refusals} | {refused} | {} | {:.1} | {:.1} | {} | {:.1} | {:.1} | {:.1} | {:.1} |",
+        "| {chain} | {links} | {runs} | {tied} | {:.3} | {:.3} | {closed} | {with_refusals} | {refused} | {} | {:.1} | {:.1} | {} | {:.1} | {:.1} | {:.1} | {:.1} |",
+        median(&mut opened),
+        median(&mut ended),
         pass_solve.len(),
         pct(&pass_solve, 0.5),
         pct(&pass_solve, 0.999),
