@@ -363,7 +363,9 @@ fn whole(runs: u64, dir: &Path) -> Result<()> {
     println!(
         "\n| suture | links | runs | surgeon's knot over the bite, tightened | eyelets apart after the pass, median | at the end, median | wound closed (1.0 apart) | runs with a refused request | refused | pass: requests | p50 µs | p99.9 µs | tie and tighten: requests | p50 µs | p99 µs | p99.9 µs | max µs |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!(
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     for (chain, links) in [("stitch-80", 80), ("stitch-160", 160)] {
         whole_on(chain, links, runs, dir)?;
     }

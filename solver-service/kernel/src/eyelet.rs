@@ -1365,6 +1365,28 @@ where
                     resolve_threaded(chain, link, eyelets, s, model, cws, &mut ws.fixed)
                 });
             match resolved {
+                Ok(_) if cws.together() => {
+                    chain.write_positions(&mut ws.new);
+                    // Under a pull (tissue that gives, drawn in by a tightening: see
+                    // `threaded_once`), no joint may jump more than half the smallest clearance in a
+                    // substep, or its link could be carried through another between the checks: the
+                    // held sides re-solved round a tightened surgeon's knot lost the knot so. The move
+                    // stops there, refused.
+                    let limit = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
+                    let jump = ws
+                        .new
+                        .iter()
+                        .zip(&ws.old)
+                        .map(|(a, b)| (a - b).norm())
+                        .fold(T::zero(), |m, d| if d > m { d } else { m });
+                    if jump > limit {
+                        walked = Err(ChainError::Jumped {
+                            substep: s,
+                            jump: jump.to_f64(),
+                        }
+                        .into());
+                    }
+                }
                 Ok(_) => chain.write_positions(&mut ws.new),
                 Err(err) => walked = Err(err),
             }

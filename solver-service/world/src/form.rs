@@ -54,6 +54,8 @@ pub struct LiveChain<T: Real, const D: usize> {
     pub(crate) tissue: Option<(Point, Point)>,
     /// Tissue that gives (scene `incision`, `tissue_give`, `wound_margin`).
     pub(crate) wound: Option<crate::scene::Wound>,
+    /// A curved needle swaged to the head (scene `needle`): its capsules among the instruments.
+    pub(crate) needle: Option<crate::needle::Needle>,
 }
 
 impl<T: Real, const D: usize> LiveChain<T, D>
@@ -395,6 +397,7 @@ where
             .with_friction(spec.eyelet_friction),
         tissue: spec.tissue,
         wound: spec.wound,
+        needle: spec.needle,
     };
     h.eyelets_initial = h.eyelets.clone();
     h.eyelets_before = h.eyelets.clone();

@@ -28,6 +28,7 @@ pub mod command;
 pub mod elements;
 pub mod form;
 pub mod moves;
+pub mod needle;
 pub mod owners;
 pub mod refusal;
 pub mod scene;

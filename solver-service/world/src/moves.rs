@@ -66,6 +66,16 @@ where
     }
 }
 
+/// The head joint and the unit direction of the head link (a needle's swage and tangent).
+fn head_frame<T: Real, const D: usize>(c: &tractrix::Chain<T, D>) -> (Point, Point)
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = c.n_links();
+    let (a, b) = (to_point(&c.joint(n - 1)), to_point(&c.joint(n)));
+    (b, (b - a).normalize())
+}
+
 /// A move of `joint`; the instruments that follow it are then carried by the joint's displacement,
 /// pushing the rest of the rope (locked: the whole move is refused).
 pub(crate) fn move_and_carry<T: Real, const D: usize>(
@@ -77,14 +87,16 @@ pub(crate) fn move_and_carry<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    if !g.follows.contains(&Some(joint)) {
+    if g.needle.is_none() && !g.follows.contains(&Some(joint)) {
         return move_path(g, joint, targets, opts);
     }
+    let needle = g.needle.map_or(0..0, |nd| nd.first..nd.first + nd.segments);
     // Point by point, so that the instruments follow the path, not its chord (a refusal anywhere
     // refuses the whole request: the caller undoes it).
     let mut outcome = MoveOutcome::default();
     for t in targets {
         let from = g.chain.joint(joint);
+        let swage = g.needle.map(|_| head_frame(&g.chain));
         let m = move_path(g, joint, std::slice::from_ref(t), opts)?;
         outcome.substeps = outcome.substeps.saturating_add(m.substeps);
         outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(m.paper_fallbacks);
@@ -92,8 +104,9 @@ where
             .collision_iterations
             .saturating_add(m.collision_iterations);
         let delta = g.chain.joint(joint) - from;
+        let swaged = g.needle.map(|_| head_frame(&g.chain));
         for k in 0..g.follows.len() {
-            if g.follows[k] != Some(joint) {
+            if !needle.contains(&k) && g.follows[k] != Some(joint) {
                 continue;
             }
             let at = g.instruments_at + k;
@@ -101,6 +114,28 @@ where
                 continue;
             };
             let to = match model.obstacles[at] {
+                // The needle: carried rigidly with the head (whichever joint moved).
+                Obstacle::Capsule { a, b, radius } if needle.contains(&k) => {
+                    let (Some(before), Some(after)) = (swage, swaged) else {
+                        continue;
+                    };
+                    if before == after {
+                        continue;
+                    }
+                    let o = Obstacle::Capsule {
+                        a: to_point(&a),
+                        b: to_point(&b),
+                        radius: radius.to_f64(),
+                    };
+                    match crate::needle::carry(&o, before, after) {
+                        Obstacle::Capsule { a, b, .. } => Obstacle::Capsule {
+                            a: point(a),
+                            b: point(b),
+                            radius,
+                        },
+                        _ => continue,
+                    }
+                }
                 Obstacle::Sphere { center, radius } => Obstacle::Sphere {
                     center: center + delta,
                     radius,
@@ -581,34 +616,31 @@ pub(crate) fn give_way<T: Real, const D: usize>(
             continue;
         }
         let to: Vector<T, D> = point(at - w.normal * (step * off.signum()));
-        // Metered, but not as a pull (an eyelet move resolves its contacts pass by pass).
-        if let Some((_, ws)) = g.collision.as_mut() {
-            ws.limit_work(tries.budget / shares);
-        }
-        // A refused eyelet move changes nothing: the tissue does not give there.
-        let _ = match g.collision.as_mut() {
-            Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
-                &mut g.chain,
-                i,
-                to,
-                &mut g.eyelets,
-                max_substeps,
-                model,
-                cws,
-                &mut g.eyelet_ws,
-            ),
-            None => tractrix::eyelet::move_eyelet(
-                &mut g.chain,
-                i,
-                to,
-                &mut g.eyelets,
-                max_substeps,
-                &mut g.eyelet_ws,
-            ),
-        };
-        if let Some((_, ws)) = g.collision.as_mut() {
-            tries.work = tries.work.saturating_add(ws.work());
-        }
+        // A refused eyelet move changes nothing: the tissue does not give there. Metered as a try of
+        // the pull (no joint jumping more than half a clearance in a substep: the knot kept).
+        let _ = tries.run(g, shares, |g| {
+            match g.collision.as_mut() {
+                Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
+                    &mut g.chain,
+                    i,
+                    to,
+                    &mut g.eyelets,
+                    max_substeps,
+                    model,
+                    cws,
+                    &mut g.eyelet_ws,
+                ),
+                None => tractrix::eyelet::move_eyelet(
+                    &mut g.chain,
+                    i,
+                    to,
+                    &mut g.eyelets,
+                    max_substeps,
+                    &mut g.eyelet_ws,
+                ),
+            }
+            .map_err(Refusal::from)
+        });
     }
 }
 

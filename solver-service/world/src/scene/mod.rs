@@ -37,6 +37,7 @@
 //! | `joint_range` / `joint_ranges` | `[lo, hi]` degrees / list of `links + 1` pairs | – | signed range of every joint / per joint; planar chains only |
 //! | `eyelets` | list of points on the chain | `[]` | fixed points the rope slides through (free chains; docs/eyelets.md) |
 //! | `tissue` | `[lo, hi]` box corners | – | a block the head pierces, making eyelets (free spatial chains); with collision, the rope stays out of it but where it passes through |
+//! | `needle` | `[radius, angle°, thickness]` | – | a curved needle swaged to the head: an arc of that radius spanning that angle (at most 270°), drawn and pushed as capsules, carried rigidly with the head (needs `tissue` and collision) |
 //! | `incision` | `[point, normal]` | – | the plane of the incision a stitch closes (needs `tissue` and `tissue_give`) |
 //! | `tissue_give` | number > 0 | – | after a request whose pull stopped short, each threaded eyelet moves this much per unit of pull toward the incision (needs `incision`) |
 //! | `wound_margin` | number ≥ 0 | 0 | how near the incision an eyelet may be drawn: the wound is closed when every eyelet is this far from it |
@@ -204,6 +205,9 @@ pub struct ChainSpec {
     pub eyelet_friction: f64,
     /// Tissue that gives (`incision`, `tissue_give`, `wound_margin`): the wound the stitch closes.
     pub wound: Option<Wound>,
+    /// A curved needle swaged to the head (`needle = [radius, angle°, thickness]`): its capsules are
+    /// the chain's last instruments ([`crate::needle`]).
+    pub needle: Option<crate::needle::Needle>,
 }
 
 /// Tissue that gives: the plane of the incision the stitch closes, and how the eyelets are drawn

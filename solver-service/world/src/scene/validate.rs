@@ -209,6 +209,7 @@ fn chains(
                 owner[i] = Some(spec.name.clone());
             }
         }
+        needle_capsules(&mut spec, c.get_ref(), at)?;
         total_links += spec.lengths.len();
         let c = c.get_ref();
         if total_links > MAX_SCENE_LINKS {
@@ -231,6 +232,36 @@ fn chains(
         chains.push(spec);
     }
     Ok(chains)
+}
+
+/// A chain's needle as capsules after its instruments, each following the head, laid along the head
+/// link and curving up ([`crate::needle::Needle::initial_bend`]); at most [`MAX_INSTRUMENTS`]
+/// instruments in all.
+fn needle_capsules(spec: &mut ChainSpec, c: &RawChain, at: &At<'_>) -> Result<(), SceneError> {
+    let (Some(nd), Some(col)) = (spec.needle.as_mut(), spec.collision.as_mut()) else {
+        return Ok(());
+    };
+    nd.first = col.instruments.len();
+    if nd.first + nd.segments > MAX_INSTRUMENTS {
+        let span = c.needle.as_ref().map(|s| s.span()).unwrap_or(c.name.span());
+        return Err(at(
+            span,
+            format!(
+                "chain {:?}: field `needle`: its {} capsules and {} instruments pass the most a \
+                 chain carries ({MAX_INSTRUMENTS})",
+                spec.name, nd.segments, nd.first
+            ),
+        ));
+    }
+    let n = spec.points.len() - 1;
+    let (swage, before) = (spec.points[n], spec.points[n - 1]);
+    let tangent = (swage - before).normalize();
+    let bend = crate::needle::Needle::initial_bend(tangent);
+    for (k, o) in nd.capsules(swage, tangent, bend).into_iter().enumerate() {
+        col.instruments.push((format!("needle {k}"), o));
+        col.follows.push(Some(n as u32));
+    }
+    Ok(())
 }
 
 /// The scene's `[[bundle]]` tables: names unique among chains and bundles, their joints within the
@@ -784,6 +815,7 @@ fn chain(
     let (max_substeps, substeps) = substeps(&f)?;
     let (tolerance, max_iterations, hierarchy_after) = iteration(&f)?;
     let collision = collision(&f, scheme, kind, thickness, obstacles, instruments)?;
+    let needle = needle(&f, tissue.is_some(), collision.is_some())?;
     let limits = limits(&f, &points, &lengths)?;
     // With joint limits the reach hierarchy cannot finish a slow iteration (its pose is kept only when
     // it lands within them), so a held side may iterate to the limit, each pass with a try of the
@@ -821,6 +853,7 @@ fn chain(
         eyelets,
         tissue,
         wound,
+        needle,
         moves: MoveOptions {
             method,
             substeps,
@@ -1004,6 +1037,40 @@ fn tissue(f: &Fields<'_>, kind: ChainKind) -> Result<Option<Corners>, SceneError
             ),
         },
         _ => err("two corners [[x, y, z], [x, y, z]]".into()),
+    }
+}
+
+/// The chain's `needle = [radius, angle°, thickness]`, on a chain with `tissue` and collision (its
+/// capsules are added as the chain's last instruments once the scene's are resolved).
+fn needle(
+    f: &Fields<'_>,
+    has_tissue: bool,
+    has_collision: bool,
+) -> Result<Option<crate::needle::Needle>, SceneError> {
+    let Some(nd) = &f.c.needle else {
+        return Ok(None);
+    };
+    let err = |what: String| Err(f.err(nd.span(), "needle", what));
+    if !has_tissue || !has_collision {
+        return err("a needle is for a chain with `tissue` and `collision`".into());
+    }
+    match nd.get_ref().as_slice() {
+        [r, a, t]
+            if r.is_finite()
+                && *r > 0.0
+                && a.is_finite()
+                && *a > 0.0
+                && a.to_radians() <= crate::needle::MAX_NEEDLE_ANGLE
+                && t.is_finite()
+                && *t > 0.0 =>
+        {
+            Ok(Some(crate::needle::Needle::new(*r, a.to_radians(), *t, 0)))
+        }
+        _ => err(
+            "[radius, angle, thickness]: a radius > 0, an angle in degrees in (0, 270], a \
+             thickness > 0"
+                .into(),
+        ),
     }
 }
 

@@ -1,0 +1,106 @@
+//! A curved needle swaged to a suture's head (scene `needle = [radius, angle, thickness]`): a rigid
+//! circular arc, carried as capsules (the chain's last instruments, so the wire, the viewers and the
+//! MuJoCo loop draw it as they draw any instrument). It leaves the head along the head link's
+//! direction and curves, initially, up (toward +z; toward +x when the head link is vertical): taken
+//! down into tissue, turned under it and up again, the head link turns the needle with it so that it
+//! curves the way the stitch turns, its point ahead. Every
+//! move carries it rigidly with the head: translated with the head joint and turned by the smallest
+//! rotation that takes the head link's old direction to its new one (the suture has no twist), so it
+//! stays tangent to the rope at the swage; carried, it pushes the rest of the rope as instruments do.
+
+use crate::command::Point;
+use nalgebra::{Rotation3, Unit};
+use tractrix::collision::Obstacle;
+
+/// A chain's needle: the arc's radius, its angle (radians), its thickness (diameter), and where its
+/// capsules are among the chain's instruments.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Needle {
+    /// The arc's radius.
+    pub radius: f64,
+    /// The angle the arc spans, radians (0, 3π/2].
+    pub angle: f64,
+    /// The needle's diameter.
+    pub thickness: f64,
+    /// The index of its first capsule among the chain's instruments.
+    pub first: usize,
+    /// How many capsules: one per 22.5° of arc or part of it.
+    pub segments: usize,
+}
+
+/// The most a needle's arc may span: three quarters of a circle.
+pub const MAX_NEEDLE_ANGLE: f64 = 1.5 * std::f64::consts::PI;
+
+impl Needle {
+    /// A needle of `radius`, `angle` (radians) and `thickness`, its capsules from instrument `first`.
+    pub fn new(radius: f64, angle: f64, thickness: f64, first: usize) -> Self {
+        let segments = (angle / (std::f64::consts::PI / 8.0)).ceil().max(1.0) as usize;
+        Needle {
+            radius,
+            angle,
+            thickness,
+            first,
+            segments,
+        }
+    }
+
+    /// The capsules of the needle swaged at `swage`, leaving it along the unit `tangent` and curving
+    /// toward the unit `bend` (perpendicular to it): the arc `c + r(−bend cos φ + tangent sin φ)`,
+    /// `c = swage + r bend`, for φ from 0 to the angle, cut into [`Needle::segments`] equal pieces.
+    pub fn capsules(&self, swage: Point, tangent: Point, bend: Point) -> Vec<Obstacle<f64, 3>> {
+        let c = swage + bend * self.radius;
+        let at = |k: usize| {
+            let phi = self.angle * k as f64 / self.segments as f64;
+            c + (tangent * phi.sin() - bend * phi.cos()) * self.radius
+        };
+        (0..self.segments)
+            .map(|k| Obstacle::Capsule {
+                a: at(k),
+                b: at(k + 1),
+                radius: 0.5 * self.thickness,
+            })
+            .collect()
+    }
+
+    /// The direction the needle first curves toward from a head link along `tangent`: up (+z) made
+    /// perpendicular to it, or +x when the link is vertical.
+    pub fn initial_bend(tangent: Point) -> Point {
+        let up = Point::z();
+        let b = up - tangent * up.dot(&tangent);
+        if b.norm() > 1e-6 {
+            b.normalize()
+        } else {
+            let x = Point::x();
+            (x - tangent * x.dot(&tangent)).normalize()
+        }
+    }
+}
+
+/// The rigid motion that carries a needle from the head frame `(head, tangent)` before a move to the
+/// one after it: the smallest rotation from the old tangent to the new one, about the head, then the
+/// head's displacement. Returns the capsule `o` so moved (anything else unchanged).
+pub fn carry(
+    o: &Obstacle<f64, 3>,
+    before: (Point, Point),
+    after: (Point, Point),
+) -> Obstacle<f64, 3> {
+    let turn = turn(before.1, after.1);
+    let map = |p: &Point| after.0 + turn * (p - before.0);
+    match o {
+        Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
+            a: map(a),
+            b: map(b),
+            radius: *radius,
+        },
+        other => *other,
+    }
+}
+
+/// The smallest rotation taking unit `from` to unit `to` (a half turn about a perpendicular axis when
+/// they are opposite).
+fn turn(from: Point, to: Point) -> Rotation3<f64> {
+    Rotation3::rotation_between(&from, &to).unwrap_or_else(|| {
+        let axis = Needle::initial_bend(from);
+        Rotation3::from_axis_angle(&Unit::new_normalize(axis), std::f64::consts::PI)
+    })
+}
