@@ -66,6 +66,40 @@ where
     }
 }
 
+/// Whether capsule `at` of the model, carried rigidly to `to`, passes clear of every link it does not
+/// hold: each point of it moves at most as far as one of its ends (the motion is affine along it), so
+/// a link farther from its old axis than its radius, the rope's radius and that distance cannot meet
+/// it on the way.
+fn clear_of<T: Real, const D: usize>(
+    joints: &[Vector<T, D>],
+    model: &tractrix::collision::CollisionModel<T, D>,
+    at: usize,
+    to: &Obstacle<T, D>,
+) -> bool
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let (Obstacle::Capsule { a, b, radius }, Obstacle::Capsule { a: a2, b: b2, .. }) =
+        (model.obstacles[at], *to)
+    else {
+        return false;
+    };
+    let travel = (a2 - a).norm().max((b2 - b).norm());
+    let reach = radius + model.options.thickness * T::lit(0.5) + travel;
+    let held = |l: usize| {
+        model
+            .holding
+            .iter()
+            .any(|h| h.obstacle == at && h.links.contains(&l))
+    };
+    joints.windows(2).enumerate().all(|(l, w)| {
+        let (p, q) = (&w[0], &w[1]);
+        let (s, t) = tractrix::collision::closest_params_segment_segment(p, q, &a, &b);
+        let d = ((p + (q - p) * s) - (a + (b - a) * t)).norm();
+        held(l) || d > reach
+    })
+}
+
 /// The head joint and the unit direction of the head link (a needle's swage and tangent).
 fn head_frame<T: Real, const D: usize>(c: &tractrix::Chain<T, D>) -> (Point, Point)
 where
@@ -105,6 +139,8 @@ where
             .saturating_add(m.collision_iterations);
         let delta = g.chain.joint(joint) - from;
         let swaged = g.needle.map(|_| head_frame(&g.chain));
+        // The joints, for the needle's clearance (again after a push moved the rope).
+        let mut joints = g.needle.map(|_| g.chain.positions());
         for k in 0..g.follows.len() {
             if !needle.contains(&k) && g.follows[k] != Some(joint) {
                 continue;
@@ -147,6 +183,19 @@ where
                 },
                 other => other,
             };
+            if let Some(p) = joints.as_ref().filter(|_| needle.contains(&k))
+                && clear_of(p, model, at, &to)
+            {
+                // No link can meet the needle on its way: it is set on its new pose.
+                model.obstacles[at] = to;
+                continue;
+            }
+            // The needle pushes the rope with the head held: the head is swaged to it.
+            let n = g.chain.n_links();
+            let swaged_free = needle.contains(&k) && !g.chain.is_held(n);
+            if swaged_free {
+                g.chain.hold(n)?;
+            }
             let m = push(
                 &mut g.chain,
                 (model, ws),
@@ -154,8 +203,15 @@ where
                 &to,
                 (&g.eyelets, &mut g.eyelet_ws),
                 opts.max_substeps,
-            )?;
+            );
+            if swaged_free {
+                g.chain.release(n)?;
+            }
+            let m = m?;
             model.obstacles[at] = to;
+            if let Some(p) = joints.as_mut() {
+                g.chain.write_positions(p);
+            }
             outcome.substeps = outcome.substeps.saturating_add(m.substeps);
             outcome.collision_iterations = outcome
                 .collision_iterations
