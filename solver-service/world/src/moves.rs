@@ -668,7 +668,7 @@ pub(crate) fn give_way<T: Real, const D: usize>(
         let at = to_point(&e.at);
         let off = (at - w.point).dot(&w.normal);
         let step = (w.give * pulled).min(off.abs() - w.margin);
-        if !(step > 0.0) {
+        if step.is_nan() || step <= 0.0 {
             continue;
         }
         let to: Vector<T, D> = point(at - w.normal * (step * off.signum()));

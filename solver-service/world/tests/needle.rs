@@ -220,7 +220,7 @@ fn a_needle_needs_tissue_and_a_sound_arc() {
     let tissue = "tissue = [[5.0, -5.0, -3.0], [30.0, 5.0, 0.0]]\n";
     for (extra, says) in [
         (
-            format!("collision = \"capsules\"\nneedle = [1.0, 90.0, 0.1]\n"),
+            "collision = \"capsules\"\nneedle = [1.0, 90.0, 0.1]\n".to_string(),
             "tissue",
         ),
         (format!("{tissue}needle = [1.0, 90.0, 0.1]\n"), "collision"),
