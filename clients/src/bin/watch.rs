@@ -303,7 +303,7 @@ fn run(a: Args) -> Result<u8> {
                 crossings.state(h.sequence, h.chain, &joints, info.thickness);
             }
             if a.sheet.is_some() {
-                sheet.state(h.sequence, &joints, &held, &instruments.2);
+                sheet.state(h.sequence, &joints, &held, (&instruments.0, &instruments.2));
             }
             if a.name_knots && info.free && info.bundle.is_none() && info.thickness > 0.0 {
                 kept.entry(h.chain).or_default().push(
@@ -796,8 +796,9 @@ type Pending = (
     Option<([f64; 3], [f64; 3])>,
 );
 
-/// A state of `--sheet`: its sequence, joints and threaded eyelets' points.
-type Shot = (u64, Vec<[f64; 3]>, Vec<[f64; 3]>);
+/// A state of `--sheet`: its sequence, joints and threaded eyelets' points, and its instruments'
+/// axes (the driver's jaws, a needle's capsules).
+type Shot = (u64, Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<Vec<[f64; 3]>>);
 
 /// The key frames of `--sheet`: the states after which the chain's held joints or eyelets changed
 /// or another end began to move, and the last one.
@@ -817,8 +818,13 @@ impl Sheet {
         sequence: u64,
         joints: &[[f64; 3]],
         held: &[clients::viewer::Held],
-        eyelets: &[shared::EyeletState],
+        (instruments, eyelets): (&[shared::InstrumentPose], &[shared::EyeletState]),
     ) {
+        let axes: Vec<Vec<[f64; 3]>> = instruments
+            .iter()
+            .filter(|i| i.capsule)
+            .map(|i| vec![i.a.to_array(), i.b.to_array()])
+            .collect();
         let now = (
             held.iter().map(|h| h.joint).collect::<Vec<_>>(),
             eyelets
@@ -837,7 +843,7 @@ impl Sheet {
         // last.
         let moved_before = self.was.as_ref().map_or("", |w| w.2);
         let mover = match &self.last {
-            Some((_, j, _)) if j.len() == joints.len() && !joints.is_empty() => {
+            Some((_, j, _, _)) if j.len() == joints.len() && !joints.is_empty() => {
                 if j[j.len() - 1] != joints[joints.len() - 1] {
                     "the head moves"
                 } else if j[0] != joints[0] {
@@ -851,9 +857,10 @@ impl Sheet {
             _ => "",
         };
         match &self.was {
-            None => self
-                .kept
-                .push(((sequence, joints.to_vec(), marks.clone()), "first".into())),
+            None => self.kept.push((
+                (sequence, joints.to_vec(), marks.clone(), axes.clone()),
+                "first".into(),
+            )),
             Some((held_was, eyelets_was, moved)) => {
                 let what = if held_was != &now.0 {
                     Some(if held_was.len() < now.0.len() {
@@ -876,7 +883,7 @@ impl Sheet {
             }
         }
         self.was = Some((now.0, now.1, mover));
-        self.last = Some((sequence, joints.to_vec(), marks));
+        self.last = Some((sequence, joints.to_vec(), marks, axes));
     }
 
     /// Writes the sheet; returns the frames drawn.
@@ -904,10 +911,15 @@ impl Sheet {
         let frames: Vec<Frame> = picked
             .into_iter()
             .map(|k| {
-                let ((s, joints, marks), what) = &self.kept[k];
+                let ((s, joints, marks, axes), what) = &self.kept[k];
                 Frame {
                     label: format!("{name} after change {s} ({what})"),
                     lines: tissue_lines(tissue)
+                        .chain(axes.iter().map(|a| Polyline {
+                            joints: a.clone(),
+                            color: (110, 110, 120),
+                            markers: false,
+                        }))
                         .chain(std::iter::once(Polyline {
                             joints: joints.clone(),
                             color: (20, 60, 160),

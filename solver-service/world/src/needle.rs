@@ -97,10 +97,17 @@ pub fn carry(
 }
 
 /// The smallest rotation taking unit `from` to unit `to` (a half turn about a perpendicular axis when
-/// they are opposite).
+/// they are opposite). Its angle from `atan2(|from × to|, from · to)`: nalgebra's `rotation_between`
+/// takes the arccosine of the dot product, which rounding can put above 1 (a NaN needle was seen).
 fn turn(from: Point, to: Point) -> Rotation3<f64> {
-    Rotation3::rotation_between(&from, &to).unwrap_or_else(|| {
+    let cross = from.cross(&to);
+    let (sin, cos) = (cross.norm(), from.dot(&to));
+    if sin > 1e-300 {
+        Rotation3::from_axis_angle(&Unit::new_unchecked(cross / sin), sin.atan2(cos))
+    } else if cos >= 0.0 {
+        Rotation3::identity()
+    } else {
         let axis = Needle::initial_bend(from);
         Rotation3::from_axis_angle(&Unit::new_normalize(axis), std::f64::consts::PI)
-    })
+    }
 }

@@ -197,6 +197,36 @@ fn needle_pass(chain: &str, link: f64) {
     let parts = Parts::of_response(&r.header, &r.payload);
     let eyelets: Vec<_> = parts.eyelet_states().collect();
     check_pass(parts.joints, &eyelets, link, chain, &out);
+    // The needle (the scene's `needle`: radius 1, 135°) on the wire, its instruments: six capsules
+    // end to end, the first from the head, leaving along the head link (the first chord 11.25° off
+    // it), every end a radius from the arc's centre (the circumcentre of the ends, computed here).
+    let needle: Vec<_> = parts.instrument_poses().collect();
+    assert_eq!(needle.len(), 6, "{needle:?}");
+    let v = |p: Vec3| nalgebra::Vector3::from(p.to_array());
+    let n = parts.joints.len() - 1;
+    let (head, before) = (v(parts.joints[n]), v(parts.joints[n - 1]));
+    assert!(
+        (v(needle[0].a) - head).norm() < 1e-9,
+        "the needle off the head"
+    );
+    for w in needle.windows(2) {
+        assert!((v(w[0].b) - v(w[1].a)).norm() < 1e-9, "the needle broken");
+    }
+    let chord = (v(needle[0].b) - head).normalize();
+    let off = chord.dot(&(head - before).normalize()).acos().to_degrees();
+    assert!((off - 11.25).abs() < 1e-6, "{off}° off the head link");
+    let (a, b, c) = (head, v(needle[3].a), v(needle[5].b));
+    let (al, be) = (b - a, c - a);
+    let w = al.cross(&be);
+    let centre = a
+        + (be.cross(&w) * al.norm_squared() + w.cross(&al) * be.norm_squared())
+            / (2.0 * w.norm_squared());
+    for (k, p) in needle.iter().enumerate() {
+        for e in [p.a, p.b] {
+            let r = (v(e) - centre).norm();
+            assert!((r - 1.0).abs() < 1e-9, "capsule {k}: {r} from the centre");
+        }
+    }
 }
 
 /// A published state of one chain: its sequence number, joints, held joints and eyelets.
@@ -562,6 +592,18 @@ fn watch_draws_the_key_frames_of_a_pass_in_one_svg() {
         })
         .count();
     assert!(tissue_lines >= 4 * 6, "{tissue_lines} tissue lines");
+    // The needle (`suture-80`'s six capsules): bluish grey lines, red and green within a few levels
+    // of each other, blue a little above red (the rope is blue well above red, the panels' frames
+    // pure grey), six in each panel.
+    let needle_lines = svg
+        .match_indices("stroke=\"#")
+        .filter(|(at, _)| {
+            let hex = &svg[at + 9..at + 15];
+            let c = |k: usize| i32::from(u8::from_str_radix(&hex[k..k + 2], 16).unwrap_or(0));
+            (c(0) - c(2)).abs() <= 4 && (1..=12).contains(&(c(4) - c(0)))
+        })
+        .count();
+    assert!(needle_lines >= 4 * 6, "{needle_lines} needle lines");
 }
 
 #[test]
