@@ -111,3 +111,33 @@ fn turn(from: Point, to: Point) -> Rotation3<f64> {
         Rotation3::from_axis_angle(&Unit::new_normalize(axis), std::f64::consts::PI)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Head links turned by angles from 1e-17 to 1e-6 rad about random axes: the turn is finite, a
+    /// rotation (orthonormal to 1e-12), and takes the old direction to the new one to 1e-12.
+    #[test]
+    fn tiny_turns_are_finite_rotations() {
+        let mut x = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut r = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for k in 0..100_000 {
+            let from = Point::new(r(), r(), r()).normalize();
+            let axis = from.cross(&Point::new(r(), r(), r())).normalize();
+            let angle = 10f64.powf(-17.0 + 11.0 * (k as f64 / 100_000.0));
+            let to =
+                (Rotation3::from_axis_angle(&Unit::new_normalize(axis), angle) * from).normalize();
+            let t = turn(from, to);
+            let m = t.matrix();
+            assert!(m.iter().all(|v| v.is_finite()), "{from:?} {to:?}: {m:?}");
+            assert!((m.transpose() * m - nalgebra::Matrix3::identity()).norm() < 1e-12);
+            assert!((t * from - to).norm() < 1e-12, "{from:?} -> {to:?}");
+        }
+    }
+}

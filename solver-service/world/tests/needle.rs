@@ -214,6 +214,39 @@ fn the_needle_is_an_arc_swaged_to_the_head_and_carried_rigidly_with_it() {
     );
 }
 
+/// Tiny moves of the head (the head link turned by angles near rounding, where an arccosine of the
+/// dot product can pass 1): the needle stays finite, swaged and rigid.
+#[test]
+fn tiny_moves_keep_the_needle_finite_and_swaged() {
+    let scene = parse_scene(SUTURE, "suture.toml").unwrap();
+    let mut w = World::new(&scene).unwrap();
+    w.set_budget(scene.budget.expect("the scene's budget"));
+    let first = needle(&w);
+    for k in 0..2000 {
+        let step = 10f64.powi(-(8 + (k % 9))) * if k % 2 == 0 { 1.0 } else { -1.0 };
+        let head = joints(&w)[40];
+        let to = head + Point::new(step * 0.3, step, step * 0.7);
+        w.apply(&go(&w, 40, &[to]))
+            .unwrap_or_else(|r| panic!("move {k}: {}", r.reason()));
+        let n = needle(&w);
+        assert!(
+            n.iter()
+                .all(|c| c.0.iter().chain(c.1.iter()).all(|x| x.is_finite())),
+            "move {k}: {n:?}"
+        );
+        assert!(
+            (n[0].0 - joints(&w)[40]).norm() < 1e-9,
+            "move {k}: off the head"
+        );
+        for (c, f) in n.iter().zip(&first) {
+            assert!(
+                ((c.1 - c.0).norm() - (f.1 - f.0).norm()).abs() < 1e-9,
+                "move {k}"
+            );
+        }
+    }
+}
+
 #[test]
 fn a_needle_needs_tissue_and_a_sound_arc() {
     let base = "[[chain]]\nname = \"s\"\nlinks = 40\nlink_length = 1.0\nthickness = 0.1\n";
