@@ -442,25 +442,11 @@ where
                 cws.pass_through(through_block(&ws.new, chain.min_length(), eyelets, model));
                 resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
                 if cws.together() {
-                    // A pull (a tightening): no joint may jump more than half the smallest
-                    // clearance in a substep, or its link could be carried through another between
-                    // the checks (`watch --crossings` saw a tightened surgeon's knot over a bite lose
-                    // its second throw so). The pull stops there instead: the knot has jammed.
+                    // A pull (a tightening): `watch --crossings` saw a tightened surgeon's knot over
+                    // a bite lose its second throw without this. The pull stops there instead: the
+                    // knot has jammed.
                     chain.write_positions(&mut ws.new);
-                    let limit = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
-                    let jump = ws
-                        .new
-                        .iter()
-                        .zip(&ws.old)
-                        .map(|(a, b)| (a - b).norm())
-                        .fold(T::zero(), |m, d| if d > m { d } else { m });
-                    if jump > limit {
-                        return Err(ChainError::Jumped {
-                            substep: s,
-                            jump: jump.to_f64(),
-                        }
-                        .into());
-                    }
+                    no_jump(chain, model, &ws.old, &ws.new, s)?;
                 }
             }
             Ok(left)
@@ -486,6 +472,34 @@ where
         set_threaded(chain, joint, &ws.new)?;
     }
     Ok(out)
+}
+
+/// Refuses a substep (`Jumped`) in which a joint moved from `old` to `new` by more than half the
+/// smallest clearance: its link could have been carried through another between the checks.
+fn no_jump<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    model: &crate::collision::CollisionModel<T, D>,
+    old: &[Vector<T, D>],
+    new: &[Vector<T, D>],
+    substep: u32,
+) -> Result<(), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let limit = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
+    let jump = new
+        .iter()
+        .zip(old)
+        .map(|(a, b)| (a - b).norm())
+        .fold(T::zero(), |m, d| if d > m { d } else { m });
+    if jump > limit {
+        return Err(ChainError::Jumped {
+            substep,
+            jump: jump.to_f64(),
+        }
+        .into());
+    }
+    Ok(())
 }
 
 /// Writes a threaded move's positions into the chain; a held moved joint is held where it landed.
@@ -1367,24 +1381,10 @@ where
             match resolved {
                 Ok(_) if cws.together() => {
                     chain.write_positions(&mut ws.new);
-                    // Under a pull (tissue that gives, drawn in by a tightening: see
-                    // `threaded_once`), no joint may jump more than half the smallest clearance in a
-                    // substep, or its link could be carried through another between the checks: the
-                    // held sides re-solved round a tightened surgeon's knot lost the knot so. The move
-                    // stops there, refused.
-                    let limit = crate::collision::smallest_clearance(chain, model) * T::lit(0.5);
-                    let jump = ws
-                        .new
-                        .iter()
-                        .zip(&ws.old)
-                        .map(|(a, b)| (a - b).norm())
-                        .fold(T::zero(), |m, d| if d > m { d } else { m });
-                    if jump > limit {
-                        walked = Err(ChainError::Jumped {
-                            substep: s,
-                            jump: jump.to_f64(),
-                        }
-                        .into());
+                    // Under a pull (tissue that gives, drawn in by a tightening): the held sides
+                    // re-solved round a tightened surgeon's knot lost the knot without this.
+                    if let Err(e) = no_jump(chain, model, &ws.old, &ws.new, s) {
+                        walked = Err(e);
                     }
                 }
                 Ok(_) => chain.write_positions(&mut ws.new),

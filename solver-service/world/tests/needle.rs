@@ -68,6 +68,24 @@ fn gap(p0: Point, p1: Point, q0: Point, q1: Point) -> f64 {
     best
 }
 
+/// Checks that every link but those the needle holds by the head (the last six) keeps the rope's
+/// thickness from every capsule of the needle, less the collision's 1 % tolerance; returns the
+/// smallest gap beyond touching.
+fn clear(j: &[Point], n: &[(Point, Point, f64)], what: &str) -> f64 {
+    let mut nearest = f64::INFINITY;
+    for (c, (a, b, r)) in n.iter().enumerate() {
+        for l in 0..34 {
+            let d = gap(j[l], j[l + 1], *a, *b);
+            nearest = nearest.min(d - r - 0.05);
+            assert!(
+                d >= r + 0.05 - 1e-3 - 1e-9,
+                "{what}: link {l} {d} from needle capsule {c}"
+            );
+        }
+    }
+    nearest
+}
+
 #[test]
 fn the_needle_is_an_arc_swaged_to_the_head_and_carried_rigidly_with_it() {
     let scene = parse_scene(SUTURE, "suture.toml").unwrap();
@@ -143,17 +161,7 @@ fn the_needle_is_an_arc_swaged_to_the_head_and_carried_rigidly_with_it() {
             (off - 11.25).abs() < 1e-6,
             "move {k}: {off}° off the head link"
         );
-        // The rope clear of the needle, but the links it holds by the head.
-        for (c, (a, b, r)) in n.iter().enumerate() {
-            for l in 0..34 {
-                let d = gap(j[l], j[l + 1], *a, *b);
-                nearest = nearest.min(d - r - 0.05);
-                assert!(
-                    d >= r + 0.05 - 1e-3 - 1e-9,
-                    "move {k}: link {l} {d} from needle capsule {c}"
-                );
-            }
-        }
+        nearest = nearest.min(clear(&j, &n, &format!("move {k}")));
     }
     // The head held (the driver holds the needle) and the tail drawn across the needle's middle, a
     // hair outside it: the rope behind the tail lies against the needle and keeps its thickness from
@@ -180,16 +188,7 @@ fn the_needle_is_an_arc_swaged_to_the_head_and_carried_rigidly_with_it() {
             w.apply(&go(&w, 0, &[p]))
                 .unwrap_or_else(|r| panic!("tail {k}: {}", r.reason()));
             let (j, n) = (joints(&w), needle(&w));
-            for (c, (a, b, r)) in n.iter().enumerate() {
-                for l in 0..34 {
-                    let d = gap(j[l], j[l + 1], *a, *b);
-                    nearest = nearest.min(d - r - 0.05);
-                    assert!(
-                        d >= r + 0.05 - 1e-3 - 1e-9,
-                        "tail {k}: link {l} {d} from capsule {c}"
-                    );
-                }
-            }
+            nearest = nearest.min(clear(&j, &n, &format!("tail {k}")));
         }
     }
     let turn = joints(&w)[40] + Point::new(0.0, -1.0, -1.0);
@@ -197,15 +196,7 @@ fn the_needle_is_an_arc_swaged_to_the_head_and_carried_rigidly_with_it() {
         .unwrap_or_else(|r| panic!("the turn: {}", r.reason()));
     let (j, n) = (joints(&w), needle(&w));
     assert!((n[0].0 - j[40]).norm() < 1e-9, "the turn: off the head");
-    for (c, (a, b, r)) in n.iter().enumerate() {
-        for l in 0..34 {
-            let d = gap(j[l], j[l + 1], *a, *b);
-            assert!(
-                d >= r + 0.05 - 1e-3 - 1e-9,
-                "the turn: link {l} {d} from capsule {c}"
-            );
-        }
-    }
+    clear(&j, &n, "the turn");
     // The needle pushed the rope: some link lay within a thickness of touching it.
     println!("nearest approach of rope and needle: {nearest}");
     assert!(
