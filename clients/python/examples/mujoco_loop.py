@@ -40,15 +40,16 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from tractrix_client import (FLAG_PULL, JOINT_HEAD, Client, ServiceError, eyelets,  # noqa: E402
-                             pulls, tissue)
+                             instruments, pulls, tissue)
 
 
 def scene_xml(n_links: int, link: float, radius: float, n_eyelets: int = 0,
-              block: dict | None = None) -> str:
+              block: dict | None = None, tools: list | None = None) -> str:
     """A table, a ball, the hand, a small green mocap sphere per eyelet the suture passes through
     (its entry and exit points in tissue), the suture's block of tissue if it has one (a static box
-    that nothing collides with: the service keeps the suture out of it) and one mocap capsule per link
-    (along its body's x axis)."""
+    that nothing collides with: the service keeps the suture out of it), one grey mocap body per
+    instrument of the chain (`tools`: a sphere, or a capsule along its body's x axis: a driver's jaws,
+    the pieces of a curved needle) and one mocap capsule per link (along its body's x axis)."""
     slab = ""
     if block is not None:
         lo, hi = np.asarray(block["lo"]), np.asarray(block["hi"])
@@ -61,6 +62,16 @@ def scene_xml(n_links: int, link: float, radius: float, n_eyelets: int = 0,
         f'rgba="0.1 0.7 0.3 1" contype="0" conaffinity="0"/></body>'
         for k in range(n_eyelets)
     )
+    shapes = []
+    for k, t in enumerate(tools or []):
+        if t["shape"] == "capsule":
+            half = float(np.linalg.norm(np.subtract(t["b"], t["a"]))) / 2.0
+            geom = f'type="capsule" size="{t["radius"]}" fromto="{-half} 0 0 {half} 0 0"'
+        else:
+            geom = f'type="sphere" size="{t["radius"]}"'
+        shapes.append(f'<body name="tool{k}" mocap="true"><geom {geom} rgba="0.55 0.55 0.6 1" '
+                      f'contype="0" conaffinity="0"/></body>')
+    tools_xml = "\n".join(shapes)
     links = "\n".join(
         f'<body name="link{i}" mocap="true"><geom type="capsule" size="{radius}" '
         f'fromto="{-link / 2} 0 0 {link / 2} 0 0" rgba="0.8 0.7 0.5 1" contype="0" conaffinity="0"/></body>'
@@ -78,6 +89,7 @@ def scene_xml(n_links: int, link: float, radius: float, n_eyelets: int = 0,
       contype="0" conaffinity="0"/></body>
     {slab}
     {rings}
+    {tools_xml}
     {links}
   </worldbody>
 </mujoco>"""
@@ -102,6 +114,30 @@ def place(data: mujoco.MjData, first_link: int, joints) -> None:
         data.mocap_quat[first_link + i] = link_quat(d / np.linalg.norm(d))
 
 
+def place_tools(data: mujoco.MjData, first: int, tools: list) -> None:
+    """Puts instrument k's body at its centre, a capsule's x axis along its axis."""
+    for k, t in enumerate(tools):
+        a, b = np.asarray(t["a"], dtype=float), np.asarray(t["b"], dtype=float)
+        data.mocap_pos[first + k] = (a + b) / 2.0
+        if t["shape"] == "capsule":
+            d = b - a
+            data.mocap_quat[first + k] = link_quat(d / np.linalg.norm(d))
+
+
+def tool_ends(data: mujoco.MjData, model: mujoco.MjModel, first: int, tools: list) -> list:
+    """Where the MuJoCo scene has each instrument's axis: its two ends (a sphere's centre twice),
+    from the body's pose and its geom's half length."""
+    out = []
+    for k, t in enumerate(tools):
+        pos, quat = data.mocap_pos[first + k], data.mocap_quat[first + k]
+        geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"tool{k}")
+        half = model.geom_size[model.body_geomadr[geom]][1] if t["shape"] == "capsule" else 0.0
+        axis = np.zeros(3)
+        mujoco.mju_rotVecQuat(axis, np.array([half, 0.0, 0.0]), quat)
+        out.append([(pos - axis).tolist(), (pos + axis).tolist()])
+    return out
+
+
 def write_png(path: str, rgb: np.ndarray) -> None:
     """An 8-bit RGB PNG (no imaging library needed)."""
     h, w, _ = rgb.shape
@@ -118,7 +154,8 @@ def write_png(path: str, rgb: np.ndarray) -> None:
 
 def run(client: Client | None, chain: int, steps: int, rate: float, start,
         frames: str | None = None, coupling: float | None = None,
-        rings: list | None = None, block: dict | None = None) -> tuple[list, list, dict]:
+        rings: list | None = None, block: dict | None = None,
+        tools: list | None = None) -> tuple[list, list, dict]:
     """The loop: `steps` steps at `rate` Hz; returns the step times (µs), the capsule centres at the
     end and, with the service, the times of its parts (µs): the service call alone and the posing
     of the capsules from the joints. With `frames`, four frames are rendered (outside the timed step)
@@ -126,15 +163,20 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
     and the hand's force of every step is in the parts (`hand`, `force`). `rings`: the eyelets the
     suture passes through at the start (`tractrix_client.eyelets`), moved each step to where the
     service has them (`eyelets` in the parts: their last positions). `block`: the suture's tissue
-    (`tractrix_client.tissue` of a describe), drawn as a box."""
+    (`tractrix_client.tissue` of a describe), drawn as a box. `tools`: the chain's instruments at the
+    start (`tractrix_client.instruments`), posed each step where the service has them (their ends in
+    the parts, `instruments`)."""
     n_links = len(start) - 1
-    rings = rings or []
+    rings, tools = rings or [], tools or []
     model = mujoco.MjModel.from_xml_string(scene_xml(n_links, float(np.linalg.norm(
-        np.subtract(start[1], start[0]))), 0.1, len(rings), block))
+        np.subtract(start[1], start[0]))), 0.1, len(rings), block, tools))
     data = mujoco.MjData(model)
     for k, e in enumerate(rings):
         data.mocap_pos[1 + k] = e["at"]
-    first_link = 1 + len(rings)  # mocap ids: the driver is 0, the eyelets, then the links
+    # Mocap ids: the driver is 0, the eyelets, the instruments, then the links.
+    first_tool = 1 + len(rings)
+    place_tools(data, first_tool, tools)
+    first_link = first_tool + len(tools)
     joints = start
     place(data, first_link, joints)
     head = np.asarray(start[-1], dtype=float)
@@ -165,6 +207,7 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
             place(data, first_link, joints)
             for k, e in enumerate(eyelets(h, elements)[:len(rings)]):
                 data.mocap_pos[1 + k] = e["at"]
+            place_tools(data, first_tool, instruments(h, elements)[:len(tools)])
             parts["service_call"].append((p - c) / 1000.0)
             parts["posing"].append((time.perf_counter_ns() - p) / 1000.0)
             if coupling is not None:
@@ -182,6 +225,7 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
         renderer.close()
     centres = data.geom_xpos[model.ngeom - n_links:].tolist()
     parts["eyelets"] = [data.mocap_pos[1 + k].tolist() for k in range(len(rings))]
+    parts["instruments"] = tool_ends(data, model, first_tool, tools)
     slab = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "tissue")
     parts["tissue"] = ({"centre": model.geom_pos[slab].tolist(), "half": model.geom_size[slab].tolist()}
                        if slab >= 0 else None)
@@ -213,14 +257,15 @@ def main() -> int:
         h, elements = client.call("reset", chain)
         start = elements[:h.n_joints]
         rings = eyelets(h, elements)
+        tools = instruments(h, elements)
         block = tissue(*client.call("describe", chain))
-        alone, _, _ = run(None, chain, a.steps, a.rate, start, block=block)
+        alone, _, _ = run(None, chain, a.steps, a.rate, start, block=block, tools=tools)
         if a.coupling is not None:
             # The tail held and the end held by the hand: the suture between them can go taut.
             client.call("grasp", chain, joint=0)
             client.call("grasp", chain, joint=JOINT_HEAD)
         with_service, centres, parts = run(client, chain, a.steps, a.rate, start, a.frames,
-                                           a.coupling, rings, block)
+                                           a.coupling, rings, block, tools)
         if a.coupling is not None:
             client.call("release", chain, joint=JOINT_HEAD)
             client.call("release", chain, joint=0)
@@ -241,6 +286,8 @@ def main() -> int:
         "eyelets": parts["eyelets"],
         # The suture's tissue as the MuJoCo model holds it (its box's centre and half sizes).
         "tissue": parts["tissue"],
+        # Where the MuJoCo scene has each instrument's axis at the end (its two ends).
+        "instruments": parts["instruments"],
     }
     if a.coupling is not None:
         norms = [math.sqrt(sum(x * x for x in f)) for f in parts["force"]]

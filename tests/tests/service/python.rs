@@ -346,3 +346,59 @@ fn the_mujoco_loop_draws_the_suture_s_eyelets() {
         assert!(d < 1e-9, "the rope passes {d:e} from the eyelet at {p:?}");
     }
 }
+
+/// Issue 39: the MuJoCo loop draws a chain's instruments, here a curved needle swaged to the suture's
+/// head (`needle = [1, 135°, 0.15]`: six capsules). The loop moves the head round its circle, the
+/// needle carried with it; at the end each capsule of the MuJoCo model lies where the service has
+/// the needle (its ends, from a Rust client's query, to 1e-9), the first on the head.
+#[test]
+fn the_mujoco_loop_draws_the_needle() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("needle.toml");
+    std::fs::write(
+        &scene,
+        "budget = 2000000\n[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 0.5\n\
+         base = [0.0, 0.0, 2.0]\nthickness = 0.1\ncollision = \"capsules\"\n\
+         tissue = [[22.0, -6.0, -3.0], [34.0, 6.0, 0.0]]\nneedle = [1.0, 135.0, 0.15]\n",
+    )
+    .unwrap();
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--no-persist",
+            "--wait",
+            "event",
+        ],
+    );
+    let out = Process::new(python())
+        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
+        .args(["--prefix", svc.prefix.as_str(), "--chain", "suture"])
+        .args(["--steps", "300", "--json"])
+        .output()
+        .expect("run the MuJoCo loop");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    let drawn: Vec<[[f64; 3]; 2]> = serde_json::from_value(v["instruments"].clone()).unwrap();
+    let mut c = svc.connect();
+    let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    assert_eq!(q.header.sequence, 301, "the reset, then one move per step");
+    let parts = shared::Parts::of_response(&q.header, &q.payload);
+    let needle: Vec<_> = parts.instrument_poses().collect();
+    assert_eq!((drawn.len(), needle.len()), (6, 6));
+    let d = |p: [f64; 3], q: [f64; 3]| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
+    for (k, (m, s)) in drawn.iter().zip(&needle).enumerate() {
+        // The body's axis may run either way along the capsule.
+        let (a, b) = (s.a.to_array(), s.b.to_array());
+        let off = (d(m[0], a) + d(m[1], b)).min(d(m[0], b) + d(m[1], a));
+        assert!(off < 1e-9, "capsule {k}: MuJoCo {m:?}, the service {a:?}–{b:?}");
+    }
+    let head = parts.joints[parts.joints.len() - 1].to_array();
+    assert!(d(needle[0].a.to_array(), head) < 1e-9, "the needle off the head");
+}
