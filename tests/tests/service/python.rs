@@ -397,8 +397,14 @@ fn the_mujoco_loop_draws_the_needle() {
         // The body's axis may run either way along the capsule.
         let (a, b) = (s.a.to_array(), s.b.to_array());
         let off = (d(m[0], a) + d(m[1], b)).min(d(m[0], b) + d(m[1], a));
-        assert!(off < 1e-9, "capsule {k}: MuJoCo {m:?}, the service {a:?}–{b:?}");
+        assert!(
+            off < 1e-9,
+            "capsule {k}: MuJoCo {m:?}, the service {a:?}–{b:?}"
+        );
     }
     let head = parts.joints[parts.joints.len() - 1].to_array();
-    assert!(d(needle[0].a.to_array(), head) < 1e-9, "the needle off the head");
+    assert!(
+        d(needle[0].a.to_array(), head) < 1e-9,
+        "the needle off the head"
+    );
 }
