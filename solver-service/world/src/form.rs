@@ -26,6 +26,8 @@ pub struct LiveChain<T: Real, const D: usize> {
     pub(crate) collision: Option<(CollisionModel<T, D>, CollisionWorkspace<T, D>)>,
     /// A path's targets in the chain's type (bounded by `MAX_PATH_POINTS`, kept between requests).
     pub(crate) targets: Vec<Vector<T, D>>,
+    /// The joints a carried needle is checked against (kept between requests).
+    pub(crate) needle_joints: Vec<Vector<T, D>>,
     /// The chain's instruments: where they start in the collision model's obstacles (after the static
     /// ones), their scene poses (reset) and their poses before the last change (undo).
     pub(crate) instruments_at: usize,
@@ -362,6 +364,7 @@ where
         ws: ReachWorkspace::default(),
         collision,
         targets: Vec::new(),
+        needle_joints: Vec::new(),
         instruments_at,
         instruments_initial: Vec::new(),
         instruments_before: Vec::new(),

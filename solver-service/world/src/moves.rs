@@ -140,7 +140,11 @@ where
         let delta = g.chain.joint(joint) - from;
         let swaged = g.needle.map(|_| head_frame(&g.chain));
         // The joints, for the needle's clearance (again after a push moved the rope).
-        let mut joints = g.needle.map(|_| g.chain.positions());
+        let mut joints = std::mem::take(&mut g.needle_joints);
+        if g.needle.is_some() {
+            joints.resize(g.chain.n_links() + 1, Vector::zeros());
+            g.chain.write_positions(&mut joints);
+        }
         for k in 0..g.follows.len() {
             if !needle.contains(&k) && g.follows[k] != Some(joint) {
                 continue;
@@ -183,9 +187,7 @@ where
                 },
                 other => other,
             };
-            if let Some(p) = joints.as_ref().filter(|_| needle.contains(&k))
-                && clear_of(p, model, at, &to)
-            {
+            if needle.contains(&k) && clear_of(&joints, model, at, &to) {
                 // No link can meet the needle on its way: it is set on its new pose.
                 model.obstacles[at] = to;
                 continue;
@@ -207,16 +209,23 @@ where
             if swaged_free {
                 g.chain.release(n)?;
             }
-            let m = m?;
+            let m = match m {
+                Ok(m) => m,
+                Err(e) => {
+                    g.needle_joints = joints;
+                    return Err(e);
+                }
+            };
             model.obstacles[at] = to;
-            if let Some(p) = joints.as_mut() {
-                g.chain.write_positions(p);
+            if needle.contains(&k) {
+                g.chain.write_positions(&mut joints);
             }
             outcome.substeps = outcome.substeps.saturating_add(m.substeps);
             outcome.collision_iterations = outcome
                 .collision_iterations
                 .saturating_add(m.collision_iterations);
         }
+        g.needle_joints = joints;
     }
     Ok(outcome)
 }

@@ -475,7 +475,10 @@ fn whole_stitch(chain: &str, link: f64, extra: &[&str], closes_by: f64) {
     let last: Vec<_> = parts.eyelet_states().collect();
     let links = |e: &[EyeletState]| e.iter().map(|e| (e.link, e.threaded)).collect::<Vec<_>>();
     if tightened {
-        assert!(last.iter().all(|e| e.threaded) && last.len() == 2, "{last:?}");
+        assert!(
+            last.iter().all(|e| e.threaded) && last.len() == 2,
+            "{last:?}"
+        );
     } else {
         assert_eq!(links(&last), links(&after_pass));
     }
