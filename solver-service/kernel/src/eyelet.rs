@@ -1229,8 +1229,11 @@ fn apart<T: Real, const D: usize>(eyelets: &[Eyelet<T, D>]) -> Result<(), Eyelet
 /// Moves eyelet `index` straight to `to` (tissue that a simulator moves), carrying the rope's point
 /// at it: the link through the eyelet is translated with it, and the rope on each side follows by the
 /// tractrix (and the aim rule at the other eyelets), as from a moved joint. An eyelet the rope has
-/// left just moves. Split into substeps of at most half the shortest link, at most `max_substeps`;
-/// refused, changing nothing, as [`move_threaded`] is.
+/// left just moves. With held joints the rope from each joint of the carried link to the nearest held
+/// joint on its side is a held side, solved as in [`move_threaded`] (the held joints bit for bit; a
+/// held joint on the carried link is refused). Split into substeps of at most half the shortest link,
+/// at most `max_substeps`, the last landing on `to` exactly; refused, changing nothing, as
+/// [`move_threaded`] is.
 pub fn move_eyelet<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     index: usize,
