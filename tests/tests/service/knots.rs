@@ -230,9 +230,19 @@ impl Watcher {
                             }
                             ends = Some((t, h));
                             // Each instrument's axis against the links it does not hold (those
-                            // from `skip` on), less its radius and half the rope's thickness.
-                            for (a, b, r) in &instruments {
-                                for w in pts.windows(2).skip(skip) {
+                            // from `skip` on), less its radius and half the rope's thickness. The
+                            // instruments after the first are a needle's pieces, swaged to the head:
+                            // they hold the links within their reach of it (their radius, half their
+                            // length and half the rope's thickness, in links, and one more).
+                            for (k, (a, b, r)) in instruments.iter().enumerate() {
+                                let n = pts.len() - 1;
+                                let end = if k == 0 {
+                                    n
+                                } else {
+                                    let reach = r + 0.5 * (b - a).norm() + 0.5 * THICKNESS;
+                                    n.saturating_sub((reach / link).ceil() as usize + 1)
+                                };
+                                for w in pts[..=end].windows(2).skip(skip) {
                                     let d = clients::check::segment_distance(w[0], w[1], *a, *b);
                                     gap = gap.min(d - r - 0.5 * THICKNESS);
                                 }
