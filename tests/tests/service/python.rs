@@ -25,6 +25,24 @@ fn python() -> PathBuf {
     py
 }
 
+/// Runs the MuJoCo loop (`clients/python/examples/mujoco_loop.py --json`) against the service at
+/// `prefix` with `args`; its one JSON object (the run must succeed).
+fn mujoco_loop(prefix: &str, args: &[&str]) -> serde_json::Value {
+    let out = Process::new(python())
+        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
+        .args(["--prefix", prefix, "--json"])
+        .args(args)
+        .output()
+        .expect("run the MuJoCo loop");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(text.trim()).expect("one JSON object")
+}
+
 fn client(prefix: &str, args: &[&str]) -> (Option<i32>, String, String) {
     let t0 = Instant::now();
     let out = Process::new(python())
@@ -198,19 +216,7 @@ fn the_mujoco_loop_turns_the_pull_into_a_force_on_the_hand() {
         .unwrap();
     let (length, tail) = (d.header.total_length, d.joints()[0]);
     let k = 100.0;
-    let out = Process::new(python())
-        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
-        .args(["--prefix", svc.prefix.as_str(), "--steps", "600", "--json"])
-        .args(["--coupling", "100"])
-        .output()
-        .expect("run the MuJoCo loop");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    let v = mujoco_loop(&svc.prefix, &["--steps", "600", "--coupling", "100"]);
     let hands: Vec<[f64; 3]> = serde_json::from_value(v["coupling"]["hand"].clone()).unwrap();
     let forces: Vec<[f64; 3]> = serde_json::from_value(v["coupling"]["forces"].clone()).unwrap();
     assert_eq!(hands.len(), 600);
@@ -256,26 +262,8 @@ fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
     }
     let svc = Service::start(&unique_prefix(), &["--no-persist", "--wait", "event"]);
     let frames = tempfile::tempdir().unwrap();
-    let out = Process::new(python())
-        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
-        .args([
-            "--prefix",
-            svc.prefix.as_str(),
-            "--steps",
-            "300",
-            "--json",
-            "--frames",
-        ])
-        .arg(frames.path())
-        .output()
-        .expect("run the MuJoCo loop");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    let frames_dir = frames.path().to_str().expect("a UTF-8 path");
+    let v = mujoco_loop(&svc.prefix, &["--steps", "300", "--frames", frames_dir]);
     assert_eq!(v["steps"], 300);
     // Four frames rendered offscreen (OSMesa): PNG files of a 640 × 360 picture.
     for k in 0..4 {
@@ -315,19 +303,7 @@ fn the_mujoco_loop_poses_the_capsules_where_the_service_puts_the_joints() {
 fn the_mujoco_loop_draws_the_suture_s_eyelets() {
     let (svc, _scene) = tests::suture_service();
     let points = tests::SUTURE_EYELETS;
-    let out = Process::new(python())
-        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
-        .args(["--prefix", svc.prefix.as_str(), "--chain", "suture"])
-        .args(["--steps", "200", "--json"])
-        .output()
-        .expect("run the MuJoCo loop");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    let v = mujoco_loop(&svc.prefix, &["--chain", "suture", "--steps", "200"]);
     let drawn: Vec<[f64; 3]> = serde_json::from_value(v["eyelets"].clone()).unwrap();
     assert_eq!(drawn, points);
     // The suture's tissue (from the describe) is a box of the MuJoCo model, where the scene put it.
@@ -372,19 +348,7 @@ fn the_mujoco_loop_draws_the_needle() {
             "event",
         ],
     );
-    let out = Process::new(python())
-        .arg(workspace().join("clients/python/examples/mujoco_loop.py"))
-        .args(["--prefix", svc.prefix.as_str(), "--chain", "suture"])
-        .args(["--steps", "300", "--json"])
-        .output()
-        .expect("run the MuJoCo loop");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON object");
+    let v = mujoco_loop(&svc.prefix, &["--chain", "suture", "--steps", "300"]);
     let drawn: Vec<[[f64; 3]; 2]> = serde_json::from_value(v["instruments"].clone()).unwrap();
     let mut c = svc.connect();
     let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
