@@ -102,23 +102,25 @@ pub const SUTURE_TISSUE: ([f64; 3], [f64; 3]) = ([12.0, -3.0, -4.0], [24.0, 3.0,
 /// A service on the scene of [`SUTURE_EYELETS`] (the folder holds its scene file: keep it while the
 /// service runs).
 pub fn suture_service() -> (Service, tempfile::TempDir) {
-    let dir = tempfile::tempdir().expect("a temporary folder");
-    let scene = dir.path().join("suture.toml");
     let points: Vec<String> = SUTURE_EYELETS
         .iter()
         .map(|p| format!("[{}, {}, {}]", p[0], p[1], p[2]))
         .collect();
-    std::fs::write(
-        &scene,
-        format!(
-            "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\neyelets = [{}]\n\
-             tissue = [{:?}, {:?}]\n",
-            points.join(", "),
-            SUTURE_TISSUE.0,
-            SUTURE_TISSUE.1
-        ),
-    )
-    .expect("write the scene");
+    service_on_scene(&format!(
+        "[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 1.0\neyelets = [{}]\n\
+         tissue = [{:?}, {:?}]\n",
+        points.join(", "),
+        SUTURE_TISSUE.0,
+        SUTURE_TISSUE.1
+    ))
+}
+
+/// A service (no persistence, event waits) on a scene given as text, written to `scene.toml` in the
+/// returned folder (keep it while the service runs; the test may put its own files there too).
+pub fn service_on_scene(text: &str) -> (Service, tempfile::TempDir) {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, text).expect("write the scene");
     let svc = Service::start(
         &unique_prefix(),
         &[

@@ -329,24 +329,10 @@ fn the_mujoco_loop_draws_the_suture_s_eyelets() {
 /// the needle (its ends, from a Rust client's query, to 1e-9), the first on the head.
 #[test]
 fn the_mujoco_loop_draws_the_needle() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("needle.toml");
-    std::fs::write(
-        &scene,
+    let (svc, _dir) = tests::service_on_scene(
         "budget = 2000000\n[[chain]]\nname = \"suture\"\nlinks = 40\nlink_length = 0.5\n\
          base = [0.0, 0.0, 2.0]\nthickness = 0.1\ncollision = \"capsules\"\n\
          tissue = [[22.0, -6.0, -3.0], [34.0, 6.0, 0.0]]\nneedle = [1.0, 135.0, 0.15]\n",
-    )
-    .unwrap();
-    let svc = Service::start(
-        &unique_prefix(),
-        &[
-            "--scene",
-            scene.to_str().unwrap(),
-            "--no-persist",
-            "--wait",
-            "event",
-        ],
     );
     let v = mujoco_loop(&svc.prefix, &["--chain", "suture", "--steps", "300"]);
     let drawn: Vec<[[f64; 3]; 2]> = serde_json::from_value(v["instruments"].clone()).unwrap();

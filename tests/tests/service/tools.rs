@@ -371,27 +371,11 @@ fn watch_writes_a_bundles_strands() {
     const LINKS: usize = 6;
     const LEN: f64 = 0.25;
     const MOVES: usize = 5;
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("hair.toml");
-    std::fs::write(
-        &scene,
-        format!(
-            "[[chain]]\nname = \"rope\"\nlinks = 10\nlink_length = 1.0\n\n\
+    let (svc, dir) = tests::service_on_scene(&format!(
+        "[[chain]]\nname = \"rope\"\nlinks = 10\nlink_length = 1.0\n\n\
              [[bundle]]\nname = \"hair\"\nstrands = {STRANDS}\nlinks = {LINKS}\n\
              link_length = {LEN}\ncolumns = 5\nspacing = 0.5\norigin = [0.0, 0.0, 3.0]\n"
-        ),
-    )
-    .unwrap();
-    let svc = Service::start(
-        &unique_prefix(),
-        &[
-            "--scene",
-            scene.to_str().unwrap(),
-            "--no-persist",
-            "--wait",
-            "event",
-        ],
-    );
+    ));
     let csv = dir.path().join("hair.csv");
     let frames = dir.path().join("frames");
     let (csv_s, frames_s) = (csv.display().to_string(), frames.display().to_string());

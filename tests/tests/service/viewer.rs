@@ -477,27 +477,11 @@ fn watch_draws_a_bundles_strands() {
     const STRANDS: usize = 12;
     const LINKS: usize = 5;
     const MOVES: usize = 4;
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("hair.toml");
-    std::fs::write(
-        &scene,
-        format!(
-            "[[chain]]\nname = \"rope\"\nlinks = 10\nlink_length = 1.0\n\n\
+    let (svc, dir) = tests::service_on_scene(&format!(
+        "[[chain]]\nname = \"rope\"\nlinks = 10\nlink_length = 1.0\n\n\
              [[bundle]]\nname = \"hair\"\nstrands = {STRANDS}\nlinks = {LINKS}\n\
              link_length = 0.3\ncolumns = 4\nspacing = 0.5\norigin = [0.0, 0.0, 2.0]\n"
-        ),
-    )
-    .unwrap();
-    let svc = Service::start(
-        &unique_prefix(),
-        &[
-            "--scene",
-            scene.to_str().unwrap(),
-            "--no-persist",
-            "--wait",
-            "event",
-        ],
-    );
+    ));
     let rrd = dir.path().join("hair.rrd");
     let (watch, rx) = start_watch(&svc.prefix, &rrd, MOVES, &["--chain", "hair"]);
     let mut c = svc.connect();
