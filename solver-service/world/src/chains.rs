@@ -759,29 +759,7 @@ impl World {
                 max_substeps,
                 ..
             } => each_form!(&mut *g, h => {
-                let crate::form::LiveChain {
-                    chain, eyelets, eyelet_ws, collision, ..
-                } = h;
-                match collision {
-                    Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
-                        chain,
-                        index,
-                        crate::form::point(at),
-                        eyelets,
-                        max_substeps,
-                        model,
-                        cws,
-                        eyelet_ws,
-                    ),
-                    None => tractrix::eyelet::move_eyelet(
-                        chain,
-                        index,
-                        crate::form::point(at),
-                        eyelets,
-                        max_substeps,
-                        eyelet_ws,
-                    ),
-                }
+                crate::moves::move_eyelet(h, index, crate::form::point(at), max_substeps)
             })
             .map(|m| outcome.substeps = m.substeps)
             .map_err(Refusal::from),

@@ -684,28 +684,41 @@ pub(crate) fn give_way<T: Real, const D: usize>(
         // A refused eyelet move changes nothing: the tissue does not give there. Metered as a try of
         // the pull (no joint jumping more than half a clearance in a substep: the knot kept).
         let _ = tries.run(g, shares, |g| {
-            match g.collision.as_mut() {
-                Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
-                    &mut g.chain,
-                    i,
-                    to,
-                    &mut g.eyelets,
-                    max_substeps,
-                    model,
-                    cws,
-                    &mut g.eyelet_ws,
-                ),
-                None => tractrix::eyelet::move_eyelet(
-                    &mut g.chain,
-                    i,
-                    to,
-                    &mut g.eyelets,
-                    max_substeps,
-                    &mut g.eyelet_ws,
-                ),
-            }
-            .map_err(Refusal::from)
+            move_eyelet(g, i, to, max_substeps).map_err(Refusal::from)
         });
+    }
+}
+
+/// Eyelet `index` moved to `to` (the tissue moving it), carrying the rope's point at it, with
+/// collision when the chain has it ([`tractrix::eyelet::move_eyelet`], `move_eyelet_colliding`).
+pub(crate) fn move_eyelet<T: Real, const D: usize>(
+    g: &mut LiveChain<T, D>,
+    index: usize,
+    to: Vector<T, D>,
+    max_substeps: u32,
+) -> Result<tractrix::eyelet::Threaded, tractrix::eyelet::EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let LiveChain {
+        chain,
+        eyelets,
+        eyelet_ws,
+        collision,
+        ..
+    } = g;
+    match collision {
+        Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
+            chain,
+            index,
+            to,
+            eyelets,
+            max_substeps,
+            model,
+            cws,
+            eyelet_ws,
+        ),
+        None => tractrix::eyelet::move_eyelet(chain, index, to, eyelets, max_substeps, eyelet_ws),
     }
 }
 
