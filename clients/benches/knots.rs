@@ -38,8 +38,9 @@
 //! `KNOT_BENCH_RUNS` (default 6) sets the runs per cell, `KNOT_BENCH_LINKS` keeps one resolution and
 //! `KNOT_BENCH_DEBUG` prints the knot after every turn. `KNOT_BENCH_TABLES=bend` prints instead the
 //! knot table over resolution × bend radius (the rows' scripts on 40 to 320 links with R_min none, 1
-//! and 2: `tractrix::limits`) and the loop-survival table with R_min. Refused moves are counted and skipped, as a
-//! hand would skip them.
+//! and 2: `tractrix::limits`) and the loop-survival table with R_min; `KNOT_BENCH_TABLES=topology` the
+//! topology table (tie and tighten, every state checked), `KNOT_BENCH_ONLY=surgeon's` keeping one
+//! knot's row. Refused moves are counted and skipped, as a hand would skip them.
 
 use clients::script::{Handedness, Script, Throw, Tuck, Turn, WideLoop};
 use nalgebra::Vector3;
@@ -77,6 +78,8 @@ enum Knot {
     Overhand,
     Square,
     Granny,
+    /// The surgeon's knot: a double throw, then a single one the other way.
+    Surgeons,
 }
 
 /// How the rope starts and what holds it.
@@ -172,6 +175,7 @@ impl Knot {
             Knot::Overhand => "overhand",
             Knot::Square => "square",
             Knot::Granny => "granny",
+            Knot::Surgeons => "surgeon's",
         }
     }
     fn expected(self) -> KnotType {
@@ -179,6 +183,7 @@ impl Knot {
             Knot::Overhand => KnotType::Trefoil,
             Knot::Square => KnotType::Square,
             Knot::Granny => KnotType::Granny,
+            Knot::Surgeons => KnotType::Surgeons,
         }
     }
     /// The wide-loop overhand (`overhand-wide`) heading `outward` with the loop on `side`, perturbed
@@ -261,12 +266,22 @@ impl Knot {
             // hand's fed circle and a tuck that finds the loop where it lies, then the pulls in
             // turn; perturbed as the hands' `--perturb` does.
             _ => {
-                let second = if self == Knot::Square {
-                    Handedness::Left
-                } else {
+                let second = if self == Knot::Granny {
                     Handedness::Right
+                } else {
+                    Handedness::Left
                 };
                 let mut script = clients::script::overhands_held("overhands-held", second);
+                if self == Knot::Surgeons {
+                    // B's throw doubled: its end tucked through its loop a second time.
+                    let at = script
+                        .turn
+                        .iter()
+                        .position(|t| t.hand == "B" && t.tuck.is_some())
+                        .expect("B's tuck");
+                    let again = script.turn[at].clone();
+                    script.turn.insert(at + 1, again);
+                }
                 script.perturb(1 + (rng.unit() * 1e15) as u64);
                 script
                     .turn
@@ -991,7 +1006,9 @@ fn topology_table(runs: usize) {
         "Tie and tighten, {runs} perturbed runs per knot, through the world in this process (the \
          service's answer path without the IPC): the rope {LENGTH} units in 40 links, {THICKNESS} \
          thick, capsule collision, both ends held; the knot tied by the fed loops of *held, straight, \
-         fed loop* above, then tightened as `hand run --tighten 0.05` does. *tied*: runs named the \
+         fed loop* above (each hand ties an overhand in its own end: the two knots in series have the \
+         square's, the granny's or, with B's end tucked through its loop twice, the surgeon's knot's \
+         type), then tightened as `hand run --tighten 0.05` does. *tied*: runs named the \
          script's knot by the identification after tying; *kept*: of those, runs named the same after \
          the tightening; *crossings*: link pairs the swept-volume check (`clients::check`) finds \
          passing through each other between consecutive accepted states, over every state of every \
@@ -1001,7 +1018,11 @@ fn topology_table(runs: usize) {
         "| knot | runs | tied | kept after tightening | states checked | crossings between consecutive states | runs with a topology change | pulls ended taut / jammed / otherwise | knotted stretch at the end, median (diameters) | seconds |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|");
-    for knot in [Knot::Overhand, Knot::Square, Knot::Granny] {
+    let only = std::env::var("KNOT_BENCH_ONLY").ok();
+    for knot in [Knot::Overhand, Knot::Square, Knot::Granny, Knot::Surgeons] {
+        if only.as_ref().is_some_and(|o| o != knot.name()) {
+            continue;
+        }
         let clock = std::time::Instant::now();
         let mut rng = Rng(0x70_9010 ^ (knot as u64) << 4);
         let (mut tied, mut kept, mut states, mut crossings, mut changed) = (0, 0, 0, 0, 0);
