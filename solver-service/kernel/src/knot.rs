@@ -163,9 +163,8 @@ pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
     }
 }
 
-/// Reduced diagrams larger than this are not evaluated by a [`Namer`] made with [`Namer::new`] (at 12
-/// crossings the bracket's sweep takes about 15 µs on a random diagram, the 4,096-term state sum it
-/// replaced 600 µs), and count as [`KnotType::Other`].
+/// Reduced diagrams larger than this are not evaluated by a [`Namer`] made with [`Namer::new`], and
+/// count as [`KnotType::Other`].
 pub const NAMER_CROSSINGS: usize = 12;
 
 /// Segment pairs a [`Namer`]'s sweep may test per point of the rope in one view.
