@@ -40,7 +40,8 @@
 //! knot table over resolution × bend radius (the rows' scripts on 40 to 320 links with R_min none, 1
 //! and 2: `tractrix::limits`) and the loop-survival table with R_min; `KNOT_BENCH_TABLES=topology` the
 //! topology table (tie and tighten, every state checked), `KNOT_BENCH_ONLY=surgeon's` keeping one
-//! knot's row. Refused moves are counted and skipped, as a hand would skip them.
+//! knot's row; there `KNOT_BENCH_DEBUG` names the knot after every tightening state of a tied run and
+//! prints the states where it first changes (which joint was pulled, the joints before and after). Refused moves are counted and skipped, as a hand would skip them.
 
 use clients::script::{Handedness, Script, Throw, Tuck, Turn, WideLoop};
 use nalgebra::Vector3;
@@ -940,6 +941,9 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
         }
     }
     out.tied = identify(&prev).kind == knot.expected();
+    let tied_at = tractrix::knot::knotted_stretch(&prev, knot.expected());
+    let debug = std::env::var("KNOT_BENCH_DEBUG").is_ok();
+    let mut changed = false;
     for _round in 0..2 {
         for idx in [n, 0] {
             let mut still = 0;
@@ -954,7 +958,23 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
                 if w.apply(&world_move(&w, idx, &t, true)).is_err() {
                     break;
                 }
+                let before = prev.clone();
                 check(world_joints(&w), &mut prev, &mut out);
+                if debug && out.tied && !changed {
+                    let now = identify(&prev).kind;
+                    if now != knot.expected() {
+                        changed = true;
+                        eprintln!(
+                            "{}: became {} pulling joint {idx} by {:.4} (away {away:?}); knotted stretch before {:?}; joints before {:?}; after {:?}",
+                            knot.name(),
+                            now.name(),
+                            (prev[idx] - at).norm(),
+                            tractrix::knot::knotted_stretch(&before, knot.expected()),
+                            before.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>(),
+                            prev.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>(),
+                        );
+                    }
+                }
                 still = if (prev[idx] - at).norm() < 0.005 {
                     still + 1
                 } else {
@@ -986,8 +1006,20 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
             }
         }
     }
-    let end = identify(&prev).kind;
+    let report = identify(&prev);
+    let end = report.kind;
     out.kept = out.tied && end == knot.expected();
+    if out.tied && !out.kept && std::env::var("KNOT_BENCH_DEBUG").is_ok() {
+        eprintln!(
+            "{}: tied (knotted stretch {tied_at:?}), then {} after the tightening ({} of 6 closures agree; {} crossings; knotted stretch {:?}); joints: {:?}",
+            knot.name(),
+            end.name(),
+            report.agreeing,
+            report.crossings,
+            tractrix::knot::knotted_stretch(&prev, end),
+            prev.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>()
+        );
+    }
     if out.kept
         && let Some((a, b)) = tractrix::knot::knotted_stretch(&prev, end)
     {
