@@ -812,6 +812,9 @@ const NO_END: u8 = u8::MAX;
 /// at the end, and the sum so far is `d ⟨D⟩`.
 fn bracket(pd: &[[usize; 4]], n: usize) -> Laurent {
     let c = pd.len();
+    if n > MAX_LABELS {
+        return Laurent::zero();
+    }
     // Exponents of A: each crossing ±1, each of at most c + 1 loops ±2.
     let half = 3 * c + 4;
     let width = 2 * half + 1;
@@ -833,65 +836,69 @@ fn bracket(pd: &[[usize; 4]], n: usize) -> Laurent {
         }
     }
     // The partial states: for each label its partner (the other end of the strand it ends), and the
-    // polynomial (dense, exponent e at e + half).
-    let mut keys: Vec<Vec<u8>> = vec![vec![NO_END; n]];
-    let mut polys: Vec<Vec<i64>> = vec![{
-        let mut p = vec![0i64; width];
-        p[half] = 1;
-        p
-    }];
-    let mut index: std::collections::HashMap<Vec<u8>, usize> = std::collections::HashMap::new();
-    let mut scratch: Vec<u8> = Vec::with_capacity(n);
+    // polynomial (dense, exponent e at e + half, in one buffer of `width` per state) with the range
+    // of its nonzero coefficients.
+    let mut keys: Vec<[u8; MAX_LABELS]> = vec![[NO_END; MAX_LABELS]];
+    let mut polys: Vec<i64> = vec![0; width];
+    polys[half] = 1;
+    let mut ranges: Vec<(usize, usize)> = vec![(half, half + 1)];
+    let (mut next_keys, mut next_polys, mut next_ranges) = (Vec::new(), Vec::new(), Vec::new());
+    let mut index: std::collections::HashMap<[u8; MAX_LABELS], usize> =
+        std::collections::HashMap::new();
     for &x in &order {
         let q = pd[x];
-        let (mut next_keys, mut next_polys): (Vec<Vec<u8>>, Vec<Vec<i64>>) =
-            (Vec::new(), Vec::new());
+        next_keys.clear();
+        next_polys.clear();
+        next_ranges.clear();
         index.clear();
-        for (key, poly) in keys.iter().zip(&polys) {
+        for (s, key) in keys.iter().enumerate() {
+            let (lo, hi) = ranges[s];
+            let poly = &polys[s * width..(s + 1) * width];
             // The A-smoothing joins q0–q3 and q1–q2 (a factor A), the B-smoothing q0–q1 and q2–q3 (A⁻¹).
             for (shift, pairs) in [
                 (1isize, [(q[0], q[3]), (q[1], q[2])]),
                 (-1, [(q[0], q[1]), (q[2], q[3])]),
             ] {
-                scratch.clear();
-                scratch.extend_from_slice(key);
+                let mut k = *key;
                 let mut loops = 0;
                 for (u, v) in pairs {
-                    loops += join(&mut scratch, u, v);
+                    loops += join(&mut k, u, v);
                 }
-                let i = match index.get(scratch.as_slice()) {
-                    Some(&i) => i,
-                    None => {
-                        index.insert(scratch.clone(), next_keys.len());
-                        next_keys.push(scratch.clone());
-                        next_polys.push(vec![0i64; width]);
-                        next_keys.len() - 1
-                    }
-                };
+                let i = *index.entry(k).or_insert_with(|| {
+                    next_keys.push(k);
+                    next_polys.resize(next_polys.len() + width, 0);
+                    next_ranges.push((width, 0));
+                    next_keys.len() - 1
+                });
                 // Added times A^shift d^loops (d = −A² − A⁻², d² = A⁴ + 2 + A⁻⁴).
                 let times: &[(isize, i64)] = match loops {
                     0 => &[(0, 1)],
                     1 => &[(-2, -1), (2, -1)],
                     _ => &[(-4, 1), (0, 2), (4, 1)],
                 };
-                let target = &mut next_polys[i];
-                for (e, &a) in poly.iter().enumerate() {
+                let target = &mut next_polys[i * width..(i + 1) * width];
+                let reach = 2 * loops.min(2) as isize;
+                for (e, &a) in poly.iter().enumerate().take(hi).skip(lo) {
                     if a != 0 {
                         for &(de, f) in times {
                             target[(e as isize + shift + de) as usize] += a * f;
                         }
                     }
                 }
+                let r = &mut next_ranges[i];
+                r.0 = r.0.min((lo as isize + shift - reach) as usize);
+                r.1 = r.1.max((hi as isize + shift + reach) as usize);
             }
         }
-        keys = next_keys;
-        polys = next_polys;
+        std::mem::swap(&mut keys, &mut next_keys);
+        std::mem::swap(&mut polys, &mut next_polys);
+        std::mem::swap(&mut ranges, &mut next_ranges);
     }
     // Every label is closed: one state, `d ⟨D⟩`. Divided by d from the lowest power up:
     // P_e = −Q_(e−2) − Q_(e+2), so Q_e = −P_(e−2) − Q_(e−4).
-    let p = polys.into_iter().next().unwrap_or_default();
+    let p = &polys[..width.min(polys.len())];
     let mut q = vec![0i64; width];
-    for e in 2..width {
+    for e in 2..p.len() {
         q[e] = -p[e - 2] - if e >= 4 { q[e - 4] } else { 0 };
     }
     Laurent {
@@ -900,6 +907,9 @@ fn bracket(pd: &[[usize; 4]], n: usize) -> Laurent {
     }
     .trimmed()
 }
+
+/// Arc labels a diagram may have for [`bracket`]: two per crossing evaluated.
+const MAX_LABELS: usize = 2 * MAX_EVALUATED_CROSSINGS;
 
 /// Joins the strand ends at labels `u` and `v` of a partial state `k` (a label reached for the first
 /// time starts an open end; reached the second time, the strand through it continues): 1 when the
