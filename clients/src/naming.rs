@@ -120,7 +120,7 @@ impl std::fmt::Display for Naming {
         )?;
         write!(
             f,
-            "; the least of each state's passes p99.9 {:.1} max {:.1}, new diagrams max {:.1}",
+            "; the least of each state's passes p99.9 {:.1} max {:.1}; new diagrams max {:.1}",
             us(self.least.p999),
             us(self.least.max),
             us(self.new_max)
