@@ -795,6 +795,7 @@ const NO_END: u8 = u8::MAX;
 fn bracket(pd: &[[usize; 4]], n: usize) -> Laurent {
     let c = pd.len();
     if n > MAX_LABELS {
+        // Past the keys' size (never asked: `jones` stops at MAX_EVALUATED_CROSSINGS).
         return Laurent::zero();
     }
     // Exponents of A: each crossing ±1, each of at most c + 1 loops ±2.
