@@ -31,7 +31,9 @@
 //! bench on the queried eyelets (the scene's tissue gives: `wound_margin` 0.5 either side of the
 //! incision, so closed is 1.0 apart).
 //!
-//! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
+//! `STITCH_BENCH_TABLES` keeps some of the tables (`pass`, `ties`, `whole`, comma-separated; all by
+//! default). The binaries must be built first (`cargo build --release --bins`;
+//! `scripts/bench-report.sh` does).
 
 use anyhow::{Context, Result, bail};
 use clients::process::{Proc, release_bin, workspace};
@@ -527,7 +529,24 @@ fn main() -> Result<()> {
         .filter(|&r| r > 0)
         .unwrap_or(16);
     let dir = tempfile::tempdir()?;
+    // `STITCH_BENCH_TABLES=whole` (or `pass`, `ties`, comma-separated) keeps those tables.
+    let tables = std::env::var("STITCH_BENCH_TABLES").unwrap_or_default();
+    let wants = |t: &str| tables.is_empty() || tables.split(',').any(|x| x == t);
     clients::latency_bench::noise(&mut std::io::stdout(), 2000, 1.0)?;
+    if wants("pass") {
+        pass_table(runs, dir.path())?;
+    }
+    if wants("ties") {
+        ties(dir.path())?;
+    }
+    if wants("whole") {
+        whole(runs, dir.path())?;
+    }
+    Ok(())
+}
+
+/// The first table: the needle's pass with two hands, `runs` perturbed runs per held suture.
+fn pass_table(runs: u64, dir: &Path) -> Result<()> {
     println!(
         "| suture | links | runs | passed | suture before the entry, median (units) | runs with a refused request | requests | refused | p50 µs | p99 µs | p99.9 µs | max µs |"
     );
@@ -536,7 +555,7 @@ fn main() -> Result<()> {
         let (mut passed, mut tails, mut solve, mut refused) = (0, Vec::new(), Vec::new(), 0);
         let mut with_refusals = 0;
         for seed in 1..=runs {
-            match run(chain, link, seed, dir.path()) {
+            match run(chain, link, seed, dir) {
                 Ok(r) => {
                     refused += r.refused;
                     with_refusals += r.refusals;
@@ -568,6 +587,5 @@ fn main() -> Result<()> {
             pct(&solve, 1.0),
         );
     }
-    ties(dir.path())?;
-    whole(runs, dir.path())
+    Ok(())
 }
