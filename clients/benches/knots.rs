@@ -41,7 +41,8 @@
 //! and 2: `tractrix::limits`) and the loop-survival table with R_min; `KNOT_BENCH_TABLES=topology` the
 //! topology table (tie and tighten, every state checked), `KNOT_BENCH_ONLY=surgeon's` keeping one
 //! knot's row; there `KNOT_BENCH_DEBUG` names the knot after every tightening state of a tied run and
-//! prints the states where it first changes (which joint was pulled, the joints before and after). Refused moves are counted and skipped, as a hand would skip them.
+//! prints the states where it first changes (which joint was pulled, the joints before and after).
+//! Refused moves are counted and skipped, as a hand would skip them.
 
 use clients::script::{Handedness, Script, Throw, Tuck, Turn, WideLoop};
 use nalgebra::Vector3;
@@ -958,9 +959,9 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
                 if w.apply(&world_move(&w, idx, &t, true)).is_err() {
                     break;
                 }
-                let before = prev.clone();
+                let before = (debug && out.tied && !changed).then(|| prev.clone());
                 check(world_joints(&w), &mut prev, &mut out);
-                if debug && out.tied && !changed {
+                if let Some(before) = before {
                     let now = identify(&prev).kind;
                     if now != knot.expected() {
                         changed = true;
@@ -1009,7 +1010,7 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
     let report = identify(&prev);
     let end = report.kind;
     out.kept = out.tied && end == knot.expected();
-    if out.tied && !out.kept && std::env::var("KNOT_BENCH_DEBUG").is_ok() {
+    if debug && out.tied && !out.kept {
         eprintln!(
             "{}: tied (knotted stretch {tied_at:?}), then {} after the tightening ({} of 6 closures agree; {} crossings; knotted stretch {:?}); joints: {:?}",
             knot.name(),
