@@ -20,8 +20,13 @@
 //! with neither, along the built-in `overhand-bend`'s head path (no corner): what a simulator author
 //! picks a resolution from.
 //!
+//! A third table is the trade of `collision_pushed_weight` (how freely the joints a pass pushed move
+//! when a held rope is relaxed back to its lengths): the held ropes whose passes creep, on
+//! `knots.toml` with every chain given each weight, time against refused requests and the knot tied.
+//!
 //! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
-//! `CONTACT_BENCH_ONLY=overhand,tie-160` keeps the rows whose script or chain is named.
+//! `CONTACT_BENCH_ONLY=overhand,tie-160` keeps the rows whose script or chain is named (`weight` and
+//! `scale` name the last two tables).
 
 use anyhow::{Context, Result, bail};
 use clients::process::{Proc, release_bin, workspace};
@@ -83,7 +88,7 @@ struct Row {
     seconds: f64,
 }
 
-fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
+fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Result<Row> {
     let hands: Vec<String> = {
         let s = Script::builtin(script).context("no such built-in script")?;
         let mut h: Vec<String> = s.turn.iter().map(|t| t.hand.clone()).collect();
@@ -92,11 +97,14 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         h
     };
     let prefix = format!("contact_{}_{k}_", std::process::id());
-    let scene = workspace().join("solver-service/scenes/knots.toml");
     let mut svc = Command::new(release_bin("solver-service")?);
-    svc.args(["--prefix", &prefix, "--scene"])
-        .arg(&scene)
-        .args(["--wait", "event", "--no-persist", "--pin", "0"]);
+    svc.args(["--prefix", &prefix, "--scene"]).arg(scene).args([
+        "--wait",
+        "event",
+        "--no-persist",
+        "--pin",
+        "0",
+    ]);
     let mut svc = Proc::ready(svc, "solver-service")?;
     let started = Instant::now();
     let mut children = Hands(Vec::new());
@@ -170,6 +178,73 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         .to_string();
     svc.stop();
     Ok(row)
+}
+
+/// The rows of the weight table: held ropes whose passes creep (a built-in script and its chain).
+const WEIGHT_ROWS: &[(&str, &str)] = &[
+    ("square-held", "hands-160"),
+    ("square-held", "hands-320"),
+    ("instrument-tie", "tie-160"),
+    ("surgeons-knot", "tie-160"),
+];
+
+/// The weights tried: 1 is the default (the relaxation moves pushed joints like the others), 0.5
+/// what `knots.toml`'s long held ropes set.
+const WEIGHTS: &[f64] = &[1.0, 0.5, 0.3, 0.1];
+
+/// The trade of `collision_pushed_weight`: `knots.toml` with every collision chain given each weight
+/// in turn, the rows' scripts run on it as in the first table.
+fn weights(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
+    let text = std::fs::read_to_string(knots).context("read knots.toml")?;
+    println!(
+        "\n### Pushed joints' weight: passes against locks\n\nThe held ropes whose passes creep, with \
+         `collision_pushed_weight` set on every chain of `knots.toml` (1, the default: the relaxation \
+         moves pushed joints like the others; `knots.toml` sets 0.5 on its 160- and 320-link held \
+         ropes, the first table's rows), as in the first table (µs):\n"
+    );
+    println!(
+        "| script | chain | weight | requests | refused | p50 µs | p99 µs | p99.9 µs | max µs | knot |"
+    );
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---|");
+    let mut k = k0;
+    for &(script, chain) in WEIGHT_ROWS {
+        for &w in WEIGHTS {
+            let scene = dir.join(format!("knots-weight-{w}.toml"));
+            // The scene's own weights out, this one on every collision chain.
+            let line = "collision = \"capsules\"\n";
+            let own: String = text
+                .lines()
+                .filter(|l| !l.starts_with("collision_pushed_weight"))
+                .flat_map(|l| [l, "\n"])
+                .collect();
+            std::fs::write(
+                &scene,
+                own.replace(line, &format!("{line}collision_pushed_weight = {w}\n")),
+            )?;
+            match run_row(script, chain, k, dir, &scene) {
+                Ok(mut r) if !r.solve.is_empty() => {
+                    r.solve.sort_unstable();
+                    println!(
+                        "| {script} | {chain} | {w} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {} |",
+                        r.solve.len(),
+                        r.refused,
+                        pct(&r.solve, 0.5),
+                        pct(&r.solve, 0.99),
+                        pct(&r.solve, 0.999),
+                        pct(&r.solve, 1.0),
+                        r.knot
+                    );
+                }
+                Ok(_) => println!("| {script} | {chain} | {w} | 0 | – | – | – | – | – | – |"),
+                Err(e) => {
+                    eprintln!("contact bench: {e:#}");
+                    println!("| {script} | {chain} | {w} | failed: {e} | | | | | | |");
+                }
+            }
+            k += 1;
+        }
+    }
+    Ok(())
 }
 
 /// The scale curve: one service with a chain per resolution × collision, the overhand's head path
@@ -286,13 +361,14 @@ fn main() -> Result<()> {
          | max µs | knot | wall s |"
     );
     println!("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---|---:|");
+    let knots = workspace().join("solver-service/scenes/knots.toml");
     for (k, &(script, chain, links, what)) in ROWS.iter().enumerate() {
         if let Some(o) = &only
             && !o.iter().any(|x| x == script || x == chain)
         {
             continue;
         }
-        match run_row(script, chain, k, dir.path()) {
+        match run_row(script, chain, k, dir.path(), &knots) {
             Ok(mut r) if !r.solve.is_empty() => {
                 r.solve.sort_unstable();
                 println!(
@@ -317,8 +393,14 @@ fn main() -> Result<()> {
             }
         }
     }
+    if only
+        .as_ref()
+        .is_none_or(|o| o.iter().any(|x| x == "weight"))
+    {
+        weights(ROWS.len(), dir.path(), &knots)?;
+    }
     if only.as_ref().is_none_or(|o| o.iter().any(|x| x == "scale")) {
-        scale(ROWS.len(), dir.path())?;
+        scale(ROWS.len() + WEIGHT_ROWS.len() * WEIGHTS.len(), dir.path())?;
     }
     Ok(())
 }

@@ -342,6 +342,7 @@ where
                 max_iterations: o.max_iterations,
                 tolerance: T::lit(o.tolerance),
                 over_relaxation: T::lit(o.over_relaxation),
+                pushed_weight: T::lit(o.pushed_weight),
             },
             obstacles,
             holding: holding(spec, c),

@@ -132,6 +132,18 @@ pub struct CollisionOptions<T> {
     /// the move (uncapped, a kernel test's instrument push locked); capped, the held ropes of the
     /// built-in knots need fewer passes (`cargo bench -p clients --bench contact`).
     pub over_relaxation: T,
+    /// On a rope with held joints, how freely the joints a pass pushed move when the rope between
+    /// the fixed joints is relaxed back to its lengths after the pushes: their inverse mass in the
+    /// relaxation, in `(0, 1]` (1: like every other joint). Between fixed joints a taut rope is
+    /// lengthened by a push, and relaxing it with every joint alike carries the pushed joints most
+    /// of the way back into the contact: the passes creep toward the tolerance, hundreds per
+    /// substep. Heavier pushed joints (a smaller weight) leave more of the push in place and take
+    /// the length from the rope around it: fewer passes, but the rope beside a contact moves more,
+    /// and too small a weight locks moves and changes the knots tied (`cargo bench -p clients
+    /// --bench contact`, the trade table; at 0.5 the stitch scenes' surgeon's knot over a bite lost
+    /// its second throw and their 160-link pass locked moves, so the default stays 1). Not in pulls
+    /// (`solve_contacts_together`), where the contacts and lengths are solved together.
+    pub pushed_weight: T,
 }
 
 impl<T: Real> Default for CollisionOptions<T> {
@@ -143,13 +155,14 @@ impl<T: Real> Default for CollisionOptions<T> {
             max_iterations: 64,
             tolerance: T::lit(0.01),
             over_relaxation: T::lit(1.5),
+            pushed_weight: T::one(),
         }
     }
 }
 
 impl<T: Real> CollisionOptions<T> {
     /// Checks the options (positive thickness for capsules, tolerance in `(0, 1)`, over-relaxation in
-    /// `[1, 2)`, at least one pass).
+    /// `[1, 2)`, pushed joints' weight in `(0, 1]`, at least one pass).
     pub fn validate(&self) -> Result<(), ChainError> {
         if self.scheme == Scheme::Capsules && !positive_finite(self.thickness) {
             return Err(ChainError::BadOption(
@@ -164,6 +177,11 @@ impl<T: Real> CollisionOptions<T> {
         if !(self.over_relaxation >= T::one() && self.over_relaxation < T::lit(2.0)) {
             return Err(ChainError::BadOption(
                 "collision over-relaxation must lie in [1, 2)",
+            ));
+        }
+        if !(self.pushed_weight > T::zero() && self.pushed_weight <= T::one()) {
+            return Err(ChainError::BadOption(
+                "collision pushed-joint weight must lie in (0, 1]",
             ));
         }
         if self.max_iterations == 0 {
@@ -212,6 +230,8 @@ pub struct CollisionWorkspace<T: Real, const D: usize> {
     together: bool,
     /// Links that pass through the blocks ([`CollisionWorkspace::pass_through`]).
     through: core::ops::Range<usize>,
+    /// The joints a resolution pass pushed (held ropes: the relaxation that follows keeps them).
+    pushed: Vec<bool>,
 }
 
 impl<T: Real, const D: usize> CollisionWorkspace<T, D> {

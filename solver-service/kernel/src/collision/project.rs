@@ -620,6 +620,7 @@ mod tests {
                 max_iterations: 64,
                 tolerance: 0.01,
                 over_relaxation: 1.5,
+                pushed_weight: 1.0,
             },
             obstacles: vec![],
             holding: vec![],

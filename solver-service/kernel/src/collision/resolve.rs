@@ -64,9 +64,16 @@ where
         if use_tree {
             ws.tree.refit(&ws.pos, opts.thickness * T::lit(0.5));
         }
+        // Between held joints, outside a pull: the joints this pass pushes are marked, and the
+        // relaxation that follows moves them less ([`CollisionOptions::pushed_weight`]).
+        ws.pushed.clear();
+        if !held.is_empty() && !ws.together && opts.pushed_weight < T::one() {
+            ws.pushed.resize(ws.pos.len(), false);
+        }
         let mut pass = Pass {
             m,
             held,
+            marks: std::mem::take(&mut ws.pushed),
             tol: opts.tolerance,
             omega: opts.over_relaxation,
             // Between held joints the rope is re-solved as a whole after the pushes, and a joint that
@@ -96,6 +103,7 @@ where
             let skip = super::untested(model, k, &ws.through);
             pass.obstacle(&mut ws.pos, ob, opts, skip);
         }
+        ws.pushed = std::mem::take(&mut pass.marks);
         if pass.blocked {
             // Only a held joint (or the hand) could give way: locked at once.
             return Err(Stop::Locked(iterations, pass.worst));
@@ -147,7 +155,11 @@ where
                 return Err(Stop::OverWork);
             }
             let pushed = ws.pos.clone();
-            match restraighten_held(chain, m, held, &mut ws.pos, &mut ws.meter) {
+            let pushed_joints = Pushed {
+                joints: &ws.pushed,
+                weight: opts.pushed_weight,
+            };
+            match restraighten_held(chain, m, held, &mut ws.pos, pushed_joints, &mut ws.meter) {
                 Restraightened::Done => {}
                 Restraightened::Failed => return Err(Stop::Locked(iterations, pass.worst)),
                 Restraightened::OutOfWork => return Err(Stop::OverWork),
@@ -176,6 +188,7 @@ fn restraighten_held<T: Real, const D: usize>(
     m: usize,
     held: &[usize],
     pos: &mut [Vector<T, D>],
+    pushed: Pushed<'_, T>,
     meter: &mut Meter,
 ) -> Restraightened
 where
@@ -226,7 +239,12 @@ where
             // One link between two fixed joints: nothing can move.
             continue;
         }
-        if !relax_lengths(&mut pos[a..=b], &chain.lengths()[a..b], meter) {
+        if !relax_lengths(
+            &mut pos[a..=b],
+            &chain.lengths()[a..b],
+            pushed.part(a, b),
+            meter,
+        ) {
             return Restraightened::OutOfWork;
         }
         let links: Vec<Vector<T, D>> = (a..b).map(|i| pos[i + 1] - pos[i]).collect();
@@ -284,6 +302,33 @@ where
     Restraightened::Done
 }
 
+/// The joints the last pass pushed (indexed by joint; empty: none marked) and the inverse mass the
+/// relaxation gives them ([`CollisionOptions::pushed_weight`]).
+#[derive(Clone, Copy)]
+struct Pushed<'a, T> {
+    joints: &'a [bool],
+    weight: T,
+}
+
+#[cfg(test)]
+impl Pushed<'static, f64> {
+    /// No joint marked: the relaxation moves every free joint alike.
+    const NONE: Self = Pushed {
+        joints: &[],
+        weight: 1.0,
+    };
+}
+
+impl<T: Real> Pushed<'_, T> {
+    /// The marks of the part from joint `a` to joint `b` (inclusive), indexed from `a`.
+    fn part(self, a: usize, b: usize) -> Self {
+        Pushed {
+            joints: self.joints.get(a..=b).unwrap_or(&[]),
+            weight: self.weight,
+        }
+    }
+}
+
 /// How [`restraighten_held`] ended.
 enum Restraightened {
     Done,
@@ -313,9 +358,15 @@ const RELAX_ITERATIONS: usize = 12;
 /// relaxation was first Gauss–Seidel projections of one link at a time, which carry a correction one
 /// link per sweep: on the 320-link instrument tie almost every call ran its 640 sweeps without
 /// converging and took nine tenths of the service's time.
+///
+/// The joints `pushed` marks have inverse mass `pushed.weight` (the others one): the displacement is
+/// the smallest in that weighted norm, so the lengths a push changed are restored more by the rope
+/// around the contact than by carrying the pushed joints back into it (on a taut rope the plain
+/// projection undid most of each push, and the passes crept toward the tolerance).
 fn relax_lengths<T: Real, const D: usize>(
     p: &mut [Vector<T, D>],
     lengths: &[T],
+    pushed: Pushed<'_, T>,
     meter: &mut Meter,
 ) -> bool
 where
@@ -369,22 +420,29 @@ where
         // part lying straight between its ends makes it singular; the small regularisation picks
         // the least-squares step there (the null direction moves no joint).
         let eps = T::lit(1e-9);
-        let diag = |i: usize| {
-            let free = (if i == 0 { 0.0 } else { 1.0 }) + (if i + 1 == n { 0.0 } else { 1.0 });
-            T::lit(free) + eps
+        // Inverse mass of joint j: the ends do not move, the pushed joints less than the others.
+        let wj = |j: usize| {
+            if j == 0 || j == n {
+                T::zero()
+            } else if pushed.joints.get(j).copied().unwrap_or(false) {
+                pushed.weight
+            } else {
+                T::one()
+            }
         };
+        let diag = |i: usize| wj(i) + wj(i + 1) + eps;
         // Thomas algorithm: forward elimination, then back substitution (into `rhs`).
         let mut m = diag(0);
         for i in 0..n {
             if i > 0 {
-                let b = -u[i - 1].dot(&u[i]);
+                let b = -wj(i) * u[i - 1].dot(&u[i]);
                 m = diag(i) - b * upper[i - 1];
                 rhs[i] = (c[i] - b * rhs[i - 1]) / m;
             } else {
                 rhs[0] = c[0] / m;
             }
             if i + 1 < n {
-                upper[i] = -u[i].dot(&u[i + 1]) / m;
+                upper[i] = -wj(i + 1) * u[i].dot(&u[i + 1]) / m;
             }
         }
         for i in (0..n - 1).rev() {
@@ -393,7 +451,7 @@ where
         }
         // δp_j = −(λ_{j−1} u_{j−1} − λ_j u_j) for the free joints.
         for j in 1..n {
-            p[j] -= u[j - 1] * rhs[j - 1] - u[j] * rhs[j];
+            p[j] -= (u[j - 1] * rhs[j - 1] - u[j] * rhs[j]) * wj(j);
         }
     }
     // The last iteration's pose is measured against the best one.
@@ -414,6 +472,8 @@ struct Pass<'a, T> {
     m: usize,
     /// Held joints (ascending): they do not move either.
     held: &'a [usize],
+    /// Joints pushed in this pass (marked when not empty).
+    marks: Vec<bool>,
     tol: T,
     /// The over-relaxation of each push.
     omega: T,
@@ -515,6 +575,11 @@ impl<T: Real> Pass<'_, T> {
         pos[j] -= n * (w2 * t1 * lambda);
         pos[j + 1] -= n * (w3 * t * lambda);
         self.pushed += 1;
+        if !self.marks.is_empty() {
+            for k in [i, i + 1, j, j + 1] {
+                self.marks[k] = true;
+            }
+        }
     }
 
     fn spheres<const D: usize>(&mut self, pos: &mut [Vector<T, D>])
@@ -675,6 +740,10 @@ impl<T: Real> Pass<'_, T> {
             pos[i] += normal * (w0 * s1 * lambda);
             pos[i + 1] += normal * (w1 * s * lambda);
             self.pushed += 1;
+            if !self.marks.is_empty() {
+                self.marks[i] = true;
+                self.marks[i + 1] = true;
+            }
         }
     }
 }
@@ -725,13 +794,71 @@ mod tests {
                 .fold(0.0, f64::max)
         };
         let err_before = worst(&p);
-        assert!(relax_lengths(&mut p, &lengths, &mut Meter::default()));
+        assert!(relax_lengths(
+            &mut p,
+            &lengths,
+            Pushed::NONE,
+            &mut Meter::default()
+        ));
         assert_eq!((p[0], p[n]), (first, last));
         let err_after = worst(&p);
         // An order of magnitude at least (about 70 times here): the reach that follows closes it.
         assert!(err_after < 0.1 * err_before, "{err_before} -> {err_after}");
         let moved = |i: usize| (p[i] - before[i]).norm();
         assert!(moved(1) < moved(6) && moved(n - 1) < moved(6));
+    }
+
+    /// The same push on a nearly taut part: with the pushed joint marked and weighted 0.5 (as
+    /// `knots.toml`'s long held ropes weight it), the relaxation keeps more of the push (the joint ends farther
+    /// out of the line between the ends) and restores the lengths as well, by moving the rest of the
+    /// rope; the pushed joint weighted 1 is the plain relaxation, bit for bit.
+    #[test]
+    fn pushed_joints_weighted_keep_more_of_their_push() {
+        let n = 12;
+        // A shallow arc: the part is nearly taut between its ends.
+        let r = 30.0_f64;
+        let step = 2.0 * (0.5 / r).asin();
+        let arc: Vec<Vector3<f64>> = (0..=n)
+            .map(|i| {
+                let a = step * i as f64;
+                Vector3::new(r * a.cos(), r * a.sin(), 0.0)
+            })
+            .collect();
+        let mut pushed = arc.clone();
+        pushed[6] += Vector3::new(0.05, 0.0, 0.0) + arc[6].normalize() * 0.05;
+        let lengths = vec![1.0; n];
+        let mut marks = vec![false; n + 1];
+        marks[6] = true;
+        let worst = |p: &[Vector3<f64>]| {
+            (0..n)
+                .map(|i| ((p[i + 1] - p[i]).norm() - 1.0).abs())
+                .fold(0.0, f64::max)
+        };
+        let relax = |weight: f64, marks: &[bool]| {
+            let mut p = pushed.clone();
+            let w = Pushed {
+                joints: marks,
+                weight,
+            };
+            assert!(relax_lengths(&mut p, &lengths, w, &mut Meter::default()));
+            p
+        };
+        let plain = relax(1.0, &[]);
+        assert_eq!(relax(1.0, &marks), plain);
+        let weighted = relax(0.5, &marks);
+        // How far the pushed joint stays out along the push, from where the arc had it.
+        let out = |p: &[Vector3<f64>]| (p[6] - arc[6]).dot(&arc[6].normalize());
+        assert!(
+            out(&weighted) > 1.2 * out(&plain),
+            "kept {} against {}",
+            out(&weighted),
+            out(&plain)
+        );
+        assert!(
+            worst(&weighted) < 0.1 * worst(&pushed),
+            "{}",
+            worst(&weighted)
+        );
     }
 
     /// A part too short to meet its fixed ends (taut past its length) is left with its ends where
@@ -743,7 +870,12 @@ mod tests {
             .map(|i| Vector3::new(1.5 * i as f64, 0.0, 0.0))
             .collect();
         let (first, last) = (p[0], p[n]);
-        assert!(relax_lengths(&mut p, &[1.0; 8], &mut Meter::default()));
+        assert!(relax_lengths(
+            &mut p,
+            &[1.0; 8],
+            Pushed::NONE,
+            &mut Meter::default()
+        ));
         assert_eq!((p[0], p[n]), (first, last));
         assert!(p.iter().all(|q| q.iter().all(|x| x.is_finite())));
     }

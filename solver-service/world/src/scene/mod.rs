@@ -24,6 +24,7 @@
 //! | `collision_iterations` | integer 1..=10000 | 64 | passes per substep before the chain is "locked" |
 //! | `collision_tolerance` | number in (0, 1) | 0.01 | accepted penetration, fraction of the clearance |
 //! | `collision_over_relaxation` | number in [1, 2) | 1.5 | each push as a multiple of its contact's depth: fewer passes on a jammed knot (BENCHMARKS.md, collision) |
+//! | `collision_pushed_weight` | number in (0, 1] | 1 | ropes with held joints: how freely pushed joints move when the rope is relaxed to its lengths after a pass (1: like the others); smaller takes fewer passes but locks more moves (BENCHMARKS.md, contact) |
 //! | `precision` | `"f64"` \| `"f32"` | `"f64"` | arithmetic and storage of the chain |
 //! | `method` | `"tractrix"` \| `"paper"` \| `"ftl"` | `"tractrix"` | default single-link method |
 //! | `substeps` / `max_step` | integer ≥ 1 / fraction of the shortest link | `substeps = 1` | default substep policy |
@@ -508,6 +509,11 @@ mod tests {
                 "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ncollision_over_relaxation = 2.0\n",
                 7,
                 "`collision_over_relaxation`: 2 is not in [1, 2)",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ncollision_pushed_weight = 0.0\n",
+                7,
+                "`collision_pushed_weight`: 0 is not in (0, 1]",
             ),
             (
                 "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\ncollision_over_relaxation = 1.2\n",

@@ -1520,6 +1520,9 @@ fn collision(
             c.collision_over_relaxation
                 .as_ref()
                 .map(|s| ("collision_over_relaxation", s.span())),
+            c.collision_pushed_weight
+                .as_ref()
+                .map(|s| ("collision_pushed_weight", s.span())),
         ];
         if let Some((field, span)) = stray.into_iter().flatten().next() {
             return Err(f.err(
@@ -1573,6 +1576,17 @@ fn collision(
             ));
         }
         None => CollisionOptions::<f64>::default().over_relaxation,
+    };
+    let pushed_weight = match &c.collision_pushed_weight {
+        Some(t) if *t.get_ref() > 0.0 && *t.get_ref() <= 1.0 => *t.get_ref(),
+        Some(t) => {
+            return Err(f.err(
+                t.span(),
+                "collision_pushed_weight",
+                format!("{} is not in (0, 1]", t.get_ref()),
+            ));
+        }
+        None => CollisionOptions::<f64>::default().pushed_weight,
     };
     let mut list = Vec::new();
     if let Some(names) = &c.obstacles {
@@ -1629,6 +1643,7 @@ fn collision(
             max_iterations,
             tolerance,
             over_relaxation,
+            pushed_weight,
         },
         obstacles: list,
         instruments: mine,
