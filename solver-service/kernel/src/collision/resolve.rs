@@ -64,10 +64,11 @@ where
         if use_tree {
             ws.tree.refit(&ws.pos, opts.thickness * T::lit(0.5));
         }
-        // Between held joints, outside a pull: the joints this pass pushes are marked, and the
-        // relaxation that follows moves them less ([`CollisionOptions::pushed_weight`]).
+        // Between held joints the joints this pass pushes are marked: a part between fixed joints
+        // that nothing pushed is left as it is, and outside a pull the relaxation moves the pushed
+        // joints less ([`CollisionOptions::pushed_weight`]).
         ws.pushed.clear();
-        if !held.is_empty() && !ws.together && opts.pushed_weight < T::one() {
+        if !held.is_empty() {
             ws.pushed.resize(ws.pos.len(), false);
         }
         let mut pass = Pass {
@@ -131,7 +132,9 @@ where
             // locks instead of tunnelling.
             // A knot under tension: after a few passes, every contact and every length solved
             // together ([`super::project`]), until the projection stalls.
+            let mut projected_now = false;
             if use_tree && ws.together && !stalled && iterations >= PROJECT_AFTER {
+                projected_now = true;
                 let step = super::smallest_clearance(chain, model) * T::lit(0.5);
                 let mut pos = std::mem::take(&mut ws.pos);
                 let projected =
@@ -157,7 +160,13 @@ where
             let pushed = ws.pos.clone();
             let pushed_joints = Pushed {
                 joints: &ws.pushed,
-                weight: opts.pushed_weight,
+                weight: if ws.together {
+                    T::one()
+                } else {
+                    opts.pushed_weight
+                },
+                // The projection moves joints of every part.
+                skip_untouched: !projected_now,
             };
             match restraighten_held(chain, m, held, &mut ws.pos, pushed_joints, &mut ws.meter) {
                 Restraightened::Done => {}
@@ -181,7 +190,8 @@ where
 /// (the hand and the held joints) follow the leader outward as without holds; each part between two
 /// fixed joints is first relaxed toward its lengths where it was pushed ([`relax_lengths`]), then
 /// solved as a fixed-base chain from that pose (the reach, finished by the hierarchy) so that it
-/// keeps its lengths exactly and meets both fixed joints. The relaxation's sweeps and the reach's
+/// keeps its lengths exactly and meets both fixed joints; a part no push touched is left as it is
+/// (on a long held rope most passes push within one part). The relaxation's sweeps and the reach's
 /// iterations are charged to `meter` (the iterations capped by what is left).
 fn restraighten_held<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
@@ -235,8 +245,8 @@ where
     let mut ws = ReachWorkspace::default();
     for w in fixed.windows(2) {
         let (a, b) = (w[0], w[1]);
-        if b == a + 1 {
-            // One link between two fixed joints: nothing can move.
+        if b == a + 1 || pushed.untouched(a, b) {
+            // One link between two fixed joints (nothing can move), or nothing pushed the part.
             continue;
         }
         if !relax_lengths(
@@ -308,6 +318,9 @@ where
 struct Pushed<'a, T> {
     joints: &'a [bool],
     weight: T,
+    /// Whether a part with no joint marked is left as it is (its lengths are still exact: nothing
+    /// moved it since the move or the last re-straightening).
+    skip_untouched: bool,
 }
 
 #[cfg(test)]
@@ -316,6 +329,7 @@ impl Pushed<'static, f64> {
     const NONE: Self = Pushed {
         joints: &[],
         weight: 1.0,
+        skip_untouched: false,
     };
 }
 
@@ -324,8 +338,17 @@ impl<T: Real> Pushed<'_, T> {
     fn part(self, a: usize, b: usize) -> Self {
         Pushed {
             joints: self.joints.get(a..=b).unwrap_or(&[]),
-            weight: self.weight,
+            ..self
         }
+    }
+
+    /// Whether the part from joint `a` to joint `b` may be left as it is: nothing in it was pushed.
+    fn untouched(self, a: usize, b: usize) -> bool {
+        self.skip_untouched
+            && self
+                .joints
+                .get(a..=b)
+                .is_some_and(|part| !part.iter().any(|&m| m))
     }
 }
 
@@ -651,6 +674,10 @@ impl<T: Real> Pass<'_, T> {
             }
         }
         self.pushed += 1;
+        if !self.marks.is_empty() {
+            self.marks[k] = true;
+            self.marks[k + 1] = true;
+        }
     }
 
     fn obstacle<const D: usize>(
@@ -839,6 +866,7 @@ mod tests {
             let w = Pushed {
                 joints: marks,
                 weight,
+                skip_untouched: false,
             };
             assert!(relax_lengths(&mut p, &lengths, w, &mut Meter::default()));
             p
