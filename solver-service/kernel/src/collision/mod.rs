@@ -232,6 +232,8 @@ pub struct CollisionWorkspace<T: Real, const D: usize> {
     through: core::ops::Range<usize>,
     /// The joints a resolution pass pushed (held ropes: the relaxation that follows keeps them).
     pushed: Vec<bool>,
+    /// The capsule pairs kept from pass to pass ([`tree::NearPairs`]).
+    near: tree::NearPairs<T, D>,
 }
 
 impl<T: Real, const D: usize> CollisionWorkspace<T, D> {

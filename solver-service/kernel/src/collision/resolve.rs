@@ -6,13 +6,14 @@ use super::query::{
     any_perpendicular, away_from, closest_param_point_segment, closest_param_segment_block,
     closest_params_segment_segment, lerp, unit_or_perpendicular,
 };
-use super::tree::ChainTree;
+use super::tree::{ChainTree, NearPairs, SKIN, boxes_apart};
 use super::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Meter, Obstacle, Scheme, Stop, cost,
     neighbour_span, restraighten,
 };
 use crate::chain::Chain;
 use crate::fixed_base::{ReachOptions, ReachWorkspace, reach};
+use core::cmp::Ordering;
 
 /// Passes of pushes on a rope with held joints before its contacts and lengths are solved together
 /// ([`super::project`]): most contacts of a move part after one or two pushes; a knot under tension
@@ -61,9 +62,6 @@ where
         if !ws.meter.charge(detection) {
             return Err(Stop::OverWork);
         }
-        if use_tree {
-            ws.tree.refit(&ws.pos, opts.thickness * T::lit(0.5));
-        }
         // Between held joints the joints this pass pushes are marked: a part between fixed joints
         // that nothing pushed is left as it is, and outside a pull the relaxation moves the pushed
         // joints less ([`CollisionOptions::pushed_weight`]).
@@ -75,6 +73,7 @@ where
             m,
             held,
             marks: std::mem::take(&mut ws.pushed),
+            moved: T::zero(),
             tol: opts.tolerance,
             omega: opts.over_relaxation,
             // Between held joints the rope is re-solved as a whole after the pushes, and a joint that
@@ -90,6 +89,7 @@ where
                 Scheme::Capsules => pass.capsules(
                     &mut ws.pos,
                     &mut ws.tree,
+                    &mut ws.near,
                     opts.thickness,
                     span,
                     &mut ws.meter,
@@ -497,6 +497,8 @@ struct Pass<'a, T> {
     held: &'a [usize],
     /// Joints pushed in this pass (marked when not empty).
     marks: Vec<bool>,
+    /// The sum over the pass's capsule pushes of the farthest each moved a joint.
+    moved: T,
     tol: T,
     /// The over-relaxation of each push.
     omega: T,
@@ -546,25 +548,43 @@ impl<T: Real> Pass<'_, T> {
         depth + extra + self.tol * T::lit(0.5) * clearance
     }
 
+    /// The capsule pairs of one pass: the kept candidate pairs ([`NearPairs`]), made again from the
+    /// tree when the joints moved too far since; a pass whose own pushes could have carried a pair
+    /// not in the list into contact leaves the list to be made again for the next pass (the pass
+    /// that ends the resolution pushes nothing, so its list was exact).
     fn capsules<const D: usize>(
         &mut self,
         pos: &mut [Vector<T, D>],
         tree: &mut ChainTree<T, D>,
+        near: &mut NearPairs<T, D>,
         thickness: T,
         span: usize,
         meter: &mut Meter,
     ) where
         Vector<T, D>: Embed3<T>,
     {
-        let done = tree.close_pairs(meter, span, |meter, i, j| {
-            if !meter.charge(cost::CAPSULE_PAIR) {
-                return false;
+        let moved = match near.moved(pos, span, thickness) {
+            Some(d) => d,
+            None => {
+                if !near.make(pos, tree, span, thickness, meter) {
+                    self.out_of_work = true;
+                    return;
+                }
+                T::zero()
             }
-            self.capsule_pair(pos, i, j, thickness);
-            true
-        });
-        if !done {
-            self.out_of_work = true;
+        };
+        self.moved = T::zero();
+        for &(i, j) in &near.pairs {
+            if !meter.charge(cost::CAPSULE_PAIR) {
+                self.out_of_work = true;
+                break;
+            }
+            self.capsule_pair(pos, i as usize, j as usize, thickness);
+        }
+        let spent = (moved + self.moved).partial_cmp(&(thickness * T::lit(SKIN * 0.5)));
+        // (NaN included: a list is never trusted past a non-finite push.)
+        if !matches!(spent, Some(Ordering::Less | Ordering::Equal)) {
+            near.invalidate();
         }
     }
 
@@ -593,6 +613,8 @@ impl<T: Real> Pass<'_, T> {
             return;
         }
         let lambda = self.push_depth(c - dist, c) / den;
+        // The farthest this push moves a joint (the list's skin is spent by every push).
+        self.moved += lambda.abs() * (w0 * s1).max(w1 * s).max(w2 * t1).max(w3 * t);
         pos[i] += n * (w0 * s1 * lambda);
         pos[i + 1] += n * (w1 * s * lambda);
         pos[j] -= n * (w2 * t1 * lambda);
@@ -773,23 +795,6 @@ impl<T: Real> Pass<'_, T> {
             }
         }
     }
-}
-
-/// `true` when the bounding boxes of segments `a0`–`a1` and `b0`–`b1` are more than `gap` apart along
-/// some axis (then the segments are too).
-#[inline]
-fn boxes_apart<T: Real, const D: usize>(
-    a0: &Vector<T, D>,
-    a1: &Vector<T, D>,
-    b0: &Vector<T, D>,
-    b1: &Vector<T, D>,
-    gap: T,
-) -> bool {
-    (0..D).any(|k| {
-        let (alo, ahi) = (a0[k].min(a1[k]), a0[k].max(a1[k]));
-        let (blo, bhi) = (b0[k].min(b1[k]), b0[k].max(b1[k]));
-        blo - ahi > gap || alo - bhi > gap
-    })
 }
 
 #[cfg(test)]

@@ -169,6 +169,115 @@ impl<T: Real, const D: usize> ChainTree<T, D> {
     }
 }
 
+/// How far beyond the clearance the kept candidate pairs reach, as a share of the clearance (the
+/// list's skin).
+pub(super) const SKIN: f64 = 0.5;
+
+/// The candidate pairs of capsule self-collision kept from pass to pass (a Verlet list): every pair
+/// of links the tree finds whose boxes come within the clearance plus a skin, with the joints where
+/// they were then. While no joint has moved half the skin since, a pair not in the list is still
+/// farther apart than the clearance, so a pass tests only the list: the passes of a knot that creeps
+/// toward its tolerance (hundreds per substep, each joint moving a fraction of the tolerance) refit
+/// no tree and descend no boxes.
+#[derive(Clone, Debug, Default)]
+pub(super) struct NearPairs<T: Real, const D: usize> {
+    /// The pairs `(i, j)`, `i < j`, in the tree's order (ascending `i`, then `j`).
+    pub(super) pairs: Vec<(u32, u32)>,
+    /// The joints when the list was made.
+    at: Vec<Vector<T, D>>,
+    /// Whether the list may be used (made for this chain's span and clearance, and no pass since
+    /// moved a joint past what the skin allows).
+    valid: bool,
+    span: usize,
+    clearance: T,
+}
+
+impl<T: Real, const D: usize> NearPairs<T, D> {
+    /// How far the joints `pos` moved since the list was made (the largest distance), when the list
+    /// is valid for `span` and `clearance` and that is at most a quarter of the skin; else `None`
+    /// (make it again).
+    pub(super) fn moved(&self, pos: &[Vector<T, D>], span: usize, clearance: T) -> Option<T> {
+        if !self.valid
+            || self.span != span
+            || self.clearance != clearance
+            || self.at.len() != pos.len()
+        {
+            return None;
+        }
+        let quarter = clearance * T::lit(SKIN * 0.25);
+        let limit = quarter * quarter;
+        let mut worst = T::zero();
+        for (p, q) in pos.iter().zip(&self.at) {
+            let d = (p - q).norm_squared();
+            if !matches!(
+                d.partial_cmp(&limit),
+                Some(core::cmp::Ordering::Less | core::cmp::Ordering::Equal)
+            ) {
+                return None;
+            }
+            worst = worst.max(d);
+        }
+        Some(worst.sqrt())
+    }
+
+    /// Makes the list from the joints `pos`: refits `tree` with the skin and keeps every pair whose
+    /// links' boxes come within the clearance plus the skin, each pair of link boxes charged to
+    /// `meter` as a box test. `false` (the list left invalid) when the meter ran out.
+    pub(super) fn make(
+        &mut self,
+        pos: &[Vector<T, D>],
+        tree: &mut ChainTree<T, D>,
+        span: usize,
+        clearance: T,
+        meter: &mut Meter,
+    ) -> bool {
+        let reach = clearance * T::lit(1.0 + SKIN);
+        tree.refit(pos, reach * T::lit(0.5));
+        self.pairs.clear();
+        self.valid = false;
+        let pairs = &mut self.pairs;
+        let done = tree.close_pairs(meter, span, |meter, i, j| {
+            if !meter.charge(cost::NODE_PAIR) {
+                return false;
+            }
+            if !boxes_apart(&pos[i], &pos[i + 1], &pos[j], &pos[j + 1], reach) {
+                pairs.push((i as u32, j as u32));
+            }
+            true
+        });
+        if done {
+            self.at.clear();
+            self.at.extend_from_slice(pos);
+            self.span = span;
+            self.clearance = clearance;
+            self.valid = true;
+        }
+        done
+    }
+
+    /// Marks the list as unusable (a pass moved joints past what the skin allows).
+    pub(super) fn invalidate(&mut self) {
+        self.valid = false;
+    }
+}
+
+/// `true` when the bounding boxes of segments `a0`–`a1` and `b0`–`b1` are more than `gap` apart along
+/// some axis (then the segments are too).
+#[inline]
+pub(super) fn boxes_apart<T: Real, const D: usize>(
+    a0: &Vector<T, D>,
+    a1: &Vector<T, D>,
+    b0: &Vector<T, D>,
+    b1: &Vector<T, D>,
+    gap: T,
+) -> bool {
+    (0..D).any(|k| {
+        let (alo, ahi) = (a0[k].min(a1[k]), a0[k].max(a1[k]));
+        let (blo, bhi) = (b0[k].min(b1[k]), b0[k].max(b1[k]));
+        blo - ahi > gap || alo - bhi > gap
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -230,6 +339,64 @@ mod tests {
             true
         });
         assert!(pairs > 0);
+    }
+
+    /// The kept list holds every pair that can touch while it is valid: on random piles, each joint
+    /// then moved at random by up to a quarter of the skin (what `moved` still accepts), every pair
+    /// more than `span` apart whose links come within the clearance plus a quarter of the skin (what
+    /// a pass's own pushes may still spend of the half skin) is in the list, in order; a joint moved
+    /// farther, or another span, makes `moved` ask for a new list.
+    #[test]
+    fn the_kept_pairs_hold_every_pair_that_can_touch_while_valid() {
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut tree = ChainTree::<f64, 3>::default();
+        let mut near = NearPairs::<f64, 3>::default();
+        let clearance = 0.2;
+        let quarter = clearance * SKIN * 0.25;
+        for &n in &[3usize, 9, 40, 63] {
+            for trial in 0..20 {
+                let span = trial % 4;
+                let mut pos = vec![Vector3::zeros()];
+                for _ in 0..n {
+                    let last = *pos.last().unwrap();
+                    let step = Vector3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize();
+                    pos.push(last + step * 0.25);
+                }
+                assert!(near.make(&pos, &mut tree, span, clearance, &mut Meter::default()));
+                assert!(near.pairs.windows(2).all(|w| w[0] < w[1]));
+                let mut moved = pos.clone();
+                for p in &mut moved {
+                    let d = Vector3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+                    *p += d.normalize() * (quarter * rnd());
+                }
+                let d = near
+                    .moved(&moved, span, clearance)
+                    .expect("within a quarter of the skin");
+                assert!(d <= quarter);
+                for i in 0..n {
+                    for j in i + span + 1..n {
+                        let g =
+                            segment_distance(&moved[i], &moved[i + 1], &moved[j], &moved[j + 1]);
+                        // Half the skin less the quarter spent: what a pass's pushes may still use.
+                        if g <= clearance + clearance * SKIN * 0.25 {
+                            assert!(
+                                near.pairs.contains(&(i as u32, j as u32)),
+                                "n {n}: links {i} and {j} at {g}"
+                            );
+                        }
+                    }
+                }
+                moved[n / 2] = pos[n / 2] + Vector3::new(quarter * 1.01, 0.0, 0.0);
+                assert!(near.moved(&moved, span, clearance).is_none());
+                assert!(near.moved(&pos, span + 1, clearance).is_none());
+            }
+        }
     }
 
     /// The meter stops the search: with room for a few box tests only, it reports running out.
