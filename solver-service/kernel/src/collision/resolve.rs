@@ -73,7 +73,6 @@ where
             m,
             held,
             marks: std::mem::take(&mut ws.pushed),
-            moved: T::zero(),
             tol: opts.tolerance,
             omega: opts.over_relaxation,
             // Between held joints the rope is re-solved as a whole after the pushes, and a joint that
@@ -92,6 +91,7 @@ where
                     &mut ws.near,
                     opts.thickness,
                     span,
+                    iterations == 0,
                     &mut ws.meter,
                 ),
                 Scheme::PaperSpheres => pass.spheres(&mut ws.pos),
@@ -497,8 +497,6 @@ struct Pass<'a, T> {
     held: &'a [usize],
     /// Joints pushed in this pass (marked when not empty).
     marks: Vec<bool>,
-    /// The sum over the pass's capsule pushes of the farthest each moved a joint.
-    moved: T,
     tol: T,
     /// The over-relaxation of each push.
     omega: T,
@@ -548,10 +546,14 @@ impl<T: Real> Pass<'_, T> {
         depth + extra + self.tol * T::lit(0.5) * clearance
     }
 
-    /// The capsule pairs of one pass: the kept candidate pairs ([`NearPairs`]), made again from the
-    /// tree when the joints moved too far since; a pass whose own pushes could have carried a pair
-    /// not in the list into contact leaves the list to be made again for the next pass (the pass
-    /// that ends the resolution pushes nothing, so its list was exact).
+    /// The capsule pairs of one pass: the kept candidate pairs ([`NearPairs`]) while the joints have
+    /// not moved too far since they were found. A resolution's first pass with no usable list
+    /// descends the tree as it is (most resolutions end there: nothing touches, or one pass parts
+    /// it); a later pass makes the list first. A pass whose own pushes could have carried a pair not
+    /// in the list into contact (a joint pushed farther than the skin left) leaves the list to be
+    /// made again for the next pass; the pass that ends the resolution pushes nothing, so its list
+    /// was exact.
+    #[allow(clippy::too_many_arguments)]
     fn capsules<const D: usize>(
         &mut self,
         pos: &mut [Vector<T, D>],
@@ -559,12 +561,27 @@ impl<T: Real> Pass<'_, T> {
         near: &mut NearPairs<T, D>,
         thickness: T,
         span: usize,
+        first: bool,
         meter: &mut Meter,
     ) where
         Vector<T, D>: Embed3<T>,
     {
         let moved = match near.moved(pos, span, thickness) {
             Some(d) => d,
+            None if first => {
+                tree.refit(pos, thickness * T::lit(0.5));
+                let done = tree.close_pairs(meter, span, |meter, i, j| {
+                    if !meter.charge(cost::CAPSULE_PAIR) {
+                        return false;
+                    }
+                    self.capsule_pair(pos, i, j, thickness);
+                    true
+                });
+                if !done {
+                    self.out_of_work = true;
+                }
+                return;
+            }
             None => {
                 if !near.make(pos, tree, span, thickness, meter) {
                     self.out_of_work = true;
@@ -573,36 +590,52 @@ impl<T: Real> Pass<'_, T> {
                 T::zero()
             }
         };
-        self.moved = T::zero();
-        for &(i, j) in &near.pairs {
+        // How far each joint has been pushed in this pass, and the farthest.
+        let (pairs, acc) = near.pairs_and_pushes(pos.len());
+        let mut farthest = T::zero();
+        for &(i, j) in pairs.iter() {
             if !meter.charge(cost::CAPSULE_PAIR) {
                 self.out_of_work = true;
                 break;
             }
-            self.capsule_pair(pos, i as usize, j as usize, thickness);
+            let (i, j) = (i as usize, j as usize);
+            let by = self.capsule_pair(pos, i, j, thickness);
+            for (k, d) in [i, i + 1, j, j + 1].into_iter().zip(by) {
+                acc[k] += d;
+                farthest = farthest.max(acc[k]);
+            }
         }
-        let spent = (moved + self.moved).partial_cmp(&(thickness * T::lit(SKIN * 0.5)));
+        let spent = (moved + farthest).partial_cmp(&(thickness * T::lit(SKIN * 0.5)));
         // (NaN included: a list is never trusted past a non-finite push.)
         if !matches!(spent, Some(Ordering::Less | Ordering::Equal)) {
             near.invalidate();
         }
     }
 
-    fn capsule_pair<const D: usize>(&mut self, pos: &mut [Vector<T, D>], i: usize, j: usize, c: T)
+    /// Pushes the pair of links `i` and `j` apart if they are closer than `c`; returns how far it
+    /// moved each of their joints `i`, `i + 1`, `j`, `j + 1` (zeros if it did not push).
+    fn capsule_pair<const D: usize>(
+        &mut self,
+        pos: &mut [Vector<T, D>],
+        i: usize,
+        j: usize,
+        c: T,
+    ) -> [T; 4]
     where
         Vector<T, D>: Embed3<T>,
     {
+        let none = [T::zero(); 4];
         let (a0, a1, b0, b1) = (pos[i], pos[i + 1], pos[j], pos[j + 1]);
         // Most candidates from overlapping leaves are farther apart than the clearance along some
         // axis: no closest points needed (the pair could not violate it).
         if boxes_apart(&a0, &a1, &b0, &b1, c) {
-            return;
+            return none;
         }
         let (s, t) = closest_params_segment_segment(&a0, &a1, &b0, &b1);
         let d = lerp(&a0, &a1, s) - lerp(&b0, &b1, t);
         let dist = d.norm();
         if !self.violates(c - dist, c) {
-            return;
+            return none;
         }
         let n = unit_or_perpendicular(&d, dist, &(a1 - a0), &(b1 - b0));
         let (w0, w1, w2, w3) = (self.w(i), self.w(i + 1), self.w(j), self.w(j + 1));
@@ -610,11 +643,9 @@ impl<T: Real> Pass<'_, T> {
         let den = w0 * s1 * s1 + w1 * s * s + w2 * t1 * t1 + w3 * t * t;
         if den <= T::zero() {
             self.blocked = true;
-            return;
+            return none;
         }
         let lambda = self.push_depth(c - dist, c) / den;
-        // The farthest this push moves a joint (the list's skin is spent by every push).
-        self.moved += lambda.abs() * (w0 * s1).max(w1 * s).max(w2 * t1).max(w3 * t);
         pos[i] += n * (w0 * s1 * lambda);
         pos[i + 1] += n * (w1 * s * lambda);
         pos[j] -= n * (w2 * t1 * lambda);
@@ -625,6 +656,8 @@ impl<T: Real> Pass<'_, T> {
                 self.marks[k] = true;
             }
         }
+        let l = lambda.abs();
+        [w0 * s1 * l, w1 * s * l, w2 * t1 * l, w3 * t * l]
     }
 
     fn spheres<const D: usize>(&mut self, pos: &mut [Vector<T, D>])

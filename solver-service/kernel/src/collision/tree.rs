@@ -185,6 +185,8 @@ pub(super) struct NearPairs<T: Real, const D: usize> {
     pub(super) pairs: Vec<(u32, u32)>,
     /// The joints when the list was made.
     at: Vec<Vector<T, D>>,
+    /// How far a pass has pushed each joint.
+    pushes: Vec<T>,
     /// Whether the list may be used (made for this chain's span and clearance, and no pass since
     /// moved a joint past what the skin allows).
     valid: bool,
@@ -253,6 +255,13 @@ impl<T: Real, const D: usize> NearPairs<T, D> {
             self.valid = true;
         }
         done
+    }
+
+    /// The pairs, and each joint's push in the pass about to run (zeroed, one per joint of `pos`).
+    pub(super) fn pairs_and_pushes(&mut self, joints: usize) -> (&[(u32, u32)], &mut [T]) {
+        self.pushes.clear();
+        self.pushes.resize(joints, T::zero());
+        (&self.pairs, &mut self.pushes)
     }
 
     /// Marks the list as unusable (a pass moved joints past what the skin allows).
