@@ -6,7 +6,7 @@ use super::query::{
     any_perpendicular, away_from, closest_param_point_segment, closest_param_segment_block,
     closest_params_segment_segment, lerp, unit_or_perpendicular,
 };
-use super::tree::{ChainTree, NearPairs, SKIN, boxes_apart};
+use super::tree::{ChainTree, NearPairs, boxes_apart};
 use super::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Meter, Obstacle, Scheme, Stop, cost,
     neighbour_span, restraighten,
@@ -92,6 +92,7 @@ where
                     opts.thickness,
                     span,
                     iterations == 0,
+                    chain.min_length(),
                     &mut ws.meter,
                 ),
                 Scheme::PaperSpheres => pass.spheres(&mut ws.pos),
@@ -549,7 +550,8 @@ impl<T: Real> Pass<'_, T> {
     /// The capsule pairs of one pass: the kept candidate pairs ([`NearPairs`]) while the joints have
     /// not moved too far since they were found. A resolution's first pass with no usable list
     /// descends the tree as it is (most resolutions end there: nothing touches, or one pass parts
-    /// it); a later pass makes the list first. A pass whose own pushes could have carried a pair not
+    /// it), and so does a pass after one that pushed a joint more than an eighth of the skin (the
+    /// list would not outlive the pass); a later pass makes the list first. A pass whose own pushes could have carried a pair not
     /// in the list into contact (a joint pushed farther than the skin left) leaves the list to be
     /// made again for the next pass; the pass that ends the resolution pushes nothing, so its list
     /// was exact.
@@ -562,28 +564,38 @@ impl<T: Real> Pass<'_, T> {
         thickness: T,
         span: usize,
         first: bool,
+        min_len: T,
         meter: &mut Meter,
     ) where
         Vector<T, D>: Embed3<T>,
     {
-        let moved = match near.moved(pos, span, thickness) {
+        let skin = NearPairs::<T, D>::skin(thickness, min_len);
+        let moved = match near.moved(pos, span, thickness, skin) {
             Some(d) => d,
-            None if first => {
+            // No list worth making: the first pass, or passes whose pushes would spend its skin at
+            // once (a rope pushed hard every pass, as a locked one is).
+            None if first
+                || near.last_push().partial_cmp(&(skin * T::lit(0.125)))
+                    != Some(Ordering::Less) =>
+            {
                 tree.refit(pos, thickness * T::lit(0.5));
+                let mut farthest = T::zero();
                 let done = tree.close_pairs(meter, span, |meter, i, j| {
                     if !meter.charge(cost::CAPSULE_PAIR) {
                         return false;
                     }
-                    self.capsule_pair(pos, i, j, thickness);
+                    let by = self.capsule_pair(pos, i, j, thickness);
+                    farthest = by.into_iter().fold(farthest, T::max);
                     true
                 });
+                near.set_last_push(farthest);
                 if !done {
                     self.out_of_work = true;
                 }
                 return;
             }
             None => {
-                if !near.make(pos, tree, span, thickness, meter) {
+                if !near.make(pos, tree, span, thickness, skin, meter) {
                     self.out_of_work = true;
                     return;
                 }
@@ -605,7 +617,8 @@ impl<T: Real> Pass<'_, T> {
                 farthest = farthest.max(acc[k]);
             }
         }
-        let spent = (moved + farthest).partial_cmp(&(thickness * T::lit(SKIN * 0.5)));
+        near.set_last_push(farthest);
+        let spent = (moved + farthest).partial_cmp(&(skin * T::lit(0.5)));
         // (NaN included: a list is never trusted past a non-finite push.)
         if !matches!(spent, Some(Ordering::Less | Ordering::Equal)) {
             near.invalidate();

@@ -170,8 +170,14 @@ impl<T: Real, const D: usize> ChainTree<T, D> {
 }
 
 /// How far beyond the clearance the kept candidate pairs reach, as a share of the clearance (the
-/// list's skin).
+/// list's skin), at most [`SKIN_LINKS`] of the shortest link.
 pub(super) const SKIN: f64 = 0.5;
+
+/// The skin's cap in shortest links: on a rope finer than it is thick a skin of half a clearance
+/// spans dozens of links, and the list holds several times the pairs the tree would test (at 10,000
+/// links of a 40-unit rope 0.2 thick the contact bench's scale curve was 15 % slower at p50 and
+/// three times slower at its longest move).
+pub(super) const SKIN_LINKS: f64 = 2.0;
 
 /// The candidate pairs of capsule self-collision kept from pass to pass (a Verlet list): every pair
 /// of links the tree finds whose boxes come within the clearance plus a skin, with the joints where
@@ -187,26 +193,42 @@ pub(super) struct NearPairs<T: Real, const D: usize> {
     at: Vec<Vector<T, D>>,
     /// How far a pass has pushed each joint.
     pushes: Vec<T>,
+    /// The farthest the last pass pushed a joint.
+    last_push: T,
     /// Whether the list may be used (made for this chain's span and clearance, and no pass since
     /// moved a joint past what the skin allows).
     valid: bool,
     span: usize,
     clearance: T,
+    skin: T,
 }
 
 impl<T: Real, const D: usize> NearPairs<T, D> {
+    /// The skin for a clearance and a shortest link: [`SKIN`] of the clearance, at most
+    /// [`SKIN_LINKS`] links.
+    pub(super) fn skin(clearance: T, min_len: T) -> T {
+        (clearance * T::lit(SKIN)).min(min_len * T::lit(SKIN_LINKS))
+    }
+
     /// How far the joints `pos` moved since the list was made (the largest distance), when the list
-    /// is valid for `span` and `clearance` and that is at most a quarter of the skin; else `None`
-    /// (make it again).
-    pub(super) fn moved(&self, pos: &[Vector<T, D>], span: usize, clearance: T) -> Option<T> {
+    /// is valid for `span`, `clearance` and `skin` and that is at most a quarter of the skin; else
+    /// `None` (make it again).
+    pub(super) fn moved(
+        &self,
+        pos: &[Vector<T, D>],
+        span: usize,
+        clearance: T,
+        skin: T,
+    ) -> Option<T> {
         if !self.valid
             || self.span != span
             || self.clearance != clearance
+            || self.skin != skin
             || self.at.len() != pos.len()
         {
             return None;
         }
-        let quarter = clearance * T::lit(SKIN * 0.25);
+        let quarter = skin * T::lit(0.25);
         let limit = quarter * quarter;
         let mut worst = T::zero();
         for (p, q) in pos.iter().zip(&self.at) {
@@ -231,9 +253,10 @@ impl<T: Real, const D: usize> NearPairs<T, D> {
         tree: &mut ChainTree<T, D>,
         span: usize,
         clearance: T,
+        skin: T,
         meter: &mut Meter,
     ) -> bool {
-        let reach = clearance * T::lit(1.0 + SKIN);
+        let reach = clearance + skin;
         tree.refit(pos, reach * T::lit(0.5));
         self.pairs.clear();
         self.valid = false;
@@ -252,6 +275,7 @@ impl<T: Real, const D: usize> NearPairs<T, D> {
             self.at.extend_from_slice(pos);
             self.span = span;
             self.clearance = clearance;
+            self.skin = skin;
             self.valid = true;
         }
         done
@@ -262,6 +286,16 @@ impl<T: Real, const D: usize> NearPairs<T, D> {
         self.pushes.clear();
         self.pushes.resize(joints, T::zero());
         (&self.pairs, &mut self.pushes)
+    }
+
+    /// The farthest the last pass pushed a joint (zero before any).
+    pub(super) fn last_push(&self) -> T {
+        self.last_push
+    }
+
+    /// Records the farthest the pass just done pushed a joint.
+    pub(super) fn set_last_push(&mut self, d: T) {
+        self.last_push = d;
     }
 
     /// Marks the list as unusable (a pass moved joints past what the skin allows).
@@ -367,7 +401,10 @@ mod tests {
         let mut tree = ChainTree::<f64, 3>::default();
         let mut near = NearPairs::<f64, 3>::default();
         let clearance = 0.2;
-        let quarter = clearance * SKIN * 0.25;
+        // Links of 0.25: the skin is half the clearance.
+        let skin = NearPairs::<f64, 3>::skin(clearance, 0.25);
+        assert_eq!(skin, clearance * SKIN);
+        let quarter = skin * 0.25;
         for &n in &[3usize, 9, 40, 63] {
             for trial in 0..20 {
                 let span = trial % 4;
@@ -377,7 +414,14 @@ mod tests {
                     let step = Vector3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize();
                     pos.push(last + step * 0.25);
                 }
-                assert!(near.make(&pos, &mut tree, span, clearance, &mut Meter::default()));
+                assert!(near.make(
+                    &pos,
+                    &mut tree,
+                    span,
+                    clearance,
+                    skin,
+                    &mut Meter::default()
+                ));
                 assert!(near.pairs.windows(2).all(|w| w[0] < w[1]));
                 let mut moved = pos.clone();
                 for p in &mut moved {
@@ -385,7 +429,7 @@ mod tests {
                     *p += d.normalize() * (quarter * rnd());
                 }
                 let d = near
-                    .moved(&moved, span, clearance)
+                    .moved(&moved, span, clearance, skin)
                     .expect("within a quarter of the skin");
                 assert!(d <= quarter);
                 for i in 0..n {
@@ -393,7 +437,7 @@ mod tests {
                         let g =
                             segment_distance(&moved[i], &moved[i + 1], &moved[j], &moved[j + 1]);
                         // Half the skin less the quarter spent: what a pass's pushes may still use.
-                        if g <= clearance + clearance * SKIN * 0.25 {
+                        if g <= clearance + quarter {
                             assert!(
                                 near.pairs.contains(&(i as u32, j as u32)),
                                 "n {n}: links {i} and {j} at {g}"
@@ -402,8 +446,9 @@ mod tests {
                     }
                 }
                 moved[n / 2] = pos[n / 2] + Vector3::new(quarter * 1.01, 0.0, 0.0);
-                assert!(near.moved(&moved, span, clearance).is_none());
-                assert!(near.moved(&pos, span + 1, clearance).is_none());
+                assert!(near.moved(&moved, span, clearance, skin).is_none());
+                assert!(near.moved(&pos, span + 1, clearance, skin).is_none());
+                assert!(near.moved(&pos, span, clearance, skin * 0.5).is_none());
             }
         }
     }
