@@ -73,6 +73,8 @@ where
             m,
             held,
             marks: std::mem::take(&mut ws.pushed),
+            pushes: Vec::new(),
+            farthest: T::zero(),
             tol: opts.tolerance,
             omega: opts.over_relaxation,
             // Between held joints the rope is re-solved as a whole after the pushes, and a joint that
@@ -498,6 +500,10 @@ struct Pass<'a, T> {
     held: &'a [usize],
     /// Joints pushed in this pass (marked when not empty).
     marks: Vec<bool>,
+    /// How far this pass's capsule pushes moved each joint (counted when not empty: a pass over
+    /// the kept pairs), and the farthest a joint was moved (by one push, or in all when counted).
+    pushes: Vec<T>,
+    farthest: T,
     tol: T,
     /// The over-relaxation of each push.
     omega: T,
@@ -579,16 +585,15 @@ impl<T: Real> Pass<'_, T> {
                     != Some(Ordering::Less) =>
             {
                 tree.refit(pos, thickness * T::lit(0.5));
-                let mut farthest = T::zero();
+                self.farthest = T::zero();
                 let done = tree.close_pairs(meter, span, |meter, i, j| {
                     if !meter.charge(cost::CAPSULE_PAIR) {
                         return false;
                     }
-                    let by = self.capsule_pair(pos, i, j, thickness);
-                    farthest = by.into_iter().fold(farthest, T::max);
+                    self.capsule_pair(pos, i, j, thickness);
                     true
                 });
-                near.set_last_push(farthest);
+                near.set_last_push(self.farthest);
                 if !done {
                     self.out_of_work = true;
                 }
@@ -602,21 +607,19 @@ impl<T: Real> Pass<'_, T> {
                 T::zero()
             }
         };
-        // How far each joint has been pushed in this pass, and the farthest.
+        // How far each joint has been pushed in this pass (counted by the pushes), and the farthest.
         let (pairs, acc) = near.pairs_and_pushes(pos.len());
-        let mut farthest = T::zero();
+        self.pushes = core::mem::take(acc);
+        self.farthest = T::zero();
         for &(i, j) in pairs.iter() {
             if !meter.charge(cost::CAPSULE_PAIR) {
                 self.out_of_work = true;
                 break;
             }
-            let (i, j) = (i as usize, j as usize);
-            let by = self.capsule_pair(pos, i, j, thickness);
-            for (k, d) in [i, i + 1, j, j + 1].into_iter().zip(by) {
-                acc[k] += d;
-                farthest = farthest.max(acc[k]);
-            }
+            self.capsule_pair(pos, i as usize, j as usize, thickness);
         }
+        *acc = core::mem::take(&mut self.pushes);
+        let farthest = self.farthest;
         near.set_last_push(farthest);
         let spent = (moved + farthest).partial_cmp(&(skin * T::lit(0.5)));
         // (NaN included: a list is never trusted past a non-finite push.)
@@ -625,30 +628,23 @@ impl<T: Real> Pass<'_, T> {
         }
     }
 
-    /// Pushes the pair of links `i` and `j` apart if they are closer than `c`; returns how far it
-    /// moved each of their joints `i`, `i + 1`, `j`, `j + 1` (zeros if it did not push).
-    fn capsule_pair<const D: usize>(
-        &mut self,
-        pos: &mut [Vector<T, D>],
-        i: usize,
-        j: usize,
-        c: T,
-    ) -> [T; 4]
+    /// Pushes the pair of links `i` and `j` apart if they are closer than `c`, counting how far it
+    /// moves each joint (into `pushes` when the pass keeps them, and the farthest).
+    fn capsule_pair<const D: usize>(&mut self, pos: &mut [Vector<T, D>], i: usize, j: usize, c: T)
     where
         Vector<T, D>: Embed3<T>,
     {
-        let none = [T::zero(); 4];
         let (a0, a1, b0, b1) = (pos[i], pos[i + 1], pos[j], pos[j + 1]);
         // Most candidates from overlapping leaves are farther apart than the clearance along some
         // axis: no closest points needed (the pair could not violate it).
         if boxes_apart(&a0, &a1, &b0, &b1, c) {
-            return none;
+            return;
         }
         let (s, t) = closest_params_segment_segment(&a0, &a1, &b0, &b1);
         let d = lerp(&a0, &a1, s) - lerp(&b0, &b1, t);
         let dist = d.norm();
         if !self.violates(c - dist, c) {
-            return none;
+            return;
         }
         let n = unit_or_perpendicular(&d, dist, &(a1 - a0), &(b1 - b0));
         let (w0, w1, w2, w3) = (self.w(i), self.w(i + 1), self.w(j), self.w(j + 1));
@@ -656,7 +652,7 @@ impl<T: Real> Pass<'_, T> {
         let den = w0 * s1 * s1 + w1 * s * s + w2 * t1 * t1 + w3 * t * t;
         if den <= T::zero() {
             self.blocked = true;
-            return none;
+            return;
         }
         let lambda = self.push_depth(c - dist, c) / den;
         pos[i] += n * (w0 * s1 * lambda);
@@ -670,7 +666,15 @@ impl<T: Real> Pass<'_, T> {
             }
         }
         let l = lambda.abs();
-        [w0 * s1 * l, w1 * s * l, w2 * t1 * l, w3 * t * l]
+        let by = [w0 * s1 * l, w1 * s * l, w2 * t1 * l, w3 * t * l];
+        if self.pushes.is_empty() {
+            self.farthest = by.into_iter().fold(self.farthest, T::max);
+        } else {
+            for (k, d) in [i, i + 1, j, j + 1].into_iter().zip(by) {
+                self.pushes[k] += d;
+                self.farthest = self.farthest.max(self.pushes[k]);
+            }
+        }
     }
 
     fn spheres<const D: usize>(&mut self, pos: &mut [Vector<T, D>])

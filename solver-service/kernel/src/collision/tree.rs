@@ -282,7 +282,7 @@ impl<T: Real, const D: usize> NearPairs<T, D> {
     }
 
     /// The pairs, and each joint's push in the pass about to run (zeroed, one per joint of `pos`).
-    pub(super) fn pairs_and_pushes(&mut self, joints: usize) -> (&[(u32, u32)], &mut [T]) {
+    pub(super) fn pairs_and_pushes(&mut self, joints: usize) -> (&[(u32, u32)], &mut Vec<T>) {
         self.pushes.clear();
         self.pushes.resize(joints, T::zero());
         (&self.pairs, &mut self.pushes)
