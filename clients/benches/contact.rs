@@ -89,6 +89,23 @@ struct Row {
     seconds: f64,
 }
 
+impl Row {
+    /// The cells requests, refused, p50, p99, p99.9 and max (µs) of the row's times, sorted here.
+    fn cells(&mut self) -> String {
+        self.solve.sort_unstable();
+        let v = &self.solve;
+        format!(
+            "{} | {} | {:.1} | {:.1} | {:.1} | {:.1}",
+            v.len(),
+            self.refused,
+            pct(v, 0.5),
+            pct(v, 0.99),
+            pct(v, 0.999),
+            pct(v, 1.0)
+        )
+    }
+}
+
 fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Result<Row> {
     let hands: Vec<String> = {
         let s = Script::builtin(script).context("no such built-in script")?;
@@ -224,17 +241,7 @@ fn weights(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
             )?;
             match run_row(script, chain, k, dir, &scene) {
                 Ok(mut r) if !r.solve.is_empty() => {
-                    r.solve.sort_unstable();
-                    println!(
-                        "| {script} | {chain} | {w} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {} |",
-                        r.solve.len(),
-                        r.refused,
-                        pct(&r.solve, 0.5),
-                        pct(&r.solve, 0.99),
-                        pct(&r.solve, 0.999),
-                        pct(&r.solve, 1.0),
-                        r.knot
-                    );
+                    println!("| {script} | {chain} | {w} | {} | {} |", r.cells(), r.knot);
                 }
                 Ok(_) => println!("| {script} | {chain} | {w} | 0 | – | – | – | – | – | – |"),
                 Err(e) => {
@@ -383,16 +390,9 @@ fn main() -> Result<()> {
         }
         match run_row(script, chain, k, dir.path(), &knots) {
             Ok(mut r) if !r.solve.is_empty() => {
-                r.solve.sort_unstable();
                 println!(
-                    "| {script} | {chain} | {links} | {what} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} \
-                     | {} | {:.1} |",
-                    r.solve.len(),
-                    r.refused,
-                    pct(&r.solve, 0.5),
-                    pct(&r.solve, 0.99),
-                    pct(&r.solve, 0.999),
-                    pct(&r.solve, 1.0),
+                    "| {script} | {chain} | {links} | {what} | {} | {} | {:.1} |",
+                    r.cells(),
                     r.knot,
                     r.seconds
                 );

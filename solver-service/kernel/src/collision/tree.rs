@@ -331,13 +331,7 @@ mod tests {
     /// spans 0 to 5; on a straight rope only links in the same or neighbouring leaves are.
     #[test]
     fn the_tree_reports_every_close_pair_once_in_order() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(0x9e37_79b9_7f4a_7c15);
         let mut tree = ChainTree::<f64, 3>::default();
         for &n in &[1usize, 2, 3, 4, 5, 7, 8, 9, 17, 40, 63] {
             for trial in 0..20 {
@@ -391,13 +385,7 @@ mod tests {
     /// farther, or another span, makes `moved` ask for a new list.
     #[test]
     fn the_kept_pairs_hold_every_pair_that_can_touch_while_valid() {
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(0x2545_f491_4f6c_dd1d);
         let mut tree = ChainTree::<f64, 3>::default();
         let mut near = NearPairs::<f64, 3>::default();
         let clearance = 0.2;
@@ -464,6 +452,16 @@ mod tests {
             ..Meter::default()
         };
         assert!(!tree.close_pairs(&mut meter, 1, |_, _, _| true));
+    }
+
+    /// Uniform numbers in [0, 1) from a xorshift generator with this seed (the tests' own).
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
     }
 
     /// The distance between two segments by sampling both finely (the test's own, coarse but
