@@ -557,10 +557,10 @@ impl<T: Real> Pass<'_, T> {
     /// not moved too far since they were found. A resolution's first pass with no usable list
     /// descends the tree as it is (most resolutions end there: nothing touches, or one pass parts
     /// it), and so does a pass after one that pushed a joint more than an eighth of the skin (the
-    /// list would not outlive the pass); a later pass makes the list first. A pass whose own pushes could have carried a pair not
-    /// in the list into contact (a joint pushed farther than the skin left) leaves the list to be
-    /// made again for the next pass; the pass that ends the resolution pushes nothing, so its list
-    /// was exact.
+    /// list would not outlive the pass); a later pass makes the list first. A pass whose own
+    /// pushes could have carried a pair not in the list into contact (a joint pushed farther than
+    /// the skin left) leaves the list to be made again for the next pass; the pass that ends the
+    /// resolution pushes nothing, so its list was exact.
     #[allow(clippy::too_many_arguments)]
     fn capsules<const D: usize>(
         &mut self,
