@@ -429,7 +429,8 @@ where
     ws.pos.resize(chain.n_links() + 1, Vector::zeros());
     chain.write_positions(&mut ws.pos);
     let hand = ws.pos[m];
-    let out = resolve(chain, m, fixed, model, ws).map_err(|stop| stop.error(substep, &ws.meter));
+    let out =
+        resolve(chain, m, fixed, true, model, ws).map_err(|stop| stop.error(substep, &ws.meter));
     chain.place_origin_from(m, hand);
     out
 }
@@ -512,7 +513,7 @@ where
             start + sd * T::lit(s as f64)
         };
         positions_from(chain, joint, hand, &mut ws.pos);
-        match resolve(chain, joint, &[], model, ws) {
+        match resolve(chain, joint, &[], false, model, ws) {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
                     outcome.collision_iterations.saturating_add(iterations);
@@ -614,7 +615,7 @@ where
             }
         }
         chain.write_positions(&mut ws.pos);
-        match resolve(chain, joint, &held, model, ws) {
+        match resolve(chain, joint, &held, false, model, ws) {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
                     outcome.collision_iterations.saturating_add(iterations);
@@ -763,7 +764,7 @@ where
             return Err(ws.meter.over(s));
         }
         chain.write_positions(&mut ws.pos);
-        match resolve(chain, m, rest, &local, ws) {
+        match resolve(chain, m, rest, !also.is_empty(), &local, ws) {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
                     outcome.collision_iterations.saturating_add(iterations);

@@ -16,8 +16,13 @@
 //! The system `J W Jᵀ λ = b` has the links' rows (tridiagonal among themselves) and the contacts'
 //! (a few joints each). With `A` the links' block, `B` the coupling and `C` the contacts' block, the
 //! contacts' multipliers solve the Schur complement `(C − Bᵀ A⁻¹ B) λ_c = b_c − Bᵀ A⁻¹ b_l` (dense,
-//! contacts × contacts), and `A` is factored once per iteration (Thomas): `O(n·r + r³)` for `n` links
-//! and `r` contacts. The hand's joint and the held joints do not move (inverse mass zero).
+//! contacts × contacts), and `A` is factored once per iteration (Thomas). Each contact touches at
+//! most eight links, so `B` is sparse and the complement over every row costs `r` solves of `n` and
+//! `8 r²`, formed once per iteration; the active set's rounds then only take its sub-block (`r³`).
+//! The hand's joint and the held joints do not move (inverse mass zero).
+//!
+//! Used on every move of a rope with held joints whose contacts have not parted after
+//! two passes (not only in pulls): from the re-straightened pose, whose lengths are exact.
 
 use super::query::{
     away_from, closest_param_point_segment, closest_param_segment_block,
@@ -35,8 +40,21 @@ pub(super) const ITERATIONS: usize = 16;
 
 /// Pairs nearer than their target distance plus this share of the clearance are rows of the
 /// system, inactive until a step would bring them closer than their target (the active set: without
-/// them, a step that parts one contact closes another, and the next step parts that one again).
-const NEAR: f64 = 0.0;
+/// them, a strand sliding over another meets the next pair of links at every step, the step that
+/// parts one contact closes its neighbour, and on `square-held` at 160 links a fifth of the
+/// projections stalled so; with a tenth of a clearance none did, and with a quarter the pairs of
+/// strands lying side by side were more rows than [`MAX_CONTACTS`]).
+const NEAR: f64 = 0.1;
+
+/// The projection has converged when every link is within this share of its length (the
+/// re-straightening that follows makes them exact, moving joints by about as much) and every contact
+/// within half the tolerance of its clearance (the pass that follows pushes nothing then).
+const LENGTHS_MET: f64 = 1e-7;
+
+/// A step that leaves the worst error more than this many times the best so far ends the
+/// projection at once (stalled): the linearisation is no guide there (strands pressed between
+/// others on a taut rope), and the steps after it cost as much and gain nothing.
+const BLOWN: f64 = 2.0;
 
 /// Rounds of the active set per step: contacts that would pull (negative multipliers) leave it,
 /// rows the step would bring too close join it.
@@ -66,7 +84,15 @@ pub(super) struct Projection<T: Real, const D: usize> {
     lam_l: Vec<T>,
     /// `A⁻¹ B`, one column (of `n`) per contact.
     ab: Vec<T>,
-    /// The Schur complement (row-major) and its right-hand side, then `λ_c`.
+    /// The Schur complement over every row (row-major) and its right-hand side.
+    full: Vec<T>,
+    full_rhs: Vec<T>,
+    /// Each row's coupling to the links.
+    bsparse: Vec<Sparse<T>>,
+    /// The sub-diagonal of the links' block; `−C`, then `A⁻¹ b_l`.
+    lower: Vec<T>,
+    bl: Vec<T>,
+    /// The active rows' block, and every row's multiplier `λ_c` (zero off the active set).
     s: Vec<T>,
     rhs: Vec<T>,
     active: Vec<bool>,
@@ -76,11 +102,12 @@ pub(super) struct Projection<T: Real, const D: usize> {
 /// How a projection ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Projected {
-    /// Every link within `1e-9` of its length and every contact within the tolerance.
+    /// Every link within [`LENGTHS_MET`] of its length and every contact within half the tolerance.
     Converged,
-    /// It stopped gaining (the rope cannot give way: the knot is jammed); the best pose is kept.
+    /// It stopped gaining (the rope cannot give way: the knot is jammed), or a step made it much
+    /// worse; the pose it started from is kept.
     Stalled,
-    /// Its iterations ran out while it still gained (the pose reached is kept).
+    /// Its iterations ran out while it still gained (the pose it started from is kept).
     Unfinished,
     /// More contacts than [`MAX_CONTACTS`].
     TooMany,
@@ -129,6 +156,7 @@ where
             .map(|w| (w[1] - w[0]).norm())
             .fold(T::max_value().unwrap_or_else(T::one), |a, b| a.min(b));
         let span = neighbour_span(min_len, c);
+        let near_c = c * T::lit(NEAR);
         let done = ws.tree.close_pairs(&mut ws.meter, span, |meter, i, j| {
             if !meter.charge(cost::CAPSULE_PAIR) {
                 return false;
@@ -137,7 +165,7 @@ where
             let (s, t) = closest_params_segment_segment(&a0, &a1, &b0, &b1);
             let d = lerp(&a0, &a1, s) - lerp(&b0, &b1, t);
             let dist = d.norm();
-            if dist >= target + c * T::lit(NEAR) {
+            if dist >= target + near_c {
                 return true;
             }
             *worst = (*worst).max(c - dist);
@@ -276,14 +304,16 @@ where
             outcome = Projected::Stalled;
             break;
         }
-        if worst_length <= T::lit(1e-9) && worst_contact <= opts.tolerance * clearance {
+        if worst_length <= T::lit(LENGTHS_MET)
+            && worst_contact <= opts.tolerance * T::lit(0.5) * clearance
+        {
             outcome = Projected::Converged;
             break;
         }
         match best {
             Some(b) if merit >= b => {
                 idle += 1;
-                if idle >= 3 {
+                if idle >= 3 || merit > b * T::lit(BLOWN) {
                     outcome = Projected::Stalled;
                     break;
                 }
@@ -293,11 +323,13 @@ where
                 best = Some(merit);
             }
         }
-        // Charged: the links' factorisation and a solve per contact; each round of the active set
-        // below charges its own.
+        // Charged: the links' factorisation, a solve per contact and the Schur complement (about
+        // 24 flops a pair of rows); each round of the active set below charges its own.
+        let r64 = r as u64;
         let units = (n as u64)
             .saturating_mul(cost::RELAX_PER_LINK)
-            .saturating_mul(1 + r as u64);
+            .saturating_mul(1 + r64)
+            .saturating_add(r64.saturating_mul(r64).saturating_mul(4));
         if !ws.meter.charge(units) {
             outcome = Projected::OutOfWork;
             break;
@@ -317,9 +349,9 @@ where
             *p += *d * scale;
         }
     }
-    // All or nothing: a pose that does not meet the lengths would be re-solved by the reach that
-    // follows, which can move joints far (on the instrument tie at 160 links, more than half a
-    // clearance: the move locked); the pushes' pose is kept instead.
+    // All or nothing: a pose far from the lengths would be re-solved by the reach that follows,
+    // which can move joints far (on the instrument tie at 160 links, more than half a clearance:
+    // the move locked); the pose it started from is kept instead.
     if outcome != Projected::Converged {
         pos.copy_from_slice(&start);
     }
@@ -359,9 +391,11 @@ where
 }
 
 /// One Newton step: the multipliers (`pr.lam_l`, the active contacts' `pr.rhs`) and the joints'
-/// displacement, from the rows and errors in `pr`; the active set found by [`ACTIVE_ROUNDS`] rounds,
-/// each charged to `meter` before it runs (the Schur complement, `r² n`, and its elimination, `r³`,
-/// at about six flops a sixteenth of a link-step). `None` when the meter ran out.
+/// displacement, from the rows and errors in `pr`. The Schur complement over every row is formed
+/// once (each contact's coupling to the links is sparse: at most eight links, so `S` costs `8 r²`
+/// beside the `r` tridiagonal solves of `n`); the active set is then found by [`ACTIVE_ROUNDS`]
+/// rounds on its sub-block (`r³`), each charged to `meter` before it runs (about six flops a
+/// sixteenth of a link-step). `None` when the meter ran out.
 fn solve_step<T: Real, const D: usize>(
     pr: &mut Projection<T, D>,
     m: usize,
@@ -377,14 +411,20 @@ where
     // The links' block A (tridiagonal): A_kk = w_k + w_{k+1}, A_{k,k+1} = −w_{k+1} u_k·u_{k+1}.
     pr.pivot.resize(n, T::zero());
     pr.upper.resize(n, T::zero());
+    pr.lower.resize(n, T::zero());
     for k in 0..n {
         let diag = w::<T>(k, m, held) + w::<T>(k + 1, m, held) + eps;
-        let (piv, _) = if k > 0 {
-            let b = -w::<T>(k, m, held) * pr.u[k - 1].dot(&pr.u[k]);
-            (diag - b * pr.upper[k - 1], b)
+        let sub = if k > 0 {
+            -w::<T>(k, m, held) * pr.u[k - 1].dot(&pr.u[k])
         } else {
-            (diag, T::zero())
+            T::zero()
         };
+        let piv = if k > 0 {
+            diag - sub * pr.upper[k - 1]
+        } else {
+            diag
+        };
+        pr.lower[k] = sub;
         pr.pivot[k] = piv;
         pr.upper[k] = if k + 1 < n {
             -w::<T>(k + 1, m, held) * pr.u[k].dot(&pr.u[k + 1]) / piv
@@ -392,36 +432,29 @@ where
             T::zero()
         };
     }
-    // The sub-diagonal entry of row k (k ≥ 1): −w_k u_{k−1}·u_k.
-    let sub = |pr: &Projection<T, D>, k: usize| -w::<T>(k, m, held) * pr.u[k - 1].dot(&pr.u[k]);
     let solve = |pr: &Projection<T, D>, x: &mut [T]| {
-        for k in 0..n {
-            x[k] = if k > 0 {
-                (x[k] - sub(pr, k) * x[k - 1]) / pr.pivot[k]
-            } else {
-                x[0] / pr.pivot[0]
-            };
+        x[0] /= pr.pivot[0];
+        for k in 1..n {
+            x[k] = (x[k] - pr.lower[k] * x[k - 1]) / pr.pivot[k];
         }
         for k in (0..n.saturating_sub(1)).rev() {
             let next = x[k + 1];
             x[k] -= pr.upper[k] * next;
         }
     };
-    // b_l = −C (each link's length change wanted).
-    pr.lam_l.resize(n, T::zero());
-    for k in 0..n {
-        pr.lam_l[k] = -pr.c[k];
-    }
-    let mut bl = pr.lam_l.clone();
+    // b_l = −C (each link's length change wanted), and A⁻¹ b_l.
+    pr.bl.clear();
+    pr.bl.extend(pr.c.iter().map(|c| -*c));
+    let mut bl = std::mem::take(&mut pr.bl);
     solve(pr, &mut bl);
-    // Column q of B: (J_l W J_cᵀ)_{k,q} = Σ_joints w_j J_l[k][j]·J_c[q][j], for the links next to
-    // the contact's joints; then A⁻¹ B column by column.
+    // Row q of Bᵀ (J_c W J_lᵀ): for each of the contact's joints j, link j−1 (+u at j) and link j
+    // (−u at j), at most eight entries; then A⁻¹ B column by column.
+    pr.bsparse.clear();
+    pr.ab.clear();
     pr.ab.resize(n * r, T::zero());
-    pr.col.resize(n, T::zero());
-    let mut bcols = vec![T::zero(); n * r];
     for q in 0..r {
         let row = pr.rows[q];
-        let col = &mut bcols[q * n..(q + 1) * n];
+        let mut entries = Sparse::default();
         for e in 0..row.count {
             let j = row.joints[e];
             let wj = w::<T>(j, m, held);
@@ -429,99 +462,105 @@ where
                 continue;
             }
             let g = row.normal * row.weights[e];
-            // Link j−1 has +u at joint j; link j has −u at joint j.
             if j > 0 {
-                col[j - 1] += wj * pr.u[j - 1].dot(&g);
+                entries.push(j - 1, wj * pr.u[j - 1].dot(&g));
             }
             if j < n {
-                col[j] -= wj * pr.u[j].dot(&g);
+                entries.push(j, -(wj * pr.u[j].dot(&g)));
             }
         }
-        let mut x = col.to_vec();
-        solve(pr, &mut x);
-        pr.ab[q * n..(q + 1) * n].copy_from_slice(&x);
+        let col = &mut pr.ab[q * n..(q + 1) * n];
+        for e in 0..entries.count {
+            col[entries.links[e]] += entries.values[e];
+        }
+        pr.bsparse.push(entries);
     }
-    // C_{qp} = Σ_joints w_j J_c[q][j]·J_c[p][j]; S = C − Bᵀ A⁻¹ B; rhs = b_c − Bᵀ A⁻¹ b_l.
+    for q in 0..r {
+        let mut col = std::mem::take(&mut pr.col);
+        col.clear();
+        col.extend_from_slice(&pr.ab[q * n..(q + 1) * n]);
+        solve(pr, &mut col);
+        pr.ab[q * n..(q + 1) * n].copy_from_slice(&col);
+        pr.col = col;
+    }
+    // S = C − Bᵀ A⁻¹ B over every row, and rhs = b_c − Bᵀ A⁻¹ b_l.
+    pr.full.clear();
+    pr.full.resize(r * r, T::zero());
+    pr.full_rhs.clear();
+    for q in 0..r {
+        let rq = pr.rows[q];
+        let bq = pr.bsparse[q];
+        for p in 0..r {
+            let rp = pr.rows[p];
+            let mut cqp = T::zero();
+            for a in 0..rq.count {
+                for b in 0..rp.count {
+                    if rq.joints[a] == rp.joints[b] {
+                        let wj = w::<T>(rq.joints[a], m, held);
+                        cqp += wj * rq.weights[a] * rp.weights[b] * rq.normal.dot(&rp.normal);
+                    }
+                }
+            }
+            let abp = &pr.ab[p * n..(p + 1) * n];
+            let mut btab = T::zero();
+            for e in 0..bq.count {
+                btab += bq.values[e] * abp[bq.links[e]];
+            }
+            pr.full[q * r + p] = cqp - btab;
+        }
+        pr.full[q * r + q] += eps;
+        let mut btbl = T::zero();
+        for e in 0..bq.count {
+            btbl += bq.values[e] * bl[bq.links[e]];
+        }
+        pr.full_rhs.push(rq.gap - btbl);
+    }
+    // The active set: rows too close to begin with; contacts that pull leave, rows the step brings
+    // too close join (Δgap_q = (S λ)_q over the active λ).
     pr.active.clear();
     pr.active
         .extend(pr.rows.iter().map(|row| row.gap > T::zero()));
-    let mut delta = Vec::new();
-    let (r64, n64) = (r as u64, n as u64);
-    let round = r64
-        .saturating_mul(r64)
-        .saturating_mul(n64.saturating_add(r64))
-        / 6;
+    pr.rhs.clear();
+    pr.rhs.resize(r, T::zero());
+    let mut idx: Vec<usize> = Vec::new();
     for _round in 0..ACTIVE_ROUNDS {
-        if !meter.charge(round) {
+        idx.clear();
+        idx.extend((0..r).filter(|&q| pr.active[q]));
+        let a = idx.len();
+        let a64 = a as u64;
+        if !meter.charge(a64.saturating_mul(a64).saturating_mul(a64) / 18 + (r as u64) * a64 / 6) {
             return None;
         }
         pr.s.clear();
-        pr.s.resize(r * r, T::zero());
-        pr.rhs.clear();
-        pr.rhs.resize(r, T::zero());
-        for q in 0..r {
-            if !pr.active[q] {
-                pr.s[q * r + q] = T::one();
-                continue;
+        pr.s.resize(a * a, T::zero());
+        pr.col.clear();
+        for (x, &q) in idx.iter().enumerate() {
+            for (y, &p) in idx.iter().enumerate() {
+                pr.s[x * a + y] = pr.full[q * r + p];
             }
-            let rq = pr.rows[q];
-            for p in 0..r {
-                if !pr.active[p] {
-                    continue;
-                }
-                let rp = pr.rows[p];
-                let mut cqp = T::zero();
-                for a in 0..rq.count {
-                    for b in 0..rp.count {
-                        if rq.joints[a] == rp.joints[b] {
-                            let wj = w::<T>(rq.joints[a], m, held);
-                            cqp += wj * rq.weights[a] * rp.weights[b] * rq.normal.dot(&rp.normal);
-                        }
-                    }
-                }
-                let bq = &bcols[q * n..(q + 1) * n];
-                let abp = &pr.ab[p * n..(p + 1) * n];
-                let btab: T = bq
-                    .iter()
-                    .zip(abp)
-                    .fold(T::zero(), |acc, (x, y)| acc + *x * *y);
-                pr.s[q * r + p] = cqp - btab;
-            }
-            pr.s[q * r + q] += eps;
-            let bq = &bcols[q * n..(q + 1) * n];
-            let btbl = bq
-                .iter()
-                .zip(&bl)
-                .fold(T::zero(), |acc, (x, y)| acc + *x * *y);
-            pr.rhs[q] = rq.gap - btbl;
+            pr.col.push(pr.full_rhs[q]);
         }
-        gauss(&mut pr.s, &mut pr.rhs, r);
-        for q in 0..r {
-            if !pr.active[q] {
-                pr.rhs[q] = T::zero();
-            }
+        let mut sol = std::mem::take(&mut pr.col);
+        gauss(&mut pr.s, &mut sol, a);
+        pr.rhs.iter_mut().for_each(|x| *x = T::zero());
+        for (x, &q) in idx.iter().enumerate() {
+            pr.rhs[q] = sol[x];
         }
-        // λ_l = A⁻¹ (b_l − B λ_c) = A⁻¹ b_l − (A⁻¹ B) λ_c.
-        for (k, b) in bl.iter().enumerate() {
-            let mut x = *b;
-            for q in 0..r {
-                x -= pr.ab[q * n + k] * pr.rhs[q];
-            }
-            pr.lam_l[k] = x;
-        }
-        delta = displacement(pr, m, held, n);
-        // Contacts that pull leave; rows the step brings too close join.
+        pr.col = sol;
         let mut changed = false;
         for q in 0..r {
-            if pr.active[q] && pr.rhs[q] < T::zero() {
-                pr.active[q] = false;
-                changed = true;
-            } else if !pr.active[q] {
-                let row = pr.rows[q];
-                let moved = (0..row.count).fold(T::zero(), |acc, e| {
-                    acc + row.normal.dot(&delta[row.joints[e]]) * row.weights[e]
-                });
-                if moved < row.gap {
+            if pr.active[q] {
+                if pr.rhs[q] < T::zero() {
+                    pr.active[q] = false;
+                    changed = true;
+                }
+            } else {
+                // How far the step moves row q: (S λ)_q less its right-hand side is how much more
+                // than its gap it parts.
+                let moved = idx
+                    .iter()
+                    .fold(T::zero(), |acc, &p| acc + pr.full[q * r + p] * pr.rhs[p]);
+                if moved < pr.full_rhs[q] {
                     pr.active[q] = true;
                     changed = true;
                 }
@@ -531,7 +570,54 @@ where
             break;
         }
     }
-    Some(delta)
+    for q in 0..r {
+        if !pr.active[q] || pr.rhs[q] < T::zero() {
+            pr.rhs[q] = T::zero();
+        }
+    }
+    // λ_l = A⁻¹ (b_l − B λ_c) = A⁻¹ b_l − (A⁻¹ B) λ_c.
+    pr.lam_l.clear();
+    pr.lam_l.extend_from_slice(&bl);
+    for q in 0..r {
+        let l = pr.rhs[q];
+        if l == T::zero() {
+            continue;
+        }
+        let abq = &pr.ab[q * n..(q + 1) * n];
+        for (x, y) in pr.lam_l.iter_mut().zip(abq) {
+            *x -= *y * l;
+        }
+    }
+    pr.bl = bl;
+    Some(displacement(pr, m, held, n))
+}
+
+/// A contact row's coupling to the links: at most eight (link, value) entries.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Sparse<T: Real> {
+    links: [usize; 8],
+    values: [T; 8],
+    count: usize,
+}
+
+impl<T: Real> Default for Sparse<T> {
+    fn default() -> Self {
+        Sparse {
+            links: [0; 8],
+            values: [T::zero(); 8],
+            count: 0,
+        }
+    }
+}
+
+impl<T: Real> Sparse<T> {
+    fn push(&mut self, link: usize, value: T) {
+        if self.count < 8 {
+            self.links[self.count] = link;
+            self.values[self.count] = value;
+            self.count += 1;
+        }
+    }
 }
 
 /// Solves the dense `r × r` system `a x = b` in place (`b` becomes `x`) by Gaussian elimination with

@@ -25,10 +25,13 @@ use crate::math::{Embed3, Real, Vector, positive_finite};
 /// `held` joints (ascending, without `m`) never move; a contact that only they could resolve locks.
 /// Returns the passes that pushed something and the contacts pushed, or why it stopped short. Every
 /// unit of work is charged to `ws`'s meter before it is done ([`CollisionWorkspace::limit_work`]).
+/// `threaded`: the rope passes through eyelets (its links there among the fixed joints); the joint
+/// projection is then only for pulls.
 pub(super) fn resolve<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     m: usize,
     held: &[usize],
+    threaded: bool,
     model: &CollisionModel<T, D>,
     ws: &mut CollisionWorkspace<T, D>,
 ) -> Result<(u32, u32), Stop<T>>
@@ -61,6 +64,23 @@ where
     loop {
         if !ws.meter.charge(detection) {
             return Err(Stop::OverWork);
+        }
+        // A knot under tension: after a few passes, every contact and every length of a rope with
+        // held joints solved together ([`super::project`]) from the re-straightened pose (its
+        // lengths exact), until a projection stalls; the pass that follows finds what is left. Not
+        // on a threaded rope's plain moves: there it locked 17 moves of the 160-link needle pass
+        // with two hands and turned the surgeon's knot over a bite into a square knot.
+        if use_tree
+            && !held.is_empty()
+            && (ws.together || !threaded)
+            && !stalled
+            && iterations >= PROJECT_AFTER
+        {
+            match project_held(chain, m, held, model, ws) {
+                Ok(true) => {}
+                Ok(false) => stalled = true,
+                Err(stop) => return Err(stop.at(iterations)),
+            }
         }
         // Between held joints the joints this pass pushes are marked: a part between fixed joints
         // that nothing pushed is left as it is, and outside a pull the relaxation moves the pushed
@@ -133,26 +153,6 @@ where
             // pull a pushed strand back across what pushed it. No joint may move farther than a
             // substep may move the hand (half the smallest clearance): a rope that cannot give way
             // locks instead of tunnelling.
-            // A knot under tension: after a few passes, every contact and every length solved
-            // together ([`super::project`]), until the projection stalls.
-            let mut projected_now = false;
-            if use_tree && ws.together && !stalled && iterations >= PROJECT_AFTER {
-                projected_now = true;
-                let step = super::smallest_clearance(chain, model) * T::lit(0.5);
-                let mut pos = std::mem::take(&mut ws.pos);
-                let projected =
-                    super::project::project(&mut pos, chain.lengths(), m, held, model, ws, step);
-                ws.pos = pos;
-                match projected {
-                    Projected::OutOfWork => return Err(Stop::OverWork),
-                    // It found no pose that parts the knot: the pushes go on alone (projecting
-                    // again would cost as much and find the same).
-                    Projected::Stalled | Projected::TooMany | Projected::Unfinished => {
-                        stalled = true
-                    }
-                    Projected::Converged => {}
-                }
-            }
             // The copy of the pushed positions, the outer parts and the check of how far joints moved.
             if !ws
                 .meter
@@ -168,8 +168,7 @@ where
                 } else {
                     opts.pushed_weight
                 },
-                // The projection moves joints of every part.
-                skip_untouched: !projected_now,
+                skip_untouched: true,
             };
             match restraighten_held(chain, m, held, &mut ws.pos, pushed_joints, &mut ws.meter) {
                 Restraightened::Done => {}
@@ -186,6 +185,64 @@ where
                 return Err(Stop::Locked(iterations, pass.worst.max(limit)));
             }
         }
+    }
+}
+
+/// Why [`project_held`] stopped the resolution.
+enum Halt {
+    OverWork,
+    Locked,
+}
+
+impl Halt {
+    fn at<T: Real>(self, iterations: u32) -> Stop<T> {
+        match self {
+            Halt::OverWork => Stop::OverWork,
+            Halt::Locked => Stop::Locked(iterations, T::zero()),
+        }
+    }
+}
+
+/// The joint projection of a rope with held joints ([`super::project`]) from `ws.pos`, then every
+/// part between fixed joints re-solved to its exact lengths (the projection meets them to 1e-7).
+/// `Ok(false)`: it stalled (the pose is left as it was).
+fn project_held<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    m: usize,
+    held: &[usize],
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<bool, Halt>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let step = super::smallest_clearance(chain, model) * T::lit(0.5);
+    let mut pos = std::mem::take(&mut ws.pos);
+    let projected = super::project::project(&mut pos, chain.lengths(), m, held, model, ws, step);
+    ws.pos = pos;
+    match projected {
+        Projected::OutOfWork => return Err(Halt::OverWork),
+        // It found no pose that parts the knot: the pushes go on alone (projecting again would
+        // cost as much and find the same).
+        Projected::Stalled | Projected::TooMany | Projected::Unfinished => return Ok(false),
+        Projected::Converged => {}
+    }
+    let n = chain.n_links() as u64;
+    if !ws
+        .meter
+        .charge(n.saturating_mul(3 * cost::RESTRAIGHTEN_PER_LINK))
+    {
+        return Err(Halt::OverWork);
+    }
+    let every_part = Pushed {
+        joints: &[],
+        weight: T::one(),
+        skip_untouched: false,
+    };
+    match restraighten_held(chain, m, held, &mut ws.pos, every_part, &mut ws.meter) {
+        Restraightened::Done => Ok(true),
+        Restraightened::Failed => Err(Halt::Locked),
+        Restraightened::OutOfWork => Err(Halt::OverWork),
     }
 }
 
