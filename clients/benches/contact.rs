@@ -21,12 +21,14 @@
 //! with neither, along the built-in `overhand-bend`'s head path (no corner): what a simulator author
 //! picks a resolution from.
 //!
-//! A third table is the trade of `collision_pushed_weight` (how freely the joints a pass pushed move
-//! when a held rope is relaxed back to its lengths): the held ropes whose passes creep, on
-//! `knots.toml` with every chain given each weight, time against refused requests and the knot tied.
+//! A third table is what the resolution of held ropes bought: the held ropes whose passes creep, on
+//! `knots.toml` with every chain given each of `collision_together_after` (the passes alone, or
+//! contacts and lengths solved together after two passes) and `collision_pushed_weight` (how freely
+//! the joints a pass pushed move when the rope is relaxed back to its lengths), time against refused
+//! requests and the knot tied.
 //!
 //! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
-//! `CONTACT_BENCH_ONLY=overhand,tie-160` keeps the rows whose script or chain is named (`weight` and
+//! `CONTACT_BENCH_ONLY=overhand,tie-160` keeps the rows whose script or chain is named (`held` and
 //! `scale` name the last two tables).
 
 use anyhow::{Context, Result, bail};
@@ -198,55 +200,74 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
     Ok(row)
 }
 
-/// The rows of the weight table: held ropes whose passes creep (a built-in script and its chain).
-const WEIGHT_ROWS: &[(&str, &str)] = &[
+/// The rows of the held ropes' table: ropes with held joints whose passes creep (a built-in script
+/// and its chain).
+const HELD_ROWS: &[(&str, &str)] = &[
+    ("square-held", "hands"),
     ("square-held", "hands-160"),
     ("square-held", "hands-320"),
     ("instrument-tie", "tie-160"),
+    ("surgeons-knot", "tie"),
     ("surgeons-knot", "tie-160"),
 ];
 
-/// The weights tried: 1 is the default (the relaxation moves pushed joints like the others), 0.5
-/// what `knots.toml`'s long held ropes set.
-const WEIGHTS: &[f64] = &[1.0, 0.5, 0.3, 0.1];
+/// The ways tried: `collision_together_after` (0: the passes alone; 2: the default) and
+/// `collision_pushed_weight` (1: the default; 0.5 what `knots.toml`'s long held ropes set; 0.1).
+const HELD_WAYS: &[(u32, f64)] = &[(0, 1.0), (0, 0.5), (2, 1.0), (2, 0.5), (2, 0.1)];
 
-/// The trade of `collision_pushed_weight`: `knots.toml` with every collision chain given each weight
-/// in turn, the rows' scripts run on it as in the first table.
-fn weights(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
+/// What the resolution of held ropes bought: `knots.toml` with every collision chain given each way
+/// in turn (the scene's own settings of both keys taken out), the rows' scripts run on it as in the
+/// first table.
+fn held_ways(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
     let text = std::fs::read_to_string(knots).context("read knots.toml")?;
     println!(
-        "\n### Pushed joints' weight: passes against locks\n\nThe held ropes whose passes creep, with \
-         `collision_pushed_weight` set on every chain of `knots.toml` (1, the default: the relaxation \
-         moves pushed joints like the others; `knots.toml` sets 0.5 on its 160- and 320-link held \
-         ropes, the first table's rows), as in the first table (µs):\n"
+        "\n### Held ropes: the passes alone against contacts and lengths solved together\n\nThe held \
+         ropes whose passes creep, with `collision_together_after` (0: the passes alone; 2, the \
+         default: the joint projection once two passes have not parted the contacts) and \
+         `collision_pushed_weight` (1, the default; `knots.toml` sets 0.5 on its 160- and 320-link \
+         held ropes, the first table's rows) set on every chain of `knots.toml`, as in the first \
+         table (µs):\n"
     );
     println!(
-        "| script | chain | weight | requests | refused | p50 µs | p99 µs | p99.9 µs | max µs | knot |"
+        "| script | chain | together after | weight | requests | refused | p50 µs | p99 µs | p99.9 µs \
+         | max µs | knot |"
     );
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---|");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    let own: String = text
+        .lines()
+        .filter(|l| {
+            !l.starts_with("collision_pushed_weight") && !l.starts_with("collision_together_after")
+        })
+        .flat_map(|l| [l, "\n"])
+        .collect();
     let mut k = k0;
-    for &(script, chain) in WEIGHT_ROWS {
-        for &w in WEIGHTS {
-            let scene = dir.join(format!("knots-weight-{w}.toml"));
-            // The scene's own weights out, this one on every collision chain.
+    for &(script, chain) in HELD_ROWS {
+        for &(after, w) in HELD_WAYS {
+            let scene = dir.join(format!("knots-held-{after}-{w}.toml"));
             let line = "collision = \"capsules\"\n";
-            let own: String = text
-                .lines()
-                .filter(|l| !l.starts_with("collision_pushed_weight"))
-                .flat_map(|l| [l, "\n"])
-                .collect();
             std::fs::write(
                 &scene,
-                own.replace(line, &format!("{line}collision_pushed_weight = {w}\n")),
+                own.replace(
+                    line,
+                    &format!(
+                        "{line}collision_together_after = {after}\ncollision_pushed_weight = {w}\n"
+                    ),
+                ),
             )?;
             match run_row(script, chain, k, dir, &scene) {
                 Ok(mut r) if !r.solve.is_empty() => {
-                    println!("| {script} | {chain} | {w} | {} | {} |", r.cells(), r.knot);
+                    println!(
+                        "| {script} | {chain} | {after} | {w} | {} | {} |",
+                        r.cells(),
+                        r.knot
+                    );
                 }
-                Ok(_) => println!("| {script} | {chain} | {w} | 0 | – | – | – | – | – | – |"),
+                Ok(_) => {
+                    println!("| {script} | {chain} | {after} | {w} | 0 | – | – | – | – | – | – |")
+                }
                 Err(e) => {
                     eprintln!("contact bench: {e:#}");
-                    println!("| {script} | {chain} | {w} | failed: {e} | | | | | | |");
+                    println!("| {script} | {chain} | {after} | {w} | failed: {e} | | | | | | |");
                 }
             }
             k += 1;
@@ -406,14 +427,11 @@ fn main() -> Result<()> {
             }
         }
     }
-    if only
-        .as_ref()
-        .is_none_or(|o| o.iter().any(|x| x == "weight"))
-    {
-        weights(ROWS.len(), dir.path(), &knots)?;
+    if only.as_ref().is_none_or(|o| o.iter().any(|x| x == "held")) {
+        held_ways(ROWS.len(), dir.path(), &knots)?;
     }
     if only.as_ref().is_none_or(|o| o.iter().any(|x| x == "scale")) {
-        scale(ROWS.len() + WEIGHT_ROWS.len() * WEIGHTS.len(), dir.path())?;
+        scale(ROWS.len() + HELD_ROWS.len() * HELD_WAYS.len(), dir.path())?;
     }
     Ok(())
 }

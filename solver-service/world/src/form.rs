@@ -343,6 +343,7 @@ where
                 tolerance: T::lit(o.tolerance),
                 over_relaxation: T::lit(o.over_relaxation),
                 pushed_weight: T::lit(o.pushed_weight),
+                together_after: o.together_after,
             },
             obstacles,
             holding: holding(spec, c),

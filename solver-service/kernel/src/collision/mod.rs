@@ -144,7 +144,20 @@ pub struct CollisionOptions<T> {
     /// its second throw and their 160-link pass locked moves, so the default stays 1). Not in pulls
     /// (`solve_contacts_together`), where the contacts and lengths are solved together.
     pub pushed_weight: T,
+    /// On a rope with held joints, the passes of pushes after which a move's contacts and lengths
+    /// are solved together (the joint projection: Newton's method on every link's length and every
+    /// contact's clearance, from the re-straightened pose) while the contacts have not parted; `0`:
+    /// never on plain moves, the passes alone. Default 2. The passes creep on a knot under tension
+    /// (each push lengthens the rope between its fixed joints and the relaxation pulls it back in);
+    /// the projection ends that in a few steps where it converges, and where it stalls (a strand
+    /// pressed between others on a taut rope) the passes go on. Not on a rope through eyelets,
+    /// where it locked moves and changed a knot; pulls always use it after two passes. The trade:
+    /// `cargo bench -p clients --bench contact`, the table of the held ropes' resolution.
+    pub together_after: u32,
 }
+
+/// The largest [`CollisionOptions::together_after`].
+pub const MAX_TOGETHER_AFTER: u32 = 4096;
 
 impl<T: Real> Default for CollisionOptions<T> {
     fn default() -> Self {
@@ -156,6 +169,7 @@ impl<T: Real> Default for CollisionOptions<T> {
             tolerance: T::lit(0.01),
             over_relaxation: T::lit(1.5),
             pushed_weight: T::one(),
+            together_after: 2,
         }
     }
 }
@@ -182,6 +196,11 @@ impl<T: Real> CollisionOptions<T> {
         if !(self.pushed_weight > T::zero() && self.pushed_weight <= T::one()) {
             return Err(ChainError::BadOption(
                 "collision pushed-joint weight must lie in (0, 1]",
+            ));
+        }
+        if self.together_after > MAX_TOGETHER_AFTER {
+            return Err(ChainError::BadOption(
+                "collision together-after must be at most 4096 passes",
             ));
         }
         if self.max_iterations == 0 {

@@ -348,6 +348,12 @@ where
         for (p, d) in pos.iter_mut().zip(&delta) {
             *p += *d * scale;
         }
+        // Back onto the lengths: the step keeps them only to first order, and on a nearly taut
+        // rope its second order is most of the step.
+        if !retract(pos, lengths, m, held, &mut ws.meter) {
+            outcome = Projected::OutOfWork;
+            break;
+        }
     }
     // All or nothing: a pose far from the lengths would be re-solved by the reach that follows,
     // which can move joints far (on the instrument tie at 160 links, more than half a clearance:
@@ -357,6 +363,53 @@ where
     }
     ws.projection = pr;
     outcome
+}
+
+/// Puts the joints `pos` back on the link `lengths`: each part between two fixed joints (the hand's
+/// `m` and the `held` ones) relaxed by fast projection, the parts beyond the outermost fixed joints
+/// rescaled outward along their links. `false` when the meter ran out.
+fn retract<T: Real, const D: usize>(
+    pos: &mut [Vector<T, D>],
+    lengths: &[T],
+    m: usize,
+    held: &[usize],
+    meter: &mut super::Meter,
+) -> bool
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = lengths.len();
+    let (mut first, mut last) = (m, m);
+    let mut prev = None;
+    for f in held.iter().copied().chain(core::iter::once(m)) {
+        first = first.min(f);
+        last = last.max(f);
+    }
+    // The fixed joints in order: `held` is ascending, `m` goes where it belongs.
+    for f in (0..=n).filter(|&j| j == m || held.binary_search(&j).is_ok()) {
+        if let Some(a) = prev
+            && f > a + 1
+            && !super::resolve::relax_part(&mut pos[a..=f], &lengths[a..f], meter)
+        {
+            return false;
+        }
+        prev = Some(f);
+    }
+    for i in last..n {
+        let d = pos[i + 1] - pos[i];
+        let len = d.norm();
+        if positive_finite(len) {
+            pos[i + 1] = pos[i] + d * (lengths[i] / len);
+        }
+    }
+    for i in (0..first).rev() {
+        let d = pos[i] - pos[i + 1];
+        let len = d.norm();
+        if positive_finite(len) {
+            pos[i] = pos[i + 1] + d * (lengths[i] / len);
+        }
+    }
+    true
 }
 
 /// The displacement `W Jᵀ λ` of the multipliers in `pr` (links' `lam_l`, the active contacts' `rhs`).
@@ -707,6 +760,7 @@ mod tests {
                 tolerance: 0.01,
                 over_relaxation: 1.5,
                 pushed_weight: 1.0,
+                together_after: 2,
             },
             obstacles: vec![],
             holding: vec![],

@@ -15,10 +15,10 @@ use crate::chain::Chain;
 use crate::fixed_base::{ReachOptions, ReachWorkspace, reach};
 use core::cmp::Ordering;
 
-/// Passes of pushes on a rope with held joints before its contacts and lengths are solved together
-/// ([`super::project`]): most contacts of a move part after one or two pushes; a knot under tension
-/// does not.
-const PROJECT_AFTER: u32 = 2;
+/// Passes of pushes on a rope with held joints before a pull's contacts and lengths are solved
+/// together ([`super::project`]): most contacts of a move part after one or two pushes; a knot
+/// under tension does not. Plain moves take [`CollisionOptions::together_after`].
+const PULL_PROJECT_AFTER: u32 = 2;
 use crate::math::{Embed3, Real, Vector, positive_finite};
 
 /// Resolution passes on `ws.pos` (positions of the chain after the sweep). The hand's joint `m` and the
@@ -70,12 +70,14 @@ where
         // lengths exact), until a projection stalls; the pass that follows finds what is left. Not
         // on a threaded rope's plain moves: there it locked 17 moves of the 160-link needle pass
         // with two hands and turned the surgeon's knot over a bite into a square knot.
-        if use_tree
-            && !held.is_empty()
-            && (ws.together || !threaded)
-            && !stalled
-            && iterations >= PROJECT_AFTER
-        {
+        let after = if ws.together {
+            PULL_PROJECT_AFTER
+        } else if threaded || opts.together_after == 0 {
+            u32::MAX
+        } else {
+            opts.together_after
+        };
+        if use_tree && !held.is_empty() && !stalled && iterations >= after {
             match project_held(chain, m, held, model, ws) {
                 Ok(true) => {}
                 Ok(false) => stalled = true,
@@ -419,6 +421,24 @@ enum Restraightened {
     Failed,
     /// The meter ran out first.
     OutOfWork,
+}
+
+/// Relaxes the part `p` between two fixed joints (its first and last) toward its link `lengths`,
+/// every free joint alike ([`relax_lengths`]); `false` when the meter ran out.
+pub(super) fn relax_part<T: Real, const D: usize>(
+    p: &mut [Vector<T, D>],
+    lengths: &[T],
+    meter: &mut Meter,
+) -> bool
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let alike = Pushed {
+        joints: &[],
+        weight: T::one(),
+        skip_untouched: false,
+    };
+    relax_lengths(p, lengths, alike, meter)
 }
 
 /// Most Newton iterations [`relax_lengths`] takes (near a solution each iteration about squares the

@@ -25,6 +25,7 @@
 //! | `collision_tolerance` | number in (0, 1) | 0.01 | accepted penetration, fraction of the clearance |
 //! | `collision_over_relaxation` | number in [1, 2) | 1.5 | each push as a multiple of its contact's depth: fewer passes on a jammed knot (BENCHMARKS.md, collision) |
 //! | `collision_pushed_weight` | number in (0, 1] | 1 | ropes with held joints: how freely pushed joints move when the rope is relaxed to its lengths after a pass (1: like the others); smaller takes fewer passes but locks more moves (BENCHMARKS.md, contact) |
+//! | `collision_together_after` | integer 0..=4096 | 2 | ropes with held joints: the passes after which a move's contacts and lengths are solved together (the joint projection; 0: the passes alone); not on ropes through eyelets (BENCHMARKS.md, contact) |
 //! | `precision` | `"f64"` \| `"f32"` | `"f64"` | arithmetic and storage of the chain |
 //! | `method` | `"tractrix"` \| `"paper"` \| `"ftl"` | `"tractrix"` | default single-link method |
 //! | `substeps` / `max_step` | integer ≥ 1 / fraction of the shortest link | `substeps = 1` | default substep policy |
@@ -514,6 +515,16 @@ mod tests {
                 "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ncollision_pushed_weight = 0.0\n",
                 7,
                 "`collision_pushed_weight`: 0 is not in (0, 1]",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\nthickness = 0.1\ncollision = \"capsules\"\ncollision_together_after = 5000\n",
+                7,
+                "`collision_together_after`",
+            ),
+            (
+                "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\ncollision_together_after = 2\n",
+                5,
+                "`collision_together_after`: needs `collision",
             ),
             (
                 "[[chain]]\nname = \"a\"\nlinks = 2\nlink_length = 1.0\ncollision_over_relaxation = 1.2\n",

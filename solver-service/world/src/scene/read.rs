@@ -84,6 +84,7 @@ pub(super) struct RawChain {
     pub collision_tolerance: Field<f64>,
     pub collision_over_relaxation: Field<f64>,
     pub collision_pushed_weight: Field<f64>,
+    pub collision_together_after: Field<i64>,
     pub precision: Field<String>,
     pub method: Field<String>,
     pub substeps: Field<i64>,

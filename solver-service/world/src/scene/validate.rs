@@ -1523,6 +1523,9 @@ fn collision(
             c.collision_pushed_weight
                 .as_ref()
                 .map(|s| ("collision_pushed_weight", s.span())),
+            c.collision_together_after
+                .as_ref()
+                .map(|s| ("collision_together_after", s.span())),
         ];
         if let Some((field, span)) = stray.into_iter().flatten().next() {
             return Err(f.err(
@@ -1588,6 +1591,13 @@ fn collision(
         }
         None => CollisionOptions::<f64>::default().pushed_weight,
     };
+    let together_after = f.count_or(
+        &c.collision_together_after,
+        "collision_together_after",
+        0,
+        i64::from(tractrix::collision::MAX_TOGETHER_AFTER),
+        CollisionOptions::<f64>::default().together_after,
+    )?;
     let mut list = Vec::new();
     if let Some(names) = &c.obstacles {
         for n in names.get_ref() {
@@ -1644,6 +1654,7 @@ fn collision(
             tolerance,
             over_relaxation,
             pushed_weight,
+            together_after,
         },
         obstacles: list,
         instruments: mine,
