@@ -21,8 +21,9 @@
 //! `8 r²`, formed once per iteration; the active set's rounds then only take its sub-block (`r³`).
 //! The hand's joint and the held joints do not move (inverse mass zero).
 //!
-//! Used on every move of a rope with held joints whose contacts have not parted after
-//! two passes (not only in pulls): from the re-straightened pose, whose lengths are exact.
+//! Used on the moves of a rope with held joints whose contacts have not parted after the passes the
+//! options set (`together_after`, two by default; pulls always after two; a threaded rope's plain
+//! moves never), from the re-straightened pose, whose lengths are exact.
 
 use super::query::{
     away_from, closest_param_point_segment, closest_param_segment_block,
@@ -96,6 +97,8 @@ pub(super) struct Projection<T: Real, const D: usize> {
     s: Vec<T>,
     rhs: Vec<T>,
     active: Vec<bool>,
+    /// The active rows of a round.
+    idx: Vec<usize>,
     col: Vec<T>,
 }
 
@@ -577,13 +580,14 @@ where
         .extend(pr.rows.iter().map(|row| row.gap > T::zero()));
     pr.rhs.clear();
     pr.rhs.resize(r, T::zero());
-    let mut idx: Vec<usize> = Vec::new();
+    let mut idx = std::mem::take(&mut pr.idx);
     for _round in 0..ACTIVE_ROUNDS {
         idx.clear();
         idx.extend((0..r).filter(|&q| pr.active[q]));
         let a = idx.len();
         let a64 = a as u64;
         if !meter.charge(a64.saturating_mul(a64).saturating_mul(a64) / 18 + (r as u64) * a64 / 6) {
+            pr.idx = idx;
             return None;
         }
         pr.s.clear();
@@ -625,6 +629,7 @@ where
             break;
         }
     }
+    pr.idx = idx;
     for q in 0..r {
         if !pr.active[q] || pr.rhs[q] < T::zero() {
             pr.rhs[q] = T::zero();
