@@ -44,7 +44,7 @@ pub(super) const ITERATIONS: usize = 16;
 /// them, a strand sliding over another meets the next pair of links at every step, the step that
 /// parts one contact closes its neighbour, and on `square-held` at 160 links a fifth of the
 /// projections stalled so; with a tenth of a clearance none did, and with a quarter the pairs of
-/// strands lying side by side were more rows than [`MAX_CONTACTS`]).
+/// strands lying side by side were more rows than [`MAX_CONTACTS`]; counted with temporary prints).
 const NEAR: f64 = 0.1;
 
 /// The projection has converged when every link is within this share of its length (the
