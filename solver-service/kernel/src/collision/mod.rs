@@ -249,6 +249,8 @@ pub struct CollisionWorkspace<T: Real, const D: usize> {
     together: bool,
     /// Links that pass through the blocks ([`CollisionWorkspace::pass_through`]).
     through: core::ops::Range<usize>,
+    /// How many links either side of `through` only keep their axis out of the blocks.
+    pressed: usize,
     /// The joints a resolution pass pushed (held ropes: the relaxation that follows keeps them).
     pushed: Vec<bool>,
     /// The capsule pairs kept from pass to pass ([`tree::NearPairs`]).
@@ -294,10 +296,14 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
 
     /// Links `links` pass through the model's blocks ([`Obstacle::Block`]: a suture between the
     /// eyelets of its bite, and from the last one to a needle still in the tissue) and are not tested
-    /// against them; every other link is. The eyelets' moves ([`crate::eyelet`]) set it from the
-    /// rope before each resolution; empty by default (a block is solid).
-    pub fn pass_through(&mut self, links: core::ops::Range<usize>) {
+    /// against them; the `pressed` links either side of them press into the block by up to the
+    /// rope's radius (only their axis is kept out of it: tissue gives round a hole, and a suture
+    /// drawn out of a hole at a shallow angle lies on it); every other link keeps its radius from
+    /// it. The eyelets' moves ([`crate::eyelet`]) set them from the rope before each resolution;
+    /// empty by default (a block is solid).
+    pub fn pass_through(&mut self, links: core::ops::Range<usize>, pressed: usize) {
         self.through = links;
+        self.pressed = pressed;
     }
 
     /// Whether [`CollisionWorkspace::solve_contacts_together`] is on (a pull).
@@ -943,6 +949,21 @@ pub(super) fn untested<T: Real, const D: usize>(
         _ => 0..0,
     };
     [held, through]
+}
+
+/// Whether link `i` presses into obstacle `k` of `model` rather than keeping its radius from it:
+/// a block's links within `pressed` of either end of those that pass through it (`through`).
+pub(super) fn presses<T: Real, const D: usize>(
+    model: &CollisionModel<T, D>,
+    k: usize,
+    through: &core::ops::Range<usize>,
+    pressed: usize,
+    i: usize,
+) -> bool {
+    matches!(model.obstacles.get(k), Some(Obstacle::Block { .. }))
+        && !through.is_empty()
+        && ((i < through.start && i + pressed >= through.start)
+            || (i >= through.end && i < through.end.saturating_add(pressed)))
 }
 
 pub(crate) fn smallest_clearance<T: Real, const D: usize>(

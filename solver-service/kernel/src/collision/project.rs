@@ -190,6 +190,7 @@ where
     }
     for (k, ob) in model.obstacles.iter().enumerate() {
         let skip = super::untested(model, k, &ws.through);
+        let block = matches!(ob, Obstacle::Block { .. });
         if !ws
             .meter
             .charge((n as u64).saturating_mul(cost::obstacle_per_link(ob)))
@@ -230,11 +231,18 @@ where
                     (s, nrm, dist, link_r + *radius)
                 }
             };
-            let goal = clearance + opts.tolerance * half * clearance;
+            // Beside a hole only the axis is kept out of the block (the tolerance still the
+            // radius's).
+            let reach = if block && super::presses(model, k, &ws.through, ws.pressed, i) {
+                T::zero()
+            } else {
+                clearance
+            };
+            let goal = reach + opts.tolerance * half * clearance;
             if dist >= goal + clearance * T::lit(NEAR) {
                 continue;
             }
-            *worst = (*worst).max(clearance - dist);
+            *worst = (*worst).max(reach - dist);
             rows.push(Row {
                 joints: [i, i + 1, 0, 0],
                 weights: [T::one() - s, s, T::zero(), T::zero()],

@@ -127,7 +127,10 @@ where
         }
         for (k, ob) in model.obstacles.iter().enumerate() {
             let skip = super::untested(model, k, &ws.through);
-            pass.obstacle(&mut ws.pos, ob, opts, skip);
+            let (through, pressed) = (&ws.through, ws.pressed);
+            pass.obstacle(&mut ws.pos, ob, opts, skip, |i| {
+                super::presses(model, k, through, pressed, i)
+            });
         }
         ws.pushed = std::mem::take(&mut pass.marks);
         if pass.blocked {
@@ -835,6 +838,7 @@ impl<T: Real> Pass<'_, T> {
         ob: &Obstacle<T, D>,
         opts: &CollisionOptions<T>,
         skip: [core::ops::Range<usize>; 2],
+        presses: impl Fn(usize) -> bool,
     ) where
         Vector<T, D>: Embed3<T>,
     {
@@ -862,7 +866,9 @@ impl<T: Real> Pass<'_, T> {
                     }
                     let s = closest_param_segment_block(&a, &b, lo, hi);
                     let (n, dist, _) = away_from(ob, &lerp(&a, &b, s), &(b - a));
-                    (s, n, link_r - dist, link_r)
+                    // Beside a hole only the axis is kept out (the tolerance still the radius's).
+                    let reach = if presses(i) { T::zero() } else { link_r };
+                    (s, n, reach - dist, link_r)
                 }
                 (Scheme::Capsules, Obstacle::HalfSpace { point, normal }) => {
                     let (da, db) = ((a - point).dot(normal), (b - point).dot(normal));
