@@ -640,6 +640,40 @@ fn the_whole_stitch_passes_the_needle_and_ties_the_surgeons_knot_over_the_bite_a
     whole_stitch("stitch-160", 0.25, &[], 0.0);
 }
 
+/// The whole stitch's pass at 160 links with the hand perturbed as a person's (`--perturb 8`): the
+/// suture is drawn out of the exit rising about 5°, and the links just past those through the tissue
+/// lie on it. Every move is accepted (without the links beside a hole pressing into the tissue, this
+/// run locked the last fifth of its moves, the tail left 5 units short), and every state, read
+/// without a miss, is checked by the test's own code ([`check_state_of`]: lengths, thickness, the
+/// eyelets on the rope, the rope out of the tissue but where it passes through and presses in).
+#[test]
+fn the_whole_stitch_s_pass_perturbed_at_160_links_draws_the_suture_out_at_a_shallow_angle() {
+    let svc = stitch_service(&["--state-buffer", "4096"]);
+    let mut c = svc.connect();
+    let id = c.require_chain("stitch-160").unwrap();
+    let seq0 = c
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap()
+        .header
+        .sequence;
+    let watched = AllStates::start(&svc, id, seq0);
+    let out = tests::hand_output(hand(&svc, "stitch-pass", "stitch-160", &["--perturb", "8"]));
+    let seen = watched.finish();
+    assert!(
+        out.contains(" 0 locked") && !out.contains("refused"),
+        "{out}"
+    );
+    assert!(seen.len() > 500, "{} states", seen.len());
+    for (seq, joints, _, eyelets) in &seen {
+        check_state_of(joints, eyelets, 0.25, STITCH, &format!("state {seq}"));
+    }
+    let (_, last, _, eyelets) = seen.last().unwrap();
+    assert_eq!(eyelets.len(), 2, "{eyelets:?}");
+    // The tail drawn to within half a unit of x = 0, where the script draws it (5 units short when
+    // the pull locked).
+    assert!(last[0].x > -0.5, "the tail at {:?}", last[0]);
+}
+
 /// The whole stitch with the knot tightened after the tie (`hand run --tighten 0.05`: each hand
 /// pulls its end away from the knot until it stops): still the surgeon's knot, and no state of the
 /// pulls carries a link through another (the pull stops where a joint would jump more than half a
