@@ -255,6 +255,17 @@ struct AllStates {
 }
 
 impl AllStates {
+    /// [`AllStates::start`] on `chain` from the state it is in now (asked on `c`); with its id.
+    fn of_chain(svc: &Service, c: &mut clients::Connection, chain: &str) -> (u32, Self) {
+        let id = c.require_chain(chain).unwrap();
+        let seq0 = c
+            .call(RequestHeader::new(Command::Query, id), &[])
+            .unwrap()
+            .header
+            .sequence;
+        (id, Self::start(svc, id, seq0))
+    }
+
     fn start(svc: &Service, id: u32, seq0: u64) -> Self {
         let prefix = svc.prefix.clone();
         let stop = Arc::new(AtomicBool::new(false));
@@ -428,13 +439,7 @@ fn whole_stitch(chain: &str, link: f64, extra: &[&str], closes_by: f64) {
     let tightened = extra.contains(&"--tighten");
     let svc = stitch_service(&["--state-buffer", "4096"]);
     let mut c = svc.connect();
-    let id = c.require_chain(chain).unwrap();
-    let seq0 = c
-        .call(RequestHeader::new(Command::Query, id), &[])
-        .unwrap()
-        .header
-        .sequence;
-    let watched = AllStates::start(&svc, id, seq0);
+    let (id, watched) = AllStates::of_chain(&svc, &mut c, chain);
     let dir = tempfile::tempdir().unwrap();
     let pass_record = dir.path().join("pass.jsonl");
     let out = tests::hand_output(hand(
@@ -649,14 +654,7 @@ fn the_whole_stitch_passes_the_needle_and_ties_the_surgeons_knot_over_the_bite_a
 #[test]
 fn the_whole_stitch_s_pass_perturbed_at_160_links_draws_the_suture_out_at_a_shallow_angle() {
     let svc = stitch_service(&["--state-buffer", "4096"]);
-    let mut c = svc.connect();
-    let id = c.require_chain("stitch-160").unwrap();
-    let seq0 = c
-        .call(RequestHeader::new(Command::Query, id), &[])
-        .unwrap()
-        .header
-        .sequence;
-    let watched = AllStates::start(&svc, id, seq0);
+    let (_, watched) = AllStates::of_chain(&svc, &mut svc.connect(), "stitch-160");
     let out = tests::hand_output(hand(&svc, "stitch-pass", "stitch-160", &["--perturb", "8"]));
     let seen = watched.finish();
     assert!(
