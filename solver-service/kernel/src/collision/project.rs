@@ -190,7 +190,6 @@ where
     }
     for (k, ob) in model.obstacles.iter().enumerate() {
         let skip = super::untested(model, k, &ws.through);
-        let block = matches!(ob, Obstacle::Block { .. });
         if !ws
             .meter
             .charge((n as u64).saturating_mul(cost::obstacle_per_link(ob)))
@@ -233,7 +232,7 @@ where
             };
             // Beside a hole only the axis is kept out of the block (the tolerance still the
             // radius's).
-            let reach = if block && super::presses(model, k, &ws.through, ws.pressed, i) {
+            let reach = if super::presses(model, k, &ws.through, ws.pressed, i) {
                 T::zero()
             } else {
                 clearance
