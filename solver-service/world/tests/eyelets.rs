@@ -767,7 +767,7 @@ eyelet_friction = 1.0
             let (a, b) = (i.saturating_sub(2), 160);
             through = Some(through.map_or((a, b), |(x, y): (usize, usize)| (x.min(a), y.max(b))));
         }
-        let press = (4.0 * t / link) as usize;
+        let press = ((4.0 * t / link).ceil() as usize).max(1);
         for (i, l) in j.windows(2).enumerate() {
             let (reach, what) = match through {
                 Some((a, b)) if (a..b).contains(&i) => continue,
