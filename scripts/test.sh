@@ -10,21 +10,36 @@ step() {
   "$@"
   echo "[test.sh] $name: $((SECONDS - t0)) s" >&2
 }
-step "the binaries (test profile)" cargo build --workspace --bins --profile test
+# The binaries the end-to-end tests start, the C library (libtractrix_client.so and .a) that the C and
+# C++ examples link against, and the Rust quick start (`--example hello`, built here, once: two tests run
+# it at once, and one building it while the other started it failed under load, "Permission denied"
+# executing the half-written file). One cargo command for the three: built one by one (`-p
+# tractrix-client`, `-p clients`), cargo resolved fewer features for their dependencies and compiled
+# nalgebra, the kernel, the world and the clients a second and a third time (3 minutes of a CI run).
+step "the binaries, the C library and the Rust quick start (test profile)" \
+  cargo build --workspace --lib --bins --example hello --profile test
+# The Python client's venv (PyPI wheel iceoryx2==0.10.0) for the end-to-end test of the Python client,
+# then Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames): downloads and
+# installs, so they run in the background while the viewer compiles, and their output goes to a log.
+setup_log=$(mktemp)
+(
+  step "the Python venv (iceoryx2, MuJoCo, rerun-sdk, Ray)" scripts/python-venv.sh
+  step "Mono and OSMesa" scripts/system-packages.sh
+) >"$setup_log" 2>&1 &
+setup=$!
 # `watch` with the Rerun viewer (cargo feature `rerun`, many dependencies): built once, here, into
 # target/viewer/, in the profile `viewer` (no optimisation, no debug info: a much shorter build than the
 # optimised test profile's).
 step "the Rerun viewer (watch --features rerun)" \
   cargo build -p clients --features rerun --bin watch --profile viewer
-# The C library (libtractrix_client.so and .a) that the C and C++ examples link against.
-step "the C library" cargo build -p tractrix-client --lib --profile test
-# The Rust quick start (`--example hello`), built here, once: two tests run it at once, and one building
-# it while the other started it failed under load ("Permission denied" executing the half-written file).
-step "the Rust quick start" cargo build -p clients --example hello --profile test
-# The Python client's venv (PyPI wheel iceoryx2==0.10.0) for the end-to-end test of the Python client.
-step "the Python venv (iceoryx2, MuJoCo, rerun-sdk, Ray)" scripts/python-venv.sh
-# Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames).
-step "Mono and OSMesa" scripts/system-packages.sh
+setup_rc=0
+wait "$setup" || setup_rc=$?
+cat "$setup_log" >&2
+rm -f "$setup_log"
+if [ "$setup_rc" != 0 ]; then
+  echo "scripts/test.sh: the Python venv or the system packages failed (exit $setup_rc, output above)" >&2
+  exit "$setup_rc"
+fi
 # The test binaries, built before any CPU hog starts: the hog loads the tests, not the compiler (built
 # beside two hogs, they took 6 of the 21 minutes of a CI run).
 step "the test binaries" cargo test --workspace --no-run "$@"
