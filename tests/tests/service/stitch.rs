@@ -391,6 +391,33 @@ fn two_hands_pass(chain: &str, link: f64) {
     let (_, joints, held, eyelets) = seen.last().expect("states were published");
     assert!(held.is_empty(), "{chain}: the hands let go at the end");
     let t = check_pass(joints, eyelets, link, chain, &out);
+    // The needle (the scene's `needle`: radius 0.5, 120°, 0.15 thick) on the wire: six capsules end
+    // to end from the head; the rope keeps its radius plus the needle's from every one of them (to
+    // the 1 % tolerance) but for the links within the first capsule's reach of the head.
+    let r = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    let parts = Parts::of_response(&r.header, &r.payload);
+    let needle: Vec<_> = parts.instrument_poses().collect();
+    assert_eq!(needle.len(), 6, "{chain}: {needle:?}");
+    let v = |p: Vec3| nalgebra::Vector3::from(p.to_array());
+    let head = v(parts.joints[parts.joints.len() - 1]);
+    assert!(
+        (v(needle[0].a) - head).norm() < 1e-9,
+        "{chain}: the needle off the head"
+    );
+    let reach = (v(needle[0].b) - head).norm() + 0.125;
+    for w in parts.joints.windows(2) {
+        let (a, b) = (v(w[0]), v(w[1]));
+        if (a - head).norm() < reach || (b - head).norm() < reach {
+            continue;
+        }
+        for p in &needle {
+            let d = clients::check::segment_distance(a, b, v(p.a), v(p.b));
+            assert!(
+                d >= 0.125 * 0.99,
+                "{chain}: a link {d} from the needle's axis"
+            );
+        }
+    }
     println!("{chain}: {} states, each checked; tail {t:.2}", seen.len());
 }
 
