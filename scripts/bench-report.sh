@@ -101,6 +101,8 @@ block ab-collision "scripts/ab-collision.sh 5d2b880 $AB_ROUNDS" \
   scripts/ab-collision.sh 5d2b880 "$AB_ROUNDS"
 block contact "cargo bench -p clients --bench contact" \
   cargo bench -q -p clients --bench contact
+block ab-contact "scripts/ab-contact.sh c11c4fe $AB_ROUNDS" \
+  scripts/ab-contact.sh c11c4fe "$AB_ROUNDS"
 block tighten "cargo bench -p clients --bench tighten" \
   cargo bench -q -p clients --bench tighten
 block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p clients --bench knots" \
