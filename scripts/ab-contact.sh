@@ -6,29 +6,22 @@
 #
 #   scripts/ab-contact.sh BASE [ROUNDS] [ROWS]   # ROWS as CONTACT_BENCH_ONLY (scripts or chains)
 #
-# BASE's binaries are built from a worktree into this checkout's target directory (the crates.io
-# dependencies are shared, so only the project's crates compile) and copied aside; then this
-# checkout's are built again. The bench itself, and the scene it reads, are this checkout's.
+# BASE's binaries are built from a worktree into a target directory of their own (the first run
+# builds every dependency there too; a worktree built into this checkout's target directory would
+# overwrite this checkout's crates, which cargo hashes by their path in the workspace, and leave them
+# looking fresh). The bench itself, and the scene it reads, are this checkout's.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BASE=${1:?usage: scripts/ab-contact.sh BASE [ROUNDS] [ROWS]}
 ROUNDS=${2:-3}
 ROWS=${3:-overhand,square,square-held,instrument-tie,surgeons-knot,instrument-square}
 WT=target/ab-contact-base
-BIN=$PWD/target/ab-contact-bin
+BIN=$PWD/target/ab-contact-target
 [ -d "$WT" ] || git worktree add --detach "$WT" "$BASE" >/dev/null
 (cd "$WT" && git checkout -q --detach "$BASE")
 base_rev=$(git -C "$WT" rev-parse --short HEAD)
-(cd "$WT" && CARGO_TARGET_DIR=$PWD/../../target cargo build -q --release --bins)
-rm -rf "$BIN" && mkdir -p "$BIN/release"
-for b in solver-service hand chainctl; do
-  cp target/release/$b "$BIN/release/"
-done
+(cd "$WT" && CARGO_TARGET_DIR=$BIN cargo build -q --release --bins)
 cargo build -q --release --bins
-if cmp -s target/release/solver-service "$BIN/release/solver-service"; then
-  echo "scripts/ab-contact.sh: target/release/solver-service is still BASE's after the rebuild" >&2
-  exit 1
-fi
 bench=$(cargo bench -q -p clients --bench contact --no-run --message-format json 2>/dev/null |
   python3 -c 'import json,sys
 for l in sys.stdin:
