@@ -4,7 +4,7 @@
 # the tissue, under the incision and out, drawing the suture through both eyelets
 # (`hand run --builtin needle-pass-held`, hands A and B). The last state is drawn by `watch --svg-last`
 # into docs/needle-pass.svg, seen from the side and a little above (the tissue, which the service's
-# describe carries, drawn as a box; the eyelets as crosses); the hand's report of the eyelets and the tail is printed. Seconds after
+# describe carries, drawn as a box; the eyelets as crosses; the needle, grey, at the head); the hand's report of the eyelets and the tail is printed. Seconds after
 # the release build.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -51,7 +51,7 @@ struct Args {
     /// CSV output file ("-" for standard output).
     #[arg(long)]
     csv: Option<PathBuf>,
-    /// Write SVG frames into DIR.
+    /// Write SVG frames into DIR (each state's rope, its tissue, eyelets and capsule instruments).
     #[arg(long)]
     svg: Option<PathBuf>,
     /// Keep every Nth state of each chain for the SVG frames.
@@ -347,6 +347,7 @@ fn run(a: Args) -> Result<u8> {
                     a.svg_knot,
                     eyelets,
                     info.tissue,
+                    capsule_axes(&instruments.0),
                 );
                 if a.svg_last {
                     last_frames.insert(h.chain, frame);
@@ -794,6 +795,7 @@ type Pending = (
     bool,
     Vec<[f64; 3]>,
     Option<([f64; 3], [f64; 3])>,
+    Vec<Vec<[f64; 3]>>,
 );
 
 /// A state of `--sheet`: its sequence, joints and threaded eyelets' points, and its instruments'
@@ -820,11 +822,7 @@ impl Sheet {
         held: &[clients::viewer::Held],
         (instruments, eyelets): (&[shared::InstrumentPose], &[shared::EyeletState]),
     ) {
-        let axes: Vec<Vec<[f64; 3]>> = instruments
-            .iter()
-            .filter(|i| i.capsule)
-            .map(|i| vec![i.a.to_array(), i.b.to_array()])
-            .collect();
+        let axes = capsule_axes(instruments);
         let now = (
             held.iter().map(|h| h.joint).collect::<Vec<_>>(),
             eyelets
@@ -915,11 +913,7 @@ impl Sheet {
                 Frame {
                     label: format!("{name} after change {s} ({what})"),
                     lines: tissue_lines(tissue)
-                        .chain(axes.iter().map(|a| Polyline {
-                            joints: a.clone(),
-                            color: (110, 110, 120),
-                            markers: false,
-                        }))
+                        .chain(instrument_lines(axes))
                         .chain(std::iter::once(Polyline {
                             joints: joints.clone(),
                             color: (20, 60, 160),
@@ -936,6 +930,24 @@ impl Sheet {
         write_frames_svg(file, name, &frames, view, 4)?;
         Ok(frames.len())
     }
+}
+
+/// The axes of a chain's capsule instruments (the driver's jaws, a needle's capsules), end to end.
+fn capsule_axes(instruments: &[shared::InstrumentPose]) -> Vec<Vec<[f64; 3]>> {
+    instruments
+        .iter()
+        .filter(|i| i.capsule)
+        .map(|i| vec![i.a.to_array(), i.b.to_array()])
+        .collect()
+}
+
+/// Capsule instruments' axes as grey polylines.
+fn instrument_lines(axes: &[Vec<[f64; 3]>]) -> impl Iterator<Item = Polyline> + '_ {
+    axes.iter().map(|a| Polyline {
+        joints: a.clone(),
+        color: (110, 110, 120),
+        markers: false,
+    })
 }
 
 /// The edges of a chain's tissue as polylines in its flesh colour (none without tissue).
@@ -979,7 +991,7 @@ fn box_edges((lo, hi): ([f64; 3], [f64; 3])) -> Vec<Vec<[f64; 3]>> {
 
 fn draw(
     dir: &std::path::Path,
-    (name, sequence, knot, view, joints, planar, per, crop, eyelets, tissue): Pending,
+    (name, sequence, knot, view, joints, planar, per, crop, eyelets, tissue, axes): Pending,
 ) -> Result<u64> {
     let joints = if crop {
         knotted_part(&joints, knot)
@@ -1001,6 +1013,7 @@ fn draw(
             None => format!("{name} after change {sequence}{eyelets_note}"),
         },
         lines: tissue_lines(tissue.filter(|_| !crop))
+            .chain(instrument_lines(if crop { &[] } else { &axes[..] }))
             .chain(joints.chunks(per.max(1)).map(|s| Polyline {
                 joints: s.to_vec(),
                 color: (20, 60, 160),

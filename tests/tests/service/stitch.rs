@@ -588,7 +588,9 @@ fn watch_draws_the_key_frames_of_a_pass_in_one_svg() {
     let mut watch = Process::new(bin("watch"))
         .args(["--prefix", &svc.prefix, "--chain", "suture-80", "--sheet"])
         .arg(&sheet)
-        .args(["--count", "420", "--duration", "200"])
+        .arg("--svg")
+        .arg(dir.path().join("frames"))
+        .args(["--svg-last", "--count", "420", "--duration", "200"])
         .stdout(Stdio::null())
         .stderr(std::fs::File::create(&log).unwrap())
         .spawn()
@@ -651,15 +653,25 @@ fn watch_draws_the_key_frames_of_a_pass_in_one_svg() {
     // The needle (`suture-80`'s six capsules): bluish grey lines, red and green within a few levels
     // of each other, blue a little above red (the rope is blue well above red, the panels' frames
     // pure grey), six in each panel.
-    let needle_lines = svg
-        .match_indices("stroke=\"#")
-        .filter(|(at, _)| {
-            let hex = &svg[at + 9..at + 15];
-            let c = |k: usize| i32::from(u8::from_str_radix(&hex[k..k + 2], 16).unwrap_or(0));
-            (c(0) - c(2)).abs() <= 4 && (1..=12).contains(&(c(4) - c(0)))
-        })
-        .count();
-    assert!(needle_lines >= 4 * 6, "{needle_lines} needle lines");
+    let needle_lines = |svg: &str| {
+        svg.match_indices("stroke=\"#")
+            .filter(|(at, _)| {
+                let hex = &svg[at + 9..at + 15];
+                let c = |k: usize| i32::from(u8::from_str_radix(&hex[k..k + 2], 16).unwrap_or(0));
+                (c(0) - c(2)).abs() <= 4 && (1..=12).contains(&(c(4) - c(0)))
+            })
+            .count()
+    };
+    let n = needle_lines(&svg);
+    assert!(n >= 4 * 6, "{n} needle lines");
+    // `--svg --svg-last`: one frame, the last state, with the needle too.
+    let frames: Vec<_> = std::fs::read_dir(dir.path().join("frames"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(frames.len(), 1, "{frames:?}");
+    let n = needle_lines(&std::fs::read_to_string(&frames[0]).unwrap());
+    assert!(n >= 6, "{n} needle lines in the last frame");
 }
 
 #[test]
