@@ -899,3 +899,69 @@ fn tissue_moved_under_a_held_rope_with_collision_keeps_its_thickness() {
     println!("{accepted} accepted, {refused} refused");
     assert!(accepted >= 150, "{accepted} accepted, {refused} refused");
 }
+
+/// A locked substep of a threaded move is done again as two halves: with the collision passes cut to
+/// `PASSES`, the held-tail sweep of [`with_collision_a_held_tail_stays_and_the_rope_keeps_its_thickness`]
+/// (the head over the rope's middle and moved about it) locks moves whose whole substeps need more
+/// passes than that, and the halves, half as deep into the contact, need fewer. Every accepted move keeps
+/// the tail bit for bit, the eyelets on their links and the links a thickness apart (computed here);
+/// a refusal changes nothing. Checked to fail without the halves: all but 4 of the 300 moves locked.
+#[test]
+fn a_threaded_substep_that_locks_is_done_again_in_halves() {
+    use tractrix::collision::{CollisionModel, CollisionOptions, CollisionWorkspace};
+    use tractrix::eyelet::move_threaded_colliding;
+    const PASSES: u32 = 3;
+    let model = CollisionModel {
+        options: CollisionOptions {
+            max_iterations: PASSES,
+            ..CollisionOptions::default()
+        },
+        obstacles: vec![],
+        holding: vec![],
+    };
+    let mut rng = Rng(0x5711);
+    let (mut ws, mut cws) = (EyeletWorkspace::new(), CollisionWorkspace::new());
+    let mut r = rope();
+    let mut e = two_eyelets(&r);
+    for p in [V::new(3.0, 4.0, 0.0), V::new(7.0, 5.0, 1.0)] {
+        move_threaded(&mut r, 0, p, &mut e, 1000, &mut ws).unwrap();
+    }
+    r.hold(0).unwrap();
+    let tail = r.joint(0);
+    let centre = V::new(20.0, 2.0, 0.0);
+    let start = r.joint(40);
+    let (mut accepted, mut locked, mut other) = (0, 0, 0);
+    for k in 0..300 {
+        let to = if k < 20 {
+            start + (centre - start) * ((k + 1) as f64 / 20.0)
+        } else {
+            centre
+                + V::new(
+                    rng.range(-3.0, 3.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-0.3, 0.3),
+                )
+        };
+        let (before, links) = (r.positions(), e.map(|e| e.link));
+        match move_threaded_colliding(&mut r, 40, to, &mut e, 10_000, &model, &mut cws, &mut ws) {
+            Ok(_) => {
+                accepted += 1;
+                assert_eq!(r.joint(0), tail, "move {k}: the held tail moved");
+                check(&r, &e, 1e-9, &format!("move {k}"));
+                let c = clearance(&r.positions());
+                assert!(c >= 0.2 * (1.0 - 0.01) - 1e-9, "move {k}: links {c} apart");
+            }
+            Err(err) => {
+                if matches!(err, EyeletError::Chain(tractrix::ChainError::Locked { .. })) {
+                    locked += 1;
+                } else {
+                    other += 1;
+                }
+                assert_eq!(r.positions(), before, "move {k}: refused, unchanged");
+                assert_eq!(e.map(|e| e.link), links);
+            }
+        }
+    }
+    println!("{PASSES} passes: {accepted} accepted, {locked} locked, {other} refused otherwise");
+    assert!(locked == 0 && accepted > 250, "{accepted} {locked} {other}");
+}
