@@ -7,7 +7,7 @@
 # release build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build -q --release -p solver-service -p clients --bins
+cargo build -q --release --bins
 prefix="tight_pic_$$_"
 tmp=$(mktemp -d)
 trap 'kill $svc $watcher 2>/dev/null || true; rm -rf "$tmp"' EXIT

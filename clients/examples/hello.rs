@@ -1,5 +1,5 @@
 //! The smallest Rust client: move the rope's head and print where it is.
-//! `cargo run --release -p clients --example hello -- [PREFIX]`
+//! `cargo run --release --example hello -- [PREFIX]`
 use clients::{ConnectOptions, Connection};
 use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
 

@@ -122,7 +122,7 @@ pub fn count_refusal(refused: &mut Vec<(String, u64)>, name: &str) {
 #[derive(Debug, thiserror::Error)]
 pub enum CallError {
     #[error(
-        "no solver-service runs with prefix {prefix:?} (waited {waited:?}; start one: cargo run --release -p solver-service, or wait longer: --wait-for-service SECONDS)"
+        "no solver-service runs with prefix {prefix:?} (waited {waited:?}; start one: cargo run --release --bin solver-service, or wait longer: --wait-for-service SECONDS)"
     )]
     NoService { prefix: String, waited: Duration },
     #[error(

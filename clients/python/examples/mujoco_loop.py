@@ -6,7 +6,7 @@ end along a small circle; the rest of the scene (a ball rolling on a table) is M
 loop runs twice, with and without the service, and prints the step time's percentiles of each, so the
 service's share of a 1 kHz step is measured, not guessed.
 
-    cargo run --release -p solver-service &          # a service on the default scene
+    cargo run --release --bin solver-service &      # a service on the default scene
     target/pyenv/bin/python clients/python/examples/mujoco_loop.py --prefix tractrix_ --steps 2000
 
 `--json` prints one JSON object instead, with the capsule centres MuJoCo holds at the end (for a test

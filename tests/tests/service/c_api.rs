@@ -18,14 +18,9 @@ pub(crate) fn lib_dir() -> PathBuf {
     if !dir.join("libtractrix_client.so").exists() {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let status = Process::new(cargo)
-            .args([
-                "build",
-                "-p",
-                "tractrix-client",
-                "--lib",
-                "--profile",
-                "test",
-            ])
+            // Every library of the workspace, as scripts/test.sh builds them: `-p tractrix-client` alone
+            // resolves other features for the dependencies and builds them again.
+            .args(["build", "--lib", "--profile", "test"])
             .status()
             .expect("run cargo build");
         assert!(status.success(), "building the C library failed");
@@ -319,7 +314,7 @@ fn every_language_s_smallest_program_moves_the_rope() {
     let rust = {
         let p = lib.join("examples/hello");
         if !p.exists() {
-            tests::cargo_build(&["-p", "clients", "--example", "hello", "--profile", "test"]);
+            tests::cargo_build(&["--example", "hello", "--profile", "test"]);
         }
         p.display().to_string()
     };
