@@ -182,10 +182,6 @@ pub struct EyeletWorkspace<T: Real, const D: usize> {
     /// A threaded move with collision: the chain before it, and the joints its resolution fixes.
     backup: Option<Chain<T, D>>,
     fixed: Vec<usize>,
-    /// A threaded move with collision: the chain and the eyelets' links and flags where the current
-    /// substep (or piece of one) started, to do it again as two halves when it locks.
-    piece: Option<Chain<T, D>>,
-    piece_saved: Vec<(usize, bool)>,
     /// A move with held joints: how closely the rope must meet each held joint (a fraction of the
     /// rope's length between it and the moved joint) before the closing links take up the rest, and
     /// the most alternations per substep ([`EyeletWorkspace::with_holds`]).
@@ -212,8 +208,6 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
             ahead: Vec::new(),
             backup: None,
             fixed: Vec::new(),
-            piece: None,
-            piece_saved: Vec::new(),
             held_tolerance: 1e-9,
             held_iterations: 16,
             friction: 0.0,
@@ -257,7 +251,10 @@ where
     /// Keeps a copy of `chain` to put back if a move with collision is refused (no allocation once
     /// warm).
     fn keep(&mut self, chain: &Chain<T, D>) {
-        keep_piece(&mut self.backup, chain);
+        match &mut self.backup {
+            Some(b) if b.n_links() == chain.n_links() => b.copy_from(chain),
+            b => *b = Some(chain.clone()),
+        }
     }
 
     /// Sized to `chain`, its positions in `new`, the eyelets' links and flags saved (for a refusal).
@@ -420,32 +417,14 @@ where
         (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
     }
     let mut out = Threaded::default();
-    // With collision, a substep whose contacts the passes cannot part (or, in a pull, that carries a
-    // joint more than half a clearance) is done again as two halves from where it started, at most
-    // `SPLITS` deep, as a pull's substeps are in `collision::move_held_colliding`: half as deep into a
-    // contact, its passes part it (the whole stitch's 160-link tie locked 129 threaded moves in 16
-    // runs without it). The stack holds the split pieces: (fraction of the way at its end, depth).
-    let mut pieces: Vec<(T, u32)> = Vec::new();
-    let mut s = 0u32;
-    while s < steps || !pieces.is_empty() {
-        let (t, depth) = match pieces.pop() {
-            Some(p) => p,
-            None => {
-                s += 1;
-                (T::lit(f64::from(s)) / k, 0)
-            }
-        };
+    for s in 1..=steps {
         if collision.is_some() {
-            // The pose the last resolution left, kept to do this piece again.
+            // The pose the last resolution left.
             chain.write_positions(&mut ws.old);
-            keep_piece(&mut ws.piece, chain);
-            ws.piece_saved.clear();
-            ws.piece_saved
-                .extend(eyelets.iter().map(|e| (e.link, e.threaded)));
         } else {
             std::mem::swap(&mut ws.old, &mut ws.new);
         }
-        let to = from + way * t;
+        let to = from + way * (T::lit(f64::from(s)) / k);
         let done = substep(
             &ws.old,
             &mut ws.new,
@@ -478,21 +457,6 @@ where
                 out.left += left;
                 out.held_iterations += iterations;
             }
-            Err(EyeletError::Chain(ChainError::Locked { .. } | ChainError::Jumped { .. }))
-                if depth < SPLITS && collision.is_some() =>
-            {
-                if let Some(p) = &ws.piece {
-                    chain.copy_from(p);
-                }
-                for (e, &(link, on)) in eyelets.iter_mut().zip(&ws.piece_saved) {
-                    (e.link, e.threaded) = (link, on);
-                }
-                // Again as two halves: the second half's end first on the stack, popped last.
-                let from_t = t - T::one() / (k * T::lit(f64::from(1u32 << depth)));
-                pieces.push((t, depth + 1));
-                pieces.push(((from_t + t) * T::lit(0.5), depth + 1));
-                continue;
-            }
             Err(err) => {
                 if let (Some(_), Some(b)) = (&collision, &ws.backup) {
                     chain.copy_from(b);
@@ -509,20 +473,6 @@ where
         set_threaded(chain, joint, &ws.new)?;
     }
     Ok(out)
-}
-
-/// How many times a locked substep of a threaded move with collision is halved (at most 2⁴ pieces).
-const SPLITS: u32 = 4;
-
-/// Copies `chain` into `slot` (no allocation once warm).
-fn keep_piece<T: Real, const D: usize>(slot: &mut Option<Chain<T, D>>, chain: &Chain<T, D>)
-where
-    Vector<T, D>: Embed3<T>,
-{
-    match slot {
-        Some(b) if b.n_links() == chain.n_links() => b.copy_from(chain),
-        b => *b = Some(chain.clone()),
-    }
 }
 
 /// Refuses a substep (`Jumped`) in which a joint moved from `old` to `new` by more than half the
