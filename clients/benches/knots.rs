@@ -895,6 +895,7 @@ fn world_move<'a>(
         take_over: false,
         smooth: false,
         pull,
+        drive: false,
     }
 }
 

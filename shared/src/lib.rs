@@ -171,7 +171,9 @@
 //!   bundle's move by one rigid motion of its heads), bit 2 [`FLAG_TAKE_OVER`] (grasp, release, move,
 //!   path, reset: take over another client's grasps), bit 3 [`FLAG_ORIENT`], bit 4 [`FLAG_IN_BOX`],
 //!   bit 5 [`FLAG_IN_BALL`] (reach goals), bit 6 [`FLAG_SMOOTH`] (path), bit 7 [`FLAG_PULL`] (move and
-//!   instrument: as far as the rope lets, the rest reported as the pull).
+//!   instrument: as far as the rope lets, the rest reported as the pull), bit 8 [`FLAG_DRIVE`] (a
+//!   move of the head of a chain with a needle: the needle driven along its arc, its point making the
+//!   holes).
 //! * `kind` ([`ChainKind`]): 0 free (rope, snake), 1 fixed base, 2 bundle. `collision`: bit 0 self, bit 1 obstacles.
 
 use bytemuck::{Pod, Zeroable};
@@ -288,6 +290,13 @@ pub const FLAG_SMOOTH: u32 = 64;
 /// refused, and the rest is the joint's (or instrument's) pull in the payload (`n_pulls`): the
 /// tension a haptic hand feels, docs/tension.md.
 pub const FLAG_PULL: u32 = 128;
+/// Move of a chain's head (one target) when the chain carries a needle: the needle is *driven*, as a
+/// needle driver drives a curved needle through tissue: instead of turning with the head link, it
+/// goes along the circular arc from its swage to the target that leaves the swage along the needle's
+/// own direction (a target on the needle's circle turns it about its centre, so its point, body and
+/// swage all pass where the point went), and where its point crosses the tissue's surface it makes a
+/// hole (an eyelet the rope has not yet threaded) that the rope then threads (docs/eyelets.md).
+pub const FLAG_DRIVE: u32 = 256;
 
 /// Most joints (strands × (links + 1)) of one bundle: 24 MiB per state sample in `Vec3`s.
 pub const MAX_BUNDLE_JOINTS: u32 = 1 << 20;

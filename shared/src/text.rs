@@ -20,7 +20,7 @@
 //! rigid motion `R(rotation)·h0 + target`. Unknown fields are an error.
 
 use crate::{
-    Command, FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_PULL,
+    Command, FLAG_ANGLES, FLAG_DRIVE, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_PULL,
     FLAG_SMOOTH, FLAG_TAKE_OVER, InstrumentPose, JOINT_HEAD, MAX_PATH_POINTS, Parts, Precision,
     RequestHeader, ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
@@ -97,6 +97,9 @@ pub struct TextRequest {
     /// ([`crate::FLAG_PULL`]).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub pull: bool,
+    /// A move of the head that drives the chain's needle along its arc ([`crate::FLAG_DRIVE`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub drive: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub request_id: Option<u64>,
 }
@@ -241,6 +244,12 @@ impl TextRequest {
                 ));
             }
             h.flags |= FLAG_PULL;
+        }
+        if self.drive {
+            if command != Command::Move {
+                return Err(format!("{}: `drive` is for a move", self.cmd));
+            }
+            h.flags |= FLAG_DRIVE;
         }
         h.request_id = self.request_id.unwrap_or(0);
         let goals = [

@@ -455,6 +455,13 @@ fn every_error_leaves_the_state_unchanged() {
             "is for path",
         ),
         (
+            "drive on a chain without a needle",
+            with(Move, 0, &|h| h.flags = shared::FLAG_DRIVE),
+            p(1., 0., 0.),
+            Status::BadOption,
+            "carries no needle",
+        ),
+        (
             "NaN reach target",
             req(Reach, 2),
             p(f64::NAN, 0., 0.),

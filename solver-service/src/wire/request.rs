@@ -7,9 +7,9 @@
 //! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
 
 use shared::{
-    FLAG_ANGLES, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_PULL, FLAG_SMOOTH, FLAG_TAKE_OVER,
-    JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader, Status, SubstepMode,
-    Vec3, WireMethod, WireStrategy,
+    FLAG_ANGLES, FLAG_DRIVE, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_PULL, FLAG_SMOOTH,
+    FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader, Status,
+    SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use tractrix::{Method, MoveOptions, ReachOptions, Strategy, Substeps};
 use world::scene::{ChainKind, ChainSpec};
@@ -86,7 +86,8 @@ pub fn decode<'a>(
             | FLAG_IN_BOX
             | FLAG_IN_BALL
             | FLAG_SMOOTH
-            | FLAG_PULL,
+            | FLAG_PULL
+            | FLAG_DRIVE,
     )?;
     if h.flags & FLAG_PULL != 0
         && !matches!(command, shared::Command::Move | shared::Command::Instrument)
@@ -377,6 +378,22 @@ fn move_or_path<'a>(
         }
         SubstepMode::MaxStep => Substeps::MaxStep(h.max_step),
     };
+    let drive = h.flags & FLAG_DRIVE != 0;
+    if drive {
+        if spec.needle.is_none() {
+            return Err(refuse!(
+                BadOption,
+                "flag drive (256): chain {:?} carries no needle",
+                spec.name
+            ));
+        }
+        if h.command != shared::Command::Move as u32 || joint + 1 != spec.points.len() {
+            return Err(refuse!(
+                BadOption,
+                "flag drive (256) is for a move of the head, the needle's swage"
+            ));
+        }
+    }
     Ok(Command::Move {
         chain,
         joint,
@@ -389,6 +406,7 @@ fn move_or_path<'a>(
         take_over,
         smooth: h.flags & FLAG_SMOOTH != 0,
         pull: h.flags & FLAG_PULL != 0,
+        drive,
     })
 }
 

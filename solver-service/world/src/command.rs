@@ -35,6 +35,10 @@ pub enum Command<'a> {
         /// out of reach, contact locked, a joint limit) goes as far toward the target as it can, and
         /// the rest is the joint's pull ([`crate::tension`]) instead of a refusal.
         pull: bool,
+        /// Drive the chain's needle (the wire's `FLAG_DRIVE`; a move of the head of a chain with a
+        /// needle): it goes along its own arc instead of turning with the head link, and its point
+        /// makes holes in the tissue ([`crate::needle`]).
+        drive: bool,
     },
     /// Bring a fixed-base chain's head to its goal: a point, a pose of the last link, or anywhere in a
     /// region.

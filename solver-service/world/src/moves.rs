@@ -110,13 +110,56 @@ where
     (b, (b - a).normalize())
 }
 
+/// The needle's capsules (f64), in order from the swage.
+fn needle_capsules<T: Real, const D: usize>(g: &LiveChain<T, D>) -> Vec<Obstacle<f64, 3>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let (Some(nd), Some((model, _))) = (g.needle, g.collision.as_ref()) else {
+        return Vec::new();
+    };
+    let at = g.instruments_at + nd.first;
+    model.obstacles[at..at + nd.segments]
+        .iter()
+        .map(|o| match *o {
+            Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
+                a: to_point(&a),
+                b: to_point(&b),
+                radius: radius.to_f64(),
+            },
+            _ => Obstacle::HalfSpace {
+                point: Point::zeros(),
+                normal: Point::z(),
+            },
+        })
+        .collect()
+}
+
+/// A driven needle before a move: its swage, its tangent there and its point (the far end).
+fn needle_frame<T: Real, const D: usize>(g: &LiveChain<T, D>) -> Option<(Point, Point, Point)>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let nd = g.needle?;
+    let caps = needle_capsules(g);
+    let (Some(Obstacle::Capsule { a: swage, .. }), Some(Obstacle::Capsule { b: tip, .. })) =
+        (caps.first(), caps.last())
+    else {
+        return None;
+    };
+    Some((*swage, crate::needle::tangent(&nd, &caps)?, *tip))
+}
+
 /// A move of `joint`; the instruments that follow it are then carried by the joint's displacement,
-/// pushing the rest of the rope (locked: the whole move is refused).
+/// pushing the rest of the rope (locked: the whole move is refused). With `drive` (a move of the
+/// head), the needle goes along its own arc instead of turning with the head link
+/// ([`crate::needle::drive`]), and where its point crosses the tissue's surface it makes a hole.
 pub(crate) fn move_and_carry<T: Real, const D: usize>(
     g: &mut LiveChain<T, D>,
     joint: usize,
     targets: &[Point],
     opts: &MoveOptions<f64>,
+    drive: bool,
 ) -> Result<MoveOutcome, Refusal>
 where
     Vector<T, D>: Embed3<T>,
@@ -131,6 +174,7 @@ where
     for t in targets {
         let from = g.chain.joint(joint);
         let swage = g.needle.map(|_| head_frame(&g.chain));
+        let driven = if drive { needle_frame(g) } else { None };
         let m = move_path(g, joint, std::slice::from_ref(t), opts)?;
         outcome.substeps = outcome.substeps.saturating_add(m.substeps);
         outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(m.paper_fallbacks);
@@ -139,6 +183,11 @@ where
             .saturating_add(m.collision_iterations);
         let delta = g.chain.joint(joint) - from;
         let swaged = g.needle.map(|_| head_frame(&g.chain));
+        // A driven needle's motion: from its swage along its arc to where the head landed.
+        let motion = driven.map(|(s, tangent, _)| {
+            let to = to_point(&g.chain.joint(g.chain.n_links()));
+            (s, crate::needle::drive(s, tangent, to), to)
+        });
         // The joints, for the needle's clearance (again after a push moved the rope).
         let mut joints = std::mem::take(&mut g.needle_joints);
         if g.needle.is_some() {
@@ -156,18 +205,26 @@ where
             let to = match model.obstacles[at] {
                 // The needle: carried rigidly with the head (whichever joint moved).
                 Obstacle::Capsule { a, b, radius } if needle.contains(&k) => {
-                    let (Some(before), Some(after)) = (swage, swaged) else {
-                        continue;
-                    };
-                    if before == after {
-                        continue;
-                    }
                     let o = Obstacle::Capsule {
                         a: to_point(&a),
                         b: to_point(&b),
                         radius: radius.to_f64(),
                     };
-                    match crate::needle::carry(&o, before, after) {
+                    let carried = if let Some((s, rotation, to)) = motion {
+                        if s == to {
+                            continue;
+                        }
+                        crate::needle::moved(&o, s, &rotation, to)
+                    } else {
+                        let (Some(before), Some(after)) = (swage, swaged) else {
+                            continue;
+                        };
+                        if before == after {
+                            continue;
+                        }
+                        crate::needle::carry(&o, before, after)
+                    };
+                    match carried {
                         Obstacle::Capsule { a, b, .. } => Obstacle::Capsule {
                             a: point(a),
                             b: point(b),
@@ -226,8 +283,45 @@ where
                 .saturating_add(m.collision_iterations);
         }
         g.needle_joints = joints;
+        if let Some((_, _, tip)) = driven {
+            cut(g, tip)?;
+        }
     }
     Ok(outcome)
+}
+
+/// After a driven needle's step: where its point went into or out of the tissue (from `tip_before`),
+/// a hole, an eyelet the rope has not threaded yet, at the point's crossing of the surface (the
+/// straight step between its two positions). Refused when the chain has the most eyelets.
+fn cut<T: Real, const D: usize>(g: &mut LiveChain<T, D>, tip_before: Point) -> Result<(), Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let Some(bx) = g.tissue else {
+        return Ok(());
+    };
+    let Some((_, _, tip)) = needle_frame(g) else {
+        return Ok(());
+    };
+    if inside(&tip, &bx) == inside(&tip_before, &bx) {
+        return Ok(());
+    }
+    let Some(at) = surface_crossing(&tip_before, &tip, &bx) else {
+        return Ok(());
+    };
+    if g.eyelets.len() >= crate::sizes::MAX_EYELETS {
+        return Err(refuse!(
+            BadOption,
+            "the needle would cut a hole, but the chain has {} eyelets, the most there may be",
+            g.eyelets.len()
+        ));
+    }
+    g.eyelets.push(tractrix::eyelet::Eyelet {
+        at: point(at),
+        link: 0,
+        threaded: false,
+    });
+    Ok(())
 }
 
 pub(crate) fn push_instrument<T: Real, const D: usize>(
@@ -449,6 +543,26 @@ where
                     g.eyelets.len()
                 ));
             }
+            // Holes the needle's point cut (eyelets not threaded yet): the rope goes through the
+            // nearest, and nowhere else.
+            let hole = g
+                .eyelets
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| !e.threaded)
+                .map(|(i, e)| (i, (to_point(&e.at) - at).norm()))
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((i, d)) = hole {
+                let reach = hole_reach(g);
+                if d > reach {
+                    return Err(refuse!(
+                        Locked,
+                        "the rope would cross the tissue's surface {d:.3} from the nearest hole \
+                         the needle cut (at most {reach:.3})"
+                    ));
+                }
+                g.eyelets.remove(i);
+            }
             if let Some(e) = g
                 .eyelets
                 .iter()
@@ -478,6 +592,19 @@ where
         b = a;
     }
     Ok(())
+}
+
+/// How far from a hole the needle cut the rope may cross the tissue's surface to go through it: the
+/// rope's thickness plus the needle's.
+fn hole_reach<T: Real, const D: usize>(g: &LiveChain<T, D>) -> f64
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let rope = g
+        .collision
+        .as_ref()
+        .map_or(0.0, |(m, _)| m.options.thickness.to_f64());
+    rope + g.needle.map_or(0.0, |n| n.thickness)
 }
 
 /// A reach on one fixed-base chain: iterations and residual.
@@ -592,6 +719,7 @@ pub(crate) fn pull_move<T: Real, const D: usize>(
     joint: usize,
     target: Point,
     opts: &MoveOptions<f64>,
+    drive: bool,
     tries: &mut Tries,
 ) -> Result<(MoveOutcome, Option<Stop>), Refusal>
 where
@@ -601,7 +729,7 @@ where
     // On the boundary of what the held sides reach, the side solved last can close on its held joint
     // a hair off its last link's length: such a pose is not kept (the pull stops short of it).
     let one = |g: &mut LiveChain<T, D>, p: Point| {
-        let m = move_and_carry(g, joint, std::slice::from_ref(&p), opts)?;
+        let m = move_and_carry(g, joint, std::slice::from_ref(&p), opts, drive)?;
         if closes_exactly(g, joint) {
             Ok(m)
         } else {

@@ -26,6 +26,9 @@ pub struct Needle {
     pub first: usize,
     /// How many capsules: one per 22.5° of arc or part of it.
     pub segments: usize,
+    /// The way it first curves from the head link, as the scene gives it (`needle_bend`; up when
+    /// `None`, [`Needle::initial_bend`]).
+    pub bend: Option<Point>,
 }
 
 /// The most a needle's arc may span: three quarters of a circle.
@@ -41,6 +44,7 @@ impl Needle {
             thickness,
             first,
             segments,
+            bend: None,
         }
     }
 
@@ -62,7 +66,16 @@ impl Needle {
             .collect()
     }
 
-    /// The direction the needle first curves toward from a head link along `tangent`: up (+z) made
+    /// The direction this needle first curves toward from a head link along `tangent`: the scene's
+    /// `needle_bend` made perpendicular to it, else [`Needle::initial_bend`].
+    pub fn first_bend(&self, tangent: Point) -> Point {
+        match self.bend {
+            Some(b) => (b - tangent * b.dot(&tangent)).normalize(),
+            None => Needle::initial_bend(tangent),
+        }
+    }
+
+    /// The direction a needle first curves toward from a head link along `tangent`: up (+z) made
     /// perpendicular to it, or +x when the link is vertical.
     pub fn initial_bend(tangent: Point) -> Point {
         let up = Point::z();
@@ -84,8 +97,51 @@ pub fn carry(
     before: (Point, Point),
     after: (Point, Point),
 ) -> Obstacle<f64, 3> {
-    let turn = turn(before.1, after.1);
-    let map = |p: &Point| after.0 + turn * (p - before.0);
+    moved(o, before.0, &turn(before.1, after.1), after.0)
+}
+
+/// The needle's unit tangent at its swage, from its capsules (`capsules`, its own, in order): the
+/// first capsule's chord turned back by half the angle each capsule spans, in the plane of the first
+/// two chords (one capsule: its chord).
+pub fn tangent(needle: &Needle, capsules: &[Obstacle<f64, 3>]) -> Option<Point> {
+    let chord = |o: &Obstacle<f64, 3>| match o {
+        Obstacle::Capsule { a, b, .. } => Some((b - a).normalize()),
+        _ => None,
+    };
+    let u0 = chord(capsules.first()?)?;
+    let Some(u1) = capsules.get(1).and_then(chord) else {
+        return Some(u0);
+    };
+    let n = u0.cross(&u1);
+    if n.norm() < 1e-12 {
+        return Some(u0);
+    }
+    let half = 0.5 * needle.angle / needle.segments as f64;
+    Some(Rotation3::from_axis_angle(&Unit::new_normalize(n), -half) * u0)
+}
+
+/// A driven needle's rigid motion ([`shared`'s `FLAG_DRIVE`]): from its swage at `swage` with unit
+/// tangent `tangent`, along the circular arc that leaves the swage along the tangent and ends at `to`
+/// (a straight line when `to` lies on the tangent's line). Returns the rotation of that arc (twice the
+/// smallest rotation from the tangent to the chord, so a target on the needle's own circle turns it
+/// about its centre); the needle moves by `p ↦ to + R (p − swage)` ([`moved`]).
+pub fn drive(swage: Point, tangent: Point, to: Point) -> Rotation3<f64> {
+    let way = to - swage;
+    if way.norm() <= f64::EPSILON * (1.0 + swage.norm()) {
+        return Rotation3::identity();
+    }
+    let half = turn(tangent, way.normalize());
+    half * half
+}
+
+/// Capsule `o` moved by the rigid motion `p ↦ to + rotation (p − from)`.
+pub fn moved(
+    o: &Obstacle<f64, 3>,
+    from: Point,
+    rotation: &Rotation3<f64>,
+    to: Point,
+) -> Obstacle<f64, 3> {
+    let map = |p: &Point| to + rotation * (p - from);
     match o {
         Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
             a: map(a),

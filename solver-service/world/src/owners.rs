@@ -210,6 +210,7 @@ mod tests {
             take_over: true,
             smooth: false,
             pull: false,
+            drive: false,
         };
         let e = owners.check(a, &take).unwrap_err();
         assert_eq!(e.cause, crate::refusal::Cause::BadOption, "{}", e.reason());
@@ -227,6 +228,7 @@ mod tests {
             take_over: true,
             smooth: false,
             pull: false,
+            drive: false,
         };
         owners.check(a, &own).unwrap();
         let release = Command::Release {

@@ -398,6 +398,7 @@ mod tests {
                 take_over: false,
                 smooth: false,
                 pull: false,
+                drive: false,
             })
             .unwrap();
         }
@@ -427,6 +428,7 @@ mod tests {
                 take_over: false,
                 smooth: false,
                 pull: false,
+                drive: false,
             })
             .unwrap();
         }

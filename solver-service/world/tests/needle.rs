@@ -51,6 +51,7 @@ fn go<'a>(w: &World, joint: usize, to: &'a [Point]) -> Command<'a> {
         take_over: false,
         smooth: false,
         pull: false,
+        drive: false,
     }
 }
 
@@ -259,6 +260,22 @@ fn a_needle_needs_tissue_and_a_sound_arc() {
         (
             format!("{tissue}collision = \"capsules\"\nneedle = [1.0, 90.0]\n"),
             "thickness",
+        ),
+        (
+            format!("{tissue}collision = \"capsules\"\nneedle_bend = [0.0, 0.0, -1.0]\n"),
+            "needle_bend",
+        ),
+        (
+            format!(
+                "{tissue}collision = \"capsules\"\nneedle = [1.0, 90.0, 0.1]\nneedle_bend = [2.0, 0.0, 0.0]\n"
+            ),
+            "along the head link",
+        ),
+        (
+            format!(
+                "{tissue}collision = \"capsules\"\nneedle = [1.0, 90.0, 0.1]\nneedle_bend = [0.0, 1.0]\n"
+            ),
+            "three finite numbers",
         ),
     ] {
         let text = format!("{base}{extra}");

@@ -40,6 +40,7 @@
 //! | `eyelets` | list of points on the chain | `[]` | fixed points the rope slides through (free chains; docs/eyelets.md) |
 //! | `tissue` | `[lo, hi]` box corners | – | a block the head pierces, making eyelets (free spatial chains); with collision, the rope stays out of it but where it passes through |
 //! | `needle` | `[radius, angle°, thickness]` | – | a curved needle swaged to the head: an arc of that radius spanning that angle (at most 270°), drawn and pushed as capsules, carried rigidly with the head (needs `tissue` and collision) |
+//! | `needle_bend` | direction | up (`[0, 0, 1]`; `[1, 0, 0]` for a vertical head link) | the way the needle first curves from the head link (made perpendicular to it): `[0, 0, -1]` lays it curving down, point toward tissue below, ready to be driven (`FLAG_DRIVE`) |
 //! | `incision` | `[point, normal]` | – | the plane of the incision a stitch closes (needs `tissue` and `tissue_give`) |
 //! | `tissue_give` | number > 0 | – | after a request whose pull stopped short, each threaded eyelet moves this much per unit of pull toward the incision (needs `incision`) |
 //! | `wound_margin` | number ≥ 0 | 0 | how near the incision an eyelet may be drawn: the wound is closed when every eyelet is this far from it |

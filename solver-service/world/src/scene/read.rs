@@ -108,6 +108,7 @@ pub(super) struct RawChain {
     pub tissue_give: Field<f64>,
     pub wound_margin: Field<f64>,
     pub needle: Field<Vec<f64>>,
+    pub needle_bend: Field<Vec<f64>>,
 }
 
 /// 1-based line of a byte offset.

@@ -256,7 +256,21 @@ fn needle_capsules(spec: &mut ChainSpec, c: &RawChain, at: &At<'_>) -> Result<()
     let n = spec.points.len() - 1;
     let (swage, before) = (spec.points[n], spec.points[n - 1]);
     let tangent = (swage - before).normalize();
-    let bend = crate::needle::Needle::initial_bend(tangent);
+    let bend = nd.first_bend(tangent);
+    if !(bend.iter().all(|v| v.is_finite())) {
+        let span = c
+            .needle_bend
+            .as_ref()
+            .map(|s| s.span())
+            .unwrap_or(c.name.span());
+        return Err(at(
+            span,
+            format!(
+                "chain {:?}: field `needle_bend`: along the head link, so no way to curve",
+                spec.name
+            ),
+        ));
+    }
     for (k, o) in nd.capsules(swage, tangent, bend).into_iter().enumerate() {
         col.instruments.push((format!("needle {k}"), o));
         col.follows.push(Some(n as u32));
@@ -1048,6 +1062,13 @@ fn needle(
     has_collision: bool,
 ) -> Result<Option<crate::needle::Needle>, SceneError> {
     let Some(nd) = &f.c.needle else {
+        if let Some(b) = &f.c.needle_bend {
+            return Err(f.err(
+                b.span(),
+                "needle_bend",
+                "is for a chain with a `needle`".into(),
+            ));
+        }
         return Ok(None);
     };
     let err = |what: String| Err(f.err(nd.span(), "needle", what));
@@ -1064,7 +1085,22 @@ fn needle(
                 && t.is_finite()
                 && *t > 0.0 =>
         {
-            Ok(Some(crate::needle::Needle::new(*r, a.to_radians(), *t, 0)))
+            let mut n = crate::needle::Needle::new(*r, a.to_radians(), *t, 0);
+            if let Some(b) = &f.c.needle_bend {
+                match b.get_ref().as_slice() {
+                    [x, y, z] if [x, y, z].iter().all(|v| v.is_finite()) => {
+                        n.bend = Some(crate::command::Point::new(*x, *y, *z));
+                    }
+                    _ => {
+                        return Err(f.err(
+                            b.span(),
+                            "needle_bend",
+                            "[x, y, z]: three finite numbers".into(),
+                        ));
+                    }
+                }
+            }
+            Ok(Some(n))
         }
         _ => err(
             "[radius, angle, thickness]: a radius > 0, an angle in degrees in (0, 270], a \
