@@ -166,6 +166,7 @@ impl Phase {
             wrap: None,
             instrument: None,
             tighten: None,
+            drive: None,
             waypoints: self.waypoints,
         }
     }

@@ -43,6 +43,7 @@ FLAG_IN_BOX = 16  # reach: (corner lo, corner hi); no motion inside
 FLAG_IN_BALL = 32  # reach: (centre, (radius, 0, 0)); no motion inside
 FLAG_SMOOTH = 64  # path: the natural cubic spline through the joint and the points (C2)
 FLAG_PULL = 128  # move, instrument: as far as the rope lets; the rest is the pull (see `pulls`)
+FLAG_DRIVE = 256  # move of a needle's swage (the head): the needle driven along its arc, cutting holes
 
 # The `knot` field of a response: the chain's knot when its scene asks for it (`knot = true`).
 KNOTS = {1: "unknot", 2: "trefoil", 3: "square", 4: "granny", 5: "double-overhand",

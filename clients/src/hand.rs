@@ -50,6 +50,9 @@ pub struct Record {
     /// Sent with the pull flag (a tightening pull: as far as the rope lets).
     #[serde(default, skip_serializing_if = "is_false")]
     pub pull: bool,
+    /// Sent with the drive flag (the needle driven along its arc).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub drive: bool,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -418,6 +421,7 @@ fn hold(
             command: command.name().into(),
             axis: None,
             pull: false,
+            drive: false,
         };
         rec.append_to(w)?;
     }
@@ -484,6 +488,23 @@ fn drive(
         };
         if let Some(g) = &turn.tighten {
             hand.tighten(joint, idx, &rope, g, &mut tremor)?;
+        } else if let Some(d) = &turn.drive {
+            if joint != JOINT_HEAD && idx + 1 != rope.len() {
+                bail!("turn {}: a drive moves the head, the needle's swage", k + 1);
+            }
+            let targets =
+                crate::script::needle_arc(rope[idx], &instruments, d.angle, cfg.script.max_step)
+                    .map_err(|e| anyhow::anyhow!("turn {}: drive: {e}", k + 1))?;
+            // No tremor: a trembling step would turn the driven needle off its circle.
+            let mut steady = crate::script::Tremor::new(0, &cfg.hand, 0.0);
+            hand.moves_flagged(
+                joint,
+                rope[idx],
+                &targets,
+                &q,
+                &mut steady,
+                shared::FLAG_DRIVE,
+            )?;
         } else if let Some(m) = &turn.instrument {
             let Some(now) = instruments.get(m.index as usize) else {
                 bail!(
@@ -591,6 +612,7 @@ impl TurnRun<'_> {
                     command: Command::Instrument.name().into(),
                     axis: Some(*axis),
                     pull: false,
+                    drive: false,
                 };
                 r.append_to(w)?;
             }
@@ -607,6 +629,19 @@ impl TurnRun<'_> {
         targets: &[[f64; 3]],
         q: &crate::Reply,
         tremor: &mut crate::script::Tremor,
+    ) -> anyhow::Result<()> {
+        self.moves_flagged(joint, start, targets, q, tremor, 0)
+    }
+
+    /// [`TurnRun::moves`] with `flags` on every move request (`FLAG_DRIVE` for a drive).
+    fn moves_flagged(
+        &mut self,
+        joint: u32,
+        start: [f64; 3],
+        targets: &[[f64; 3]],
+        q: &crate::Reply,
+        tremor: &mut crate::script::Tremor,
+        flags: u32,
     ) -> anyhow::Result<()> {
         use anyhow::bail;
         let every = (targets.len() / self.cfg.frames_per_turn.max(1)).max(1);
@@ -637,6 +672,7 @@ impl TurnRun<'_> {
             while let Some((t, depth)) = pending.pop() {
                 let mut h = RequestHeader::new(Command::Move, self.chain);
                 h.joint = joint;
+                h.flags = flags;
                 let sent = now_ns();
                 let called = Instant::now();
                 let last = pending.is_empty();
@@ -710,6 +746,7 @@ impl TurnRun<'_> {
                             command: move_command(),
                             axis: None,
                             pull: false,
+                            drive: flags & shared::FLAG_DRIVE != 0,
                         }
                         .append_to(w)?;
                     }
@@ -834,6 +871,7 @@ impl TurnRun<'_> {
                     command: move_command(),
                     axis: None,
                     pull: true,
+                    drive: false,
                 }
                 .append_to(w)?;
             }
@@ -965,6 +1003,9 @@ pub fn replay(
         let mut h = RequestHeader::new(command, id);
         if r.pull {
             h.flags |= shared::FLAG_PULL;
+        }
+        if r.drive {
+            h.flags |= shared::FLAG_DRIVE;
         }
         h.joint = r.joint;
         let target = Vec3::new(r.target[0], r.target[1], r.target[2]);

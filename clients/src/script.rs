@@ -177,9 +177,75 @@ pub struct Turn {
     /// such a turn moves nothing else.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tighten: Option<Tighten>,
+    /// The turn drives the chain's needle round its own circle ([`Drive`]); such a turn moves
+    /// nothing else.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive: Option<Drive>,
     /// Relative to the joint's position when the turn starts.
     #[serde(default)]
     pub waypoints: Vec<[f64; 3]>,
+}
+
+/// The needle driven round its own circle, as a needle driver turns a curved needle through tissue:
+/// the head (the needle's swage) moved along the circle the needle's capsules lie on when the turn
+/// starts, `angle` degrees onward (the way its point leads), in steps of the script's `max_step`,
+/// every move sent with the drive flag (`FLAG_DRIVE`: the needle goes along its arc, its point cuts
+/// the holes the rope then threads; docs/eyelets.md). The hand's tremor is not applied: a driven
+/// needle is steered by its path, and a trembling step would turn it off its circle.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Drive {
+    /// Degrees round the circle.
+    pub angle: f64,
+}
+
+/// The targets of a [`Drive`]: the swage at `swage` moved round the circle of the needle among
+/// `instruments` (the capsules end to end from the swage) by `angle_deg`, in steps of at most
+/// `max_step` along the circle.
+pub fn needle_arc(
+    swage: [f64; 3],
+    instruments: &[InstrumentEnds],
+    angle_deg: f64,
+    max_step: f64,
+) -> Result<Vec<[f64; 3]>, String> {
+    use nalgebra::{Rotation3, Unit, Vector3};
+    let v = |p: [f64; 3]| Vector3::new(p[0], p[1], p[2]);
+    let near = |p: Vector3<f64>, q: Vector3<f64>| (p - q).norm() <= 1e-9 * (1.0 + p.norm());
+    // The needle: the capsules end to end from the swage.
+    let mut arc = vec![v(swage)];
+    while let Some((_, b)) = instruments
+        .iter()
+        .find(|(a, _)| near(v(*a), *arc.last().unwrap()))
+    {
+        arc.push(v(*b));
+        if arc.len() > instruments.len() + 1 {
+            break;
+        }
+    }
+    if arc.len() < 3 {
+        return Err("no needle of two capsules or more starts at the swage".into());
+    }
+    let (p0, p1, p2) = (arc[0], arc[1], arc[arc.len() - 1]);
+    let (a, b) = (p1 - p0, p2 - p0);
+    let n = a.cross(&b);
+    if !(n.norm() > 1e-12 && max_step > 0.0 && angle_deg.is_finite()) {
+        return Err("the needle is straight, or the step or the angle is not usable".into());
+    }
+    // The circumcentre of the swage, the first capsule's far end and the point.
+    let centre = p0
+        + (b.cross(&n) * a.norm_squared() + n.cross(&a) * b.norm_squared())
+            / (2.0 * n.norm_squared());
+    let r = (p0 - centre).norm();
+    let angle = angle_deg.to_radians();
+    let steps = ((angle.abs() * r / max_step).ceil() as usize).clamp(1, 1 << 20);
+    let axis = Unit::new_normalize(n);
+    Ok((1..=steps)
+        .map(|k| {
+            let turn = Rotation3::from_axis_angle(&axis, angle * k as f64 / steps as f64);
+            let p = centre + turn * (p0 - centre);
+            [p.x, p.y, p.z]
+        })
+        .collect())
 }
 
 /// A tightening pull, as hands cinch a knot: the hand pulls its joint away from the knot, `speed`
@@ -647,6 +713,7 @@ impl Script {
                     wrap: None,
                     instrument: None,
                     tighten: Some(Tighten::at(speed)),
+                    drive: None,
                     waypoints: Vec::new(),
                 });
             }
@@ -684,6 +751,7 @@ impl Script {
             wrap: None,
             instrument: None,
             tighten: None,
+            drive: None,
             waypoints,
         };
         let two_hands = |second| Script {
@@ -918,6 +986,29 @@ impl Script {
             // follows). The pull rises 1.5: drawn level, the 160-link suture lay along the tissue's
             // top beyond the exit, and pushing it out of the tissue locked the pull. Not grasped:
             // the tail must slide toward the entry.
+            // The needle driven round its own circle (chain `needle-drive-80` of `stitch.toml`: 10
+            // units of suture in 80 links, its needle of radius 1 and 120° laid curving down, its
+            // point just above the tissue): the driver turns the needle 250° (its point goes in,
+            // under and out, cutting the two holes; the swage follows it through them, and the
+            // suture threads them), then draws the suture up and back through both holes.
+            "needle-drive" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: false,
+                turn: vec![
+                    Turn {
+                        drive: Some(Drive { angle: 250.0 }),
+                        ..turn("A", "needle-drive-80", "head", None, vec![])
+                    },
+                    turn(
+                        "A",
+                        "needle-drive-80",
+                        "head",
+                        None,
+                        vec![[-0.3, 0.0, 1.0], [-1.0, 0.0, 2.0], [-2.5, 0.0, 2.5]],
+                    ),
+                ],
+            }),
             "stitch-pass" => Some(Script {
                 name: name.into(),
                 max_step: 0.05,
@@ -986,6 +1077,7 @@ pub fn overhands_held(name: &str, second: Handedness) -> Script {
         wrap: None,
         instrument: None,
         tighten: None,
+        drive: None,
         waypoints: vec![],
     };
     // Each hand heads away from the rope (B along +x, A along −x), the loop on the +y side.
@@ -1077,6 +1169,7 @@ fn tie_turn(chain: &str, h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
         wrap: None,
         instrument: None,
         tighten: None,
+        drive: None,
         waypoints,
     }
 }
@@ -1217,6 +1310,7 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
         wrap: None,
         instrument: None,
         tighten: None,
+        drive: None,
         waypoints,
     };
     Script {
@@ -1267,6 +1361,7 @@ pub const BUILTINS: &[&str] = &[
     "instrument-granny",
     "needle-pass",
     "needle-pass-held",
+    "needle-drive",
     "stitch-pass",
 ];
 
@@ -2044,6 +2139,7 @@ mod tests {
             wrap: None,
             instrument: None,
             tighten: None,
+            drive: None,
             waypoints: vec![],
         };
         // The end closes the loop just past the rope it crosses (a proper crossing), or 0.4 short of
@@ -2115,6 +2211,7 @@ mod tests {
             wrap: None,
             instrument: None,
             tighten: None,
+            drive: None,
             waypoints: vec![],
         };
         // 65 536 joints leading in along −x, then the loop at the head: found.

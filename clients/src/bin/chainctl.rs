@@ -113,6 +113,10 @@ struct Args {
     /// pull (the tension a hand feels) instead of refusing.
     #[arg(long)]
     pull: bool,
+    /// Move of the head of a chain with a needle: drive the needle along its own arc (its point cuts
+    /// the holes the rope threads; docs/eyelets.md).
+    #[arg(long)]
+    drive: bool,
     /// Grasp, release, move, path, reset: take over other clients' grasps (refused `held` without).
     #[arg(long)]
     take_over: bool,
@@ -372,6 +376,7 @@ fn run(a: Args) -> Result<u8> {
         take_over: a.take_over,
         smooth: a.smooth,
         pull: a.pull,
+        drive: a.drive,
         request_id: None,
     };
     let (header, points) = req.to_wire(&|_| None).map_err(anyhow::Error::msg)?;

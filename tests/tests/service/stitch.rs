@@ -421,6 +421,64 @@ fn two_hands_pass(chain: &str, link: f64) {
     println!("{chain}: {} states, each checked; tail {t:.2}", seen.len());
 }
 
+/// Issue 39, the needle's point cutting the holes (`FLAG_DRIVE`): one hand drives `needle-drive-80`'s
+/// needle (radius 1, 120°, laid curving down, its centre 0.55 above the tissue) 250° round its own
+/// circle, then draws the suture on. Every state is read (none missed) and checked by the test's own
+/// code (lengths, the thickness apart, each threaded eyelet on the rope, the rope out of the tissue
+/// but where it passes through). The first hole appears while the rope's head is still above the
+/// tissue: the needle's point cut it, not the rope. At the end the suture is threaded through two
+/// eyelets on the tissue's top, each within the rope's thickness plus the needle's of where the
+/// needle's circle (computed here from the scene: centre at the head less the radius) meets the top.
+#[test]
+fn a_driven_needle_cuts_the_holes_the_suture_threads() {
+    let chain = "needle-drive-80";
+    let body = Body {
+        thickness: 0.1,
+        tissue: ([44.0, -3.0, -3.0], [56.0, 3.0, 0.0]),
+    };
+    let svc = stitch_service(&["--state-buffer", "4096"]);
+    let mut c = svc.connect();
+    let (id, watched) = AllStates::of_chain(&svc, &mut c, chain);
+    let out = tests::hand_output(hand(&svc, "needle-drive", chain, &["--identify", chain]));
+    assert!(out.contains(" 0 locked"), "{out}");
+    let seen = watched.finish();
+    assert!(seen.len() > 100, "{} states", seen.len());
+    let mut cut_first = None;
+    for (seq, joints, _, eyelets) in &seen {
+        let what = format!("{chain}, state {seq}");
+        check_state_of(joints, eyelets, 0.125, body, &what);
+        check_out_of_tissue(joints, eyelets, body, &what);
+        if cut_first.is_none() && eyelets.iter().any(|e| !e.threaded) {
+            cut_first = Some((*seq, joints[joints.len() - 1]));
+        }
+    }
+    let (seq, head) = cut_first.expect("no state had a hole the rope had not threaded");
+    assert!(
+        head.z > 0.0,
+        "state {seq}: the first hole came with the head in the tissue, {head:?}"
+    );
+    let q = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
+    let parts = Parts::of_response(&q.header, &q.payload);
+    let eyelets: Vec<_> = parts.eyelet_states().collect();
+    assert_eq!(eyelets.len(), 2, "{eyelets:?}");
+    // The circle meets the top (z = 0) at x = 50 ± √(1 − 0.55²): the entry on the right, the exit on
+    // the left.
+    let half = (1.0f64 - 0.55 * 0.55).sqrt();
+    for (e, x) in eyelets.iter().zip([50.0 + half, 50.0 - half]) {
+        assert!(e.threaded && e.at.z.abs() < 1e-12, "{e:?}");
+        let off = ((e.at.x - x).powi(2) + e.at.y.powi(2)).sqrt();
+        assert!(
+            off <= 0.1 + 0.1,
+            "{e:?}: {off} from where the needle's circle meets the top"
+        );
+    }
+    println!(
+        "{chain}: {} states, each checked; the first hole at state {seq}, head at z = {:.3}",
+        seen.len(),
+        head.z
+    );
+}
+
 #[test]
 fn the_needle_passes_through_the_tissue_at_80_links() {
     needle_pass("suture-80", 0.25);
