@@ -1338,7 +1338,8 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
 /// throughout (two knots in series: the square knot's type, not a reef). `square-held` and
 /// `granny-held` tie the two-handed knots round each other (chain `hands`: the long end wound round
 /// B's finger, B's end drawn through), `instrument-granny` the granny by instrument tie.
-/// `needle-pass` takes a suture's needle through tissue and out (chain `suture-80` of `stitch.toml`).
+/// `needle-pass` takes a suture's needle through tissue and out (chain `suture-80` of `stitch.toml`);
+/// `needle-drive` drives a needle round its own circle through it (chain `needle-drive-80`).
 pub const BUILTINS: &[&str] = &[
     "overhand",
     "overhand-wide",
