@@ -497,7 +497,7 @@ fn drive(
                     .map_err(|e| anyhow::anyhow!("turn {}: drive: {e}", k + 1))?;
             // No tremor: a trembling step would turn the driven needle off its circle.
             let mut steady = crate::script::Tremor::new(0, &cfg.hand, 0.0);
-            hand.moves_flagged(
+            hand.moves(
                 joint,
                 rope[idx],
                 &targets,
@@ -528,7 +528,7 @@ fn drive(
                     Vec::new()
                 }
             };
-            hand.moves(joint, rope[idx], &targets, &q, &mut tremor)?;
+            hand.moves(joint, rope[idx], &targets, &q, &mut tremor, 0)?;
         }
         if let Some(w) = record.as_mut() {
             w.flush()?;
@@ -621,20 +621,9 @@ impl TurnRun<'_> {
     }
 
     /// Moves `joint` (at `start`, the rope as `q` answered) through `targets`, each shaken by the
-    /// tremor; a move over the service's budget is split in halves, at most `SPLITS` deep.
+    /// tremor and sent with `flags` (`FLAG_DRIVE` for a drive); a move over the service's budget is
+    /// split in halves, at most `SPLITS` deep.
     fn moves(
-        &mut self,
-        joint: u32,
-        start: [f64; 3],
-        targets: &[[f64; 3]],
-        q: &crate::Reply,
-        tremor: &mut crate::script::Tremor,
-    ) -> anyhow::Result<()> {
-        self.moves_flagged(joint, start, targets, q, tremor, 0)
-    }
-
-    /// [`TurnRun::moves`] with `flags` on every move request (`FLAG_DRIVE` for a drive).
-    fn moves_flagged(
         &mut self,
         joint: u32,
         start: [f64; 3],

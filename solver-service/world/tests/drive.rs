@@ -69,6 +69,20 @@ fn off_rope(j: &[Point], p: Point) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// A move of the head to `to`, driven or not.
+fn go<'a>(w: &World, to: &'a [Point], drive: bool) -> Command<'a> {
+    Command::Move {
+        chain: 0,
+        joint: N,
+        targets: to,
+        options: w.specs()[0].moves,
+        take_over: false,
+        smooth: false,
+        pull: false,
+        drive,
+    }
+}
+
 fn inside(p: &Point) -> bool {
     (-4.0..=6.0).contains(&p.x) && (-3.0..=3.0).contains(&p.y) && (-3.0..=0.0).contains(&p.z)
 }
@@ -100,16 +114,7 @@ fn a_driven_needle_follows_its_arc_and_its_point_cuts_the_holes_the_rope_threads
     for k in 1..=steps {
         let angle = 90f64.to_radians() - turn * k as f64 / steps as f64;
         let to = [centre + Point::new(angle.cos(), 0.0, angle.sin()) * R];
-        let cmd = Command::Move {
-            chain: 0,
-            joint: N,
-            targets: &to,
-            options: w.specs()[0].moves,
-            take_over: false,
-            smooth: false,
-            pull: false,
-            drive: true,
-        };
+        let cmd = go(&w, &to, true);
         w.apply(&cmd)
             .unwrap_or_else(|e| panic!("step {k} to {:?}: {e:?}", to[0]));
         let j = joints(&w);
@@ -193,31 +198,13 @@ fn once_the_needle_has_cut_a_hole_the_rope_goes_in_nowhere_else() {
         assert!(k < 40, "no hole after {k} steps");
         let angle = 90f64.to_radians() - 0.05 * k as f64;
         let to = [centre + Point::new(angle.cos(), 0.0, angle.sin()) * R];
-        let cmd = Command::Move {
-            chain: 0,
-            joint: N,
-            targets: &to,
-            options: w.specs()[0].moves,
-            take_over: false,
-            smooth: false,
-            pull: false,
-            drive: true,
-        };
+        let cmd = go(&w, &to, true);
         w.apply(&cmd).unwrap();
     }
     let before = (joints(&w), needle(&w), eyelets(&w));
     let head = joints(&w)[N];
     let to = [Point::new(head.x - 2.0, 0.0, -0.5)];
-    let cmd = Command::Move {
-        chain: 0,
-        joint: N,
-        targets: &to,
-        options: w.specs()[0].moves,
-        take_over: false,
-        smooth: false,
-        pull: false,
-        drive: false,
-    };
+    let cmd = go(&w, &to, false);
     let refusal = w
         .apply(&cmd)
         .expect_err("the rope went into the tissue away from the hole");
