@@ -21,8 +21,7 @@ step "the binaries, the C library and the Rust quick start (test profile)" \
   cargo build --workspace --lib --bins --example hello --profile test
 # The Python client's venv (PyPI wheel iceoryx2==0.10.0) for the end-to-end test of the Python client,
 # then Mono (the C# example of the C library) and OSMesa (MuJoCo's offscreen frames): downloads and
-# installs, so they run in the background while the viewer and the test binaries compile, and their
-# output goes to a log.
+# installs, so they run in the background while the viewer compiles, and their output goes to a log.
 setup_log=$(mktemp)
 (
   step "the Python venv (iceoryx2, MuJoCo, rerun-sdk, Ray)" scripts/python-venv.sh
@@ -31,29 +30,10 @@ setup_log=$(mktemp)
 setup=$!
 # `watch` with the Rerun viewer (cargo feature `rerun`, many dependencies): built once, here, into
 # target/viewer/, in the profile `viewer` (no optimisation, no debug info: a much shorter build than the
-# optimised test profile's). It builds beside the test binaries: cargo locks each profile's directory
-# apart, and each build has stretches that keep one core busy (its last crates, its links) that the
-# other fills. Its output goes to a log shown after.
-viewer_log=$(mktemp)
-(
-  step "the Rerun viewer (watch --features rerun), beside the test binaries" \
-    cargo build -p clients --features rerun --bin watch --profile viewer
-) >"$viewer_log" 2>&1 &
-viewer=$!
-# The test binaries, built before any CPU hog starts: the hog loads the tests, not the compiler (built
-# beside two hogs, they took 6 of the 21 minutes of a CI run).
-t0=$SECONDS
-tests_rc=0
-step "the test binaries, beside the viewer" cargo test --workspace --no-run "$@" || tests_rc=$?
-viewer_rc=0
-wait "$viewer" || viewer_rc=$?
-cat "$viewer_log" >&2
-rm -f "$viewer_log"
-echo "[test.sh] the viewer and the test binaries together: $((SECONDS - t0)) s" >&2
-if [ "$tests_rc" != 0 ] || [ "$viewer_rc" != 0 ]; then
-  echo "scripts/test.sh: building the test binaries (exit $tests_rc) or the viewer (exit $viewer_rc) failed (output above)" >&2
-  exit 1
-fi
+# optimised test profile's). Built beside the test binaries (cargo locks each profile's directory
+# apart), the two took 574 s on CI's fresh clone against 320 s and 221 s one after the other: no gain.
+step "the Rerun viewer (watch --features rerun)" \
+  cargo build -p clients --features rerun --bin watch --profile viewer
 setup_rc=0
 wait "$setup" || setup_rc=$?
 cat "$setup_log" >&2
@@ -62,6 +42,9 @@ if [ "$setup_rc" != 0 ]; then
   echo "scripts/test.sh: the Python venv or the system packages failed (exit $setup_rc, output above)" >&2
   exit "$setup_rc"
 fi
+# The test binaries, built before any CPU hog starts: the hog loads the tests, not the compiler (built
+# beside two hogs, they took 6 of the 21 minutes of a CI run).
+step "the test binaries" cargo test --workspace --no-run "$@"
 # TRACTRIX_TEST_LOAD=N runs the tests beside N busy-spinning processes, a CPU hog at normal priority (CI
 # runs the suite beside two, one per core: no test may need an idle machine).
 load=${TRACTRIX_TEST_LOAD:-0}
