@@ -896,7 +896,7 @@ fn world_move<'a>(
         take_over: false,
         smooth: false,
         pull,
-        drive: false,
+        needle: world::command::NeedleMove::Carried,
     }
 }
 

@@ -168,7 +168,7 @@
 //! * `strategy` ([`WireStrategy`]): 0 default (translate back), 1 translate back, 2 tractrix + two-link,
 //!   3 pull-back (tractrix, then a tractrix pass pulling the base end back).
 //! * `flags`: bit 0 [`FLAG_ANGLES`] (reach and query: append joint rotations), bit 1 [`FLAG_POSE`] (a
-//!   bundle's move by one rigid motion of its heads), bit 2 [`FLAG_TAKE_OVER`] (grasp, release, move,
+//!   bundle's move by one rigid motion of its heads; a needle's pose with a move of its swage), bit 2 [`FLAG_TAKE_OVER`] (grasp, release, move,
 //!   path, reset: take over another client's grasps), bit 3 [`FLAG_ORIENT`], bit 4 [`FLAG_IN_BOX`],
 //!   bit 5 [`FLAG_IN_BALL`] (reach goals), bit 6 [`FLAG_SMOOTH`] (path), bit 7 [`FLAG_PULL`] (move and
 //!   instrument: as far as the rope lets, the rest reported as the pull), bit 8 [`FLAG_DRIVE`] (a
@@ -267,6 +267,15 @@ pub const FLAG_ANGLES: u32 = 1;
 /// Flag (a move of a bundle): the two points are one rigid motion of the strands' heads, a translation
 /// `t` then a rotation vector `r` (axis × angle, radians): strand `i`'s head goes to `R(r)·h0_i + t`,
 /// `h0_i` its head in the scene. Without the flag a bundle's move carries one target per strand.
+///
+/// (A move of the head of a chain with a needle): the needle's pose, as a 6-DOF stylus holding a
+/// needle driver sets it: two points, where the swage (the head) goes, then a rotation vector `r`
+/// (axis × angle, radians) from the needle's own frame to the world's: the needle leaves its swage
+/// along `R(r)·x` and curves toward `R(r)·y` (its arc in the plane of the two, its centre at
+/// `swage + radius·R(r)·y`). The rope follows the head as in any move; the needle is set on its new
+/// pose, pushing the rope as instruments do, and where its point crosses the tissue's surface it
+/// makes a hole as a driven needle's point does ([`FLAG_DRIVE`]). Not with [`FLAG_DRIVE`] or
+/// [`FLAG_PULL`].
 pub const FLAG_POSE: u32 = 2;
 /// Flag (grasp, release, move, path, reset of a free chain): take over the grasps of other clients that
 /// the request touches (without it such a request is refused with [`Status::Held`]). Anchors are the

@@ -16,8 +16,10 @@
 //! `paper` or `ftl`, `precision` is `f64` or `f32`, `strategy` is `translate-back`, `two-link` or
 //! `pull-back`. For `instrument`, `joint` is the instrument's index in the chain's `instruments` list,
 //! `target` its new centre and `axis` (capsules only) its new axis direction. A `move` with `rotation` (a rotation
-//! vector, axis × angle in radians) is a bundle's pose move ([`crate::FLAG_POSE`]): every head by the
-//! rigid motion `R(rotation)·h0 + target`. Unknown fields are an error.
+//! vector, axis × angle in radians) is a pose move ([`crate::FLAG_POSE`]): a bundle's, every head by
+//! the rigid motion `R(rotation)·h0 + target`; or, for the head of a chain with a needle, the needle's
+//! pose, swaged at `target` and turned by `R(rotation)` from its own frame. Unknown fields are an
+//! error.
 
 use crate::{
     Command, FLAG_ANGLES, FLAG_DRIVE, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_PULL,
@@ -58,7 +60,8 @@ pub struct TextRequest {
     /// An instrument's axis direction (capsules).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<Vec<f64>>,
-    /// A bundle's pose move: the heads' rotation vector (`target` is then the translation).
+    /// A pose move's rotation vector: a bundle's heads' (`target` is then the translation), or a
+    /// needle's, from its own frame (`target` is then where its swage goes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rotation: Option<Vec<f64>>,
     /// A reach's orientation goal: the direction of the last link ([`crate::FLAG_ORIENT`]).
@@ -301,7 +304,7 @@ impl TextRequest {
                         h.flags |= FLAG_POSE;
                         vec![parse_point(t)?, parse_point(r)?]
                     }
-                    (Some(_), _) => return Err("reach: `rotation` is for a bundle's move".into()),
+                    (Some(_), _) => return Err("reach: `rotation` is for a move (a pose)".into()),
                     (None, _) => vec![parse_point(t)?],
                 }
             }

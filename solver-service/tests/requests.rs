@@ -462,6 +462,36 @@ fn every_error_leaves_the_state_unchanged() {
             "carries no needle",
         ),
         (
+            "a needle's pose on a chain without a needle",
+            with(Move, 0, &|h| h.flags = shared::FLAG_POSE),
+            vec![Vec3::new(1., 0., 0.), Vec3::new(0., 0., 0.5)],
+            Status::BadOption,
+            "carries no needle",
+        ),
+        (
+            "a pose with one point",
+            with(Move, 0, &|h| h.flags = shared::FLAG_POSE),
+            p(1., 0., 0.),
+            Status::BadPointCount,
+            "takes 2..=2 points",
+        ),
+        (
+            "a pose with drive",
+            with(Move, 0, &|h| {
+                h.flags = shared::FLAG_POSE | shared::FLAG_DRIVE
+            }),
+            vec![Vec3::new(1., 0., 0.), Vec3::new(0., 0., 0.5)],
+            Status::BadOption,
+            "not with drive",
+        ),
+        (
+            "a pose on a path",
+            with(Path, 0, &|h| h.flags = shared::FLAG_POSE),
+            vec![Vec3::new(1., 0., 0.), Vec3::new(0., 0., 0.5)],
+            Status::BadOption,
+            "is for a move",
+        ),
+        (
             "NaN reach target",
             req(Reach, 2),
             p(f64::NAN, 0., 0.),

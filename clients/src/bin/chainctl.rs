@@ -63,8 +63,9 @@ struct Args {
     /// An instrument's axis direction: x,y or x,y,z (capsules).
     #[arg(long, allow_hyphen_values = true)]
     axis: Option<String>,
-    /// A bundle's pose move: the heads' rotation vector x,y,z (axis × angle, radians); `--target` is
-    /// then the translation.
+    /// A pose move's rotation vector x,y,z (axis × angle, radians): a bundle's heads' (`--target` is
+    /// then the translation), or, moving the head of a chain with a needle, the needle's from its own
+    /// frame (it leaves the swage along R·x and curves toward R·y; `--target` is the swage).
     #[arg(long, allow_hyphen_values = true)]
     rotation: Option<String>,
     /// Reach: an orientation goal, the last link's direction x,y or x,y,z (`--target` is where the head

@@ -7,9 +7,9 @@
 //! No I/O and no allocation on a refused request: a refusal's reason is formatted into a fixed buffer.
 
 use shared::{
-    FLAG_ANGLES, FLAG_DRIVE, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_PULL, FLAG_SMOOTH,
-    FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader, ResponseHeader, Status,
-    SubstepMode, Vec3, WireMethod, WireStrategy,
+    FLAG_ANGLES, FLAG_DRIVE, FLAG_IN_BALL, FLAG_IN_BOX, FLAG_ORIENT, FLAG_POSE, FLAG_PULL,
+    FLAG_SMOOTH, FLAG_TAKE_OVER, JOINT_HEAD, MAX_PATH_POINTS, Precision, RequestHeader,
+    ResponseHeader, Status, SubstepMode, Vec3, WireMethod, WireStrategy,
 };
 use tractrix::{Method, MoveOptions, ReachOptions, Strategy, Substeps};
 use world::scene::{ChainKind, ChainSpec};
@@ -18,7 +18,7 @@ use world::scene::{ChainKind, ChainSpec};
 pub const MAX_REACH_ITERATIONS: u32 = 100_000;
 
 use crate::wire::header::{Checked, check_header};
-use world::command::{Answer, Command, Goal, Point, Residual};
+use world::command::{Answer, Command, Goal, NeedleMove, Point, Residual};
 use world::refusal::Refusal;
 use world::refuse;
 
@@ -87,7 +87,8 @@ pub fn decode<'a>(
             | FLAG_IN_BALL
             | FLAG_SMOOTH
             | FLAG_PULL
-            | FLAG_DRIVE,
+            | FLAG_DRIVE
+            | FLAG_POSE,
     )?;
     if h.flags & FLAG_PULL != 0
         && !matches!(command, shared::Command::Move | shared::Command::Instrument)
@@ -96,6 +97,20 @@ pub fn decode<'a>(
             BadOption,
             "flag pull (128) is for move and instrument, not {}",
             command.name()
+        ));
+    }
+    let pose = h.flags & FLAG_POSE != 0;
+    if pose && command != shared::Command::Move {
+        return Err(refuse!(
+            BadOption,
+            "flag pose (2) is for a move, not {}",
+            command.name()
+        ));
+    }
+    if pose && h.flags & (FLAG_DRIVE | FLAG_PULL) != 0 {
+        return Err(refuse!(
+            BadOption,
+            "flag pose (2) sets the needle's pose: not with drive (256) or pull (128)"
         ));
     }
     if h.flags & FLAG_SMOOTH != 0 && command != shared::Command::Path {
@@ -138,6 +153,7 @@ pub fn decode<'a>(
     }
     let expected = match command {
         shared::Command::Reach if goal_flags != 0 => 2..=2,
+        shared::Command::Move if pose => 2..=2,
         shared::Command::Move | shared::Command::Reach => 1..=1,
         shared::Command::Path => 1..=MAX_PATH_POINTS as usize,
         shared::Command::Instrument => 1..=2,
@@ -378,22 +394,33 @@ fn move_or_path<'a>(
         }
         SubstepMode::MaxStep => Substeps::MaxStep(h.max_step),
     };
-    let drive = h.flags & FLAG_DRIVE != 0;
-    if drive {
+    // The needle's flags: a move of the head of a chain with a needle (a pose's second point is
+    // the needle's rotation vector, checked in range as every point is).
+    let (needle, flag) = match h.flags & (FLAG_DRIVE | FLAG_POSE) {
+        FLAG_DRIVE => (NeedleMove::Driven, "drive (256)"),
+        FLAG_POSE => (NeedleMove::Posed(points[1]), "pose (2)"),
+        _ => (NeedleMove::Carried, ""),
+    };
+    if needle != NeedleMove::Carried {
         if spec.needle.is_none() {
             return Err(refuse!(
                 BadOption,
-                "flag drive (256): chain {:?} carries no needle",
+                "flag {flag}: chain {:?} carries no needle",
                 spec.name
             ));
         }
         if h.command != shared::Command::Move as u32 || joint + 1 != spec.points.len() {
             return Err(refuse!(
                 BadOption,
-                "flag drive (256) is for a move of the head, the needle's swage"
+                "flag {flag} is for a move of the head, the needle's swage"
             ));
         }
     }
+    let points = if matches!(needle, NeedleMove::Posed(_)) {
+        &points[..1]
+    } else {
+        points
+    };
     Ok(Command::Move {
         chain,
         joint,
@@ -406,7 +433,7 @@ fn move_or_path<'a>(
         take_over,
         smooth: h.flags & FLAG_SMOOTH != 0,
         pull: h.flags & FLAG_PULL != 0,
-        drive,
+        needle,
     })
 }
 

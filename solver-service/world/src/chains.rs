@@ -456,7 +456,7 @@ impl World {
             take_over,
             smooth: true,
             pull,
-            drive,
+            needle,
         } = *req
         {
             let (samples, options) = self.smooth_samples(chain, joint, targets, &options)?;
@@ -468,7 +468,7 @@ impl World {
                 take_over,
                 smooth: false,
                 pull,
-                drive,
+                needle,
             };
             return self.apply_for(client, &straight);
         }
@@ -670,12 +670,12 @@ impl World {
                 targets,
                 ref options,
                 pull,
-                drive,
+                needle,
                 ..
             } => each_form!(&mut *g, h => {
                 let target = targets[targets.len() - 1];
                 let done = if pull {
-                    pull_move(h, joint, target, options, drive, &mut tries).map(|(m, stop)| {
+                    pull_move(h, joint, target, options, needle, &mut tries).map(|(m, stop)| {
                         if stop.is_some() {
                             let pulled = (to_point(&h.chain.joint(joint)) - target).norm();
                             crate::moves::give_way(h, pulled, options.max_substeps, &mut tries);
@@ -683,7 +683,7 @@ impl World {
                         (m, stop)
                     })
                 } else {
-                    move_and_carry(h, joint, targets, options, drive).map(|m| (m, None))
+                    move_and_carry(h, joint, targets, options, needle).map(|m| (m, None))
                 };
                 done.map(|(m, stop)| {
                     if h.chain.is_held(joint) {
@@ -907,7 +907,7 @@ mod tests {
             take_over: false,
             smooth: false,
             pull: false,
-            drive: false,
+            needle: crate::command::NeedleMove::Carried,
         }
     }
 

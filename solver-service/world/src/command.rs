@@ -11,6 +11,22 @@ pub type Point = nalgebra::Vector3<f64>;
 /// A fixed-base reach's goal (Korein & Badler's point, orientation and region goals: [`tractrix::goals`]).
 pub type Goal = tractrix::Goal<f64, 3>;
 
+/// What a move of the head does to the chain's needle ([`crate::needle`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum NeedleMove {
+    /// Carried rigidly with the head, turned with the head link (every move without a needle flag).
+    #[default]
+    Carried,
+    /// Driven (the wire's `FLAG_DRIVE`): along its own arc instead of turning with the head link,
+    /// its point making holes where it crosses the tissue's surface.
+    Driven,
+    /// Posed (the wire's `FLAG_POSE`), as a 6-DOF stylus holds a needle driver: the swage at the
+    /// target and the needle turned to the rotation vector (axis × angle, radians) from its own
+    /// frame to the world's: it leaves the swage along `R·x`, curving toward `R·y`. Its point makes
+    /// holes as a driven needle's does.
+    Posed(Point),
+}
+
 /// A command: everything checked and resolved, ready for the kernel.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command<'a> {
@@ -35,10 +51,8 @@ pub enum Command<'a> {
         /// out of reach, contact locked, a joint limit) goes as far toward the target as it can, and
         /// the rest is the joint's pull ([`crate::tension`]) instead of a refusal.
         pull: bool,
-        /// Drive the chain's needle (the wire's `FLAG_DRIVE`; a move of the head of a chain with a
-        /// needle): it goes along its own arc instead of turning with the head link, and its point
-        /// makes holes in the tissue ([`crate::needle`]).
-        drive: bool,
+        /// What the chain's needle does (a move of the head of a chain with a needle).
+        needle: NeedleMove,
     },
     /// Bring a fixed-base chain's head to its goal: a point, a pose of the last link, or anywhere in a
     /// region.

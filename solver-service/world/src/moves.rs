@@ -2,7 +2,7 @@
 //! instruments carried by the joint they follow or pushed to a new pose, a fixed-base reach. A chain
 //! may be left moved on a refusal: [`crate::World::apply`] restores it.
 
-use crate::command::{Goal, Point};
+use crate::command::{Goal, NeedleMove, Point};
 use crate::form::{LiveChain, point, to_point};
 use crate::refusal::{Cause, Refusal};
 use crate::refuse;
@@ -151,15 +151,16 @@ where
 }
 
 /// A move of `joint`; the instruments that follow it are then carried by the joint's displacement,
-/// pushing the rest of the rope (locked: the whole move is refused). With `drive` (a move of the
-/// head), the needle goes along its own arc instead of turning with the head link
-/// ([`crate::needle::drive`]), and where its point crosses the tissue's surface it makes a hole.
+/// pushing the rest of the rope (locked: the whole move is refused). A move of the head carries the
+/// needle as `needle_move` says: turned with the head link, driven along its own arc
+/// ([`crate::needle::drive`]) or set to a pose; driven or posed, where its point crosses the tissue's
+/// surface it makes a hole.
 pub(crate) fn move_and_carry<T: Real, const D: usize>(
     g: &mut LiveChain<T, D>,
     joint: usize,
     targets: &[Point],
     opts: &MoveOptions<f64>,
-    drive: bool,
+    needle_move: NeedleMove,
 ) -> Result<MoveOutcome, Refusal>
 where
     Vector<T, D>: Embed3<T>,
@@ -174,7 +175,12 @@ where
     for t in targets {
         let from = g.chain.joint(joint);
         let swage = g.needle.map(|_| head_frame(&g.chain));
-        let driven = if drive { needle_frame(g) } else { None };
+        // The needle's frame before the step, when its point may cut (driven or posed).
+        let driven = if needle_move == NeedleMove::Carried {
+            None
+        } else {
+            needle_frame(g)
+        };
         let m = move_path(g, joint, std::slice::from_ref(t), opts)?;
         outcome.substeps = outcome.substeps.saturating_add(m.substeps);
         outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(m.paper_fallbacks);
@@ -183,11 +189,19 @@ where
             .saturating_add(m.collision_iterations);
         let delta = g.chain.joint(joint) - from;
         let swaged = g.needle.map(|_| head_frame(&g.chain));
-        // A driven needle's motion: from its swage along its arc to where the head landed.
-        let motion = driven.map(|(s, tangent, _)| {
-            let to = to_point(&g.chain.joint(g.chain.n_links()));
-            (s, crate::needle::drive(s, tangent, to), to)
-        });
+        // A driven needle's motion: from its swage along its arc to where the head landed; a
+        // posed one's capsules: its arc from the swage where the head landed, in the pose's frame.
+        let head = to_point(&g.chain.joint(g.chain.n_links()));
+        let motion = match needle_move {
+            NeedleMove::Driven => {
+                driven.map(|(s, tangent, _)| (s, crate::needle::drive(s, tangent, head), head))
+            }
+            _ => None,
+        };
+        let posed = match (needle_move, g.needle) {
+            (NeedleMove::Posed(r), Some(nd)) => crate::needle::posed(&nd, head, r),
+            _ => Vec::new(),
+        };
         // The joints, for the needle's clearance (again after a push moved the rope).
         let mut joints = std::mem::take(&mut g.needle_joints);
         if g.needle.is_some() {
@@ -210,7 +224,12 @@ where
                         b: to_point(&b),
                         radius: radius.to_f64(),
                     };
-                    let carried = if let Some((s, rotation, to)) = motion {
+                    let carried = if let Some(c) = posed.get(k - needle.start) {
+                        if *c == o {
+                            continue;
+                        }
+                        *c
+                    } else if let Some((s, rotation, to)) = motion {
                         if s == to {
                             continue;
                         }
@@ -719,7 +738,7 @@ pub(crate) fn pull_move<T: Real, const D: usize>(
     joint: usize,
     target: Point,
     opts: &MoveOptions<f64>,
-    drive: bool,
+    needle_move: NeedleMove,
     tries: &mut Tries,
 ) -> Result<(MoveOutcome, Option<Stop>), Refusal>
 where
@@ -729,7 +748,7 @@ where
     // On the boundary of what the held sides reach, the side solved last can close on its held joint
     // a hair off its last link's length: such a pose is not kept (the pull stops short of it).
     let one = |g: &mut LiveChain<T, D>, p: Point| {
-        let m = move_and_carry(g, joint, std::slice::from_ref(&p), opts, drive)?;
+        let m = move_and_carry(g, joint, std::slice::from_ref(&p), opts, needle_move)?;
         if closes_exactly(g, joint) {
             Ok(m)
         } else {

@@ -134,6 +134,14 @@ pub fn drive(swage: Point, tangent: Point, to: Point) -> Rotation3<f64> {
     half * half
 }
 
+/// The capsules of `needle` posed ([`shared`'s `FLAG_POSE`]): swaged at `swage` and turned by the
+/// rotation vector `rotation` (axis × angle, radians) from its own frame, in which it leaves the swage
+/// along +x and curves toward +y, to the world's.
+pub fn posed(needle: &Needle, swage: Point, rotation: Point) -> Vec<Obstacle<f64, 3>> {
+    let r = Rotation3::new(rotation);
+    needle.capsules(swage, r * Point::x(), r * Point::y())
+}
+
 /// Capsule `o` moved by the rigid motion `p ↦ to + rotation (p − from)`.
 pub fn moved(
     o: &Obstacle<f64, 3>,

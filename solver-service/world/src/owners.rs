@@ -210,7 +210,7 @@ mod tests {
             take_over: true,
             smooth: false,
             pull: false,
-            drive: false,
+            needle: crate::command::NeedleMove::Carried,
         };
         let e = owners.check(a, &take).unwrap_err();
         assert_eq!(e.cause, crate::refusal::Cause::BadOption, "{}", e.reason());
@@ -228,7 +228,7 @@ mod tests {
             take_over: true,
             smooth: false,
             pull: false,
-            drive: false,
+            needle: crate::command::NeedleMove::Carried,
         };
         owners.check(a, &own).unwrap();
         let release = Command::Release {

@@ -398,7 +398,7 @@ mod tests {
                 take_over: false,
                 smooth: false,
                 pull: false,
-                drive: false,
+                needle: crate::command::NeedleMove::Carried,
             })
             .unwrap();
         }
@@ -428,7 +428,7 @@ mod tests {
                 take_over: false,
                 smooth: false,
                 pull: false,
-                drive: false,
+                needle: crate::command::NeedleMove::Carried,
             })
             .unwrap();
         }

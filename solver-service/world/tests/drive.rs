@@ -9,7 +9,7 @@
 //! between the two eyelets.
 
 use world::World;
-use world::command::{Command, Point};
+use world::command::{Command, NeedleMove, Point};
 use world::scene::parse_scene;
 
 /// 10 units of suture in 80 links, its head at (0, 0, 1.55) along +x; a needle of radius 1 spanning
@@ -79,7 +79,11 @@ fn go<'a>(w: &World, to: &'a [Point], drive: bool) -> Command<'a> {
         take_over: false,
         smooth: false,
         pull: false,
-        drive,
+        needle: if drive {
+            NeedleMove::Driven
+        } else {
+            NeedleMove::Carried
+        },
     }
 }
 
@@ -214,4 +218,116 @@ fn once_the_needle_has_cut_a_hole_the_rope_goes_in_nowhere_else() {
         refusal.reason()
     );
     assert_eq!((joints(&w), needle(&w), eyelets(&w)), before);
+}
+
+/// A move of the head to `to` that poses the needle by the rotation vector `r`.
+fn pose<'a>(w: &World, to: &'a [Point], r: Point) -> Command<'a> {
+    Command::Move {
+        chain: 0,
+        joint: N,
+        targets: to,
+        options: w.specs()[0].moves,
+        take_over: false,
+        smooth: false,
+        pull: false,
+        needle: NeedleMove::Posed(r),
+    }
+}
+
+/// The rotation vector (axis × angle) of the rotation whose columns are `x`, `y` and `x × y`.
+fn rotation_vector(x: Point, y: Point) -> Point {
+    let m = nalgebra::Matrix3::from_columns(&[x, y, x.cross(&y)]);
+    nalgebra::Rotation3::from_matrix(&m).scaled_axis()
+}
+
+/// Rodrigues' formula, written here: `v` turned by the rotation vector `r`.
+fn rodrigues(r: Point, v: Point) -> Point {
+    let angle = r.norm();
+    if angle == 0.0 {
+        return v;
+    }
+    let k = r / angle;
+    v * angle.cos() + k.cross(&v) * angle.sin() + k * k.dot(&v) * (1.0 - angle.cos())
+}
+
+/// A needle posed (`FLAG_POSE`) lies where the pose puts it, by the test's own arc formula: its swage
+/// at the head, leaving it along `R·x` and curving toward `R·y`, every capsule end at
+/// `c + r (R·x sin φ − R·y cos φ)`, `c = swage + r R·y`, for φ at the capsules' equal steps. Then,
+/// posed step by step round its circle (as a stylus would turn it), its point cuts the holes where
+/// it crosses the tissue's top (the test's own interpolation), and the rope threads both.
+#[test]
+fn a_posed_needle_lies_where_the_pose_puts_it_and_its_point_cuts_the_holes() {
+    let scene = parse_scene(SCENE, "drive.toml").unwrap();
+    let mut w = World::new(&scene).unwrap();
+    // In the air first: a small move of the swage, and the needle turned a little from its scene pose
+    // (along +x, curving down: a quarter turn about −x) about an oblique axis.
+    let r = Point::new(-1.45, 0.1, 0.1);
+    let to = [Point::new(0.05, 0.02, 1.6)];
+    let cmd = pose(&w, &to, r);
+    w.apply(&cmd).unwrap();
+    let (t, b) = (rodrigues(r, Point::x()), rodrigues(r, Point::y()));
+    let c = to[0] + b * R;
+    let caps = needle(&w);
+    let segments = caps.len();
+    assert_eq!(segments, 6, "120° in capsules of 22.5° or less");
+    for (k, (a, e)) in caps.iter().enumerate() {
+        for (i, p) in [(k, a), (k + 1, e)] {
+            let phi = 120f64.to_radians() * i as f64 / segments as f64;
+            let want = c + (t * phi.sin() - b * phi.cos()) * R;
+            assert!(
+                (p - want).norm() < 1e-12,
+                "capsule {k}: an end at {p:?}, the pose puts it at {want:?}"
+            );
+        }
+    }
+    assert!((joints(&w)[N] - to[0]).norm() < 1e-9);
+    // Round a circle in the xz-plane about (0, 0, 0.55), clockwise seen from -y, from its top: the
+    // swage at angle θ, leaving along (sin θ, 0, −cos θ) and curving toward the centre.
+    let centre = Point::new(0.0, 0.0, 0.55);
+    let frame = |theta: f64| {
+        let s = centre + Point::new(theta.cos(), 0.0, theta.sin()) * R;
+        let t = Point::new(theta.sin(), 0.0, -theta.cos());
+        (s, rotation_vector(t, (centre - s) / R))
+    };
+    let turn = 250f64.to_radians();
+    let steps = (turn / 0.05).ceil() as usize;
+    let mut point_before = needle(&w).last().unwrap().1;
+    let mut holes = Vec::new();
+    for k in 0..=steps {
+        let (s, r) = frame(90f64.to_radians() - turn * k as f64 / steps as f64);
+        let to = [s];
+        let cmd = pose(&w, &to, r);
+        w.apply(&cmd)
+            .unwrap_or_else(|e| panic!("pose {k} at {s:?}: {e:?}"));
+        let caps = needle(&w);
+        for (a, e) in &caps {
+            for p in [a, e] {
+                let off = ((p - centre).norm() - R).abs().max(p.y.abs());
+                assert!(off < 1e-9, "pose {k}: a needle end {off:e} off the circle");
+            }
+        }
+        let point = caps.last().unwrap().1;
+        if (point_before.z > 0.0) != (point.z > 0.0) {
+            let at = point_before
+                + (point - point_before) * (point_before.z / (point_before.z - point.z));
+            holes.push(at);
+            let cut = eyelets(&w)
+                .iter()
+                .map(|e| (e.0 - at).norm())
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                cut < 1e-9,
+                "pose {k}: no hole where the point crossed ({cut:e} off)"
+            );
+        }
+        point_before = point;
+    }
+    assert_eq!(holes.len(), 2, "the point crossed the surface at {holes:?}");
+    let j = joints(&w);
+    let e = eyelets(&w);
+    assert_eq!(e.len(), 2, "{e:?}");
+    for (i, (at, _, threaded)) in e.iter().enumerate() {
+        assert!(*threaded, "eyelet {i} not threaded: {e:?}");
+        assert!(off_rope(&j, *at) < 1e-9, "eyelet {i} off the rope");
+    }
 }

@@ -65,7 +65,7 @@ fn go<'a>(w: &World, joint: usize, to: &'a [Point]) -> Command<'a> {
         take_over: false,
         smooth: false,
         pull: false,
-        drive: false,
+        needle: world::command::NeedleMove::Carried,
     }
 }
 
@@ -574,7 +574,7 @@ fn tissue_that_gives_draws_the_eyelets_to_the_incision_under_a_blocked_pull() {
                 take_over: false,
                 smooth: false,
                 pull: true,
-                drive: false,
+                needle: world::command::NeedleMove::Carried,
             };
             w.apply(&pull)
                 .unwrap_or_else(|r| panic!("request {k}: {}", r.reason()));

@@ -51,7 +51,7 @@ fn go<'a>(w: &World, joint: usize, to: &'a [Point]) -> Command<'a> {
         take_over: false,
         smooth: false,
         pull: false,
-        drive: false,
+        needle: world::command::NeedleMove::Carried,
     }
 }
 

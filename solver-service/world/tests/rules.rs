@@ -116,7 +116,7 @@ proptest! {
                     let from = rope[*joint];
                     let to = from + Point::new(dx[0], dx[1], dx[2]);
                     targets = if *path { vec![(from + to) * 0.5, to] } else { vec![to] };
-                    Command::Move { chain: 0, joint: *joint, targets: &targets, options: moves, take_over: false, smooth: false, pull: *pull, drive: false }
+                    Command::Move { chain: 0, joint: *joint, targets: &targets, options: moves, take_over: false, smooth: false, pull: *pull, needle: world::command::NeedleMove::Carried }
                 }
                 Op::Grasp(j) => Command::Grasp { chain: 0, joint: *j, take_over: false },
                 Op::Release(j) => Command::Release { chain: 0, joint: *j, take_over: false },

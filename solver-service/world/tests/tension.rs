@@ -45,7 +45,7 @@ fn pull_to<'a>(w: &World, joint: usize, target: &'a [Point], pull: bool) -> Comm
         take_over: false,
         smooth: false,
         pull,
-        drive: false,
+        needle: world::command::NeedleMove::Carried,
     }
 }
 
