@@ -167,6 +167,7 @@ impl Phase {
             instrument: None,
             tighten: None,
             drive: None,
+            pose: None,
             waypoints: self.waypoints,
         }
     }

@@ -53,6 +53,9 @@ pub struct Record {
     /// Sent with the drive flag (the needle driven along its arc).
     #[serde(default, skip_serializing_if = "is_false")]
     pub drive: bool,
+    /// A needle's pose, sent with the pose flag: its rotation vector (the second point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<[f64; 3]>,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -422,6 +425,7 @@ fn hold(
             axis: None,
             pull: false,
             drive: false,
+            rotation: None,
         };
         rec.append_to(w)?;
     }
@@ -501,9 +505,35 @@ fn drive(
                 joint,
                 rope[idx],
                 &targets,
+                None,
                 &q,
                 &mut steady,
                 shared::FLAG_DRIVE,
+            )?;
+        } else if let Some(p) = &turn.pose {
+            if joint != JOINT_HEAD && idx + 1 != rope.len() {
+                bail!("turn {}: a pose moves the head, the needle's swage", k + 1);
+            }
+            let path = turn
+                .targets_with(&rope, idx, &instruments, cfg.script.max_step)
+                .map_err(|e| anyhow::anyhow!("turn {}: pose: {e}", k + 1))?;
+            let poses = crate::script::needle_poses(
+                rope[idx],
+                &instruments,
+                &path,
+                p,
+                cfg.script.max_step,
+            )
+            .map_err(|e| anyhow::anyhow!("turn {}: pose: {e}", k + 1))?;
+            let (targets, rotations): (Vec<_>, Vec<_>) = poses.into_iter().unzip();
+            hand.moves(
+                joint,
+                rope[idx],
+                &targets,
+                Some(&rotations),
+                &q,
+                &mut tremor,
+                shared::FLAG_POSE,
             )?;
         } else if let Some(m) = &turn.instrument {
             let Some(now) = instruments.get(m.index as usize) else {
@@ -528,7 +558,7 @@ fn drive(
                     Vec::new()
                 }
             };
-            hand.moves(joint, rope[idx], &targets, &q, &mut tremor, 0)?;
+            hand.moves(joint, rope[idx], &targets, None, &q, &mut tremor, 0)?;
         }
         if let Some(w) = record.as_mut() {
             w.flush()?;
@@ -613,6 +643,7 @@ impl TurnRun<'_> {
                     axis: Some(*axis),
                     pull: false,
                     drive: false,
+                    rotation: None,
                 };
                 r.append_to(w)?;
             }
@@ -621,13 +652,16 @@ impl TurnRun<'_> {
     }
 
     /// Moves `joint` (at `start`, the rope as `q` answered) through `targets`, each shaken by the
-    /// tremor and sent with `flags` (`FLAG_DRIVE` for a drive); a move over the service's budget is
+    /// tremor and sent with `flags` (`FLAG_DRIVE` for a drive; `FLAG_POSE` for a pose, with the
+    /// needle's rotation vector of each target in `rotations`); a move over the service's budget is
     /// split in halves, at most `SPLITS` deep.
+    #[allow(clippy::too_many_arguments)]
     fn moves(
         &mut self,
         joint: u32,
         start: [f64; 3],
         targets: &[[f64; 3]],
+        rotations: Option<&[[f64; 3]]>,
         q: &crate::Reply,
         tremor: &mut crate::script::Tremor,
         flags: u32,
@@ -643,6 +677,9 @@ impl TurnRun<'_> {
         let pacer = Pacer::new(self.cfg.rate_hz);
         // Where the joint is: the query's, then each accepted target (a refused move leaves it).
         let mut at = start;
+        // The needle's rotation vector where the last accepted pose left it: a pose split in halves
+        // turns it halfway in the first (the turn's first pose, wholly).
+        let mut turned: Option<[f64; 3]> = None;
         let mut told_budget = false;
         let mut told_locked = false;
         for (i, t) in targets.iter().enumerate() {
@@ -657,17 +694,27 @@ impl TurnRun<'_> {
             // A move refused as over-budget (more collision work than the service allows one
             // request) is sent again as two halves from where the joint is, each split again if it
             // must, at most `SPLITS` deep: the same path in smaller requests.
-            let mut pending = vec![(*t, 0u32)];
-            while let Some((t, depth)) = pending.pop() {
+            let rotation = rotations.and_then(|r| r.get(i).copied());
+            let mut pending = vec![(*t, rotation, 0u32)];
+            while let Some((t, rotation, depth)) = pending.pop() {
                 let mut h = RequestHeader::new(Command::Move, self.chain);
                 h.joint = joint;
                 h.flags = flags;
                 let sent = now_ns();
                 let called = Instant::now();
                 let last = pending.is_empty();
+                let to = Vec3::new(t[0], t[1], t[2]);
+                let posed;
+                let points: &[Vec3] = match rotation {
+                    Some(r) => {
+                        posed = [to, Vec3::new(r[0], r[1], r[2])];
+                        &posed
+                    }
+                    None => std::slice::from_ref(&to),
+                };
                 let (status, seq, rid, dg, frame, (reason, stopped_at, solve_ns)) = self
                     .conn
-                    .call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
+                    .call_with(h, points, |rh, pts| {
                         let n = (rh.n_joints as usize).min(pts.len());
                         let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
                             .then(|| pts[..n].iter().map(|p| p.to_array()).collect());
@@ -708,17 +755,23 @@ impl TurnRun<'_> {
                 if status == Status::OverBudget as u32 && splittable {
                     self.report.splits += 1;
                     self.report.time(status, called, solve_ns);
-                    let mid = [
-                        0.5 * (at[0] + t[0]),
-                        0.5 * (at[1] + t[1]),
-                        0.5 * (at[2] + t[2]),
-                    ];
-                    pending.push((t, depth + 1));
-                    pending.push((mid, depth + 1));
+                    let half = |a: [f64; 3], b: [f64; 3]| {
+                        [
+                            0.5 * (a[0] + b[0]),
+                            0.5 * (a[1] + b[1]),
+                            0.5 * (a[2] + b[2]),
+                        ]
+                    };
+                    let mid = half(at, t);
+                    // Close rotation vectors of one pose's steps: their mean is the rotation halfway.
+                    let mid_rotation = rotation.map(|r| turned.map_or(r, |from| half(from, r)));
+                    pending.push((t, rotation, depth + 1));
+                    pending.push((mid, mid_rotation, depth + 1));
                 } else {
                     let name = self.report.tally(status, called, solve_ns);
                     if status == Status::Ok as u32 {
                         at = t;
+                        turned = rotation.or(turned);
                     }
                     if let Some(w) = self.record.as_mut() {
                         Record {
@@ -736,6 +789,7 @@ impl TurnRun<'_> {
                             axis: None,
                             pull: false,
                             drive: flags & shared::FLAG_DRIVE != 0,
+                            rotation,
                         }
                         .append_to(w)?;
                     }
@@ -861,6 +915,7 @@ impl TurnRun<'_> {
                     axis: None,
                     pull: true,
                     drive: false,
+                    rotation: None,
                 }
                 .append_to(w)?;
             }
@@ -996,10 +1051,17 @@ pub fn replay(
         if r.drive {
             h.flags |= shared::FLAG_DRIVE;
         }
+        if r.rotation.is_some() {
+            h.flags |= shared::FLAG_POSE;
+        }
         h.joint = r.joint;
         let target = Vec3::new(r.target[0], r.target[1], r.target[2]);
         let with_axis;
-        let points: &[Vec3] = match (command, r.axis) {
+        let points: &[Vec3] = match (command, r.axis.or(r.rotation)) {
+            (Command::Move, Some(a)) => {
+                with_axis = [target, Vec3::new(a[0], a[1], a[2])];
+                &with_axis
+            }
             (Command::Move, _) | (Command::Instrument, None) => std::slice::from_ref(&target),
             (Command::Instrument, Some(a)) => {
                 with_axis = [target, Vec3::new(a[0], a[1], a[2])];

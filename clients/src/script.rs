@@ -181,6 +181,10 @@ pub struct Turn {
     /// nothing else.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drive: Option<Drive>,
+    /// The turn poses the chain's needle as a hand turns the needle driver ([`Pose`]): the swage
+    /// along the waypoints while the needle turns to the pose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose: Option<Pose>,
     /// Relative to the joint's position when the turn starts.
     #[serde(default)]
     pub waypoints: Vec<[f64; 3]>,
@@ -199,16 +203,28 @@ pub struct Drive {
     pub angle: f64,
 }
 
-/// The targets of a [`Drive`]: the swage at `swage` moved round the circle of the needle among
-/// `instruments` (the capsules end to end from the swage) by `angle_deg`, in steps of at most
-/// `max_step` along the circle.
-pub fn needle_arc(
+/// The needle posed as a hand turns the needle driver it holds (a 6-DOF stylus): the swage (the head)
+/// moved along the turn's waypoints while the needle turns from its pose when the turn starts to the
+/// one given here, in equal steps that move the swage and the needle's point at most the script's
+/// `max_step` each, every move sent with the pose flag (`FLAG_POSE`: the needle set on its pose,
+/// its point cutting holes where it crosses the tissue's surface; docs/eyelets.md).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pose {
+    /// The way the needle leaves its swage.
+    pub tangent: [f64; 3],
+    /// The way it curves (made perpendicular to `tangent`).
+    pub bend: [f64; 3],
+}
+
+/// The needle among `instruments` (its capsules end to end from `swage`): the arc's points from the
+/// swage, the circle's centre (the circumcentre of the swage, the first capsule's far end and the
+/// point) and the normal of its plane (not unit).
+fn needle_circle(
     swage: [f64; 3],
     instruments: &[InstrumentEnds],
-    angle_deg: f64,
-    max_step: f64,
-) -> Result<Vec<[f64; 3]>, String> {
-    use nalgebra::{Rotation3, Unit, Vector3};
+) -> Result<(Vec<nalgebra::Vector3<f64>>, nalgebra::Vector3<f64>, nalgebra::Vector3<f64>), String> {
+    use nalgebra::Vector3;
     let v = |p: [f64; 3]| Vector3::new(p[0], p[1], p[2]);
     let near = |p: Vector3<f64>, q: Vector3<f64>| (p - q).norm() <= 1e-9 * (1.0 + p.norm());
     // The needle: the capsules end to end from the swage.
@@ -228,13 +244,30 @@ pub fn needle_arc(
     let (p0, p1, p2) = (arc[0], arc[1], arc[arc.len() - 1]);
     let (a, b) = (p1 - p0, p2 - p0);
     let n = a.cross(&b);
-    if !(n.norm() > 1e-12 && max_step > 0.0 && angle_deg.is_finite()) {
-        return Err("the needle is straight, or the step or the angle is not usable".into());
+    if !(n.norm() > 1e-12) {
+        return Err("the needle is straight".into());
     }
-    // The circumcentre of the swage, the first capsule's far end and the point.
     let centre = p0
         + (b.cross(&n) * a.norm_squared() + n.cross(&a) * b.norm_squared())
             / (2.0 * n.norm_squared());
+    Ok((arc, centre, n))
+}
+
+/// The targets of a [`Drive`]: the swage at `swage` moved round the circle of the needle among
+/// `instruments` (the capsules end to end from the swage) by `angle_deg`, in steps of at most
+/// `max_step` along the circle.
+pub fn needle_arc(
+    swage: [f64; 3],
+    instruments: &[InstrumentEnds],
+    angle_deg: f64,
+    max_step: f64,
+) -> Result<Vec<[f64; 3]>, String> {
+    use nalgebra::{Rotation3, Unit};
+    let (arc, centre, n) = needle_circle(swage, instruments)?;
+    if !(max_step > 0.0 && angle_deg.is_finite()) {
+        return Err("the step or the angle is not usable".into());
+    }
+    let p0 = arc[0];
     let r = (p0 - centre).norm();
     let angle = angle_deg.to_radians();
     let steps = ((angle.abs() * r / max_step).ceil() as usize).clamp(1, 1 << 20);
@@ -244,6 +277,61 @@ pub fn needle_arc(
             let turn = Rotation3::from_axis_angle(&axis, angle * k as f64 / steps as f64);
             let p = centre + turn * (p0 - centre);
             [p.x, p.y, p.z]
+        })
+        .collect())
+}
+
+/// The moves of a [`Pose`] turn: the needle among `instruments` (its capsules end to end from
+/// `swage`) turned from its pose now to `pose` while its swage goes along `path` (the turn's targets;
+/// empty: it stays), in equal steps, as many as the path has and enough that the needle's point moves
+/// at most `max_step` in each by the turn. Each move: where the swage goes and the needle's rotation
+/// vector from its own frame (it leaves the swage along x, curving toward y), as `FLAG_POSE` sends
+/// them.
+pub fn needle_poses(
+    swage: [f64; 3],
+    instruments: &[InstrumentEnds],
+    path: &[[f64; 3]],
+    pose: &Pose,
+    max_step: f64,
+) -> Result<Vec<([f64; 3], [f64; 3])>, String> {
+    use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+    let (arc, centre, _) = needle_circle(swage, instruments)?;
+    let v = |p: [f64; 3]| Vector3::new(p[0], p[1], p[2]);
+    let frame = |t: Vector3<f64>, b: Vector3<f64>| -> Result<UnitQuaternion<f64>, String> {
+        let t = t.try_normalize(1e-12).ok_or("a zero tangent")?;
+        let b = (b - t * b.dot(&t))
+            .try_normalize(1e-12)
+            .ok_or("a bend along the tangent")?;
+        let m = Rotation3::from_basis_unchecked(&[t, b, t.cross(&b)]);
+        Ok(UnitQuaternion::from_rotation_matrix(&m))
+    };
+    let r = (arc[0] - centre).norm();
+    let now = frame(arc[1] - arc[0], centre - arc[0])?;
+    let goal = frame(v(pose.tangent), v(pose.bend)).map_err(|e| format!("the pose: {e}"))?;
+    if !(max_step > 0.0) || !pose.tangent.iter().chain(&pose.bend).all(|c| c.is_finite()) {
+        return Err("the step or the pose is not usable".into());
+    }
+    // The point is at most twice the radius from the swage: a turn by θ moves it at most 2rθ.
+    let turn = now.angle_to(&goal);
+    let steps = ((2.0 * r * turn / max_step).ceil() as usize)
+        .max(path.len())
+        .clamp(1, 1 << 20);
+    // The swage's place at fraction f of the path (its points equally spaced in f from the start).
+    let pts: Vec<Vector3<f64>> = std::iter::once(arc[0])
+        .chain(path.iter().map(|p| v(*p)))
+        .collect();
+    let along = |f: f64| {
+        let x = f * (pts.len() - 1) as f64;
+        let i = (x.floor() as usize).min(pts.len() - 1);
+        let j = (i + 1).min(pts.len() - 1);
+        pts[i] + (pts[j] - pts[i]) * (x - i as f64)
+    };
+    Ok((1..=steps)
+        .map(|k| {
+            let f = k as f64 / steps as f64;
+            let p = along(f);
+            let q = now.slerp(&goal, f).scaled_axis();
+            ([p.x, p.y, p.z], [q.x, q.y, q.z])
         })
         .collect())
 }
@@ -714,6 +802,7 @@ impl Script {
                     instrument: None,
                     tighten: Some(Tighten::at(speed)),
                     drive: None,
+                    pose: None,
                     waypoints: Vec::new(),
                 });
             }
@@ -752,6 +841,7 @@ impl Script {
             instrument: None,
             tighten: None,
             drive: None,
+            pose: None,
             waypoints,
         };
         let two_hands = |second| Script {
@@ -1009,6 +1099,38 @@ impl Script {
                     ),
                 ],
             }),
+            "stitch-drive" => Some(Script {
+                name: name.into(),
+                max_step: 0.05,
+                grasp: false,
+                turn: vec![
+                    turn(
+                        "A",
+                        "stitch-80",
+                        "head",
+                        None,
+                        vec![[0.0, 1.5, 0.1], [1.3357, 1.5, 0.2]],
+                    ),
+                    Turn {
+                        pose: Some(Pose {
+                            tangent: [-0.766_044_443, 0.0, 0.642_787_610],
+                            bend: [-0.642_787_610, 0.0, -0.766_044_443],
+                        }),
+                        ..turn("A", "stitch-80", "head", None, vec![[0.0, -1.5, -0.1904]])
+                    },
+                    Turn {
+                        drive: Some(Drive { angle: 320.0 }),
+                        ..turn("A", "stitch-80", "head", None, vec![])
+                    },
+                    turn(
+                        "A",
+                        "stitch-80",
+                        "head",
+                        None,
+                        vec![[0.66, 0.0, 0.85], [23.31, 0.0, 1.85]],
+                    ),
+                ],
+            }),
             "stitch-pass" => Some(Script {
                 name: name.into(),
                 max_step: 0.05,
@@ -1078,6 +1200,7 @@ pub fn overhands_held(name: &str, second: Handedness) -> Script {
         instrument: None,
         tighten: None,
         drive: None,
+        pose: None,
         waypoints: vec![],
     };
     // Each hand heads away from the rope (B along +x, A along −x), the loop on the +y side.
@@ -1170,6 +1293,7 @@ fn tie_turn(chain: &str, h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
         instrument: None,
         tighten: None,
         drive: None,
+        pose: None,
         waypoints,
     }
 }
@@ -1311,6 +1435,7 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
         instrument: None,
         tighten: None,
         drive: None,
+        pose: None,
         waypoints,
     };
     Script {
@@ -1364,6 +1489,7 @@ pub const BUILTINS: &[&str] = &[
     "needle-pass-held",
     "needle-drive",
     "stitch-pass",
+    "stitch-drive",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.
@@ -2141,6 +2267,7 @@ mod tests {
             instrument: None,
             tighten: None,
             drive: None,
+            pose: None,
             waypoints: vec![],
         };
         // The end closes the loop just past the rope it crosses (a proper crossing), or 0.4 short of
@@ -2213,6 +2340,7 @@ mod tests {
             instrument: None,
             tighten: None,
             drive: None,
+            pose: None,
             waypoints: vec![],
         };
         // 65 536 joints leading in along −x, then the loop at the head: found.
