@@ -517,14 +517,9 @@ fn drive(
             let path = turn
                 .targets_with(&rope, idx, &instruments, cfg.script.max_step)
                 .map_err(|e| anyhow::anyhow!("turn {}: pose: {e}", k + 1))?;
-            let poses = crate::script::needle_poses(
-                rope[idx],
-                &instruments,
-                &path,
-                p,
-                cfg.script.max_step,
-            )
-            .map_err(|e| anyhow::anyhow!("turn {}: pose: {e}", k + 1))?;
+            let poses =
+                crate::script::needle_poses(rope[idx], &instruments, &path, p, cfg.script.max_step)
+                    .map_err(|e| anyhow::anyhow!("turn {}: pose: {e}", k + 1))?;
             let (targets, rotations): (Vec<_>, Vec<_>) = poses.into_iter().unzip();
             hand.moves(
                 joint,
@@ -712,9 +707,8 @@ impl TurnRun<'_> {
                     }
                     None => std::slice::from_ref(&to),
                 };
-                let (status, seq, rid, dg, frame, (reason, stopped_at, solve_ns)) = self
-                    .conn
-                    .call_with(h, points, |rh, pts| {
+                let (status, seq, rid, dg, frame, (reason, stopped_at, solve_ns)) =
+                    self.conn.call_with(h, points, |rh, pts| {
                         let n = (rh.n_joints as usize).min(pts.len());
                         let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
                             .then(|| pts[..n].iter().map(|p| p.to_array()).collect());

@@ -217,13 +217,17 @@ pub struct Pose {
     pub bend: [f64; 3],
 }
 
+/// A needle's arc points from its swage, its circle's centre and its plane's normal (not unit).
+type Circle = (
+    Vec<nalgebra::Vector3<f64>>,
+    nalgebra::Vector3<f64>,
+    nalgebra::Vector3<f64>,
+);
+
 /// The needle among `instruments` (its capsules end to end from `swage`): the arc's points from the
 /// swage, the circle's centre (the circumcentre of the swage, the first capsule's far end and the
 /// point) and the normal of its plane (not unit).
-fn needle_circle(
-    swage: [f64; 3],
-    instruments: &[InstrumentEnds],
-) -> Result<(Vec<nalgebra::Vector3<f64>>, nalgebra::Vector3<f64>, nalgebra::Vector3<f64>), String> {
+fn needle_circle(swage: [f64; 3], instruments: &[InstrumentEnds]) -> Result<Circle, String> {
     use nalgebra::Vector3;
     let v = |p: [f64; 3]| Vector3::new(p[0], p[1], p[2]);
     let near = |p: Vector3<f64>, q: Vector3<f64>| (p - q).norm() <= 1e-9 * (1.0 + p.norm());
@@ -244,7 +248,7 @@ fn needle_circle(
     let (p0, p1, p2) = (arc[0], arc[1], arc[arc.len() - 1]);
     let (a, b) = (p1 - p0, p2 - p0);
     let n = a.cross(&b);
-    if !(n.norm() > 1e-12) {
+    if n.norm() <= 1e-12 || !n.norm().is_finite() {
         return Err("the needle is straight".into());
     }
     let centre = p0
@@ -281,6 +285,9 @@ pub fn needle_arc(
         .collect())
 }
 
+/// One move of a [`Pose`] turn: where the swage goes, and the needle's rotation vector.
+pub type PoseMove = ([f64; 3], [f64; 3]);
+
 /// The moves of a [`Pose`] turn: the needle among `instruments` (its capsules end to end from
 /// `swage`) turned from its pose now to `pose` while its swage goes along `path` (the turn's targets;
 /// empty: it stays), in equal steps, as many as the path has and enough that the needle's point moves
@@ -293,7 +300,7 @@ pub fn needle_poses(
     path: &[[f64; 3]],
     pose: &Pose,
     max_step: f64,
-) -> Result<Vec<([f64; 3], [f64; 3])>, String> {
+) -> Result<Vec<PoseMove>, String> {
     use nalgebra::{Rotation3, UnitQuaternion, Vector3};
     let (arc, centre, _) = needle_circle(swage, instruments)?;
     let v = |p: [f64; 3]| Vector3::new(p[0], p[1], p[2]);
@@ -305,12 +312,22 @@ pub fn needle_poses(
         let m = Rotation3::from_basis_unchecked(&[t, b, t.cross(&b)]);
         Ok(UnitQuaternion::from_rotation_matrix(&m))
     };
-    let r = (arc[0] - centre).norm();
-    let now = frame(arc[1] - arc[0], centre - arc[0])?;
-    let goal = frame(v(pose.tangent), v(pose.bend)).map_err(|e| format!("the pose: {e}"))?;
-    if !(max_step > 0.0) || !pose.tangent.iter().chain(&pose.bend).all(|c| c.is_finite()) {
+    if max_step.is_nan()
+        || max_step <= 0.0
+        || !pose.tangent.iter().chain(&pose.bend).all(|c| c.is_finite())
+    {
         return Err("the step or the pose is not usable".into());
     }
+    let r = (arc[0] - centre).norm();
+    // Now: the bend toward the centre, the tangent the first capsule's chord made perpendicular to it
+    // (the chord itself is turned half a capsule's angle from the tangent).
+    let bend = centre - arc[0];
+    let chord = arc[1] - arc[0];
+    let now = frame(
+        chord - bend * (chord.dot(&bend) / bend.norm_squared()),
+        bend,
+    )?;
+    let goal = frame(v(pose.tangent), v(pose.bend)).map_err(|e| format!("the pose: {e}"))?;
     // The point is at most twice the radius from the swage: a turn by θ moves it at most 2rθ.
     let turn = now.angle_to(&goal);
     let steps = ((2.0 * r * turn / max_step).ceil() as usize)
@@ -1068,14 +1085,6 @@ impl Script {
                     ),
                 ],
             }),
-            // The needle's pass of the whole stitch (chain `stitch-80` or `stitch-160` of
-            // `stitch.toml`, laid along +x from x = -25 to the needle's end at x = 15, half a unit
-            // above the tissue): down into the tissue just past the head's start, 1.2 deep, out 1.5
-            // on, and the suture drawn on along +x and up until its tail, free, is near x = 0 (the
-            // tail before the entry about as long as `stitch-tie-80`'s, so that its instrument tie
-            // follows). The pull rises 1.5: drawn level, the 160-link suture lay along the tissue's
-            // top beyond the exit, and pushing it out of the tissue locked the pull. Not grasped:
-            // the tail must slide toward the entry.
             // The needle driven round its own circle (chain `needle-drive-80` of `stitch.toml`: 10
             // units of suture in 80 links, its needle of radius 1 and 120° laid curving down, its
             // point just above the tissue): the driver turns the needle 250° (its point goes in,
@@ -1099,7 +1108,21 @@ impl Script {
                     ),
                 ],
             }),
-            "stitch-drive" => Some(Script {
+            // The needle's pass of the whole stitch (chain `stitch-80` or `stitch-160` of
+            // `stitch.toml`, laid along +x from x = -25 to the needle's swage at x = 15, half a unit
+            // above the tissue; the needle, radius 0.6 and 120°, curving up from the head link), as
+            // a surgeon loads and drives a curved needle: the driver swings the swage aside (to
+            // y = 1.5) and over the bite, then brings it back into the plane y = 0 turning the needle
+            // (a pose turn) to arch over the entry, its point at 160° of a circle centred 0.05 above
+            // the tissue's top at x = 15.95 and the suture hanging from the swage sideways, out of
+            // the needle's way. The driver then drives it 345° round that circle: its point cuts the
+            // entry (x ≈ 15.35) and the exit (≈ 16.55) either side of the incision at x = 15.9, the
+            // swage follows it through both and the suture threads them. Then the suture is drawn
+            // on along +x and up until its tail, free, is near x = 0 (the tail before the entry about
+            // as long as `stitch-tie-80`'s, so that its instrument tie follows). Not grasped: the
+            // tail must slide toward the entry. The point starts 0.25 above the tissue, room for a
+            // person's hand (`--perturb`) to set the swage 0.2 lower.
+            "stitch-pass" => Some(Script {
                 name: name.into(),
                 max_step: 0.05,
                 grasp: false,
@@ -1109,17 +1132,17 @@ impl Script {
                         "stitch-80",
                         "head",
                         None,
-                        vec![[0.0, 1.5, 0.1], [1.3357, 1.5, 0.2]],
+                        vec![[0.0, 1.5, 0.1], [1.4096, 1.5, 0.2]],
                     ),
                     Turn {
                         pose: Some(Pose {
-                            tangent: [-0.766_044_443, 0.0, 0.642_787_610],
-                            bend: [-0.642_787_610, 0.0, -0.766_044_443],
+                            tangent: [-0.642_787_610, 0.0, 0.766_044_443],
+                            bend: [-0.766_044_443, 0.0, -0.642_787_610],
                         }),
-                        ..turn("A", "stitch-80", "head", None, vec![[0.0, -1.5, -0.1904]])
+                        ..turn("A", "stitch-80", "head", None, vec![[0.0, -1.5, -0.2643]])
                     },
                     Turn {
-                        drive: Some(Drive { angle: 320.0 }),
+                        drive: Some(Drive { angle: 345.0 }),
                         ..turn("A", "stitch-80", "head", None, vec![])
                     },
                     turn(
@@ -1130,27 +1153,6 @@ impl Script {
                         vec![[0.66, 0.0, 0.85], [23.31, 0.0, 1.85]],
                     ),
                 ],
-            }),
-            "stitch-pass" => Some(Script {
-                name: name.into(),
-                max_step: 0.05,
-                grasp: false,
-                turn: vec![turn(
-                    "A",
-                    "stitch-80",
-                    "head",
-                    None,
-                    vec![
-                        [0.15, 0.0, -0.4],
-                        [0.35, 0.0, -0.9],
-                        [0.95, 0.0, -1.2],
-                        [1.55, 0.0, -0.9],
-                        [1.75, 0.0, -0.4],
-                        [1.95, 0.0, 0.1],
-                        [2.2, 0.0, 0.5],
-                        [24.85, 0.0, 1.5],
-                    ],
-                )],
             }),
             _ => None,
         }
@@ -1489,7 +1491,6 @@ pub const BUILTINS: &[&str] = &[
     "needle-pass-held",
     "needle-drive",
     "stitch-pass",
-    "stitch-drive",
 ];
 
 /// `"head"`, `"tail"` or an index, as the wire's joint field.
@@ -2451,5 +2452,78 @@ mod tests {
         }
         // Heads outward (−x) and ends 30 further on.
         assert!(p.last().unwrap()[0] < -30.0);
+    }
+
+    /// A pose turn's moves, checked by the test's own arc and Rodrigues' formula: a needle of radius 1
+    /// and 120° in four capsules, swaged at the origin along +x curving toward +z, turned to leave
+    /// along −x curving toward +y while its swage goes 1 along +y. The last move is the pose asked for
+    /// (its frame's x the tangent and y the bend, to 1e-12), the swage ends where the path does, and
+    /// no point of the needle moves more than the step (plus the swage's own) between moves.
+    #[test]
+    fn a_pose_turn_turns_the_needle_to_its_pose_in_small_steps() {
+        let arc = |c: [f64; 3], t: [f64; 3], b: [f64; 3], phi: f64| -> [f64; 3] {
+            let (s, k) = (phi.sin(), phi.cos());
+            [0, 1, 2].map(|i| c[i] + b[i] + t[i] * s - b[i] * k)
+        };
+        let (x, z) = ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        let ends: Vec<[f64; 3]> = (0..=4)
+            .map(|k| arc([0.0; 3], x, z, 120f64.to_radians() * k as f64 / 4.0))
+            .collect();
+        let caps: Vec<InstrumentEnds> = ends.windows(2).map(|w| (w[0], w[1])).collect();
+        let path: Vec<[f64; 3]> = (1..=20).map(|k| [0.0, k as f64 * 0.05, 0.0]).collect();
+        let pose = Pose {
+            tangent: [-1.0, 0.0, 0.0],
+            bend: [0.0, 1.0, 0.0],
+        };
+        let moves = needle_poses([0.0; 3], &caps, &path, &pose, 0.05).unwrap();
+        let rodrigues = |r: [f64; 3], v: [f64; 3]| -> [f64; 3] {
+            let a = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+            if a == 0.0 {
+                return v;
+            }
+            let k = r.map(|c| c / a);
+            let dot = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+            let cross = [
+                k[1] * v[2] - k[2] * v[1],
+                k[2] * v[0] - k[0] * v[2],
+                k[0] * v[1] - k[1] * v[0],
+            ];
+            [0, 1, 2].map(|i| v[i] * a.cos() + cross[i] * a.sin() + k[i] * dot * (1.0 - a.cos()))
+        };
+        let (last_at, last_r) = *moves.last().unwrap();
+        let close = |a: [f64; 3], b: [f64; 3], tol: f64| (0..3).all(|i| (a[i] - b[i]).abs() < tol);
+        assert!(
+            close(rodrigues(last_r, x), pose.tangent, 1e-12),
+            "{last_r:?}"
+        );
+        assert!(close(rodrigues(last_r, [0.0, 1.0, 0.0]), pose.bend, 1e-12));
+        assert!(close(last_at, [0.0, 1.0, 0.0], 1e-12), "{last_at:?}");
+        // The needle's ends at each move (at the start: its frame is x, z).
+        let needle = |at: [f64; 3], t: [f64; 3], b: [f64; 3]| -> Vec<[f64; 3]> {
+            (0..=4)
+                .map(|k| arc(at, t, b, 120f64.to_radians() * k as f64 / 4.0))
+                .collect()
+        };
+        let mut before = needle([0.0; 3], x, z);
+        let mut at_before = [0.0; 3];
+        // A half turn about the bisector of the two frames: the point's path is 2rθ at most.
+        assert!(
+            moves.len() >= (2.0 * std::f64::consts::PI / 0.05) as usize,
+            "{}",
+            moves.len()
+        );
+        for (at, r) in &moves {
+            let now = needle(*at, rodrigues(*r, x), rodrigues(*r, [0.0, 1.0, 0.0]));
+            let swage = (0..3)
+                .map(|i| (at[i] - at_before[i]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            for (p, q) in now.iter().zip(&before) {
+                let d = (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>().sqrt();
+                assert!(d <= 0.05 + swage + 1e-9, "a needle end moved {d}");
+            }
+            before = now;
+            at_before = *at;
+        }
     }
 }

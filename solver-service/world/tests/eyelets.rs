@@ -720,8 +720,9 @@ eyelet_friction = 1.0
         let q = [p.x, p.y, p.z];
         (0..3).all(|k| lo[k] - t <= q[k] && q[k] <= hi[k] + t)
     };
-    // The head's path: the built-in `stitch-pass`'s waypoints (copied: the world's tests do not
-    // depend on the clients), relative to where the head starts, in steps of at most 0.05.
+    // The head's path: the built-in `stitch-pass`'s waypoints before its needle was driven (copied:
+    // the world's tests do not depend on the clients), relative to where the head starts, in steps
+    // of at most 0.05.
     let start = joints(&w)[160];
     let mut path = vec![start];
     for r in [
