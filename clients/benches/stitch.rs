@@ -23,7 +23,8 @@
 //! eyelets slid, and the time per request ([`ties`]).
 //!
 //! A third table is the whole stitch ([`whole`]): on `stitch-80` and `stitch-160`, the needle's pass
-//! by one hand (`stitch-pass`, the tail free) and then the surgeon's knot over the bite by two hands
+//! by one hand (`stitch-pass`, the tail free: the needle posed over the entry and driven through both
+//! sides, its point cutting the holes) and then the surgeon's knot over the bite by two hands
 //! (`surgeons-knot`), tightened (`--tighten 0.05`: each hand pulls its end until it stops), all three
 //! hands perturbed with the run's seed, `STITCH_BENCH_RUNS` runs. A run succeeds when the service
 //! names the surgeon's knot at the end and the bench's own code finds both eyelets threaded and on the
