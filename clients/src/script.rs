@@ -1048,12 +1048,13 @@ impl Script {
                     ],
                 )],
             }),
-            // The same pass with two hands (chain `suture-held-80` of `stitch.toml`, laid across the
+            // The pass with two hands (chain `suture-held-80` of `stitch.toml`, laid across the
             // table from (20, -5, 2) along y): the forceps (hand B) hold the tail where it lies, the
-            // driver (hand A) holds the head and swings it round the forceps to above the entry
+            // driver (hand A) holds the head and swings it round the forceps to beside the bite
             // (sideways, then on, the suture following like a snake: moved back along its own line,
-            // a tractrix rope is pushed end on and piles up), into the tissue, under the incision and
-            // out, drawing the suture through both eyelets toward the held tail.
+            // a tractrix rope is pushed end on and piles up), loads the needle and drives it through
+            // both sides of x = 28 as `stitch-pass` does, then draws the suture through both eyelets
+            // toward the held tail.
             "needle-pass-held" => Some(Script {
                 name: name.into(),
                 max_step: 0.05,
@@ -1062,6 +1063,8 @@ impl Script {
                     // A little toward the needle (a grip perturbed by up to 0.1 stays within the
                     // rope's reach: the suture lies straight between the hands).
                     turn("B", "suture-held-80", "tail", None, vec![[0.0, 0.3, 0.0]]),
+                    // Round the forceps to above the bite, arriving from +y (the suture trailing
+                    // sideways, out of the needle's way).
                     turn(
                         "A",
                         "suture-held-80",
@@ -1070,18 +1073,42 @@ impl Script {
                         vec![
                             [3.0, -1.0, 0.0],
                             [6.0, -3.0, 0.0],
-                            [8.0, -7.0, 0.0],
-                            [8.0, -12.0, -0.5],
-                            [6.0, -15.0, -1.0],
-                            [3.0, -15.0, -1.0],
-                            [4.5, -15.0, -2.8],
-                            [6.0, -15.0, -3.8],
-                            [8.0, -15.0, -4.2],
-                            [10.0, -15.0, -3.8],
-                            [11.5, -15.0, -2.8],
-                            [12.5, -15.0, -1.0],
-                            [13.0, -15.0, 0.0],
+                            [8.383, -7.0, 0.0],
+                            [8.383, -12.0, -0.5],
+                            [8.383, -13.5, -1.3],
                         ],
+                    ),
+                    // The needle loaded: turned, up where its point cannot reach the tissue, to arch
+                    // over the entry, then brought down with its swage at 40° of a circle of its
+                    // radius (0.5) centred 0.05 above the tissue's top at x = 28, its point at 160°,
+                    // 0.22 above the tissue.
+                    Turn {
+                        pose: Some(LOADED),
+                        ..turn("A", "suture-held-80", "head", None, vec![[0.0, -0.3, 0.8]])
+                    },
+                    Turn {
+                        pose: Some(LOADED),
+                        ..turn(
+                            "A",
+                            "suture-held-80",
+                            "head",
+                            None,
+                            vec![[0.0, -1.2, -1.1286]],
+                        )
+                    },
+                    // Driven 345° round it: the point cuts the entry (x ≈ 27.5) and the exit
+                    // (x ≈ 28.5), the swage follows it through both.
+                    Turn {
+                        drive: Some(Drive { angle: 345.0 }),
+                        ..turn("A", "suture-held-80", "head", None, vec![])
+                    },
+                    // The suture drawn through, up and on along +x.
+                    turn(
+                        "A",
+                        "suture-held-80",
+                        "head",
+                        None,
+                        vec![[0.5, 0.0, 0.8], [4.5, 0.0, 1.7]],
                     ),
                 ],
             }),
@@ -1112,10 +1139,11 @@ impl Script {
             // `stitch.toml`, laid along +x from x = -25 to the needle's swage at x = 15, half a unit
             // above the tissue; the needle, radius 0.6 and 120°, curving up from the head link), as
             // a surgeon loads and drives a curved needle: the driver swings the swage aside (to
-            // y = 1.5) and over the bite, then brings it back into the plane y = 0 turning the needle
-            // (a pose turn) to arch over the entry, its point at 160° of a circle centred 0.05 above
-            // the tissue's top at x = 15.95 and the suture hanging from the swage sideways, out of
-            // the needle's way. The driver then drives it 345° round that circle: its point cuts the
+            // y = 1.5) and over the bite; lifts it, turning the needle (a pose turn) to arch over the
+            // entry, high enough that its point cannot reach the tissue while it turns; then brings
+            // it down into the plane y = 0, its point at 160° of a circle centred 0.05 above the
+            // tissue's top at x = 15.95 and the suture hanging from the swage sideways, out of the
+            // needle's way. The driver then drives it 345° round that circle: its point cuts the
             // entry (x ≈ 15.35) and the exit (≈ 16.55) either side of the incision at x = 15.9, the
             // swage follows it through both and the suture threads them. Then the suture is drawn
             // on along +x and up until its tail, free, is near x = 0 (the tail before the entry about
@@ -1135,11 +1163,12 @@ impl Script {
                         vec![[0.0, 1.5, 0.1], [1.4096, 1.5, 0.2]],
                     ),
                     Turn {
-                        pose: Some(Pose {
-                            tangent: [-0.642_787_610, 0.0, 0.766_044_443],
-                            bend: [-0.766_044_443, 0.0, -0.642_787_610],
-                        }),
-                        ..turn("A", "stitch-80", "head", None, vec![[0.0, -1.5, -0.2643]])
+                        pose: Some(LOADED),
+                        ..turn("A", "stitch-80", "head", None, vec![[0.0, -0.3, 0.8]])
+                    },
+                    Turn {
+                        pose: Some(LOADED),
+                        ..turn("A", "stitch-80", "head", None, vec![[0.0, -1.2, -1.0643]])
                     },
                     Turn {
                         drive: Some(Drive { angle: 345.0 }),
@@ -1158,6 +1187,15 @@ impl Script {
         }
     }
 }
+
+/// A curved needle loaded for a bite along +x under a tissue's top, in the plane y = const: its swage
+/// at 40° of its circle (seen from −y, angles from +x toward +z), leaving it toward the top of the
+/// circle and curving toward its centre, so that its point (120° on, at 160°) leads it down into the
+/// tissue on the −x side when it is driven ([`Drive`]).
+const LOADED: Pose = Pose {
+    tangent: [-0.642_787_610, 0.0, 0.766_044_443],
+    bend: [-0.766_044_443, 0.0, -0.642_787_610],
+};
 
 /// The wide loop of the held overhand on the paper's rope, straight along +x and held at its tail: a
 /// loop of radius 4 (on unit links a smaller one does not survive the tuck; BENCHMARKS.md, knots),
