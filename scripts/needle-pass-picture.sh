@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The picture of the needle's pass with two hands (issue 39): on the 80-link suture `suture-held-80` of
-# stitch.toml, the forceps (hand B) hold the tail while the driver (hand A) takes the needle's end into
-# the tissue, under the incision and out, drawing the suture through both eyelets
+# stitch.toml, the forceps (hand B) hold the tail while the driver (hand A) loads the needle and drives
+# it through the tissue (its point cuts the holes), drawing the suture through both eyelets
 # (`hand run --builtin needle-pass-held`, hands A and B). The last state is drawn by `watch --svg-last`
 # into docs/needle-pass.svg, seen from the side and a little above (the tissue, which the service's
 # describe carries, drawn as a box; the eyelets as crosses; the needle, grey, at the head); the hand's report of the eyelets and the tail is printed. Seconds after
