@@ -496,30 +496,35 @@ fn drive(
             if joint != JOINT_HEAD && idx + 1 != rope.len() {
                 bail!("turn {}: a drive moves the head, the needle's swage", k + 1);
             }
-            let targets =
+            let moves =
                 crate::script::needle_arc(rope[idx], &instruments, d.angle, cfg.script.max_step)
                     .map_err(|e| anyhow::anyhow!("turn {}: drive: {e}", k + 1))?;
-            // No tremor: a trembling step would turn the driven needle off its circle.
-            let mut steady = crate::script::Tremor::new(0, &cfg.hand, 0.0);
+            let (targets, rotations): (Vec<_>, Vec<_>) = moves.into_iter().unzip();
+            // A steady hand drives the needle (`FLAG_DRIVE`, the points alone: the service turns
+            // it along its arc). A trembling one sends its poses instead: a trembling step driven
+            // would turn the needle off its circle, and each such error would stay; posed, the
+            // needle trembles with the hand and comes back to its circle.
+            let (rotations, flags) = if tremor.is_steady() {
+                (None, shared::FLAG_DRIVE)
+            } else {
+                (Some(rotations.as_slice()), shared::FLAG_POSE)
+            };
             hand.moves(
                 joint,
                 rope[idx],
                 &targets,
-                None,
+                rotations,
                 &q,
-                &mut steady,
-                shared::FLAG_DRIVE,
+                &mut tremor,
+                flags,
             )?;
         } else if let Some(p) = &turn.pose {
             if joint != JOINT_HEAD && idx + 1 != rope.len() {
                 bail!("turn {}: a pose moves the head, the needle's swage", k + 1);
             }
-            let path = turn
-                .targets_with(&rope, idx, &instruments, cfg.script.max_step)
+            let poses = turn
+                .pose_moves(p, &rope, idx, &instruments, cfg.script.max_step)
                 .map_err(|e| anyhow::anyhow!("turn {}: pose: {e}", k + 1))?;
-            let poses =
-                crate::script::needle_poses(rope[idx], &instruments, &path, p, cfg.script.max_step)
-                    .map_err(|e| anyhow::anyhow!("turn {}: pose: {e}", k + 1))?;
             let (targets, rotations): (Vec<_>, Vec<_>) = poses.into_iter().unzip();
             hand.moves(
                 joint,

@@ -110,6 +110,11 @@ impl Tremor {
         }
     }
 
+    /// Whether the hand does not shake (amplitude 0).
+    pub fn is_steady(&self) -> bool {
+        self.amplitude == 0.0
+    }
+
     /// `p` as the shaking hand sends it.
     pub fn apply(&mut self, p: [f64; 3]) -> [f64; 3] {
         if self.amplitude == 0.0 {
@@ -194,8 +199,9 @@ pub struct Turn {
 /// the head (the needle's swage) moved along the circle the needle's capsules lie on when the turn
 /// starts, `angle` degrees onward (the way its point leads), in steps of the script's `max_step`,
 /// every move sent with the drive flag (`FLAG_DRIVE`: the needle goes along its arc, its point cuts
-/// the holes the rope then threads; docs/eyelets.md). The hand's tremor is not applied: a driven
-/// needle is steered by its path, and a trembling step would turn it off its circle.
+/// the holes the rope then threads; docs/eyelets.md). A trembling hand (`--perturb`) sends each
+/// step's pose instead (`FLAG_POSE`: the swage shaken by the tremor, the needle turned as far round
+/// its circle as the step): driven, a trembling step would turn the needle off its circle for good.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Drive {
@@ -204,9 +210,10 @@ pub struct Drive {
 }
 
 /// The needle posed as a hand turns the needle driver it holds (a 6-DOF stylus): the swage (the head)
-/// moved along the turn's waypoints while the needle turns from its pose when the turn starts to the
-/// one given here, in equal steps that move the swage and the needle's point at most the script's
-/// `max_step` each, every move sent with the pose flag (`FLAG_POSE`: the needle set on its pose,
+/// moved to the turn's first waypoint while the needle turns from its pose when the turn starts to
+/// the one given here, in equal steps that move the swage and the needle's point at most the script's
+/// `max_step` each, then along the other waypoints with the needle so posed; every move sent with the
+/// pose flag (`FLAG_POSE`: the needle set on its pose,
 /// its point cutting holes where it crosses the tissue's surface; docs/eyelets.md).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -257,61 +264,86 @@ fn needle_circle(swage: [f64; 3], instruments: &[InstrumentEnds]) -> Result<Circ
     Ok((arc, centre, n))
 }
 
-/// The targets of a [`Drive`]: the swage at `swage` moved round the circle of the needle among
+/// The moves of a [`Drive`]: the swage at `swage` moved round the circle of the needle among
 /// `instruments` (the capsules end to end from the swage) by `angle_deg`, in steps of at most
-/// `max_step` along the circle.
+/// `max_step` along the circle, each with the needle's rotation vector there (its frame now turned
+/// about the circle's axis as far as the swage: the pose a trembling hand's drive sends, `FLAG_POSE`;
+/// a steady one sends the points alone with `FLAG_DRIVE`).
 pub fn needle_arc(
     swage: [f64; 3],
     instruments: &[InstrumentEnds],
     angle_deg: f64,
     max_step: f64,
-) -> Result<Vec<[f64; 3]>, String> {
-    use nalgebra::{Rotation3, Unit};
+) -> Result<Vec<PoseMove>, String> {
+    use nalgebra::{Unit, UnitQuaternion};
     let (arc, centre, n) = needle_circle(swage, instruments)?;
     if !(max_step > 0.0 && angle_deg.is_finite()) {
         return Err("the step or the angle is not usable".into());
     }
     let p0 = arc[0];
+    let now = needle_frame(&arc, centre)?;
     let r = (p0 - centre).norm();
     let angle = angle_deg.to_radians();
     let steps = ((angle.abs() * r / max_step).ceil() as usize).clamp(1, 1 << 20);
     let axis = Unit::new_normalize(n);
     Ok((1..=steps)
         .map(|k| {
-            let turn = Rotation3::from_axis_angle(&axis, angle * k as f64 / steps as f64);
+            let turn = UnitQuaternion::from_axis_angle(&axis, angle * k as f64 / steps as f64);
             let p = centre + turn * (p0 - centre);
-            [p.x, p.y, p.z]
+            let q = (turn * now).scaled_axis();
+            ([p.x, p.y, p.z], [q.x, q.y, q.z])
         })
         .collect())
+}
+
+/// The needle's frame from its arc's points and its circle's centre: x its tangent at the swage (the
+/// first capsule's chord made perpendicular to the bend: the chord is turned half a capsule's angle
+/// from the tangent), y its bend toward the centre.
+fn needle_frame(
+    arc: &[nalgebra::Vector3<f64>],
+    centre: nalgebra::Vector3<f64>,
+) -> Result<nalgebra::UnitQuaternion<f64>, String> {
+    let bend = centre - arc[0];
+    let chord = arc[1] - arc[0];
+    frame(
+        chord - bend * (chord.dot(&bend) / bend.norm_squared()),
+        bend,
+    )
+}
+
+/// The rotation whose x is along `t` and whose y along `b` made perpendicular to it.
+fn frame(
+    t: nalgebra::Vector3<f64>,
+    b: nalgebra::Vector3<f64>,
+) -> Result<nalgebra::UnitQuaternion<f64>, String> {
+    let t = t.try_normalize(1e-12).ok_or("a zero tangent")?;
+    let b = (b - t * b.dot(&t))
+        .try_normalize(1e-12)
+        .ok_or("a bend along the tangent")?;
+    let m = nalgebra::Rotation3::from_basis_unchecked(&[t, b, t.cross(&b)]);
+    Ok(nalgebra::UnitQuaternion::from_rotation_matrix(&m))
 }
 
 /// One move of a [`Pose`] turn: where the swage goes, and the needle's rotation vector.
 pub type PoseMove = ([f64; 3], [f64; 3]);
 
 /// The moves of a [`Pose`] turn: the needle among `instruments` (its capsules end to end from
-/// `swage`) turned from its pose now to `pose` while its swage goes along `path` (the turn's targets;
-/// empty: it stays), in equal steps, as many as the path has and enough that the needle's point moves
-/// at most `max_step` in each by the turn. Each move: where the swage goes and the needle's rotation
-/// vector from its own frame (it leaves the swage along x, curving toward y), as `FLAG_POSE` sends
-/// them.
+/// `swage`) turned from its pose now to `pose` while its swage goes along the first `turning` points
+/// of `path` (the turn's targets; empty: it stays), in equal steps, as many as those points and
+/// enough that the needle's point moves at most `max_step` in each by the turn; then posed so along
+/// the rest of the path. Each move: where the swage goes and the needle's rotation vector from its
+/// own frame (it leaves the swage along x, curving toward y), as `FLAG_POSE` sends them.
 pub fn needle_poses(
     swage: [f64; 3],
     instruments: &[InstrumentEnds],
     path: &[[f64; 3]],
+    turning: usize,
     pose: &Pose,
     max_step: f64,
 ) -> Result<Vec<PoseMove>, String> {
-    use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+    use nalgebra::Vector3;
     let (arc, centre, _) = needle_circle(swage, instruments)?;
     let v = |p: [f64; 3]| Vector3::new(p[0], p[1], p[2]);
-    let frame = |t: Vector3<f64>, b: Vector3<f64>| -> Result<UnitQuaternion<f64>, String> {
-        let t = t.try_normalize(1e-12).ok_or("a zero tangent")?;
-        let b = (b - t * b.dot(&t))
-            .try_normalize(1e-12)
-            .ok_or("a bend along the tangent")?;
-        let m = Rotation3::from_basis_unchecked(&[t, b, t.cross(&b)]);
-        Ok(UnitQuaternion::from_rotation_matrix(&m))
-    };
     if max_step.is_nan()
         || max_step <= 0.0
         || !pose.tangent.iter().chain(&pose.bend).all(|c| c.is_finite())
@@ -319,16 +351,10 @@ pub fn needle_poses(
         return Err("the step or the pose is not usable".into());
     }
     let r = (arc[0] - centre).norm();
-    // Now: the bend toward the centre, the tangent the first capsule's chord made perpendicular to it
-    // (the chord itself is turned half a capsule's angle from the tangent).
-    let bend = centre - arc[0];
-    let chord = arc[1] - arc[0];
-    let now = frame(
-        chord - bend * (chord.dot(&bend) / bend.norm_squared()),
-        bend,
-    )?;
+    let now = needle_frame(&arc, centre)?;
     let goal = frame(v(pose.tangent), v(pose.bend)).map_err(|e| format!("the pose: {e}"))?;
     // The point is at most twice the radius from the swage: a turn by θ moves it at most 2rθ.
+    let (path, rest) = path.split_at(turning.min(path.len()));
     let turn = now.angle_to(&goal);
     let steps = ((2.0 * r * turn / max_step).ceil() as usize)
         .max(path.len())
@@ -343,6 +369,7 @@ pub fn needle_poses(
         let j = (i + 1).min(pts.len() - 1);
         pts[i] + (pts[j] - pts[i]) * (x - i as f64)
     };
+    let posed = goal.scaled_axis();
     Ok((1..=steps)
         .map(|k| {
             let f = k as f64 / steps as f64;
@@ -350,6 +377,7 @@ pub fn needle_poses(
             let q = now.slerp(&goal, f).scaled_axis();
             ([p.x, p.y, p.z], [q.x, q.y, q.z])
         })
+        .chain(rest.iter().map(|p| (*p, [posed.x, posed.y, posed.z])))
         .collect())
 }
 
@@ -1084,16 +1112,12 @@ impl Script {
                     // 0.22 above the tissue.
                     Turn {
                         pose: Some(LOADED),
-                        ..turn("A", "suture-held-80", "head", None, vec![[0.0, -0.3, 0.8]])
-                    },
-                    Turn {
-                        pose: Some(LOADED),
                         ..turn(
                             "A",
                             "suture-held-80",
                             "head",
                             None,
-                            vec![[0.0, -1.2, -1.1286]],
+                            vec![[0.0, -0.3, 0.8], [0.0, -1.5, -0.3286]],
                         )
                     },
                     // Driven 345° round it: the point cuts the entry (x ≈ 27.5) and the exit
@@ -1164,11 +1188,13 @@ impl Script {
                     ),
                     Turn {
                         pose: Some(LOADED),
-                        ..turn("A", "stitch-80", "head", None, vec![[0.0, -0.3, 0.8]])
-                    },
-                    Turn {
-                        pose: Some(LOADED),
-                        ..turn("A", "stitch-80", "head", None, vec![[0.0, -1.2, -1.0643]])
+                        ..turn(
+                            "A",
+                            "stitch-80",
+                            "head",
+                            None,
+                            vec![[0.0, -0.3, 0.8], [0.0, -1.5, -0.2643]],
+                        )
                     },
                     Turn {
                         drive: Some(Drive { angle: 345.0 }),
@@ -1589,6 +1615,25 @@ impl Turn {
             corners.splice(k..k, wound);
         }
         Ok(densify(start, &corners, max_step))
+    }
+
+    /// The moves of this turn's [`Pose`] for its joint `joint` of the rope `joints` (the needle's
+    /// swage, the head): the needle turned to the pose while the swage goes to the first waypoint,
+    /// then kept so along the rest ([`needle_poses`]).
+    pub fn pose_moves(
+        &self,
+        pose: &Pose,
+        joints: &[[f64; 3]],
+        joint: usize,
+        instruments: &[InstrumentEnds],
+        max_step: f64,
+    ) -> Result<Vec<PoseMove>, String> {
+        let path = self.targets_with(joints, joint, instruments, max_step)?;
+        let start = joints[joint];
+        let turning = self.waypoints.first().map_or(path.len(), |w| {
+            densify(start, &[add(start, *w)], max_step).len()
+        });
+        needle_poses(start, instruments, &path, turning, pose, max_step)
     }
 
     /// The poses (centre, axis direction) an [`InstrumentMove`] turn sends, from the instrument's
@@ -2497,37 +2542,90 @@ mod tests {
     /// along −x curving toward +y while its swage goes 1 along +y. The last move is the pose asked for
     /// (its frame's x the tangent and y the bend, to 1e-12), the swage ends where the path does, and
     /// no point of the needle moves more than the step (plus the swage's own) between moves.
+    /// A point of the unit-radius arc swaged at `c`, leaving along `t`, curving toward `b`, `phi` on.
+    fn arc(c: [f64; 3], t: [f64; 3], b: [f64; 3], phi: f64) -> [f64; 3] {
+        let (s, k) = (phi.sin(), phi.cos());
+        [0, 1, 2].map(|i| c[i] + b[i] + t[i] * s - b[i] * k)
+    }
+
+    /// Rodrigues' formula: `v` turned by the rotation vector `r`.
+    fn rodrigues(r: [f64; 3], v: [f64; 3]) -> [f64; 3] {
+        let a = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+        if a == 0.0 {
+            return v;
+        }
+        let k = r.map(|c| c / a);
+        let dot = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+        let cross = [
+            k[1] * v[2] - k[2] * v[1],
+            k[2] * v[0] - k[0] * v[2],
+            k[0] * v[1] - k[1] * v[0],
+        ];
+        [0, 1, 2].map(|i| v[i] * a.cos() + cross[i] * a.sin() + k[i] * dot * (1.0 - a.cos()))
+    }
+
+    /// A unit-radius needle of 120° in four capsules swaged at the origin along +x, curving toward
+    /// +z.
+    fn test_needle() -> Vec<InstrumentEnds> {
+        let ends: Vec<[f64; 3]> = (0..=4)
+            .map(|k| {
+                arc(
+                    [0.0; 3],
+                    [1.0, 0.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                    120f64.to_radians() * k as f64 / 4.0,
+                )
+            })
+            .collect();
+        ends.windows(2).map(|w| (w[0], w[1])).collect()
+    }
+
+    /// A drive's moves: each swage on the needle's circle (centre (0, 0, 1), radius 1, in y = 0) and
+    /// each pose's frame (by the test's Rodrigues formula) tangent there, curving toward the centre,
+    /// to 1e-12; the swage goes the way the point leads (+x first); the steps at most `max_step`.
+    #[test]
+    fn a_drive_s_poses_keep_the_needle_on_its_circle() {
+        let moves = needle_arc([0.0; 3], &test_needle(), 90.0, 0.05).unwrap();
+        assert_eq!(
+            moves.len(),
+            (std::f64::consts::FRAC_PI_2 / 0.05).ceil() as usize
+        );
+        let mut before = [0.0; 3];
+        for (k, (p, r)) in moves.iter().enumerate() {
+            let to_centre = [-p[0], -p[1], 1.0 - p[2]];
+            let off = (to_centre.iter().map(|c| c * c).sum::<f64>().sqrt() - 1.0).abs();
+            assert!(off < 1e-12 && p[1].abs() < 1e-12, "move {k}: {p:?}");
+            let (t, b) = (
+                rodrigues(*r, [1.0, 0.0, 0.0]),
+                rodrigues(*r, [0.0, 1.0, 0.0]),
+            );
+            for i in 0..3 {
+                assert!((b[i] - to_centre[i]).abs() < 1e-12, "move {k}: bend {b:?}");
+            }
+            let dot: f64 = (0..3).map(|i| t[i] * to_centre[i]).sum();
+            assert!(dot.abs() < 1e-12, "move {k}: tangent {t:?}");
+            let step = (0..3)
+                .map(|i| (p[i] - before[i]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            assert!(step <= 0.05 + 1e-12, "move {k}: a step of {step}");
+            before = *p;
+        }
+        assert!(moves[0].0[0] > 0.0, "the swage went back: {:?}", moves[0].0);
+        let last = moves.last().unwrap().0;
+        assert!((last[0] - 1.0).abs() < 1e-12 && (last[2] - 1.0).abs() < 1e-12);
+    }
+
     #[test]
     fn a_pose_turn_turns_the_needle_to_its_pose_in_small_steps() {
-        let arc = |c: [f64; 3], t: [f64; 3], b: [f64; 3], phi: f64| -> [f64; 3] {
-            let (s, k) = (phi.sin(), phi.cos());
-            [0, 1, 2].map(|i| c[i] + b[i] + t[i] * s - b[i] * k)
-        };
         let (x, z) = ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
-        let ends: Vec<[f64; 3]> = (0..=4)
-            .map(|k| arc([0.0; 3], x, z, 120f64.to_radians() * k as f64 / 4.0))
-            .collect();
-        let caps: Vec<InstrumentEnds> = ends.windows(2).map(|w| (w[0], w[1])).collect();
+        let caps = test_needle();
         let path: Vec<[f64; 3]> = (1..=20).map(|k| [0.0, k as f64 * 0.05, 0.0]).collect();
         let pose = Pose {
             tangent: [-1.0, 0.0, 0.0],
             bend: [0.0, 1.0, 0.0],
         };
-        let moves = needle_poses([0.0; 3], &caps, &path, &pose, 0.05).unwrap();
-        let rodrigues = |r: [f64; 3], v: [f64; 3]| -> [f64; 3] {
-            let a = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
-            if a == 0.0 {
-                return v;
-            }
-            let k = r.map(|c| c / a);
-            let dot = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
-            let cross = [
-                k[1] * v[2] - k[2] * v[1],
-                k[2] * v[0] - k[0] * v[2],
-                k[0] * v[1] - k[1] * v[0],
-            ];
-            [0, 1, 2].map(|i| v[i] * a.cos() + cross[i] * a.sin() + k[i] * dot * (1.0 - a.cos()))
-        };
+        let moves = needle_poses([0.0; 3], &caps, &path, path.len(), &pose, 0.05).unwrap();
         let (last_at, last_r) = *moves.last().unwrap();
         let close = |a: [f64; 3], b: [f64; 3], tol: f64| (0..3).all(|i| (a[i] - b[i]).abs() < tol);
         assert!(
