@@ -875,20 +875,6 @@ impl Script {
             exit,
             lobe: false,
         };
-        let turn = |hand: &str, chain: &str, joint: &str, throw: Option<Throw>, waypoints| Turn {
-            hand: hand.into(),
-            chain: chain.into(),
-            joint: joint.into(),
-            throw,
-            wide_loop: None,
-            tuck: None,
-            wrap: None,
-            instrument: None,
-            tighten: None,
-            drive: None,
-            pose: None,
-            waypoints,
-        };
         let two_hands = |second| Script {
             name: name.into(),
             max_step: 0.05,
@@ -1087,17 +1073,23 @@ impl Script {
                 name: name.into(),
                 max_step: 0.05,
                 grasp: true,
-                turn: vec![
+                turn: [
                     // A little toward the needle (a grip perturbed by up to 0.1 stays within the
                     // rope's reach: the suture lies straight between the hands).
-                    turn("B", "suture-held-80", "tail", None, vec![[0.0, 0.3, 0.0]]),
-                    // Round the forceps to above the bite, arriving from +y (the suture trailing
-                    // sideways, out of the needle's way).
-                    turn(
-                        "A",
+                    vec![turn(
+                        "B",
                         "suture-held-80",
-                        "head",
+                        "tail",
                         None,
+                        vec![[0.0, 0.3, 0.0]],
+                    )],
+                    // Round the forceps to beside the bite, arriving from +y (the suture trailing
+                    // sideways, out of the needle's way), then loaded and driven through both sides
+                    // of x = 28 (the needle's radius 0.5: its circle centred 0.05 above the top at
+                    // x = 28, its point 0.22 above it when loaded), then the suture drawn through,
+                    // up and on along +x.
+                    loaded_and_driven(
+                        "suture-held-80",
                         vec![
                             [3.0, -1.0, 0.0],
                             [6.0, -3.0, 0.0],
@@ -1105,36 +1097,11 @@ impl Script {
                             [8.383, -12.0, -0.5],
                             [8.383, -13.5, -1.3],
                         ],
-                    ),
-                    // The needle loaded: turned, up where its point cannot reach the tissue, to arch
-                    // over the entry, then brought down with its swage at 40° of a circle of its
-                    // radius (0.5) centred 0.05 above the tissue's top at x = 28, its point at 160°,
-                    // 0.22 above the tissue.
-                    Turn {
-                        pose: Some(LOADED),
-                        ..turn(
-                            "A",
-                            "suture-held-80",
-                            "head",
-                            None,
-                            vec![[0.0, -0.3, 0.8], [0.0, -1.5, -0.3286]],
-                        )
-                    },
-                    // Driven 345° round it: the point cuts the entry (x ≈ 27.5) and the exit
-                    // (x ≈ 28.5), the swage follows it through both.
-                    Turn {
-                        drive: Some(Drive { angle: 345.0 }),
-                        ..turn("A", "suture-held-80", "head", None, vec![])
-                    },
-                    // The suture drawn through, up and on along +x.
-                    turn(
-                        "A",
-                        "suture-held-80",
-                        "head",
-                        None,
+                        [0.0, -1.5, -0.3286],
                         vec![[0.5, 0.0, 0.8], [4.5, 0.0, 1.7]],
                     ),
-                ],
+                ]
+                .concat(),
             }),
             // The needle driven round its own circle (chain `needle-drive-80` of `stitch.toml`: 10
             // units of suture in 80 links, its needle of radius 1 and 120° laid curving down, its
@@ -1178,40 +1145,68 @@ impl Script {
                 name: name.into(),
                 max_step: 0.05,
                 grasp: false,
-                turn: vec![
-                    turn(
-                        "A",
-                        "stitch-80",
-                        "head",
-                        None,
-                        vec![[0.0, 1.5, 0.1], [1.4096, 1.5, 0.2]],
-                    ),
-                    Turn {
-                        pose: Some(LOADED),
-                        ..turn(
-                            "A",
-                            "stitch-80",
-                            "head",
-                            None,
-                            vec![[0.0, -0.3, 0.8], [0.0, -1.5, -0.2643]],
-                        )
-                    },
-                    Turn {
-                        drive: Some(Drive { angle: 345.0 }),
-                        ..turn("A", "stitch-80", "head", None, vec![])
-                    },
-                    turn(
-                        "A",
-                        "stitch-80",
-                        "head",
-                        None,
-                        vec![[0.66, 0.0, 0.85], [23.31, 0.0, 1.85]],
-                    ),
-                ],
+                turn: loaded_and_driven(
+                    "stitch-80",
+                    vec![[0.0, 1.5, 0.1], [1.4096, 1.5, 0.2]],
+                    [0.0, -1.5, -0.2643],
+                    vec![[0.66, 0.0, 0.85], [23.31, 0.0, 1.85]],
+                ),
             }),
             _ => None,
         }
     }
+}
+
+/// A turn of `hand` moving `joint` of `chain` through a throw (if any), then `waypoints`.
+fn turn(
+    hand: &str,
+    chain: &str,
+    joint: &str,
+    throw: Option<Throw>,
+    waypoints: Vec<[f64; 3]>,
+) -> Turn {
+    Turn {
+        hand: hand.into(),
+        chain: chain.into(),
+        joint: joint.into(),
+        throw,
+        wide_loop: None,
+        tuck: None,
+        wrap: None,
+        instrument: None,
+        tighten: None,
+        drive: None,
+        pose: None,
+        waypoints,
+    }
+}
+
+/// One hand's needle pass (hand A, the chain's head): along `approach` to beside the bite (the
+/// suture trailing sideways from the swage, out of the needle's way); then a pose turn that lifts the
+/// swage (0.8 up, 0.3 toward the bite's plane) turning the needle to [`LOADED`], high enough that its
+/// point cannot reach the tissue while it turns, and brings it `down` (from where the approach
+/// ended) onto its circle, the point 0.2 or more above the tissue; then a drive of 345° round that
+/// circle (the point cuts the entry and the exit, the swage follows it through both); then the
+/// suture drawn through along `draw`. One pose turn, not two: a perturbed hand's waypoint errors add
+/// up turn by turn.
+fn loaded_and_driven(
+    chain: &str,
+    approach: Vec<[f64; 3]>,
+    down: [f64; 3],
+    draw: Vec<[f64; 3]>,
+) -> Vec<Turn> {
+    vec![
+        turn("A", chain, "head", None, approach),
+        Turn {
+            pose: Some(LOADED),
+            ..turn("A", chain, "head", None, vec![[0.0, -0.3, 0.8], down])
+        },
+        Turn {
+            drive: Some(Drive { angle: 345.0 }),
+            ..turn("A", chain, "head", None, vec![])
+        },
+        turn("A", chain, "head", None, draw),
+    ]
 }
 
 /// A curved needle loaded for a bite along +x under a tissue's top, in the plane y = const: its swage

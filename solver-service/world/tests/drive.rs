@@ -87,6 +87,25 @@ fn go<'a>(w: &World, to: &'a [Point], drive: bool) -> Command<'a> {
     }
 }
 
+/// Where the needle's point, from `before` to `now`, crossed the tissue's top (z = 0), interpolated
+/// here; the world must have a hole there, an eyelet not yet threaded, to 1e-9.
+fn hole_where_the_point_crossed(w: &World, before: Point, now: Point, what: &str) -> Option<Point> {
+    if (before.z > 0.0) == (now.z > 0.0) {
+        return None;
+    }
+    let at = before + (now - before) * (before.z / (before.z - now.z));
+    let cut = eyelets(w)
+        .iter()
+        .filter(|e| !e.2)
+        .map(|e| (e.0 - at).norm())
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        cut < 1e-9,
+        "{what}: no hole where the point crossed ({cut:e} off)"
+    );
+    Some(at)
+}
+
 fn inside(p: &Point) -> bool {
     (-4.0..=6.0).contains(&p.x) && (-3.0..=3.0).contains(&p.y) && (-3.0..=0.0).contains(&p.z)
 }
@@ -141,23 +160,13 @@ fn a_driven_needle_follows_its_arc_and_its_point_cuts_the_holes_the_rope_threads
                 );
             }
         }
-        // The point's crossing of the tissue's top, interpolated here.
         let point = caps.last().unwrap().1;
-        if (point_before.z > 0.0) != (point.z > 0.0) {
-            let t = point_before.z / (point_before.z - point.z);
-            let at = point_before + (point - point_before) * t;
-            holes.push(at);
-            let e = eyelets(&w);
-            let cut = e
-                .iter()
-                .filter(|e| !e.2)
-                .map(|e| (e.0 - at).norm())
-                .fold(f64::INFINITY, f64::min);
-            assert!(
-                cut < 1e-9,
-                "step {k}: no hole where the point crossed ({cut:e} off)"
-            );
-        }
+        holes.extend(hole_where_the_point_crossed(
+            &w,
+            point_before,
+            point,
+            &format!("step {k}"),
+        ));
         point_before = point;
     }
     // The point went in on the right of the centre and came out on the left.
@@ -307,19 +316,12 @@ fn a_posed_needle_lies_where_the_pose_puts_it_and_its_point_cuts_the_holes() {
             }
         }
         let point = caps.last().unwrap().1;
-        if (point_before.z > 0.0) != (point.z > 0.0) {
-            let at = point_before
-                + (point - point_before) * (point_before.z / (point_before.z - point.z));
-            holes.push(at);
-            let cut = eyelets(&w)
-                .iter()
-                .map(|e| (e.0 - at).norm())
-                .fold(f64::INFINITY, f64::min);
-            assert!(
-                cut < 1e-9,
-                "pose {k}: no hole where the point crossed ({cut:e} off)"
-            );
-        }
+        holes.extend(hole_where_the_point_crossed(
+            &w,
+            point_before,
+            point,
+            &format!("pose {k}"),
+        ));
         point_before = point;
     }
     assert_eq!(holes.len(), 2, "the point crossed the surface at {holes:?}");
