@@ -65,7 +65,9 @@
 #define TRACTRIX_REASON_LEN 96u
 #define TRACTRIX_JOINT_HEAD 0xFFFFFFFFu
 #define TRACTRIX_FLAG_ANGLES 1u
-/* A bundle's move by one rigid motion of its heads: points (t, rotation vector r); head_i = R(r) h0_i + t. */
+/* A bundle's move by one rigid motion of its heads: points (t, rotation vector r); head_i = R(r) h0_i + t.
+ * A move of the head of a chain with a needle: points (swage, rotation vector r): the needle leaves its
+ * swage along R(r)·x, curving toward R(r)·y (a 6-DOF stylus's pose); its point cuts holes in tissue. */
 #define TRACTRIX_FLAG_POSE 2u
 /* Grasp, release, move, path, reset: take over the grasps of other clients the request touches. */
 #define TRACTRIX_FLAG_TAKE_OVER 4u
@@ -80,6 +82,9 @@
 /* Move (one target) and instrument: pull. A move the rope cannot make in full goes as far as it can
  * instead of being refused; the rest is the pull of that joint or instrument (n_pulls elements). */
 #define TRACTRIX_FLAG_PULL 128u
+/* A move of the head of a chain with a needle: the needle driven along its own arc to the target (a
+ * needle driver's turn); where its point crosses the tissue's surface it cuts a hole. */
+#define TRACTRIX_FLAG_DRIVE 256u
 #define TRACTRIX_MAX_BUNDLE_JOINTS 1048576u
 #define TRACTRIX_MAX_BUNDLE_STRANDS 131072u
 #define TRACTRIX_BUNDLE_STATE_BUFFER 2u
