@@ -75,6 +75,16 @@ int tractrix_client_move(tractrix_client *client, uint32_t chain, uint32_t joint
 int tractrix_client_pull(tractrix_client *client, uint32_t chain, uint32_t joint, tractrix_Vec3 target,
                          tractrix_Vec3 *joints, size_t capacity, size_t *n_joints, tractrix_Vec3 *pull,
                          int *taut);
+/* A chain with a needle: poses the needle as a 6-DOF stylus holds the needle driver (TRACTRIX_FLAG_POSE):
+ * its swage (the head) to `swage`, the needle turned by the rotation vector `rotation` (axis x angle,
+ * radians) from its own frame, in which it leaves the swage along +x and curves toward +y. Where its point
+ * crosses the tissue's surface it cuts a hole the rope then threads. */
+int tractrix_client_needle_pose(tractrix_client *client, uint32_t chain, tractrix_Vec3 swage, tractrix_Vec3 rotation,
+                                tractrix_Vec3 *joints, size_t capacity, size_t *n_joints);
+/* A chain with a needle: drives the needle along its own arc, its swage (the head) to `target`
+ * (TRACTRIX_FLAG_DRIVE: a target on the needle's circle turns it about its centre), cutting holes as above. */
+int tractrix_client_needle_drive(tractrix_client *client, uint32_t chain, tractrix_Vec3 target, tractrix_Vec3 *joints,
+                                 size_t capacity, size_t *n_joints);
 /* Moves `joint` through n_points targets in order (1..4096). */
 int tractrix_client_path(tractrix_client *client, uint32_t chain, uint32_t joint, const tractrix_Vec3 *points,
                          size_t n_points, tractrix_Vec3 *joints, size_t capacity, size_t *n_joints);

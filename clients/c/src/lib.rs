@@ -440,9 +440,28 @@ fn joint_request(
     capacity: usize,
     n_joints: *mut usize,
 ) -> c_int {
+    flagged_request(
+        client, command, chain, joint, 0, points, joints, capacity, n_joints,
+    )
+}
+
+/// [`joint_request`] with the request's `flags`.
+#[allow(clippy::too_many_arguments)]
+fn flagged_request(
+    client: *mut TractrixClient,
+    command: Command,
+    chain: u32,
+    joint: u32,
+    flags: u32,
+    points: &[Vec3],
+    joints: *mut Vec3,
+    capacity: usize,
+    n_joints: *mut usize,
+) -> c_int {
     with_client(client, |conn| {
         let mut h = RequestHeader::new(command, chain);
         h.joint = joint;
+        h.flags = flags;
         request(conn, h, points, |rh, p| {
             copy_joints(rh, p, joints, capacity, n_joints)
         })
@@ -472,6 +491,70 @@ pub unsafe extern "C" fn tractrix_client_move(
         Command::Move,
         chain,
         joint,
+        &[target],
+        joints,
+        capacity,
+        n_joints,
+    )
+}
+
+/// Poses the needle of `chain` (a chain with a needle) as a 6-DOF stylus holds the needle driver
+/// (`TRACTRIX_FLAG_POSE`): its swage (the chain's head) to `swage`, the needle turned by the rotation
+/// vector `rotation` (axis × angle, radians) from its own frame, in which it leaves the swage along +x
+/// and curves toward +y. The rope follows the head; where the needle's point crosses the tissue's
+/// surface it cuts a hole the rope then threads. Joints as with [`tractrix_client_move`].
+///
+/// # Safety
+///
+/// Every pointer is null or valid as `tractrix_client.h` says (handles from the matching `open` and
+/// not yet closed; buffers valid for their stated capacity; strings NUL-terminated).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn tractrix_client_needle_pose(
+    client: *mut TractrixClient,
+    chain: u32,
+    swage: Vec3,
+    rotation: Vec3,
+    joints: *mut Vec3,
+    capacity: usize,
+    n_joints: *mut usize,
+) -> c_int {
+    flagged_request(
+        client,
+        Command::Move,
+        chain,
+        shared::JOINT_HEAD,
+        shared::FLAG_POSE,
+        &[swage, rotation],
+        joints,
+        capacity,
+        n_joints,
+    )
+}
+
+/// Drives the needle of `chain` (a chain with a needle) along its own arc, as a needle driver turns
+/// a curved needle, its swage (the chain's head) to `target` (`TRACTRIX_FLAG_DRIVE`: a target on the
+/// needle's circle turns it about its centre); where its point crosses the tissue's surface it cuts
+/// a hole the rope then threads. Joints as with [`tractrix_client_move`].
+///
+/// # Safety
+///
+/// Every pointer is null or valid as `tractrix_client.h` says (handles from the matching `open` and
+/// not yet closed; buffers valid for their stated capacity; strings NUL-terminated).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn tractrix_client_needle_drive(
+    client: *mut TractrixClient,
+    chain: u32,
+    target: Vec3,
+    joints: *mut Vec3,
+    capacity: usize,
+    n_joints: *mut usize,
+) -> c_int {
+    flagged_request(
+        client,
+        Command::Move,
+        chain,
+        shared::JOINT_HEAD,
+        shared::FLAG_DRIVE,
         &[target],
         joints,
         capacity,

@@ -221,6 +221,64 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
     );
 }
 
+/// A C program drives a needle as a haptic stylus would (`clients/c/examples/needle.c` on
+/// `stitch.toml`'s `needle-drive-80`): 91 poses round the needle's own circle through the tissue
+/// (`tractrix_client_needle_pose`), then one driven step (`tractrix_client_needle_drive`). Every request
+/// accepted, the head where the last step put it (computed here: the circle's point 255° on from its
+/// top), and two eyelets, the holes the needle's point cut.
+#[test]
+fn a_c_program_poses_and_drives_the_needle() {
+    let lib = lib_dir();
+    let lib_s = lib.display().to_string();
+    let include = root().join("shared/include").display().to_string();
+    let examples = root().join("clients/c/examples");
+    let dir = program_dir();
+    let exe = dir.path().join("needle").display().to_string();
+    compile_strict(
+        "cc",
+        &include,
+        &examples,
+        &[
+            examples.join("needle.c").to_str().unwrap(),
+            "-L",
+            &lib_s,
+            "-ltractrix_client",
+            &format!("-Wl,-rpath,{lib_s}"),
+            "-lm",
+            "-o",
+            &exe,
+        ],
+    );
+    let scene = root().join("solver-service/scenes/stitch.toml");
+    let svc = Service::start(
+        &unique_prefix(),
+        &[
+            "--scene",
+            scene.to_str().unwrap(),
+            "--no-persist",
+            "--wait",
+            "event",
+        ],
+    );
+    let out = Process::new(&exe).arg(&svc.prefix).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("posed: 91 poses, 0 refused"), "{text}");
+    let t = (90.0f64 - 255.0).to_radians();
+    let want = format!(
+        "driven: head {:.6} {:.6} {:.6}",
+        50.0 + t.cos(),
+        0.0,
+        0.55 + t.sin()
+    );
+    assert!(text.contains(&want), "{text} (want {want})");
+    assert!(text.contains("eyelets: 2"), "{text}");
+}
+
 /// A C# program (P/Invoke, as a Unity script would call the library), compiled with Mono's `mcs` and
 /// run with `mono` (`scripts/system-packages.sh` installs both), moves the rope and reads the same joints as Rust.
 #[test]
