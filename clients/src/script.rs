@@ -1128,18 +1128,18 @@ impl Script {
             }),
             // The needle's pass of the whole stitch (chain `stitch-80` or `stitch-160` of
             // `stitch.toml`, laid along +x from x = -25 to the needle's swage at x = 15, half a unit
-            // above the tissue; the needle, radius 0.6 and 120°, curving up from the head link), as
+            // above the tissue; the needle, radius 0.7 and 120°, curving up from the head link), as
             // a surgeon loads and drives a curved needle: the driver swings the swage aside (to
             // y = 1.5) and over the bite; lifts it, turning the needle (a pose turn) to arch over the
             // entry, high enough that its point cannot reach the tissue while it turns; then brings
             // it down into the plane y = 0, its point at 160° of a circle centred 0.05 above the
             // tissue's top at x = 15.95 and the suture hanging from the swage sideways, out of the
             // needle's way. The driver then drives it 345° round that circle: its point cuts the
-            // entry (x ≈ 15.35) and the exit (≈ 16.55) either side of the incision at x = 15.9, the
+            // entry (x ≈ 15.25) and the exit (≈ 16.65) either side of the incision at x = 15.9, the
             // swage follows it through both and the suture threads them. Then the suture is drawn
             // on along +x and up until its tail, free, is near x = 0 (the tail before the entry about
             // as long as `stitch-tie-80`'s, so that its instrument tie follows). Not grasped: the
-            // tail must slide toward the entry. The point starts 0.25 above the tissue, room for a
+            // tail must slide toward the entry. The point starts 0.29 above the tissue, room for a
             // person's hand (`--perturb`) to set the swage 0.2 lower.
             "stitch-pass" => Some(Script {
                 name: name.into(),
@@ -1147,8 +1147,8 @@ impl Script {
                 grasp: false,
                 turn: loaded_and_driven(
                     "stitch-80",
-                    vec![[0.0, 1.5, 0.1], [1.4096, 1.5, 0.2]],
-                    [0.0, -1.5, -0.2643],
+                    vec![[0.0, 1.5, 0.1], [1.4862, 1.5, 0.2]],
+                    [0.0, -1.5, -0.2],
                     vec![[0.66, 0.0, 0.85], [23.31, 0.0, 1.85]],
                 ),
             }),
