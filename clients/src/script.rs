@@ -1250,19 +1250,14 @@ const HELD_PULL: f64 = 8.0;
 /// throws first (a right trefoil), then A (`second`: `Left` mirrors it, a square knot; `Right`, a
 /// granny); then each hand pulls its end back along the rope by one unit, twice, in turn.
 pub fn overhands_held(name: &str, second: Handedness) -> Script {
-    let hand = |h: &str| Turn {
-        hand: h.into(),
-        chain: "paper".into(),
-        joint: if h == "A" { "tail" } else { "head" }.into(),
-        throw: None,
-        wide_loop: None,
-        tuck: None,
-        wrap: None,
-        instrument: None,
-        tighten: None,
-        drive: None,
-        pose: None,
-        waypoints: vec![],
+    let hand = |h: &str| {
+        turn(
+            h,
+            "paper",
+            if h == "A" { "tail" } else { "head" },
+            None,
+            vec![],
+        )
     };
     // Each hand heads away from the rope (B along +x, A along −x), the loop on the +y side.
     let outward = |h: &str| [if h == "A" { -1.0 } else { 1.0 }, 0.0, 0.0];
@@ -1343,20 +1338,13 @@ const DOUBLE_WRAP_PITCH: f64 = -4.5;
 /// A turn of the instrument tie on chain `tie` through `waypoints`: hand A moves the head (the long
 /// end), hand B the tail (the short end, in the driver's jaws).
 fn tie_turn(chain: &str, h: &str, waypoints: Vec<[f64; 3]>) -> Turn {
-    Turn {
-        hand: h.into(),
-        chain: chain.into(),
-        joint: if h == "A" { "head" } else { "tail" }.into(),
-        throw: None,
-        wide_loop: None,
-        tuck: None,
-        wrap: None,
-        instrument: None,
-        tighten: None,
-        drive: None,
-        pose: None,
+    turn(
+        h,
+        chain,
+        if h == "A" { "head" } else { "tail" },
+        None,
         waypoints,
-    }
+    )
 }
 
 /// The instrument tie of surgery on chain `tie` of `knots.toml` (the paper's rope stitched in at joint
@@ -1485,19 +1473,14 @@ fn two_hands_u(name: &str, second: Handedness) -> Script {
         exit: 3.0,
         lobe: false,
     };
-    let turn = |hand: &str, throw: Option<Throw>, waypoints: Vec<[f64; 3]>| Turn {
-        hand: hand.into(),
-        chain: "rope".into(),
-        joint: if hand == "A" { "tail" } else { "head" }.into(),
-        throw,
-        wide_loop: None,
-        tuck: None,
-        wrap: None,
-        instrument: None,
-        tighten: None,
-        drive: None,
-        pose: None,
-        waypoints,
+    let turn = |hand: &str, throw: Option<Throw>, waypoints: Vec<[f64; 3]>| {
+        turn(
+            hand,
+            "rope",
+            if hand == "A" { "tail" } else { "head" },
+            throw,
+            waypoints,
+        )
     };
     Script {
         name: name.into(),
@@ -2336,18 +2319,8 @@ mod tests {
             handedness: Handedness::Right,
         };
         let turn = Turn {
-            hand: "B".into(),
-            chain: "paper".into(),
-            joint: "head".into(),
-            throw: None,
-            wide_loop: None,
             tuck: Some(tuck),
-            wrap: None,
-            instrument: None,
-            tighten: None,
-            drive: None,
-            pose: None,
-            waypoints: vec![],
+            ..turn("B", "paper", "head", None, vec![])
         };
         // The end closes the loop just past the rope it crosses (a proper crossing), or 0.4 short of
         // it (closed within the clearance): either way the loop of radius 3 about (20, 3) is found.
@@ -2403,11 +2376,6 @@ mod tests {
     #[test]
     fn a_tuck_on_a_long_chain_looks_only_near_the_hand() {
         let turn = Turn {
-            hand: "B".into(),
-            chain: "long".into(),
-            joint: "head".into(),
-            throw: None,
-            wide_loop: None,
             tuck: Some(Tuck {
                 outward: [1.0, 0.0, 0.0],
                 side: [0.0, 1.0, 0.0],
@@ -2415,12 +2383,7 @@ mod tests {
                 exit: 2.0,
                 handedness: Handedness::Right,
             }),
-            wrap: None,
-            instrument: None,
-            tighten: None,
-            drive: None,
-            pose: None,
-            waypoints: vec![],
+            ..super::turn("B", "long", "head", None, vec![])
         };
         // 65 536 joints leading in along −x, then the loop at the head: found.
         let lead: Vec<[f64; 3]> = (0..65_536)

@@ -71,6 +71,16 @@ fn off_rope(j: &[Point], p: Point) -> f64 {
 
 /// A move of the head to `to`, driven or not.
 fn go<'a>(w: &World, to: &'a [Point], drive: bool) -> Command<'a> {
+    let needle = if drive {
+        NeedleMove::Driven
+    } else {
+        NeedleMove::Carried
+    };
+    head_move(w, to, needle)
+}
+
+/// A move of the head to `to` that does `needle` to the needle.
+fn head_move<'a>(w: &World, to: &'a [Point], needle: NeedleMove) -> Command<'a> {
     Command::Move {
         chain: 0,
         joint: N,
@@ -79,11 +89,7 @@ fn go<'a>(w: &World, to: &'a [Point], drive: bool) -> Command<'a> {
         take_over: false,
         smooth: false,
         pull: false,
-        needle: if drive {
-            NeedleMove::Driven
-        } else {
-            NeedleMove::Carried
-        },
+        needle,
     }
 }
 
@@ -231,16 +237,7 @@ fn once_the_needle_has_cut_a_hole_the_rope_goes_in_nowhere_else() {
 
 /// A move of the head to `to` that poses the needle by the rotation vector `r`.
 fn pose<'a>(w: &World, to: &'a [Point], r: Point) -> Command<'a> {
-    Command::Move {
-        chain: 0,
-        joint: N,
-        targets: to,
-        options: w.specs()[0].moves,
-        take_over: false,
-        smooth: false,
-        pull: false,
-        needle: NeedleMove::Posed(r),
-    }
+    head_move(w, to, NeedleMove::Posed(r))
 }
 
 /// The rotation vector (axis × angle) of the rotation whose columns are `x`, `y` and `x × y`.

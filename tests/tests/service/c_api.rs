@@ -90,6 +90,30 @@ fn compile_strict(compiler: &str, include: &str, examples: &std::path::Path, res
     compile(compiler, &args);
 }
 
+/// Compiles `clients/c/examples/NAME.c` strictly against the shared library into `dir`; its path.
+fn compile_c_example(name: &str, dir: &Path) -> String {
+    let lib_s = lib_dir().display().to_string();
+    let include = root().join("shared/include").display().to_string();
+    let examples = root().join("clients/c/examples");
+    let exe = dir.join(name).display().to_string();
+    compile_strict(
+        "cc",
+        &include,
+        &examples,
+        &[
+            examples.join(format!("{name}.c")).to_str().unwrap(),
+            "-L",
+            &lib_s,
+            "-ltractrix_client",
+            &format!("-Wl,-rpath,{lib_s}"),
+            "-lm",
+            "-o",
+            &exe,
+        ],
+    );
+    exe
+}
+
 /// The joints a program printed as `joint I XBITS YBITS ZBITS`.
 fn printed_joints(text: &str) -> Vec<[u64; 3]> {
     text.lines()
@@ -119,22 +143,7 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
     let include = root().join("shared/include").display().to_string();
     let examples = root().join("clients/c/examples");
     let dir = program_dir();
-    let c_exe = dir.path().join("move").display().to_string();
-    compile_strict(
-        "cc",
-        &include,
-        &examples,
-        &[
-            examples.join("move.c").to_str().unwrap(),
-            "-L",
-            &lib_s,
-            "-ltractrix_client",
-            &format!("-Wl,-rpath,{lib_s}"),
-            "-lm",
-            "-o",
-            &c_exe,
-        ],
-    );
+    let c_exe = compile_c_example("move", dir.path());
     let cpp_exe = dir.path().join("loop").display().to_string();
     compile_strict(
         "c++",
@@ -228,27 +237,8 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
 /// top), and two eyelets, the holes the needle's point cut.
 #[test]
 fn a_c_program_poses_and_drives_the_needle() {
-    let lib = lib_dir();
-    let lib_s = lib.display().to_string();
-    let include = root().join("shared/include").display().to_string();
-    let examples = root().join("clients/c/examples");
     let dir = program_dir();
-    let exe = dir.path().join("needle").display().to_string();
-    compile_strict(
-        "cc",
-        &include,
-        &examples,
-        &[
-            examples.join("needle.c").to_str().unwrap(),
-            "-L",
-            &lib_s,
-            "-ltractrix_client",
-            &format!("-Wl,-rpath,{lib_s}"),
-            "-lm",
-            "-o",
-            &exe,
-        ],
-    );
+    let exe = compile_c_example("needle", dir.path());
     let scene = root().join("solver-service/scenes/stitch.toml");
     let svc = Service::start(
         &unique_prefix(),
