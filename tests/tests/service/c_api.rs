@@ -239,17 +239,7 @@ fn c_and_cpp_programs_move_the_rope_and_read_the_same_joints() {
 fn a_c_program_poses_and_drives_the_needle() {
     let dir = program_dir();
     let exe = compile_c_example("needle", dir.path());
-    let scene = root().join("solver-service/scenes/stitch.toml");
-    let svc = Service::start(
-        &unique_prefix(),
-        &[
-            "--scene",
-            scene.to_str().unwrap(),
-            "--no-persist",
-            "--wait",
-            "event",
-        ],
-    );
+    let svc = super::stitch::stitch_service(&[]);
     let out = Process::new(&exe).arg(&svc.prefix).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(

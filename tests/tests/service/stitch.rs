@@ -21,7 +21,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use tests::{Service, bin, unique_prefix};
 
-fn stitch_service(extra: &[&str]) -> Service {
+/// A service on `stitch.toml` (no persistence, event waits), with `extra` arguments.
+pub(crate) fn stitch_service(extra: &[&str]) -> Service {
     let scene = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../solver-service/scenes/stitch.toml"
