@@ -366,6 +366,15 @@ where
         self.limits.clone()
     }
 
+    /// Puts `limits` in place of the chain's joint limits and returns those (a handle, not a copy):
+    /// for a move that frees some joints of their limits while it runs ([`crate::eyelet`]).
+    pub(crate) fn replace_limits(
+        &mut self,
+        limits: Option<std::sync::Arc<JointLimits<T>>>,
+    ) -> Option<std::sync::Arc<JointLimits<T>>> {
+        std::mem::replace(&mut self.limits, limits)
+    }
+
     /// The joint farthest beyond its limit by more than `tol` radians: (joint, angle, excess); `None`
     /// within the limits (or without any).
     pub fn limit_excess(&self, tol: T) -> Option<(usize, T, T)> {
@@ -374,7 +383,17 @@ where
 
     /// [`Chain::limit_excess`] beyond [`LIMIT_TOLERANCE`] as the error a move reports.
     pub(crate) fn check_limits(&self) -> Result<(), ChainError> {
-        match self.limit_excess(T::lit(LIMIT_TOLERANCE)) {
+        self.check_limits_except(&[])
+    }
+
+    /// [`Chain::check_limits`] with the joints `free` (ascending) not limited
+    /// ([`JointLimits::worst_except`]).
+    pub(crate) fn check_limits_except(&self, free: &[usize]) -> Result<(), ChainError> {
+        match self
+            .limits
+            .as_ref()
+            .and_then(|l| l.worst_except(&self.links, T::lit(LIMIT_TOLERANCE), free))
+        {
             None => Ok(()),
             Some((joint, angle, excess)) => Err(ChainError::JointLimit {
                 joint,

@@ -40,11 +40,23 @@
 //! eyelet (both joints of the link through it, as held joints) and slides it only when the rope on
 //! the moved joint's side is taut; infinite friction never slides.
 //!
-//! Allocation-free per move: the positions are worked on in the caller's [`EyeletWorkspace`].
+//! **Joint limits** (a suture's bend radius, [`crate::limits`]): the walks turn each link they place
+//! by the tractrix back into its joint's limit, as a limited chain's sweep does. The two joints of the
+//! link through an eyelet are not limited: the tissue takes the suture's bend there (the straight
+//! link through the point stands for the suture's curve along the needle's track, so the rope turns
+//! there by about the angle the track meets the surface at). While a move runs those joints are freed
+//! in the chain's limits, so the contacts' re-solve respects the rest; after it every other joint
+//! must be within its limit (the aim rule, the closing two-link solutions and the contacts place
+//! links unsteered), or the move is refused, changing nothing.
+//!
+//! Allocation-free per move: the positions are worked on in the caller's [`EyeletWorkspace`] (a
+//! limited chain allocates its freed limits when its eyelets pass to other links).
 
 use crate::chain::{Chain, ChainError};
+use crate::limits::JointLimits;
 use crate::link::tractrix_step;
 use crate::math::{Embed3, Real, Vector};
+use std::sync::Arc;
 
 /// One eyelet of a chain: where it is, and the link that passes through it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -189,6 +201,47 @@ pub struct EyeletWorkspace<T: Real, const D: usize> {
     held_iterations: u32,
     /// Friction at the eyelets ([`EyeletWorkspace::with_friction`]).
     friction: f64,
+    /// A limited chain's own limits while a move runs with the eyelets' joints freed.
+    limits: FreedLimits<T>,
+}
+
+/// A limited chain's joint limits during a threaded move: its own, set aside, and the ones in place
+/// with the joints of the links through the eyelets freed ([`free_joints`]), kept for the next
+/// move while the eyelets stay on the same links.
+#[derive(Clone, Debug)]
+struct FreedLimits<T: Real> {
+    own: Option<Arc<JointLimits<T>>>,
+    free: Vec<usize>,
+    /// The freed limits, the own limits and the joints they were made for.
+    made: Option<Made<T>>,
+}
+
+/// Freed limits as [`FreedLimits`] keeps them: the freed, the own they came from, the joints freed.
+type Made<T> = (Arc<JointLimits<T>>, Arc<JointLimits<T>>, Vec<usize>);
+
+impl<T: Real> FreedLimits<T> {
+    /// Puts into `chain` its own limits with the joints of the links through the threaded
+    /// `eyelets` freed (nothing for a chain without limits).
+    fn apply<const D: usize>(&mut self, chain: &mut Chain<T, D>, eyelets: &[Eyelet<T, D>])
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        let Some(own) = &self.own else {
+            return;
+        };
+        free_joints(eyelets, &mut self.free);
+        let fresh = match &self.made {
+            Some((freed, of, joints)) if Arc::ptr_eq(of, own) && *joints == self.free => {
+                freed.clone()
+            }
+            _ => {
+                let freed = Arc::new(own.freed(&self.free));
+                self.made = Some((freed.clone(), own.clone(), self.free.clone()));
+                freed
+            }
+        };
+        chain.replace_limits(Some(fresh));
+    }
 }
 
 impl<T: Real, const D: usize> Default for EyeletWorkspace<T, D> {
@@ -211,6 +264,11 @@ impl<T: Real, const D: usize> EyeletWorkspace<T, D> {
             held_tolerance: 1e-9,
             held_iterations: 16,
             friction: 0.0,
+            limits: FreedLimits {
+                own: None,
+                free: Vec::new(),
+                made: None,
+            },
         }
     }
 
@@ -342,6 +400,80 @@ fn threaded<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    freeing(chain, eyelets, ws, |chain, eyelets, ws| {
+        threaded_sticking(
+            chain,
+            joint,
+            target,
+            eyelets,
+            max_substeps,
+            ws,
+            collision.take(),
+        )
+    })
+}
+
+/// Runs `f` (a threaded move, an eyelet's, a push) on a limited chain with the joints of the links
+/// through the eyelets freed of their limits ([`free_joints`]; `f` frees them again as the eyelets
+/// pass along the rope), then checks the chain's own limits but at those joints after it: the walks
+/// steer the links they place by the tractrix, not those the aim rule, the closing two-link
+/// solutions and the contacts place. Refused with the chain and the eyelets' links as they were
+/// (from the workspace's backup, which `f` keeps for a limited chain). The chain's own limits are
+/// back in place however it ends.
+fn freeing<T: Real, const D: usize, R>(
+    chain: &mut Chain<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    ws: &mut EyeletWorkspace<T, D>,
+    f: impl FnOnce(
+        &mut Chain<T, D>,
+        &mut [Eyelet<T, D>],
+        &mut EyeletWorkspace<T, D>,
+    ) -> Result<R, EyeletError>,
+) -> Result<R, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    ws.limits.own = chain.shared_limits();
+    if ws.limits.own.is_none() {
+        return f(chain, eyelets, ws);
+    }
+    ws.keep(chain);
+    ws.limits.apply(chain, eyelets);
+    let done = f(chain, eyelets, ws);
+    let own = ws.limits.own.take();
+    chain.replace_limits(own.clone());
+    let checked = done.and_then(|out| {
+        free_joints(eyelets, &mut ws.limits.free);
+        match chain.check_limits_except(&ws.limits.free) {
+            Ok(()) => Ok(out),
+            Err(e) => {
+                if let Some(b) = &ws.backup {
+                    chain.copy_from(b);
+                }
+                for (x, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
+                    (x.link, x.threaded) = (link, on);
+                }
+                Err(e.into())
+            }
+        }
+    });
+    chain.replace_limits(own);
+    checked
+}
+
+/// [`threaded`] on a chain whose limits [`freeing`] has set.
+fn threaded_sticking<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    target: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    ws: &mut EyeletWorkspace<T, D>,
+    mut collision: Option<Collision<'_, T, D>>,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
     let stick = sticks(eyelets, ws);
     let slides = ws.friction.is_finite();
     let mut once = |chain: &mut Chain<T, D>, eyelets: &mut [Eyelet<T, D>], stick| {
@@ -429,7 +561,7 @@ where
             &ws.old,
             &mut ws.new,
             &mut ws.alt,
-            chain.lengths(),
+            (chain.lengths(), chain.joint_limits()),
             joint,
             to,
             eyelets,
@@ -439,6 +571,8 @@ where
         .and_then(|left| {
             if let Some((model, cws)) = collision.as_mut() {
                 set_threaded(chain, joint, &ws.new)?;
+                // The eyelets may have passed to other links in the walk.
+                ws.limits.apply(chain, eyelets);
                 let (through, pressed) = through_block(&ws.new, chain.min_length(), eyelets, model);
                 cws.pass_through(through, pressed);
                 resolve_threaded(chain, joint, eyelets, s, model, cws, &mut ws.fixed)?;
@@ -637,7 +771,7 @@ fn substep<T: Real, const D: usize>(
     old: &[Vector<T, D>],
     new: &mut [Vector<T, D>],
     alt: &mut [Vector<T, D>],
-    lengths: &[T],
+    rope: Rope<'_, T>,
     m: usize,
     to: Vector<T, D>,
     eyelets: &mut [Eyelet<T, D>],
@@ -647,6 +781,7 @@ fn substep<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    let lengths = rope.0;
     let n = lengths.len();
     if holds.tail.is_some() || holds.head.is_some() {
         // The rope beyond a held joint is not walked: it stays where it was.
@@ -673,13 +808,14 @@ where
     let (mut left, mut iterations) = (0, 0);
     for (up, hold) in [(false, holds.tail), (true, holds.head)] {
         match hold {
-            None => left += side(old, new, lengths, m, eyelets, up, None)?,
+            // The head side's first link turns about the tail side's, walked first.
+            None => left += side(old, new, rope, m, eyelets, up, None, up)?,
             Some((h, at, tol)) => {
                 let (l, i) = held_side(
                     old,
                     new,
                     alt,
-                    lengths,
+                    rope,
                     m,
                     (h, at, tol),
                     eyelets,
@@ -707,7 +843,7 @@ fn held_side<T: Real, const D: usize>(
     old: &[Vector<T, D>],
     new: &mut [Vector<T, D>],
     alt: &mut [Vector<T, D>],
-    lengths: &[T],
+    rope: Rope<'_, T>,
     m: usize,
     (h, at, tol): (usize, Vector<T, D>, T),
     eyelets: &mut [Eyelet<T, D>],
@@ -717,6 +853,7 @@ fn held_side<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    let lengths = rope.0;
     let up = h > m;
     let goal = new[m];
     // Whether `alt` holds the last pose that meets the held joint (else `old` does).
@@ -730,9 +867,9 @@ where
     while it < max_iterations {
         it += 1;
         let walked = if from_alt {
-            side(alt, new, lengths, m, eyelets, up, Some(h))
+            side(alt, new, rope, m, eyelets, up, Some(h), up)
         } else {
-            side(old, new, lengths, m, eyelets, up, Some(h))
+            side(old, new, rope, m, eyelets, up, Some(h), up)
         };
         let left = match walked {
             Ok(left) => left,
@@ -757,7 +894,7 @@ where
         // pushed along its own line) is left to the hierarchy at once.
         let stalled = it > 2 && miss > before * T::lit(STALL);
         alt[h] = at;
-        match side(new, alt, lengths, h, eyelets, !up, Some(m)) {
+        match side(new, alt, rope, h, eyelets, !up, Some(m), false) {
             Ok(_) if stalled => {
                 from_alt = true;
                 break;
@@ -1076,15 +1213,16 @@ where
     chain.write_positions(&mut ws.old);
     let (through, pressed) = through_block(&ws.old, chain.min_length(), eyelets, model);
     cws.pass_through(through, pressed);
-    Ok(crate::collision::push_fixing(
-        chain,
-        model,
-        which,
-        to,
-        max_substeps,
-        &ws.fixed,
-        cws,
-    )?)
+    let mut push = |chain: &mut Chain<T, D>, ws: &mut EyeletWorkspace<T, D>| {
+        crate::collision::push_fixing(chain, model, which, to, max_substeps, &ws.fixed, cws)
+            .map_err(EyeletError::from)
+    };
+    if chain.joint_limits().is_none() {
+        return push(chain, ws);
+    }
+    // The eyelets stay on their links under a push.
+    let mut eyelets = eyelets.to_vec();
+    freeing(chain, &mut eyelets, ws, |chain, _, ws| push(chain, ws))
 }
 
 /// The links of a rope at `pos` that pass through the model's block (tissue,
@@ -1300,6 +1438,29 @@ fn eyelet_moves<T: Real, const D: usize>(
     eyelets: &mut [Eyelet<T, D>],
     max_substeps: u32,
     ws: &mut EyeletWorkspace<T, D>,
+    collision: Option<Collision<'_, T, D>>,
+) -> Result<Threaded, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let from = eyelets.get(index).map(|e| e.at);
+    let moved = freeing(chain, eyelets, ws, |chain, eyelets, ws| {
+        eyelet_substeps(chain, index, to, eyelets, max_substeps, ws, collision)
+    });
+    if let (Err(_), Some(from)) = (&moved, from) {
+        eyelets[index].at = from;
+    }
+    moved
+}
+
+/// [`eyelet_moves`] on a chain whose limits [`freeing`] has set.
+fn eyelet_substeps<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    index: usize,
+    to: Vector<T, D>,
+    eyelets: &mut [Eyelet<T, D>],
+    max_substeps: u32,
+    ws: &mut EyeletWorkspace<T, D>,
     mut collision: Option<Collision<'_, T, D>>,
 ) -> Result<Threaded, EyeletError>
 where
@@ -1358,7 +1519,7 @@ where
         let shift = at - eyelets[index].at;
         let link = eyelets[index].link;
         eyelets[index].at = at;
-        let lengths = chain.lengths();
+        let rope = (chain.lengths(), chain.joint_limits());
         let EyeletWorkspace {
             old,
             new,
@@ -1377,10 +1538,10 @@ where
                 .as_ref()
                 .and_then(|h| if up { h.head } else { h.tail });
             match hold {
-                None => side(old, new, lengths, m, eyelets, up, None),
+                None => side(old, new, rope, m, eyelets, up, None, false),
                 Some(hold) => {
                     let max = holds.as_ref().map_or(1, |h| h.max_iterations);
-                    held_side(old, new, alt, lengths, m, hold, eyelets, max, ahead).map(|(l, _)| l)
+                    held_side(old, new, alt, rope, m, hold, eyelets, max, ahead).map(|(l, _)| l)
                 }
             }
         };
@@ -1394,6 +1555,7 @@ where
                 .set_positions(&ws.new)
                 .map_err(EyeletError::from)
                 .and_then(|()| {
+                    ws.limits.apply(chain, eyelets);
                     let (through, pressed) =
                         through_block(&ws.new, chain.min_length(), eyelets, model);
                     cws.pass_through(through, pressed);
@@ -1448,15 +1610,20 @@ fn turns_over<T: Real, const D: usize>(
 
 /// The walk from `m` toward the head (`up`) or the tail: each follower placed by the tractrix from its
 /// leader's displacement, or by the aim rule at an eyelet's link. Returns the eyelets left.
+#[allow(clippy::too_many_arguments)]
 fn side<T: Real, const D: usize>(
     old: &[Vector<T, D>],
     new: &mut [Vector<T, D>],
-    lengths: &[T],
+    (lengths, limits): Rope<'_, T>,
     m: usize,
     eyelets: &mut [Eyelet<T, D>],
     up: bool,
     stop: Option<usize>,
-) -> Result<u32, EyeletError> {
+    steer_start: bool,
+) -> Result<u32, EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
     let n = lengths.len();
     let mut left = 0;
     let mut i = m;
@@ -1484,6 +1651,11 @@ fn side<T: Real, const D: usize>(
             // The tractrix: the link as follower − leader, the leader's displacement.
             let step = tractrix_step(&(old[f] - old[i]), &(new[i] - old[i]), len);
             new[f] = old[f] + step.tail_shift;
+            if let Some(lim) = limits
+                && (i != m || steer_start)
+            {
+                steer(lim, new, lengths, i, f, eyelets);
+            }
             aimed = false;
             i = f;
             continue;
@@ -1524,6 +1696,54 @@ fn side<T: Real, const D: usize>(
         i = f;
     }
     Ok(left)
+}
+
+/// A rope's link lengths and its joint limits, for the walks.
+type Rope<'a, T> = (&'a [T], Option<&'a crate::limits::JointLimits<T>>);
+
+/// The joints of the links through the threaded `eyelets` (ascending, in `free`): not limited, since
+/// the tissue takes the suture's bend where it passes through (the chain's straight link through an
+/// eyelet stands for the suture's curve along the needle's track, so the rope turns there by about
+/// the angle the track enters at).
+fn free_joints<T: Real, const D: usize>(eyelets: &[Eyelet<T, D>], free: &mut Vec<usize>) {
+    free.clear();
+    for e in eyelets.iter().filter(|e| e.threaded) {
+        free.extend([e.link, e.link + 1]);
+    }
+    free.sort_unstable();
+    free.dedup();
+}
+
+/// Turns the link from joint `i` to its follower `f` (just placed by the tractrix in `new`) back into
+/// joint `i`'s limit about the link from `i`'s own leader, as a limited chain's sweep does
+/// ([`crate::limits`]); not at an end, nor at a joint of a link through an eyelet ([`free_joints`]).
+fn steer<T: Real, const D: usize>(
+    lim: &crate::limits::JointLimits<T>,
+    new: &mut [Vector<T, D>],
+    lengths: &[T],
+    i: usize,
+    f: usize,
+    eyelets: &[Eyelet<T, D>],
+) where
+    Vector<T, D>: Embed3<T>,
+{
+    let up = f > i;
+    let n = lengths.len();
+    if !lim.limits(i)
+        || (up && i == 0)
+        || (!up && i == n)
+        || eyelets
+            .iter()
+            .any(|e| e.threaded && (e.link == i || e.link + 1 == i))
+    {
+        return;
+    }
+    let lead = if up { i - 1 } else { i + 1 };
+    let prev = new[i] - new[lead];
+    let v = new[f] - new[i];
+    if let Some(c) = lim.clamp(i, &prev, lengths[i.min(lead)], &v, lengths[i.min(f)], !up) {
+        new[f] = new[i] + c;
+    }
 }
 
 /// The follower of a leader at `leader` whose link passes through `p`: a link length from the leader

@@ -196,6 +196,20 @@ impl<T: Real> JointLimits<T> {
         (self.kind == LimitKind::Cone).then_some((&self.cos_hi[..], &self.sin_hi[..]))
     }
 
+    /// These limits with the joints `free` not limited at all (the joints of the links through a
+    /// rope's eyelets, where the tissue takes the bend: [`crate::eyelet`]).
+    pub fn freed(&self, free: &[usize]) -> Self {
+        let mut l = self.clone();
+        let pi = T::pi();
+        let joints = l.hi.len();
+        for &j in free.iter().filter(|&&j| j < joints) {
+            (l.lo[j], l.hi[j]) = (-pi, pi);
+            (l.cos_hi[j], l.sin_hi[j]) = (pi.cos(), pi.sin());
+            (l.cos_lo[j], l.sin_lo[j]) = ((-pi).cos(), (-pi).sin());
+        }
+        l
+    }
+
     /// Whether joint `j` is limited at all (a cone below `π`, a range narrower than the circle).
     pub fn limits(&self, j: usize) -> bool {
         j > 0 && j + 1 < self.hi.len() && (self.hi[j] < T::pi() || self.lo[j] > -T::pi())
@@ -354,9 +368,23 @@ impl<T: Real> JointLimits<T> {
     where
         Vector<T, D>: Embed3<T>,
     {
+        self.worst_except(links, tol, &[])
+    }
+
+    /// [`JointLimits::worst`] with the joints `free` (ascending) not limited: the joints of the links
+    /// through a rope's eyelets, where the tissue takes the bend ([`crate::eyelet`]).
+    pub fn worst_except<const D: usize>(
+        &self,
+        links: &[Vector<T, D>],
+        tol: T,
+        free: &[usize],
+    ) -> Option<(usize, T, T)>
+    where
+        Vector<T, D>: Embed3<T>,
+    {
         let mut worst: Option<(usize, T, T)> = None;
         for j in 1..links.len() {
-            if !self.limits(j) {
+            if !self.limits(j) || free.binary_search(&j).is_ok() {
                 continue;
             }
             let (a, b) = (links[j - 1].to_3d(), links[j].to_3d());

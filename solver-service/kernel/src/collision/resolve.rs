@@ -327,10 +327,17 @@ where
         let Ok(mut part) = Chain::from_parts(pos[a], links, lengths) else {
             return Restraightened::Failed;
         };
-        if let Some(l) = &limits
-            && part.set_limits(Some(l.sub(a, b, false))).is_err()
-        {
-            return Restraightened::Failed;
+        if let Some(l) = &limits {
+            if part.set_limits(Some(l.sub(a, b, false))).is_err() {
+                return Restraightened::Failed;
+            }
+            // The pushes bend the rope without its limits: each link turned back into its joint's
+            // limit about the one before (as the parts outside the fixed joints are), and the reach
+            // brings the part's end back to its fixed joint within them.
+            let (links, lengths, lim) = part.links_lengths_limits_mut();
+            for i in 1..links.len() {
+                crate::limits::turn_back(lim, links, lengths, i, true);
+            }
         }
         let goal = pos[b];
         // Each iteration of the reach: up to three tractrix passes over the part and a translation.
