@@ -44,22 +44,24 @@ fn hand(svc: &Service, script: &str, chain: &str, extra: &[&str]) -> std::proces
 
 /// One state of a suture: every link `link` long to 1e-12, links two or more apart along the rope a
 /// thickness (0.1) apart less the 1 % tolerance (the clients' segment distance, not the service's),
-/// and every threaded eyelet on the rope (the nearest segment of the joints, to 1e-9).
+/// and every threaded eyelet on the rope (the nearest segment of the joints, to 1e-9 of a link).
 fn check_state(joints: &[Vec3], eyelets: &[EyeletState], link: f64, what: &str) {
     check_state_of(joints, eyelets, link, SUTURE, what);
 }
 
-/// A suture's thickness and its tissue (the block's corners).
+/// A suture's thickness, its tissue (the block's corners) and its bend radius, if it has one.
 #[derive(Clone, Copy)]
 struct Body {
     thickness: f64,
     tissue: ([f64; 3], [f64; 3]),
+    min_bend_radius: Option<f64>,
 }
 
 /// The sutures of `stitch.toml` that pass the needle: 0.1 thick, their block of tissue.
 const SUTURE: Body = Body {
     thickness: 0.1,
     tissue: ([22.0, -6.0, -3.0], [34.0, 6.0, 0.0]),
+    min_bend_radius: None,
 };
 
 /// [`check_state`] for a suture of thickness and tissue `body`.
@@ -88,9 +90,40 @@ fn check_state_of(joints: &[Vec3], eyelets: &[EyeletState], link: f64, body: Bod
     );
     for e in eyelets.iter().filter(|e| e.threaded) {
         let (_, d, _) = tests::nearest_link(joints, e.at.to_array());
-        assert!(d < 1e-9, "{what}: eyelet {e:?} is {d:e} off the rope");
+        assert!(
+            d <= 1e-9 * link,
+            "{what}: eyelet {e:?} is {d:e} off the rope (more than 1e-9 of a link)"
+        );
+    }
+    if let Some(r) = body.min_bend_radius {
+        check_bend(joints, eyelets, link, r, what);
     }
     check_out_of_tissue(joints, eyelets, body, what);
+}
+
+/// A suture with a bend radius `r` on links `link` long: the rope turns at every joint by at most
+/// `2·atan(link / 2r)` (the polygon's bend radius, to 2e-6 rad), computed here from the joints, but
+/// at the two joints of the link through each threaded eyelet, where the tissue takes the bend.
+fn check_bend(joints: &[Vec3], eyelets: &[EyeletState], link: f64, r: f64, what: &str) {
+    let cone = 2.0 * (link / (2.0 * r)).atan();
+    let v = |p: Vec3| nalgebra::Vector3::new(p.x, p.y, p.z);
+    for j in 1..joints.len() - 1 {
+        if eyelets
+            .iter()
+            .any(|e| e.threaded && (e.link as usize == j || e.link as usize + 1 == j))
+        {
+            continue;
+        }
+        let (a, b) = (
+            v(joints[j]) - v(joints[j - 1]),
+            v(joints[j + 1]) - v(joints[j]),
+        );
+        let turn = a.cross(&b).norm().atan2(a.dot(&b));
+        assert!(
+            turn <= cone + 2e-6,
+            "{what}: the rope turns {turn:.6} rad at joint {j}, beyond its bend radius's {cone:.6}"
+        );
+    }
 }
 
 /// The rope keeps out of the tissue but where it passes through: every link at least the rope's
@@ -444,6 +477,7 @@ fn a_driven_needle_cuts_the_holes_the_suture_threads() {
     let body = Body {
         thickness: 0.1,
         tissue: ([44.0, -3.0, -3.0], [56.0, 3.0, 0.0]),
+        min_bend_radius: None,
     };
     let svc = stitch_service(&["--state-buffer", "4096"]);
     let mut c = svc.connect();
@@ -508,10 +542,12 @@ fn two_hands_pass_the_needle_with_the_tail_in_forceps_at_160_links() {
     two_hands_pass("suture-held-160", 0.125);
 }
 
-/// `stitch.toml`'s `stitch-80` and `stitch-160`: 0.2 thick, their block of tissue.
+/// `stitch.toml`'s `stitch-80` and `stitch-160`: 0.2 thick, their block of tissue, bending no
+/// tighter than their radius.
 const STITCH: Body = Body {
     thickness: 0.2,
     tissue: ([12.0, -4.0, -3.0], [20.0, 4.0, 0.0]),
+    min_bend_radius: Some(0.1),
 };
 
 /// Issue 39, the whole stitch on one suture (`stitch-80`, 80 links of 0.5; `stitch-160`, 160 of
@@ -520,7 +556,8 @@ const STITCH: Body = Body {
 /// suture drawn through with its tail free), then the instrument tie of a surgeon's knot over the bite by two hands (`surgeons-knot`: A the
 /// long end, B the tail with the needle driver). Every state of both phases is read (none missed)
 /// and checked by the test's own code: lengths, the thickness apart, each threaded eyelet on the rope,
-/// the rope out of the tissue but where it passes through. The first hole appears while the rope's
+/// the rope out of the tissue but where it passes through, its bend radius kept but at the eyelets
+/// ([`check_bend`]). The first hole appears while the rope's
 /// head is still above the tissue: the needle's point cut it. After the pass: both eyelets on the
 /// tissue's top face, each within the rope's and the needle's thickness of where the needle's circle
 /// (radius 0.7 about (15.95, 0, 0.05), the script's) meets it, and the tail before the entry about as
@@ -534,6 +571,11 @@ const STITCH: Body = Body {
 /// the wound must close by more than `closes_by` (units of the eyelets' distance).
 fn whole_stitch(chain: &str, link: f64, extra: &[&str], closes_by: f64) {
     let tightened = extra.contains(&"--tighten");
+    // A perturbed tie comes after a pass perturbed with the same seed.
+    let perturb: Vec<&str> = extra
+        .iter()
+        .position(|&a| a == "--perturb")
+        .map_or(vec![], |k| extra[k..k + 2].to_vec());
     let svc = stitch_service(&["--state-buffer", "4096"]);
     let mut c = svc.connect();
     let (id, watched) = AllStates::of_chain(&svc, &mut c, chain);
@@ -544,11 +586,15 @@ fn whole_stitch(chain: &str, link: f64, extra: &[&str], closes_by: f64) {
         "stitch-pass",
         chain,
         &[
-            "--identify",
-            chain,
-            "--record",
-            pass_record.to_str().unwrap(),
-        ],
+            &[
+                "--identify",
+                chain,
+                "--record",
+                pass_record.to_str().unwrap(),
+            ],
+            &perturb[..],
+        ]
+        .concat(),
     ));
     assert!(out.contains(" 0 locked"), "{out}");
     let q = c.call(RequestHeader::new(Command::Query, id), &[]).unwrap();
@@ -559,8 +605,9 @@ fn whole_stitch(chain: &str, link: f64, extra: &[&str], closes_by: f64) {
     for (e, x) in after_pass.iter().zip([15.95 - half, 15.95 + half]) {
         assert!(e.threaded && e.at.z.abs() < 1e-12, "{e:?}");
         let off = ((e.at.x - x).powi(2) + e.at.y.powi(2)).sqrt();
+        // (A perturbed hand's needle is off the script's circle by up to its perturbation.)
         assert!(
-            off <= 0.2 + 0.2,
+            off <= 0.2 + 0.2 || !perturb.is_empty(),
             "{e:?}: {off} from where the needle's circle meets the top"
         );
     }
@@ -816,4 +863,20 @@ fn the_whole_stitch_tightened_keeps_the_surgeons_knot_and_closes_the_wound_at_80
 #[test]
 fn the_whole_stitch_tightened_keeps_the_surgeons_knot_and_closes_the_wound_at_160_links() {
     whole_stitch("stitch-160", 0.25, &["--tighten", "0.05"], 0.25);
+}
+
+/// The whole stitch tightened at 80 links with every hand perturbed as a person's (`--perturb 9`, the
+/// pass and the tie), every state checked as above: with the bend radius, the rope between the held
+/// tail and the entry re-solved after a push landed too far for its last two links to close on the
+/// eyelet's joint, and the joints after it shifted: the eyelets ended 1.2e-9 off the rope in the
+/// stitch bench's run of this seed (the bound is 1e-9 of a link, 5e-10 here). The rope is now re-solved
+/// to the tolerance without limits when its last links cannot close.
+#[test]
+fn the_whole_stitch_perturbed_and_tightened_keeps_its_eyelets_on_the_rope_at_80_links() {
+    whole_stitch(
+        "stitch-80",
+        0.5,
+        &["--tighten", "0.05", "--perturb", "9"],
+        0.25,
+    );
 }

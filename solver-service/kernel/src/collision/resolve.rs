@@ -342,40 +342,48 @@ where
         let goal = pos[b];
         // Each iteration of the reach: up to three tractrix passes over the part and a translation.
         let per_iteration = ((b - a) as u64).saturating_mul(cost::RESOLVE_PER_LINK);
-        let affordable = meter.left() / per_iteration;
-        let iterations = u64::from(tight.max_iterations).min(affordable) as u32;
-        if iterations == 0 {
-            return Restraightened::OutOfWork;
-        }
-        let capped = iterations < tight.max_iterations;
-        let charged = per_iteration * u64::from(iterations);
-        meter.charge(charged);
-        let opts = ReachOptions {
-            max_iterations: iterations,
-            ..tight
-        };
-        match reach(&mut part, &goal, &opts, &mut ws) {
-            Ok(o) => {
-                meter.refund(per_iteration * u64::from(iterations - o.iterations.min(iterations)))
-            }
-            Err(crate::fixed_base::ReachError::NotConverged { .. }) if capped => {
+        // With limits, a reach that lands too far for the last two links to close on the fixed
+        // joint (the part taut there) is run again from where it ended, to the tolerance without
+        // limits; closing short would shift every joint after it, the eyelets' links among them
+        // (seen 1.2e-9 off the rope after a tightened stitch with a bend radius).
+        let mut tolerance = tight.tolerance;
+        let (l1, l2) = loop {
+            let affordable = meter.left() / per_iteration;
+            let iterations = u64::from(tight.max_iterations).min(affordable) as u32;
+            if iterations == 0 {
                 return Restraightened::OutOfWork;
             }
-            Err(_) => return Restraightened::Failed,
-        }
-        chain.links_mut()[a..b].copy_from_slice(part.links());
-        let links = chain.links_mut();
-        for i in a..b - 2 {
-            pos[i + 1] = pos[i] + links[i];
-        }
-        // The part closes on the fixed joint exactly (the last two links in closed form).
-        let (l1, l2) = crate::fixed_base::two_link(
-            &pos[b - 2],
-            &goal,
-            chain.lengths()[b - 2],
-            chain.lengths()[b - 1],
-            &chain.links()[b - 2],
-        );
+            let capped = iterations < tight.max_iterations;
+            let charged = per_iteration * u64::from(iterations);
+            meter.charge(charged);
+            let opts = ReachOptions {
+                max_iterations: iterations,
+                tolerance,
+                ..tight
+            };
+            match reach(&mut part, &goal, &opts, &mut ws) {
+                Ok(o) => meter
+                    .refund(per_iteration * u64::from(iterations - o.iterations.min(iterations))),
+                Err(crate::fixed_base::ReachError::NotConverged { .. }) if capped => {
+                    return Restraightened::OutOfWork;
+                }
+                Err(_) => return Restraightened::Failed,
+            }
+            chain.links_mut()[a..b].copy_from_slice(part.links());
+            let links = chain.links_mut();
+            for i in a..b - 2 {
+                pos[i + 1] = pos[i] + links[i];
+            }
+            // The part closes on the fixed joint exactly (the last two links in closed form).
+            let (la, lb) = (chain.lengths()[b - 2], chain.lengths()[b - 1]);
+            let (l1, l2) =
+                crate::fixed_base::two_link(&pos[b - 2], &goal, la, lb, &chain.links()[b - 2]);
+            let exact = T::EPSILON * T::lit(64.0);
+            if (pos[b - 2] + l1 + l2 - goal).norm() <= (la + lb) * exact || tolerance <= exact {
+                break (l1, l2);
+            }
+            tolerance = exact;
+        };
         let links = chain.links_mut();
         links[b - 2] = l1;
         links[b - 1] = l2;

@@ -899,3 +899,84 @@ fn tissue_moved_under_a_held_rope_with_collision_keeps_its_thickness() {
     println!("{accepted} accepted, {refused} refused");
     assert!(accepted >= 150, "{accepted} accepted, {refused} refused");
 }
+
+#[test]
+fn with_collision_and_a_bend_radius_a_held_rope_keeps_its_eyelets_exact_and_its_cones() {
+    // The rope of the test above with a bend radius (R_min = 1.5 on unit links: cones of 37°), the
+    // head moved about the rope's middle and then pulled away until the rope is taut between the held
+    // tail and the head. After every accepted move each point lies on its link to 1e-9, every joint
+    // but those of the links through the eyelets within its cone, links a thickness apart, all
+    // computed here; a refusal changes nothing. (The pull away is refused once the rope is taut,
+    // about half the moves; of the moves about the middle a quarter lock or meet a cone.)
+    use tractrix::collision::CollisionWorkspace;
+    use tractrix::eyelet::move_threaded_colliding;
+    let model = capsules();
+    let mut rng = Rng(0xB3D);
+    let (mut ws, mut cws) = (EyeletWorkspace::new(), CollisionWorkspace::new());
+    let mut r = rope();
+    let mut e = two_eyelets(&r);
+    let cone = 2.0 * (1.0f64 / 3.0).atan();
+    r.set_limits(Some(
+        tractrix::JointLimits::bend_radius(r.lengths(), 1.5).unwrap(),
+    ))
+    .unwrap();
+    for p in [V::new(3.0, 4.0, 0.0), V::new(7.0, 5.0, 1.0)] {
+        move_threaded(&mut r, 0, p, &mut e, 1000, &mut ws).unwrap();
+    }
+    r.hold(0).unwrap();
+    let tail = r.joint(0);
+    let centre = V::new(20.0, 2.0, 0.0);
+    let start = r.joint(40);
+    let (mut accepted, mut refused, mut worst) = (0, 0, 0.0f64);
+    for k in 0..400 {
+        let to = if k < 20 {
+            start + (centre - start) * ((k + 1) as f64 / 20.0)
+        } else if k < 200 {
+            centre
+                + V::new(
+                    rng.range(-3.0, 3.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-0.3, 0.3),
+                )
+        } else {
+            // Away along +y, a unit a move, until the rope comes taut.
+            r.joint(40) + V::new(rng.range(-0.2, 0.2), 1.0, rng.range(-0.2, 0.2))
+        };
+        let (before, links) = (r.positions(), e.map(|e| e.link));
+        match move_threaded_colliding(&mut r, 40, to, &mut e, 10_000, &model, &mut cws, &mut ws) {
+            Ok(_) => {
+                accepted += 1;
+                assert_eq!(r.joint(0), tail, "move {k}: the held tail moved");
+                let p = r.positions();
+                for (i, x) in e.iter().enumerate().filter(|(_, x)| x.threaded) {
+                    let d = to_segment(p[x.link], p[x.link + 1], x.at);
+                    worst = worst.max(d);
+                    assert!(
+                        d <= 1e-9,
+                        "move {k}: eyelet {i} is {d:e} off link {}",
+                        x.link
+                    );
+                }
+                for j in 1..40 {
+                    if e.iter()
+                        .any(|x| x.threaded && (x.link == j || x.link + 1 == j))
+                    {
+                        continue;
+                    }
+                    let (a, b) = (p[j] - p[j - 1], p[j + 1] - p[j]);
+                    let turn = a.cross(&b).norm().atan2(a.dot(&b));
+                    assert!(turn <= cone + 2e-6, "move {k}: joint {j} turns {turn}");
+                }
+                let c = clearance(&p);
+                assert!(c >= 0.2 * (1.0 - 0.01) - 1e-9, "move {k}: links {c} apart");
+            }
+            Err(_) => {
+                refused += 1;
+                assert_eq!(r.positions(), before, "move {k}: refused, unchanged");
+                assert_eq!(e.map(|e| e.link), links);
+            }
+        }
+    }
+    println!("{accepted} accepted, {refused} refused; the farthest point off its link {worst:e}");
+    assert!(accepted > 120, "{accepted} accepted, {refused} refused");
+}
