@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole stitch (issue 39), one command: on `stitch.toml`'s 80-link suture `stitch-80`, the
 # needle's pass (hand A alone: the needle loaded over the entry, driven round its circle through
-# both sides, its point cutting the holes, the suture drawn through until its tail is about 15 units
+# both sides, its point cutting the holes, the suture drawn through until its tail is 15.25 units
 # long), then the instrument tie of a surgeon's knot over the bite by two hands (A the
 # long end, B the tail with the needle driver riding on it), tightened (each hand pulls its end until
 # it stops; the scene's tissue gives, so the pulls draw the eyelets toward the incision: the wound

@@ -168,6 +168,7 @@ impl Phase {
             tighten: None,
             drive: None,
             pose: None,
+            draw: None,
             waypoints: self.waypoints,
         }
     }

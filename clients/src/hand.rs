@@ -550,7 +550,8 @@ fn drive(
             // A turn whose path cannot be made (a tuck that finds no loop in the rope, a wrap round
             // an instrument that is not there) is skipped, said on stderr and counted: the other
             // hands go on (the knot is then not tied, which the identification reports).
-            let targets = match turn.targets_with(&rope, idx, &instruments, cfg.script.max_step) {
+            let mut targets = match turn.targets_with(&rope, idx, &instruments, cfg.script.max_step)
+            {
                 Ok(t) => t,
                 Err(e) => {
                     eprintln!("hand {}: turn {} skipped: {e}", cfg.hand, k + 1);
@@ -558,6 +559,30 @@ fn drive(
                     Vec::new()
                 }
             };
+            if turn.draw.is_some() {
+                // A draw goes on past its last waypoint, along its last step, at most the rope's
+                // length (it stops at the tail: `moves`).
+                let from = if targets.len() >= 2 {
+                    targets[targets.len() - 2]
+                } else {
+                    rope[idx]
+                };
+                if let Some(&last) = targets.last() {
+                    let d = crate::vec3::sub(last, from);
+                    let n = crate::vec3::norm(d);
+                    let rope_len: f64 = rope
+                        .windows(2)
+                        .map(|w| crate::vec3::norm(crate::vec3::sub(w[1], w[0])))
+                        .sum();
+                    if n > 0.0 && n.is_finite() {
+                        let steps = (rope_len / n).ceil().min(1e6) as usize;
+                        targets.extend(
+                            (1..=steps)
+                                .map(|i| crate::vec3::add(last, crate::vec3::scale(d, i as f64))),
+                        );
+                    }
+                }
+            }
             hand.moves(joint, rope[idx], &targets, None, &q, &mut tremor, 0)?;
         }
         if let Some(w) = record.as_mut() {
@@ -572,6 +597,20 @@ fn drive(
         .wait_all(&everyone, &mine, cfg.turn_timeout)
         .map_err(anyhow::Error::msg)?;
     Ok(())
+}
+
+/// The rope before the first threaded eyelet of a response (along the rope from the chain's tail to
+/// the eyelet's point), if one is threaded: the tail a draw turn leaves.
+fn tail_before_eyelet(rh: &shared::ResponseHeader, pts: &[Vec3]) -> Option<f64> {
+    let parts = shared::Parts::of_response(rh, pts);
+    let e = parts.eyelet_states().find(|e| e.threaded)?;
+    let (j, l) = (parts.joints, e.link as usize);
+    if l + 1 >= j.len() {
+        return None;
+    }
+    let d =
+        |a: Vec3, b: Vec3| ((a.x - b.x).powi(2) + (a.y - b.y).powi(2) + (a.z - b.z).powi(2)).sqrt();
+    Some(j[..=l].windows(2).map(|w| d(w[0], w[1])).sum::<f64>() + d(j[l], e.at))
 }
 
 /// One turn of a hand: its connection, configuration, recording and report, which turn it is (`k`) and
@@ -682,7 +721,12 @@ impl TurnRun<'_> {
         let mut turned: Option<[f64; 3]> = None;
         let mut told_budget = false;
         let mut told_locked = false;
+        // A draw turn that has left its tail ([`crate::script::Draw`]).
+        let mut drawn = false;
         for (i, t) in targets.iter().enumerate() {
+            if drawn {
+                break;
+            }
             let t = &tremor.apply(*t);
             pacer.wait(i);
             if self.conn.node().wait(Duration::ZERO).is_err() {
@@ -712,11 +756,15 @@ impl TurnRun<'_> {
                     }
                     None => std::slice::from_ref(&to),
                 };
-                let (status, seq, rid, dg, frame, (reason, stopped_at, solve_ns)) =
+                let draw = self.turn.draw;
+                let (status, seq, rid, dg, frame, (reason, stopped_at, solve_ns), tail) =
                     self.conn.call_with(h, points, |rh, pts| {
                         let n = (rh.n_joints as usize).min(pts.len());
                         let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
                             .then(|| pts[..n].iter().map(|p| p.to_array()).collect());
+                        let tail = draw
+                            .filter(|_| rh.status == 0)
+                            .and_then(|_| tail_before_eyelet(rh, pts));
                         (
                             rh.status,
                             rh.sequence,
@@ -724,8 +772,16 @@ impl TurnRun<'_> {
                             digest(&pts[..n]),
                             frame,
                             (rh.reason_str(), rh.substeps, rh.solve_ns),
+                            tail,
                         )
                     })?;
+                if let (Some(d), Some(t)) = (draw, tail)
+                    && t <= d.tail
+                {
+                    // The tail is left: the draw ends here (the rest of its path given up).
+                    drawn = true;
+                    pending.clear();
+                }
                 // Halves help unless the work ran out in the first substep (a piece does
                 // fewer substeps); a rope jammed against itself spends every collision pass in
                 // one substep whatever the move's length, and splitting only repeats that.

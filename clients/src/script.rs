@@ -190,9 +190,26 @@ pub struct Turn {
     /// along the waypoints while the needle turns to the pose.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pose: Option<Pose>,
+    /// The turn draws the suture through the tissue until a tail of a given length is left
+    /// ([`Draw`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub draw: Option<Draw>,
     /// Relative to the joint's position when the turn starts.
     #[serde(default)]
     pub waypoints: Vec<[f64; 3]>,
+}
+
+/// The suture drawn through the tissue until a tail of a given length is left, as a surgeon draws it
+/// after the needle's pass: the joint goes along the turn's waypoints and on past the last one along
+/// its direction (at most the rope's length farther), and the turn ends at the first accepted move
+/// that leaves the rope before the first threaded eyelet (the tail, measured along the rope from the
+/// chain's tail to the eyelet's point) at most `tail` long. Without a threaded eyelet it is a plain
+/// turn. `hand run --tail` sets it on every such turn.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Draw {
+    /// The tail's length, in the chain's units.
+    pub tail: f64,
 }
 
 /// The needle driven round its own circle, as a needle driver turns a curved needle through tissue:
@@ -658,6 +675,11 @@ impl Script {
             if !t.waypoints.iter().flatten().all(|x| x.is_finite()) {
                 return Err(at("a waypoint is not finite".into()));
             }
+            if let Some(d) = &t.draw
+                && !(d.tail >= 0.0 && d.tail <= 1e9)
+            {
+                return Err(at(format!("draw.tail {} is not in [0, 1e9]", d.tail)));
+            }
             if let Some(th) = &t.throw {
                 let n = norm(th.outward);
                 if !(n > 0.0 && n.is_finite()) {
@@ -817,6 +839,14 @@ impl Script {
         }
     }
 
+    /// The script with every draw turn ([`Draw`]) leaving a tail of `tail` (`hand run --tail`).
+    pub fn with_tail(mut self, tail: f64) -> Script {
+        for t in self.turn.iter_mut().filter(|t| t.draw.is_some()) {
+            t.draw = Some(Draw { tail });
+        }
+        self
+    }
+
     /// The script followed by a tightening phase (`hand run --tighten SPEED`): every hand pulls the
     /// rope's end it holds away from the knot ([`Tighten`]) in turn, in the order of the hands, twice
     /// round (the first round cinches the knot, the second finds whether the other end's pull left
@@ -848,6 +878,7 @@ impl Script {
                     tighten: Some(Tighten::at(speed)),
                     drive: None,
                     pose: None,
+                    draw: None,
                     waypoints: Vec::new(),
                 });
             }
@@ -1099,6 +1130,7 @@ impl Script {
                         ],
                         [0.0, -1.5, -0.3286],
                         vec![[0.5, 0.0, 0.8], [4.5, 0.0, 1.7]],
+                        None,
                     ),
                 ]
                 .concat(),
@@ -1137,8 +1169,8 @@ impl Script {
             // needle's way. The driver then drives it 345° round that circle: its point cuts the
             // entry (x ≈ 15.25) and the exit (≈ 16.65) either side of the incision at x = 15.9, the
             // swage follows it through both and the suture threads them. Then the suture is drawn
-            // on along +x and up until its tail, free, is near x = 0 (the tail before the entry about
-            // as long as `stitch-tie-80`'s, so that its instrument tie follows). Not grasped: the
+            // on along +x and up until the tail before the entry, free, is [`STITCH_TAIL`] long
+            // (`hand run --tail` sets another). Not grasped: the
             // tail must slide toward the entry. The point starts 0.29 above the tissue, room for a
             // person's hand (`--perturb`) to set the swage 0.2 lower.
             "stitch-pass" => Some(Script {
@@ -1150,6 +1182,7 @@ impl Script {
                     vec![[0.0, 1.5, 0.1], [1.4862, 1.5, 0.2]],
                     [0.0, -1.5, -0.2],
                     vec![[0.66, 0.0, 0.85], [23.31, 0.0, 1.85]],
+                    Some(STITCH_TAIL),
                 ),
             }),
             _ => None,
@@ -1177,6 +1210,7 @@ fn turn(
         tighten: None,
         drive: None,
         pose: None,
+        draw: None,
         waypoints,
     }
 }
@@ -1187,13 +1221,14 @@ fn turn(
 /// point cannot reach the tissue while it turns, and brings it `down` (from where the approach
 /// ended) onto its circle, the point 0.2 or more above the tissue; then a drive of 345° round that
 /// circle (the point cuts the entry and the exit, the swage follows it through both); then the
-/// suture drawn through along `draw`. One pose turn, not two: a perturbed hand's waypoint errors add
-/// up turn by turn.
+/// suture drawn through along `draw`, until a tail of `tail` is left if given ([`Draw`]). One pose
+/// turn, not two: a perturbed hand's waypoint errors add up turn by turn.
 fn loaded_and_driven(
     chain: &str,
     approach: Vec<[f64; 3]>,
     down: [f64; 3],
     draw: Vec<[f64; 3]>,
+    tail: Option<f64>,
 ) -> Vec<Turn> {
     vec![
         turn("A", chain, "head", None, approach),
@@ -1205,9 +1240,16 @@ fn loaded_and_driven(
             drive: Some(Drive { angle: 345.0 }),
             ..turn("A", chain, "head", None, vec![])
         },
-        turn("A", chain, "head", None, draw),
+        Turn {
+            draw: tail.map(|tail| Draw { tail }),
+            ..turn("A", chain, "head", None, draw)
+        },
     ]
 }
+
+/// The tail the whole stitch's pass leaves before the entry (units): about as long as
+/// `stitch-tie-80`'s, so that its instrument tie follows.
+pub const STITCH_TAIL: f64 = 15.25;
 
 /// A curved needle loaded for a bite along +x under a tissue's top, in the plane y = const: its swage
 /// at 40° of its circle (seen from −y, angles from +x toward +z), leaving it toward the top of the
@@ -2136,6 +2178,27 @@ fn densify(start: [f64; 3], corners: &[[f64; 3]], max_step: f64) -> Vec<[f64; 3]
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_draw_turn_s_tail_is_set_by_with_tail_and_checked() {
+        let base = Script::builtin("stitch-pass").unwrap();
+        let draws = |s: &Script| s.turn.iter().filter_map(|t| t.draw).collect::<Vec<_>>();
+        assert_eq!(draws(&base), vec![Draw { tail: STITCH_TAIL }]);
+        let ten = base.clone().with_tail(10.0);
+        assert_eq!(draws(&ten), vec![Draw { tail: 10.0 }]);
+        assert!(ten.check().is_ok());
+        // Only draw turns take it: a script without one is unchanged.
+        let square = Script::builtin("square").unwrap();
+        assert_eq!(square.clone().with_tail(3.0), square);
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let e = base.clone().with_tail(bad).check().unwrap_err();
+            assert!(e.contains("draw.tail"), "{e}");
+        }
+        // In TOML it is `draw = { tail = L }` on the turn.
+        let text = toml::to_string(&ten).unwrap();
+        assert_eq!(Script::parse(&text, "ten").unwrap(), ten);
+        assert!(text.contains("[turn.draw]\ntail = 10.0"), "{text}");
+    }
 
     #[test]
     fn a_perturbation_is_small_repeatable_and_off_at_seed_zero() {

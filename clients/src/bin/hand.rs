@@ -112,6 +112,11 @@ enum Cmd {
         /// `Tighten`). With `--identify`, also prints the knotted stretch.
         #[arg(long)]
         tighten: Option<f64>,
+        /// The tail a draw turn leaves before the first eyelet (the whole stitch's pass,
+        /// `stitch-pass`: 15.25 by default), in the chain's units: the suture is drawn through the
+        /// tissue until the rope before the entry is at most this long (see `Draw`).
+        #[arg(long)]
+        tail: Option<f64>,
     },
     /// Replay recordings: reset their chains, re-send in the recorded order, compare every state.
     Replay {
@@ -170,6 +175,7 @@ fn run(a: Args) -> Result<u8> {
             tremor,
             timings,
             tighten,
+            tail,
         } => {
             let view = View::parse(&view).map_err(anyhow::Error::msg)?;
             if !(1..=32).contains(&frames) {
@@ -193,6 +199,9 @@ fn run(a: Args) -> Result<u8> {
             script.perturb(perturb);
             if let Some(speed) = tighten {
                 script = script.with_tighten(speed);
+            }
+            if let Some(t) = tail {
+                script = script.with_tail(t);
             }
             if let Some(c) = chain {
                 for t in &mut script.turn {
