@@ -315,6 +315,17 @@ where
         }
     }
 
+    /// Puts the eyelets' links and flags back as [`EyeletWorkspace::begin`] saved them and, given
+    /// `chain`, the chain as [`EyeletWorkspace::keep`] kept it (a refusal).
+    fn put_back(&self, chain: Option<&mut Chain<T, D>>, eyelets: &mut [Eyelet<T, D>]) {
+        if let (Some(c), Some(b)) = (chain, &self.backup) {
+            c.copy_from(b);
+        }
+        for (e, &(link, on)) in eyelets.iter_mut().zip(&self.saved) {
+            (e.link, e.threaded) = (link, on);
+        }
+    }
+
     /// Sized to `chain`, its positions in `new`, the eyelets' links and flags saved (for a refusal).
     fn begin(&mut self, chain: &Chain<T, D>, eyelets: &[Eyelet<T, D>]) {
         let n = chain.n_links();
@@ -447,12 +458,7 @@ where
         match chain.check_limits_except(&ws.limits.free) {
             Ok(()) => Ok(out),
             Err(e) => {
-                if let Some(b) = &ws.backup {
-                    chain.copy_from(b);
-                }
-                for (x, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
-                    (x.link, x.threaded) = (link, on);
-                }
+                ws.put_back(Some(chain), eyelets);
                 Err(e.into())
             }
         }
@@ -592,12 +598,7 @@ where
                 out.held_iterations += iterations;
             }
             Err(err) => {
-                if let (Some(_), Some(b)) = (&collision, &ws.backup) {
-                    chain.copy_from(b);
-                }
-                for (e, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
-                    (e.link, e.threaded) = (link, on);
-                }
+                ws.put_back(collision.is_some().then_some(&mut *chain), eyelets);
                 return Err(err);
             }
         }
@@ -1577,13 +1578,8 @@ where
         match walked {
             Ok(left) => out.left += left,
             Err(err) => {
-                for (x, &(link, on)) in eyelets.iter_mut().zip(&ws.saved) {
-                    (x.link, x.threaded) = (link, on);
-                }
+                ws.put_back(collision.is_some().then_some(&mut *chain), eyelets);
                 eyelets[index].at = from;
-                if let (Some(_), Some(b)) = (&collision, &ws.backup) {
-                    chain.copy_from(b);
-                }
                 return Err(err);
             }
         }
