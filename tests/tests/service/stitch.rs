@@ -685,6 +685,34 @@ fn whole_stitch(chain: &str, link: f64, extra: &[&str], closes_by: f64) {
             "the wound did not close: {before} -> {after}"
         );
         assert!(after >= 1.0 - 1e-9, "closed past the margins: {after}");
+        // The knot sits on the tissue: where the two strands out of the bite touch (links within
+        // 1.2 thicknesses of each other, one between the tail and the entry, the other between the
+        // exit and the head), the lower link of the lowest touching pair lies within a rope's
+        // diameter of the top, by its midpoint's height (a link lying on it is its radius, 0.1,
+        // above).
+        let j = parts.joints;
+        let v = |p: Vec3| nalgebra::Vector3::new(p.x, p.y, p.z);
+        let (entry, exit) = (last[0].link as usize, last[1].link as usize);
+        let (mut lowest, mut touches) = (f64::INFINITY, 0);
+        for i in 0..entry {
+            for k in exit + 1..j.len() - 1 {
+                let d =
+                    clients::check::segment_distance(v(j[i]), v(j[i + 1]), v(j[k]), v(j[k + 1]));
+                if d <= 0.2 * 1.2 {
+                    touches += 1;
+                    let (a, b) = ((j[i].z + j[i + 1].z) / 2.0, (j[k].z + j[k + 1].z) / 2.0);
+                    lowest = lowest.min(a.min(b));
+                }
+            }
+        }
+        println!(
+            "{chain}: the strands touch at {touches} pairs of links, the lowest {lowest:.3} above the tissue"
+        );
+        assert!(
+            touches > 0,
+            "the strands do not touch: no knot between them"
+        );
+        assert!(lowest <= 0.2, "the knot sits {lowest} above the tissue");
         // (The recordings' replay starts again from the pass's bite, bit for bit: not an opening. The
         // wound's states are those with both eyelets threaded: a hole the needle's point has cut is
         // not yet the rope's eyelet.)
