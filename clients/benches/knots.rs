@@ -157,19 +157,15 @@ impl Phase {
     /// The phase as a script's turn on the bench's rope (hand B at the head, A at the tail).
     fn turn(self) -> Turn {
         Turn {
-            hand: if self.head { "B" } else { "A" }.into(),
-            chain: "rope".into(),
-            joint: if self.head { "head" } else { "tail" }.into(),
-            throw: self.throw,
             wide_loop: self.wide_loop,
             tuck: self.tuck,
-            wrap: None,
-            instrument: None,
-            tighten: None,
-            drive: None,
-            pose: None,
-            draw: None,
-            waypoints: self.waypoints,
+            ..clients::script::turn(
+                if self.head { "B" } else { "A" },
+                "rope",
+                if self.head { "head" } else { "tail" },
+                self.throw,
+                self.waypoints,
+            )
         }
     }
 }

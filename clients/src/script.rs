@@ -1190,8 +1190,9 @@ impl Script {
     }
 }
 
-/// A turn of `hand` moving `joint` of `chain` through a throw (if any), then `waypoints`.
-fn turn(
+/// A turn of `hand` moving `joint` of `chain` through a throw (if any), then `waypoints`; nothing
+/// else (set the other fields on it: `Turn { wrap, ..turn(..) }`).
+pub fn turn(
     hand: &str,
     chain: &str,
     joint: &str,
