@@ -52,36 +52,14 @@ const NEAR: f64 = 0.1;
 /// within half the tolerance of its clearance (the pass that follows pushes nothing then).
 const LENGTHS_MET: f64 = 1e-7;
 
-/// A step that leaves the worst error more than this many times the best so far is taken back and
-/// halved, at most [`HALVINGS`] times, then ends the projection (stalled): the linearisation is no
-/// guide there (strands pressed between others on a taut rope: a pair just outside the rows
-/// closes).
+/// A step that leaves the worst error more than this many times the best so far ends the
+/// projection at once (stalled): the linearisation is no guide there (strands pressed between
+/// others on a taut rope), and the steps after it cost as much and gain nothing.
 const BLOWN: f64 = 2.0;
-
-/// How often a step that blew up is halved before the projection stalls. On `square-held` at 320
-/// links (counted with temporary prints, one run each) the projections that stalled went from 567
-/// to 360 of 1219 with three halvings.
-const HALVINGS: usize = 3;
 
 /// Rounds of the active set per step: contacts that would pull (negative multipliers) leave it,
 /// rows the step would bring too close join it.
 const ACTIVE_ROUNDS: usize = 8;
-
-/// The contacts' complement is regularised by this share of its diagonal. A touch between two
-/// strands of links shorter than the rope is thick is several nearly dependent rows; unregularised,
-/// their multipliers grew large and of either sign, the active set cycled through its rounds
-/// without settling, and the step then blew up (`square-held` at 320 links: 567 of 1219
-/// projections stalled; with 1e-2 and the halvings, 169 stalled and 80 ran out of iterations, the
-/// rest converged; with 1e-3 or 1e-4 more stalled again). The Newton iterations correct what the
-/// regularisation leaves, so a converged pose is as exact as before.
-const REG: f64 = 1e-2;
-
-/// A step that did not improve on the best so far scales the next one down by this factor (to an
-/// eighth at least); one that improved scales it back up. On a taut knot the full steps flip a
-/// contact's pair of links back and forth (the worst error alternating between two values); damped,
-/// they settle. On `square-held` at 320 links, when it was added (after the other changes), the
-/// substeps that ran 50 passes or more went from 112 to 9.
-const DAMP: f64 = 0.5;
 
 /// One contact's row: the joints it moves with their weights (its gradient is `weight × normal` at
 /// each), the normal, and how far it is from its target distance (positive: too close).
@@ -142,9 +120,6 @@ pub(super) enum Projected {
     Unfinished,
     /// More contacts than [`MAX_CONTACTS`].
     TooMany,
-    /// It did not converge, but its best pose on the lengths has half the start's worst error or
-    /// less: that pose is kept.
-    Improved,
     /// The meter ran out.
     OutOfWork,
 }
@@ -308,16 +283,6 @@ where
     let mut best: Option<T> = None;
     let mut outcome = Projected::Unfinished;
     let mut idle = 0;
-    // The pose the last step started from, the step and its scale, and how often it was halved.
-    let mut from = start.clone();
-    let mut last: Vec<Vector<T, D>> = Vec::new();
-    let mut last_scale = T::zero();
-    let mut halvings = 0;
-    let mut damp = T::one();
-    // The best pose met on its lengths (after the start), its merit, and the start's merit.
-    let mut kept: Vec<Vector<T, D>> = Vec::new();
-    let mut kept_merit: Option<T> = None;
-    let mut first: Option<T> = None;
     for _ in 0..ITERATIONS {
         let mut worst_contact = T::zero();
         if gather(pos, model, ws, &mut pr.rows, &mut worst_contact).is_none() {
@@ -361,30 +326,9 @@ where
             outcome = Projected::Converged;
             break;
         }
-        if first.is_none() {
-            first = Some(merit);
-        } else if worst_length <= T::lit(LENGTHS_MET) && kept_merit.is_none_or(|k| merit < k) {
-            kept_merit = Some(merit);
-            kept.clear();
-            kept.extend_from_slice(pos);
-        }
         match best {
-            Some(b) if merit > b * T::lit(BLOWN) && halvings < HALVINGS && !last.is_empty() => {
-                halvings += 1;
-                last_scale *= T::lit(0.5);
-                pos.copy_from_slice(&from);
-                for (p, d) in pos.iter_mut().zip(&last) {
-                    *p += *d * last_scale;
-                }
-                if !ws.together() && !retract(pos, lengths, m, held, &mut ws.meter) {
-                    outcome = Projected::OutOfWork;
-                    break;
-                }
-                continue;
-            }
             Some(b) if merit >= b => {
                 idle += 1;
-                damp = (damp * T::lit(DAMP)).max(T::lit(0.125));
                 if idle >= 3 || merit > b * T::lit(BLOWN) {
                     outcome = Projected::Stalled;
                     break;
@@ -393,7 +337,6 @@ where
             _ => {
                 idle = 0;
                 best = Some(merit);
-                damp = (damp * T::lit(2.0)).min(T::one());
             }
         }
         // Charged: the links' factorisation, a solve per contact and the Schur complement (about
@@ -417,14 +360,10 @@ where
             step / longest
         } else {
             T::one()
-        } * damp;
-        from.copy_from_slice(pos);
+        };
         for (p, d) in pos.iter_mut().zip(&delta) {
             *p += *d * scale;
         }
-        last = delta;
-        last_scale = scale;
-        halvings = 0;
         // Back onto the lengths: the step keeps them only to first order, and on a nearly taut
         // rope its second order is most of the step. Not in pulls: there the tightening pulls
         // jammed sooner with it (the tighten bench's 160-link square, granny and surgeon's knots
@@ -434,20 +373,11 @@ where
             break;
         }
     }
-    // A pose far from the lengths would be re-solved by the reach that follows, which can move
-    // joints far (on the instrument tie at 160 links, more than half a clearance: the move locked);
-    // short of converging, only the best pose met on the lengths is kept, when it halved the
-    // start's error (the passes and the next projection take it from there: on `square-held` at
-    // 320 links the passes after stalled projections had crept, hundreds per substep, near twice
-    // the tolerance), else the pose it started from.
+    // All or nothing: a pose far from the lengths would be re-solved by the reach that follows,
+    // which can move joints far (on the instrument tie at 160 links, more than half a clearance:
+    // the move locked); the pose it started from is kept instead.
     if outcome != Projected::Converged {
-        match (kept_merit, first) {
-            (Some(k), Some(f)) if k < f * T::lit(0.5) && outcome != Projected::OutOfWork => {
-                pos.copy_from_slice(&kept);
-                outcome = Projected::Improved;
-            }
-            _ => pos.copy_from_slice(&start),
-        }
+        pos.copy_from_slice(&start);
     }
     ws.projection = pr;
     outcome
@@ -695,7 +625,6 @@ where
                 pr.s[x * a + y] = pr.cmat[q * r + p] - pr.bsparse[q].dot(abp);
             }
             pr.s[x * a + x] += eps;
-            pr.s[x * a + x] *= T::one() + T::lit(REG);
             pr.col.push(pr.full_rhs[q]);
         }
         let mut sol = std::mem::take(&mut pr.col);

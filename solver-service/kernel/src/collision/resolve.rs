@@ -19,10 +19,6 @@ use core::cmp::Ordering;
 /// together ([`super::project`]): most contacts of a move part after one or two pushes; a knot
 /// under tension does not. Plain moves take [`CollisionOptions::together_after`].
 const PULL_PROJECT_AFTER: u32 = 2;
-
-/// Projections a substep may run while each ends improved but short of converging: each gets
-/// closer (the passes between them push what is left), and a fourth rarely gained.
-const PROJECTIONS: u32 = 3;
 use crate::math::{Embed3, Real, Vector, positive_finite};
 
 /// Resolution passes on `ws.pos` (positions of the chain after the sweep). The hand's joint `m` and the
@@ -46,7 +42,6 @@ where
     let mut contacts = 0u32;
     let mut iterations = 0u32;
     let mut stalled = false;
-    let mut improved = 0u32;
     let use_tree = opts.self_collision && opts.scheme == Scheme::Capsules;
     let span = neighbour_span(chain.min_length(), opts.thickness);
     let n = chain.n_links() as u64;
@@ -84,12 +79,8 @@ where
         };
         if use_tree && !held.is_empty() && !stalled && iterations >= after {
             match project_held(chain, m, held, model, ws) {
-                Ok(Held::Converged) => {}
-                Ok(Held::Improved) => {
-                    improved += 1;
-                    stalled = improved >= PROJECTIONS;
-                }
-                Ok(Held::Stalled) => stalled = true,
+                Ok(true) => {}
+                Ok(false) => stalled = true,
                 Err(stop) => return Err(stop.at(iterations)),
             }
         }
@@ -202,17 +193,6 @@ where
     }
 }
 
-/// How [`project_held`] left the rope.
-enum Held {
-    /// Every contact and length met; the pass that follows pushes nothing.
-    Converged,
-    /// Nearer than it started (its best pose kept): the passes go on, and the projection may run
-    /// again.
-    Improved,
-    /// No better pose: the pose is left as it was, and the passes go on alone.
-    Stalled,
-}
-
 /// Why [`project_held`] stopped the resolution.
 enum Halt {
     OverWork,
@@ -230,14 +210,14 @@ impl Halt {
 
 /// The joint projection of a rope with held joints ([`super::project`]) from `ws.pos`, then every
 /// part between fixed joints re-solved to its exact lengths (the projection meets them to 1e-7).
-/// What it left ([`Held`]).
+/// `Ok(false)`: it stalled (the pose is left as it was).
 fn project_held<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     m: usize,
     held: &[usize],
     model: &CollisionModel<T, D>,
     ws: &mut CollisionWorkspace<T, D>,
-) -> Result<Held, Halt>
+) -> Result<bool, Halt>
 where
     Vector<T, D>: Embed3<T>,
 {
@@ -249,10 +229,8 @@ where
         Projected::OutOfWork => return Err(Halt::OverWork),
         // It found no pose that parts the knot: the pushes go on alone (projecting again would
         // cost as much and find the same).
-        Projected::Stalled | Projected::TooMany | Projected::Unfinished => {
-            return Ok(Held::Stalled);
-        }
-        Projected::Converged | Projected::Improved => {}
+        Projected::Stalled | Projected::TooMany | Projected::Unfinished => return Ok(false),
+        Projected::Converged => {}
     }
     let n = chain.n_links() as u64;
     if !ws
@@ -267,8 +245,7 @@ where
         skip_untouched: false,
     };
     match restraighten_held(chain, m, held, &mut ws.pos, every_part, &mut ws.meter) {
-        Restraightened::Done if projected == Projected::Improved => Ok(Held::Improved),
-        Restraightened::Done => Ok(Held::Converged),
+        Restraightened::Done => Ok(true),
         Restraightened::Failed => Err(Halt::Locked),
         Restraightened::OutOfWork => Err(Halt::OverWork),
     }
