@@ -17,8 +17,10 @@
 //! (a few joints each). With `A` the links' block, `B` the coupling and `C` the contacts' block, the
 //! contacts' multipliers solve the Schur complement `(C − Bᵀ A⁻¹ B) λ_c = b_c − Bᵀ A⁻¹ b_l` (dense,
 //! contacts × contacts), and `A` is factored once per iteration (Thomas). Each contact touches at
-//! most eight links, so `B` is sparse and the complement over every row costs `r` solves of `n` and
-//! `8 r²`, formed once per iteration; the active set's rounds then only take its sub-block (`r³`).
+//! most eight links, so `B` is sparse; the complement is formed only over the rows the active set
+//! takes (a column of `A⁻¹ B` each, solved once over the parts between fixed joints it touches,
+//! where `A` falls apart), `C` from the joints rows share, and the active set's rounds take its
+//! sub-block (`a³`).
 //! The hand's joint and the held joints do not move (inverse mass zero).
 //!
 //! Used on the moves of a rope with held joints whose contacts have not parted after the passes the
@@ -83,7 +85,8 @@ pub(super) struct Projection<T: Real, const D: usize> {
     upper: Vec<T>,
     /// `A⁻¹ b_l`, then `λ_l`.
     lam_l: Vec<T>,
-    /// `A⁻¹ B`, one column (of `n`) per contact.
+    /// `B`, one column (of `n`) per contact, each turned into its column of `A⁻¹ B` once its row
+    /// joins the active set (`solved`).
     ab: Vec<T>,
     /// Every row's right-hand side of the Schur complement, and whether its column of `A⁻¹ B` is
     /// solved.
@@ -340,7 +343,8 @@ where
             }
         }
         // Charged: the links' factorisation, a solve per contact and the Schur complement (about
-        // 24 flops a pair of rows); each round of the active set below charges its own.
+        // 24 flops a pair of rows; an upper bound, since only the active rows' columns are
+        // solved); each round of the active set below charges its own.
         let r64 = r as u64;
         let units = (n as u64)
             .saturating_mul(cost::RELAX_PER_LINK)
@@ -462,9 +466,9 @@ where
 }
 
 /// One Newton step: the multipliers (`pr.lam_l`, the active contacts' `pr.rhs`) and the joints'
-/// displacement, from the rows and errors in `pr`. The Schur complement over every row is formed
-/// once (each contact's coupling to the links is sparse: at most eight links, so `S` costs `8 r²`
-/// beside the `r` tridiagonal solves of `n`); the active set is then found by [`ACTIVE_ROUNDS`]
+/// displacement, from the rows and errors in `pr`. `C` is formed once from the joints the rows
+/// share, and a row's column of `A⁻¹ B` the first time a round takes it into the active set (each
+/// contact's coupling to the links is sparse: at most eight links); the active set is found by [`ACTIVE_ROUNDS`]
 /// rounds on its sub-block (`r³`), each charged to `meter` before it runs (about six flops a
 /// sixteenth of a link-step). `None` when the meter ran out.
 fn solve_step<T: Real, const D: usize>(
@@ -503,21 +507,11 @@ where
             T::zero()
         };
     }
-    let solve = |pr: &Projection<T, D>, x: &mut [T]| {
-        x[0] /= pr.pivot[0];
-        for k in 1..n {
-            x[k] = (x[k] - pr.lower[k] * x[k - 1]) / pr.pivot[k];
-        }
-        for k in (0..n.saturating_sub(1)).rev() {
-            let next = x[k + 1];
-            x[k] -= pr.upper[k] * next;
-        }
-    };
     // b_l = −C (each link's length change wanted), and A⁻¹ b_l.
     pr.bl.clear();
     pr.bl.extend(pr.c.iter().map(|c| -*c));
     let mut bl = std::mem::take(&mut pr.bl);
-    solve(pr, &mut bl);
+    solve_span(&pr.lower, &pr.pivot, &pr.upper, &mut bl, 0, n - 1);
     // Row q of Bᵀ (J_c W J_lᵀ): for each of the contact's joints j, link j−1 (+u at j) and link j
     // (−u at j), at most eight entries; then A⁻¹ B column by column.
     pr.bsparse.clear();
@@ -699,7 +693,8 @@ where
 /// Solves the factored links' block (Thomas: `lower`, `pivot`, `upper`) for `x`, whose entries are
 /// zero outside `lo..=hi`. The block falls apart at fixed joints (a zero off-diagonal), so the
 /// substitutions stop where the rest of `x` stays zero: a contact's column costs the links of the
-/// parts it touches, not the whole rope. Bit for bit the full solve.
+/// parts it touches, not the whole rope: the entries it skips are the exact zeros the whole solve
+/// would compute (tested against a solve written in the test).
 fn solve_span<T: Real>(lower: &[T], pivot: &[T], upper: &[T], x: &mut [T], lo: usize, hi: usize) {
     let n = x.len();
     x[lo] /= pivot[lo];
@@ -805,6 +800,74 @@ mod tests {
     use super::*;
     use crate::collision::{CollisionOptions, Scheme};
     use nalgebra::Vector3;
+
+    /// A tridiagonal system that falls apart into three blocks (zero off-diagonals at 3 and 7), a
+    /// right-hand side nonzero only in 4..=5: the span solve gives the dense solve's answer
+    /// (Gaussian elimination written here), exactly zero outside the middle block.
+    #[test]
+    fn a_span_solve_stays_in_its_block_and_matches_a_dense_solve() {
+        let n = 10;
+        let diag: Vec<f64> = (0..n).map(|k| 2.5 + 0.1 * k as f64).collect();
+        // off[k] couples k and k + 1.
+        let mut off: Vec<f64> = (0..n - 1).map(|k| -0.4 - 0.05 * k as f64).collect();
+        off[3] = 0.0;
+        off[7] = 0.0;
+        // The Thomas factors as `solve_step` keeps them.
+        let (mut lower, mut pivot, mut upper) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for k in 0..n {
+            lower[k] = if k > 0 { off[k - 1] } else { 0.0 };
+            pivot[k] = if k > 0 {
+                diag[k] - lower[k] * upper[k - 1]
+            } else {
+                diag[k]
+            };
+            upper[k] = if k + 1 < n { off[k] / pivot[k] } else { 0.0 };
+        }
+        let mut b = vec![0.0; n];
+        b[4] = 1.0;
+        b[5] = -0.5;
+        let mut x = b.clone();
+        solve_span(&lower, &pivot, &upper, &mut x, 4, 5);
+        // Dense Gaussian elimination, no pivoting (diagonally dominant).
+        let mut a = vec![vec![0.0; n]; n];
+        for k in 0..n {
+            a[k][k] = diag[k];
+            if k + 1 < n {
+                a[k][k + 1] = off[k];
+                a[k + 1][k] = off[k];
+            }
+        }
+        let mut y = b.clone();
+        for c in 0..n {
+            for r in c + 1..n {
+                let f = a[r][c] / a[c][c];
+                let pivot_row = a[c].clone();
+                for (v, p) in a[r][c..].iter_mut().zip(&pivot_row[c..]) {
+                    *v -= f * p;
+                }
+                y[r] -= f * y[c];
+            }
+        }
+        for c in (0..n).rev() {
+            let mut v = y[c];
+            for k in c + 1..n {
+                v -= a[c][k] * y[k];
+            }
+            y[c] = v / a[c][c];
+        }
+        for k in 0..n {
+            if !(4..=7).contains(&k) {
+                assert_eq!(x[k], 0.0, "entry {k} outside the block");
+            }
+            assert!(
+                (x[k] - y[k]).abs() < 1e-14,
+                "entry {k}: {} against {}",
+                x[k],
+                y[k]
+            );
+        }
+        assert!(x[4] != 0.0 && x[7] != 0.0);
+    }
 
     /// A rope crossing over itself 0.1 apart (thickness 0.2), its ends fixed: the projection parts
     /// the crossing to the clearance and keeps every length (computed here).
