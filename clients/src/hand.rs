@@ -570,10 +570,8 @@ fn drive(
                 if let Some(&last) = targets.last() {
                     let d = crate::vec3::sub(last, from);
                     let n = crate::vec3::norm(d);
-                    let rope_len: f64 = rope
-                        .windows(2)
-                        .map(|w| crate::vec3::norm(crate::vec3::sub(w[1], w[0])))
-                        .sum();
+                    let rope_len: f64 =
+                        rope.windows(2).map(|w| crate::vec3::dist(w[0], w[1])).sum();
                     if n > 0.0 && n.is_finite() {
                         let steps = (rope_len / n).ceil().min(1e6) as usize;
                         targets.extend(
@@ -608,8 +606,7 @@ fn tail_before_eyelet(rh: &shared::ResponseHeader, pts: &[Vec3]) -> Option<f64> 
     if l + 1 >= j.len() {
         return None;
     }
-    let d =
-        |a: Vec3, b: Vec3| ((a.x - b.x).powi(2) + (a.y - b.y).powi(2) + (a.z - b.z).powi(2)).sqrt();
+    let d = |a: Vec3, b: Vec3| crate::vec3::dist(a.to_array(), b.to_array());
     Some(j[..=l].windows(2).map(|w| d(w[0], w[1])).sum::<f64>() + d(j[l], e.at))
 }
 
