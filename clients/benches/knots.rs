@@ -865,7 +865,9 @@ struct Checked {
     crossings: u64,
     taut: usize,
     jammed: usize,
-    /// Pulls that ended otherwise: refused, no direction, or the step limit.
+    /// Pulls whose last request stopped short at the request's work budget.
+    out_of_work: usize,
+    /// Pulls that ended otherwise: refused, no direction, a joint limit, or the step limit.
     other: usize,
     /// The knotted stretch at the end, in rope diameters.
     stretch: Option<f64>,
@@ -956,9 +958,10 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
                     break;
                 };
                 let t = [at + V::from(away) * 0.05];
-                if w.apply(&world_move(&w, idx, &t, true)).is_err() {
+                let Ok(answer) = w.apply(&world_move(&w, idx, &t, true)) else {
                     break;
-                }
+                };
+                let stopped = answer.stopped;
                 let before = (debug && out.tied && !changed).then(|| prev.clone());
                 check(world_joints(&w), &mut prev, &mut out);
                 if let Some(before) = before {
@@ -990,13 +993,14 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
                     let k = (0..held).find(|&k| all[n + 1 + k].x as usize == idx);
                     let taut = k
                         .is_some_and(|k| all[n + 1 + k].z != 0.0 || (k > 0 && all[n + k].z != 0.0));
-                    let pull = k.map_or(0.0, |k| all[n + 1 + held + k].norm());
-                    if taut {
-                        out.taut += 1;
-                    } else if pull > 0.0 {
-                        out.jammed += 1;
-                    } else {
-                        out.other += 1;
+                    // As the hand says it (`clients::hand::Tightened::why`): the taut flag, else
+                    // why the last pull stopped short.
+                    use world::tension::Stop;
+                    match (taut, stopped) {
+                        (true, _) | (false, Some(Stop::Reach)) => out.taut += 1,
+                        (false, Some(Stop::Contact)) => out.jammed += 1,
+                        (false, Some(Stop::Work)) => out.out_of_work += 1,
+                        (false, Some(Stop::Limit) | None) => out.other += 1,
                     }
                     ended = true;
                     break;
@@ -1048,7 +1052,7 @@ fn topology_table(runs: usize) {
          run; *runs with a topology change*: runs with a crossing, or tied and not kept.\n"
     );
     println!(
-        "| knot | runs | tied | kept after tightening | states checked | crossings between consecutive states | runs with a topology change | pulls ended taut / jammed / otherwise | knotted stretch at the end, median (diameters) | seconds |"
+        "| knot | runs | tied | kept after tightening | states checked | crossings between consecutive states | runs with a topology change | pulls ended taut / jammed / out of work / otherwise | knotted stretch at the end, median (diameters) | seconds |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|");
     let only = std::env::var("KNOT_BENCH_ONLY").ok();
@@ -1059,7 +1063,7 @@ fn topology_table(runs: usize) {
         let clock = std::time::Instant::now();
         let mut rng = Rng(0x70_9010 ^ (knot as u64) << 4);
         let (mut tied, mut kept, mut states, mut crossings, mut changed) = (0, 0, 0, 0, 0);
-        let (mut taut, mut jammed, mut other) = (0, 0, 0);
+        let (mut taut, mut jammed, mut out_of_work, mut other) = (0, 0, 0, 0);
         let mut stretches = Vec::new();
         for _ in 0..runs {
             let c = tie_and_tighten(&scene, knot, &mut rng);
@@ -1068,7 +1072,12 @@ fn topology_table(runs: usize) {
             states += c.states;
             crossings += c.crossings;
             changed += usize::from(c.crossings > 0 || (c.tied && !c.kept));
-            (taut, jammed, other) = (taut + c.taut, jammed + c.jammed, other + c.other);
+            (taut, jammed, out_of_work, other) = (
+                taut + c.taut,
+                jammed + c.jammed,
+                out_of_work + c.out_of_work,
+                other + c.other,
+            );
             stretches.extend(c.stretch);
         }
         stretches.sort_by(f64::total_cmp);
@@ -1076,7 +1085,7 @@ fn topology_table(runs: usize) {
             .get(stretches.len() / 2)
             .map_or("—".to_string(), |s| format!("{s:.1}"));
         println!(
-            "| {} | {runs} | {tied} | {kept} | {states} | {crossings} | {changed} | {taut} / {jammed} / {other} | {median} | {:.0} |",
+            "| {} | {runs} | {tied} | {kept} | {states} | {crossings} | {changed} | {taut} / {jammed} / {out_of_work} / {other} | {median} | {:.0} |",
             knot.name(),
             clock.elapsed().as_secs_f64()
         );

@@ -12,7 +12,7 @@
 //! `tractrix::knot::knotted_stretch`) in rope diameters, against the ideal length the issue names
 //! (the open trefoil about 10.1 diameters, Pieranski, Przybyl & Stasiak 2001; square and granny at most
 //! 28.5 by the composite bound of Cantarella, LaPointe & Rawdon; none for the surgeon's knot), how each
-//! tightening pull ended (`taut`, `jammed`: see docs/tension.md), the crossings `watch` found in the
+//! tightening pull ended (`taut`, `jammed`, `out-of-work`: see docs/tension.md), the crossings `watch` found in the
 //! states it read, and the row's time. Rows that fail to tie say so.
 //!
 //! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).

@@ -14,7 +14,7 @@ use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::prelude::*;
 use serde::{Deserialize, Serialize};
-use shared::{Command, JOINT_HEAD, RequestHeader, Status, Vec3};
+use shared::{Command, JOINT_HEAD, PullStop, RequestHeader, Status, Vec3};
 use std::io::Write;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -109,9 +109,12 @@ pub struct Tightened {
     pub steps: u32,
     /// How far the joint went.
     pub travel: f64,
-    /// Why it stopped: `taut` (the stretch from the joint to the next held joint is straight),
-    /// `jammed` (the joint stopped short on contact: the knot at the rope's thickness), `stopped`
-    /// (it stopped short for another reason, or went no further without a pull) or `max-steps`.
+    /// Why it stopped, after the last request (the service's [`PullStop`] when it stopped short):
+    /// `taut` (the stretch from the joint to the next held joint is straight, or out of length),
+    /// `jammed` (the contacts could not make way: the knot at the rope's thickness), `out-of-work`
+    /// (resolving the contacts would have cost more than a request's work budget, request after
+    /// request: the knot resists more than the budget resolves), `limit` (a joint limit),
+    /// `stopped` (it went no further without stopping short, or had no direction) or `max-steps`.
     pub why: &'static str,
     /// The joint's pull after the last request.
     pub pull: f64,
@@ -917,32 +920,33 @@ impl TurnRun<'_> {
             h.flags = shared::FLAG_PULL;
             let sent = now_ns();
             let called = Instant::now();
-            let (status, seq, rid, dg, joints, (pull, taut, solve_ns)) = self.conn.call_with(
-                h,
-                &[Vec3::new(target[0], target[1], target[2])],
-                |rh, pts| {
-                    let parts = shared::Parts::of_response(rh, pts);
-                    let j = idx as u32;
-                    let k = parts.held_joints().position(|(q, _)| q == j);
-                    let taut: Vec<bool> = parts.taut().collect();
-                    let pull = k
-                        .and_then(|k| parts.pulls.get(k))
-                        .map_or(0.0, |p| norm(p.to_array()));
-                    let t = k.is_some_and(|k| taut[k] || (k > 0 && taut[k - 1]));
-                    (
-                        rh.status,
-                        rh.sequence,
-                        rh.request_id,
-                        digest(parts.joints),
-                        parts
-                            .joints
-                            .iter()
-                            .map(|p| p.to_array())
-                            .collect::<Vec<_>>(),
-                        (pull, t, rh.solve_ns),
-                    )
-                },
-            )?;
+            let (status, seq, rid, dg, joints, (pull, taut, solve_ns, stop)) =
+                self.conn.call_with(
+                    h,
+                    &[Vec3::new(target[0], target[1], target[2])],
+                    |rh, pts| {
+                        let parts = shared::Parts::of_response(rh, pts);
+                        let j = idx as u32;
+                        let k = parts.held_joints().position(|(q, _)| q == j);
+                        let taut: Vec<bool> = parts.taut().collect();
+                        let pull = k
+                            .and_then(|k| parts.pulls.get(k))
+                            .map_or(0.0, |p| norm(p.to_array()));
+                        let t = k.is_some_and(|k| taut[k] || (k > 0 && taut[k - 1]));
+                        (
+                            rh.status,
+                            rh.sequence,
+                            rh.request_id,
+                            digest(parts.joints),
+                            parts
+                                .joints
+                                .iter()
+                                .map(|p| p.to_array())
+                                .collect::<Vec<_>>(),
+                            (pull, t, rh.solve_ns, rh.pull_stop()),
+                        )
+                    },
+                )?;
             out.steps = i + 1;
             if status == Status::OverBudget as u32 && speed > g.speed / f64::from(1 << SPLITS) {
                 self.report.splits += 1;
@@ -982,12 +986,12 @@ impl TurnRun<'_> {
             out.travel = norm(sub(rope[idx], start));
             still = if moved < 0.1 * speed { still + 1 } else { 0 };
             if still >= g.stall {
-                out.why = if taut {
-                    "taut"
-                } else if pull > 0.0 {
-                    "jammed"
-                } else {
-                    "stopped"
+                out.why = match (taut, stop) {
+                    (true, _) | (false, Some(PullStop::Taut)) => "taut",
+                    (false, Some(PullStop::Jammed)) => "jammed",
+                    (false, Some(PullStop::Limit)) => "limit",
+                    (false, Some(PullStop::Work)) => "out-of-work",
+                    (false, None) => "stopped",
                 };
                 break;
             }

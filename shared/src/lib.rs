@@ -26,7 +26,8 @@
 //!    [`MAX_PATH_POINTS`] for [`Command::Path`], `0` for the others.
 //! 2. Fill the [`RequestHeader`] (zero it first: zero means "the chain's default" for every option).
 //! 3. Send, notify, and receive one response. Its [`ResponseHeader::status`] is a [`Status`]; on error
-//!    [`ResponseHeader::reason`] says what was wrong and the chain is unchanged. The payload holds
+//!    [`ResponseHeader::reason`] says what was wrong and the chain is unchanged (when ok it is empty,
+//!    but for a pull that stopped short, where it says why: [`PullStop`]). The payload holds
 //!    `n_joints` joint positions (tail first, joint 0 = tail, joint `n_joints - 1` = head) followed by
 //!    `n_angles` joint rotations as rotation vectors (axis × angle in radians; for a planar chain `(0, 0,
 //!    θ)`), then `n_held` held joints (anchors of the scene and grasps of clients), one element each:
@@ -297,8 +298,51 @@ pub const FLAG_SMOOTH: u32 = 64;
 /// Move (one target) and instrument: pull. A move the rope cannot make in full (a held side out of
 /// length, contact jammed, a joint limit) goes as far toward the target as it can instead of being
 /// refused, and the rest is the joint's (or instrument's) pull in the payload (`n_pulls`): the
-/// tension a haptic hand feels, docs/tension.md.
+/// tension a haptic hand feels, docs/tension.md. An ok response of a pull that stopped short says
+/// why in its `reason` ([`PullStop`]); one that made the whole move leaves it empty.
 pub const FLAG_PULL: u32 = 128;
+
+/// Why a pull ([`FLAG_PULL`]) stopped short of its target: the `reason` of its ok response is
+/// [`PullStop::reason`] (empty when the whole move was made), read back by [`PullStop::of`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PullStop {
+    /// The rope is taut: the stretch to a held joint (or an eyelet) is out of length.
+    Taut,
+    /// Contact could not make way: the knot or the instrument jammed at the rope's thickness (the
+    /// contact resolution met its passes' limit or locked).
+    Jammed,
+    /// A joint would have gone beyond its limit.
+    Limit,
+    /// Resolving the contacts would have cost more than the request's work budget: the knot resists
+    /// more than one request can resolve (the next pull goes on from where this one stopped).
+    Work,
+}
+
+impl PullStop {
+    /// Every kind, in the wire's order.
+    pub const ALL: [PullStop; 4] = [
+        PullStop::Taut,
+        PullStop::Jammed,
+        PullStop::Limit,
+        PullStop::Work,
+    ];
+
+    /// The `reason` text of an ok response whose pull stopped short this way.
+    pub const fn reason(self) -> &'static str {
+        match self {
+            PullStop::Taut => "pull stopped short: taut",
+            PullStop::Jammed => "pull stopped short: jammed",
+            PullStop::Limit => "pull stopped short: joint limit",
+            PullStop::Work => "pull stopped short: work budget",
+        }
+    }
+
+    /// Why the pull of an ok response stopped short, from its `reason`; `None` when it made the whole
+    /// move (or the reason is not a pull's).
+    pub fn of(reason: &str) -> Option<PullStop> {
+        PullStop::ALL.into_iter().find(|p| p.reason() == reason)
+    }
+}
 /// Move of a chain's head (one target) when the chain carries a needle: the needle is *driven*, as a
 /// needle driver drives a curved needle through tissue: instead of turning with the head link, it
 /// goes along the circular arc from its swage to the target that leaves the swage along the needle's
@@ -875,7 +919,8 @@ pub struct ResponseHeader {
     pub thickness: f64,
     /// Chain name, UTF-8, NUL-padded.
     pub name: [u8; NAME_LEN],
-    /// Why the command failed, UTF-8, NUL-padded (empty when ok).
+    /// Why the command failed, UTF-8, NUL-padded (empty when ok, but for a pull that stopped short:
+    /// why, [`PullStop::reason`]).
     pub reason: [u8; REASON_LEN],
     /// Instruments after the held joints, [`INSTRUMENT_ELEMENTS`] elements each (every response that
     /// carries joints, for a chain whose scene gives it instruments).
@@ -1000,6 +1045,14 @@ impl ResponseHeader {
     /// The reason as text.
     pub fn reason_str(&self) -> String {
         c_string(&self.reason)
+    }
+    /// Why the pull of an ok response stopped short ([`FLAG_PULL`]); `None` when it made the whole
+    /// move, or the response is not ok.
+    pub fn pull_stop(&self) -> Option<PullStop> {
+        if self.status != Status::Ok as u32 {
+            return None;
+        }
+        PullStop::of(&self.reason_str())
     }
     /// Writes `text` into `reason`, cut at a character boundary to fit.
     pub fn set_reason(&mut self, text: &str) {
@@ -1312,6 +1365,22 @@ pub const WIRE_TYPES: [TypeLayout; 4] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pull_stop_reads_back_from_its_reason_and_nothing_else_does() {
+        for p in PullStop::ALL {
+            assert!(p.reason().len() < REASON_LEN);
+            assert_eq!(PullStop::of(p.reason()), Some(p));
+        }
+        assert_eq!(PullStop::of(""), None);
+        assert_eq!(PullStop::of("pull stopped short"), None);
+        let mut h = ResponseHeader::default();
+        h.set_reason(PullStop::Work.reason());
+        h.status = Status::Ok as u32;
+        assert_eq!(h.pull_stop(), Some(PullStop::Work));
+        h.status = Status::Locked as u32;
+        assert_eq!(h.pull_stop(), None);
+    }
 
     /// The docs' table is what other languages are written from: it must say exactly what the types are.
     #[test]

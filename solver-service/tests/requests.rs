@@ -820,3 +820,47 @@ fn a_smooth_path_follows_the_spline_through_its_points() {
         .fold(0.0, f64::max);
     assert!(apart > 1e-3, "{apart}");
 }
+
+#[test]
+fn a_pull_that_stops_short_says_why_in_its_ok_response() {
+    let mut door = Door::new();
+    for joint in [0, 40] {
+        let mut grasp = req(Command::Grasp, 0);
+        grasp.joint = joint;
+        let (h, _) = door.call(&grasp, &[]);
+        assert_eq!(h.status, Status::Ok as u32, "{}", h.reason_str());
+    }
+    let (h, joints) = door.call(&req(Command::Query, 0), &[]);
+    let (tail, head) = (joints[0], joints[h.n_joints as usize - 1]);
+    let mut pull = req(Command::Move, 0);
+    pull.joint = shared::JOINT_HEAD;
+    pull.flags = shared::FLAG_PULL;
+    // Within reach of the held tail (40 unit links): the whole move, no reason.
+    let near = Vec3::new(head.x - 1.0, head.y + 1.0, head.z);
+    let (h, _) = door.call(&pull, &[near]);
+    assert_eq!(h.status, Status::Ok as u32, "{}", h.reason_str());
+    assert_eq!(h.reason_str(), "");
+    assert_eq!(h.pull_stop(), None);
+    // A hundred units from the tail: the rope goes taut and the pull says so.
+    let far = Vec3::new(tail.x + 100.0, tail.y, tail.z);
+    let (h, payload) = door.call(&pull, &[far]);
+    assert_eq!(h.status, Status::Ok as u32, "{}", h.reason_str());
+    assert_eq!(h.reason_str(), "pull stopped short: taut");
+    assert_eq!(h.pull_stop(), Some(shared::PullStop::Taut));
+    let parts = shared::Parts::of_response(&h, &payload);
+    let head = parts.joints[parts.joints.len() - 1];
+    let (dx, dy, dz) = (head.x - tail.x, head.y - tail.y, head.z - tail.z);
+    let reach = (dx * dx + dy * dy + dz * dz).sqrt();
+    assert!(reach <= 40.0 + 1e-9 && reach > 39.9, "{reach}");
+    // The head's pull: from where it was asked to go to where the rope let it be.
+    let (_, felt) = parts
+        .held_pulls()
+        .find(|&(j, _)| j == 40)
+        .expect("the head's pull");
+    let want = (far.x - head.x, far.y - head.y, far.z - head.z);
+    let (ex, ey, ez) = (felt.x + want.0, felt.y + want.1, felt.z + want.2);
+    assert!(
+        (ex * ex + ey * ey + ez * ez).sqrt() < 1e-9,
+        "{felt:?} against {want:?}"
+    );
+}

@@ -61,6 +61,17 @@ pub fn reason(r: &Refusal) -> [u8; shared::REASON_LEN] {
     out
 }
 
+/// Why a pull stopped short, as the wire says it (an ok response's reason).
+pub fn pull_stop(s: world::tension::Stop) -> shared::PullStop {
+    use world::tension::Stop;
+    match s {
+        Stop::Reach => shared::PullStop::Taut,
+        Stop::Contact => shared::PullStop::Jammed,
+        Stop::Limit => shared::PullStop::Limit,
+        Stop::Work => shared::PullStop::Work,
+    }
+}
+
 /// A chain's kind as the wire numbers it.
 pub fn kind(k: ChainKind) -> shared::ChainKind {
     match k {

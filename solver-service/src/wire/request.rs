@@ -595,6 +595,9 @@ pub fn encode(
             if let Residual::Known(r) = o.residual {
                 h.residual = r;
             }
+            if let Some(stop) = o.stopped {
+                h.set_reason(crate::wire::pull_stop(stop).reason());
+            }
             if o.describe
                 && let Some(spec) = o.chain.and_then(|c| chains.get(c as usize))
             {

@@ -689,10 +689,11 @@ impl World {
                     if h.chain.is_held(joint) {
                         h.tension.joint_moved(joint, target, stop);
                     }
-                    m
+                    (m, stop)
                 })
             })
-            .map(|m| {
+            .map(|(m, stop)| {
+                outcome.stopped = stop;
                 outcome.substeps = m.substeps;
                 outcome.paper_fallbacks = m.paper_fallbacks;
                 outcome.iterations = m.collision_iterations;
@@ -746,10 +747,11 @@ impl World {
                 };
                 done.map(|(m, stop)| {
                     h.tension.instrument_moved(index, centre, stop);
-                    m
+                    (m, stop)
                 })
             })
-            .map(|m| {
+            .map(|(m, stop)| {
+                outcome.stopped = stop;
                 outcome.substeps = m.substeps;
                 outcome.iterations = m.collision_iterations;
             }),

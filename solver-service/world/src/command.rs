@@ -215,6 +215,9 @@ pub struct Answer {
     pub bundle: bool,
     /// The chain's knot after the command, when its scene asks for it (`knot = true`).
     pub knot: Option<tractrix::knot::KnotType>,
+    /// Why a pulled move or instrument pose stopped short of its target (`None`: it made the whole
+    /// move, or it was no pull).
+    pub stopped: Option<crate::tension::Stop>,
 }
 
 /// The distance between where a joint should be and where it is.

@@ -213,12 +213,16 @@ fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64, knot: u32) {
     .unwrap();
     let out = two_hands(&svc, &["--script", script.to_str().unwrap()], chain);
     let states = rec.finish();
-    // Every tightening pull ended taut or jammed.
+    // Every tightening pull ended taut or stopped short on the knot (jammed, or out of the
+    // request's work budget: the service says which), never refused, without a direction or at the
+    // step limit.
     let pulls: Vec<&str> = out.lines().filter(|l| l.contains("tighten turn")).collect();
     assert_eq!(pulls.len(), 4, "{out}");
     for l in &pulls {
         assert!(
-            l.contains(": taut after") || l.contains(": jammed after"),
+            [": taut after", ": jammed after", ": out-of-work after"]
+                .iter()
+                .any(|w| l.contains(w)),
             "{l}"
         );
     }
