@@ -196,6 +196,19 @@ def pulls(h: ResponseHeader, elements: list) -> dict:
     return {"held": held, "instruments": [list(p) for p in ps[h.n_held:]]}
 
 
+PULL_STOPS = {"pull stopped short: taut": "taut", "pull stopped short: jammed": "jammed",
+              "pull stopped short: joint limit": "joint limit",
+              "pull stopped short: work budget": "work budget"}
+
+
+def pull_stop(h: ResponseHeader) -> str | None:
+    """Why an ok pull (FLAG_PULL) stopped short of its target, from its reason (docs/tension.md):
+    "taut", "jammed", "joint limit" or "work budget"; None when it made the whole move."""
+    if h.status != 0:
+        return None
+    return PULL_STOPS.get(_text(h.reason))
+
+
 def eyelets(h: ResponseHeader, elements: list) -> list[dict]:
     """The eyelets the chain passes through (the scene's `eyelets`, in order along the rope):
     [{"at", "link", "threaded"}]; `link` is the link through the point while `threaded`."""

@@ -40,7 +40,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from tractrix_client import (FLAG_PULL, JOINT_HEAD, Client, ServiceError, eyelets,  # noqa: E402
-                             instruments, pulls, tissue)
+                             instruments, pull_stop, pulls, tissue)
 
 
 def scene_xml(n_links: int, link: float, radius: float, n_eyelets: int = 0,
@@ -181,7 +181,7 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
     place(data, first_link, joints)
     head = np.asarray(start[-1], dtype=float)
     times = []
-    parts = {"service_call": [], "posing": [], "hand": [], "force": []}
+    parts = {"service_call": [], "posing": [], "hand": [], "force": [], "stop": []}
     # With the coupling, the circle's centre is a unit behind the end: for part of each turn the hand
     # is beyond the suture's length from its held tail.
     centre = head + (np.array([1.0, 0.0, 0.0]) if coupling is not None else 0.0)
@@ -216,6 +216,8 @@ def run(client: Client | None, chain: int, steps: int, rate: float, start,
                 pull = pulls(h, elements)["held"][-1]["pull"]
                 parts["hand"].append(hand.tolist())
                 parts["force"].append([coupling * x for x in pull])
+                # Why the rope stopped the hand short ("taut", ...; None: it reached the hand).
+                parts["stop"].append(pull_stop(h))
         mujoco.mj_step(model, data)
         times.append((time.perf_counter_ns() - s) / 1000.0)
         if renderer is not None and i in shots:
@@ -297,6 +299,7 @@ def main() -> int:
             "taut_steps": sum(1 for n in norms if n > 0.0),
             "hand": parts["hand"],
             "forces": parts["force"],
+            "stops": parts["stop"],
         }
     if a.json:
         print(json.dumps(result))

@@ -219,9 +219,12 @@ fn the_mujoco_loop_turns_the_pull_into_a_force_on_the_hand() {
     let v = mujoco_loop(&svc.prefix, &["--steps", "600", "--coupling", "100"]);
     let hands: Vec<[f64; 3]> = serde_json::from_value(v["coupling"]["hand"].clone()).unwrap();
     let forces: Vec<[f64; 3]> = serde_json::from_value(v["coupling"]["forces"].clone()).unwrap();
+    let stops: Vec<Option<String>> =
+        serde_json::from_value(v["coupling"]["stops"].clone()).unwrap();
     assert_eq!(hands.len(), 600);
+    assert_eq!(stops.len(), 600);
     let (mut slack, mut taut) = (0, 0);
-    for (h, f) in hands.iter().zip(&forces) {
+    for ((h, f), stop) in hands.iter().zip(&forces).zip(&stops) {
         let r = [h[0] - tail.x, h[1] - tail.y, h[2] - tail.z];
         let dist = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
         let over = dist - length;
@@ -232,12 +235,19 @@ fn the_mujoco_loop_turns_the_pull_into_a_force_on_the_hand() {
                 force <= 1e-6 * k,
                 "hand {over} inside the length, force {force} N"
             );
+            assert_eq!(stop, &None, "hand {over} inside the length");
         } else if over > 1e-3 {
             taut += 1;
             assert!(
                 (force - k * over).abs() <= 1e-4 * k,
                 "hand {over} beyond the length: force {force} N, not {}",
                 k * over
+            );
+            // The service says why the pull stopped short: the rope is taut.
+            assert_eq!(
+                stop.as_deref(),
+                Some("taut"),
+                "hand {over} beyond the length"
             );
             let back = (f[0] * r[0] + f[1] * r[1] + f[2] * r[2]) / (force * dist);
             assert!(
