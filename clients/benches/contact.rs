@@ -174,7 +174,7 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
         let text = std::fs::read_to_string(file).with_context(|| file.display().to_string())?;
         for line in text.lines().filter(|l| !l.starts_with('#')) {
             let f: Vec<&str> = line.split_whitespace().collect();
-            let [_, solve_us, status] = f[..] else {
+            let [_, solve_us, status, _pull] = f[..] else {
                 bail!("{}: bad line {line:?}", file.display());
             };
             row.solve

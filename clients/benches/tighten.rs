@@ -83,6 +83,46 @@ struct Row {
     seconds: f64,
     /// `watch --name-knots`'s line for the chain (`clients::naming::Naming`).
     naming: Option<String>,
+    /// The service's own time (`solve_ns`, µs) of every tightening pull's request, and of every
+    /// request, both hands' (`hand run --timings`), sorted.
+    pull_us: Vec<f64>,
+    all_us: Vec<f64>,
+}
+
+/// The budget table's rows, each run at these work budgets (link-steps per request; `None`: the
+/// scene's, 2,000,000).
+const BUDGET_ROWS: &[(&str, &str, usize, Option<f64>)] = &[
+    ("square-held", "hands-160", 160, Some(28.5)),
+    ("square-held", "hands-320", 320, Some(28.5)),
+    ("surgeons-knot", "tie-160", 160, None),
+];
+const BUDGETS: &[Option<u64>] = &[Some(50_000), Some(200_000), None];
+
+/// A hand's `--timings` file: each request's `solve_ns` in µs into `all`, and into `pulls` too for
+/// a tightening pull's.
+fn read_timings(file: &Path, pulls: &mut Vec<f64>, all: &mut Vec<f64>) -> Result<()> {
+    let text = std::fs::read_to_string(file).with_context(|| file.display().to_string())?;
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let [_, solve_us, _, pull] = f[..] else {
+            bail!("{}: bad line {line:?}", file.display());
+        };
+        let us: f64 = solve_us.parse()?;
+        all.push(us);
+        if pull == "1" {
+            pulls.push(us);
+        }
+    }
+    Ok(())
+}
+
+/// The value at quantile `q` of sorted `v` (nearest rank), formatted; "—" when empty.
+fn quantile(v: &[f64], q: f64) -> String {
+    if v.is_empty() {
+        return "—".into();
+    }
+    let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
+    format!("{:.0}", v[i])
 }
 
 fn wait(c: &mut std::process::Child, started: Instant, what: &str) -> Result<()> {
@@ -100,13 +140,16 @@ fn wait(c: &mut std::process::Child, started: Instant, what: &str) -> Result<()>
     }
 }
 
-fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
+fn run_row(script: &str, chain: &str, k: usize, dir: &Path, budget: Option<u64>) -> Result<Row> {
     let prefix = format!("tighten_{}_{k}_", std::process::id());
     let scene = workspace().join("solver-service/scenes/knots.toml");
     let mut svc = Command::new(release_bin("solver-service")?);
     svc.args(["--prefix", &prefix, "--scene"])
         .arg(&scene)
         .args(["--wait", "event", "--no-persist", "--state-buffer", "4096"]);
+    if let Some(b) = budget {
+        svc.args(["--budget", &b.to_string()]);
+    }
     let mut svc = Proc::ready(svc, "solver-service")?;
     let started = Instant::now();
     let watch_log = dir.join(format!("{script}-{chain}-watch.err"));
@@ -138,11 +181,14 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
+    let timings = |h: &str| dir.join(format!("{script}-{chain}-{k}-{h}.us"));
     let hand = |h: &str, extra: &[&str]| -> Result<std::process::Child> {
         Command::new(release_bin("hand")?)
             .args(["--prefix", &prefix, "run", "--builtin", script, "--hand", h])
             .args(["--chain", chain, "--quiet", "--turn-timeout", "300"])
             .args(["--tighten", "0.05"])
+            .arg("--timings")
+            .arg(timings(h))
             .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
@@ -200,6 +246,12 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         .map(str::to_string)
         .collect();
     svc.stop();
+    let (mut pull_us, mut all_us) = (Vec::new(), Vec::new());
+    for h in ["A", "B"] {
+        read_timings(&timings(h), &mut pull_us, &mut all_us)?;
+    }
+    pull_us.sort_by(f64::total_cmp);
+    all_us.sort_by(f64::total_cmp);
     Ok(Row {
         knot,
         stretch,
@@ -207,7 +259,80 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path) -> Result<Row> {
         crossings,
         seconds,
         naming,
+        pull_us,
+        all_us,
     })
+}
+
+/// How a row's pulls ended, counted: "2 out-of-work, 2 taut".
+fn ended(pulls: &[String]) -> String {
+    let mut counts: Vec<(&str, usize)> = Vec::new();
+    for p in pulls {
+        match counts.iter_mut().find(|c| c.0 == p) {
+            Some(c) => c.1 += 1,
+            None => counts.push((p, 1)),
+        }
+    }
+    let out: Vec<String> = counts.iter().map(|(p, n)| format!("{n} {p}")).collect();
+    out.join(", ")
+}
+
+/// The work budget against how tight the knot gets and what a tightening request costs: the rows of
+/// [`BUDGET_ROWS`] at each of [`BUDGETS`], side by side in one run.
+fn budget_table(only: &[String], dir: &Path) -> Result<()> {
+    let rows: Vec<_> = BUDGET_ROWS
+        .iter()
+        .filter(|(script, chain, ..)| {
+            only.is_empty() || only.iter().any(|o| o == script || o == chain)
+        })
+        .collect();
+    if rows.is_empty() {
+        return Ok(());
+    }
+    println!(
+        "\nThe work budget (the service's `--budget`, link-steps per request; knots.toml's is \
+         2,000,000) against how tight the knot gets: the same tie and tightening at each budget, \
+         side by side in one run. A pull's tries stop short at the budget (`out-of-work`), and the \
+         next request goes on from where it stopped, so a smaller budget bounds each request's time \
+         and the knot tightens over more requests; over-budget moves of the tie are split by the \
+         hands. *tightening requests*: both hands' pulls with the pull flag; the service's own time \
+         (`solve_ns`); *every request*: the tie's too.\n"
+    );
+    println!(
+        "| script | chain | links | work budget (link-steps) | knot at the end | knotted stretch (rope diameters) | stretch ÷ ideal | how the pulls ended | tightening requests | their µs: p50 | p99 | p99.9 | max | every request's µs: p99.9 | max |"
+    );
+    println!("|---|---|---:|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|");
+    for (k, &&(script, chain, links, ideal)) in rows.iter().enumerate() {
+        for &budget in BUDGETS {
+            let b = budget.map_or("2,000,000 (the scene's)".to_string(), |b| b.to_string());
+            match run_row(script, chain, 100 + k, dir, budget) {
+                Ok(r) => {
+                    let stretch = r.stretch.map_or("—".into(), |s| format!("{s:.1}"));
+                    let ratio = match (ideal, r.stretch) {
+                        (Some(i), Some(s)) => format!("{:.2}", s / i),
+                        _ => "—".into(),
+                    };
+                    println!(
+                        "| `{script}` | `{chain}` | {links} | {b} | {} | {stretch} | {ratio} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                        r.knot,
+                        ended(&r.pulls),
+                        r.pull_us.len(),
+                        quantile(&r.pull_us, 0.5),
+                        quantile(&r.pull_us, 0.99),
+                        quantile(&r.pull_us, 0.999),
+                        quantile(&r.pull_us, 1.0),
+                        quantile(&r.all_us, 0.999),
+                        quantile(&r.all_us, 1.0),
+                    );
+                }
+                Err(e) => println!(
+                    "| `{script}` | `{chain}` | {links} | {b} | failed: {} | — | — | — | — | — | — | — | — | — | — |",
+                    format!("{e:#}").replace('|', "/")
+                ),
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The numbers of a `clients::naming::Naming` line, in its order: states, joints, p50, p99, p99.9,
@@ -226,14 +351,14 @@ fn main() -> Result<()> {
     let dir = tempfile::tempdir()?;
     let mut names: Vec<String> = Vec::new();
     println!(
-        "| script | chain | links | the script's knot | knot at the end (named by the service) | knotted stretch (rope diameters) | ideal (diameters) | stretch ÷ ideal | how the pulls ended | crossings between consecutive states (swept-volume check) | seconds (tie and tighten) |"
+        "| script | chain | links | the script's knot | knot at the end (named by the service) | knotted stretch (rope diameters) | ideal (diameters) | stretch ÷ ideal | how the pulls ended | tightening requests, the service's µs: p50 / p99.9 / max | crossings between consecutive states (swept-volume check) | seconds (tie and tighten) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (k, &(script, chain, links, knot, ideal)) in ROWS.iter().enumerate() {
         if !only.is_empty() && !only.iter().any(|o| o == script || o == chain) {
             continue;
         }
-        match run_row(script, chain, k, dir.path()) {
+        match run_row(script, chain, k, dir.path(), None) {
             Ok(r) => {
                 let stretch = r.stretch.map_or("—".into(), |s| format!("{s:.1}"));
                 let (ideal_s, ratio) = match (ideal, r.stretch) {
@@ -241,18 +366,13 @@ fn main() -> Result<()> {
                     (Some(i), None) => (format!("{i}"), "—".into()),
                     (None, _) => ("—".into(), "—".into()),
                 };
-                let mut counts: Vec<(String, usize)> = Vec::new();
-                for p in &r.pulls {
-                    match counts.iter_mut().find(|c| &c.0 == p) {
-                        Some(c) => c.1 += 1,
-                        None => counts.push((p.clone(), 1)),
-                    }
-                }
-                let pulls: Vec<String> = counts.iter().map(|(p, n)| format!("{n} {p}")).collect();
                 println!(
-                    "| `{script}` | `{chain}` | {links} | {knot} | {} | {stretch} | {ideal_s} | {ratio} | {} | {} | {:.0} |",
+                    "| `{script}` | `{chain}` | {links} | {knot} | {} | {stretch} | {ideal_s} | {ratio} | {} | {} / {} / {} | {} | {:.0} |",
                     r.knot,
-                    pulls.join(", "),
+                    ended(&r.pulls),
+                    quantile(&r.pull_us, 0.5),
+                    quantile(&r.pull_us, 0.999),
+                    quantile(&r.pull_us, 1.0),
                     r.crossings,
                     r.seconds
                 );
@@ -273,7 +393,7 @@ fn main() -> Result<()> {
                 });
             }
             Err(e) => println!(
-                "| `{script}` | `{chain}` | {links} | {knot} | failed: {} | — | — | — | — | — | — |",
+                "| `{script}` | `{chain}` | {links} | {knot} | failed: {} | — | — | — | — | — | — | — |",
                 format!("{e:#}").replace('|', "/")
             ),
         }
@@ -299,5 +419,5 @@ fn main() -> Result<()> {
             println!("{n}");
         }
     }
-    Ok(())
+    budget_table(&only, dir.path())
 }

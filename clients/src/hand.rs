@@ -139,6 +139,8 @@ pub struct Timing {
     pub solve_ns: u64,
     /// Its status's name.
     pub status: &'static str,
+    /// A tightening pull's request ([`crate::script::Tighten`]).
+    pub pull: bool,
 }
 
 /// How deep a move refused as over-budget is split in halves (at most 2⁴ pieces).
@@ -153,8 +155,16 @@ impl HandReport {
             round_trip_us: called.elapsed().as_secs_f64() * 1e6,
             solve_ns,
             status: name,
+            pull: false,
         });
         name
+    }
+
+    /// Marks the last request's times as a tightening pull's.
+    fn pulled(&mut self) {
+        if let Some(t) = self.timings.last_mut() {
+            t.pull = true;
+        }
     }
 
     /// Counts one request's answer by its status and keeps its times ([`HandReport::time`]);
@@ -951,10 +961,12 @@ impl TurnRun<'_> {
             if status == Status::OverBudget as u32 && speed > g.speed / f64::from(1 << SPLITS) {
                 self.report.splits += 1;
                 self.report.time(status, called, solve_ns);
+                self.report.pulled();
                 speed *= 0.5;
                 continue;
             }
             let name = self.report.tally(status, called, solve_ns);
+            self.report.pulled();
             if let Some(w) = self.record.as_mut() {
                 Record {
                     t_ns: sent,
