@@ -75,6 +75,17 @@ int tractrix_client_move(tractrix_client *client, uint32_t chain, uint32_t joint
 int tractrix_client_pull(tractrix_client *client, uint32_t chain, uint32_t joint, tractrix_Vec3 target,
                          tractrix_Vec3 *joints, size_t capacity, size_t *n_joints, tractrix_Vec3 *pull,
                          int *taut);
+/* Why the last tractrix_client_pull on this client stopped short of its target (the service's reason
+ * on an ok response, docs/tension.md): TRACTRIX_PULL_STOP_NONE when it made the whole move (or
+ * failed), else one of the others; TRACTRIX_E_ARGUMENT for a NULL client. */
+enum {
+    TRACTRIX_PULL_STOP_NONE = 0,
+    TRACTRIX_PULL_STOP_TAUT = 1,
+    TRACTRIX_PULL_STOP_JAMMED = 2,
+    TRACTRIX_PULL_STOP_LIMIT = 3,
+    TRACTRIX_PULL_STOP_WORK = 4
+};
+int tractrix_client_pull_stop(const tractrix_client *client);
 /* A chain with a needle: poses the needle as a 6-DOF stylus holds the needle driver (TRACTRIX_FLAG_POSE):
  * its swage (the head) to `swage`, the needle turned by the rotation vector `rotation` (axis x angle,
  * radians) from its own frame, in which it leaves the swage along +x and curves toward +y. Where its point

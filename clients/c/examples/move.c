@@ -59,7 +59,9 @@ int main(int argc, char **argv) {
         fprintf(stderr, "pull: %s\n", tractrix_client_error(c));
         return 1;
     }
-    printf("pulled: %.6f beyond, taut %d\n", sqrt(pull.x * pull.x + pull.y * pull.y + pull.z * pull.z), taut);
+    printf("pulled: %.6f beyond, taut %d, stopped short: %s\n",
+           sqrt(pull.x * pull.x + pull.y * pull.y + pull.z * pull.z), taut,
+           tractrix_client_pull_stop(c) == TRACTRIX_PULL_STOP_TAUT ? "taut" : "other");
     /* A refusal comes back as the service's status, with its reason. */
     tractrix_Vec3 nan_target = {NAN, 0.0, 0.0};
     rc = tractrix_client_move(c, rope, TRACTRIX_JOINT_HEAD, nan_target, joints, 64, &n);

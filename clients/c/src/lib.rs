@@ -27,10 +27,11 @@
 
 use clients::{CallError, ConnectOptions, Connection, StateStream, Wait};
 use iceoryx2::service::ipc_threadsafe;
-use shared::{Command, RequestHeader, ResponseHeader, StateHeader, Status, Vec3};
+use shared::{Command, PullStop, RequestHeader, ResponseHeader, StateHeader, Status, Vec3};
 use std::ffi::{CStr, CString, c_char, c_int, c_void};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicI32, Ordering};
 use std::time::Duration;
 
 type Svc = ipc_threadsafe::Service;
@@ -66,6 +67,19 @@ pub const TRACTRIX_WAIT_HYBRID: c_int = 2;
 pub struct TractrixClient {
     conn: Mutex<Connection<Svc>>,
     error: Mutex<CString>,
+    /// Why the last `tractrix_client_pull` stopped short ([`pull_stop_code`]).
+    pull_stop: AtomicI32,
+}
+
+/// A pull's stop as the header numbers it (`TRACTRIX_PULL_STOP_*`): 0 the whole move was made.
+fn pull_stop_code(s: Option<PullStop>) -> c_int {
+    match s {
+        None => 0,
+        Some(PullStop::Taut) => 1,
+        Some(PullStop::Jammed) => 2,
+        Some(PullStop::Limit) => 3,
+        Some(PullStop::Work) => 4,
+    }
 }
 
 /// A subscription to the state stream (opaque to C).
@@ -276,6 +290,7 @@ pub unsafe extern "C" fn tractrix_client_open(
             Ok(Box::into_raw(Box::new(TractrixClient {
                 conn: Mutex::new(conn),
                 error: Mutex::new(CString::default()),
+                pull_stop: AtomicI32::new(0),
             })))
         },
     ));
@@ -611,11 +626,13 @@ pub unsafe extern "C" fn tractrix_client_pull(
     pull: *mut Vec3,
     taut: *mut c_int,
 ) -> c_int {
-    with_client(client, |conn| {
+    let mut stop = 0;
+    let rc = with_client(client, |conn| {
         let mut h = RequestHeader::new(Command::Move, chain);
         h.joint = joint;
         h.flags = shared::FLAG_PULL;
         request(conn, h, &[target], |rh, p| {
+            stop = pull_stop_code(rh.pull_stop());
             let (v, t) = pull_of(rh, p, joint, target);
             if !pull.is_null() {
                 // SAFETY: non-null and, by contract, a writable tractrix_Vec3.
@@ -627,7 +644,30 @@ pub unsafe extern "C" fn tractrix_client_pull(
             }
             copy_joints(rh, p, joints, capacity, n_joints)
         })
-    })
+    });
+    // SAFETY: null or a live handle (the caller's contract).
+    if let Some(c) = unsafe { client.as_ref() } {
+        c.pull_stop.store(stop, Ordering::Relaxed);
+    }
+    rc
+}
+
+/// Why the last `tractrix_client_pull` on this handle stopped short of its target
+/// (`TRACTRIX_PULL_STOP_*`): 0 when it made the whole move (or failed, or none was made), 1 the rope
+/// taut, 2 contact jammed, 3 a joint limit, 4 the request's work budget; `TRACTRIX_E_ARGUMENT` for a
+/// null handle.
+///
+/// # Safety
+///
+/// Every pointer is null or valid as `tractrix_client.h` says (handles from the matching `open` and
+/// not yet closed; buffers valid for their stated capacity; strings NUL-terminated).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn tractrix_client_pull_stop(client: *const TractrixClient) -> c_int {
+    // SAFETY: null or a live handle (the caller's contract).
+    match unsafe { client.as_ref() } {
+        Some(c) => c.pull_stop.load(Ordering::Relaxed),
+        None => TRACTRIX_E_ARGUMENT,
+    }
 }
 
 /// Moves `joint` through `n_points` targets in order (at most 4096).
