@@ -98,7 +98,14 @@ const BUDGET_ROWS: &[(&str, &str, usize, &str, Option<f64>)] = &[
     ("square-held", "hands-320", 320, "square", Some(28.5)),
     ("surgeons-knot", "tie-160", 160, "surgeons", None),
 ];
-const BUDGETS: &[Option<u64>] = &[Some(50_000), Some(200_000), None];
+/// Each as (`--budget`, `--pull-budget`): the whole request's budget cut, then the pulls' alone.
+const BUDGETS: &[(Option<u64>, Option<u64>)] = &[
+    (Some(50_000), None),
+    (Some(200_000), None),
+    (None, None),
+    (None, Some(200_000)),
+    (None, Some(50_000)),
+];
 
 /// A hand's `--timings` file: each request's `solve_ns` in µs into `all`, and into `pulls` too for
 /// a tightening pull's; returns the refused requests.
@@ -152,7 +159,13 @@ fn wait(
     }
 }
 
-fn run_row(script: &str, chain: &str, k: usize, dir: &Path, budget: Option<u64>) -> Result<Row> {
+fn run_row(
+    script: &str,
+    chain: &str,
+    k: usize,
+    dir: &Path,
+    (budget, pull_budget): (Option<u64>, Option<u64>),
+) -> Result<Row> {
     let prefix = format!("tighten_{}_{k}_", std::process::id());
     let scene = workspace().join("solver-service/scenes/knots.toml");
     let mut svc = Command::new(release_bin("solver-service")?);
@@ -161,6 +174,9 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, budget: Option<u64>)
         .args(["--wait", "event", "--no-persist", "--state-buffer", "4096"]);
     if let Some(b) = budget {
         svc.args(["--budget", &b.to_string()]);
+    }
+    if let Some(b) = pull_budget {
+        svc.args(["--pull-budget", &b.to_string()]);
     }
     let mut svc = Proc::ready(svc, "solver-service")?;
     let started = Instant::now();
@@ -209,8 +225,9 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, budget: Option<u64>)
     };
     let mut b = hand("B", &[])?;
     let mut a = hand("A", &["--identify", chain])?;
-    wait(&mut b, started, "hand B", budget.is_some())?;
-    wait(&mut a, started, "hand A", budget.is_some())?;
+    let cut = budget.is_some() || pull_budget.is_some();
+    wait(&mut b, started, "hand B", cut)?;
+    wait(&mut a, started, "hand A", cut)?;
     let read = |c: &mut std::process::Child| {
         let mut s = String::new();
         if let Some(o) = c.stdout.as_mut() {
@@ -304,21 +321,25 @@ fn budget_table(only: &[String], dir: &Path) -> Result<()> {
     }
     println!(
         "\nThe work budget (the service's `--budget`, link-steps per request; knots.toml's is \
-         2,000,000) against how tight the knot gets: the same tie and tightening at each budget, \
-         side by side in one run. A pull's tries stop short at the budget (`out-of-work`), and the \
+         2,000,000), and a pull's alone (`--pull-budget`), against how tight the knot gets: the \
+         same tie and tightening at each budget, side by side in one run. A pull's tries stop short at the budget (`out-of-work`), and the \
          next request goes on from where it stopped, so a smaller budget bounds each request's time \
          and the knot tightens over more requests; over-budget moves of the tie are split by the \
          hands. *tightening requests*: both hands' pulls with the pull flag; the service's own time \
          (`solve_ns`); *every request*: the tie's too.\n"
     );
     println!(
-        "| script | chain | links | work budget (link-steps) | knot at the end | knotted stretch (rope diameters) | stretch ÷ ideal | how the pulls ended | tightening requests | their µs: p50 | p99 | p99.9 | max | every request's µs: p99.9 | max | requests refused (over the budget after the hand's halvings) |"
+        "| script | chain | links | work budget / a pull's (link-steps) | knot at the end | knotted stretch (rope diameters) | stretch ÷ ideal | how the pulls ended | tightening requests | their µs: p50 | p99 | p99.9 | max | every request's µs: p99.9 | max | requests refused (over the budget after the hand's halvings) |"
     );
     println!("|---|---|---:|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (k, &&(script, chain, links, want, ideal)) in rows.iter().enumerate() {
-        for &budget in BUDGETS {
-            let b = budget.map_or("2,000,000 (the scene's)".to_string(), |b| b.to_string());
-            match run_row(script, chain, 100 + k, dir, budget) {
+        for &budgets in BUDGETS {
+            let b = match budgets {
+                (Some(b), _) => format!("{b} / the same"),
+                (None, Some(p)) => format!("2,000,000 (the scene's) / {p}"),
+                (None, None) => "2,000,000 (the scene's) / the same".to_string(),
+            };
+            match run_row(script, chain, 100 + k, dir, budgets) {
                 Ok(r) => {
                     let stretch = r.stretch.map_or("—".into(), |s| format!("{s:.1}"));
                     // Against the ideal only when the script's knot is still there.
@@ -381,7 +402,7 @@ fn main() -> Result<()> {
         if !only.is_empty() && !only.iter().any(|o| o == script || o == chain) {
             continue;
         }
-        match run_row(script, chain, k, dir.path(), None) {
+        match run_row(script, chain, k, dir.path(), (None, None)) {
             Ok(r) => {
                 let stretch = r.stretch.map_or("—".into(), |s| format!("{s:.1}"));
                 let (ideal_s, ratio) = match (ideal, r.stretch) {

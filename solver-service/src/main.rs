@@ -101,6 +101,12 @@ struct ServeArgs {
     /// above it are refused as over-budget. Default: the scene's `budget`, else 50000.
     #[arg(long, global = true, value_parser = clap::value_parser!(u64).range(1..))]
     budget: Option<u64>,
+    /// Most work one pull may cost (a move or instrument pose with the pull flag), in link-steps,
+    /// at most `--budget`: a haptic hand's pulls bounded in time while other moves keep the whole
+    /// budget; a pull stops short at it ("work budget") and the next goes on from there. Default:
+    /// the scene's `pull_budget`, else the budget.
+    #[arg(long, global = true, value_parser = clap::value_parser!(u64).range(1..))]
+    pull_budget: Option<u64>,
     /// Seconds between snapshots while the state changes (0: only on shutdown and on command).
     #[arg(long, default_value_t = 10.0)]
     snapshot_every: f64,
@@ -229,6 +235,7 @@ fn world(a: &ServeArgs) -> Result<World> {
             .or(sc.budget)
             .unwrap_or(world::chains::DEFAULT_BUDGET),
     );
+    set.set_pull_budget(a.pull_budget.or(sc.pull_budget));
     if let Some((line, message)) = set.unservable() {
         return Err(SceneError {
             file,

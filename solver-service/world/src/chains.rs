@@ -43,6 +43,8 @@ pub struct World {
     sequence: u64,
     /// Most link-steps one request may cost.
     budget: u64,
+    /// Most link-steps one pull may cost (never more than `budget`): the scene's `pull_budget`.
+    pull_budget: Option<u64>,
     /// The chain and sequence before the last accepted change, while it can be undone.
     undo: Option<(u32, u64)>,
     /// Who owns each grasp ([`crate::owners`]).
@@ -56,6 +58,11 @@ pub struct World {
     /// Tests: the next command panics after the kernel has run (a kernel bug, injected).
     #[cfg(test)]
     panic_after_kernel: bool,
+}
+
+/// A pull's budget: the pull budget when set, never more than the request's.
+fn pull_cap(pull_budget: Option<u64>, budget: u64) -> u64 {
+    pull_budget.map_or(budget, |p| p.min(budget))
 }
 
 impl World {
@@ -86,6 +93,7 @@ impl World {
             bundles,
             sequence: 0,
             budget: DEFAULT_BUDGET,
+            pull_budget: scene.pull_budget,
             undo: None,
             owners: Owners::new(scene.chains.len()),
             last_work: 0,
@@ -113,6 +121,17 @@ impl World {
     /// The budget per request, in link-steps.
     pub fn budget(&self) -> u64 {
         self.budget
+    }
+
+    /// Sets the most work one pull may cost, in link-steps (`None`: the request's budget; never more
+    /// than it): the scene's `pull_budget` unless a service option overrides it.
+    pub fn set_pull_budget(&mut self, link_steps: Option<u64>) {
+        self.pull_budget = link_steps.map(|b| b.max(1));
+    }
+
+    /// The budget of one pull, in link-steps: the pull budget, at most the request's.
+    pub fn pull_budget(&self) -> u64 {
+        pull_cap(self.pull_budget, self.budget)
     }
 
     /// The collision work the kernel's meter charged the last request (accepted or refused), in
@@ -663,7 +682,16 @@ impl World {
         each_form!(&mut *g, h => if let Some((_, ws)) = h.collision.as_mut() {
             ws.limit_work(budget);
         });
-        let mut tries = crate::moves::Tries::new(budget);
+        // A pull's tries share the pull budget (a haptic hand's pulls bounded apart from the tie).
+        let pulled = matches!(
+            *req,
+            Command::Move { pull: true, .. } | Command::Instrument { pull: true, .. }
+        );
+        let mut tries = crate::moves::Tries::new(if pulled {
+            pull_cap(self.pull_budget, budget)
+        } else {
+            budget
+        });
         let result = match *req {
             Command::Move {
                 joint,

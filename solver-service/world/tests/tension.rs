@@ -225,3 +225,41 @@ fn a_rope_round_a_post_stops_a_pulled_instrument_short() {
     }
     assert!(last > 2.0);
 }
+
+/// A pull's tries share the scene's `pull_budget`, not the request's budget: with the pull budget
+/// too small for one pass of collision work, a pull of a held rope with capsule collision stops short
+/// at once (`Stop::Work`) and leaves the rope where it was, while the same move without the pull flag
+/// has the whole budget and is made.
+#[test]
+fn a_pull_stops_short_at_the_pull_budget_and_a_plain_move_keeps_the_whole_budget() {
+    let text = format!("pull_budget = 1\n{ROPE}collision = \"capsules\"\nthickness = 0.2\n");
+    let scene = parse_scene(&text, "rope.toml").unwrap();
+    assert_eq!(scene.pull_budget, Some(1));
+    let mut w = World::new(&scene).unwrap();
+    w.set_budget(2_000_000);
+    assert_eq!(w.pull_budget(), 1);
+    w.apply(&Command::Grasp {
+        chain: 0,
+        joint: 0,
+        take_over: false,
+    })
+    .unwrap();
+    let before = parts(&w, 0).joints;
+    let head = before[10];
+    let target = [Point::new(head.x - 0.5, head.y + 0.5, head.z)];
+    let a = w.apply(&pull_to(&w, 10, &target, true)).unwrap();
+    assert_eq!(a.stopped, Some(world::tension::Stop::Work));
+    assert!(w.last_work() <= 1, "{} link-steps", w.last_work());
+    assert_eq!(
+        parts(&w, 0).joints,
+        before,
+        "a pull out of work moves nothing"
+    );
+    w.apply(&pull_to(&w, 10, &target, false)).unwrap();
+    let now = parts(&w, 0).joints[10];
+    // Within the held side's solve tolerance (1e-9 of the rope's length).
+    assert!((now - target[0]).norm() < 1e-7, "{now:?}");
+    // Without a pull budget a pull has the request's.
+    w.set_pull_budget(None);
+    assert_eq!(w.pull_budget(), 2_000_000);
+}

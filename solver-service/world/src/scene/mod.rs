@@ -318,6 +318,11 @@ pub struct Scene {
     /// scene whose ropes need more collision work per move than the default (fine ropes with many
     /// collision passes) says so itself; `--budget` overrides it.
     pub budget: Option<u64>,
+    /// The work one pull may cost (a move or an instrument pose with the pull flag), in link-steps,
+    /// when the scene says (top-level `pull_budget`; never more than the request's budget): a haptic
+    /// hand's pulls bounded in time while the tie's moves keep the whole budget. A pull's tries stop
+    /// short at it (`work budget`), and the next pull goes on from there.
+    pub pull_budget: Option<u64>,
 }
 
 /// The embedded default scene.
@@ -621,16 +626,20 @@ mod tests {
         assert!(empty.message.contains("no [[chain]]"));
         // The scene's budget: a positive count of link-steps, bounded.
         let chain = "[[chain]]\nname = \"c\"\nlinks = 2\nlink_length = 1.0\n";
-        for bad in ["0", "-5", "2000000000000"] {
-            let text = format!("# budget\nbudget = {bad}\n{chain}");
-            let e = parse_scene(&text, "bad.toml").expect_err(&text);
-            assert_eq!(e.line, 2, "{e}");
-            assert!(e.message.contains("field `budget`"), "{e}");
+        for field in ["budget", "pull_budget"] {
+            for bad in ["0", "-5", "2000000000000"] {
+                let text = format!("# budget\n{field} = {bad}\n{chain}");
+                let e = parse_scene(&text, "bad.toml").expect_err(&text);
+                assert_eq!(e.line, 2, "{e}");
+                assert!(e.message.contains(&format!("field `{field}`")), "{e}");
+            }
+            let e = parse_scene(&format!("{field} = 1.5\n{chain}"), "bad.toml").unwrap_err();
+            assert_eq!(e.line, 1, "{e}");
         }
-        let e = parse_scene(&format!("budget = 1.5\n{chain}"), "bad.toml").unwrap_err();
-        assert_eq!(e.line, 1, "{e}");
         let ok = parse_scene(&format!("budget = 123456\n{chain}"), "ok.toml").unwrap();
-        assert_eq!(ok.budget, Some(123_456));
+        assert_eq!((ok.budget, ok.pull_budget), (Some(123_456), None));
+        let ok = parse_scene(&format!("pull_budget = 5000\n{chain}"), "ok.toml").unwrap();
+        assert_eq!((ok.budget, ok.pull_budget), (None, Some(5000)));
         assert_eq!(parse_scene(chain, "ok.toml").unwrap().budget, None);
         let bundles: &[(&str, usize, &str)] = &[
             (

@@ -14,6 +14,8 @@ pub(super) type Field<T> = Option<Spanned<T>>;
 pub(super) struct RawScene {
     /// The work one request may cost, in link-steps (top level, before any table).
     pub budget: Field<i64>,
+    /// The work one pull (a move or instrument pose with the pull flag) may cost, in link-steps.
+    pub pull_budget: Field<i64>,
     #[serde(default)]
     pub chain: Vec<Spanned<RawChain>>,
     #[serde(default)]

@@ -54,7 +54,8 @@ pub(super) fn scene(raw: RawScene, text: &str, file: &str) -> Result<Scene, Scen
     Ok(Scene {
         chains,
         bundles,
-        budget: budget(&raw, &at)?,
+        budget: budget(&raw.budget, "budget", &at)?,
+        pull_budget: budget(&raw.pull_budget, "pull_budget", &at)?,
     })
 }
 
@@ -321,9 +322,9 @@ fn bundles(
     Ok(bundles)
 }
 
-/// The scene's `budget`, if it sets one.
-fn budget(raw: &RawScene, at: &At<'_>) -> Result<Option<u64>, SceneError> {
-    Ok(match &raw.budget {
+/// The scene's `budget` or `pull_budget` (`name`), if it sets one.
+fn budget(field: &Field<i64>, name: &str, at: &At<'_>) -> Result<Option<u64>, SceneError> {
+    Ok(match field {
         None => None,
         Some(b) => {
             let v = *b.get_ref();
@@ -331,7 +332,7 @@ fn budget(raw: &RawScene, at: &At<'_>) -> Result<Option<u64>, SceneError> {
                 return Err(at(
                     b.span(),
                     format!(
-                        "field `budget`: {v}: the work one request may cost, in link-steps, from 1 \
+                        "field `{name}`: {v}: the work one request may cost, in link-steps, from 1 \
                          to {MAX_BUDGET}"
                     ),
                 ));
