@@ -347,6 +347,7 @@ impl TextRequest {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TextResponse {
     pub status: String,
+    /// Why it was refused; on an ok pull that stopped short, why it did ([`crate::PullStop`]).
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub reason: String,
     pub command: String,

@@ -219,6 +219,10 @@ fn print(r: &TextResponse, json: bool) -> Result<()> {
     if !r.knot.is_empty() {
         println!("  knot: {}", r.knot);
     }
+    // An ok pull that stopped short says why (`shared::PullStop`).
+    if !r.reason.is_empty() {
+        println!("  {}", r.reason);
+    }
     let pulls = r
         .held
         .iter()

@@ -744,3 +744,28 @@ fn chainctl_reaches_goals_and_follows_a_smooth_path() {
     let h = head_of(&svc, "rope");
     assert!((h.x - 36.0).hypot(h.y - 5.0).hypot(h.z) < 1e-9, "{h:?}");
 }
+
+/// `chainctl move --pull` says why the pull stopped short: the rope's tail grasped, its head pulled
+/// to (60, 0, 0), beyond its 40 units from the tail: the head stops 40
+/// from the tail (computed here from the joints) and the answer says the rope is taut; a pull the
+/// rope can make says nothing of the kind.
+#[test]
+fn chainctl_says_why_a_pull_stopped_short() {
+    let svc = default_service();
+    let chainctl = |args: &[&str]| run(&svc, "chainctl", args);
+    chainctl(&["grasp", "rope", "--joint", "tail"]);
+    let said = chainctl(&[
+        "move", "rope", "--joint", "head", "--target", "38,5,0", "--pull",
+    ]);
+    assert!(!said.contains("pull stopped short"), "{said}");
+    let said = chainctl(&[
+        "move", "rope", "--joint", "head", "--target", "60,0,0", "--pull",
+    ]);
+    assert!(said.contains("  pull stopped short: taut"), "{said}");
+    let mut c = svc.connect();
+    let q = c.call(RequestHeader::new(Command::Query, 0), &[]).unwrap();
+    let j = q.joints();
+    let (t, h) = (j[0], j[j.len() - 1]);
+    let reach = (h.x - t.x).hypot(h.y - t.y).hypot(h.z - t.z);
+    assert!((reach - 40.0).abs() < 1e-6, "{reach}");
+}
