@@ -340,7 +340,16 @@ impl PullStop {
     /// Why the pull of an ok response stopped short, from its `reason`; `None` when it made the whole
     /// move (or the reason is not a pull's).
     pub fn of(reason: &str) -> Option<PullStop> {
-        PullStop::ALL.into_iter().find(|p| p.reason() == reason)
+        PullStop::of_field(reason.as_bytes())
+    }
+
+    /// [`PullStop::of`] on the NUL-padded field itself (no copy: the hand and the C library read it
+    /// from every pull's response).
+    pub fn of_field(field: &[u8]) -> Option<PullStop> {
+        let end = field.iter().position(|&b| b == 0).unwrap_or(field.len());
+        PullStop::ALL
+            .into_iter()
+            .find(|p| p.reason().as_bytes() == &field[..end])
     }
 }
 /// Move of a chain's head (one target) when the chain carries a needle: the needle is *driven*, as a
@@ -1052,7 +1061,7 @@ impl ResponseHeader {
         if self.status != Status::Ok as u32 {
             return None;
         }
-        PullStop::of(&self.reason_str())
+        PullStop::of_field(&self.reason)
     }
     /// Writes `text` into `reason`, cut at a character boundary to fit.
     pub fn set_reason(&mut self, text: &str) {
