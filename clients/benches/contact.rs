@@ -10,7 +10,9 @@
 //! table gives the service's own time per request (`solve_ns` of the response: from decoding the
 //! request to journaling it; no journal here) at p50, p99, p99.9 and max, with the requests refused
 //! (locked, over the work budget, out of a held rope's reach), and the knot the rope holds at the end
-//! (named by the service's identification, as `chainctl knot` names it). The machine's own noise
+//! (named by the service's identification, as `chainctl knot` names it), and the collision passes
+//! each response reports (`iterations`): their median, the requests over a millisecond and those
+//! requests' median passes, so a slow tail shows where its time went. The machine's own noise
 //! (sleep and busy-loop probes on both cores, nothing of ours running) is measured first and printed
 //! above the rows: a request's time is only as steady as the core it runs on.
 //!
@@ -86,6 +88,8 @@ impl Drop for Hands {
 struct Row {
     /// The service's time per request, ns.
     solve: Vec<u64>,
+    /// Each request's time (ns) and collision passes (the response's `iterations`).
+    passes: Vec<(u64, u32)>,
     refused: usize,
     knot: String,
     seconds: f64,
@@ -104,6 +108,27 @@ impl Row {
             pct(v, 0.99),
             pct(v, 0.999),
             pct(v, 1.0)
+        )
+    }
+
+    /// The cells passes p50, requests over a millisecond and their passes' median: where the slow
+    /// requests' time goes.
+    fn pass_cells(&self) -> String {
+        let mut all: Vec<u64> = self.passes.iter().map(|&(_, p)| u64::from(p)).collect();
+        all.sort_unstable();
+        let mut slow: Vec<u64> = self
+            .passes
+            .iter()
+            .filter(|&&(ns, _)| ns > 1_000_000)
+            .map(|&(_, p)| u64::from(p))
+            .collect();
+        slow.sort_unstable();
+        let median = |v: &[u64]| v.get(v.len().saturating_sub(1) / 2).copied();
+        format!(
+            "{} | {} | {}",
+            median(&all).map_or("–".into(), |m| m.to_string()),
+            slow.len(),
+            median(&slow).map_or("–".into(), |m| m.to_string())
         )
     }
 }
@@ -152,6 +177,7 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
     }
     let mut row = Row {
         solve: Vec::new(),
+        passes: Vec::new(),
         refused: 0,
         knot: String::new(),
         seconds: 0.0,
@@ -174,11 +200,12 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
         let text = std::fs::read_to_string(file).with_context(|| file.display().to_string())?;
         for line in text.lines().filter(|l| !l.starts_with('#')) {
             let f: Vec<&str> = line.split_whitespace().collect();
-            let [_, solve_us, status, _pull] = f[..] else {
+            let [_, solve_us, status, _pull, passes] = f[..] else {
                 bail!("{}: bad line {line:?}", file.display());
             };
-            row.solve
-                .push((solve_us.parse::<f64>()? * 1e3).round() as u64);
+            let ns = (solve_us.parse::<f64>()? * 1e3).round() as u64;
+            row.solve.push(ns);
+            row.passes.push((ns, passes.parse()?));
             if status != "ok" {
                 row.refused += 1;
             }
@@ -226,13 +253,13 @@ fn held_ways(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
          default: the joint projection once two passes have not parted the contacts) and \
          `collision_pushed_weight` (1, the default; `knots.toml` sets 0.5 on its 160- and 320-link \
          held ropes, the first table's rows) set on every chain of `knots.toml`, as in the first \
-         table (µs):\n"
+         table (µs; passes as in the first table):\n"
     );
     println!(
         "| script | chain | together after | weight | requests | refused | p50 µs | p99 µs | p99.9 µs \
-         | max µs | knot |"
+         | max µs | passes p50 | over 1 ms | their passes p50 | knot |"
     );
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     let own: String = text
         .lines()
         .filter(|l| {
@@ -257,17 +284,22 @@ fn held_ways(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
             match run_row(script, chain, k, dir, &scene) {
                 Ok(mut r) if !r.solve.is_empty() => {
                     println!(
-                        "| {script} | {chain} | {after} | {w} | {} | {} |",
+                        "| {script} | {chain} | {after} | {w} | {} | {} | {} |",
                         r.cells(),
+                        r.pass_cells(),
                         r.knot
                     );
                 }
                 Ok(_) => {
-                    println!("| {script} | {chain} | {after} | {w} | 0 | – | – | – | – | – | – |")
+                    println!(
+                        "| {script} | {chain} | {after} | {w} | 0 | – | – | – | – | – | – | – | – | – |"
+                    )
                 }
                 Err(e) => {
                     eprintln!("contact bench: {e:#}");
-                    println!("| {script} | {chain} | {after} | {w} | failed: {e} | | | | | | |");
+                    println!(
+                        "| {script} | {chain} | {after} | {w} | failed: {e} | | | | | | | | | |"
+                    );
                 }
             }
             k += 1;
@@ -384,13 +416,16 @@ fn main() -> Result<()> {
          its holds, instruments, anchors, bend limits and budget; without `knot = true`: the knot's \
          name with every state is in the tighten bench), the service pinned to core 0, the \
          script's hands as fast as it answers; every move and instrument pose the hands sent, refused \
-         ones and the halves of split moves included (µs):\n"
+         ones and the halves of split moves included (µs). *Passes*: the collision resolution's \
+         passes that pushed links apart, as each response reports them (`iterations`, summed over \
+         its substeps): their median over all requests, the requests over 1 ms, and those \
+         requests' median passes (where a slow request's time goes):\n"
     );
     println!(
         "| script | chain | links | what it has | requests | refused | p50 µs | p99 µs | p99.9 µs \
-         | max µs | knot | wall s |"
+         | max µs | passes p50 | over 1 ms | their passes p50 | knot | wall s |"
     );
-    println!("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---|---:|");
+    println!("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|");
     // The shipped scene without `knot = true`: the knot's name with every state is the tighten
     // bench's to measure, not the contact's.
     let shipped = workspace().join("solver-service/scenes/knots.toml");
@@ -412,18 +447,21 @@ fn main() -> Result<()> {
         match run_row(script, chain, k, dir.path(), &knots) {
             Ok(mut r) if !r.solve.is_empty() => {
                 println!(
-                    "| {script} | {chain} | {links} | {what} | {} | {} | {:.1} |",
+                    "| {script} | {chain} | {links} | {what} | {} | {} | {} | {:.1} |",
                     r.cells(),
+                    r.pass_cells(),
                     r.knot,
                     r.seconds
                 );
             }
             Ok(_) => println!(
-                "| {script} | {chain} | {links} | {what} | 0 | – | – | – | – | – | – | – |"
+                "| {script} | {chain} | {links} | {what} | 0 | – | – | – | – | – | – | – | – | – | – |"
             ),
             Err(e) => {
                 eprintln!("contact bench: {e:#}");
-                println!("| {script} | {chain} | {links} | {what} | failed: {e} | | | | | | | |");
+                println!(
+                    "| {script} | {chain} | {links} | {what} | failed: {e} | | | | | | | | | | |"
+                );
             }
         }
     }

@@ -328,7 +328,7 @@ fn timings(file: &Path, solve: &mut Vec<u64>) -> Result<usize> {
     let mut refused = 0;
     for line in text.lines().filter(|l| !l.starts_with('#')) {
         let f: Vec<&str> = line.split_whitespace().collect();
-        let [_, solve_us, status, _pull] = f[..] else {
+        let [_, solve_us, status, _pull, _passes] = f[..] else {
             bail!("{}: bad line {line:?}", file.display());
         };
         solve.push((solve_us.parse::<f64>()? * 1e3).round() as u64);

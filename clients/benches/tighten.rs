@@ -114,7 +114,7 @@ fn read_timings(file: &Path, pulls: &mut Vec<f64>, all: &mut Vec<f64>) -> Result
     let mut refused = 0;
     for line in text.lines().filter(|l| !l.starts_with('#')) {
         let f: Vec<&str> = line.split_whitespace().collect();
-        let [_, solve_us, status, pull] = f[..] else {
+        let [_, solve_us, status, pull, _passes] = f[..] else {
             bail!("{}: bad line {line:?}", file.display());
         };
         let us: f64 = solve_us.parse()?;

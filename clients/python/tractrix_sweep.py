@@ -359,8 +359,8 @@ def run_episode(ep: dict[str, Any], bin_dir: str | None = None) -> dict[str, Any
         if row["requests"]:
             row["us_per_request"] = row["seconds"] * 1e6 / row["requests"]
         # Every move and instrument request's round trip, as the hands waited for it (`hand --timings`:
-        # round trip µs, the service's solve µs, the status and 1 for a tightening pull per line,
-        # after a `#` header).
+        # round trip µs, the service's solve µs, the status, 1 for a tightening pull and the collision
+        # passes per line, after a `#` header).
         trips = sorted(
             float(line.split()[0])
             for h in hands

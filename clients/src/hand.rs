@@ -141,6 +141,25 @@ pub struct Timing {
     pub status: &'static str,
     /// A tightening pull's request ([`crate::script::Tighten`]).
     pub pull: bool,
+    /// The response's `iterations`: on a chain with collision handling, the resolution passes that
+    /// pushed links apart (summed over substeps; for a refused move, where it stopped).
+    pub passes: u32,
+}
+
+/// What the service says a request cost: its own time and its collision passes.
+#[derive(Clone, Copy, Debug)]
+struct Served {
+    solve_ns: u64,
+    passes: u32,
+}
+
+impl Served {
+    fn of(rh: &shared::ResponseHeader) -> Served {
+        Served {
+            solve_ns: rh.solve_ns,
+            passes: rh.iterations,
+        }
+    }
 }
 
 /// How deep a move refused as over-budget is split in halves (at most 2⁴ pieces).
@@ -149,13 +168,14 @@ const SPLITS: u32 = 4;
 impl HandReport {
     /// Keeps one request's times: its round trip (since `called`) and the service's `solve_ns`;
     /// returns the status's name.
-    fn time(&mut self, status: u32, called: Instant, solve_ns: u64) -> &'static str {
+    fn time(&mut self, status: u32, called: Instant, served: Served) -> &'static str {
         let name = Status::from_u32(status).map_or("unknown", |s| s.name());
         self.timings.push(Timing {
             round_trip_us: called.elapsed().as_secs_f64() * 1e6,
-            solve_ns,
+            solve_ns: served.solve_ns,
             status: name,
             pull: false,
+            passes: served.passes,
         });
         name
     }
@@ -169,8 +189,8 @@ impl HandReport {
 
     /// Counts one request's answer by its status and keeps its times ([`HandReport::time`]);
     /// returns the status's name.
-    fn tally(&mut self, status: u32, called: Instant, solve_ns: u64) -> &'static str {
-        let name = self.time(status, called, solve_ns);
+    fn tally(&mut self, status: u32, called: Instant, served: Served) -> &'static str {
+        let name = self.time(status, called, served);
         self.requests += 1;
         match Status::from_u32(status) {
             Some(Status::Ok) => self.ok += 1,
@@ -658,7 +678,7 @@ impl TurnRun<'_> {
             h.joint = index;
             let sent = now_ns();
             let called = Instant::now();
-            let (status, seq, rid, dg, solve_ns) = self.conn.call_with(
+            let (status, seq, rid, dg, served) = self.conn.call_with(
                 h,
                 &[
                     Vec3::new(centre[0], centre[1], centre[2]),
@@ -671,11 +691,11 @@ impl TurnRun<'_> {
                         rh.sequence,
                         rh.request_id,
                         digest(&pts[..n]),
-                        rh.solve_ns,
+                        Served::of(rh),
                     )
                 },
             )?;
-            let name = self.report.tally(status, called, solve_ns);
+            let name = self.report.tally(status, called, served);
             if let Some(w) = self.record.as_mut() {
                 let r = Record {
                     t_ns: sent,
@@ -767,7 +787,7 @@ impl TurnRun<'_> {
                     None => std::slice::from_ref(&to),
                 };
                 let draw = self.turn.draw;
-                let (status, seq, rid, dg, frame, (reason, stopped_at, solve_ns), tail) =
+                let (status, seq, rid, dg, frame, (reason, stopped_at, served), tail) =
                     self.conn.call_with(h, points, |rh, pts| {
                         let n = (rh.n_joints as usize).min(pts.len());
                         let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
@@ -781,7 +801,7 @@ impl TurnRun<'_> {
                             rh.request_id,
                             digest(&pts[..n]),
                             frame,
-                            (rh.reason_str(), rh.substeps, rh.solve_ns),
+                            (rh.reason_str(), rh.substeps, Served::of(rh)),
                             tail,
                         )
                     })?;
@@ -819,7 +839,7 @@ impl TurnRun<'_> {
                 }
                 if status == Status::OverBudget as u32 && splittable {
                     self.report.splits += 1;
-                    self.report.time(status, called, solve_ns);
+                    self.report.time(status, called, served);
                     let half = |a: [f64; 3], b: [f64; 3]| {
                         [
                             0.5 * (a[0] + b[0]),
@@ -833,7 +853,7 @@ impl TurnRun<'_> {
                     pending.push((t, rotation, depth + 1));
                     pending.push((mid, mid_rotation, depth + 1));
                 } else {
-                    let name = self.report.tally(status, called, solve_ns);
+                    let name = self.report.tally(status, called, served);
                     if status == Status::Ok as u32 {
                         at = t;
                         turned = rotation.or(turned);
@@ -930,42 +950,41 @@ impl TurnRun<'_> {
             h.flags = shared::FLAG_PULL;
             let sent = now_ns();
             let called = Instant::now();
-            let (status, seq, rid, dg, joints, (pull, taut, solve_ns, stop)) =
-                self.conn.call_with(
-                    h,
-                    &[Vec3::new(target[0], target[1], target[2])],
-                    |rh, pts| {
-                        let parts = shared::Parts::of_response(rh, pts);
-                        let j = idx as u32;
-                        let k = parts.held_joints().position(|(q, _)| q == j);
-                        let taut: Vec<bool> = parts.taut().collect();
-                        let pull = k
-                            .and_then(|k| parts.pulls.get(k))
-                            .map_or(0.0, |p| norm(p.to_array()));
-                        let t = k.is_some_and(|k| taut[k] || (k > 0 && taut[k - 1]));
-                        (
-                            rh.status,
-                            rh.sequence,
-                            rh.request_id,
-                            digest(parts.joints),
-                            parts
-                                .joints
-                                .iter()
-                                .map(|p| p.to_array())
-                                .collect::<Vec<_>>(),
-                            (pull, t, rh.solve_ns, rh.pull_stop()),
-                        )
-                    },
-                )?;
+            let (status, seq, rid, dg, joints, (pull, taut, served, stop)) = self.conn.call_with(
+                h,
+                &[Vec3::new(target[0], target[1], target[2])],
+                |rh, pts| {
+                    let parts = shared::Parts::of_response(rh, pts);
+                    let j = idx as u32;
+                    let k = parts.held_joints().position(|(q, _)| q == j);
+                    let taut: Vec<bool> = parts.taut().collect();
+                    let pull = k
+                        .and_then(|k| parts.pulls.get(k))
+                        .map_or(0.0, |p| norm(p.to_array()));
+                    let t = k.is_some_and(|k| taut[k] || (k > 0 && taut[k - 1]));
+                    (
+                        rh.status,
+                        rh.sequence,
+                        rh.request_id,
+                        digest(parts.joints),
+                        parts
+                            .joints
+                            .iter()
+                            .map(|p| p.to_array())
+                            .collect::<Vec<_>>(),
+                        (pull, t, Served::of(rh), rh.pull_stop()),
+                    )
+                },
+            )?;
             out.steps = i + 1;
             if status == Status::OverBudget as u32 && speed > g.speed / f64::from(1 << SPLITS) {
                 self.report.splits += 1;
-                self.report.time(status, called, solve_ns);
+                self.report.time(status, called, served);
                 self.report.pulled();
                 speed *= 0.5;
                 continue;
             }
-            let name = self.report.tally(status, called, solve_ns);
+            let name = self.report.tally(status, called, served);
             self.report.pulled();
             if let Some(w) = self.record.as_mut() {
                 Record {

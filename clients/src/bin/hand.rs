@@ -102,8 +102,9 @@ enum Cmd {
         tremor: f64,
         /// Write the times of every move and instrument request sent (the halves of a split move
         /// included) to this file, one line each: the round trip as the hand waited for it (µs), the
-        /// service's own time (`solve_ns`, µs), the status and 1 for a tightening pull's request
-        /// (else 0) (the knot sweep's time per request, the contact and tighten benches').
+        /// service's own time (`solve_ns`, µs), the status, 1 for a tightening pull's request
+        /// (else 0) and the collision passes the service reports (the response's `iterations`)
+        /// (the knot sweep's time per request, the contact, stitch and tighten benches').
         #[arg(long)]
         timings: Option<PathBuf>,
         /// After the script, tighten the knot: every hand pulls the end it holds away from the knot,
@@ -242,14 +243,15 @@ fn run(a: Args) -> Result<u8> {
             );
             if let Some(path) = &timings {
                 let text: String =
-                    std::iter::once("# round_trip_us solve_us status pull\n".to_string())
+                    std::iter::once("# round_trip_us solve_us status pull passes\n".to_string())
                         .chain(r.timings.iter().map(|t| {
                             format!(
-                                "{:.1} {:.3} {} {}\n",
+                                "{:.1} {:.3} {} {} {}\n",
                                 t.round_trip_us,
                                 t.solve_ns as f64 / 1e3,
                                 t.status,
-                                u8::from(t.pull)
+                                u8::from(t.pull),
+                                t.passes
                             )
                         }))
                         .collect();
