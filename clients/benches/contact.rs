@@ -90,6 +90,8 @@ struct Row {
     solve: Vec<u64>,
     /// Each request's time (ns) and collision passes (the response's `iterations`).
     passes: Vec<(u64, u32)>,
+    /// The service's line on the chain's contact resolutions at shutdown.
+    resolutions: Option<String>,
     refused: usize,
     knot: String,
     seconds: f64,
@@ -108,6 +110,29 @@ impl Row {
             pct(v, 0.99),
             pct(v, 0.999),
             pct(v, 1.0)
+        )
+    }
+
+    /// The cells long resolutions and joint projections stalled / all, from the service's line at
+    /// shutdown (`–` without one).
+    fn resolution_cells(&self) -> String {
+        let Some(line) = &self.resolutions else {
+            return "– | –".into();
+        };
+        let after = |key: &str| -> Option<u64> {
+            let at = line.find(key)? + key.len();
+            line[at..]
+                .split(|c: char| !c.is_ascii_digit())
+                .next()?
+                .parse()
+                .ok()
+        };
+        let cell = |v: Option<u64>| v.map_or("?".into(), |v| v.to_string());
+        format!(
+            "{} | {} / {}",
+            cell(after(" resolutions (")),
+            cell(after("converged, ")),
+            cell(after("joint projections: "))
         )
     }
 
@@ -143,6 +168,7 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
     };
     let prefix = format!("contact_{}_{k}_", std::process::id());
     let mut svc = Command::new(release_bin("solver-service")?);
+    let svc_err = dir.join(format!("{script}-{chain}-{k}-service.err"));
     svc.args(["--prefix", &prefix, "--scene"]).arg(scene).args([
         "--wait",
         "event",
@@ -150,6 +176,7 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
         "--pin",
         "0",
     ]);
+    svc.stderr(std::fs::File::create(&svc_err)?);
     let mut svc = Proc::ready(svc, "solver-service")?;
     let started = Instant::now();
     let mut children = Hands(Vec::new());
@@ -178,6 +205,7 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
     let mut row = Row {
         solve: Vec::new(),
         passes: Vec::new(),
+        resolutions: None,
         refused: 0,
         knot: String::new(),
         seconds: 0.0,
@@ -224,6 +252,12 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
         .unwrap_or("?")
         .to_string();
     svc.stop();
+    // The service's own count of the chain's resolutions, printed at shutdown.
+    let err = std::fs::read_to_string(&svc_err).unwrap_or_default();
+    row.resolutions = err
+        .lines()
+        .find(|l| l.contains(&format!("chain {chain}: contact resolution: ")))
+        .map(str::to_string);
     Ok(row)
 }
 
@@ -253,13 +287,14 @@ fn held_ways(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
          default: the joint projection once two passes have not parted the contacts) and \
          `collision_pushed_weight` (1, the default; `knots.toml` sets 0.5 on its 160- and 320-link \
          held ropes, the first table's rows) set on every chain of `knots.toml`, as in the first \
-         table (µs; passes as in the first table):\n"
+         table (µs; passes, resolutions and projections as in the first table):\n"
     );
     println!(
         "| script | chain | together after | weight | requests | refused | p50 µs | p99 µs | p99.9 µs \
-         | max µs | passes p50 | over 1 ms | their passes p50 | knot |"
+         | max µs | passes p50 | over 1 ms | their passes p50 | long resolutions | stalled projections \
+         | knot |"
     );
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     let own: String = text
         .lines()
         .filter(|l| {
@@ -284,21 +319,22 @@ fn held_ways(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
             match run_row(script, chain, k, dir, &scene) {
                 Ok(mut r) if !r.solve.is_empty() => {
                     println!(
-                        "| {script} | {chain} | {after} | {w} | {} | {} | {} |",
+                        "| {script} | {chain} | {after} | {w} | {} | {} | {} | {} |",
                         r.cells(),
                         r.pass_cells(),
+                        r.resolution_cells(),
                         r.knot
                     );
                 }
                 Ok(_) => {
                     println!(
-                        "| {script} | {chain} | {after} | {w} | 0 | – | – | – | – | – | – | – | – | – |"
+                        "| {script} | {chain} | {after} | {w} | 0 | – | – | – | – | – | – | – | – | – | – | – |"
                     )
                 }
                 Err(e) => {
                     eprintln!("contact bench: {e:#}");
                     println!(
-                        "| {script} | {chain} | {after} | {w} | failed: {e} | | | | | | | | | |"
+                        "| {script} | {chain} | {after} | {w} | failed: {e} | | | | | | | | | | | |"
                     );
                 }
             }
@@ -419,13 +455,17 @@ fn main() -> Result<()> {
          ones and the halves of split moves included (µs). *Passes*: the collision resolution's \
          passes that pushed links apart, as each response reports them (`iterations`, summed over \
          its substeps): their median over all requests, the requests over 1 ms, and those \
-         requests' median passes (where a slow request's time goes):\n"
+         requests' median passes (where a slow request's time goes). *Long resolutions*: the \
+         resolutions (one per substep) of 32 passes or more, and *stalled projections*: the joint \
+         projections of a held rope that did not converge (the passes then went on alone), of all \
+         its projections, as the service counts them (its line per chain at shutdown):\n"
     );
     println!(
         "| script | chain | links | what it has | requests | refused | p50 µs | p99 µs | p99.9 µs \
-         | max µs | passes p50 | over 1 ms | their passes p50 | knot | wall s |"
+         | max µs | passes p50 | over 1 ms | their passes p50 | long resolutions | stalled projections \
+         | knot | wall s |"
     );
-    println!("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|");
+    println!("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|");
     // The shipped scene without `knot = true`: the knot's name with every state is the tighten
     // bench's to measure, not the contact's.
     let shipped = workspace().join("solver-service/scenes/knots.toml");
@@ -447,20 +487,21 @@ fn main() -> Result<()> {
         match run_row(script, chain, k, dir.path(), &knots) {
             Ok(mut r) if !r.solve.is_empty() => {
                 println!(
-                    "| {script} | {chain} | {links} | {what} | {} | {} | {} | {:.1} |",
+                    "| {script} | {chain} | {links} | {what} | {} | {} | {} | {} | {:.1} |",
                     r.cells(),
                     r.pass_cells(),
+                    r.resolution_cells(),
                     r.knot,
                     r.seconds
                 );
             }
             Ok(_) => println!(
-                "| {script} | {chain} | {links} | {what} | 0 | – | – | – | – | – | – | – | – | – | – |"
+                "| {script} | {chain} | {links} | {what} | 0 | – | – | – | – | – | – | – | – | – | – | – | – |"
             ),
             Err(e) => {
                 eprintln!("contact bench: {e:#}");
                 println!(
-                    "| {script} | {chain} | {links} | {what} | failed: {e} | | | | | | | | | | |"
+                    "| {script} | {chain} | {links} | {what} | failed: {e} | | | | | | | | | | | | |"
                 );
             }
         }

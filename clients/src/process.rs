@@ -109,9 +109,9 @@ impl Drop for Proc {
 
 /// Spawns `cmd` with its stdout piped to this process (stderr inherited).
 fn spawn_piped(mut cmd: Command, what: &str) -> Result<(Child, ChildStdout)> {
+    // Its stderr as `cmd` says (inherited unless the caller sent it elsewhere).
     let mut child = cmd
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
         .spawn()
         .with_context(|| format!("start {what}"))?;
     let out = child.stdout.take().context("piped stdout")?;

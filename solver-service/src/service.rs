@@ -126,6 +126,14 @@ impl Solver {
         if let Some(store) = self.store.as_mut() {
             store.snapshot(&self.set)?;
         }
+        for (k, st) in self.set.resolution_stats() {
+            if st.resolutions > 0 {
+                eprintln!(
+                    "solver-service: {}",
+                    resolution_line(&self.set.specs()[k as usize].name, &st)
+                );
+            }
+        }
         eprintln!(
             "solver-service: shut down cleanly at state {} ({} snapshots written since the start)",
             self.set.sequence(),
@@ -371,4 +379,20 @@ pub fn run_echo(
         opts.wait.mode().name()
     ));
     Ok(serve(&ports, &mut crate::echo::Echo { elements }, opts)?)
+}
+
+/// One chain's contact resolutions in a line (printed at shutdown): where its collision time went.
+pub fn resolution_line(chain: &str, st: &tractrix::collision::ResolutionStats) -> String {
+    format!(
+        "chain {chain}: contact resolution: {} resolutions ({} of {} passes or more), {} passes; \
+         joint projections: {} ({} converged, {} stalled), {} Newton steps",
+        st.resolutions,
+        st.long,
+        tractrix::collision::ResolutionStats::LONG,
+        st.passes,
+        st.projections,
+        st.converged,
+        st.stalled,
+        st.newton_steps
+    )
 }

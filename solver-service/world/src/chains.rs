@@ -386,6 +386,18 @@ impl World {
     pub fn bundle_stream_size(&self) -> Option<usize> {
         self.bundles.iter().map(|b| b.spec.joints()).max()
     }
+    /// What each chain's contact resolutions did since its state was made (the service's start or
+    /// the snapshot it restored): `(handle, statistics)` for every chain with collision handling.
+    pub fn resolution_stats(&self) -> Vec<(u32, tractrix::collision::ResolutionStats)> {
+        self.geometry
+            .iter()
+            .enumerate()
+            .filter_map(|(k, g)| {
+                each_form!(g, h => h.collision.as_ref().map(|(_, ws)| ws.stats()))
+                    .map(|s| (k as u32, s))
+            })
+            .collect()
+    }
     /// The chains' specifications, by handle.
     pub fn specs(&self) -> &[ChainSpec] {
         &self.specs

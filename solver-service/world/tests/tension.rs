@@ -263,3 +263,48 @@ fn a_pull_stops_short_at_the_pull_budget_and_a_plain_move_keeps_the_whole_budget
     w.set_pull_budget(None);
     assert_eq!(w.pull_budget(), 2_000_000);
 }
+
+/// The world counts each chain's contact resolutions (`World::resolution_stats`): only for chains
+/// with collision handling, and at least the passes its answers reported. The rope held at its tail
+/// is pushed up by the post, which it wraps.
+#[test]
+fn the_world_counts_each_chain_s_contact_resolutions() {
+    let text = format!("{POST}\n[[chain]]\nname = \"plain\"\nlinks = 4\nlink_length = 1.0\n");
+    let scene = parse_scene(&text, "post.toml").unwrap();
+    let mut w = World::new(&scene).unwrap();
+    assert_eq!(
+        w.resolution_stats().len(),
+        1,
+        "only the chain with collision"
+    );
+    w.apply(&Command::Grasp {
+        chain: 0,
+        joint: 0,
+        take_over: false,
+    })
+    .unwrap();
+    let (mut ok, mut reported) = (0u64, 0u64);
+    for k in 1..=30 {
+        let a = w.apply(&Command::Instrument {
+            chain: 0,
+            index: 0,
+            centre: Point::new(5.0, -0.5 + 0.05 * f64::from(k), 0.0),
+            axis: Some(Point::new(0.0, 0.0, 1.0)),
+            max_substeps: 65536,
+            pull: false,
+        });
+        if let Ok(a) = a {
+            ok += 1;
+            reported += u64::from(a.iterations);
+        }
+    }
+    let stats = w.resolution_stats();
+    let (chain, st) = stats[0];
+    assert_eq!(chain, 0);
+    assert!(ok > 0 && reported > 0, "the post never pushed the rope");
+    assert!(st.resolutions >= ok, "{st:?} for {ok} pushes");
+    assert!(
+        st.passes >= reported,
+        "{st:?} against {reported} passes reported"
+    );
+}

@@ -769,3 +769,72 @@ fn chainctl_says_why_a_pull_stopped_short() {
     let reach = (h.x - t.x).hypot(h.y - t.y).hypot(h.z - t.z);
     assert!((reach - 40.0).abs() < 1e-6, "{reach}");
 }
+
+/// At shutdown the service prints, for each chain with collision handling whose contacts it
+/// resolved, where that time went (resolutions, passes, joint projections): a rope held at its tail,
+/// pushed by a post through `chainctl instrument`; the chain without collision gets no line.
+#[test]
+fn at_shutdown_the_service_says_where_each_chain_s_contact_time_went() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("post.toml");
+    std::fs::write(
+        &scene,
+        "[[instrument]]\nname = \"post\"\nshape = \"capsule\"\na = [5.0, -0.5, -3.0]\n\
+         b = [5.0, -0.5, 3.0]\nradius = 0.4\n\n[[chain]]\nname = \"rope\"\nlinks = 40\n\
+         link_length = 0.5\nthickness = 0.2\ncollision = \"capsules\"\ninstruments = [\"post\"]\n\n\
+         [[chain]]\nname = \"plain\"\nlinks = 4\nlink_length = 1.0\n",
+    )
+    .unwrap();
+    let err_path = dir.path().join("service.err");
+    let prefix = unique_prefix();
+    let mut cmd = Process::new(bin("solver-service"));
+    cmd.args([
+        "--prefix",
+        &prefix,
+        "--wait",
+        "event",
+        "--no-persist",
+        "--scene",
+    ])
+    .arg(&scene)
+    .stderr(std::fs::File::create(&err_path).unwrap());
+    let proc = clients::process::Proc::ready(cmd, "solver-service").unwrap();
+    let mut svc = Service {
+        ready_line: proc.ready_line.clone(),
+        proc,
+        prefix,
+    };
+    let chainctl = |args: &[&str]| run(&svc, "chainctl", args);
+    chainctl(&["grasp", "rope", "--joint", "tail"]);
+    for k in 1..=20 {
+        let y = format!("5,{},0", -0.5 + 0.05 * f64::from(k));
+        let _ = finish(
+            spawn(
+                &svc,
+                "chainctl",
+                &[
+                    "instrument",
+                    "rope",
+                    "--joint",
+                    "0",
+                    "--target",
+                    &y,
+                    "--axis",
+                    "0,0,1",
+                ],
+            ),
+            "chainctl",
+        );
+    }
+    svc.signal("INT");
+    assert!(svc.wait_exit(Duration::from_secs(30)).success());
+    let err = std::fs::read_to_string(&err_path).unwrap();
+    let line = err
+        .lines()
+        .find(|l| l.contains("chain rope: contact resolution: "))
+        .unwrap_or_else(|| panic!("no line for the rope in {err}"));
+    assert!(number_after(line, "contact resolution: ") > 0.0, "{line}");
+    assert!(number_after(line, "or more), ") > 0.0, "{line}");
+    assert!(line.contains("joint projections: "), "{line}");
+    assert!(!err.contains("chain plain:"), "{err}");
+}

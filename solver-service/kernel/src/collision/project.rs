@@ -354,6 +354,7 @@ where
             outcome = Projected::OutOfWork;
             break;
         }
+        ws.stats.newton_steps += 1;
         let Some(delta) = solve_step(&mut pr, m, held, n, &mut ws.meter) else {
             outcome = Projected::OutOfWork;
             break;
@@ -382,6 +383,12 @@ where
     // the move locked); the pose it started from is kept instead.
     if outcome != Projected::Converged {
         pos.copy_from_slice(&start);
+    }
+    ws.stats.projections += 1;
+    match outcome {
+        Projected::Converged => ws.stats.converged += 1,
+        Projected::Stalled | Projected::Unfinished | Projected::TooMany => ws.stats.stalled += 1,
+        Projected::OutOfWork => {}
     }
     ws.projection = pr;
     outcome

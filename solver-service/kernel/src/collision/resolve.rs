@@ -38,6 +38,27 @@ pub(super) fn resolve<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    let before = ws.stats.passes;
+    let done = resolve_passes(chain, m, held, threaded, model, ws);
+    ws.stats.resolutions += 1;
+    if ws.stats.passes - before >= super::ResolutionStats::LONG {
+        ws.stats.long += 1;
+    }
+    done
+}
+
+/// [`resolve`]'s passes, each one that pushed counted in the workspace's statistics.
+fn resolve_passes<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    m: usize,
+    held: &[usize],
+    threaded: bool,
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<(u32, u32), Stop<T>>
+where
+    Vector<T, D>: Embed3<T>,
+{
     let opts = &model.options;
     let mut contacts = 0u32;
     let mut iterations = 0u32;
@@ -144,6 +165,7 @@ where
             return Err(Stop::Locked(iterations, pass.worst));
         }
         iterations += 1;
+        ws.stats.passes += 1;
         contacts = contacts.saturating_add(pass.pushed);
         if held.is_empty() {
             if !ws

@@ -162,7 +162,8 @@ mod with_collision {
     use super::{bits, length_error};
     use nalgebra::Vector3;
     use tractrix::collision::{
-        CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, move_joint_colliding,
+        CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, ResolutionStats,
+        move_joint_colliding,
     };
     use tractrix::{Chain, ChainError, MoveOptions};
 
@@ -192,6 +193,10 @@ mod with_collision {
         locked: u32,
         passes: u32,
         contacts: u32,
+        /// The passes of the locked moves' last substeps, as their errors report them.
+        locked_passes: u32,
+        /// The workspace's statistics at the end.
+        stats: ResolutionStats,
     }
 
     /// A rope held at its tail and its middle; its head swept across the held half again and again.
@@ -219,6 +224,8 @@ mod with_collision {
             locked: 0,
             passes: 0,
             contacts: 0,
+            locked_passes: 0,
+            stats: ResolutionStats::default(),
         };
         for k in 0..120 {
             let a = k as f64 * 0.15;
@@ -253,15 +260,48 @@ mod with_collision {
                         }
                     }
                 }
-                Err(ChainError::Locked { .. }) => {
+                Err(ChainError::Locked { iterations, .. }) => {
                     out.locked += 1;
+                    out.locked_passes += iterations;
                     assert!(c == before, "a locked move changed the rope");
                 }
                 Err(ChainError::HeldUnreachable { .. }) => assert!(c == before),
                 Err(e) => panic!("move {k}: {e}"),
             }
         }
+        out.stats = ws.stats();
         out
+    }
+
+    /// The workspace's statistics count what the sweep's outcomes report: at least the passes the
+    /// accepted moves and the locked moves' last substeps say they took (a locked move's earlier
+    /// substeps are counted too; with no locked move, exactly as many), as
+    /// many resolutions as substeps at least, and joint projections only where the contacts are
+    /// solved together, each of them converged, stalled or out of work.
+    #[test]
+    fn the_workspace_counts_what_its_resolutions_did() {
+        for after in [0, 2] {
+            let s = sweep(after);
+            let st = s.stats;
+            eprintln!("together after {after}: {st:?}");
+            let reported = u64::from(s.passes) + u64::from(s.locked_passes);
+            assert!(
+                st.passes >= reported,
+                "{} passes against {reported}",
+                st.passes
+            );
+            if s.locked == 0 {
+                assert_eq!(st.passes, reported);
+            }
+            assert!(st.resolutions >= u64::from(s.accepted + s.locked));
+            assert!(st.long <= st.resolutions);
+            assert!(st.converged + st.stalled <= st.projections);
+            if after == 0 {
+                assert_eq!(st.projections, 0);
+            } else {
+                assert!(st.projections > 0 && st.converged > 0, "{st:?}");
+            }
+        }
     }
 
     #[test]
