@@ -166,8 +166,8 @@ impl Served {
 const SPLITS: u32 = 4;
 
 impl HandReport {
-    /// Keeps one request's times: its round trip (since `called`) and the service's `solve_ns`;
-    /// returns the status's name.
+    /// Keeps one request's times: its round trip (since `called`) and what the service said it cost
+    /// (`solve_ns` and the collision passes); returns the status's name.
     fn time(&mut self, status: u32, called: Instant, served: Served) -> &'static str {
         let name = Status::from_u32(status).map_or("unknown", |s| s.name());
         self.timings.push(Timing {
