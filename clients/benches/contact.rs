@@ -86,9 +86,8 @@ impl Drop for Hands {
 }
 
 struct Row {
-    /// The service's time per request, ns.
-    solve: Vec<u64>,
-    /// Each request's time (ns) and collision passes (the response's `iterations`).
+    /// Each request's time as the service measured it (`solve_ns`) and its collision passes (the
+    /// response's `iterations`).
     passes: Vec<(u64, u32)>,
     /// The service's line on the chain's contact resolutions at shutdown.
     resolutions: Option<String>,
@@ -98,10 +97,11 @@ struct Row {
 }
 
 impl Row {
-    /// The cells requests, refused, p50, p99, p99.9 and max (µs) of the row's times, sorted here.
-    fn cells(&mut self) -> String {
-        self.solve.sort_unstable();
-        let v = &self.solve;
+    /// The cells requests, refused, p50, p99, p99.9 and max (µs) of the row's times.
+    fn cells(&self) -> String {
+        let mut v: Vec<u64> = self.passes.iter().map(|&(ns, _)| ns).collect();
+        v.sort_unstable();
+        let v = &v;
         format!(
             "{} | {} | {:.1} | {:.1} | {:.1} | {:.1}",
             v.len(),
@@ -203,7 +203,6 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
         children.0.push((child, file, log));
     }
     let mut row = Row {
-        solve: Vec::new(),
         passes: Vec::new(),
         resolutions: None,
         refused: 0,
@@ -232,7 +231,6 @@ fn run_row(script: &str, chain: &str, k: usize, dir: &Path, scene: &Path) -> Res
                 bail!("{}: bad line {line:?}", file.display());
             };
             let ns = (solve_us.parse::<f64>()? * 1e3).round() as u64;
-            row.solve.push(ns);
             row.passes.push((ns, passes.parse()?));
             if status != "ok" {
                 row.refused += 1;
@@ -317,7 +315,7 @@ fn held_ways(k0: usize, dir: &Path, knots: &Path) -> Result<()> {
                 ),
             )?;
             match run_row(script, chain, k, dir, &scene) {
-                Ok(mut r) if !r.solve.is_empty() => {
+                Ok(r) if !r.passes.is_empty() => {
                     println!(
                         "| {script} | {chain} | {after} | {w} | {} | {} | {} | {} |",
                         r.cells(),
@@ -485,7 +483,7 @@ fn main() -> Result<()> {
             continue;
         }
         match run_row(script, chain, k, dir.path(), &knots) {
-            Ok(mut r) if !r.solve.is_empty() => {
+            Ok(r) if !r.passes.is_empty() => {
                 println!(
                     "| {script} | {chain} | {links} | {what} | {} | {} | {} | {} | {:.1} |",
                     r.cells(),
