@@ -142,7 +142,8 @@ pub struct Timing {
     /// A tightening pull's request ([`crate::script::Tighten`]).
     pub pull: bool,
     /// The response's `iterations`: on a chain with collision handling, the resolution passes that
-    /// pushed links apart (summed over substeps; for a refused move, where it stopped).
+    /// pushed links apart (summed over substeps; for a locked move, those of the substep where it
+    /// locked).
     pub passes: u32,
 }
 

@@ -884,7 +884,8 @@ pub struct ResponseHeader {
     /// Joint rotations after the positions.
     pub n_angles: u32,
     /// Reach iterations, or for a move on a chain with collision handling, the resolution passes that
-    /// pushed links apart (summed over substeps).
+    /// pushed links apart (summed over substeps; for a move refused as `locked`, those of the
+    /// substep where it locked).
     pub iterations: u32,
     /// Substeps taken (all points of a path); for a move refused as `locked` or `over-budget` by
     /// collision handling, the substep (1-based, of its segment) where it stopped.

@@ -171,6 +171,7 @@ impl From<ChainError> for Refusal {
                     "links still {penetration:.2e} too close after {iterations} passes at substep {substep}"
                 );
                 r.substeps = substep;
+                r.iterations = iterations;
                 r
             }
             ChainError::Jumped { substep, jump } => {

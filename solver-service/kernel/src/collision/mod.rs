@@ -240,6 +240,8 @@ pub struct CollisionWorkspace<T: Real, const D: usize> {
     pos: Vec<Vector<T, D>>,
     /// The joints before a substep of a move with holds (the displacement guard).
     pos_before: Vec<Vector<T, D>>,
+    /// The joints after a resolution's previous pass (its settled passes lock).
+    pos_prev: Vec<Vector<T, D>>,
     backup_links: Vec<Vector<T, D>>,
     tree: ChainTree<T, D>,
     meter: Meter,
