@@ -82,6 +82,8 @@ where
             .map(|ob| n.saturating_mul(cost::obstacle_per_link(ob)))
             .fold(0u64, u64::saturating_add),
     );
+    // The passes after which a rope with held joints has its contacts and lengths projected
+    // together: never on a threaded rope's plain moves or with `together_after` 0; pulls after two.
     let after = if ws.together {
         PULL_PROJECT_AFTER
     } else if threaded || opts.together_after == 0 {
@@ -90,9 +92,7 @@ where
         opts.together_after
     };
     let can_project = use_tree && !held.is_empty() && after != u32::MAX;
-    // Passes in a row that moved no joint farther than [`SETTLED`] of the clearance, and the
-    // projection's threshold (`after`: never on a threaded rope's plain moves or with
-    // `together_after` 0; pulls after two passes).
+    // Passes in a row that moved no joint farther than [`SETTLED`] of the clearance.
     let mut settled = 0u32;
     let clearance = super::smallest_clearance(chain, model);
     loop {
