@@ -314,7 +314,8 @@ pub enum PullStop {
     /// A joint would have gone beyond its limit.
     Limit,
     /// Resolving the contacts would have cost more than the request's work budget: the knot resists
-    /// more than one request can resolve (the next pull goes on from where this one stopped).
+    /// more than one request can resolve (the same pull asked again, from the same state, goes on
+    /// from the resolution this one kept).
     Work,
 }
 

@@ -675,6 +675,17 @@ where
 /// nearest point, at most eight solves per request.
 pub const PULL_HALVINGS: u32 = 6;
 
+/// How much of a pull's budget one try may spend.
+#[derive(Clone, Copy)]
+enum Share {
+    /// `1/n` of it.
+    Part(u64),
+    /// What the tries before it left.
+    Rest,
+    /// What the tries before it left, less a sixteenth for each of `n` tries after it.
+    RestLeaving(u64),
+}
+
 /// Tries a pulled move may take: the full one, the nearest reachable point, the halvings.
 pub const PULL_TRIES: u64 = 2 + PULL_HALVINGS as u64;
 
@@ -689,10 +700,11 @@ fn stops_short(r: &Refusal) -> Option<Stop> {
     }
 }
 
-/// The tries of one pull, each metered against its share of the request's budget (with collision:
-/// the full try half of it, the nearest point a sixteenth, each halving a sixteenth, and the moves of
-/// tissue that gives ([`give_way`]) a sixteenth together, so the tries together never pass it),
-/// their work summed.
+/// The tries of one pull, each metered against its share of the request's budget and never more
+/// than the tries before it left (with collision: the full try half of it, or all of it when it
+/// goes on from a resolution the last request kept; the nearest point what the full try left less
+/// a sixteenth for each halving; each halving a sixteenth; and the moves of tissue that gives
+/// ([`give_way`]) a sixteenth together), their work summed.
 pub(crate) struct Tries {
     budget: u64,
     /// Collision work of the tries so far, in link-steps.
@@ -714,11 +726,37 @@ impl Tries {
     where
         Vector<T, D>: Embed3<T>,
     {
+        self.run_keeping(g, Share::Part(parts), false, f)
+    }
+
+    /// [`Tries::run`], with `keep`: a resolution that runs out of work is kept and the same try
+    /// in the next request goes on from it (`CollisionWorkspace::keep_unfinished`).
+    fn run_keeping<T: Real, const D: usize, R>(
+        &mut self,
+        g: &mut LiveChain<T, D>,
+        share: Share,
+        keep: bool,
+        f: impl FnOnce(&mut LiveChain<T, D>) -> Result<R, Refusal>,
+    ) -> Result<R, Refusal>
+    where
+        Vector<T, D>: Embed3<T>,
+    {
         if let Some((_, ws)) = g.collision.as_mut() {
-            ws.limit_work(self.budget / parts);
+            // Never more than the tries before it left: the request's work stays within its
+            // budget whatever they spent (a resumed try may spend it all).
+            let rest = self.budget.saturating_sub(self.work);
+            ws.limit_work(match share {
+                Share::Part(parts) => (self.budget / parts).min(rest),
+                Share::Rest => rest,
+                Share::RestLeaving(n) => rest.saturating_sub(self.budget / 16 * n),
+            });
             ws.solve_contacts_together(true);
+            ws.keep_unfinished(keep);
         }
         let r = f(g);
+        if let Some((_, ws)) = g.collision.as_mut() {
+            ws.keep_unfinished(false);
+        }
         if let Some((_, ws)) = g.collision.as_mut() {
             self.work = self.work.saturating_add(ws.work());
             ws.solve_contacts_together(false);
@@ -758,7 +796,31 @@ where
             ))
         }
     };
-    let first = match tries.run(g, 2, |g| one(g, target)) {
+    // The full try, and the nearest point when the full move is out of reach, keep their
+    // resolution when it runs out of work (`CollisionWorkspace::keep_unfinished`): the request
+    // then stops there, and the next one toward the same point from the same state goes on from
+    // it with the whole budget (what the tries before it left), until the move is made or locks.
+    // The halvings are for a move that cannot be made (locked, or out of work before its first
+    // pass): a halving made would change the state and lose the resolution kept.
+    let plain = g.eyelets.is_empty() && g.tissue.is_none();
+    let resumes = |g: &mut LiveChain<T, D>, p: Point| {
+        let p: Vector<T, D> = point(p);
+        plain
+            && g.collision
+                .as_mut()
+                .is_some_and(|(_, ws)| ws.can_resume(&g.chain, joint, &p))
+    };
+    let kept = |g: &LiveChain<T, D>| {
+        g.collision
+            .as_ref()
+            .is_some_and(|(_, ws)| ws.kept_unfinished())
+    };
+    let share = if resumes(g, target) {
+        Share::Rest
+    } else {
+        Share::Part(2)
+    };
+    let first = match tries.run_keeping(g, share, plain, |g| one(g, target)) {
         Ok(m) => return Ok((m, None)),
         Err(e) => e,
     };
@@ -766,6 +828,9 @@ where
         return Err(first);
     };
     g.restore_armed();
+    if kept(g) {
+        return Ok((MoveOutcome::default(), Some(stop)));
+    }
     let mut goal = target;
     let nearest = if first.cause == Cause::Unreachable {
         g.chain
@@ -786,11 +851,19 @@ where
         } else {
             from
         };
-        match tries.run(g, 16, |g| one(g, goal)) {
+        let share = if resumes(g, goal) {
+            Share::Rest
+        } else {
+            Share::RestLeaving(PULL_HALVINGS.into())
+        };
+        match tries.run_keeping(g, share, plain, |g| one(g, goal)) {
             Ok(m) => return Ok((m, Some(stop))),
             Err(e) => {
                 stop = stops_short(&e).ok_or(e)?;
                 g.restore_armed();
+                if kept(g) {
+                    return Ok((MoveOutcome::default(), Some(stop)));
+                }
             }
         }
     }

@@ -40,7 +40,8 @@ pub enum Stop {
     /// A joint would have gone beyond its limit.
     Limit,
     /// Resolving the contacts would have cost more than the request's work budget: the knot resists
-    /// more than one request can resolve.
+    /// more than one request can resolve (the same pull asked again, from the same state, goes on
+    /// from the resolution this one kept: `world::moves`'s pulls).
     Work,
 }
 

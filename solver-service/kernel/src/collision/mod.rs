@@ -259,6 +259,76 @@ pub struct CollisionWorkspace<T: Real, const D: usize> {
     near: tree::NearPairs<T, D>,
     /// What the resolutions did since the workspace was made ([`CollisionWorkspace::stats`]).
     stats: ResolutionStats,
+    /// A pull's resolution that ran out of work, kept to be resumed ([`Unfinished`]).
+    unfinished: Unfinished<T, D>,
+}
+
+/// A pull's resolution that ran out of work before its contacts were clear, kept at its last pass
+/// so that the next pull of the same joint toward the same target, from the same state, goes on
+/// from there instead of doing the same passes again (issue 38: on a knot pulled tight the passes
+/// creep, and a resolution that needs more than one request's work budget was never finished: the
+/// same request was refused the same way each time). Only the move of a single substep that
+/// [`CollisionWorkspace::keep_unfinished`] asks for records its passes; a resumed resolution that
+/// finishes makes the move as one uninterrupted resolution would have made it.
+#[derive(Clone, Debug, Default)]
+struct Unfinished<T: Real, const D: usize> {
+    /// Whether the moves that follow record their resolution and resume a matching one.
+    keep: bool,
+    /// Whether the resolution running now records its passes.
+    recording: bool,
+    /// Whether a pass has been recorded since recording began.
+    recorded: bool,
+    /// Whether the fields below describe a resolution that can be resumed.
+    ready: bool,
+    /// Whether the last move kept its resolution (it ran out of work, recorded or resumed).
+    kept: bool,
+    /// The resumed resolution locked, or moved a joint too far: the same move from the same state
+    /// is refused so again at once, with no work (the passes would only repeat).
+    locked: Option<ChainError>,
+    /// The counts a resumed resolution starts from (taken by its first pass).
+    resume_at: Option<resolve::PassState>,
+    joint: usize,
+    target: Vec<Vector<T, D>>,
+    held: Vec<usize>,
+    /// The joints where the move started: the state it resumes from.
+    base: Vec<Vector<T, D>>,
+    /// The chain and its joints after the last recorded pass, and the passes' counts there.
+    chain: Option<Chain<T, D>>,
+    pos: Vec<Vector<T, D>>,
+    state: resolve::PassState,
+}
+
+impl<T: Real, const D: usize> Unfinished<T, D> {
+    /// Records the chain after a pass (its joints `pos`, the passes' counts `state`).
+    fn record(&mut self, chain: &Chain<T, D>, pos: &[Vector<T, D>], state: resolve::PassState)
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        match &mut self.chain {
+            Some(c) => c.copy_from(chain),
+            None => self.chain = Some(chain.clone()),
+        }
+        self.pos.clear();
+        self.pos.extend_from_slice(pos);
+        self.state = state;
+        self.recorded = true;
+    }
+
+    /// Whether a move of `joint` to `target` with the `held` joints fixed, from the joints `now`, is
+    /// the one recorded.
+    fn matches(
+        &self,
+        joint: usize,
+        target: &Vector<T, D>,
+        held: &[usize],
+        now: &[Vector<T, D>],
+    ) -> bool {
+        self.ready
+            && self.joint == joint
+            && self.target.first() == Some(target)
+            && self.held == held
+            && self.base == now
+    }
 }
 
 /// Counts of what a workspace's contact resolutions did since it was made: where a chain's collision
@@ -341,6 +411,40 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     pub fn pass_through(&mut self, links: core::ops::Range<usize>, pressed: usize) {
         self.through = links;
         self.pressed = pressed;
+    }
+
+    /// Whether the moves that follow keep a resolution that runs out of work, and resume it
+    /// ([`Unfinished`]): a move of a rope with held joints in one substep, with
+    /// [`CollisionWorkspace::solve_contacts_together`] on (a pull's full try), records its passes;
+    /// when its work runs out it is refused as before ([`ChainError::OverWork`], the chain
+    /// unchanged), and the next such move of the same joint toward the same target from the same
+    /// state goes on from its last pass. Any other state of the chain (another move made, a hold
+    /// taken or let go) makes it stale. Off by default.
+    pub fn keep_unfinished(&mut self, on: bool) {
+        self.unfinished.keep = on;
+        self.unfinished.kept = false;
+    }
+
+    /// Whether a move of `joint` of `chain` to `target` would resume an unfinished resolution
+    /// ([`CollisionWorkspace::keep_unfinished`]).
+    pub fn can_resume(&mut self, chain: &Chain<T, D>, joint: usize, target: &Vector<T, D>) -> bool
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        if !self.unfinished.ready {
+            return false;
+        }
+        let held: Vec<usize> = chain.held().filter(|&j| j != joint).collect();
+        self.pos_before.resize(chain.n_links() + 1, Vector::zeros());
+        chain.write_positions(&mut self.pos_before);
+        self.unfinished
+            .matches(joint, target, &held, &self.pos_before)
+    }
+
+    /// Whether the last move since [`CollisionWorkspace::keep_unfinished`] was refused for its work
+    /// and kept its resolution to be resumed.
+    pub fn kept_unfinished(&self) -> bool {
+        self.unfinished.kept
     }
 
     /// Whether [`CollisionWorkspace::solve_contacts_together`] is on (a pull).
@@ -613,6 +717,12 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let held: Vec<usize> = chain.held().filter(|&j| j != joint).collect();
+    // A pull's full try in one substep records its passes, or goes on from those it recorded.
+    let keep = ws.together && ws.unfinished.keep && k == 1;
+    ws.unfinished.kept = false;
+    if keep && ws.can_resume(chain, joint, &target) {
+        return resume_held(chain, joint, &held, model, ws);
+    }
     let backup = chain.clone();
     let one = MoveOptions {
         substeps: crate::chain::Substeps::Fixed(1),
@@ -677,13 +787,29 @@ where
             }
         }
         chain.write_positions(&mut ws.pos);
-        match resolve(chain, joint, &held, false, model, ws) {
+        let record = keep && s == 1 && depth == 0;
+        ws.unfinished.recording = record;
+        ws.unfinished.recorded = false;
+        let resolved = resolve(chain, joint, &held, false, model, ws);
+        ws.unfinished.recording = false;
+        match resolved {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
                     outcome.collision_iterations.saturating_add(iterations);
                 outcome.contacts = outcome.contacts.saturating_add(contacts);
             }
             Err(stop) => {
+                if record && ws.unfinished.recorded && matches!(stop, Stop::OverWork) {
+                    let u = &mut ws.unfinished;
+                    u.ready = true;
+                    u.kept = true;
+                    u.locked = None;
+                    u.joint = joint;
+                    u.target.clear();
+                    u.target.push(target);
+                    u.held.clone_from(&held);
+                    u.base.clone_from(&ws.pos_before);
+                }
                 *chain = backup;
                 return Err(stop.error(s, &ws.meter));
             }
@@ -723,6 +849,95 @@ where
         from = hand;
     }
     Ok(outcome)
+}
+
+/// The move of a single substep whose resolution ran out of work ([`Unfinished`]), resumed from its
+/// last recorded pass with the work the meter allows now: done as [`move_held_colliding`] finishes a
+/// substep (the limits checked, no joint farther than half the smallest clearance from where the
+/// move started), or out of work again with the passes recorded so far kept. On any error the chain
+/// is unchanged.
+fn resume_held<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    held: &[usize],
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let u = &mut ws.unfinished;
+    if let Some(e) = u.locked {
+        return Err(e);
+    }
+    let backup = chain.clone();
+    let Some(saved) = u.chain.as_ref() else {
+        u.ready = false;
+        return Err(ChainError::BadOption("no unfinished resolution to resume"));
+    };
+    chain.copy_from(saved);
+    ws.pos.clone_from(&u.pos);
+    ws.pos_prev.clone_from(&u.pos);
+    u.resume_at = Some(u.state);
+    u.recording = true;
+    u.recorded = false;
+    let alone = u.state.stalled;
+    let resolved = resolve(chain, joint, held, false, model, ws);
+    ws.unfinished.recording = false;
+    ws.unfinished.resume_at = None;
+    let (iterations, contacts) = match resolved {
+        Ok(done) => done,
+        Err(stop) => {
+            // Out of work again: the passes recorded go on next time. Locked: the same move locks
+            // at once next time.
+            let over = matches!(stop, Stop::OverWork);
+            let e = stop.error(1, &ws.meter);
+            // Out of work before its next pass, with no projection left to give up, the same
+            // request would do the same work again and again: like a locked one, it is refused so
+            // at once from now on.
+            let progressed = ws.unfinished.recorded || !alone;
+            if over && progressed {
+                ws.unfinished.kept = true;
+            } else {
+                ws.unfinished.locked = Some(e);
+            }
+            *chain = backup;
+            return Err(e);
+        }
+    };
+    if !chain.is_held(0) {
+        chain.translate_to(ws.pos[0]);
+    }
+    chain.repin(joint);
+    if let Err(e) = chain.check_limits() {
+        ws.unfinished.locked = Some(e);
+        *chain = backup;
+        return Err(e);
+    }
+    chain.write_positions(&mut ws.pos);
+    let jump = ws
+        .pos
+        .iter()
+        .zip(&ws.unfinished.base)
+        .map(|(a, b)| (a - b).norm())
+        .fold(T::zero(), |m, d| if d > m { d } else { m });
+    if jump > smallest_clearance(chain, model) * T::lit(0.5) {
+        // A resumed move cannot be split as a substep is: it locks, as the deepest split does.
+        let e = ChainError::Jumped {
+            substep: 1,
+            jump: jump.to_f64(),
+        };
+        ws.unfinished.locked = Some(e);
+        *chain = backup;
+        return Err(e);
+    }
+    ws.unfinished.ready = false;
+    Ok(MoveOutcome {
+        substeps: 1,
+        collision_iterations: iterations,
+        contacts,
+        ..MoveOutcome::default()
+    })
 }
 
 /// How many times a substep of a move with holds is halved when a joint jumps more than half the

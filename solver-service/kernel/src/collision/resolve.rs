@@ -60,9 +60,11 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let opts = &model.options;
-    let mut contacts = 0u32;
-    let mut iterations = 0u32;
-    let mut stalled = false;
+    // A resumed resolution goes on with the counts its last recorded pass left ([`super::Unfinished`]).
+    let start = ws.unfinished.resume_at.take().unwrap_or_default();
+    let mut contacts = start.contacts;
+    let mut iterations = start.iterations;
+    let mut stalled = start.stalled;
     let use_tree = opts.self_collision && opts.scheme == Scheme::Capsules;
     let span = neighbour_span(chain.min_length(), opts.thickness);
     let n = chain.n_links() as u64;
@@ -93,7 +95,7 @@ where
     };
     let can_project = use_tree && !held.is_empty() && after != u32::MAX;
     // Passes in a row that moved no joint farther than [`SETTLED`] of the clearance.
-    let mut settled = 0u32;
+    let mut settled = start.settled;
     let clearance = super::smallest_clearance(chain, model);
     loop {
         if !ws.meter.charge(detection) {
@@ -108,7 +110,14 @@ where
             match project_held(chain, m, held, model, ws) {
                 Ok(true) => {}
                 Ok(false) => stalled = true,
-                Err(stop) => return Err(stop.at(iterations)),
+                Err(stop) => {
+                    // A recorded resolution resumed goes on without the projection that ran out
+                    // of work (as after one that stalled): resumed, it would run out the same way.
+                    if matches!(stop, Halt::OverWork) && ws.unfinished.recording {
+                        ws.unfinished.state.stalled = true;
+                    }
+                    return Err(stop.at(iterations));
+                }
             }
         }
         // Between held joints the joints this pass pushes are marked: a part between fixed joints
@@ -142,7 +151,7 @@ where
                     &mut ws.near,
                     opts.thickness,
                     span,
-                    iterations == 0,
+                    iterations == start.iterations,
                     chain.min_length(),
                     &mut ws.meter,
                 ),
@@ -240,7 +249,32 @@ where
             }
         }
         ws.pos_prev.clone_from(&ws.pos);
+        if ws.unfinished.recording {
+            ws.unfinished.record(
+                chain,
+                &ws.pos,
+                PassState {
+                    iterations,
+                    contacts,
+                    stalled,
+                    settled,
+                },
+            );
+        }
     }
+}
+
+/// Where a resolution's passes stand after a pass: what a resumed resolution goes on from
+/// ([`super::Unfinished`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct PassState {
+    /// Passes that pushed, and the contacts they pushed.
+    pub(super) iterations: u32,
+    pub(super) contacts: u32,
+    /// Whether a joint projection stalled (the passes go on alone).
+    pub(super) stalled: bool,
+    /// Passes in a row that moved no joint (the settled passes' lock).
+    pub(super) settled: u32,
 }
 
 /// Below this share of the clearance, the largest move of a joint in one pass counts as none
