@@ -903,7 +903,8 @@ fn world_move<'a>(
 /// Ties `knot` by the fed loops on the rope held at both ends (`Ends::HeldFed`, perturbed by `rng`),
 /// then tightens it as `hand run --tighten 0.05` does (each end in turn, head first, pulled away from
 /// the knot with the pull flag, 0.05 per request, until it has moved less than a tenth of that for 8
-/// requests; twice round), all through a [`world::World`] in this process. Every accepted state is
+/// requests, those answered out of work not counted up to `clients::script::PULL_WAITS` in a row;
+/// twice round), all through a [`world::World`] in this process. Every accepted state is
 /// checked against the one before by the swept-volume check (`clients::check::crossings_between`).
 fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Checked {
     use world::command::Command;
@@ -950,6 +951,7 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
     for _round in 0..2 {
         for idx in [n, 0] {
             let mut still = 0;
+            let mut waiting = 0;
             let mut ended = false;
             for _ in 0..2000 {
                 let at = prev[idx];
@@ -979,10 +981,16 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
                         );
                     }
                 }
-                still = if (prev[idx] - at).norm() < 0.005 {
-                    still + 1
-                } else {
+                // As the hand waits through pulls answered out of work (their resolution kept).
+                let moved = (prev[idx] - at).norm();
+                let waits = moved < 0.005 && stopped == Some(world::tension::Stop::Work);
+                waiting = if waits { waiting + 1 } else { 0 };
+                still = if moved >= 0.005 {
                     0
+                } else if waits && waiting <= clients::script::PULL_WAITS {
+                    still
+                } else {
+                    still + 1
                 };
                 if still >= 8 {
                     // Held joints (index, anchor, taut toward the head), then their pulls.

@@ -924,6 +924,7 @@ impl TurnRun<'_> {
         let mut rope = rope.to_vec();
         let start = rope[idx];
         let mut still = 0;
+        let mut waiting = 0;
         let mut out = Tightened {
             turn: self.k + 1,
             steps: 0,
@@ -1016,7 +1017,18 @@ impl TurnRun<'_> {
             rope = joints;
             out.pull = pull;
             out.travel = norm(sub(rope[idx], start));
-            still = if moved < 0.1 * speed { still + 1 } else { 0 };
+            // A pull answered out of work has its resolution kept by the service, which goes on
+            // with it when the same pull is asked again: it is not yet stopped (up to
+            // [`crate::script::PULL_WAITS`] such answers in a row).
+            let waits = moved < 0.1 * speed && stop == Some(PullStop::Work);
+            waiting = if waits { waiting + 1 } else { 0 };
+            still = if moved >= 0.1 * speed {
+                0
+            } else if waits && waiting <= crate::script::PULL_WAITS {
+                still
+            } else {
+                still + 1
+            };
             if still >= g.stall {
                 out.why = match (taut, stop) {
                     (true, _) | (false, Some(PullStop::Taut)) => "taut",

@@ -402,7 +402,9 @@ pub fn needle_poses(
 /// length units per request, every request sent with the pull flag (`FLAG_PULL`: the joint goes as
 /// far as the rope lets it, the rest is its pull; docs/tension.md), until the joint has stopped
 /// (moved less than a tenth of `speed`) for `stall` requests in a row: the rope between the hands is
-/// taut or the knot has jammed. "Away from the knot" is away from the centre of the rope's contacts
+/// taut or the knot has jammed. A request answered out of work (`PullStop::Work`: the service keeps
+/// the pull's contact resolution and goes on with it when the same pull is asked again) does not
+/// count, up to [`PULL_WAITS`] in a row. "Away from the knot" is away from the centre of the rope's contacts
 /// (the joints of links within two thicknesses of a link three or more along the rope), recomputed
 /// from every response; along the rope's last link outward when nothing touches. At most `max_steps`
 /// requests.
@@ -419,6 +421,11 @@ pub struct Tighten {
     #[serde(default = "default_tighten_steps")]
     pub max_steps: u32,
 }
+
+/// Requests in a row answered out of work that a tightening pull waits through before they count
+/// as stopped: the service finishes or locks a kept resolution within its pass limit, so this only
+/// bounds a service that would not.
+pub const PULL_WAITS: u32 = 64;
 
 fn default_tighten_speed() -> f64 {
     0.05
