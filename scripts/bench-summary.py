@@ -39,6 +39,8 @@ PICKS = [
      "### Collision cost per move", ["tying", "160", "capsules"], ["median µs", "p99 µs"], "µs"),
     ("Slowest accepted request ÷ its budget's time, knot scene's finest instrument rope",
      "### Every request inside its budget", ["knots.toml", "tie-160"], ["slowest ÷ budget's time"], "×"),
+    ("The square knot tied and tightened by two hands, 320 links: knotted stretch ÷ ideal (issue 38 aims at 1.5) / how the pulls ended",
+     "## How tight the knots get", ["`square-held`", "`hands-320`"], ["stretch ÷ ideal", "how the pulls ended"], ""),
     ("The knot's name with every state, the surgeon's knot tied and tightened, 320 links: p99.9 / max",
      "## How tight the knots get", ["`surgeons-knot`", "`tie-320`"], ["p99.9", "max"], "µs"),
     ("Joint limits (bend radius) ÷ no limits, free rope, 40 links, one substep",
