@@ -413,13 +413,14 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
         self.pressed = pressed;
     }
 
-    /// Whether the moves that follow keep a resolution that runs out of work, and resume it
-    /// ([`Unfinished`]): a move of a rope with held joints in one substep, with
+    /// Whether the moves that follow keep a resolution that runs out of work, and resume it: a move
+    /// of a rope with held joints in one substep, with
     /// [`CollisionWorkspace::solve_contacts_together`] on (a pull's full try), records its passes;
     /// when its work runs out it is refused as before ([`ChainError::OverWork`], the chain
     /// unchanged), and the next such move of the same joint toward the same target from the same
-    /// state goes on from its last pass. Any other state of the chain (another move made, a hold
-    /// taken or let go) makes it stale. Off by default.
+    /// state goes on from its last pass (a locked one is refused so again at once, with no work).
+    /// Any other state of the chain (another move made, a hold taken or let go) makes it stale. Off
+    /// by default.
     pub fn keep_unfinished(&mut self, on: bool) {
         self.unfinished.keep = on;
         self.unfinished.kept = false;
