@@ -756,8 +756,6 @@ impl Tries {
         let r = f(g);
         if let Some((_, ws)) = g.collision.as_mut() {
             ws.keep_unfinished(false);
-        }
-        if let Some((_, ws)) = g.collision.as_mut() {
             self.work = self.work.saturating_add(ws.work());
             ws.solve_contacts_together(false);
         }
@@ -797,11 +795,11 @@ where
         }
     };
     // The full try, and the nearest point when the full move is out of reach, keep their
-    // resolution when it runs out of work (`CollisionWorkspace::keep_unfinished`): the request
-    // then stops there, and the next one toward the same point from the same state goes on from
-    // it with the whole budget (what the tries before it left), until the move is made or locks.
-    // The halvings are for a move that cannot be made (locked, or out of work before its first
-    // pass): a halving made would change the state and lose the resolution kept.
+    // resolution when it runs out of work (`CollisionWorkspace::keep_unfinished`). The halvings
+    // follow as before; when none is made the state is the same, and the next request toward the
+    // same point goes on from the resolution kept, with the whole budget (what the tries before
+    // it left: the halvings after it then have nothing left unless it ends early). A halving
+    // made changes the state, and the next request starts afresh from there.
     let plain = g.eyelets.is_empty() && g.tissue.is_none();
     let resumes = |g: &mut LiveChain<T, D>, p: Point| {
         let p: Vector<T, D> = point(p);
@@ -809,11 +807,6 @@ where
             && g.collision
                 .as_mut()
                 .is_some_and(|(_, ws)| ws.can_resume(&g.chain, joint, &p))
-    };
-    let kept = |g: &LiveChain<T, D>| {
-        g.collision
-            .as_ref()
-            .is_some_and(|(_, ws)| ws.kept_unfinished())
     };
     let share = if resumes(g, target) {
         Share::Rest
@@ -828,9 +821,6 @@ where
         return Err(first);
     };
     g.restore_armed();
-    if kept(g) {
-        return Ok((MoveOutcome::default(), Some(stop)));
-    }
     let mut goal = target;
     let nearest = if first.cause == Cause::Unreachable {
         g.chain
@@ -861,9 +851,6 @@ where
             Err(e) => {
                 stop = stops_short(&e).ok_or(e)?;
                 g.restore_armed();
-                if kept(g) {
-                    return Ok((MoveOutcome::default(), Some(stop)));
-                }
             }
         }
     }

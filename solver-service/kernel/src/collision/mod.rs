@@ -280,8 +280,6 @@ struct Unfinished<T: Real, const D: usize> {
     recorded: bool,
     /// Whether the fields below describe a resolution that can be resumed.
     ready: bool,
-    /// Whether the last move kept its resolution (it ran out of work, recorded or resumed).
-    kept: bool,
     /// The resumed resolution locked, or moved a joint too far: the same move from the same state
     /// is refused so again at once, with no work (the passes would only repeat).
     locked: Option<ChainError>,
@@ -423,7 +421,6 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     /// by default.
     pub fn keep_unfinished(&mut self, on: bool) {
         self.unfinished.keep = on;
-        self.unfinished.kept = false;
     }
 
     /// Whether a move of `joint` of `chain` to `target` would resume an unfinished resolution
@@ -440,12 +437,6 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
         chain.write_positions(&mut self.pos_before);
         self.unfinished
             .matches(joint, target, &held, &self.pos_before)
-    }
-
-    /// Whether the last move since [`CollisionWorkspace::keep_unfinished`] was refused for its work
-    /// and kept its resolution to be resumed.
-    pub fn kept_unfinished(&self) -> bool {
-        self.unfinished.kept
     }
 
     /// Whether [`CollisionWorkspace::solve_contacts_together`] is on (a pull).
@@ -720,7 +711,6 @@ where
     let held: Vec<usize> = chain.held().filter(|&j| j != joint).collect();
     // A pull's full try in one substep records its passes, or goes on from those it recorded.
     let keep = ws.together && ws.unfinished.keep && k == 1;
-    ws.unfinished.kept = false;
     if keep && ws.can_resume(chain, joint, &target) {
         return resume_held(chain, joint, &held, model, ws);
     }
@@ -803,7 +793,6 @@ where
                 if record && ws.unfinished.recorded && matches!(stop, Stop::OverWork) {
                     let u = &mut ws.unfinished;
                     u.ready = true;
-                    u.kept = true;
                     u.locked = None;
                     u.joint = joint;
                     u.target.clear();
@@ -897,9 +886,7 @@ where
             // request would do the same work again and again: like a locked one, it is refused so
             // at once from now on.
             let progressed = ws.unfinished.recorded || !alone;
-            if over && progressed {
-                ws.unfinished.kept = true;
-            } else {
+            if !(over && progressed) {
                 ws.unfinished.locked = Some(e);
             }
             *chain = backup;
