@@ -182,3 +182,77 @@ fn a_pull_refused_for_its_work_goes_on_from_where_it_stopped_when_asked_again() 
         }
     }
 }
+
+/// A kept resolution belongs to its own pull: after a pull toward another point from the same state
+/// that also runs out of work (and keeps its own passes), the first pull asked again does not go on
+/// from the other's passes, and when it is made it lands where it was asked.
+#[test]
+fn a_kept_resolution_is_not_resumed_after_another_pull_recorded_its_own() {
+    let points = tied();
+    let mut rope = Chain::from_points(&points).unwrap();
+    rope.hold(0).unwrap();
+    let resumed = tighten(&mut rope);
+    let (state, target) = resumed
+        .first()
+        .expect("a pull that needed a second request")
+        .clone();
+    let model = model();
+    let mut ws = CollisionWorkspace::new();
+    ws.solve_contacts_together(true);
+    ws.keep_unfinished(true);
+    let mut c = state.clone();
+    ws.limit_work(BUDGET);
+    let first = move_joint_colliding(
+        &mut c,
+        160,
+        target,
+        &MoveOptions::default(),
+        &model,
+        &mut ws,
+    );
+    assert!(
+        matches!(first, Err(ChainError::OverWork { .. })),
+        "{first:?}"
+    );
+    // Another pull from the same state, a little farther the same way, that also runs out of work
+    // and records passes of its own.
+    let way = (target - state.joint(160)).normalize();
+    let aside = [0.002, 0.005, 0.01, 0.02]
+        .into_iter()
+        .map(|d| target + way * d)
+        .find(|p| {
+            ws.limit_work(BUDGET);
+            let r = move_joint_colliding(&mut c, 160, *p, &MoveOptions::default(), &model, &mut ws);
+            if r.is_ok() {
+                c = state.clone();
+            }
+            matches!(r, Err(ChainError::OverWork { .. }))
+        })
+        .expect("no other pull from this state ran out of work");
+    assert!(c == state);
+    for _ in 0..64 {
+        ws.limit_work(BUDGET);
+        match move_joint_colliding(
+            &mut c,
+            160,
+            target,
+            &MoveOptions::default(),
+            &model,
+            &mut ws,
+        ) {
+            Ok(_) => {
+                let head = c.joint(160);
+                assert!(
+                    (head - target).norm() < 1e-9 * 40.0,
+                    "the head landed {:e} from where it was pulled ({:e} from the other pull's point)",
+                    (head - target).norm(),
+                    (head - aside).norm()
+                );
+                return;
+            }
+            Err(ChainError::OverWork { .. }) => assert!(c == state),
+            Err(e) => panic!("the first pull, asked again: {e}"),
+        }
+    }
+    panic!("the first pull was refused for its work 64 times in a row");
+}

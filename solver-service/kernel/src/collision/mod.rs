@@ -779,6 +779,11 @@ where
         }
         chain.write_positions(&mut ws.pos);
         let record = keep && s == 1 && depth == 0;
+        if record {
+            // The passes about to be recorded replace the ones kept: a resolution kept before,
+            // of another move, can no longer be resumed.
+            ws.unfinished.ready = false;
+        }
         ws.unfinished.recording = record;
         ws.unfinished.recorded = false;
         let resolved = resolve(chain, joint, &held, false, model, ws);
