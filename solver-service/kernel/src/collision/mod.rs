@@ -268,8 +268,9 @@ pub struct CollisionWorkspace<T: Real, const D: usize> {
 /// from there instead of doing the same passes again (issue 38: on a knot pulled tight the passes
 /// creep, and a resolution that needs more than one request's work budget was never finished: the
 /// same request was refused the same way each time). Only the move of a single substep that
-/// [`CollisionWorkspace::keep_unfinished`] asks for records its passes; a resumed resolution that
-/// finishes makes the move as one uninterrupted resolution would have made it.
+/// [`CollisionWorkspace::keep_unfinished`] asks for records its passes; a resumed resolution goes
+/// on with the passes' counts where they were (the pass limit and the settled passes count across
+/// requests), its candidate pairs found afresh.
 #[derive(Clone, Debug, Default)]
 struct Unfinished<T: Real, const D: usize> {
     /// Whether the moves that follow record their resolution and resume a matching one.
