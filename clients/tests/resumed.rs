@@ -14,7 +14,7 @@ use nalgebra::Vector3;
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, move_joint_colliding,
 };
-use tractrix::{Chain, ChainError, MoveOptions};
+use tractrix::{Chain, ChainError, MoveOptions, MoveOutcome};
 use world::World;
 use world::command::{Command, NeedleMove, Point};
 use world::scene::parse_scene;
@@ -69,6 +69,18 @@ fn model() -> CollisionModel<f64, 3> {
     }
 }
 
+/// A pull of the head to `target` with [`BUDGET`] link-steps (the contacts solved together, the
+/// resolution kept if `ws` keeps it).
+fn pull(
+    rope: &mut Chain<f64, 3>,
+    target: Vector3<f64>,
+    model: &CollisionModel<f64, 3>,
+    ws: &mut CollisionWorkspace<f64, 3>,
+) -> Result<MoveOutcome, ChainError> {
+    ws.limit_work(BUDGET);
+    move_joint_colliding(rope, 160, target, &MoveOptions::default(), model, ws)
+}
+
 /// The head pulled away from the knot until it has moved less than a tenth of a pull for eight
 /// requests in a row with none refused for its work: the pulls made after a refusal, as the state
 /// before and the target.
@@ -88,8 +100,7 @@ fn tighten(rope: &mut Chain<f64, 3>) -> Vec<(Chain<f64, 3>, Vector3<f64>)> {
         let away = clients::hand::away_from_knot(&array(&prev), 160, THICKNESS).unwrap();
         let target = at + Vector3::from(away) * 0.05;
         let before = rope.clone();
-        ws.limit_work(BUDGET);
-        match move_joint_colliding(rope, 160, target, &MoveOptions::default(), &model, &mut ws) {
+        match pull(rope, target, &model, &mut ws) {
             Ok(_) => {
                 made += 1;
                 if refused > 0 {
@@ -168,15 +179,7 @@ fn a_pull_refused_for_its_work_goes_on_from_where_it_stopped_when_asked_again() 
         ws.solve_contacts_together(true);
         let mut c = state.clone();
         for _ in 0..8 {
-            ws.limit_work(BUDGET);
-            let r = move_joint_colliding(
-                &mut c,
-                160,
-                *target,
-                &MoveOptions::default(),
-                &model,
-                &mut ws,
-            );
+            let r = pull(&mut c, *target, &model, &mut ws);
             assert!(matches!(r, Err(ChainError::OverWork { .. })), "{r:?}");
             assert!(c == *state);
         }
@@ -201,15 +204,7 @@ fn a_kept_resolution_is_not_resumed_after_another_pull_recorded_its_own() {
     ws.solve_contacts_together(true);
     ws.keep_unfinished(true);
     let mut c = state.clone();
-    ws.limit_work(BUDGET);
-    let first = move_joint_colliding(
-        &mut c,
-        160,
-        target,
-        &MoveOptions::default(),
-        &model,
-        &mut ws,
-    );
+    let first = pull(&mut c, target, &model, &mut ws);
     assert!(
         matches!(first, Err(ChainError::OverWork { .. })),
         "{first:?}"
@@ -221,8 +216,7 @@ fn a_kept_resolution_is_not_resumed_after_another_pull_recorded_its_own() {
         .into_iter()
         .map(|d| target + way * d)
         .find(|p| {
-            ws.limit_work(BUDGET);
-            let r = move_joint_colliding(&mut c, 160, *p, &MoveOptions::default(), &model, &mut ws);
+            let r = pull(&mut c, *p, &model, &mut ws);
             if r.is_ok() {
                 c = state.clone();
             }
@@ -231,15 +225,7 @@ fn a_kept_resolution_is_not_resumed_after_another_pull_recorded_its_own() {
         .expect("no other pull from this state ran out of work");
     assert!(c == state);
     for _ in 0..64 {
-        ws.limit_work(BUDGET);
-        match move_joint_colliding(
-            &mut c,
-            160,
-            target,
-            &MoveOptions::default(),
-            &model,
-            &mut ws,
-        ) {
+        match pull(&mut c, target, &model, &mut ws) {
             Ok(_) => {
                 let head = c.joint(160);
                 assert!(

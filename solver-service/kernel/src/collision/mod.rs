@@ -313,20 +313,32 @@ impl<T: Real, const D: usize> Unfinished<T, D> {
         self.recorded = true;
     }
 
-    /// Whether a move of `joint` to `target` with the `held` joints fixed, from the joints `now`, is
-    /// the one recorded.
+    /// Whether a move of `joint` of `chain` to `target` is the one recorded: the same joint, target
+    /// and held joints, from the same joints bit for bit (written to `now`, a buffer).
     fn matches(
         &self,
+        chain: &Chain<T, D>,
         joint: usize,
         target: &Vector<T, D>,
-        held: &[usize],
-        now: &[Vector<T, D>],
-    ) -> bool {
-        self.ready
+        now: &mut Vec<Vector<T, D>>,
+    ) -> bool
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        if !(self.ready
             && self.joint == joint
             && self.target.first() == Some(target)
-            && self.held == held
-            && self.base == now
+            && self
+                .held
+                .iter()
+                .copied()
+                .eq(chain.held().filter(|&j| j != joint)))
+        {
+            return false;
+        }
+        now.resize(chain.n_links() + 1, Vector::zeros());
+        chain.write_positions(now);
+        self.base == *now
     }
 }
 
@@ -430,14 +442,8 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     where
         Vector<T, D>: Embed3<T>,
     {
-        if !self.unfinished.ready {
-            return false;
-        }
-        let held: Vec<usize> = chain.held().filter(|&j| j != joint).collect();
-        self.pos_before.resize(chain.n_links() + 1, Vector::zeros());
-        chain.write_positions(&mut self.pos_before);
         self.unfinished
-            .matches(joint, target, &held, &self.pos_before)
+            .matches(chain, joint, target, &mut self.pos_before)
     }
 
     /// Whether [`CollisionWorkspace::solve_contacts_together`] is on (a pull).
@@ -810,22 +816,13 @@ where
                 return Err(stop.error(s, &ws.meter));
             }
         }
-        if !chain.is_held(0) {
-            chain.translate_to(ws.pos[0]);
-        }
-        chain.repin(joint);
-        // Between held joints the passes re-solve the rope without steering the limits.
-        if let Err(e) = chain.check_limits() {
-            *chain = backup;
-            return Err(e);
-        }
-        chain.write_positions(&mut ws.pos);
-        let jump = ws
-            .pos
-            .iter()
-            .zip(&ws.pos_before)
-            .map(|(a, b)| (a - b).norm())
-            .fold(T::zero(), |m, d| if d > m { d } else { m });
+        let jump = match settle_substep(chain, joint, &mut ws.pos, &ws.pos_before) {
+            Ok(jump) => jump,
+            Err(e) => {
+                *chain = backup;
+                return Err(e);
+            }
+        };
         if ws.together && jump > limit {
             if depth >= GUARD_SPLITS {
                 *chain = backup;
@@ -845,6 +842,32 @@ where
         from = hand;
     }
     Ok(outcome)
+}
+
+/// A substep's end once its contacts are resolved: the chain placed where the passes left it (its
+/// origin at `pos[0]` unless joint 0 is held, the hand's pin re-recorded), its joint limits checked
+/// (between held joints the passes re-solve the rope without steering them), its joints written to
+/// `pos`; the farthest any joint moved from `before`. On an error the caller restores the chain.
+fn settle_substep<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    pos: &mut [Vector<T, D>],
+    before: &[Vector<T, D>],
+) -> Result<T, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if !chain.is_held(0) {
+        chain.translate_to(pos[0]);
+    }
+    chain.repin(joint);
+    chain.check_limits()?;
+    chain.write_positions(pos);
+    Ok(pos
+        .iter()
+        .zip(before)
+        .map(|(a, b)| (a - b).norm())
+        .fold(T::zero(), |m, d| if d > m { d } else { m }))
 }
 
 /// The move of a single substep whose resolution ran out of work ([`Unfinished`]), resumed from its
@@ -899,22 +922,14 @@ where
             return Err(e);
         }
     };
-    if !chain.is_held(0) {
-        chain.translate_to(ws.pos[0]);
-    }
-    chain.repin(joint);
-    if let Err(e) = chain.check_limits() {
-        ws.unfinished.locked = Some(e);
-        *chain = backup;
-        return Err(e);
-    }
-    chain.write_positions(&mut ws.pos);
-    let jump = ws
-        .pos
-        .iter()
-        .zip(&ws.unfinished.base)
-        .map(|(a, b)| (a - b).norm())
-        .fold(T::zero(), |m, d| if d > m { d } else { m });
+    let jump = match settle_substep(chain, joint, &mut ws.pos, &ws.unfinished.base) {
+        Ok(jump) => jump,
+        Err(e) => {
+            ws.unfinished.locked = Some(e);
+            *chain = backup;
+            return Err(e);
+        }
+    };
     if jump > smallest_clearance(chain, model) * T::lit(0.5) {
         // A resumed move cannot be split as a substep is: it locks, as the deepest split does.
         let e = ChainError::Jumped {
