@@ -63,4 +63,16 @@ if [ "$load" -gt 0 ]; then
 fi
 # Every test binary runs even when one fails (cargo stops at the first failing binary otherwise, and
 # the failures after it go unseen).
-step "the tests" cargo test --workspace --no-fail-fast "$@"
+# Skipped tests add a line each to this file (tests::skip): cargo shows nothing of a test that passed.
+skips=$(mktemp)
+export TRACTRIX_TEST_SKIPS=$skips
+tests_rc=0
+step "the tests" cargo test --workspace --no-fail-fast "$@" || tests_rc=$?
+if [ -s "$skips" ]; then
+  echo "== $(sort -u "$skips" | wc -l) skipped (the tests above that passed include them):" >&2
+  sort -u "$skips" >&2
+else
+  echo "== nothing skipped" >&2
+fi
+rm -f "$skips"
+exit "$tests_rc"

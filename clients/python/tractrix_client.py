@@ -21,6 +21,8 @@ import argparse
 import ctypes
 import json
 import math
+import os
+import pwd
 import sys
 import time
 from typing import Iterable, Sequence
@@ -242,6 +244,34 @@ class ServiceError(Exception):
         self.reason = reason
 
 
+IOX_ROOT_BASE = "/tmp/iceoryx2."
+"""The start of the per-user iceoryx2 root directory, followed by the user's numeric id and `/`."""
+
+
+def iceoryx_config_file() -> str | None:
+    """The configuration file iceoryx2 itself loads (the first of its three places that exists)."""
+    home = pwd.getpwuid(os.getuid()).pw_dir  # iceoryx2 reads the password database, not $HOME
+    for place in ("config/iceoryx2.toml", os.path.join(home, ".config/iceoryx2/iceoryx2.toml"),
+                  "/etc/iceoryx2/iceoryx2.toml"):
+        if os.path.isfile(place):
+            return place
+    return None
+
+
+def iceoryx_config(prefix: str = DEFAULT_PREFIX):
+    """The iceoryx2 configuration every process of this protocol uses (the Rust crate `shared`'s
+    `iceoryx_config`): iceoryx2's configuration file when there is one, else its defaults with the
+    per-user root directory `/tmp/iceoryx2.<uid>/`, so two users of one machine never collide; then
+    `prefix`."""
+    # iceoryx2 warns on stderr that no config file exists; the defaults are what we want.
+    iox2.set_log_level_from_env_or(iox2.LogLevel.Error)
+    cfg = iox2.config.global_config()
+    if iceoryx_config_file() is None:
+        cfg.global_cfg.root_path = iox2.Path.new(f"{IOX_ROOT_BASE}{os.geteuid()}/")
+    cfg.global_cfg.prefix = iox2.FileName.new(prefix)
+    return cfg
+
+
 class Client:
     """One client port on the command service. Waits by polling (spin, then short sleeps)."""
 
@@ -249,8 +279,7 @@ class Client:
                  timeout: float = 5.0, max_request_points: int = MAX_PATH_POINTS) -> None:
         """`max_request_points` sizes the request port: raise it to the strands of a bundle to move
         each strand's head to its own target (a pose move, `flags=FLAG_POSE`, takes two points)."""
-        cfg = iox2.config.default()
-        cfg.global_cfg.prefix = iox2.FileName.new(prefix)
+        cfg = iceoryx_config(prefix)
         self.node = iox2.NodeBuilder.new().config(cfg).create(iox2.ServiceType.Ipc)
         deadline = time.monotonic() + wait_for_service
         name = iox2.ServiceName.new(SERVICE_COMMAND)

@@ -209,7 +209,7 @@ impl<S: Service> Connection<S> {
     pub fn open(opts: ConnectOptions) -> Result<Self, CallError> {
         let cfg = shared::iceoryx_config(&opts.prefix).map_err(CallError::Ipc)?;
         let node = NodeBuilder::new().config(&cfg).create::<S>().map_err(|e| {
-            CallError::Ipc(match shared::iceoryx_dir_problem() {
+            CallError::Ipc(match shared::iceoryx_root_problem(&cfg) {
                 Some(why) => format!("node: {e:?}: {why}"),
                 None => format!("node: {e:?}"),
             })

@@ -181,6 +181,11 @@ use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
+pub mod iox;
+pub use iox::{
+    IOX_ROOT_BASE, iceoryx_config, iceoryx_config_file, iceoryx_root, iceoryx_root_problem,
+    service_name, stop_requested,
+};
 pub mod text;
 pub mod unix_frame;
 
@@ -371,79 +376,6 @@ pub const COLLISION_SELF: u32 = 1;
 pub const COLLISION_OBSTACLES: u32 = 2;
 /// Collision bit: the chain uses the paper's bounding spheres (section 4.2) instead of capsules.
 pub const COLLISION_PAPER_SPHERES: u32 = 4;
-
-/// Sleeps `d` on `node` and says whether SIGINT or SIGTERM asks the process to stop. A signal that only
-/// interrupts the sleep is not a stop: iceoryx2's `Node::wait` reports any interrupted sleep as
-/// `Interrupt`, so a process stopped and continued (Ctrl-Z then `fg`, a debugger, a frozen container)
-/// would otherwise quit when continued; after such an interruption the termination flag is asked
-/// again.
-pub fn stop_requested<S: iceoryx2::service::Service>(
-    node: &iceoryx2::node::Node<S>,
-    d: std::time::Duration,
-) -> bool {
-    match node.wait(d) {
-        Ok(()) => false,
-        Err(iceoryx2::node::NodeWaitFailure::TerminationRequest) => true,
-        Err(iceoryx2::node::NodeWaitFailure::Interrupt) => {
-            node.wait(std::time::Duration::ZERO).is_err()
-        }
-    }
-}
-
-/// The iceoryx2 configuration of one instance: the global configuration with `prefix` (a valid file-name
-/// prefix such as `tractrix_` or `kt1234_7_`). Processes see each other only with the same prefix.
-pub fn iceoryx_config(prefix: &str) -> Result<iceoryx2::config::Config, String> {
-    if prefix.is_empty()
-        || prefix.len() > 64
-        || !prefix
-            .bytes()
-            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-' || b == b'.')
-    {
-        return Err(format!(
-            "prefix {prefix:?}: use 1..=64 characters from [A-Za-z0-9_.-]"
-        ));
-    }
-    // iceoryx2 warns on stderr that no config file exists; the defaults are what we want.
-    if std::env::var_os("IOX2_LOG_LEVEL").is_none() {
-        iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
-    }
-    let mut cfg = iceoryx2::config::Config::global_config().clone();
-    use iceoryx2::prelude::SemanticString;
-    cfg.global.prefix = iceoryx2::prelude::FileName::new(prefix.as_bytes())
-        .map_err(|e| format!("prefix {prefix:?}: {e:?}"))?;
-    Ok(cfg)
-}
-
-/// iceoryx2's directory of node and service files (its default root path): every process of every
-/// user on the machine shares it.
-pub const ICEORYX_DIR: &str = "/tmp/iceoryx2";
-
-/// Why iceoryx2 could not create a node, when the reason is its directory: [`ICEORYX_DIR`] made by
-/// another user (iceoryx2 makes it owner-only), where this process cannot create its files. `None`
-/// when the directory is missing or writable.
-pub fn iceoryx_dir_problem() -> Option<String> {
-    use std::os::unix::fs::MetadataExt;
-    let dir = std::path::Path::new(ICEORYX_DIR);
-    let owner = std::fs::metadata(dir).ok()?.uid();
-    let probe = dir.join(format!(".tractrix-probe-{}", std::process::id()));
-    match std::fs::File::create(&probe) {
-        Ok(_) => {
-            let _ = std::fs::remove_file(&probe);
-            None
-        }
-        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => Some(format!(
-            "{ICEORYX_DIR} belongs to another user (uid {owner}), so this user cannot open iceoryx2 \
-             ports: iceoryx2 processes of different users cannot share it. Run as that user, or \
-             remove the directory as its owner when no iceoryx2 process runs"
-        )),
-        Err(_) => None,
-    }
-}
-
-/// A service name of this protocol (one of the `SERVICE_*` constants).
-pub fn service_name(s: &str) -> Result<iceoryx2::prelude::ServiceName, String> {
-    s.try_into().map_err(|e| format!("service name {s}: {e:?}"))
-}
 
 /// How a server of this protocol waits for requests, and how a client waits for its response.
 ///

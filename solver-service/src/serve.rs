@@ -164,7 +164,7 @@ impl<S: Service> ServerPorts<S> {
             .create::<S>()
             .map_err(|e| PortError::Iceoryx {
                 what: "cannot create the iceoryx2 node",
-                detail: match shared::iceoryx_dir_problem() {
+                detail: match shared::iceoryx_root_problem(iox) {
                     Some(why) => format!("{e:?}: {why}"),
                     None => format!("{e:?}"),
                 },

@@ -58,11 +58,31 @@ pub fn system_packages(test: &str, needs: &[&str]) -> bool {
         "{test}: {} missing, and CI=true skips nothing: run scripts/system-packages.sh as root",
         missing.join(", ")
     );
-    eprintln!(
-        "skipped {test}: {} missing (scripts/system-packages.sh installs them as root or with sudo)",
+    skip(&format!(
+        "{test}: {} missing (scripts/system-packages.sh installs them as root or with sudo)",
         missing.join(", ")
-    );
+    ));
     false
+}
+
+/// The environment variable naming the file where skipped tests add their line (`scripts/test.sh`
+/// sets it and prints the file after the tests: cargo shows no output of a test that passed).
+pub const SKIPS_ENV: &str = "TRACTRIX_TEST_SKIPS";
+
+/// Says that a test (or part of one) is skipped and why: one line on stderr, and one in the file
+/// [`SKIPS_ENV`] names, for the test command's summary.
+pub fn skip(why: &str) {
+    eprintln!("skipped {why}");
+    if let Some(path) = std::env::var_os(SKIPS_ENV) {
+        use std::io::Write;
+        if let Ok(mut f) = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+        {
+            let _ = writeln!(f, "skipped {why}");
+        }
+    }
 }
 
 /// Runs `cargo ARGS` (the cargo that runs the tests) and fails the test if the build fails: for what a
