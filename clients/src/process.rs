@@ -50,10 +50,12 @@ impl Proc {
             }
             Ok(l) => bail!("{what} said {l:?} instead of getting ready"),
             // Its stdout closed: it has exited (or is exiting) without a ready line.
-            Err(mpsc::RecvTimeoutError::Disconnected) => match p.wait_exit(Duration::from_secs(5)) {
-                Ok(status) => bail!("{what} exited with {status} before getting ready"),
-                Err(_) => bail!("{what} closed its stdout without getting ready"),
-            },
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                match p.wait_exit(Duration::from_secs(5)) {
+                    Ok(status) => bail!("{what} exited with {status} before getting ready"),
+                    Err(_) => bail!("{what} closed its stdout without getting ready"),
+                }
+            }
             Err(mpsc::RecvTimeoutError::Timeout) => {
                 bail!("{what} did not get ready within {START_TIMEOUT:?}")
             }

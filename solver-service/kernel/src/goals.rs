@@ -12,15 +12,18 @@
 //! * [`Goal::Box`], [`Goal::Ball`]: the head anywhere inside a region ("constrain the fingertip to lie
 //!   within a rectangular box"). A head already inside does not move; otherwise the chain reaches for
 //!   the region's nearest point to the head, a tolerance inside its boundary (so the solved head lies
-//!   in the region, not a tolerance outside it), which moves it only as far as needed. When that point
-//!   is outside the workspace, the workspace's nearest point to it is taken if it lies in the region;
-//!   otherwise the goal is refused with that point.
+//!   in the region, not a tolerance outside it), which moves it only as far as needed. The goal is the
+//!   region and the workspace together: when that point is outside the workspace (the shell between
+//!   [`workspace_radii`]), the aim moves along the region toward its point nearest to (or, for the
+//!   workspace's hole, farthest from) the base until it is inside. A region refused has no point in
+//!   common with the workspace; the refusal names the workspace's point nearest to it.
 //!
 //! [`reach_goal`] with [`Goal::Point`] is [`reach`].
 
 use crate::chain::{Chain, ChainError};
 use crate::fixed_base::{
     ReachError, ReachOptions, ReachOutcome, ReachWorkspace, nearest_reachable, reach,
+    workspace_radii,
 };
 use crate::math::{Embed3, Real, Vector, all_finite, positive_finite};
 
@@ -88,6 +91,39 @@ impl<T: Real, const D: usize> Goal<T, D> {
         }
     }
 
+    /// The goal's farthest point from `p`, `margin` inside a region's boundary as in
+    /// [`Goal::nearest_inside`] (a box's farthest corner, a ball's point opposite `p`).
+    fn farthest_inside(&self, p: &Vector<T, D>, margin: T) -> Vector<T, D> {
+        match self {
+            Goal::Point(q) | Goal::Pose { at: q, .. } => *q,
+            Goal::Box { lo, hi } => {
+                let mut q = *p;
+                for i in 0..D {
+                    let m = margin.min((hi[i] - lo[i]) * T::lit(0.5));
+                    let (a, b) = (lo[i] + m, hi[i] - m);
+                    q[i] = if (p[i] - a).abs() >= (b - p[i]).abs() {
+                        a
+                    } else {
+                        b
+                    };
+                }
+                q
+            }
+            Goal::Ball { centre, radius } => {
+                let inner = (*radius - margin).max(*radius * T::lit(0.5));
+                let d = centre - p;
+                let r = d.norm();
+                if r > T::zero() {
+                    centre + d * (inner / r)
+                } else {
+                    let mut e = Vector::zeros();
+                    e[0] = inner;
+                    centre + e
+                }
+            }
+        }
+    }
+
     fn check(&self) -> Result<(), ChainError> {
         let finite = match self {
             Goal::Point(q) => all_finite(q),
@@ -141,19 +177,7 @@ where
             let tol = opts.tolerance * chain.total_length();
             // Twice the tolerance inside: the solve lands within the tolerance of its aim.
             let aim = goal.nearest_inside(&head, tol * T::lit(2.0));
-            let base = chain.origin();
-            let (near, outside) = nearest_reachable(&base, chain.lengths(), &aim, &(head - base));
-            let aim = if outside > T::zero() {
-                if !goal.contains(&near) {
-                    return Err(ReachError::Unreachable {
-                        nearest: near,
-                        residual: outside,
-                    });
-                }
-                near
-            } else {
-                aim
-            };
+            let aim = region_aim(goal, chain, &aim, tol * T::lit(2.0))?;
             let mut o = reach(chain, &aim, opts, ws)?;
             let head = chain.head();
             o.residual = if goal.contains(&head) {
@@ -164,6 +188,81 @@ where
             Ok(o)
         }
     }
+}
+
+/// Where a region goal's reach aims: `start` (the region's point nearest the head, `margin` inside)
+/// if the workspace holds it, else a point of the region and the workspace together, on the segment
+/// from `start` to the region's point nearest to the base (`start` beyond the workspace) or farthest
+/// from it (`start` in the workspace's hole), `margin` inside both where they overlap by more. When
+/// they have no point in common, the refusal with the workspace's point nearest to the region.
+fn region_aim<T: Real, const D: usize>(
+    goal: &Goal<T, D>,
+    chain: &Chain<T, D>,
+    start: &Vector<T, D>,
+    margin: T,
+) -> Result<Vector<T, D>, ReachError<T, D>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let base = chain.origin();
+    let lengths = chain.lengths();
+    let fallback = chain.head() - base;
+    let (inner, outer) = workspace_radii(lengths);
+    let dist = |q: &Vector<T, D>| (q - base).norm();
+    // The region meets the shell iff its nearest point to the base is inside the outer sphere and its
+    // farthest outside the inner one (the region is convex: between them lie all distances).
+    let near = goal.nearest_inside(&base, T::zero());
+    let far = goal.farthest_inside(&base, T::zero());
+    for (edge, apart) in [(near, dist(&near) > outer), (far, dist(&far) < inner)] {
+        if apart {
+            let (nearest, residual) = nearest_reachable(&base, lengths, &edge, &fallback);
+            return Err(ReachError::Unreachable { nearest, residual });
+        }
+    }
+    let (lo, hi) = if inner + margin <= outer - margin {
+        (inner + margin, outer - margin)
+    } else {
+        let mid = (inner + outer) * T::lit(0.5);
+        (mid, mid)
+    };
+    let r0 = dist(start);
+    if lo <= r0 && r0 <= hi {
+        return Ok(*start);
+    }
+    // Toward the base's nearest point when too far, its farthest when too near; the margin kept
+    // inside the region where the shrunk region still reaches the wanted distance.
+    let (rho, shrunk, edge) = if r0 > hi {
+        (hi, goal.nearest_inside(&base, margin), near)
+    } else {
+        (lo, goal.farthest_inside(&base, margin), far)
+    };
+    let past = |q: &Vector<T, D>| {
+        if r0 > hi {
+            dist(q) <= rho
+        } else {
+            dist(q) >= rho
+        }
+    };
+    let end = if past(&shrunk) {
+        shrunk
+    } else if past(&edge) {
+        edge
+    } else {
+        // The overlap is thinner than the margin: the workspace's point nearest to the region's edge
+        // (the solve lands within its tolerance of the region).
+        return Ok(nearest_reachable(&base, lengths, &edge, &fallback).0);
+    };
+    // Bisection on the segment: `start` is short of the distance, `end` past it.
+    let (mut a, mut b) = (T::zero(), T::one());
+    for _ in 0..64 {
+        let t = (a + b) * T::lit(0.5);
+        if past(&(start + (end - start) * t)) {
+            b = t;
+        } else {
+            a = t;
+        }
+    }
+    Ok(start + (end - start) * b)
 }
 
 /// [`Goal::Pose`]: the chain without its last link reaches the wrist, then the last link is laid
@@ -363,6 +462,60 @@ mod tests {
         reach_goal(&mut c, &edge, &opts, &mut ws).unwrap();
         let h = joints(&c)[10];
         assert!((h - Vector2::new(0.0, 2.2)).norm() <= 0.3, "{h:?}");
+    }
+
+    /// The default scene's arm (reach 2, head at (2, 0)): a box round the head's corner of the
+    /// workspace holds reachable points such as (1.98, 0.05), though its point nearest the head is
+    /// out of reach; the head ends in the box and in reach, by the test's own distances. A box beyond
+    /// the reach by 1e-6 is refused.
+    #[test]
+    fn a_region_the_workspace_only_partly_holds_is_met() {
+        let opts = ReachOptions::default();
+        let mut ws = ReachWorkspace::default();
+        let mut c = arm();
+        let (lo, hi) = (Vector2::new(1.95, 0.01), Vector2::new(2.1, 0.1));
+        assert!(
+            (Vector2::new(1.98, 0.05)).norm() < 2.0,
+            "the box holds a reachable point"
+        );
+        reach_goal(&mut c, &Goal::Box { lo, hi }, &opts, &mut ws).unwrap();
+        let h = joints(&c)[10];
+        assert!(
+            h.x >= lo.x && h.x <= hi.x && h.y >= lo.y && h.y <= hi.y,
+            "{h:?}"
+        );
+        assert!(h.norm() <= 2.0 + 1e-12, "{h:?}");
+        // The same round the hole of a chain whose first link is longer than the rest together.
+        let mut c = Chain::from_raw_parts(
+            Vector2::zeros(),
+            vec![Vector2::new(3.0, 0.0), Vector2::new(1.0, 0.0)],
+            vec![3.0, 1.0],
+        )
+        .unwrap();
+        // The workspace is the ring 2 ≤ r ≤ 4; this box reaches from r 1.5 to just past 2, its
+        // point nearest the head (4, 0) in the hole.
+        let (lo, hi) = (Vector2::new(-0.1, 1.5), Vector2::new(0.1, 2.05));
+        reach_goal(&mut c, &Goal::Box { lo, hi }, &opts, &mut ws).unwrap();
+        let h = c.origin() + c.links()[0] + c.links()[1];
+        assert!(
+            h.x >= lo.x && h.x <= hi.x && h.y >= lo.y && h.y <= hi.y,
+            "{h:?}"
+        );
+        assert!(h.norm() >= 2.0 - 1e-9, "{h:?}");
+        let mut c = arm();
+        let out = Goal::Box {
+            lo: Vector2::new(2.0 + 1e-6, -0.1),
+            hi: Vector2::new(2.1, 0.1),
+        };
+        let e = reach_goal(&mut c, &out, &opts, &mut ws).unwrap_err();
+        let ReachError::Unreachable { nearest, residual } = e else {
+            panic!("{e:?}")
+        };
+        assert!(
+            (nearest - Vector2::new(2.0, 0.0)).norm() < 1e-12,
+            "{nearest:?}"
+        );
+        assert!((residual - 1e-6).abs() < 1e-12, "{residual}");
     }
 
     #[test]

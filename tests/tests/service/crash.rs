@@ -251,7 +251,9 @@ impl Tmpfs {
                 .any(|l| l.starts_with("Uid:") && l.split_whitespace().nth(2) == Some("0"))
         });
         if !root && std::env::var("CI").as_deref() != Ok("true") {
-            tests::skip("the full-disk test: mounting a tmpfs to fill needs root (CI runs it as root)");
+            tests::skip(
+                "the full-disk test: mounting a tmpfs to fill needs root (CI runs it as root)",
+            );
             return None;
         }
         panic!(

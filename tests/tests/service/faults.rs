@@ -307,7 +307,9 @@ fn a_full_dev_shm_fails_the_start_with_a_message_and_a_running_service_keeps_ser
             std::env::var("CI").as_deref() != Ok("true"),
             "CI must be able to make a private mount namespace (unshare -m)"
         );
-        tests::skip("the full /dev/shm test: no private mount namespace here (unshare -m and unshare -Urm refused)");
+        tests::skip(
+            "the full /dev/shm test: no private mount namespace here (unshare -m and unshare -Urm refused)",
+        );
         return;
     };
     let err = String::from_utf8_lossy(&out.stderr);
