@@ -762,14 +762,7 @@ impl World {
                 Ok(())
             }
             Command::Reset { .. } => {
-                each_form!(&mut *g, h => {
-                    h.chain.copy_from(&h.initial);
-                    h.eyelets.clone_from(&h.eyelets_initial);
-                    h.tension.clear();
-                    let initial = std::mem::take(&mut h.instruments_initial);
-                    h.instruments_mut().copy_from_slice(&initial);
-                    h.instruments_initial = initial;
-                });
+                each_form!(&mut *g, h => h.load(crate::form::Kept::Initial));
                 Ok(())
             }
             Command::Instrument {

@@ -11,16 +11,47 @@ use tractrix::eyelet::{Eyelet, EyeletWorkspace};
 use tractrix::math::{Embed3, Real, Vector};
 use tractrix::{Chain, ChainError, ReachWorkspace};
 
+/// What a request changes of one rope, as one value: its chain, its instruments' poses, its eyelets
+/// and the targets its hands asked for that stopped short ([`crate::tension`]). A [`LiveChain`] keeps
+/// three besides its live state: the scene's (reset), the one before the last change (undo) and the
+/// furthest a pulled move reached. A new piece of rope state is a field here and a line in each of
+/// [`LiveChain::save`] and [`LiveChain::load`], the only two places that copy it.
+#[derive(Debug, Clone)]
+pub struct RopeState<T: Real, const D: usize> {
+    /// The chain: its joints, held joints and limits.
+    pub chain: Chain<T, D>,
+    /// The instruments' poses, in the scene's order.
+    pub instruments: Vec<Obstacle<T, D>>,
+    /// The eyelets the chain passes through (or has left).
+    pub eyelets: Vec<Eyelet<T, D>>,
+    /// The asked targets that stopped short: of held joints, then of instruments.
+    pub asked: (Vec<crate::tension::Asked>, Vec<crate::tension::Asked>),
+}
+
+/// Which of a [`LiveChain`]'s kept [`RopeState`]s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Kept {
+    /// The scene's state (reset).
+    Initial,
+    /// The state before the last change ([`World::undo`](crate::World::undo)).
+    Before,
+    /// The furthest pose a pulled move reached so far.
+    Best,
+}
+
 /// A chain in the precision and dimension its scene declared, with its scene state (for reset) and the
 /// buffers its requests reuse (allocated once).
 #[derive(Debug, Clone)]
 pub struct LiveChain<T: Real, const D: usize> {
-    /// The current state.
+    /// The current state (with the instruments in the collision model, the eyelets and the tension:
+    /// together the live [`RopeState`]).
     pub chain: Chain<T, D>,
     /// The scene's state (reset).
-    pub initial: Chain<T, D>,
+    pub initial: RopeState<T, D>,
     /// The state before the last change ([`World::undo`]).
-    pub(crate) before: Chain<T, D>,
+    pub(crate) before: RopeState<T, D>,
+    /// The furthest pose a pulled move reached so far.
+    pub(crate) best: RopeState<T, D>,
     pub(crate) ws: ReachWorkspace<T, D>,
     /// Collision model and buffers, only for chains whose scene declares collision.
     pub(crate) collision: Option<(CollisionModel<T, D>, CollisionWorkspace<T, D>)>,
@@ -28,11 +59,8 @@ pub struct LiveChain<T: Real, const D: usize> {
     pub(crate) targets: Vec<Vector<T, D>>,
     /// The joints a carried needle is checked against (kept between requests).
     pub(crate) needle_joints: Vec<Vector<T, D>>,
-    /// The chain's instruments: where they start in the collision model's obstacles (after the static
-    /// ones), their scene poses (reset) and their poses before the last change (undo).
+    /// Where the chain's instruments start in the collision model's obstacles (after the static ones).
     pub(crate) instruments_at: usize,
-    pub(crate) instruments_initial: Vec<Obstacle<T, D>>,
-    pub(crate) instruments_before: Vec<Obstacle<T, D>>,
     /// For each instrument, the joint it rides with (scene `follows`).
     pub(crate) follows: Vec<Option<usize>>,
     /// What the hands feel: asked targets that stopped short, and the pulls they give.
@@ -41,16 +69,8 @@ pub struct LiveChain<T: Real, const D: usize> {
     pub(crate) prefix: Vec<f64>,
     /// How much shorter than its rope a taut stretch's chord may be ([`crate::tension::taut_slack`]).
     pub(crate) taut_slack: f64,
-    /// The furthest pose a pulled move reached so far (its chain and instruments).
-    pub(crate) best: Chain<T, D>,
-    pub(crate) instruments_best: Vec<Obstacle<T, D>>,
-    /// The eyelets the chain passes through (scene `eyelets`): now, at the scene's start (reset),
-    /// before the last change (undo) and at the furthest pose of a pulled move; and the buffers of a
-    /// threaded move.
+    /// The eyelets the chain passes through (scene `eyelets`), and the buffers of a threaded move.
     pub(crate) eyelets: Vec<Eyelet<T, D>>,
-    pub(crate) eyelets_initial: Vec<Eyelet<T, D>>,
-    pub(crate) eyelets_before: Vec<Eyelet<T, D>>,
-    pub(crate) eyelets_best: Vec<Eyelet<T, D>>,
     pub(crate) eyelet_ws: EyeletWorkspace<T, D>,
     /// The block of tissue the head pierces (scene `tissue`: its lower and upper corners).
     pub(crate) tissue: Option<(Point, Point)>,
@@ -76,63 +96,85 @@ where
             .as_mut()
             .map_or(&mut [][..], |(m, _)| &mut m.obstacles[at..])
     }
+    /// Copies the live state into the kept state `which` (no allocation once warm).
+    pub(crate) fn save(&mut self, which: Kept) {
+        let LiveChain {
+            chain,
+            initial,
+            before,
+            best,
+            collision,
+            instruments_at,
+            tension,
+            eyelets,
+            ..
+        } = self;
+        let to = match which {
+            Kept::Initial => initial,
+            Kept::Before => before,
+            Kept::Best => best,
+        };
+        to.chain.copy_from(chain);
+        to.instruments.clear();
+        if let Some((m, _)) = collision {
+            to.instruments
+                .extend_from_slice(&m.obstacles[*instruments_at..]);
+        }
+        to.eyelets.clone_from(eyelets);
+        to.asked.0.clone_from(&tension.joints);
+        to.asked.1.clone_from(&tension.instruments);
+    }
+    /// Makes the kept state `which` the live one, keeping it (the pulls are not refreshed: see
+    /// [`LiveChain::refresh_tension`]).
+    pub(crate) fn load(&mut self, which: Kept) {
+        let LiveChain {
+            chain,
+            initial,
+            before,
+            best,
+            collision,
+            instruments_at,
+            tension,
+            eyelets,
+            ..
+        } = self;
+        let from = match which {
+            Kept::Initial => &*initial,
+            Kept::Before => &*before,
+            Kept::Best => &*best,
+        };
+        chain.copy_from(&from.chain);
+        if let Some((m, _)) = collision {
+            let now = &mut m.obstacles[*instruments_at..];
+            if now.len() == from.instruments.len() {
+                now.copy_from_slice(&from.instruments);
+            }
+        }
+        eyelets.clone_from(&from.eyelets);
+        tension.joints.clone_from(&from.asked.0);
+        tension.instruments.clone_from(&from.asked.1);
+    }
     /// Remembers the state for [`World::undo`] (no allocation once warm).
     pub(crate) fn arm_undo(&mut self) {
-        self.before.copy_from(&self.chain);
-        if let Some((m, _)) = &self.collision {
-            // Same length every time: no allocation once warm.
-            self.instruments_before.clear();
-            self.instruments_before
-                .extend_from_slice(&m.obstacles[self.instruments_at..]);
-        }
-        self.tension.arm_undo();
-        self.eyelets_before.clone_from(&self.eyelets);
+        self.save(Kept::Before);
     }
-    /// Puts back the state [`LiveChain::arm_undo`] remembered.
+    /// Puts back the state [`LiveChain::arm_undo`] remembered, its pulls refreshed.
     pub(crate) fn swap_undo(&mut self) {
-        std::mem::swap(&mut self.chain, &mut self.before);
-        let before = std::mem::take(&mut self.instruments_before);
-        let now = self.instruments_mut();
-        if now.len() == before.len() {
-            now.copy_from_slice(&before);
-        }
-        self.instruments_before = before;
-        std::mem::swap(&mut self.eyelets, &mut self.eyelets_before);
-        self.tension.swap_undo();
+        self.load(Kept::Before);
         self.refresh_tension();
     }
     /// Back to the state [`LiveChain::arm_undo`] remembered, keeping that memory (a pulled move's next
     /// try).
     pub(crate) fn restore_armed(&mut self) {
-        self.chain.copy_from(&self.before);
-        self.eyelets.clone_from(&self.eyelets_before);
-        let before = std::mem::take(&mut self.instruments_before);
-        let now = self.instruments_mut();
-        if now.len() == before.len() {
-            now.copy_from_slice(&before);
-        }
-        self.instruments_before = before;
+        self.load(Kept::Before);
     }
     /// Remembers the state as the furthest a pulled move reached.
     pub(crate) fn keep_best(&mut self) {
-        self.best.copy_from(&self.chain);
-        self.eyelets_best.clone_from(&self.eyelets);
-        let at = self.instruments_at;
-        if let Some((m, _)) = &self.collision {
-            self.instruments_best.clear();
-            self.instruments_best.extend_from_slice(&m.obstacles[at..]);
-        }
+        self.save(Kept::Best);
     }
     /// Puts back the state [`LiveChain::keep_best`] remembered.
     pub(crate) fn take_best(&mut self) {
-        self.chain.copy_from(&self.best);
-        self.eyelets.clone_from(&self.eyelets_best);
-        let best = std::mem::take(&mut self.instruments_best);
-        let now = self.instruments_mut();
-        if now.len() == best.len() {
-            now.copy_from_slice(&best);
-        }
-        self.instruments_best = best;
+        self.load(Kept::Best);
     }
     /// The eyelets the chain passes through (or has left).
     pub fn eyelets(&self) -> &[Eyelet<T, D>] {
@@ -358,25 +400,28 @@ where
     for l in &spec.lengths {
         prefix.push(prefix[prefix.len() - 1] + l);
     }
+    let kept = RopeState {
+        chain: chain.clone(),
+        instruments: Vec::new(),
+        eyelets: Vec::new(),
+        asked: (Vec::new(), Vec::new()),
+    };
     let mut h = LiveChain {
-        initial: chain.clone(),
-        before: chain.clone(),
-        best: chain.clone(),
+        initial: kept.clone(),
+        before: kept.clone(),
+        best: kept,
         chain,
         ws: ReachWorkspace::default(),
         collision,
         targets: Vec::new(),
         needle_joints: Vec::new(),
         instruments_at,
-        instruments_initial: Vec::new(),
-        instruments_before: Vec::new(),
         follows: spec.collision.as_ref().map_or_else(Vec::new, |c| {
             c.follows.iter().map(|f| f.map(|j| j as usize)).collect()
         }),
         tension: crate::tension::Tension::default(),
         taut_slack: crate::tension::taut_slack(spec.moves.held.tolerance, prefix[prefix.len() - 1]),
         prefix,
-        instruments_best: Vec::new(),
         eyelets: spec
             .eyelets
             .iter()
@@ -386,9 +431,6 @@ where
                 threaded: true,
             })
             .collect(),
-        eyelets_initial: Vec::new(),
-        eyelets_before: Vec::new(),
-        eyelets_best: Vec::new(),
         // A held side through eyelets alternates as many times as a fixed-base solve iterates
         // before the reach hierarchy finishes it.
         eyelet_ws: EyeletWorkspace::new()
@@ -404,12 +446,9 @@ where
         wound: spec.wound,
         needle: spec.needle,
     };
-    h.eyelets_initial = h.eyelets.clone();
-    h.eyelets_before = h.eyelets.clone();
-    h.eyelets_best = h.eyelets.clone();
-    h.instruments_initial = h.instruments().to_vec();
-    h.instruments_before = h.instruments_initial.clone();
-    h.instruments_best = h.instruments_initial.clone();
+    for which in [Kept::Initial, Kept::Before, Kept::Best] {
+        h.save(which);
+    }
     h.refresh_tension();
     Ok(h)
 }

@@ -189,7 +189,7 @@ impl World {
             };
             let mut g = geometry.clone();
             each_form!(&mut g, h => {
-                h.chain = rebuild(&h.initial, &s.origin, &s.links, &s.held, &s.datum).map_err(pose)?;
+                h.chain = rebuild(&h.initial.chain, &s.origin, &s.links, &s.held, &s.datum).map_err(pose)?;
                 h.set_instrument_numbers(&s.instruments).map_err(|e| pose(e.to_string()))?;
                 let n_inst = h.instruments().len();
                 if let Some(a) = s.asked_joints.iter().find(|a| !h.chain.is_held(a.at)) {
@@ -227,7 +227,7 @@ fn set_eyelets<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    let scene = &h.eyelets_initial;
+    let scene = &h.initial.eyelets;
     let same_points = eyelets.len() == scene.len()
         && eyelets.iter().zip(scene).all(|(e, s)| {
             e.0.len() == D && e.0.iter().zip(s.at.iter()).all(|(a, b)| *a == b.to_f64())

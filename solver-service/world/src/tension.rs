@@ -66,8 +66,6 @@ pub struct Tension {
     pub(crate) pulls: Vec<Point>,
     /// One per held joint: the stretch from it to the next held joint toward the head is taut.
     pub(crate) taut: Vec<bool>,
-    /// The asked targets before the last change (undo).
-    before: (Vec<Asked>, Vec<Asked>),
 }
 
 impl Tension {
@@ -93,24 +91,9 @@ impl Tension {
             });
         }
     }
-    /// Remembers the asked targets for an undo (no allocation once warm).
-    pub(crate) fn arm_undo(&mut self) {
-        self.before.0.clone_from(&self.joints);
-        self.before.1.clone_from(&self.instruments);
-    }
-    /// Puts back what [`Tension::arm_undo`] remembered (the pulls are then refreshed).
-    pub(crate) fn swap_undo(&mut self) {
-        std::mem::swap(&mut self.joints, &mut self.before.0);
-        std::mem::swap(&mut self.instruments, &mut self.before.1);
-    }
     /// Forgets joint `joint`'s asked target (released).
     pub(crate) fn released(&mut self, joint: usize) {
         self.joints.retain(|a| a.at != joint);
-    }
-    /// Forgets everything (reset).
-    pub(crate) fn clear(&mut self) {
-        self.joints.clear();
-        self.instruments.clear();
     }
     /// The asked targets (a snapshot), joints then instruments.
     pub fn asked(&self) -> (&[Asked], &[Asked]) {
