@@ -16,10 +16,9 @@
 //! `OVERHEAD_BENCH_SCALE` (default 1.0) scales the work.
 
 use nalgebra::Vector3;
-use shared::{Command, JOINT_HEAD, RequestHeader, ResponseHeader, Vec3};
+use shared::{Command, JOINT_HEAD, RequestHeader, Vec3};
 use solver_service::serve::{Handler, respond};
 use solver_service::service::Solver;
-use solver_service::wire::WireWorld;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 use tractrix::{Chain, Method, MoveOptions, Real, Substeps};
@@ -111,14 +110,11 @@ impl<T: Real> Way<T> {
                 .iter()
                 .map(|p| [p.x.to_f64(), p.y.to_f64(), p.z.to_f64()])
                 .collect(),
-            Way::Handle(s, _) => {
-                let mut h = ResponseHeader {
-                    n_joints: s.set().specs()[0].lengths.len() as u32 + 1,
-                    ..ResponseHeader::default()
-                };
-                h.chain = 0;
-                s.set().elements(&h).map(|v| [v.x, v.y, v.z]).collect()
-            }
+            Way::Handle(s, _) => s
+                .set()
+                .elements_of(0, false)
+                .map(|v| [v.x, v.y, v.z])
+                .collect(),
         }
     }
 }

@@ -4,6 +4,7 @@
 
 use crate::serve::{ElementSink, ElementSource, Handled, Handler};
 use shared::{RequestHeader, ResponseHeader, Vec3};
+use world::elements::Counts;
 
 /// Answers every request with `elements` copies of one point.
 #[derive(Debug, Clone, Copy)]
@@ -22,13 +23,18 @@ impl Handler for Echo {
                 n_joints: self.elements,
                 ..ResponseHeader::default()
             },
+            chain: 0,
+            counts: Counts {
+                joints: self.elements,
+                ..Counts::default()
+            },
             changed: false,
             bundle: false,
             landing: None,
         }
     }
 
-    fn write<K: ElementSink>(&self, _h: &ResponseHeader, sink: K) -> K::Out {
+    fn write<K: ElementSink>(&self, _chain: u32, _counts: &Counts, sink: K) -> K::Out {
         sink.take(Same)
     }
 }

@@ -49,6 +49,7 @@ use std::mem::MaybeUninit;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
+use world::elements::Counts;
 
 /// How often the loop looks for a termination request and runs housekeeping, under any traffic.
 pub const CHECK_EVERY: Duration = Duration::from_millis(1);
@@ -330,13 +331,19 @@ fn stream_publisher<S: Service>(
         })
 }
 
-/// A handled request: the response header (`n_joints + n_angles` elements follow) and whether the state
-/// changed (then the first `n_joints` elements are the new state, published on the state stream).
+/// A handled request: the response header, the layout of its payload and whether the state changed
+/// (then the payload's joints, held joints, instruments, pulls and eyelets are the new state,
+/// published on the state stream).
 #[derive(Debug, Clone, Copy)]
 pub struct Handled {
     /// The response header, everything but `solve_ns` (the loop measures it) and, for a landing, the
     /// residual (measured on the written elements).
     pub header: ResponseHeader,
+    /// The chain (or bundle) the payload is of.
+    pub chain: u32,
+    /// The payload's layout, as the handler answered it (the header states the same counts; the loop
+    /// never reads them back from it).
+    pub counts: Counts,
     /// Whether an accepted change was made.
     pub changed: bool,
     /// Whether a bundle changed (published on the bundle stream instead of the state stream).
@@ -424,8 +431,9 @@ pub trait Handler {
     const SOLVES: bool = true;
     /// Answers one request of `client` (its iceoryx2 port id).
     fn answer(&mut self, client: u128, req: &RequestHeader, points: &[Vec3]) -> Handled;
-    /// Hands the elements of the response `h` (the last answered) to `sink`, in one form.
-    fn write<K: ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out;
+    /// Hands the elements of the last answered response, of `chain` laid out as `counts` (its
+    /// [`Handled`]'s), to `sink`, in one form.
+    fn write<K: ElementSink>(&self, chain: u32, counts: &Counts, sink: K) -> K::Out;
     /// Runs at least every [`CHECK_EVERY`] (periodic snapshots; an error is reported, not fatal), with
     /// the clients present every [`CLIENTS_EVERY`] (those absent lose what the handler kept for them).
     fn housekeeping(&mut self, _now: Instant, _clients: Option<&Clients<'_>>) {}
@@ -444,7 +452,7 @@ pub fn respond<H: Handler>(
     let (handled, n) = answer_timed(handler, client, request, points);
     let mut header = handled.header;
     out.clear();
-    handler.write(&header, Gather(out, n));
+    handler.write(handled.chain, &handled.counts, Gather(out, n));
     out.resize(n, Vec3::default());
     measure_landing(&mut header, handled.landing, out);
     (header, handled.changed)
@@ -463,13 +471,7 @@ fn answer_timed<H: Handler>(
     if H::SOLVES {
         header.solve_ns = t0.elapsed().as_nanos() as u64;
     }
-    let inst = (header.n_instruments * shared::INSTRUMENT_ELEMENTS) as usize;
-    let eyelets = (header.n_eyelets * shared::EYELET_ELEMENTS) as usize;
-    let tissue = (header.n_tissue * shared::TISSUE_ELEMENTS) as usize;
-    let n = (header.n_joints + header.n_angles + header.n_held + header.n_pulls) as usize
-        + inst
-        + eyelets
-        + tissue;
+    let n = handled.counts.elements();
     (handled, n)
 }
 
@@ -803,6 +805,8 @@ fn serve_one<S: Service, H: Handler>(
     let (
         Handled {
             mut header,
+            chain,
+            counts,
             changed,
             bundle,
             landing,
@@ -820,11 +824,11 @@ fn serve_one<S: Service, H: Handler>(
     let small = n <= DEFER_STATE_UP_TO;
     let mut resp = if small {
         scratch.clear();
-        handler.write(&header, Gather(scratch, n));
+        handler.write(chain, &counts, Gather(scratch, n));
         scratch.resize(n, Vec3::default());
         slot.write_from_slice(scratch)
     } else {
-        handler.write(&header, Fill(slot))
+        handler.write(chain, &counts, Fill(slot))
     };
     measure_landing(&mut header, landing, resp.payload());
     *resp.user_header_mut() = header;
@@ -835,8 +839,16 @@ fn serve_one<S: Service, H: Handler>(
     };
     let publisher = stream.as_ref().filter(|_| changed);
     // The sample: the response's joints, held joints, instruments and pulls (not its rotations).
-    let parts = shared::Parts::of_response(&header, resp.payload());
-    let (nj, na) = (parts.joints.len(), header.n_angles as usize);
+    let c = &counts;
+    let parts = shared::Parts::new(
+        resp.payload(),
+        c.joints,
+        c.angles,
+        c.held,
+        c.instruments,
+        (c.pulls, c.eyelets),
+    );
+    let (nj, na) = (parts.joints.len(), c.angles as usize);
     let n_state =
         nj + parts.held.len() + parts.instruments.len() + parts.pulls.len() + parts.eyelets.len();
     let state_header = StateHeader {

@@ -11,13 +11,13 @@ use crate::serve::{
 use crate::shm::ShmError;
 use crate::wire::WireWorld;
 use iceoryx2::prelude::ipc;
-use shared::{RequestHeader, ResponseHeader, Vec3, Wait};
+use shared::{RequestHeader, Vec3, Wait};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use world::World;
 use world::bundles::BundleElements;
 use world::command::{Answer, Command, Residual};
-use world::elements::{ChainElements, Elements};
+use world::elements::{ChainElements, Counts, Elements};
 use world::refusal::Refusal;
 use world::refuse;
 
@@ -234,15 +234,17 @@ impl Handler for Solver {
         };
         Handled {
             header: self.set.encode(req, &result),
+            chain: req.chain,
+            counts: result.as_ref().map_or(Counts::default(), |o| o.counts),
             changed: result.as_ref().is_ok_and(|o| o.changed),
             bundle: result.is_ok_and(|o| o.bundle),
             landing,
         }
     }
 
-    fn write<K: ElementSink>(&self, h: &ResponseHeader, sink: K) -> K::Out {
+    fn write<K: ElementSink>(&self, chain: u32, counts: &Counts, sink: K) -> K::Out {
         // The form is picked once per response, not per element.
-        match self.set.elements(h) {
+        match self.set.elements_for(chain, counts) {
             Elements::Empty => sink.take(Wire(std::iter::empty())),
             Elements::Planar64(e) => sink.take(Wire(e)),
             Elements::Spatial64(e) => sink.take(Wire(e)),

@@ -5,12 +5,11 @@ use super::request::{decode, encode};
 use shared::{RequestHeader, ResponseHeader, Vec3};
 use world::World;
 use world::command::{Answer, Command};
-use world::elements::Elements;
 use world::refusal::Refusal;
 use world::refuse;
 
 /// The wire's door to a [`World`]: requests decoded against its scene, answers encoded with its
-/// sequence numbers, payloads read from it.
+/// sequence numbers (the payload is the world's: [`World::elements_for`]).
 pub trait WireWorld {
     /// Checks a wire request against the scene ([`super::request::decode`], [`super::bundle::decode`]).
     fn decode<'a>(&self, h: &RequestHeader, points: &'a [Vec3]) -> Result<Command<'a>, Refusal>;
@@ -20,8 +19,6 @@ pub trait WireWorld {
     /// Decodes and applies a wire request as no client, behind the panic guard (the journal's
     /// replay, tests).
     fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Answer, Refusal>;
-    /// The payload a response header announces (nothing for an error response).
-    fn elements(&self, h: &ResponseHeader) -> Elements<'_>;
 }
 
 impl WireWorld for World {
@@ -65,18 +62,5 @@ impl WireWorld for World {
     fn apply_wire(&mut self, h: &RequestHeader, points: &[Vec3]) -> Result<Answer, Refusal> {
         let req = self.decode(h, points)?;
         self.apply_guarded(world::owners::LOCAL, &req)
-    }
-
-    fn elements(&self, h: &ResponseHeader) -> Elements<'_> {
-        if h.n_joints + h.n_angles + h.n_held + h.n_instruments + h.n_pulls + h.n_eyelets == 0 {
-            return Elements::Empty;
-        }
-        self.elements_for(
-            h.chain,
-            h.n_angles > 0,
-            h.n_held > 0,
-            h.n_instruments > 0,
-            (h.n_pulls > 0, h.n_eyelets > 0, h.n_tissue > 0),
-        )
     }
 }

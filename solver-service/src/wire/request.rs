@@ -581,13 +581,14 @@ pub fn encode(
     match result {
         Ok(o) => {
             h.status = Status::Ok as u32;
-            h.n_joints = o.joints;
-            h.n_angles = o.angles;
-            h.n_held = o.held;
-            h.n_instruments = o.instruments;
-            h.n_pulls = o.pulls;
-            h.n_eyelets = o.eyelets;
-            h.n_tissue = o.tissue;
+            let c = &o.counts;
+            h.n_joints = c.joints;
+            h.n_angles = c.angles;
+            h.n_held = c.held;
+            h.n_instruments = c.instruments;
+            h.n_pulls = c.pulls;
+            h.n_eyelets = c.eyelets;
+            h.n_tissue = c.tissue;
             h.knot = o.knot.map_or(shared::KNOT_NOT_ASKED, knot_code);
             h.substeps = o.substeps;
             h.paper_fallbacks = o.paper_fallbacks;

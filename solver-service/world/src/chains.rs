@@ -15,7 +15,7 @@ use crate::build::BuildError;
 use crate::command::Point;
 use crate::command::{Answer, BundleOp, Command, Residual};
 use crate::each_form;
-use crate::elements::{ChainElements, Elements, INSTRUMENT_ELEMENTS, Wants};
+use crate::elements::{ChainElements, Counts, Elements, INSTRUMENT_ELEMENTS, Wants};
 use crate::form::to_point;
 use crate::form::{Geometry, build};
 use crate::moves::{
@@ -647,7 +647,10 @@ impl World {
             return Ok(Answer {
                 chain: Some(handle),
                 changed: op.changes_state(),
-                joints: b.spec.joints() as u32,
+                counts: Counts {
+                    joints: b.spec.joints() as u32,
+                    ..Counts::default()
+                },
                 substeps,
                 describe: op == BundleOp::Describe,
                 bundle: true,
@@ -679,7 +682,10 @@ impl World {
         let mut outcome = Answer {
             chain: Some(chain),
             changed: changes,
-            joints: n_links + 1,
+            counts: Counts {
+                joints: n_links + 1,
+                ..Counts::default()
+            },
             ..Answer::default()
         };
         if outcome.changed {
@@ -750,15 +756,15 @@ impl World {
             } => each_form!(&mut *g, h => reach_with_holds(h, goal, options)).map(|(it, res)| {
                 outcome.iterations = it;
                 outcome.residual = Residual::Known(res);
-                outcome.angles = if angles { n_links } else { 0 };
+                outcome.counts.angles = if angles { n_links } else { 0 };
             }),
             Command::Query { angles, .. } => {
-                outcome.angles = if angles { n_links } else { 0 };
+                outcome.counts.angles = if angles { n_links } else { 0 };
                 Ok(())
             }
             Command::Describe { .. } => {
                 outcome.describe = true;
-                outcome.tissue = u32::from(each_form!(&*g, h => h.tissue.is_some()));
+                outcome.counts.tissue = u32::from(each_form!(&*g, h => h.tissue.is_some()));
                 Ok(())
             }
             Command::Reset { .. } => {
@@ -813,10 +819,11 @@ impl World {
         if std::mem::take(&mut self.panic_after_kernel) {
             panic!("injected: a kernel bug after the chain moved");
         }
-        outcome.held = each_form!(&*g, h => h.chain.held().len()) as u32;
-        outcome.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
-        outcome.pulls = outcome.held + outcome.instruments;
-        outcome.eyelets = each_form!(&*g, h => h.eyelets.len()) as u32;
+        let c = &mut outcome.counts;
+        c.held = each_form!(&*g, h => h.chain.held().len()) as u32;
+        c.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
+        c.pulls = c.held + c.instruments;
+        c.eyelets = each_form!(&*g, h => h.eyelets.len()) as u32;
         self.last_work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()))
             .max(tries.work);
         match result {
@@ -847,33 +854,19 @@ impl World {
         }
     }
 
-    /// The payload of an answer about `handle`: a chain's joints (tail first), then with `angles` one
-    /// rotation vector per joint (joint 0: from +x to link 1; joint i: from link i to link i+1), its
-    /// held joints with `held`, its instruments with `instruments`, then its pulls, eyelets and
-    /// tissue (a describe's: the block's corners) as the last three ask; a bundle's joints. Written
-    /// in order, with no intermediate buffer; nothing for an unknown handle.
-    pub fn elements_for(
-        &self,
-        handle: u32,
-        angles: bool,
-        held: bool,
-        instruments: bool,
-        (pulls, eyelets, tissue): (bool, bool, bool),
-    ) -> Elements<'_> {
+    /// The payload of an answer about `handle` laid out as `counts` says (the answer's): a chain's
+    /// joints (tail first), then the rotation vectors (joint 0: from +x to link 1; joint i: from link
+    /// i to link i+1), held joints, instruments, pulls, eyelets and tissue (a describe's: the block's
+    /// corners) that it counts; a bundle's joints. Written in order, with no intermediate buffer;
+    /// nothing for an unknown handle or an empty layout.
+    pub fn elements_for(&self, handle: u32, counts: &Counts) -> Elements<'_> {
+        if counts.elements() == 0 {
+            return Elements::Empty;
+        }
         if let Some((_, b)) = self.bundle_of(handle) {
             return Elements::Bundle(b.elements());
         }
-        self.elements_wanting(
-            handle,
-            Wants {
-                angles,
-                held,
-                instruments,
-                pulls,
-                eyelets,
-                tissue,
-            },
-        )
+        self.elements_wanting(handle, counts.wants())
     }
 
     /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).

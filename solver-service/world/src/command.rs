@@ -184,23 +184,8 @@ pub struct Answer {
     pub chain: Option<u32>,
     /// Whether the state changed (a new sequence number; journaled and published).
     pub changed: bool,
-    /// Joints in the response.
-    pub joints: u32,
-    /// Joint rotations in the response.
-    pub angles: u32,
-    /// Held joints in the response (after the joints and rotations).
-    pub held: u32,
-    /// Instruments in the response (after the held joints).
-    pub instruments: u32,
-    /// Pulls in the response (after the instruments): one per held joint, then one per instrument
-    /// ([`crate::tension`]).
-    pub pulls: u32,
-    /// Eyelets in the response (after the pulls, two elements each: the point, then the link
-    /// through it and whether the chain still passes through it).
-    pub eyelets: u32,
-    /// Blocks of tissue in the response (after the eyelets, two elements each: the corners `lo` and
-    /// `hi`): 1 in a describe of a chain with tissue, else 0.
-    pub tissue: u32,
+    /// The layout of the response's payload.
+    pub counts: crate::elements::Counts,
     /// Substeps taken (moves).
     pub substeps: u32,
     /// Paper-form substeps that fell back to the closed form.

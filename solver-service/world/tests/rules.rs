@@ -55,8 +55,14 @@ fn joints(w: &World) -> Vec<Vec<Point>> {
         })
         .collect();
     out.push(
-        w.elements_for(w.len() as u32, false, false, false, (false, false, false))
-            .collect(),
+        w.elements_for(
+            w.len() as u32,
+            &world::elements::Counts {
+                joints: w.bundles()[0].spec.joints() as u32,
+                ..Default::default()
+            },
+        )
+        .collect(),
     );
     out
 }

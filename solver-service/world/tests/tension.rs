@@ -71,7 +71,7 @@ fn the_pull_is_zero_while_slack_and_the_over_pull_once_taut() {
         let d = 6.0 + 0.25 * f64::from(k);
         let target = [dir * d];
         let a = w.apply(&pull_to(&w, 10, &target, true)).unwrap();
-        assert_eq!(a.pulls, 2, "one pull per held joint");
+        assert_eq!(a.counts.pulls, 2, "one pull per held joint");
         let p = parts(&w, 0);
         let tail = p.joints[0];
         let over = (target[0] - tail).norm() - 10.0;
@@ -203,7 +203,7 @@ fn a_rope_round_a_post_stops_a_pulled_instrument_short() {
                 pull: true,
             })
             .unwrap();
-        assert_eq!(a.pulls, 3);
+        assert_eq!(a.counts.pulls, 3);
         let p = parts(&w, 1);
         let post = p.pulls[2];
         // Independent: the post's centre can rise at most until its surface meets the rope's
