@@ -16,13 +16,13 @@ use crate::command::Point;
 use crate::command::{Answer, BundleOp, Command, Residual};
 use crate::each_form;
 use crate::elements::{ChainElements, Counts, Elements, INSTRUMENT_ELEMENTS, Wants};
-use crate::form::to_point;
 use crate::form::{Geometry, build};
 use crate::moves::{
     instrument_travel, move_and_carry, pull_instrument, pull_move, push_instrument,
     reach_with_holds,
 };
 use crate::owners::{LOCAL, Owners};
+use crate::point::to_point;
 use crate::refusal::Refusal;
 use crate::refuse;
 use crate::scene::{ChainKind, ChainSpec, Scene};
@@ -803,7 +803,7 @@ impl World {
                 max_substeps,
                 ..
             } => each_form!(&mut *g, h => {
-                crate::moves::move_eyelet(h, index, crate::form::point(at), max_substeps)
+                crate::moves::move_eyelet(h, index, crate::point::point(at), max_substeps)
             })
             .map(|m| outcome.substeps = m.substeps)
             .map_err(Refusal::from),
@@ -866,7 +866,7 @@ impl World {
         if let Some((_, b)) = self.bundle_of(handle) {
             return Elements::Bundle(b.elements());
         }
-        self.elements_wanting(handle, counts.wants())
+        self.elements_wanting(handle, counts.into())
     }
 
     /// A chain's joints, then its joint rotations with `angles` (nothing for an unknown chain).

@@ -3,10 +3,9 @@
 //! applies it and returns an [`Answer`] or a [`crate::refusal::Refusal`]. Points are
 //! [`Point`]s, which a door may borrow from its own buffers (the service from shared memory).
 
+pub use crate::point::Point;
+use serde::{Deserialize, Serialize};
 use tractrix::{MoveOptions, ReachOptions};
-
-/// A point or vector in the world's coordinates (planar chains: `z = 0`).
-pub type Point = nalgebra::Vector3<f64>;
 
 /// A fixed-base reach's goal (Korein & Badler's point, orientation and region goals: [`tractrix::goals`]).
 pub type Goal = tractrix::Goal<f64, 3>;
@@ -185,7 +184,7 @@ pub struct Answer {
     /// Whether the state changed (a new sequence number; journaled and published).
     pub changed: bool,
     /// The layout of the response's payload.
-    pub counts: crate::elements::Counts,
+    pub counts: Counts,
     /// Substeps taken (moves).
     pub substeps: u32,
     /// Paper-form substeps that fell back to the closed form.
@@ -202,7 +201,7 @@ pub struct Answer {
     pub knot: Option<tractrix::knot::KnotType>,
     /// Why a pulled move or instrument pose stopped short of its target (`None`: it made the whole
     /// move, or it was no pull).
-    pub stopped: Option<crate::tension::Stop>,
+    pub stopped: Option<Stop>,
 }
 
 /// The distance between where a joint should be and where it is.
@@ -257,5 +256,63 @@ impl BundleOp<'_> {
             self,
             BundleOp::Heads { .. } | BundleOp::Pose { .. } | BundleOp::Reset
         )
+    }
+}
+
+/// Why a pulled joint or instrument stopped short of where it was asked to go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Stop {
+    /// The stretch to a held joint is out of length (the rope is taut), or its solve did not converge.
+    Reach,
+    /// Contact could not make way (the knot or the instrument jammed).
+    Contact,
+    /// A joint would have gone beyond its limit.
+    Limit,
+    /// Resolving the contacts would have cost more than the request's work budget: the knot resists
+    /// more than one request can resolve (the same pull asked again, from the same state, goes on
+    /// from the resolution this one kept: `world::moves`'s pulls).
+    Work,
+}
+
+/// Elements of an instrument's pose in a payload: a sphere's centre twice, then `(radius, 0, 0)`; a
+/// capsule's `a`, its `b`, then `(radius, 1, 0)` (the wire's `InstrumentPose`).
+pub const INSTRUMENT_ELEMENTS: usize = 3;
+/// Elements of an eyelet in a payload: its point, then `(link, 1 threaded / 0 left, 0)`.
+pub const EYELET_ELEMENTS: usize = 2;
+/// Elements of a block of tissue in a payload: its corners `lo` and `hi`.
+pub const TISSUE_ELEMENTS: usize = 2;
+
+/// The layout of an answer's payload: how many of each part it holds, in payload order (joints,
+/// rotations, held joints, instruments, pulls, eyelets, tissue). The world sets it with the answer;
+/// the door that writes the payload and the one that states it (the wire's header) read it, and
+/// nothing reads it back from a header.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Joints (tail first), or a bundle's joints.
+    pub joints: u32,
+    /// Joint rotations (one per link), 0 unless asked.
+    pub angles: u32,
+    /// Held joints: `(index, 1 anchor / 0 grasp, 1 taut / 0)` each.
+    pub held: u32,
+    /// Instruments, [`INSTRUMENT_ELEMENTS`] elements each.
+    pub instruments: u32,
+    /// Pulls: one per held joint, then one per instrument ([`crate::tension`]).
+    pub pulls: u32,
+    /// Eyelets, [`EYELET_ELEMENTS`] elements each.
+    pub eyelets: u32,
+    /// Blocks of tissue (a describe's), [`TISSUE_ELEMENTS`] elements each.
+    pub tissue: u32,
+}
+
+impl Counts {
+    /// Elements of the whole payload.
+    pub fn elements(&self) -> usize {
+        self.joints as usize
+            + self.angles as usize
+            + self.held as usize
+            + INSTRUMENT_ELEMENTS * self.instruments as usize
+            + self.pulls as usize
+            + EYELET_ELEMENTS * self.eyelets as usize
+            + TISSUE_ELEMENTS * self.tissue as usize
     }
 }

@@ -2,67 +2,16 @@
 //! joint as the kernel sums them), its joint rotations, held joints and instruments, or a bundle's
 //! joints, streamed as [`Point`]s straight into the caller's buffer.
 
-use crate::command::Point;
-use crate::form::{LiveChain, to_point};
+use crate::form::LiveChain;
+use crate::point::Point;
+use crate::point::to_point;
 use nalgebra::Vector3;
 use tractrix::Chain;
 use tractrix::angles::rotation_between;
 use tractrix::collision::Obstacle;
 use tractrix::math::{CompensatedSum, Embed3, Real, Vector};
 
-/// Elements of an instrument's pose in a payload: a sphere's centre twice, then `(radius, 0, 0)`; a
-/// capsule's `a`, its `b`, then `(radius, 1, 0)` (the wire's `InstrumentPose`).
-pub const INSTRUMENT_ELEMENTS: usize = 3;
-/// Elements of an eyelet in a payload: its point, then `(link, 1 threaded / 0 left, 0)`.
-pub const EYELET_ELEMENTS: usize = 2;
-/// Elements of a block of tissue in a payload: its corners `lo` and `hi`.
-pub const TISSUE_ELEMENTS: usize = 2;
-
-/// The layout of an answer's payload: how many of each part it holds, in payload order (joints,
-/// rotations, held joints, instruments, pulls, eyelets, tissue). The world sets it with the answer;
-/// the door that writes the payload and the one that states it (the wire's header) read it, and
-/// nothing reads it back from a header.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Counts {
-    /// Joints (tail first), or a bundle's joints.
-    pub joints: u32,
-    /// Joint rotations (one per link), 0 unless asked.
-    pub angles: u32,
-    /// Held joints: `(index, 1 anchor / 0 grasp, 1 taut / 0)` each.
-    pub held: u32,
-    /// Instruments, [`INSTRUMENT_ELEMENTS`] elements each.
-    pub instruments: u32,
-    /// Pulls: one per held joint, then one per instrument ([`crate::tension`]).
-    pub pulls: u32,
-    /// Eyelets, [`EYELET_ELEMENTS`] elements each.
-    pub eyelets: u32,
-    /// Blocks of tissue (a describe's), [`TISSUE_ELEMENTS`] elements each.
-    pub tissue: u32,
-}
-
-impl Counts {
-    /// Elements of the whole payload.
-    pub fn elements(&self) -> usize {
-        self.joints as usize
-            + self.angles as usize
-            + self.held as usize
-            + INSTRUMENT_ELEMENTS * self.instruments as usize
-            + self.pulls as usize
-            + EYELET_ELEMENTS * self.eyelets as usize
-            + TISSUE_ELEMENTS * self.tissue as usize
-    }
-    /// Which parts a chain's payload writes after its joints.
-    pub(crate) fn wants(&self) -> Wants {
-        Wants {
-            angles: self.angles > 0,
-            held: self.held > 0,
-            instruments: self.instruments > 0,
-            pulls: self.pulls > 0,
-            eyelets: self.eyelets > 0,
-            tissue: self.tissue > 0,
-        }
-    }
-}
+pub use crate::command::{Counts, EYELET_ELEMENTS, INSTRUMENT_ELEMENTS, TISSUE_ELEMENTS};
 
 /// The payload of a response, in any of the four chain forms.
 #[derive(Debug)]
@@ -107,6 +56,20 @@ impl Iterator for Elements<'_> {
             Elements::Planar32(e) => e.next(),
             Elements::Spatial32(e) => e.next(),
             Elements::Bundle(e) => e.next(),
+        }
+    }
+}
+
+impl From<&Counts> for Wants {
+    /// Which parts a chain's payload laid out as `c` writes after its joints.
+    fn from(c: &Counts) -> Wants {
+        Wants {
+            angles: c.angles > 0,
+            held: c.held > 0,
+            instruments: c.instruments > 0,
+            pulls: c.pulls > 0,
+            eyelets: c.eyelets > 0,
+            tissue: c.tissue > 0,
         }
     }
 }

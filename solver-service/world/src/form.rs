@@ -3,7 +3,7 @@
 //! collision structures and instruments, and the buffers its commands reuse; built from a
 //! [`ChainSpec`] when the world is built.
 
-use crate::command::Point;
+use crate::point::Point;
 use crate::scene::ChainSpec;
 use nalgebra::Vector3;
 use tractrix::collision::{CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle};
@@ -15,7 +15,7 @@ use tractrix::{Chain, ChainError, ReachWorkspace};
 /// and the targets its hands asked for that stopped short ([`crate::tension`]). A [`LiveChain`] keeps
 /// three besides its live state: the scene's (reset), the one before the last change (undo) and the
 /// furthest a pulled move reached. A new piece of rope state is a field here and a line in each of
-/// [`LiveChain::save`] and [`LiveChain::load`], the only two places that copy it.
+/// `LiveChain::save` and `LiveChain::load`, the only two places that copy it.
 #[derive(Debug, Clone)]
 pub struct RopeState<T: Real, const D: usize> {
     /// The chain: its joints, held joints and limits.
@@ -176,6 +176,21 @@ where
     pub(crate) fn take_best(&mut self) {
         self.load(Kept::Best);
     }
+    /// Recomputes the pulls and taut flags from the asked targets and the chain as it is now
+    /// ([`crate::tension::Tension::refresh`]).
+    pub(crate) fn refresh_tension(&mut self) {
+        let instruments = self
+            .collision
+            .as_ref()
+            .map_or(&[][..], |(m, _)| &m.obstacles[self.instruments_at..]);
+        self.tension.refresh(
+            &self.chain,
+            instruments,
+            &self.follows,
+            &self.prefix,
+            self.taut_slack,
+        );
+    }
     /// The eyelets the chain passes through (or has left).
     pub fn eyelets(&self) -> &[Eyelet<T, D>] {
         &self.eyelets
@@ -278,20 +293,7 @@ macro_rules! each_form {
 }
 pub use crate::each_form;
 
-pub(crate) fn point<T: Real, const D: usize>(q: Point) -> Vector<T, D>
-where
-    Vector<T, D>: Embed3<T>,
-{
-    Embed3::from_3d(&Vector3::new(T::lit(q.x), T::lit(q.y), T::lit(q.z)))
-}
-
-pub(crate) fn to_point<T: Real, const D: usize>(v: &Vector<T, D>) -> Point
-where
-    Vector<T, D>: Embed3<T>,
-{
-    let v = v.to_3d();
-    Point::new(v.x.to_f64(), v.y.to_f64(), v.z.to_f64())
-}
+use crate::point::point;
 
 /// The links each following instrument holds: those within its reach of the joint it follows (its
 /// radius, plus half its length for a capsule, in shortest links, and one more on each side).

@@ -30,6 +30,7 @@ pub mod form;
 pub mod moves;
 pub mod needle;
 pub mod owners;
+pub mod point;
 pub mod refusal;
 pub mod scene;
 pub mod sizes;

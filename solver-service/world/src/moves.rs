@@ -3,7 +3,8 @@
 //! may be left moved on a refusal: [`crate::World::apply`] restores it.
 
 use crate::command::{Goal, NeedleMove, Point};
-use crate::form::{LiveChain, point, to_point};
+use crate::form::LiveChain;
+use crate::point::{point, to_point};
 use crate::refusal::{Cause, Refusal};
 use crate::refuse;
 use crate::tension::Stop;

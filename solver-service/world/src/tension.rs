@@ -25,25 +25,12 @@
 //! The payload carries one pull per held joint, then one per instrument (the wire's `n_pulls`), and
 //! the held joint's third number says whether the stretch from it toward the head is taut.
 
-use crate::command::Point;
-use crate::form::{LiveChain, to_point};
+pub use crate::command::Stop;
+use crate::point::{Point, to_point};
 use serde::{Deserialize, Serialize};
+use tractrix::Chain;
+use tractrix::collision::Obstacle;
 use tractrix::math::{Embed3, Real, Vector};
-
-/// Why a pulled joint or instrument stopped short of where it was asked to go.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Stop {
-    /// The stretch to a held joint is out of length (the rope is taut), or its solve did not converge.
-    Reach,
-    /// Contact could not make way (the knot or the instrument jammed).
-    Contact,
-    /// A joint would have gone beyond its limit.
-    Limit,
-    /// Resolving the contacts would have cost more than the request's work budget: the knot resists
-    /// more than one request can resolve (the same pull asked again, from the same state, goes on
-    /// from the resolution this one kept: `world::moves`'s pulls).
-    Work,
-}
 
 /// Where a joint or an instrument was last asked to go, when it stopped short.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -137,15 +124,22 @@ fn unit(v: Point) -> Point {
     }
 }
 
-impl<T: Real, const D: usize> LiveChain<T, D>
-where
-    Vector<T, D>: Embed3<T>,
-{
-    /// Recomputes the pulls and taut flags from the asked targets and the chain as it is now.
-    /// O(held joints + instruments); no allocation once warm.
-    pub(crate) fn refresh_tension(&mut self) {
-        let c = &self.chain;
-        let t = &mut self.tension;
+impl Tension {
+    /// Recomputes the pulls and taut flags from the asked targets and `c` as it is now, with its
+    /// instruments' poses, the joint each follows, the rope's length to each joint (`prefix`) and
+    /// how much shorter than its rope a taut stretch may be ([`taut_slack`]). O(held joints +
+    /// instruments); no allocation once warm.
+    pub(crate) fn refresh<T: Real, const D: usize>(
+        &mut self,
+        c: &Chain<T, D>,
+        instruments: &[Obstacle<T, D>],
+        follows: &[Option<usize>],
+        prefix: &[f64],
+        taut_slack: f64,
+    ) where
+        Vector<T, D>: Embed3<T>,
+    {
+        let t = self;
         t.pulls.clear();
         t.taut.clear();
         let n_held = c.held().len();
@@ -162,8 +156,8 @@ where
             t.pulls.push(own);
             let taut = match at(k + 1) {
                 Some((j2, x2)) => {
-                    let rope = self.prefix[j2] - self.prefix[j];
-                    let slack = self.taut_slack + rope * rounding::<T>(j2 - j);
+                    let rope = prefix[j2] - prefix[j];
+                    let slack = taut_slack + rope * rounding::<T>(j2 - j);
                     (x2 - x).norm() >= rope - slack
                 }
                 None => false,
@@ -212,12 +206,8 @@ where
             t.pulls[k] = carried;
         }
         // Instruments: the pull of the joint they follow, or their own.
-        let instruments = self
-            .collision
-            .as_ref()
-            .map_or(&[][..], |(m, _)| &m.obstacles[self.instruments_at..]);
         for (i, o) in instruments.iter().enumerate() {
-            let p = match self.follows.get(i).copied().flatten() {
+            let p = match follows.get(i).copied().flatten() {
                 Some(j) => (0..n_held)
                     .find(|&k| at(k).is_some_and(|(jk, _)| jk == j))
                     .map_or(Point::zeros(), |k| t.pulls[k]),
@@ -227,14 +217,9 @@ where
                     .find(|a| a.at == i)
                     .map_or(Point::zeros(), |a| {
                         let centre = match *o {
-                            tractrix::collision::Obstacle::Sphere { center, .. } => {
-                                to_point(&center)
-                            }
-                            tractrix::collision::Obstacle::Capsule { a, b, .. } => {
-                                (to_point(&a) + to_point(&b)) * 0.5
-                            }
-                            tractrix::collision::Obstacle::HalfSpace { .. }
-                            | tractrix::collision::Obstacle::Block { .. } => Point::zeros(),
+                            Obstacle::Sphere { center, .. } => to_point(&center),
+                            Obstacle::Capsule { a, b, .. } => (to_point(&a) + to_point(&b)) * 0.5,
+                            Obstacle::HalfSpace { .. } | Obstacle::Block { .. } => Point::zeros(),
                         };
                         centre - Point::from(a.target)
                     }),
