@@ -40,48 +40,10 @@
 //! the paper's fixed-base method ([`crate::fixed_base::reach`]); a side with no held joint follows
 //! freely, exactly as without holds ([`crate::hold`]).
 
-use crate::fixed_base::ReachOptions;
 use crate::limits::{JointLimits, LimitError};
 use crate::link::{LinkStep, Method, follow_the_leader_step, step, tractrix_step};
 use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
-
-/// How a move is divided into straight substeps. Motion is path dependent: finer substeps follow a curved
-/// path more closely (error ∝ h² for the tractrix, ∝ h for follow-the-leader) and cost proportionally more.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Substeps<T> {
-    /// Exactly `k ≥ 1` equal substeps.
-    Fixed(u32),
-    /// As many equal substeps as needed so that none is longer than this fraction of the chain's shortest
-    /// link (must be positive and finite).
-    MaxStep(T),
-}
-
-/// Options of a move. `Default` is the closed-form tractrix in one step.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MoveOptions<T> {
-    /// Single-link method propagated down the chain.
-    pub method: Method,
-    /// Substep policy.
-    pub substeps: Substeps<T>,
-    /// Upper bound on substeps per move; a move that would need more is refused (`TooManySubsteps`)
-    /// rather than spinning. Each substep costs one pass over the chain.
-    pub max_substeps: u32,
-    /// How the sides of a move that end at a held joint are solved ([`crate::hold`]): strategy,
-    /// tolerance, iteration limit and when the reach hierarchy finishes. Its `method` and `substeps` are
-    /// the move's own. Unused without held joints.
-    pub held: ReachOptions<T>,
-}
-
-impl<T: Real> Default for MoveOptions<T> {
-    fn default() -> Self {
-        MoveOptions {
-            method: Method::Tractrix,
-            substeps: Substeps::Fixed(1),
-            max_substeps: 1 << 16,
-            held: ReachOptions::default(),
-        }
-    }
-}
+pub use crate::options::{MoveOptions, Substeps};
 
 /// What a successful move did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -730,44 +692,6 @@ where
         Ok(required as u32)
     }
 
-    /// Moves joint `joint` (0 = tail, `n` = head) along the straight segment to `target`; the rest of the
-    /// chain follows by `opts.method`. On error nothing changes.
-    pub fn move_joint(
-        &mut self,
-        joint: usize,
-        target: Vector<T, D>,
-        opts: &MoveOptions<T>,
-    ) -> Result<MoveOutcome, ChainError> {
-        self.check_joint(joint)?;
-        if !all_finite(&target) {
-            return Err(ChainError::NonFinite);
-        }
-        if self.held_elsewhere(joint) {
-            return crate::hold::move_held(self, joint, target, opts);
-        }
-        let delta = target - self.current(joint);
-        let k = self.substep_count(&delta, opts)?;
-        let outcome = self.apply_move(joint, target, delta, k, opts.method);
-        self.repin(joint);
-        Ok(outcome)
-    }
-
-    /// Where joint `joint` can go nearest to `target` with the held joints kept: `target` itself when
-    /// the held sides reach it (each within its rope's length of its held joint, and no nearer than
-    /// the rope can fold), else the nearest point they reach (on the boundary of the held sides'
-    /// shells). A hand pulling the rope taut moves the joint there.
-    pub fn nearest_reachable(
-        &self,
-        joint: usize,
-        target: Vector<T, D>,
-    ) -> Result<Vector<T, D>, ChainError> {
-        self.check_joint(joint)?;
-        if !all_finite(&target) {
-            return Err(ChainError::NonFinite);
-        }
-        crate::hold::nearest_reachable(self, joint, target)
-    }
-
     /// Whether a joint other than `joint` is held (a move of `joint` then needs the held solution).
     pub(crate) fn held_elsewhere(&self, joint: usize) -> bool {
         self.pins.iter().any(|p| p.0 != joint)
@@ -796,53 +720,6 @@ where
         self.datum_at = at;
     }
 
-    /// Moves joint `joint` through `targets` in order, one straight move per target. Every target and
-    /// substep count is validated before anything moves.
-    pub fn move_along(
-        &mut self,
-        joint: usize,
-        targets: &[Vector<T, D>],
-        opts: &MoveOptions<T>,
-    ) -> Result<MoveOutcome, ChainError> {
-        self.check_joint(joint)?;
-        let mut from = self.current(joint);
-        for t in targets {
-            if !all_finite(t) {
-                return Err(ChainError::NonFinite);
-            }
-            self.substep_count(&(t - from), opts)?;
-            from = *t;
-        }
-        let mut total = MoveOutcome::default();
-        if self.held_elsewhere(joint) {
-            // Each target may be refused (out of the held rope's reach): all or nothing.
-            let before = self.clone();
-            for t in targets {
-                match crate::hold::move_held(self, joint, *t, opts) {
-                    Ok(o) => {
-                        total.substeps = total.substeps.saturating_add(o.substeps);
-                        total.paper_fallbacks =
-                            total.paper_fallbacks.saturating_add(o.paper_fallbacks);
-                    }
-                    Err(e) => {
-                        *self = before;
-                        return Err(e);
-                    }
-                }
-            }
-            return Ok(total);
-        }
-        for t in targets {
-            let delta = t - self.current(joint);
-            let k = self.substep_count(&delta, opts)?;
-            let o = self.apply_move(joint, *t, delta, k, opts.method);
-            total.substeps = total.substeps.saturating_add(o.substeps);
-            total.paper_fallbacks = total.paper_fallbacks.saturating_add(o.paper_fallbacks);
-        }
-        self.repin(joint);
-        Ok(total)
-    }
-
     pub(crate) fn check_joint(&self, joint: usize) -> Result<(), ChainError> {
         if joint > self.links.len() {
             return Err(ChainError::JointOutOfRange {
@@ -853,7 +730,7 @@ where
         Ok(())
     }
 
-    fn apply_move(
+    pub(crate) fn apply_move(
         &mut self,
         joint: usize,
         target: Vector<T, D>,

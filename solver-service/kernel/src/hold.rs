@@ -19,7 +19,98 @@
 
 use crate::chain::{Chain, ChainError, MoveOptions, MoveOutcome};
 use crate::fixed_base::{ReachError, ReachOptions, ReachWorkspace, reach, workspace_radii};
-use crate::math::{Embed3, Real, Vector, robust_norm};
+use crate::math::{Embed3, Real, Vector, all_finite, robust_norm};
+
+/// A chain's moves: free, or with its held joints kept (this module's held solution).
+impl<T: Real, const D: usize> Chain<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    /// Moves joint `joint` (0 = tail, `n` = head) along the straight segment to `target`; the rest of the
+    /// chain follows by `opts.method`. On error nothing changes.
+    pub fn move_joint(
+        &mut self,
+        joint: usize,
+        target: Vector<T, D>,
+        opts: &MoveOptions<T>,
+    ) -> Result<MoveOutcome, ChainError> {
+        self.check_joint(joint)?;
+        if !all_finite(&target) {
+            return Err(ChainError::NonFinite);
+        }
+        if self.held_elsewhere(joint) {
+            return move_held(self, joint, target, opts);
+        }
+        let delta = target - self.current(joint);
+        let k = self.substep_count(&delta, opts)?;
+        let outcome = self.apply_move(joint, target, delta, k, opts.method);
+        self.repin(joint);
+        Ok(outcome)
+    }
+
+    /// Where joint `joint` can go nearest to `target` with the held joints kept: `target` itself when
+    /// the held sides reach it (each within its rope's length of its held joint, and no nearer than
+    /// the rope can fold), else the nearest point they reach (on the boundary of the held sides'
+    /// shells). A hand pulling the rope taut moves the joint there.
+    pub fn nearest_reachable(
+        &self,
+        joint: usize,
+        target: Vector<T, D>,
+    ) -> Result<Vector<T, D>, ChainError> {
+        self.check_joint(joint)?;
+        if !all_finite(&target) {
+            return Err(ChainError::NonFinite);
+        }
+        nearest_reachable(self, joint, target)
+    }
+
+    /// Moves joint `joint` through `targets` in order, one straight move per target. Every target and
+    /// substep count is validated before anything moves.
+    pub fn move_along(
+        &mut self,
+        joint: usize,
+        targets: &[Vector<T, D>],
+        opts: &MoveOptions<T>,
+    ) -> Result<MoveOutcome, ChainError> {
+        self.check_joint(joint)?;
+        let mut from = self.current(joint);
+        for t in targets {
+            if !all_finite(t) {
+                return Err(ChainError::NonFinite);
+            }
+            self.substep_count(&(t - from), opts)?;
+            from = *t;
+        }
+        let mut total = MoveOutcome::default();
+        if self.held_elsewhere(joint) {
+            // Each target may be refused (out of the held rope's reach): all or nothing.
+            let before = self.clone();
+            for t in targets {
+                match move_held(self, joint, *t, opts) {
+                    Ok(o) => {
+                        total.substeps = total.substeps.saturating_add(o.substeps);
+                        total.paper_fallbacks =
+                            total.paper_fallbacks.saturating_add(o.paper_fallbacks);
+                    }
+                    Err(e) => {
+                        *self = before;
+                        return Err(e);
+                    }
+                }
+            }
+            return Ok(total);
+        }
+        for t in targets {
+            let delta = t - self.current(joint);
+            let k = self.substep_count(&delta, opts)?;
+            let o = self.apply_move(joint, *t, delta, k, opts.method);
+            total.substeps = total.substeps.saturating_add(o.substeps);
+            total.paper_fallbacks = total.paper_fallbacks.saturating_add(o.paper_fallbacks);
+        }
+        self.repin(joint);
+        Ok(total)
+    }
+}
 
 /// The part of the chain between `m` and a held joint, as a fixed-base chain: its base is the held
 /// joint, its end `m`.

@@ -60,6 +60,7 @@ pub mod knot;
 pub mod limits;
 pub mod link;
 pub mod math;
+pub mod options;
 pub mod path;
 #[cfg(feature = "reference")]
 pub mod pseudo_inverse;

@@ -43,6 +43,7 @@
 
 mod project;
 pub mod query;
+mod relax;
 mod resolve;
 mod tree;
 

@@ -418,7 +418,7 @@ where
     for f in (0..=n).filter(|&j| j == m || held.binary_search(&j).is_ok()) {
         if let Some(a) = prev
             && f > a + 1
-            && !super::resolve::relax_part(&mut pos[a..=f], &lengths[a..f], meter)
+            && !super::relax::relax_part(&mut pos[a..=f], &lengths[a..f], meter)
         {
             return false;
         }
