@@ -13,14 +13,10 @@
 
 use crate::build::BuildError;
 use crate::command::Point;
-use crate::command::{Answer, BundleOp, Command, Residual};
+use crate::command::{Answer, BundleOp, Command};
 use crate::each_form;
 use crate::elements::{ChainElements, Counts, Elements, INSTRUMENT_ELEMENTS, Wants};
 use crate::form::{Geometry, build};
-use crate::moves::{
-    instrument_travel, move_and_carry, pull_instrument, pull_move, push_instrument,
-    reach_with_holds,
-};
 use crate::owners::{LOCAL, Owners};
 use crate::point::to_point;
 use crate::refusal::Refusal;
@@ -60,10 +56,6 @@ pub struct World {
     panic_after_kernel: bool,
 }
 
-/// A pull's budget: the pull budget when set, never more than the request's.
-fn pull_cap(pull_budget: Option<u64>, budget: u64) -> u64 {
-    pull_budget.map_or(budget, |p| p.min(budget))
-}
 
 impl World {
     /// Builds the chains a scene declares (and nothing else).
@@ -131,7 +123,7 @@ impl World {
 
     /// The budget of one pull, in link-steps: the pull budget, at most the request's.
     pub fn pull_budget(&self) -> u64 {
-        pull_cap(self.pull_budget, self.budget)
+        crate::apply::pull_cap(self.pull_budget, self.budget)
     }
 
     /// The collision work the kernel's meter charged the last request (accepted or refused), in
@@ -151,188 +143,9 @@ impl World {
         let Some(chain) = req.chain() else {
             return Ok(0);
         };
-        let spec = &self.specs[chain as usize];
-        let n = spec.lengths.len() as u64;
-        match *req {
-            Command::Move {
-                joint,
-                targets,
-                ref options,
-                ..
-            } => {
-                // With held joints, each side up to a held joint iterates the fixed-base method: at
-                // most `hierarchy_after` tractrix passes, then the hierarchy's one pass.
-                let (held, threaded) = each_form!(&self.geometry[chain as usize], h => (
-                    h.chain.held().any(|j| j != joint),
-                    h.eyelets.iter().any(|e| e.threaded),
-                ));
-                // Friction holds the links through the eyelets as held joints.
-                let sticks = threaded && spec.eyelet_friction > 0.0;
-                // With joint limits the hierarchy's pose is kept only when it lands within them, so
-                // the passes may run to `max_iterations`, each with a try of the hierarchy (two);
-                // boundary following takes its passes from these (`ReachOptions::passes_bound`).
-                // Through eyelets each alternation walks out and back (two passes), and with
-                // friction a stuck try that finds the rope taut is tried again sliding (twice).
-                let passes = if held || sticks {
-                    let p = options.held.passes_bound(spec.limits.is_some());
-                    match (threaded, sticks) {
-                        (false, _) => p,
-                        (true, false) => p.saturating_mul(2),
-                        (true, true) => p.saturating_mul(4),
-                    }
-                } else {
-                    1
-                };
-                let n = n.saturating_mul(passes);
-                // Collision splits a move so that the hand moves at most half a clearance per substep.
-                let half_clearance = spec.collision.as_ref().map(|c| {
-                    let link = match c.options.scheme {
-                        tractrix::collision::Scheme::Capsules => c.options.thickness,
-                        tractrix::collision::Scheme::PaperSpheres => spec.shortest,
-                    };
-                    0.5 * if c.obstacles.is_empty() {
-                        link
-                    } else {
-                        0.5 * link
-                    }
-                });
-                if let (tractrix::Substeps::Fixed(k), None) = (options.substeps, half_clearance) {
-                    // Fixed substeps, no collision: the distances do not matter (no walk to the joint).
-                    if k > options.max_substeps {
-                        return Err(ChainError::TooManySubsteps {
-                            required: u64::from(k),
-                            limit: options.max_substeps,
-                        }
-                        .into());
-                    }
-                    let substeps = u64::from(k).saturating_mul(targets.len() as u64);
-                    return Ok(n.saturating_mul(substeps));
-                }
-                let mut substeps = 0u64;
-                // Where the joint is now: one walk along the chain, for the substeps that depend on it.
-                let mut from: Point = each_form!(&self.geometry[chain as usize], h => to_point(&h.chain.joint(joint)));
-                for t in targets {
-                    let d =
-                        ((t.x - from.x).powi(2) + (t.y - from.y).powi(2) + (t.z - from.z).powi(2))
-                            .sqrt();
-                    let asked = match options.substeps {
-                        tractrix::Substeps::Fixed(k) => f64::from(k),
-                        tractrix::Substeps::MaxStep(s) => (d / (s * spec.shortest)).ceil(),
-                    };
-                    let needed = half_clearance.map_or(0.0, |h| (d / h).ceil());
-                    let k = asked.max(needed).max(1.0);
-                    let k = if k.is_finite() && k < 1e18 {
-                        k as u64
-                    } else {
-                        u64::MAX
-                    };
-                    if k > u64::from(options.max_substeps) {
-                        return Err(ChainError::TooManySubsteps {
-                            required: k,
-                            limit: options.max_substeps,
-                        }
-                        .into());
-                    }
-                    substeps = substeps.saturating_add(k);
-                    from = *t;
-                }
-                // Instruments riding with the joint are carried after the move: as many substeps again.
-                let carried = spec.collision.as_ref().map_or(0, |c| {
-                    c.follows
-                        .iter()
-                        .filter(|f| f.map(|j| j as usize) == Some(joint))
-                        .count()
-                });
-                // A pull may try the move several times ([`crate::moves::PULL_TRIES`]), and on tissue
-                // that gives move each threaded eyelet by up to the give times the way
-                // ([`crate::moves::give_way`]); with collision the kernel's meter bounds every try
-                // together.
-                let tries = match *req {
-                    Command::Move { pull: true, .. } if spec.collision.is_none() => {
-                        let give = spec.wound.map_or(0, |w| {
-                            let threaded = each_form!(&self.geometry[chain as usize], h => {
-                                h.eyelets.iter().filter(|e| e.threaded).count() as u64
-                            });
-                            threaded.saturating_mul(w.give.ceil().clamp(1.0, 1e9) as u64)
-                        });
-                        crate::moves::PULL_TRIES.saturating_add(give)
-                    }
-                    _ => 1,
-                };
-                Ok(n.saturating_mul(substeps)
-                    .saturating_mul(1 + carried as u64)
-                    .saturating_mul(tries))
-            }
-            // With joint limits each iteration also tries the hierarchy (a second pass).
-            Command::Reach { ref options, .. } => Ok(n
-                .saturating_mul(u64::from(options.substeps.max(1)))
-                .saturating_mul(u64::from(options.max_iterations.max(1)))
-                .saturating_mul(if spec.limits.is_some() { 2 } else { 1 })),
-            Command::Instrument {
-                index,
-                centre,
-                axis,
-                max_substeps,
-                ..
-            } => {
-                // Substeps of half a clearance (a link against an obstacle has half a link's), over
-                // the farthest any point of the instrument travels.
-                let travel = each_form!(&self.geometry[chain as usize], h => {
-                    instrument_travel(&h.instruments()[index], centre, axis)
-                });
-                let link =
-                    spec.collision
-                        .as_ref()
-                        .map_or(spec.thickness, |c| match c.options.scheme {
-                            tractrix::collision::Scheme::Capsules => c.options.thickness,
-                            tractrix::collision::Scheme::PaperSpheres => spec.shortest,
-                        });
-                let k = (travel / (0.25 * link)).ceil().max(1.0);
-                if !(k.is_finite() && k <= f64::from(max_substeps)) {
-                    return Err(ChainError::TooManySubsteps {
-                        required: if k.is_finite() { k as u64 } else { u64::MAX },
-                        limit: max_substeps,
-                    }
-                    .into());
-                }
-                Ok(n.saturating_mul(k as u64))
-            }
-            // Substeps of half the shortest link over the way the eyelet goes.
-            Command::Eyelet {
-                index,
-                at,
-                max_substeps,
-                ..
-            } => {
-                let from = each_form!(&self.geometry[chain as usize], h => {
-                    h.eyelets.get(index).map(|e| to_point(&e.at))
-                })
-                .ok_or_else(|| {
-                    refuse!(
-                        BadOption,
-                        "chain {:?} has {} eyelets, not {}",
-                        spec.name,
-                        spec.eyelets.len(),
-                        index + 1
-                    )
-                })?;
-                let k = ((at - from).norm() / (0.5 * spec.shortest)).ceil().max(1.0);
-                if !(k.is_finite() && k <= f64::from(max_substeps)) {
-                    return Err(ChainError::TooManySubsteps {
-                        required: if k.is_finite() { k as u64 } else { u64::MAX },
-                        limit: max_substeps,
-                    }
-                    .into());
-                }
-                Ok(n.saturating_mul(k as u64))
-            }
-            Command::Query { .. }
-            | Command::Describe { .. }
-            | Command::Reset { .. }
-            | Command::Grasp { .. }
-            | Command::Release { .. } => Ok(n),
-            Command::Snapshot | Command::Bundle { .. } => Ok(0),
-        }
+        each_form!(&self.geometry[chain as usize], h => {
+            crate::apply::estimate(h, &self.specs[chain as usize], req)
+        })
     }
 
     /// The first chain or bundle whose `describe` (the least a client asks of it) would be refused as
@@ -633,16 +446,9 @@ impl World {
 
     fn apply_checked(&mut self, req: &Command<'_>) -> Result<Answer, Refusal> {
         self.last_work = 0;
-        let work = self.estimate(req)?;
-        if work > self.budget {
-            return Err(refuse!(
-                OverBudget,
-                "about {work:.2e} link-steps, over the budget of {:.2e} (--budget)",
-                self.budget as f64
-            ));
-        }
         if let Command::Bundle { handle, index, op } = *req {
             let b = &mut self.bundles[index];
+            crate::apply::within_budget(crate::bundles::estimate(&b.spec, &op), self.budget)?;
             let substeps = b.apply(&op)?;
             return Ok(Answer {
                 chain: Some(handle),
@@ -660,188 +466,35 @@ impl World {
         let Some(chain) = req.chain() else {
             return Ok(Answer::default());
         };
-        let n_links = self.specs[chain as usize].lengths.len() as u32;
-        let g = &mut self.geometry[chain as usize];
-        let held_now = each_form!(&*g, h => h.chain.held().len());
-        // A grasp of a held joint and a release of a free one are accepted and change nothing.
-        let changes = match *req {
-            Command::Grasp { joint, .. } => {
-                let held = each_form!(&*g, h => h.chain.is_held(joint));
-                if !held && held_now >= crate::sizes::MAX_HELD {
-                    return Err(refuse!(
-                        BadOption,
-                        "chain {:?} already holds {held_now} joints, the most there may be",
-                        self.specs[chain as usize].name
-                    ));
-                }
-                !held
-            }
-            Command::Release { joint, .. } => each_form!(&*g, h => h.chain.is_held(joint)),
-            _ => req.changes_state(),
+        let World {
+            specs,
+            geometry,
+            budget,
+            pull_budget,
+            undo,
+            sequence,
+            last_work,
+            ..
+        } = self;
+        let cx = crate::apply::Context {
+            chain,
+            spec: &specs[chain as usize],
+            budget: *budget,
+            pull_budget: *pull_budget,
+            sequence: *sequence,
+            undo,
+            last_work,
         };
-        let mut outcome = Answer {
-            chain: Some(chain),
-            changed: changes,
-            counts: Counts {
-                joints: n_links + 1,
-                ..Counts::default()
-            },
-            ..Answer::default()
-        };
-        if outcome.changed {
-            // Armed before the kernel runs, so that a panic inside it can be undone too.
-            each_form!(&mut *g, h => h.arm_undo());
-            self.undo = Some((chain, self.sequence));
-        }
-        // Collision work depends on the contacts met, not known before: the kernel's meter charges
-        // every unit (sweeps, held solves, detection, passes, re-solves) before doing it and stops
-        // the request at the budget, the chain unchanged.
-        let budget = self.budget;
-        each_form!(&mut *g, h => if let Some((_, ws)) = h.collision.as_mut() {
-            ws.limit_work(budget);
-        });
-        // A pull's tries share the pull budget (a haptic hand's pulls bounded apart from the tie).
-        let pulled = matches!(
-            *req,
-            Command::Move { pull: true, .. } | Command::Instrument { pull: true, .. }
-        );
-        let mut tries = crate::moves::Tries::new(if pulled {
-            pull_cap(self.pull_budget, budget)
-        } else {
-            budget
-        });
-        let result = match *req {
-            Command::Move {
-                joint,
-                targets,
-                ref options,
-                pull,
-                needle,
-                ..
-            } => each_form!(&mut *g, h => {
-                let target = targets[targets.len() - 1];
-                let done = if pull {
-                    pull_move(h, joint, target, options, needle, &mut tries).map(|(m, stop)| {
-                        if stop.is_some() {
-                            let pulled = (to_point(&h.chain.joint(joint)) - target).norm();
-                            crate::moves::give_way(h, pulled, options.max_substeps, &mut tries);
-                        }
-                        (m, stop)
-                    })
-                } else {
-                    move_and_carry(h, joint, targets, options, needle).map(|m| (m, None))
-                };
-                done.map(|(m, stop)| {
-                    if h.chain.is_held(joint) {
-                        h.tension.joint_moved(joint, target, stop);
-                    }
-                    (m, stop)
-                })
-            })
-            .map(|(m, stop)| {
-                outcome.stopped = stop;
-                outcome.substeps = m.substeps;
-                outcome.paper_fallbacks = m.paper_fallbacks;
-                outcome.iterations = m.collision_iterations;
-                outcome.residual = Residual::Landing {
-                    joint,
-                    target: targets[targets.len() - 1],
-                };
-            }),
-            Command::Reach {
-                ref goal,
-                ref options,
-                angles,
-                ..
-            } => each_form!(&mut *g, h => reach_with_holds(h, goal, options)).map(|(it, res)| {
-                outcome.iterations = it;
-                outcome.residual = Residual::Known(res);
-                outcome.counts.angles = if angles { n_links } else { 0 };
-            }),
-            Command::Query { angles, .. } => {
-                outcome.counts.angles = if angles { n_links } else { 0 };
-                Ok(())
-            }
-            Command::Describe { .. } => {
-                outcome.describe = true;
-                outcome.counts.tissue = u32::from(each_form!(&*g, h => h.tissue.is_some()));
-                Ok(())
-            }
-            Command::Reset { .. } => {
-                each_form!(&mut *g, h => h.load(crate::form::Kept::Initial));
-                Ok(())
-            }
-            Command::Instrument {
-                index,
-                centre,
-                axis,
-                max_substeps,
-                pull,
-                ..
-            } => each_form!(&mut *g, h => {
-                let done = if pull {
-                    pull_instrument(h, index, centre, axis, max_substeps, &mut tries)
-                } else {
-                    push_instrument(h, index, centre, axis, max_substeps).map(|m| (m, None))
-                };
-                done.map(|(m, stop)| {
-                    h.tension.instrument_moved(index, centre, stop);
-                    (m, stop)
-                })
-            })
-            .map(|(m, stop)| {
-                outcome.stopped = stop;
-                outcome.substeps = m.substeps;
-                outcome.iterations = m.collision_iterations;
-            }),
-            Command::Grasp { joint, .. } => {
-                each_form!(&mut *g, h => h.chain.hold(joint)).map_err(Refusal::from)
-            }
-            Command::Eyelet {
-                index,
-                at,
-                max_substeps,
-                ..
-            } => each_form!(&mut *g, h => {
-                crate::moves::move_eyelet(h, index, crate::point::point(at), max_substeps)
-            })
-            .map(|m| outcome.substeps = m.substeps)
-            .map_err(Refusal::from),
-            Command::Release { joint, .. } => each_form!(&mut *g, h => {
-                h.tension.released(joint);
-                h.chain.release(joint)
-            })
-            .map(|_| ())
-            .map_err(Refusal::from),
-            Command::Snapshot | Command::Bundle { .. } => Ok(()),
-        };
+        let result =
+            each_form!(&mut geometry[chain as usize], h => crate::apply::apply(h, req, cx));
         #[cfg(test)]
         if std::mem::take(&mut self.panic_after_kernel) {
             panic!("injected: a kernel bug after the chain moved");
         }
-        let c = &mut outcome.counts;
-        c.held = each_form!(&*g, h => h.chain.held().len()) as u32;
-        c.instruments = each_form!(&*g, h => h.instruments().len()) as u32;
-        c.pulls = c.held + c.instruments;
-        c.eyelets = each_form!(&*g, h => h.eyelets.len()) as u32;
-        self.last_work = each_form!(&*g, h => h.collision.as_ref().map_or(0, |(_, ws)| ws.work()))
-            .max(tries.work);
-        match result {
-            Ok(()) => {
-                if outcome.changed {
-                    self.sequence += 1;
-                    each_form!(&mut *g, h => h.refresh_tension());
-                }
-                Ok(outcome)
-            }
-            Err(r) => {
-                if outcome.changed {
-                    each_form!(&mut *g, h => h.swap_undo());
-                    self.undo = None;
-                }
-                Err(r)
-            }
+        if result.as_ref().is_ok_and(|a| a.changed) {
+            self.sequence += 1;
         }
+        result
     }
 
     /// Undoes the last accepted change (a journal write failed), or the change that was being applied

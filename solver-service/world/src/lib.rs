@@ -21,6 +21,7 @@
 
 pub use chains::World;
 
+mod apply;
 pub mod build;
 pub mod bundles;
 pub mod chains;
