@@ -61,6 +61,26 @@ pub struct MoveOutcome {
     /// Link steps turned back into their joint's limit (0 without limits): how often the move ran into
     /// the chain's cones or ranges ([`crate::limits`]).
     pub limited: u32,
+    /// Eyelets the rope left during the move (an end slid out; 0 without eyelets).
+    pub left: u32,
+    /// Whether the rope stuck in its eyelets (friction): the links through them did not move.
+    pub stuck: bool,
+}
+
+impl MoveOutcome {
+    /// Adds `o`'s counts to these (a path of moves; saturating), `stuck` if either stuck.
+    pub fn add(&mut self, o: &MoveOutcome) {
+        self.substeps = self.substeps.saturating_add(o.substeps);
+        self.paper_fallbacks = self.paper_fallbacks.saturating_add(o.paper_fallbacks);
+        self.collision_iterations = self
+            .collision_iterations
+            .saturating_add(o.collision_iterations);
+        self.contacts = self.contacts.saturating_add(o.contacts);
+        self.held_iterations = self.held_iterations.saturating_add(o.held_iterations);
+        self.limited = self.limited.saturating_add(o.limited);
+        self.left = self.left.saturating_add(o.left);
+        self.stuck |= o.stuck;
+    }
 }
 
 /// Why a chain could not be built or moved. A failed move leaves the chain unchanged.

@@ -16,6 +16,10 @@
 //! assert!((rope.head() - Vector3::new(40.0, 5.0, 0.0)).norm() < 1e-12);
 //! ```
 //!
+//! * [`rope`]: **the door**: one chain with its collision model and eyelets, one method per action
+//!   (`move_to`, `move_along`, `push`, `move_eyelet`), one outcome type; the modules below are its
+//!   implementation.
+//! * [`options`]: the options of a move and of a fixed-base reach.
 //! * [`math`]: scalar trait, vector aliases, tolerances.
 //! * [`link`]: one link, three ways (closed-form tractrix, the paper's TRACTRIX3D, follow-the-leader).
 //! * [`chain`]: flat chain state and RESOLUTION-TRACTRIX (head, tail or interior joint moves, substeps).
@@ -64,6 +68,7 @@ pub mod options;
 pub mod path;
 #[cfg(feature = "reference")]
 pub mod pseudo_inverse;
+pub mod rope;
 pub mod strands;
 
 pub use chain::{Chain, ChainError, MoveOptions, MoveOutcome, Substeps};
@@ -72,3 +77,4 @@ pub use goals::{Goal, reach_goal};
 pub use limits::{JointLimits, LimitError, LimitKind};
 pub use link::{LinkStep, Method};
 pub use math::{Real, Vector};
+pub use rope::{Rope, RopeError};

@@ -56,7 +56,6 @@ pub struct World {
     panic_after_kernel: bool,
 }
 
-
 impl World {
     /// Builds the chains a scene declares (and nothing else).
     pub fn new(scene: &Scene) -> Result<Self, BuildError> {

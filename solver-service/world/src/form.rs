@@ -96,6 +96,37 @@ where
             .as_mut()
             .map_or(&mut [][..], |(m, _)| &mut m.obstacles[at..])
     }
+    /// The kernel's door to this rope ([`tractrix::Rope`]): its chain with its collision model when
+    /// it has one, and threaded through its eyelets when it has eyelets or tissue (where the head
+    /// makes them).
+    pub(crate) fn rope(&mut self) -> tractrix::Rope<'_, T, D> {
+        let threaded = !self.eyelets.is_empty() || self.tissue.is_some();
+        self.rope_with(threaded)
+    }
+    /// [`LiveChain::rope`], threaded through its eyelets (even none) when `threaded`.
+    pub(crate) fn rope_with(&mut self, threaded: bool) -> tractrix::Rope<'_, T, D> {
+        let LiveChain {
+            chain,
+            collision,
+            eyelets,
+            eyelet_ws,
+            ..
+        } = self;
+        let mut rope = tractrix::Rope::new(chain);
+        if let Some((model, ws)) = collision {
+            rope = rope.with_collision(model, ws);
+        }
+        if threaded {
+            rope = rope.with_eyelets(eyelets, eyelet_ws);
+        }
+        rope
+    }
+    /// Sets obstacle `at` of the collision model (an instrument's new pose).
+    pub(crate) fn set_obstacle(&mut self, at: usize, to: Obstacle<T, D>) {
+        if let Some((model, _)) = &mut self.collision {
+            model.obstacles[at] = to;
+        }
+    }
     /// Copies the live state into the kept state `which` (no allocation once warm).
     pub(crate) fn save(&mut self, which: Kept) {
         let LiveChain {

@@ -6,7 +6,11 @@
 //!   [`scene::BundleSpec`]s of kernel types, every error with its line and field;
 //! * [`chains`]: the [`World`]: every chain and bundle of a scene, by handle; apply (atomic) and undo;
 //! * [`form`]: a chain at run time in its scene's form ([`form::LiveChain`], [`form::Geometry`]);
-//! * [`moves`]: what a command does to one chain (moves, paths, instruments, reaches);
+//! * `apply`: one command on one chain, generic over its form (the per-chain body of
+//!   [`World::apply`] and [`World::estimate`], one dispatch each);
+//! * [`moves`]: what a command does to one chain (moves, paths, instruments, reaches), through the
+//!   kernel's door [`tractrix::Rope`];
+//! * [`point`]: the world's points and their conversion to a chain's vectors;
 //! * [`elements`]: the payload of an answer, streamed into the caller's buffer;
 //! * [`build`]: why a scene's world could not be built;
 //! * [`bundles`]: the scene's bundles at run time;

@@ -9,7 +9,7 @@ use crate::refusal::{Cause, Refusal};
 use crate::refuse;
 use crate::tension::Stop;
 use nalgebra::Vector3;
-use tractrix::collision::{Obstacle, move_joint_colliding};
+use tractrix::collision::Obstacle;
 use tractrix::math::{Embed3, Real, Vector};
 use tractrix::{ChainError, MoveOptions, MoveOutcome, ReachOptions, reach_goal};
 
@@ -214,7 +214,7 @@ where
                 continue;
             }
             let at = g.instruments_at + k;
-            let Some((model, ws)) = g.collision.as_mut() else {
+            let Some((model, _)) = g.collision.as_mut() else {
                 continue;
             };
             let to = match model.obstacles[at] {
@@ -275,14 +275,7 @@ where
             if swaged_free {
                 g.chain.hold(n)?;
             }
-            let m = push(
-                &mut g.chain,
-                (model, ws),
-                at,
-                &to,
-                (&g.eyelets, &mut g.eyelet_ws),
-                opts.max_substeps,
-            );
+            let m = push(g, at, &to, opts.max_substeps);
             if swaged_free {
                 g.chain.release(n)?;
             }
@@ -293,7 +286,7 @@ where
                     return Err(e);
                 }
             };
-            model.obstacles[at] = to;
+            g.set_obstacle(at, to);
             if needle.contains(&k) {
                 g.chain.write_positions(&mut joints);
             }
@@ -355,46 +348,28 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let at = g.instruments_at + index;
-    let Some((model, ws)) = g.collision.as_mut() else {
+    let Some((model, _)) = g.collision.as_ref() else {
         return Err(ChainError::BadOption("the chain has no instruments").into());
     };
     let to = instrument_pose(&model.obstacles[at], centre, axis);
-    let m = push(
-        &mut g.chain,
-        (model, ws),
-        at,
-        &to,
-        (&g.eyelets, &mut g.eyelet_ws),
-        max_substeps,
-    )?;
-    model.obstacles[at] = to;
+    let m = push(g, at, &to, max_substeps)?;
+    g.set_obstacle(at, to);
     Ok(m)
 }
 
-/// Instrument `at` of the model pushed to the pose `to`, the chain giving way; on a chain with eyelets
-/// the links through them stay (the rope does not slide through them under a push).
+/// Instrument `at` of the model pushed to the pose `to`, the chain giving way (the kernel's door: on
+/// a chain with eyelets the links through them stay, the rope does not slide through them under a
+/// push); the instrument is not yet set there.
 fn push<T: Real, const D: usize>(
-    chain: &mut tractrix::Chain<T, D>,
-    (model, ws): (
-        &tractrix::collision::CollisionModel<T, D>,
-        &mut tractrix::collision::CollisionWorkspace<T, D>,
-    ),
+    g: &mut LiveChain<T, D>,
     at: usize,
     to: &Obstacle<T, D>,
-    (eyelets, ews): (
-        &[tractrix::eyelet::Eyelet<T, D>],
-        &mut tractrix::eyelet::EyeletWorkspace<T, D>,
-    ),
     max_substeps: u32,
 ) -> Result<MoveOutcome, Refusal>
 where
     Vector<T, D>: Embed3<T>,
 {
-    Ok(if eyelets.is_empty() {
-        tractrix::collision::push_by_obstacle(chain, model, at, to, max_substeps, ws)?
-    } else {
-        tractrix::eyelet::push_threaded(chain, model, at, to, eyelets, max_substeps, ws, ews)?
-    })
+    Ok(g.rope().push(at, to, max_substeps)?)
 }
 
 /// A move or a path of `joint` on one chain (held sides solved as fixed-base chains). The chain may
@@ -442,63 +417,18 @@ where
         for t in targets {
             let p: Vector<T, D> = point(*t);
             let before = to_point(&g.chain.joint(g.chain.n_links()));
-            let LiveChain {
-                chain,
-                eyelets,
-                eyelet_ws,
-                collision,
-                ..
-            } = g;
-            let o = match collision {
-                Some((model, cws)) => tractrix::eyelet::move_threaded_colliding(
-                    chain,
-                    joint,
-                    p,
-                    eyelets,
-                    opts.max_substeps,
-                    model,
-                    cws,
-                    eyelet_ws,
-                )?,
-                None => tractrix::eyelet::move_threaded(
-                    chain,
-                    joint,
-                    p,
-                    eyelets,
-                    opts.max_substeps,
-                    eyelet_ws,
-                )?,
-            };
-            total.substeps = total.substeps.saturating_add(o.substeps);
+            total.add(&g.rope().move_to(joint, p, &opts)?);
             if joint == g.chain.n_links() {
                 pierce(g, before)?;
             }
         }
         Ok(total)
-    } else if let Some((model, ws)) = &mut g.collision {
-        // Each target is a straight move with collision.
-        let mut total = MoveOutcome::default();
-        for t in targets {
-            let p: Vector<T, D> = point(*t);
-            let o = move_joint_colliding(&mut g.chain, joint, p, &opts, model, ws)?;
-            total.substeps = total.substeps.saturating_add(o.substeps);
-            total.paper_fallbacks = total.paper_fallbacks.saturating_add(o.paper_fallbacks);
-            total.collision_iterations = total
-                .collision_iterations
-                .saturating_add(o.collision_iterations);
-            total.contacts = total.contacts.saturating_add(o.contacts);
-        }
-        Ok(total)
-    } else if targets.len() == 1 {
-        let p: Vector<T, D> = point(targets[0]);
-        if !tractrix::math::all_finite(&p) {
-            return Err(ChainError::NonFinite.into());
-        }
-        Ok(g.chain.move_joint(joint, p, &opts)?)
     } else {
         converted(g)?;
-        let LiveChain { chain, targets, .. } = g;
-        Ok(chain.move_along(joint, targets, &opts)?)
+        let targets = std::mem::take(&mut g.targets);
+        let moved = g.rope().move_along(joint, &targets, &opts);
+        g.targets = targets;
+        Ok(moved?)
     }
 }
 
@@ -898,36 +828,17 @@ pub(crate) fn give_way<T: Real, const D: usize>(
 }
 
 /// Eyelet `index` moved to `to` (the tissue moving it), carrying the rope's point at it, with
-/// collision when the chain has it ([`tractrix::eyelet::move_eyelet`], `move_eyelet_colliding`).
+/// collision when the chain has it (the kernel's door, [`tractrix::Rope::move_eyelet`]).
 pub(crate) fn move_eyelet<T: Real, const D: usize>(
     g: &mut LiveChain<T, D>,
     index: usize,
     to: Vector<T, D>,
     max_substeps: u32,
-) -> Result<tractrix::eyelet::Threaded, tractrix::eyelet::EyeletError>
+) -> Result<MoveOutcome, tractrix::RopeError>
 where
     Vector<T, D>: Embed3<T>,
 {
-    let LiveChain {
-        chain,
-        eyelets,
-        eyelet_ws,
-        collision,
-        ..
-    } = g;
-    match collision {
-        Some((model, cws)) => tractrix::eyelet::move_eyelet_colliding(
-            chain,
-            index,
-            to,
-            eyelets,
-            max_substeps,
-            model,
-            cws,
-            eyelet_ws,
-        ),
-        None => tractrix::eyelet::move_eyelet(chain, index, to, eyelets, max_substeps, eyelet_ws),
-    }
+    g.rope_with(true).move_eyelet(index, to, max_substeps)
 }
 
 /// Whether the two links below the first held joint above `joint` (those the move closes on it) have

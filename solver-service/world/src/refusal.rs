@@ -116,6 +116,15 @@ macro_rules! refuse {
         $crate::refusal::Refusal::new($crate::refusal::Cause::$cause, format_args!($($fmt)*))
     };
 }
+impl From<tractrix::RopeError> for Refusal {
+    fn from(e: tractrix::RopeError) -> Self {
+        match e {
+            tractrix::RopeError::Chain(c) => c.into(),
+            tractrix::RopeError::Eyelet(e) => e.into(),
+        }
+    }
+}
+
 impl From<tractrix::eyelet::EyeletError> for Refusal {
     fn from(e: tractrix::eyelet::EyeletError) -> Self {
         use tractrix::eyelet::EyeletError;
