@@ -18,9 +18,8 @@ pub mod snake;
 mod vec3;
 pub mod viewer;
 
-pub use connection::{
-    CallError, ConnectOptions, Connection, Pacer, Reply, StateStream, ToolArgs, count_refusal,
-};
+pub use client::{CallError, ConnectOptions, Connection, Reply, StateStream, Svc};
+pub use connection::{Pacer, ToolArgs, count_refusal};
 /// How a client waits for its response (the protocol's [`shared::Wait`], which the service's loop
 /// takes too).
 pub use shared::Wait;

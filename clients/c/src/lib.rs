@@ -1,6 +1,6 @@
 //! The solver service's client with a C ABI: the path for C, C++ and C# (issue 17).
 //!
-//! A thin wrapper over [`clients::Connection`]: the same requests, the same waits, the same errors, as C
+//! A thin wrapper over [`client::Connection`]: the same requests, the same waits, the same errors, as C
 //! functions on an opaque handle. The header is `shared/include/tractrix_client.h` (it includes the wire
 //! header `tractrix.h` for the request, response and state types); the build makes
 //! `libtractrix_client.so` and `libtractrix_client.a` in `target/release`.
@@ -25,8 +25,9 @@
 // A C ABI passes each buffer as pointer, capacity and count: the functions have many arguments.
 #![allow(clippy::too_many_arguments)]
 
-use clients::{CallError, ConnectOptions, Connection, StateStream, Wait};
+use client::{CallError, ConnectOptions, Connection, StateStream};
 use iceoryx2::service::ipc_threadsafe;
+use shared::Wait;
 use shared::{Command, PullStop, RequestHeader, ResponseHeader, StateHeader, Status, Vec3};
 use std::ffi::{CStr, CString, c_char, c_int, c_void};
 use std::panic::{AssertUnwindSafe, catch_unwind};
