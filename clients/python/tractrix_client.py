@@ -258,6 +258,19 @@ def iceoryx_config_file() -> str | None:
     return None
 
 
+def _outside_uid(uid: int) -> int:
+    """`uid` as the machine sees it (mapped out of a user namespace by /proc/self/uid_map)."""
+    try:
+        with open("/proc/self/uid_map") as f:
+            for line in f:
+                inside, outside, count = (int(w) for w in line.split())
+                if inside <= uid < inside + count:
+                    return outside + uid - inside
+    except (OSError, ValueError):
+        pass
+    return uid
+
+
 def iceoryx_config(prefix: str = DEFAULT_PREFIX):
     """The iceoryx2 configuration every process of this protocol uses (the Rust crate `shared`'s
     `iceoryx_config`): iceoryx2's configuration file when there is one, else its defaults with the
@@ -267,7 +280,7 @@ def iceoryx_config(prefix: str = DEFAULT_PREFIX):
     iox2.set_log_level_from_env_or(iox2.LogLevel.Error)
     cfg = iox2.config.global_config()
     if iceoryx_config_file() is None:
-        cfg.global_cfg.root_path = iox2.Path.new(f"{IOX_ROOT_BASE}{os.geteuid()}/")
+        cfg.global_cfg.root_path = iox2.Path.new(f"{IOX_ROOT_BASE}{_outside_uid(os.geteuid())}/")
     cfg.global_cfg.prefix = iox2.FileName.new(prefix)
     return cfg
 

@@ -37,10 +37,29 @@ pub fn iceoryx_config_file() -> Option<PathBuf> {
     places.into_iter().find(|p| p.is_file())
 }
 
-/// The numeric id of the user this process runs as (the owner of `/proc/self`).
+/// The numeric id of the user this process runs as (the owner of `/proc/self`), as the machine sees
+/// it: inside a user namespace (`unshare -U`), mapped out through `/proc/self/uid_map`, so a process
+/// that is root in its namespace still uses its user's own directory.
 fn uid() -> Option<u32> {
     use std::os::unix::fs::MetadataExt;
-    std::fs::metadata("/proc/self").ok().map(|m| m.uid())
+    let uid = std::fs::metadata("/proc/self").ok()?.uid();
+    let map = std::fs::read_to_string("/proc/self/uid_map").unwrap_or_default();
+    Some(outside_uid(uid, &map))
+}
+
+/// `uid` mapped by a `uid_map` text (lines of `inside outside count`); itself where no line maps it.
+fn outside_uid(uid: u32, map: &str) -> u32 {
+    map.lines()
+        .filter_map(|l| {
+            let n: Vec<u64> = l
+                .split_whitespace()
+                .filter_map(|w| w.parse().ok())
+                .collect();
+            (n.len() == 3).then(|| (n[0], n[1], n[2]))
+        })
+        .find(|&(inside, _, count)| (inside..inside + count).contains(&u64::from(uid)))
+        .and_then(|(inside, outside, _)| u32::try_from(outside + (u64::from(uid) - inside)).ok())
+        .unwrap_or(uid)
 }
 
 /// The iceoryx2 configuration of one instance: iceoryx2's global configuration (its configuration file
@@ -143,7 +162,16 @@ mod tests {
         let uid = std::fs::metadata("/proc/self")
             .map(|m| std::os::unix::fs::MetadataExt::uid(&m))
             .unwrap();
-        assert_eq!(root, format!("/tmp/iceoryx2.{uid}/"));
+        let map = std::fs::read_to_string("/proc/self/uid_map").unwrap_or_default();
+        assert_eq!(root, format!("/tmp/iceoryx2.{}/", outside_uid(uid, &map)));
+    }
+
+    #[test]
+    fn a_user_namespace_maps_root_to_its_user() {
+        assert_eq!(outside_uid(0, "         0       1001          1\n"), 1001);
+        assert_eq!(outside_uid(5, "0 100000 65536\n"), 100005);
+        assert_eq!(outside_uid(1000, "0 0 4294967295\n"), 1000);
+        assert_eq!(outside_uid(7, ""), 7);
     }
 
     #[test]
