@@ -13,8 +13,11 @@ TGT=$PWD/target/ab-collision-target
 [ -d "$WT" ] || git worktree add --detach "$WT" "$BASE" >/dev/null
 (cd "$WT" && git checkout -q --detach "$BASE")
 # The bench binary of each side (cargo prints the executable's path as JSON).
+# The bench lives in the kernel since the knots crate; in clients before it.
 bench_bin() { # dir target-dir
-  (cd "$1" && CARGO_TARGET_DIR=$2 cargo bench -q -p clients --bench collision --no-run \
+  local pkg=clients
+  [ -f "$1/solver-service/kernel/benches/collision.rs" ] && pkg=tractrix
+  (cd "$1" && CARGO_TARGET_DIR=$2 cargo bench -q -p "$pkg" --bench collision --no-run \
     --message-format json 2>/dev/null) |
     python3 -c 'import json,sys
 for l in sys.stdin:

@@ -95,8 +95,8 @@ block extremes "cargo bench -p tractrix --bench extremes" \
   cargo bench -q -p tractrix --bench extremes
 block accuracy "cargo bench -p clients --bench accuracy" \
   cargo bench -q -p clients --bench accuracy
-block collision "cargo bench -p clients --bench collision" \
-  cargo bench -q -p clients --bench collision
+block collision "cargo bench -p tractrix --bench collision" \
+  cargo bench -q -p tractrix --bench collision
 block ab-collision "scripts/ab-collision.sh 5d2b880 $AB_ROUNDS" \
   scripts/ab-collision.sh 5d2b880 "$AB_ROUNDS"
 block contact "cargo bench -p clients --bench contact" \
@@ -105,8 +105,8 @@ block ab-contact "scripts/ab-contact.sh c11c4fe $AB_ROUNDS" \
   scripts/ab-contact.sh c11c4fe "$AB_ROUNDS"
 block tighten "cargo bench -p clients --bench tighten" \
   cargo bench -q -p clients --bench tighten
-block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p clients --bench knots" \
-  env KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-1000}" cargo bench -q -p clients --bench knots
+block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p world --bench knots" \
+  env KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-1000}" cargo bench -q -p world --bench knots
 block budget "cargo bench -p solver-service --bench budget" \
   cargo bench -q -p solver-service --bench budget
 block journal "cargo bench -p solver-service --bench journal" \
@@ -115,12 +115,12 @@ block languages "scripts/lang-latency.sh $LANG_ARGS" \
   scripts/lang-latency.sh $LANG_ARGS
 block holds "cargo bench -p tractrix --bench holds" \
   cargo bench -q -p tractrix --bench holds
-block knots "KNOT_BENCH_RUNS=8 cargo bench -p clients --bench knots" \
-  env KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-8}" cargo bench -q -p clients --bench knots
+block knots "KNOT_BENCH_RUNS=8 cargo bench -p world --bench knots" \
+  env KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-8}" cargo bench -q -p world --bench knots
 block sweep "scripts/sweep-bench.sh scaling $SWEEP_ARGS" \
   scripts/sweep-bench.sh scaling $SWEEP_ARGS
-block knots-bend "KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS=4 cargo bench -p clients --bench knots" \
-  env KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-4}" cargo bench -q -p clients --bench knots
+block knots-bend "KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS=4 cargo bench -p world --bench knots" \
+  env KNOT_BENCH_TABLES=bend KNOT_BENCH_RUNS="${KNOT_BENCH_RUNS:-4}" cargo bench -q -p world --bench knots
 block eyelets "cargo bench -p tractrix --bench eyelets" \
   cargo bench -q -p tractrix --bench eyelets
 block stitch "cargo bench -p clients --bench stitch" \
@@ -129,8 +129,8 @@ block limits "cargo bench -p tractrix --bench limits" \
   cargo bench -q -p tractrix --bench limits
 block goals "cargo bench -p tractrix --bench goals" \
   cargo bench -q -p tractrix --bench goals
-block smooth "cargo bench -p clients --bench smooth" \
-  cargo bench -q -p clients --bench smooth
+block smooth "cargo bench -p tractrix --bench smooth" \
+  cargo bench -q -p tractrix --bench smooth
 block sweep-knots "scripts/sweep-bench.sh knots" \
   scripts/sweep-bench.sh knots
 block sweep-accuracy "scripts/sweep-bench.sh accuracy" \

@@ -35,7 +35,7 @@
 
 use anyhow::{Context, Result, bail};
 use clients::process::{Proc, release_bin, workspace};
-use clients::script::Script;
+use knots::script::Script;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

@@ -6,10 +6,10 @@
 //! `cargo bench -p clients --bench tighten` starts, for each row, the release `solver-service` on the
 //! shipped `knots.toml` (its ropes 0.2 thick, its holds, instruments, anchors and work budget) with a
 //! deep state buffer, a `watch --crossings` that checks every published state against the one before
-//! (the swept-volume check, `clients::check::crossings_between`: no link through another), and the
+//! (the swept-volume check, `knots::check::crossings_between`: no link through another), and the
 //! script's hands. The table gives the knot named at the end (the service's identification), the
 //! knotted stretch (the shortest run of joints that, closed far away by itself, is still the knot:
-//! `tractrix::knot::knotted_stretch`) in rope diameters, against the ideal length the issue names
+//! `knots::knotted_stretch`) in rope diameters, against the ideal length the issue names
 //! (the open trefoil about 10.1 diameters, Pieranski, Przybyl & Stasiak 2001; square and granny at most
 //! 28.5 by the composite bound of Cantarella, LaPointe & Rawdon; none for the surgeon's knot), how each
 //! tightening pull ended (`taut`, `jammed`, `out-of-work`: see docs/tension.md), the crossings `watch` found in the
@@ -445,7 +445,7 @@ fn main() -> Result<()> {
     if !names.is_empty() {
         println!(
             "\nThe knot's name with every state: every state `watch` read in the rows above, named in order by \
-             one `tractrix::knot::Namer` after the row (the service and hands stopped), each call timed. \
+             one `knots::Namer` after the row (the service and hands stopped), each call timed. \
              *new diagrams*: states whose reduced diagram the namer had not seen among its last 64, so \
              its Jones polynomial was computed; *agrees with identify*: of 100 states spread over the \
              row and the last, those the six-closure `identify` names the same. The states are named \

@@ -3,7 +3,7 @@
 //! scripts' hand paths (the overhand on 160 links, the square knot's two hands on 320), collision off
 //! (the ground truth, DOP853 from `tractrix::ground_truth`, knows no contacts).
 
-use crate::script::Script;
+use knots::script::Script;
 use nalgebra::Vector3;
 use std::hint::black_box;
 use std::time::Instant;

@@ -8,11 +8,11 @@
 //! any order, seconds apart. Every wait has a deadline.
 
 use crate::connection::{CallError, Connection, Pacer, Svc, count_refusal, ipc};
-use crate::script::{InstrumentEnds, Script, parse_joint};
 use anyhow::Context as _;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::prelude::*;
+use knots::script::{InstrumentEnds, Joint, Script, parse_joint};
 use serde::{Deserialize, Serialize};
 use shared::{Command, JOINT_HEAD, PullStop, RequestHeader, Status, Vec3};
 use std::io::Write;
@@ -96,7 +96,7 @@ pub struct HandReport {
     pub splits: u64,
     /// Every move and instrument request sent, in order, the halves of a split move included.
     pub timings: Vec<Timing>,
-    /// How each tightening pull of this hand ended ([`crate::script::Tighten`]).
+    /// How each tightening pull of this hand ended ([`knots::script::Tighten`]).
     pub tightened: Vec<Tightened>,
 }
 
@@ -139,7 +139,7 @@ pub struct Timing {
     pub solve_ns: u64,
     /// Its status's name.
     pub status: &'static str,
-    /// A tightening pull's request ([`crate::script::Tighten`]).
+    /// A tightening pull's request ([`knots::script::Tighten`]).
     pub pull: bool,
     /// The response's `iterations`: on a chain with collision handling, the resolution passes that
     /// pushed links apart (summed over substeps; for a locked move, those of the substep where it
@@ -218,7 +218,7 @@ pub struct HandConfig {
     /// Key frames to keep per turn of this hand, evenly spaced, the last at the turn's end (0: none).
     pub frames_per_turn: usize,
     /// The seed of a perturbed run (0: none) and the tremor's amplitude: every target this hand sends
-    /// is shaken by [`crate::script::Tremor`] (amplitude 0: not at all).
+    /// is shaken by [`knots::script::Tremor`] (amplitude 0: not at all).
     pub tremor: (u64, f64),
 }
 
@@ -332,7 +332,7 @@ pub fn run_hand(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<HandR
     if cfg.script.grasp {
         for turn in cfg.script.turn.iter().filter(|t| t.hand == cfg.hand) {
             let chain = conn.require_chain(&turn.chain)?;
-            let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
+            let joint = wire_joint(&turn.joint)?;
             if !grips.iter().any(|g| g.1 == chain && g.2 == joint) {
                 grips.push((turn.chain.clone(), chain, joint));
             }
@@ -385,7 +385,7 @@ fn wait_for_grips(conn: &mut Connection, cfg: &HandConfig) -> anyhow::Result<()>
     let mut wanted: Vec<(u32, u32)> = Vec::new();
     for turn in &cfg.script.turn {
         let chain = conn.require_chain(&turn.chain)?;
-        let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
+        let joint = wire_joint(&turn.joint)?;
         if !wanted.contains(&(chain, joint)) {
             wanted.push((chain, joint));
         }
@@ -478,7 +478,7 @@ fn drive(
 ) -> anyhow::Result<()> {
     use anyhow::bail;
     let mut mine: Vec<usize> = Vec::new();
-    let mut tremor = crate::script::Tremor::new(
+    let mut tremor = knots::script::Tremor::new(
         cfg.tremor.0,
         &cfg.hand,
         if cfg.tremor.0 == 0 { 0.0 } else { cfg.tremor.1 },
@@ -498,7 +498,7 @@ fn drive(
                 .map_err(anyhow::Error::msg)?;
         }
         let chain = conn.require_chain(&turn.chain)?;
-        let joint = parse_joint(&turn.joint).map_err(anyhow::Error::msg)?;
+        let joint = wire_joint(&turn.joint)?;
         let q = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
         let joints = q.joints();
         let idx = if joint == JOINT_HEAD {
@@ -531,7 +531,7 @@ fn drive(
                 bail!("turn {}: a drive moves the head, the needle's swage", k + 1);
             }
             let moves =
-                crate::script::needle_arc(rope[idx], &instruments, d.angle, cfg.script.max_step)
+                knots::script::needle_arc(rope[idx], &instruments, d.angle, cfg.script.max_step)
                     .map_err(|e| anyhow::anyhow!("turn {}: drive: {e}", k + 1))?;
             let (targets, rotations): (Vec<_>, Vec<_>) = moves.into_iter().unzip();
             // A steady hand drives the needle (`FLAG_DRIVE`, the points alone: the service turns
@@ -602,15 +602,15 @@ fn drive(
                     rope[idx]
                 };
                 if let Some(&last) = targets.last() {
-                    let d = crate::vec3::sub(last, from);
-                    let n = crate::vec3::norm(d);
+                    let d = knots::vec3::sub(last, from);
+                    let n = knots::vec3::norm(d);
                     let rope_len: f64 =
-                        rope.windows(2).map(|w| crate::vec3::dist(w[0], w[1])).sum();
+                        rope.windows(2).map(|w| knots::vec3::dist(w[0], w[1])).sum();
                     if n > 0.0 && n.is_finite() {
                         let steps = (rope_len / n).ceil().min(1e6) as usize;
                         targets.extend(
                             (1..=steps)
-                                .map(|i| crate::vec3::add(last, crate::vec3::scale(d, i as f64))),
+                                .map(|i| knots::vec3::add(last, knots::vec3::scale(d, i as f64))),
                         );
                     }
                 }
@@ -640,7 +640,7 @@ fn tail_before_eyelet(rh: &shared::ResponseHeader, pts: &[Vec3]) -> Option<f64> 
     if l + 1 >= j.len() {
         return None;
     }
-    let d = |a: Vec3, b: Vec3| crate::vec3::dist(a.to_array(), b.to_array());
+    let d = |a: Vec3, b: Vec3| knots::vec3::dist(a.to_array(), b.to_array());
     Some(j[..=l].windows(2).map(|w| d(w[0], w[1])).sum::<f64>() + d(j[l], e.at))
 }
 
@@ -652,7 +652,7 @@ struct TurnRun<'a> {
     record: &'a mut Option<std::io::BufWriter<std::fs::File>>,
     report: &'a mut HandReport,
     k: usize,
-    turn: &'a crate::script::Turn,
+    turn: &'a knots::script::Turn,
     chain: u32,
 }
 
@@ -733,7 +733,7 @@ impl TurnRun<'_> {
         targets: &[[f64; 3]],
         rotations: Option<&[[f64; 3]]>,
         q: &crate::Reply,
-        tremor: &mut crate::script::Tremor,
+        tremor: &mut knots::script::Tremor,
         flags: u32,
     ) -> anyhow::Result<()> {
         use anyhow::bail;
@@ -752,7 +752,7 @@ impl TurnRun<'_> {
         let mut turned: Option<[f64; 3]> = None;
         let mut told_budget = false;
         let mut told_locked = false;
-        // A draw turn that has left its tail ([`crate::script::Draw`]).
+        // A draw turn that has left its tail ([`knots::script::Draw`]).
         let mut drawn = false;
         for (i, t) in targets.iter().enumerate() {
             if drawn {
@@ -907,16 +907,16 @@ impl TurnRun<'_> {
 }
 
 impl TurnRun<'_> {
-    /// A tightening pull of `joint` (index `idx`, the rope as `rope`): see [`crate::script::Tighten`].
+    /// A tightening pull of `joint` (index `idx`, the rope as `rope`): see [`knots::script::Tighten`].
     fn tighten(
         &mut self,
         joint: u32,
         idx: usize,
         rope: &[[f64; 3]],
-        g: &crate::script::Tighten,
-        tremor: &mut crate::script::Tremor,
+        g: &knots::script::Tighten,
+        tremor: &mut knots::script::Tremor,
     ) -> anyhow::Result<()> {
-        use crate::vec3::{add, norm, scale, sub};
+        use knots::vec3::{add, norm, scale, sub};
         let d = self
             .conn
             .call(RequestHeader::new(Command::Describe, self.chain), &[])?;
@@ -942,7 +942,7 @@ impl TurnRun<'_> {
                 anyhow::bail!("interrupted (SIGINT or SIGTERM)");
             }
             let at = rope[idx];
-            let Some(away) = away_from_knot(&rope, idx, thickness) else {
+            let Some(away) = knots::contact::away_from_knot(&rope, idx, thickness) else {
                 out.why = "stopped";
                 break;
             };
@@ -1019,12 +1019,12 @@ impl TurnRun<'_> {
             out.travel = norm(sub(rope[idx], start));
             // A pull answered out of work has its resolution kept by the service, which goes on
             // with it when the same pull is asked again: it is not yet stopped (up to
-            // [`crate::script::PULL_WAITS`] such answers in a row).
+            // [`knots::script::PULL_WAITS`] such answers in a row).
             let waits = moved < 0.1 * speed && stop == Some(PullStop::Work);
             waiting = if waits { waiting + 1 } else { 0 };
             still = if moved >= 0.1 * speed {
                 0
-            } else if waits && waiting <= crate::script::PULL_WAITS {
+            } else if waits && waiting <= knots::script::PULL_WAITS {
                 still
             } else {
                 still + 1
@@ -1048,45 +1048,12 @@ impl TurnRun<'_> {
     }
 }
 
-/// The way a tightening pull moves joint `idx`: the unit vector away from the centre of the rope's
-/// contacts ([`contact_centre`]), or along the rope's last link outward when nothing touches; `None`
-/// when neither has a direction.
-pub fn away_from_knot(rope: &[[f64; 3]], idx: usize, thickness: f64) -> Option<[f64; 3]> {
-    use crate::vec3::{norm, scale, sub};
-    let at = rope[idx];
-    let away = match contact_centre(rope, thickness) {
-        Some(c) if norm(sub(at, c)) > 0.0 => sub(at, c),
-        _ => {
-            // Along the last link outward (from the joint's neighbour to the joint).
-            let nb = if idx > 0 { idx - 1 } else { idx + 1 };
-            sub(at, rope[nb.min(rope.len() - 1)])
-        }
-    };
-    let n = norm(away);
-    (n.is_finite() && n > 0.0).then(|| scale(away, 1.0 / n))
-}
-
-/// The centre of the rope's contacts: the mean of the joints of links that come within two
-/// thicknesses of a link three or more along the rope (a knot's crossings, drawn tight); `None` when
-/// no links do.
-pub fn contact_centre(rope: &[[f64; 3]], thickness: f64) -> Option<[f64; 3]> {
-    use crate::vec3::{add, scale};
-    let reach = 2.0 * thickness.max(1e-12);
-    let n = rope.len().saturating_sub(1);
-    let mut sum = [0.0; 3];
-    let mut count = 0usize;
-    let p = |i: usize| nalgebra::Vector3::from(rope[i]);
-    for (i, joint) in rope.iter().enumerate().take(n) {
-        let touches = (0..n).any(|j| {
-            i.abs_diff(j) >= 3
-                && crate::check::segment_distance(p(i), p(i + 1), p(j), p(j + 1)) < reach
-        });
-        if touches {
-            sum = add(sum, *joint);
-            count += 1;
-        }
-    }
-    (count > 0).then(|| scale(sum, 1.0 / count as f64))
+/// A script's joint as the wire's joint field (the head: [`shared::JOINT_HEAD`]).
+fn wire_joint(s: &str) -> anyhow::Result<u32> {
+    Ok(match parse_joint(s).map_err(anyhow::Error::msg)? {
+        Joint::Head => shared::JOINT_HEAD,
+        Joint::Index(i) => i,
+    })
 }
 
 /// Reads recordings (JSON lines), each line checked.
@@ -1227,8 +1194,8 @@ pub fn eyelets_line(conn: &mut Connection, chain: u32) -> anyhow::Result<Option<
 }
 
 /// Queries chain `chain` and names the knot tied in it.
-pub fn knot_of(conn: &mut Connection, chain: u32) -> anyhow::Result<tractrix::knot::KnotReport> {
-    Ok(tractrix::knot::identify(&joints_of(conn, chain)?))
+pub fn knot_of(conn: &mut Connection, chain: u32) -> anyhow::Result<knots::KnotReport> {
+    Ok(knots::identify(&joints_of(conn, chain)?))
 }
 
 /// The chain's joints as the service has them now.
@@ -1244,28 +1211,28 @@ fn joints_of(conn: &mut Connection, chain: u32) -> anyhow::Result<Vec<nalgebra::
 /// Cuts tried by [`series_of`].
 const SERIES_CUTS: usize = 24;
 
-/// Whether the chain's knot is two knots one after the other ([`tractrix::knot::in_series`]), for the
+/// Whether the chain's knot is two knots one after the other ([`knots::in_series`]), for the
 /// knots of two throws (square, granny, surgeon's, other); `None` for the others.
 pub fn series_of(
     conn: &mut Connection,
     chain: u32,
-    knot: &tractrix::knot::KnotReport,
-) -> anyhow::Result<Option<Option<tractrix::knot::Series>>> {
-    use tractrix::knot::KnotType;
+    knot: &knots::KnotReport,
+) -> anyhow::Result<Option<Option<knots::Series>>> {
+    use knots::KnotType;
     if matches!(
         knot.kind,
         KnotType::Unknot | KnotType::Trefoil | KnotType::DoubleOverhand
     ) {
         return Ok(None);
     }
-    Ok(Some(tractrix::knot::in_series(
+    Ok(Some(knots::in_series(
         &joints_of(conn, chain)?,
         SERIES_CUTS,
     )))
 }
 
 /// One line saying how a two-throw knot lies along the rope, as the tools print it.
-pub fn series_line(s: &Option<tractrix::knot::Series>) -> String {
+pub fn series_line(s: &Option<knots::Series>) -> String {
     match s {
         Some(s) => format!(
             "in series: {} in joints 0..={} and {} from joint {} on: two knots one after the other, \
@@ -1282,15 +1249,15 @@ pub fn series_line(s: &Option<tractrix::knot::Series>) -> String {
 }
 
 /// One line describing a knot report, as the tools print it.
-/// The knotted stretch of the chain's knot ([`tractrix::knot::knotted_stretch`]) as a line: its
+/// The knotted stretch of the chain's knot ([`knots::knotted_stretch`]) as a line: its
 /// joints, its length along the rope and in rope diameters; `None` for the unknot.
 pub fn knotted_stretch_line(
     conn: &mut Connection,
     chain: u32,
-    k: &tractrix::knot::KnotReport,
+    k: &knots::KnotReport,
 ) -> anyhow::Result<Option<String>> {
     let joints = joints_of(conn, chain)?;
-    let Some((a, b)) = tractrix::knot::knotted_stretch(&joints, k.kind) else {
+    let Some((a, b)) = knots::knotted_stretch(&joints, k.kind) else {
         return Ok(None);
     };
     let d = conn.call(RequestHeader::new(Command::Describe, chain), &[])?;
@@ -1306,7 +1273,7 @@ pub fn knotted_stretch_line(
     )))
 }
 
-pub fn knot_line(k: &tractrix::knot::KnotReport) -> String {
+pub fn knot_line(k: &knots::KnotReport) -> String {
     format!(
         "knot: {} ({} of {} closures agree; {} crossings, writhe {}, determinant {})",
         k.kind.name(),

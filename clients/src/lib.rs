@@ -3,7 +3,6 @@
 //! recording and replay).
 
 pub mod accuracy;
-pub mod check;
 pub mod cli;
 pub mod connection;
 pub mod hand;
@@ -13,9 +12,7 @@ pub mod naming;
 pub mod process;
 pub mod reach;
 pub mod render;
-pub mod script;
 pub mod snake;
-mod vec3;
 pub mod viewer;
 
 pub use client::{CallError, ConnectOptions, Connection, Reply, StateStream, Svc};

@@ -1,8 +1,8 @@
 //! The knot's name with every state, timed: what `watch --name-knots` reports after a run.
 //!
 //! The states a run published (every one, in order) are named one after the other by one
-//! [`tractrix::knot::Namer`], as a scene's rope would be named with each state, each call timed; a
-//! sample of them (and the last) is also named by [`tractrix::knot::identify`], the six-closure
+//! [`knots::Namer`], as a scene's rope would be named with each state, each call timed; a
+//! sample of them (and the last) is also named by [`knots::identify`], the six-closure
 //! majority, to say how often the fast name agrees with it. The naming runs after the stream ended,
 //! so the service and the hands do not share the cores with it. The whole sequence is named
 //! [`PASSES`] times, each by a new namer (the same calls, the same work): the first pass's times are
@@ -10,9 +10,9 @@
 //! machine's interruptions (a core taken away for tens of µs, BENCHMARKS.md's noise tables) left out.
 
 use crate::latency::Percentiles;
+use knots::{KnotType, Namer, identify};
 use nalgebra::Vector3;
 use std::time::Instant;
-use tractrix::knot::{KnotType, Namer, identify};
 
 /// How the states of one chain were named.
 #[derive(Debug, Clone, Default)]

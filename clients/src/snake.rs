@@ -10,8 +10,8 @@
 //! tractrix cuts corners by about `L²/(2R)` for links of length `L` on a bend of radius `R`).
 
 use crate::connection::{Connection, Pacer, count_refusal};
-use crate::vec3::{cross, dist, dot, lerp, sub, unit};
 use anyhow::bail;
+use knots::vec3::{cross, dist, dot, lerp, sub, unit};
 use shared::{Command, RequestHeader, Status, Vec3};
 use std::time::{Duration, Instant};
 

@@ -1,7 +1,6 @@
 //! An independent knot check for the end-to-end tests: the knot determinant of a rope, computed here
-//! from the joints a test reads from the service, sharing no code with the kernel's identification
-//! (`tractrix::knot`, which closes the rope its own way, reduces a Gauss code and evaluates the Jones
-//! polynomial).
+//! from the joints a test reads from the service, sharing no code with the `knots` crate's namer
+//! (which closes the rope its own way, reduces a Gauss code and evaluates the Jones polynomial).
 //!
 //! The rope is turned by a fixed generic rotation and seen from above; it is closed through a point
 //! far above its centroid (both ends joined to it, so the closing arcs pass over everything: the

@@ -18,8 +18,8 @@ use clients::hand::{
     HandConfig, knot_line, knot_of, read_records, replay, run_hand, series_line, series_of,
 };
 use clients::render::{Frame, Polyline, View, write_frames_svg};
-use clients::script::{BUILTINS, Script};
 use clients::{ConnectOptions, Connection};
+use knots::script::{BUILTINS, Script};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -98,7 +98,7 @@ enum Cmd {
         perturb: u64,
         /// The tremor of a perturbed run: every target sent moved by a fresh random offset of up to
         /// this many units (0: none; without `--perturb` none).
-        #[arg(long, default_value_t = clients::script::HAND_TREMOR)]
+        #[arg(long, default_value_t = knots::script::HAND_TREMOR)]
         tremor: f64,
         /// Write the times of every move and instrument request sent (the halves of a split move
         /// included) to this file, one line each: the round trip as the hand waited for it (µs), the

@@ -61,7 +61,7 @@ struct Args {
     #[arg(long, requires = "svg")]
     svg_last: bool,
     /// With --svg: draw only the knotted stretch of a chain whose states carry its knot (the scene's
-    /// `knot = true`; `tractrix::knot::knotted_stretch`) and a fifth of its length either side.
+    /// `knot = true`; `knots::knotted_stretch`) and a fifth of its length either side.
     #[arg(long, requires = "svg")]
     svg_knot: bool,
     /// Write one SVG of a chain's key frames to FILE when the stream ends: its first state, each
@@ -95,14 +95,14 @@ struct Args {
     #[arg(long)]
     pin: Option<usize>,
     /// Check every state of each free chain with thickness for links passing through each other
-    /// since its previous state (the swept-volume check, `clients::check::crossings_between`) and for
+    /// since its previous state (the swept-volume check, `knots::check::crossings_between`) and for
     /// non-adjacent capsules closer than the thickness; print each crossing and a count at the end.
     /// The exit code is 3 when a crossing was seen. Needs every state (`--state-buffer` on the
     /// service), and it reports the states it missed.
     #[arg(long)]
     crossings: bool,
     /// Keep every state of each free chain with thickness, and when the stream ends name each one
-    /// in order with the fast knot namer (`tractrix::knot::Namer`), timed, and a sample with the
+    /// in order with the fast knot namer (`knots::Namer`), timed, and a sample with the
     /// six-closure identification; print one line per chain (`clients::naming`). Needs every
     /// state (`--state-buffer` on the service).
     #[arg(long)]
@@ -151,7 +151,7 @@ impl Crossings {
             self.closest = f64::INFINITY;
         }
         self.states += 1;
-        if let Some(d) = clients::check::closest_links_with_rope_between(&now, thickness) {
+        if let Some(d) = knots::check::closest_links_with_rope_between(&now, thickness) {
             self.closest = self.closest.min(d / thickness);
         }
         if let Some(before) = self.last.get(&chain)
@@ -161,7 +161,7 @@ impl Crossings {
                 .windows(2)
                 .map(|w| (w[1] - w[0]).norm())
                 .fold(f64::INFINITY, f64::min);
-            for c in clients::check::crossings_between(before, &now, 2, 1e-9 * shortest) {
+            for c in knots::check::crossings_between(before, &now, 2, 1e-9 * shortest) {
                 self.count += 1;
                 if self.count <= 20 {
                     eprintln!(
@@ -752,7 +752,7 @@ impl Drop for Reader {
 /// The knotted stretch of a rope whose state names its knot (`knot`, the wire's code) and a fifth of
 /// its length either side; the whole rope when it names none or no stretch carries it.
 fn knotted_part(joints: &[[f64; 3]], knot: u32) -> Vec<[f64; 3]> {
-    use tractrix::knot::KnotType;
+    use knots::KnotType;
     let kinds = [
         KnotType::Trefoil,
         KnotType::Square,
@@ -770,7 +770,7 @@ fn knotted_part(joints: &[[f64; 3]], knot: u32) -> Vec<[f64; 3]> {
         .iter()
         .map(|p| nalgebra::Vector3::new(p[0], p[1], p[2]))
         .collect();
-    match tractrix::knot::knotted_stretch(&points, kind) {
+    match knots::knotted_stretch(&points, kind) {
         Some((a, b)) => {
             let margin = (b - a) / 5 + 1;
             joints[a.saturating_sub(margin)..=(b + margin).min(joints.len() - 1)].to_vec()

@@ -299,7 +299,7 @@ impl RerunView {
             .iter()
             .map(|p| nalgebra::Vector3::new(p[0], p[1], p[2]))
             .collect();
-        let report = tractrix::knot::identify(&pts);
+        let report = knots::identify(&pts);
         let name = report.kind.name().to_owned();
         let base = format!("chains/{}", c.name);
         let changed = c.last_knot.as_deref() != Some(name.as_str());

@@ -35,7 +35,6 @@
 //! * [`limits`]: joint limits (cones, planar ranges, a rope's minimum bend radius), honoured link by
 //!   link as a sweep runs.
 //! * [`path`]: smooth key-frame paths (a natural cubic spline through key points, C² everywhere).
-//! * [`knot`]: knot identification (closure, projection, Gauss code, Reidemeister I/II, Jones polynomial).
 //! * [`angles`]: joint angles (eq. 15, relative rotations).
 //! * [`strands`]: many free strands at once (hair, fur, bundles), SIMD across strands, the substep
 //!   wavefront; and one chain's wavefront with SIMD across its steps in flight
@@ -60,7 +59,6 @@ pub mod goals;
 #[cfg(feature = "reference")]
 pub mod ground_truth;
 pub mod hold;
-pub mod knot;
 pub mod limits;
 pub mod link;
 pub mod math;

@@ -548,8 +548,8 @@ fn goal(flags: u32, points: &[Point]) -> Result<Goal, Refusal> {
 }
 
 /// The wire's code of a knot ([`shared::KNOT_UNKNOT`] and the rest).
-pub fn knot_code(k: tractrix::knot::KnotType) -> u32 {
-    use tractrix::knot::KnotType;
+pub fn knot_code(k: knots::KnotType) -> u32 {
+    use knots::KnotType;
     match k {
         KnotType::Unknot => shared::KNOT_UNKNOT,
         KnotType::Trefoil => shared::KNOT_TREFOIL,

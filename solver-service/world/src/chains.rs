@@ -49,7 +49,7 @@ pub struct World {
     last_work: u64,
     /// A knot namer for each chain whose scene asks for its knot (`knot = true`), and the joints it
     /// reads.
-    namers: Vec<Option<tractrix::knot::Namer>>,
+    namers: Vec<Option<knots::Namer>>,
     knot_points: Vec<Point>,
     /// Tests: the next command panics after the kernel has run (a kernel bug, injected).
     #[cfg(test)]
@@ -91,7 +91,7 @@ impl World {
             namers: scene
                 .chains
                 .iter()
-                .map(|c| c.knot.then(tractrix::knot::Namer::new))
+                .map(|c| c.knot.then(knots::Namer::new))
                 .collect(),
             knot_points: Vec::new(),
             #[cfg(test)]
@@ -330,9 +330,9 @@ impl World {
     }
 
     /// The knot of `chain` as it is now, for a chain whose scene asks for it (`None` otherwise):
-    /// named by the chain's own [`tractrix::knot::Namer`], so a state whose reduced diagram it has
+    /// named by the chain's own [`knots::Namer`], so a state whose reduced diagram it has
     /// named before costs a projection and a lookup (BENCHMARKS, "The knot's name with every state").
-    pub fn name_knot(&mut self, chain: u32) -> Option<tractrix::knot::KnotType> {
+    pub fn name_knot(&mut self, chain: u32) -> Option<knots::KnotType> {
         let namer = self.namers.get_mut(chain as usize)?.as_mut()?;
         let points = &mut self.knot_points;
         points.clear();

@@ -198,7 +198,7 @@ pub struct Answer {
     /// Whether a bundle answered (its change goes to the bundle stream, not the journal).
     pub bundle: bool,
     /// The chain's knot after the command, when its scene asks for it (`knot = true`).
-    pub knot: Option<tractrix::knot::KnotType>,
+    pub knot: Option<knots::KnotType>,
     /// Why a pulled move or instrument pose stopped short of its target (`None`: it made the whole
     /// move, or it was no pull).
     pub stopped: Option<Stop>,

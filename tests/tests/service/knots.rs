@@ -2,13 +2,13 @@
 //! granny knots by two hands taking turns as two processes; every published state of the rope keeps
 //! non-adjacent links a thickness apart; a replay of the recordings reproduces every state bit for bit.
 
+use knots::KnotType;
 use shared::{Command, RequestHeader};
 use std::process::{Child, Command as Process, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use tests::{Service, bin, unique_prefix};
-use tractrix::knot::KnotType;
 
 type V = nalgebra::Vector3<f64>;
 
@@ -109,7 +109,7 @@ fn clearance(p: &[V], link: f64) -> f64 {
             if (p[i] - p[j]).norm_squared() > reach {
                 continue;
             }
-            best = best.min(clients::check::segment_distance(
+            best = best.min(knots::check::segment_distance(
                 p[i],
                 p[i + 1],
                 p[j],
@@ -243,7 +243,7 @@ impl Watcher {
                                     n.saturating_sub((reach / link).ceil() as usize + 1)
                                 };
                                 for w in pts[..=end].windows(2).skip(skip) {
-                                    let d = clients::check::segment_distance(w[0], w[1], *a, *b);
+                                    let d = knots::check::segment_distance(w[0], w[1], *a, *b);
                                     gap = gap.min(d - r - 0.5 * THICKNESS);
                                 }
                             }
@@ -302,7 +302,7 @@ fn joints_of(svc: &Service, id: u32) -> Vec<[f64; 3]> {
         .collect()
 }
 
-fn knot_of(svc: &Service, chain: &str) -> tractrix::knot::KnotReport {
+fn knot_of(svc: &Service, chain: &str) -> knots::KnotReport {
     let mut c = svc.connect();
     let id = c.find_chain(chain).unwrap().unwrap();
     let k = clients::hand::knot_of(&mut c, id).unwrap();
@@ -445,12 +445,8 @@ fn assert_knot_near_the_middle(svc: &Service, id: u32, links: usize) {
     let mut touching = Vec::new();
     for i in 0..n {
         for j in i + 2..n {
-            let d = clients::check::segment_distance(
-                joints[i],
-                joints[i + 1],
-                joints[j],
-                joints[j + 1],
-            );
+            let d =
+                knots::check::segment_distance(joints[i], joints[i + 1], joints[j], joints[j + 1]);
             if d < 2.0 * THICKNESS {
                 touching.extend([i, j]);
             }

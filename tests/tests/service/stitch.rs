@@ -75,7 +75,7 @@ fn check_state_of(joints: &[Vec3], eyelets: &[EyeletState], link: f64, body: Bod
     let mut closest = f64::INFINITY;
     for i in 0..joints.len() - 1 {
         for j in i + 2..joints.len() - 1 {
-            let d = clients::check::segment_distance(
+            let d = knots::check::segment_distance(
                 v(joints[i]),
                 v(joints[i + 1]),
                 v(joints[j]),
@@ -453,7 +453,7 @@ fn two_hands_pass(chain: &str, link: f64) {
             continue;
         }
         for p in &needle {
-            let d = clients::check::segment_distance(a, b, v(p.a), v(p.b));
+            let d = knots::check::segment_distance(a, b, v(p.a), v(p.b));
             assert!(
                 d >= 0.125 * 0.99,
                 "{chain}: a link {d} from the needle's axis"
@@ -624,7 +624,7 @@ fn whole_stitch(chain: &str, link: f64, extra: &[&str], closes_by: f64) {
         svc,
         "surgeons-knot",
         (chain, link),
-        (tractrix::knot::KnotType::Surgeons, 8..=u32::MAX, 15),
+        (knots::KnotType::Surgeons, 8..=u32::MAX, 15),
         (std::slice::from_ref(&pass_record), extra),
     );
     let seen = watched.finish();
@@ -696,8 +696,7 @@ fn whole_stitch(chain: &str, link: f64, extra: &[&str], closes_by: f64) {
         let (mut lowest, mut touches) = (f64::INFINITY, 0);
         for i in 0..entry {
             for k in exit + 1..j.len() - 1 {
-                let d =
-                    clients::check::segment_distance(v(j[i]), v(j[i + 1]), v(j[k]), v(j[k + 1]));
+                let d = knots::check::segment_distance(v(j[i]), v(j[i + 1]), v(j[k]), v(j[k + 1]));
                 if d <= 0.2 * 1.2 {
                     touches += 1;
                     let (a, b) = ((j[i].z + j[i + 1].z) / 2.0, (j[k].z + j[k + 1].z) / 2.0);

@@ -4,9 +4,9 @@
 //! and tightening, is read from the state stream (none missed) and checked by code of the test's own:
 //! no two links with a thickness of rope between them closer than the thickness less the kernel's 1 %
 //! tolerance, no link passing through another between two consecutive states (the swept-volume check:
-//! each joint moving straight from one state to the next, `clients::check::crossings_between`, which
+//! each joint moving straight from one state to the next, `knots::check::crossings_between`, which
 //! shares no code with the kernel), and the knot's determinant (`tests::knot_check`, independent of the
-//! kernel's identification) the same in every 25th state of the tightening and its last. The knotted
+//! `knots` namer) the same in every 25th state of the tightening and its last. The knotted
 //! stretch the hand reports is printed.
 
 use shared::{Command, RequestHeader};
@@ -164,7 +164,7 @@ fn clearance(p: &[V]) -> f64 {
             if (p[i] - p[j]).norm() > 4.0 {
                 continue;
             }
-            best = best.min(clients::check::segment_distance(
+            best = best.min(knots::check::segment_distance(
                 p[i],
                 p[i + 1],
                 p[j],
@@ -250,7 +250,7 @@ fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64, knot: u32) {
                 .windows(2)
                 .map(|w| (w[1] - w[0]).norm())
                 .fold(f64::INFINITY, f64::min);
-            let c = clients::check::crossings_between(before, pts, 2, 1e-9 * shortest);
+            let c = knots::check::crossings_between(before, pts, 2, 1e-9 * shortest);
             if let Some(x) = c.first() {
                 panic!(
                     "state {seq}: links {} and {} passed through each other",

@@ -125,7 +125,7 @@ pub struct CollisionOptions<T> {
     /// `[1, 2)`: successive over-relaxation of the pushes. A knot pulled tight jams: each pass pushes
     /// its contacts apart and re-straightening the rope to its lengths pulls them most of the way
     /// back, so at 1 the passes creep toward the tolerance; pushing further converges in fewer passes
-    /// (`cargo bench -p clients --bench collision`, the trade table's *over-relaxation* rows: passes
+    /// (`cargo bench -p tractrix --bench collision`, the trade table's *over-relaxation* rows: passes
     /// per move and moves locked at 1, 1.5 and 1.9). It leaves a contact at most its depth farther
     /// apart than it need be, when that depth is above the tolerance. On
     /// a chain with held joints the extra push is capped at the tolerance: the rope between them is
@@ -461,7 +461,7 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
 
 /// What each unit of collision work is charged, in sixteenths of a link-step (one link following its
 /// tractrix once): set from the time each takes beside a tractrix link-step, rounded up (the
-/// tree's refit and box tests from the free path of `cargo bench -p clients --bench collision`,
+/// tree's refit and box tests from the free path of `cargo bench -p tractrix --bench collision`,
 /// where they are all the work a pass does). `cargo bench -p solver-service --bench budget`
 /// (BENCHMARKS.md, "Every request inside its budget") checks that no request takes longer than its
 /// budget's time.

@@ -1,12 +1,12 @@
 //! Collision handling: what it guarantees after every substep, and what it costs nothing to have.
 
 use crate::support::{Rng, max_length_error};
+use knots::{KnotType, identify};
 use nalgebra::Vector3;
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle, Scheme,
     closest_nonadjacent_links, move_joint_colliding, neighbour_span,
 };
-use tractrix::knot::{KnotType, identify};
 use tractrix::{Chain, ChainError, MoveOptions, Substeps};
 
 fn capsules(thickness: f64) -> CollisionModel<f64, 3> {

@@ -21,8 +21,6 @@
 //! * `eyelet`: a rope threaded through fixed points slides through them both ways by any length,
 //!   each point on its link to 1e-9 after every move, an interior joint pushed through passes the
 //!   eyelet on, the rope leaves an eyelet when its end slides out.
-//! * `knot`: the identification on ropes built by hand (trefoil, mirror, square, granny, a spiral
-//!   that is no knot), perturbed.
 
 // The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
 #![allow(
@@ -39,7 +37,6 @@ mod eyelet;
 mod fixed_base;
 mod hold;
 mod instrument;
-mod knot;
 mod limits;
 mod link;
 mod strands;

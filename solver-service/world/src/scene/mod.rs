@@ -201,7 +201,7 @@ pub struct ChainSpec {
     /// collision it is also an obstacle the rope stays out of, but where it passes through.
     pub tissue: Option<(Vector3<f64>, Vector3<f64>)>,
     /// Whether its knot is named with every answer and state (`knot = true`: free spatial chains;
-    /// [`tractrix::knot::Namer`]).
+    /// [`knots::Namer`]).
     pub knot: bool,
     /// Friction at its eyelets (`eyelet_friction`, ≥ 0; 0 slides freely, more sticks the rope in
     /// them until the pulled side is taut: [`tractrix::eyelet::EyeletWorkspace::with_friction`]).

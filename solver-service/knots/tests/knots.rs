@@ -5,8 +5,8 @@
 //! with all named closures agreeing, and must not name a knot in an unknotted rope of the same picture
 //! (the same curl climbing steadily, so the later strand passes over at every crossing).
 
+use knots::{KnotType, identify};
 use nalgebra::Vector3;
-use tractrix::knot::{KnotType, identify};
 
 type V = Vector3<f64>;
 
@@ -300,7 +300,7 @@ fn hand_built_surgeons_knot_and_its_granny_form() {
 /// here; the check of a half is the same `identify`.)
 #[test]
 fn knots_in_series_are_found_and_single_knots_are_not() {
-    use tractrix::knot::in_series as series;
+    use knots::in_series as series;
     for (first, second) in [(1.0, -1.0), (1.0, 1.0), (-1.0, -1.0)] {
         let rope = two_knots(first, second);
         let s = series(&rope, 24).expect("two knots in series");
@@ -326,7 +326,7 @@ fn knots_in_series_are_found_and_single_knots_are_not() {
 /// is not evaluated again.
 #[test]
 fn the_fast_namer_names_the_hand_built_ropes() {
-    use tractrix::knot::Namer;
+    use knots::Namer;
     let five_one = closed_braid(&[1, 1, 1, 1, 1], 2, 16);
     let cases: Vec<(Vec<V>, KnotType, &str)> = vec![
         (overhand(0.0, 1.0, 150), KnotType::Trefoil, "trefoil"),
@@ -389,7 +389,7 @@ fn the_fast_namer_names_the_hand_built_ropes() {
 /// `Other`; the same walk's first 30 points (a few crossings) are still named.
 #[test]
 fn the_fast_namer_gives_up_on_a_crumpled_rope() {
-    use tractrix::knot::Namer;
+    use knots::Namer;
     let mut rng = Rng(0xC2_0A1);
     let mut p = V::zeros();
     let mut walk = Vec::new();

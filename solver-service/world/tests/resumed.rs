@@ -7,9 +7,9 @@
 //! Without the kept resolution the same pulls, from the same states, are refused every time. Every
 //! refusal leaves the rope as it was; every pull made keeps the tail where it was held, the head
 //! where it was pulled and the lengths, and no state passes a link through another (the
-//! swept-volume check of `clients::check`, not the kernel's code).
+//! swept-volume check of `knots::check`, not the kernel's code).
 
-use clients::script::Script;
+use knots::script::Script;
 use nalgebra::Vector3;
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, move_joint_colliding,
@@ -97,7 +97,7 @@ fn tighten(rope: &mut Chain<f64, 3>) -> Vec<(Chain<f64, 3>, Vector3<f64>)> {
     let (mut refused, mut still, mut made) = (0, 0, 0);
     for k in 0..5000 {
         let at = prev[160];
-        let away = clients::hand::away_from_knot(&array(&prev), 160, THICKNESS).unwrap();
+        let away = knots::contact::away_from_knot(&array(&prev), 160, THICKNESS).unwrap();
         let target = at + Vector3::from(away) * 0.05;
         let before = rope.clone();
         match pull(rope, target, &model, &mut ws) {
@@ -119,7 +119,7 @@ fn tighten(rope: &mut Chain<f64, 3>) -> Vec<(Chain<f64, 3>, Vector3<f64>)> {
                     .fold(0.0, f64::max);
                 assert!(worst < 1e-9, "pull {k}: a link is {worst:e} off its length");
                 let shortest = 0.25;
-                let crossed = clients::check::crossings_between(&prev, &now, 2, 1e-9 * shortest);
+                let crossed = knots::check::crossings_between(&prev, &now, 2, 1e-9 * shortest);
                 assert!(crossed.is_empty(), "pull {k}: links crossed: {crossed:?}");
                 still = if (now[160] - at).norm() < 0.005 {
                     still + 1
@@ -160,8 +160,8 @@ fn tighten(rope: &mut Chain<f64, 3>) -> Vec<(Chain<f64, 3>, Vector3<f64>)> {
 fn a_pull_refused_for_its_work_goes_on_from_where_it_stopped_when_asked_again() {
     let points = tied();
     assert_eq!(
-        tractrix::knot::identify(&points).kind,
-        tractrix::knot::KnotType::Trefoil,
+        knots::identify(&points).kind,
+        knots::KnotType::Trefoil,
         "the path did not tie the overhand"
     );
     let mut rope = Chain::from_points(&points).unwrap();

@@ -3,7 +3,7 @@
 //! key frames ([`tractrix::path`], the service's `path` with `FLAG_SMOOTH`) changes in the rope's
 //! motion, and whether the knot still ties.
 //!
-//! `cargo bench -p clients --bench smooth` ties the built-in overhand (the `hand run --builtin
+//! `cargo bench -p tractrix --bench smooth` ties the built-in overhand (the `hand run --builtin
 //! overhand` head path) on a 40-unit rope of thickness 0.2 with capsule collision, in 40, 160 and
 //! 320 links (at 40 the path ties nothing either way, as in "Collision handling"). Key frames: every fifth point of the script's head path (half a unit apart) and its last.
 //! *straight*: the key frames joined by straight segments; *smooth*: the spline through them; both
@@ -14,13 +14,20 @@
 //! joint), and the head's largest, over the ticks with no locked move among them. The knot is what
 //! the rope holds at the end.
 
-use clients::script::Script;
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
+
+use knots::identify;
+use knots::script::Script;
 use nalgebra::Vector3;
 use tractrix::chain::{Chain, MoveOptions};
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Scheme, move_joint_colliding,
 };
-use tractrix::knot::identify;
 
 type V = Vector3<f64>;
 

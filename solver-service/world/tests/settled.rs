@@ -5,7 +5,7 @@
 //! the resolution locks once two passes in a row moved no joint more than a millionth of the
 //! clearance, not after its 64 passes: every locked move here says so, and leaves the rope as it was.
 
-use clients::script::Script;
+use knots::script::Script;
 use world::World;
 use world::command::{Command, NeedleMove, Point};
 use world::refusal::Cause;

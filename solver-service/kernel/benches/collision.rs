@@ -1,6 +1,6 @@
 //! What collision handling costs per move, and what it buys, measured side by side in one run.
 //!
-//! `cargo bench -p clients --bench collision` prints, for a rope 40 units long in 40, 160 and 320 links
+//! `cargo bench -p tractrix --bench collision` prints, for a rope 40 units long in 40, 160 and 320 links
 //! (thickness 0.2), with no collision, the paper's spheres (section 4.2) and capsules (candidate pairs
 //! from the kernel's tree of boxes over the chain):
 //!
@@ -22,14 +22,21 @@
 //! rope (thickness 0.2) is kept, as a fraction of the thickness; with it, the moves refused as locked,
 //! the mean passes per move and the knot at the end.
 
-use clients::script::Script;
+// The kernel's I/O rules (clippy.toml) are for its library: benches time and print, tests may print.
+#![allow(
+    clippy::disallowed_types,
+    clippy::disallowed_macros,
+    clippy::disallowed_methods
+)]
+
+use knots::identify;
+use knots::script::Script;
 use nalgebra::Vector3;
 use std::time::Instant;
 use tractrix::chain::{Chain, MoveOptions};
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, Scheme, move_joint_colliding,
 };
-use tractrix::knot::identify;
 
 type V = Vector3<f64>;
 
@@ -65,9 +72,9 @@ struct Run {
 
 /// The worst penetration of a rope of [`THICKNESS`] through itself, as a fraction of the thickness,
 /// testing every pair of links with at least a thickness of rope between them. Computed by
-/// `clients::check`, which shares no code with the kernel's collision handling it checks.
+/// `knots::check`, which shares no code with the kernel's collision handling it checks.
 fn penetration(positions: &[V]) -> f64 {
-    clients::check::closest_links_with_rope_between(positions, THICKNESS)
+    knots::check::closest_links_with_rope_between(positions, THICKNESS)
         .map_or(0.0, |d| ((THICKNESS - d) / THICKNESS).max(0.0))
 }
 
@@ -207,7 +214,7 @@ fn trade(tying: &[V]) {
         "\n### Collision handling: speed against accuracy\n\nThe tying path ({} moves), rope \
          thickness {THICKNESS}, for each scheme over the resolution passes allowed per substep and the \
          tolerance; after every accepted move the rope is checked independently of the solver \
-         (`clients::check`: every pair of links with at least a thickness of rope between them) and \
+         (`knots::check`: every pair of links with at least a thickness of rope between them) and \
          `worst penetration` is the deepest overlap found, as a fraction of the thickness:\n",
         tying.len()
     );

@@ -1,10 +1,10 @@
 //! Knot success over rope resolution × holds × knot (issue 16): the evidence for choosing a rope.
 //!
-//! `cargo bench -p clients --bench knots` ties each knot on a rope 40 units long and 0.2 thick (capsule
+//! `cargo bench -p world --bench knots` ties each knot on a rope 40 units long and 0.2 thick (capsule
 //! collision) in 40, 80 and 160 links, over several runs whose throws are perturbed (size ±3 %,
 //! direction ±0.05 per component, exit ±1 unit). Three ways to start and hold the rope:
 //!
-//! * *free, straight*: the built-in scripts (`clients::script`) scaled to 40 units, nothing held: the
+//! * *free, straight*: the built-in scripts (`knots::script`) scaled to 40 units, nothing held: the
 //!   overhand is thrown at the head, which walks on 12 units; the two-handed knots are one throw at
 //!   each end.
 //! * *free, U*: the rope hangs in a U (a circular arc between ends 12 apart, both ends pointing up),
@@ -14,7 +14,7 @@
 //!   solved by the paper's fixed-base method from the other end (translate back; the reach hierarchy
 //!   after 16 iterations), as the service does for grasps and anchors.
 //! * *free, straight, wide loop*: the overhand as one wide loop and a tuck (the built-in
-//!   `overhand-wide`, [`clients::script::WideLoop`]), nothing held; its radius, direction and pull
+//!   `overhand-wide`, [`knots::script::WideLoop`]), nothing held; its radius, direction and pull
 //!   perturbed as the throws are.
 //! * *held, U, wide loop*: the same from the U with both ends held, heading up, the loop on the side
 //!   away from the tail.
@@ -44,14 +44,14 @@
 //! prints the states where it first changes (which joint was pulled, the joints before and after).
 //! Refused moves are counted and skipped, as a hand would skip them.
 
-use clients::script::{Handedness, Script, Throw, Tuck, Turn, WideLoop};
+use knots::script::{Handedness, Script, Throw, Tuck, Turn, WideLoop};
+use knots::{KnotType, identify};
 use nalgebra::Vector3;
 use tractrix::chain::{Chain, MoveOptions};
 use tractrix::collision::{
     CollisionModel, CollisionOptions, CollisionWorkspace, move_joint_colliding,
 };
 use tractrix::fixed_base::Strategy;
-use tractrix::knot::{KnotType, identify};
 
 type V = Vector3<f64>;
 
@@ -159,7 +159,7 @@ impl Phase {
         Turn {
             wide_loop: self.wide_loop,
             tuck: self.tuck,
-            ..clients::script::turn(
+            ..knots::script::turn(
                 if self.head { "B" } else { "A" },
                 "rope",
                 if self.head { "head" } else { "tail" },
@@ -272,7 +272,7 @@ impl Knot {
                 } else {
                     Handedness::Left
                 };
-                let mut script = clients::script::overhands_held("overhands-held", second);
+                let mut script = knots::script::overhands_held("overhands-held", second);
                 if self == Knot::Surgeons {
                     // B's throw doubled: its end tucked through its loop a second time.
                     let at = script
@@ -338,7 +338,7 @@ impl Knot {
                 throw_at(true, throw(second, [1.0, 0.0, 0.0], 0.45, 2.0)),
             ],
             // The U scripts are the `hand` built-ins `overhand-u`, `square-u` and `granny-u`
-            // (clients::script), their throws perturbed here.
+            // (knots::script), their throws perturbed here.
             (_, true) => Script::builtin(&format!("{}-u", self.name()))
                 .expect("a built-in U script")
                 .turn
@@ -903,9 +903,9 @@ fn world_move<'a>(
 /// Ties `knot` by the fed loops on the rope held at both ends (`Ends::HeldFed`, perturbed by `rng`),
 /// then tightens it as `hand run --tighten 0.05` does (each end in turn, head first, pulled away from
 /// the knot with the pull flag, 0.05 per request, until it has moved less than a tenth of that for 8
-/// requests, those answered out of work not counted up to `clients::script::PULL_WAITS` in a row;
+/// requests, those answered out of work not counted up to `knots::script::PULL_WAITS` in a row;
 /// twice round), all through a [`world::World`] in this process. Every accepted state is
-/// checked against the one before by the swept-volume check (`clients::check::crossings_between`).
+/// checked against the one before by the swept-volume check (`knots::check::crossings_between`).
 fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Checked {
     use world::command::Command;
     let mut w = world::World::new(scene).expect("the topology scene's world");
@@ -927,7 +927,7 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
             .map(|p| (p[1] - p[0]).norm())
             .fold(f64::INFINITY, f64::min);
         out.crossings +=
-            clients::check::crossings_between(prev, &now, 2, 1e-9 * shortest).len() as u64;
+            knots::check::crossings_between(prev, &now, 2, 1e-9 * shortest).len() as u64;
         *prev = now;
     };
     let array = |p: &[V]| -> Vec<[f64; 3]> { p.iter().map(|q| [q.x, q.y, q.z]).collect() };
@@ -945,7 +945,7 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
         }
     }
     out.tied = identify(&prev).kind == knot.expected();
-    let tied_at = tractrix::knot::knotted_stretch(&prev, knot.expected());
+    let tied_at = knots::knotted_stretch(&prev, knot.expected());
     let debug = std::env::var("KNOT_BENCH_DEBUG").is_ok();
     let mut changed = false;
     for _round in 0..2 {
@@ -955,7 +955,7 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
             let mut ended = false;
             for _ in 0..2000 {
                 let at = prev[idx];
-                let Some(away) = clients::hand::away_from_knot(&array(&prev), idx, THICKNESS)
+                let Some(away) = knots::contact::away_from_knot(&array(&prev), idx, THICKNESS)
                 else {
                     break;
                 };
@@ -975,7 +975,7 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
                             knot.name(),
                             now.name(),
                             (prev[idx] - at).norm(),
-                            tractrix::knot::knotted_stretch(&before, knot.expected()),
+                            knots::knotted_stretch(&before, knot.expected()),
                             before.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>(),
                             prev.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>(),
                         );
@@ -987,7 +987,7 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
                 waiting = if waits { waiting + 1 } else { 0 };
                 still = if moved >= 0.005 {
                     0
-                } else if waits && waiting <= clients::script::PULL_WAITS {
+                } else if waits && waiting <= knots::script::PULL_WAITS {
                     still
                 } else {
                     still + 1
@@ -1029,12 +1029,12 @@ fn tie_and_tighten(scene: &world::scene::Scene, knot: Knot, rng: &mut Rng) -> Ch
             end.name(),
             report.agreeing,
             report.crossings,
-            tractrix::knot::knotted_stretch(&prev, end),
+            knots::knotted_stretch(&prev, end),
             prev.iter().map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>()
         );
     }
     if out.kept
-        && let Some((a, b)) = tractrix::knot::knotted_stretch(&prev, end)
+        && let Some((a, b)) = knots::knotted_stretch(&prev, end)
     {
         let length: f64 = prev[a..=b].windows(2).map(|p| (p[1] - p[0]).norm()).sum();
         out.stretch = Some(length / THICKNESS);
@@ -1055,7 +1055,7 @@ fn topology_table(runs: usize) {
          square's, the granny's or, with B's end tucked through its loop twice, the surgeon's knot's \
          type), then tightened as `hand run --tighten 0.05` does. *tied*: runs named the \
          script's knot by the identification after tying; *kept*: of those, runs named the same after \
-         the tightening; *crossings*: link pairs the swept-volume check (`clients::check`) finds \
+         the tightening; *crossings*: link pairs the swept-volume check (`knots::check`) finds \
          passing through each other between consecutive accepted states, over every state of every \
          run; *runs with a topology change*: runs with a crossing, or tied and not kept.\n"
     );
