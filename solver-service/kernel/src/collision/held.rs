@@ -1,0 +1,254 @@
+//! A move of a rope with held joints among its contacts: each substep resolved, resumed or locked.
+
+use super::*;
+
+/// [`move_joint_colliding`] for a chain with held joints: each substep is a move with holds
+/// ([`crate::hold`]), then contacts are resolved with the hand and the held joints fixed; a contact only
+/// they could resolve locks the move.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn move_held_colliding<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    start: Vector<T, D>,
+    target: Vector<T, D>,
+    k: u32,
+    opts: &MoveOptions<T>,
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let held: Vec<usize> = chain.held().filter(|&j| j != joint).collect();
+    // A pull's full try in one substep records its passes, or goes on from those it recorded.
+    let keep = ws.together && ws.unfinished.keep && k == 1;
+    if keep && ws.can_resume(chain, joint, &target) {
+        return resume_held(chain, joint, &held, model, ws);
+    }
+    let backup = chain.clone();
+    let one = MoveOptions {
+        substeps: crate::chain::Substeps::Fixed(1),
+        max_substeps: 1,
+        ..*opts
+    };
+    let sd = (target - start) / T::lit(k as f64);
+    let mut outcome = MoveOutcome {
+        substeps: k,
+        ..MoveOutcome::default()
+    };
+    ws.pos.resize(chain.n_links() + 1, Vector::zeros());
+    // Each substep's move with holds is charged its bound (the passes its options allow) before it
+    // runs, and given back what its iterations did not use after.
+    let per_pass = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
+    let bound = opts.held.passes_bound(chain.joint_limits().is_some());
+    let held_cost = per_pass.saturating_mul(bound);
+    // The displacement guard (with `solve_contacts_together`: a pull): a held side's solve and the
+    // re-solves between fixed joints can move a joint much farther than the hand, and a joint that
+    // jumps more than half the smallest clearance in one substep can carry its link through another
+    // (the swept-volume check of `watch --crossings` saw a tightening pull carry a joint several
+    // times farther than the hand, through a knot). Such a substep is done again as two halves from where it
+    // started, at most `GUARD_SPLITS` deep; one that still jumps at the deepest split locks the
+    // move. Not on plain moves: on unit links held sides move joints more than half a clearance at
+    // every substep of a tie, and the built-in knots failed to tie with it.
+    let limit = smallest_clearance(chain, model) * T::lit(0.5);
+    let mut pieces: Vec<(Vector<T, D>, u32)> = Vec::new();
+    let mut from = start;
+    let mut s = 0u32;
+    // Substeps left (`s` counts the ones done) and the stack of split pieces: (hand's end, depth).
+    while s < k || !pieces.is_empty() {
+        let (hand, depth) = match pieces.pop() {
+            Some(p) => p,
+            None => {
+                s += 1;
+                let hand = if s == k {
+                    target
+                } else {
+                    start + sd * T::lit(s as f64)
+                };
+                (hand, 0)
+            }
+        };
+        if !ws.meter.charge(held_cost) {
+            *chain = backup;
+            return Err(ws.meter.over(s));
+        }
+        let piece_backup = chain.clone();
+        ws.pos_before.resize(chain.n_links() + 1, Vector::zeros());
+        chain.write_positions(&mut ws.pos_before);
+        match crate::hold::move_held(chain, joint, hand, &one) {
+            Ok(o) => {
+                outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(o.paper_fallbacks);
+                outcome.held_iterations = outcome.held_iterations.saturating_add(o.held_iterations);
+                // The iterations and the hierarchy's pass.
+                let used = u64::from(o.held_iterations).saturating_add(1).min(bound);
+                ws.meter.refund(per_pass.saturating_mul(bound - used));
+            }
+            Err(e) => {
+                *chain = backup;
+                return Err(e);
+            }
+        }
+        chain.write_positions(&mut ws.pos);
+        let record = keep && s == 1 && depth == 0;
+        if record {
+            // The passes about to be recorded replace the ones kept: a resolution kept before,
+            // of another move, can no longer be resumed.
+            ws.unfinished.ready = false;
+        }
+        ws.unfinished.recording = record;
+        ws.unfinished.recorded = false;
+        let resolved = resolve(chain, joint, &held, false, model, ws);
+        ws.unfinished.recording = false;
+        match resolved {
+            Ok((iterations, contacts)) => {
+                outcome.collision_iterations =
+                    outcome.collision_iterations.saturating_add(iterations);
+                outcome.contacts = outcome.contacts.saturating_add(contacts);
+            }
+            Err(stop) => {
+                if record && ws.unfinished.recorded && matches!(stop, Stop::OverWork) {
+                    let u = &mut ws.unfinished;
+                    u.ready = true;
+                    u.locked = None;
+                    u.joint = joint;
+                    u.target.clear();
+                    u.target.push(target);
+                    u.held.clone_from(&held);
+                    u.base.clone_from(&ws.pos_before);
+                }
+                *chain = backup;
+                return Err(stop.error(s, &ws.meter));
+            }
+        }
+        let jump = match settle_substep(chain, joint, &mut ws.pos, &ws.pos_before) {
+            Ok(jump) => jump,
+            Err(e) => {
+                *chain = backup;
+                return Err(e);
+            }
+        };
+        if ws.together && jump > limit {
+            if depth >= GUARD_SPLITS {
+                *chain = backup;
+                return Err(ChainError::Jumped {
+                    substep: s,
+                    jump: jump.to_f64(),
+                });
+            }
+            // Again as two halves: the second half's end first on the stack, popped last.
+            *chain = piece_backup;
+            let mid = from + (hand - from) * T::lit(0.5);
+            pieces.push((hand, depth + 1));
+            pieces.push((mid, depth + 1));
+            outcome.substeps = outcome.substeps.saturating_add(1);
+            continue;
+        }
+        from = hand;
+    }
+    Ok(outcome)
+}
+
+/// A substep's end once its contacts are resolved: the chain placed where the passes left it (its
+/// origin at `pos[0]` unless joint 0 is held, the hand's pin re-recorded), its joint limits checked
+/// (between held joints the passes re-solve the rope without steering them), its joints written to
+/// `pos`; the farthest any joint moved from `before`. On an error the caller restores the chain.
+pub(super) fn settle_substep<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    pos: &mut [Vector<T, D>],
+    before: &[Vector<T, D>],
+) -> Result<T, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if !chain.is_held(0) {
+        chain.translate_to(pos[0]);
+    }
+    chain.repin(joint);
+    chain.check_limits()?;
+    chain.write_positions(pos);
+    Ok(pos
+        .iter()
+        .zip(before)
+        .map(|(a, b)| (a - b).norm())
+        .fold(T::zero(), |m, d| if d > m { d } else { m }))
+}
+
+/// The move of a single substep whose resolution ran out of work ([`Unfinished`]), resumed from its
+/// last recorded pass with the work the meter allows now: done as [`move_held_colliding`] finishes a
+/// substep (the limits checked, no joint farther than half the smallest clearance from where the
+/// move started), or out of work again with the passes recorded so far kept. On any error the chain
+/// is unchanged.
+pub(super) fn resume_held<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    held: &[usize],
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let u = &mut ws.unfinished;
+    if let Some(e) = u.locked {
+        return Err(e);
+    }
+    let backup = chain.clone();
+    let Some(saved) = u.chain.as_ref() else {
+        u.ready = false;
+        return Err(ChainError::BadOption("no unfinished resolution to resume"));
+    };
+    chain.copy_from(saved);
+    ws.pos.clone_from(&u.pos);
+    ws.pos_prev.clone_from(&u.pos);
+    u.resume_at = Some(u.state);
+    u.recording = true;
+    u.recorded = false;
+    let alone = u.state.stalled;
+    let resolved = resolve(chain, joint, held, false, model, ws);
+    ws.unfinished.recording = false;
+    ws.unfinished.resume_at = None;
+    let (iterations, contacts) = match resolved {
+        Ok(done) => done,
+        Err(stop) => {
+            // Out of work again: the passes recorded go on next time. Locked: the same move locks
+            // at once next time.
+            let over = matches!(stop, Stop::OverWork);
+            let e = stop.error(1, &ws.meter);
+            // Out of work before its next pass, with no projection left to give up, the same
+            // request would do the same work again and again: like a locked one, it is refused so
+            // at once from now on.
+            let progressed = ws.unfinished.recorded || !alone;
+            if !(over && progressed) {
+                ws.unfinished.locked = Some(e);
+            }
+            *chain = backup;
+            return Err(e);
+        }
+    };
+    let jump = match settle_substep(chain, joint, &mut ws.pos, &ws.unfinished.base) {
+        Ok(jump) => jump,
+        Err(e) => {
+            ws.unfinished.locked = Some(e);
+            *chain = backup;
+            return Err(e);
+        }
+    };
+    if jump > smallest_clearance(chain, model) * T::lit(0.5) {
+        // A resumed move cannot be split as a substep is: it locks, as the deepest split does.
+        let e = ChainError::Jumped {
+            substep: 1,
+            jump: jump.to_f64(),
+        };
+        ws.unfinished.locked = Some(e);
+        *chain = backup;
+        return Err(e);
+    }
+    ws.unfinished.ready = false;
+    Ok(MoveOutcome {
+        substeps: 1,
+        collision_iterations: iterations,
+        contacts,
+        ..MoveOutcome::default()
+    })
+}

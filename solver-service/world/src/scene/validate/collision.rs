@@ -1,0 +1,183 @@
+//! A chain's collision model: its obstacles, instruments and options.
+
+use super::*;
+
+/// Collision handling, if the chain declares a scheme; stray collision knobs without one are refused.
+pub(super) fn collision(
+    f: &Fields<'_>,
+    scheme: Option<Scheme>,
+    kind: ChainKind,
+    thickness: f64,
+    obstacles: &[(String, Obstacle<f64, 3>)],
+    instruments: &[(String, Obstacle<f64, 3>)],
+) -> Result<Option<CollisionSpec>, SceneError> {
+    let c = f.c;
+    let Some(scheme) = scheme else {
+        // Collision knobs without a scheme would silently do nothing: refuse them.
+        let stray = [
+            c.self_collision
+                .as_ref()
+                .map(|s| ("self_collision", s.span())),
+            c.obstacles.as_ref().map(|s| ("obstacles", s.span())),
+            c.instruments.as_ref().map(|s| ("instruments", s.span())),
+            c.collision_iterations
+                .as_ref()
+                .map(|s| ("collision_iterations", s.span())),
+            c.collision_tolerance
+                .as_ref()
+                .map(|s| ("collision_tolerance", s.span())),
+            c.collision_over_relaxation
+                .as_ref()
+                .map(|s| ("collision_over_relaxation", s.span())),
+            c.collision_pushed_weight
+                .as_ref()
+                .map(|s| ("collision_pushed_weight", s.span())),
+            c.collision_together_after
+                .as_ref()
+                .map(|s| ("collision_together_after", s.span())),
+        ];
+        if let Some((field, span)) = stray.into_iter().flatten().next() {
+            return Err(f.err(
+                span,
+                field,
+                "needs `collision = \"capsules\"` or `\"paper-spheres\"`".into(),
+            ));
+        }
+        return Ok(None);
+    };
+    let span = c.collision.as_ref().map(|s| s.span()).unwrap_or(0..0);
+    if kind == ChainKind::FixedBase {
+        return Err(f.err(
+            span,
+            "collision",
+            "collision is handled for free chains; a fixed-base reach does not check it".into(),
+        ));
+    }
+    if scheme == Scheme::Capsules && thickness <= 0.0 {
+        return Err(f.err(
+            span,
+            "thickness",
+            "capsule collision needs a positive `thickness` (the rope's diameter)".into(),
+        ));
+    }
+    let max_iterations = f.count_or(
+        &c.collision_iterations,
+        "collision_iterations",
+        1,
+        10_000,
+        64,
+    )?;
+    let tolerance = match &c.collision_tolerance {
+        Some(t) if *t.get_ref() > 0.0 && *t.get_ref() < 1.0 => *t.get_ref(),
+        Some(t) => {
+            return Err(f.err(
+                t.span(),
+                "collision_tolerance",
+                format!("{} is not strictly between 0 and 1", t.get_ref()),
+            ));
+        }
+        None => 0.01,
+    };
+    let over_relaxation = match &c.collision_over_relaxation {
+        Some(t) if *t.get_ref() >= 1.0 && *t.get_ref() < 2.0 => *t.get_ref(),
+        Some(t) => {
+            return Err(f.err(
+                t.span(),
+                "collision_over_relaxation",
+                format!("{} is not in [1, 2)", t.get_ref()),
+            ));
+        }
+        None => CollisionOptions::<f64>::default().over_relaxation,
+    };
+    let pushed_weight = match &c.collision_pushed_weight {
+        Some(t) if *t.get_ref() > 0.0 && *t.get_ref() <= 1.0 => *t.get_ref(),
+        Some(t) => {
+            return Err(f.err(
+                t.span(),
+                "collision_pushed_weight",
+                format!("{} is not in (0, 1]", t.get_ref()),
+            ));
+        }
+        None => CollisionOptions::<f64>::default().pushed_weight,
+    };
+    let together_after = f.count_or(
+        &c.collision_together_after,
+        "collision_together_after",
+        0,
+        i64::from(tractrix::collision::MAX_TOGETHER_AFTER),
+        CollisionOptions::<f64>::default().together_after,
+    )?;
+    let mut list = Vec::new();
+    if let Some(names) = &c.obstacles {
+        for n in names.get_ref() {
+            let Some((_, o)) = obstacles.iter().find(|(m, _)| m == n) else {
+                return Err(f.err(
+                    names.span(),
+                    "obstacles",
+                    format!("no [[obstacle]] is named {n:?}"),
+                ));
+            };
+            if f.dims == 2 && !in_plane(o) {
+                return Err(f.err(
+                    names.span(),
+                    "obstacles",
+                    format!("obstacle {n:?} is not in the planar chain's plane z = 0"),
+                ));
+            }
+            list.push(*o);
+        }
+    }
+    let mut mine: Vec<(String, Obstacle<f64, 3>)> = Vec::new();
+    if let Some(names) = &c.instruments {
+        for n in names.get_ref() {
+            let Some((_, o)) = instruments.iter().find(|(m, _)| m == n) else {
+                return Err(f.err(
+                    names.span(),
+                    "instruments",
+                    format!("no [[instrument]] is named {n:?}"),
+                ));
+            };
+            if mine.iter().any(|(m, _)| m == n) {
+                return Err(f.err(
+                    names.span(),
+                    "instruments",
+                    format!("instrument {n:?} is listed twice"),
+                ));
+            }
+            if f.dims == 2 && !in_plane(o) {
+                return Err(f.err(
+                    names.span(),
+                    "instruments",
+                    format!("instrument {n:?} is not in the planar chain's plane z = 0"),
+                ));
+            }
+            mine.push((n.clone(), *o));
+        }
+    }
+    Ok(Some(CollisionSpec {
+        options: CollisionOptions {
+            scheme,
+            self_collision: c.self_collision.as_ref().is_none_or(|s| *s.get_ref()),
+            thickness,
+            max_iterations,
+            tolerance,
+            over_relaxation,
+            pushed_weight,
+            together_after,
+        },
+        obstacles: list,
+        instruments: mine,
+        follows: Vec::new(),
+    }))
+}
+
+/// Whether a planar chain (z = 0) can use the obstacle: its geometry lies in the plane.
+pub(super) fn in_plane(o: &Obstacle<f64, 3>) -> bool {
+    match o {
+        Obstacle::Sphere { center, .. } => center.z == 0.0,
+        Obstacle::Capsule { a, b, .. } => a.z == 0.0 && b.z == 0.0,
+        Obstacle::HalfSpace { point, normal } => point.z == 0.0 && normal.z == 0.0,
+        // Never a scene's obstacle (a chain's tissue is spatial).
+        Obstacle::Block { .. } => false,
+    }
+}
