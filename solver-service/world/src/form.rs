@@ -4,7 +4,7 @@
 //! [`ChainSpec`] when the world is built.
 
 use crate::point::Point;
-use crate::scene::ChainSpec;
+use crate::scene::{ChainSpec, CollisionSpec};
 use nalgebra::Vector3;
 use tractrix::collision::{CollisionModel, CollisionOptions, CollisionWorkspace, Obstacle};
 use tractrix::eyelet::{Eyelet, EyeletWorkspace};
@@ -328,7 +328,7 @@ use crate::point::point;
 
 /// The links each following instrument holds: those within its reach of the joint it follows (its
 /// radius, plus half its length for a capsule, in shortest links, and one more on each side).
-fn holding(spec: &ChainSpec, c: &crate::scene::CollisionSpec) -> Vec<tractrix::collision::Holding> {
+fn holding(spec: &ChainSpec, c: &CollisionSpec) -> Vec<tractrix::collision::Holding> {
     let n = spec.lengths.len();
     c.instruments
         .iter()
@@ -355,6 +355,69 @@ fn holding(spec: &ChainSpec, c: &crate::scene::CollisionSpec) -> Vec<tractrix::c
         .collect()
 }
 
+/// The chain's collision model: the scene's obstacles, its tissue and its instruments as the kernel's
+/// obstacles, with the scene's collision options.
+fn collision_model<T: Real, const D: usize>(
+    spec: &ChainSpec,
+    c: &CollisionSpec,
+) -> CollisionModel<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    // The scene's obstacles, the chain's tissue (a block the rope stays out of but between its
+    // eyelets), then its instruments.
+    let tissue = spec.tissue.map(|(lo, hi)| Obstacle::Block { lo, hi });
+    let obstacles: Vec<Obstacle<T, D>> = c
+        .obstacles
+        .iter()
+        .chain(tissue.as_ref())
+        .chain(c.instruments.iter().map(|(_, o)| o))
+        .map(kernel_obstacle)
+        .collect();
+    let o = &c.options;
+    CollisionModel {
+        options: CollisionOptions {
+            scheme: o.scheme,
+            self_collision: o.self_collision,
+            thickness: T::lit(o.thickness),
+            max_iterations: o.max_iterations,
+            tolerance: T::lit(o.tolerance),
+            over_relaxation: T::lit(o.over_relaxation),
+            pushed_weight: T::lit(o.pushed_weight),
+            together_after: o.together_after,
+        },
+        obstacles,
+        holding: holding(spec, c),
+    }
+}
+
+/// A scene's obstacle (f64, spatial) as the chain's (its precision and space).
+fn kernel_obstacle<T: Real, const D: usize>(o: &Obstacle<f64, 3>) -> Obstacle<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let v = |q: &Vector3<f64>| point::<T, D>(*q);
+    match o {
+        Obstacle::Sphere { center, radius } => Obstacle::Sphere {
+            center: v(center),
+            radius: T::lit(*radius),
+        },
+        Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
+            a: v(a),
+            b: v(b),
+            radius: T::lit(*radius),
+        },
+        Obstacle::HalfSpace { point, normal } => Obstacle::HalfSpace {
+            point: v(point),
+            normal: v(normal),
+        },
+        Obstacle::Block { lo, hi } => Obstacle::Block {
+            lo: v(lo),
+            hi: v(hi),
+        },
+    }
+}
+
 pub(crate) fn build<T: Real, const D: usize>(
     spec: &ChainSpec,
 ) -> Result<LiveChain<T, D>, ChainError>
@@ -376,55 +439,10 @@ where
             .set_limits(Some(lim))
             .map_err(|_| ChainError::BadOption("the scene's joint limits"))?;
     }
-    let collision = spec.collision.as_ref().map(|c| {
-        let v = |q: &Vector3<f64>| point::<T, D>(*q);
-        // The scene's obstacles, then its instruments (the kernel sees both as obstacles).
-        let convert = |o: &Obstacle<f64, 3>| match o {
-            Obstacle::Sphere { center, radius } => Obstacle::Sphere {
-                center: v(center),
-                radius: T::lit(*radius),
-            },
-            Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
-                a: v(a),
-                b: v(b),
-                radius: T::lit(*radius),
-            },
-            Obstacle::HalfSpace { point, normal } => Obstacle::HalfSpace {
-                point: v(point),
-                normal: v(normal),
-            },
-            Obstacle::Block { lo, hi } => Obstacle::Block {
-                lo: v(lo),
-                hi: v(hi),
-            },
-        };
-        // The scene's obstacles, the chain's tissue (a block the rope stays out of but between its
-        // eyelets), then its instruments.
-        let tissue = spec.tissue.map(|(lo, hi)| Obstacle::Block { lo, hi });
-        let obstacles: Vec<Obstacle<T, D>> = c
-            .obstacles
-            .iter()
-            .chain(tissue.as_ref())
-            .chain(c.instruments.iter().map(|(_, o)| o))
-            .map(convert)
-            .collect();
-        let o = &c.options;
-        let model = CollisionModel {
-            options: CollisionOptions {
-                scheme: o.scheme,
-                self_collision: o.self_collision,
-                thickness: T::lit(o.thickness),
-                max_iterations: o.max_iterations,
-                tolerance: T::lit(o.tolerance),
-                over_relaxation: T::lit(o.over_relaxation),
-                pushed_weight: T::lit(o.pushed_weight),
-                together_after: o.together_after,
-            },
-            obstacles,
-            holding: holding(spec, c),
-        };
-        (model, CollisionWorkspace::new())
-    });
+    let collision = spec
+        .collision
+        .as_ref()
+        .map(|c| (collision_model(spec, c), CollisionWorkspace::new()));
     let instruments_at = spec.collision.as_ref().map_or(0, |c| {
         c.obstacles.len() + usize::from(spec.tissue.is_some())
     });

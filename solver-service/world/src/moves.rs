@@ -217,52 +217,20 @@ where
             let Some((model, _)) = g.collision.as_mut() else {
                 continue;
             };
+            let step = NeedleStep {
+                posed: &posed,
+                motion,
+                swage,
+                swaged,
+            };
             let to = match model.obstacles[at] {
-                // The needle: carried rigidly with the head (whichever joint moved).
                 Obstacle::Capsule { a, b, radius } if needle.contains(&k) => {
-                    let o = Obstacle::Capsule {
-                        a: to_point(&a),
-                        b: to_point(&b),
-                        radius: radius.to_f64(),
-                    };
-                    let carried = if let Some(c) = posed.get(k - needle.start) {
-                        if *c == o {
-                            continue;
-                        }
-                        *c
-                    } else if let Some((s, rotation, to)) = motion {
-                        if s == to {
-                            continue;
-                        }
-                        crate::needle::moved(&o, s, &rotation, to)
-                    } else {
-                        let (Some(before), Some(after)) = (swage, swaged) else {
-                            continue;
-                        };
-                        if before == after {
-                            continue;
-                        }
-                        crate::needle::carry(&o, before, after)
-                    };
-                    match carried {
-                        Obstacle::Capsule { a, b, .. } => Obstacle::Capsule {
-                            a: point(a),
-                            b: point(b),
-                            radius,
-                        },
-                        _ => continue,
+                    match step.carry(a, b, radius, k - needle.start) {
+                        Some(to) => to,
+                        None => continue,
                     }
                 }
-                Obstacle::Sphere { center, radius } => Obstacle::Sphere {
-                    center: center + delta,
-                    radius,
-                },
-                Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
-                    a: a + delta,
-                    b: b + delta,
-                    radius,
-                },
-                other => other,
+                o => follow(o, delta),
             };
             if needle.contains(&k) && clear_of(&joints, model, at, &to) {
                 // No link can meet the needle on its way: it is set on its new pose.
@@ -301,6 +269,80 @@ where
         }
     }
     Ok(outcome)
+}
+
+/// How a step moved the needle: its posed capsules, or its drive along its arc (from the swage,
+/// turned, to where the head landed), or the head's frame before and after it.
+struct NeedleStep<'a> {
+    posed: &'a [Obstacle<f64, 3>],
+    motion: Option<(Point, nalgebra::Rotation3<f64>, Point)>,
+    swage: Option<(Point, Point)>,
+    swaged: Option<(Point, Point)>,
+}
+
+impl NeedleStep<'_> {
+    /// Where the step takes the needle's `k`-th capsule (`a` to `b`, of `radius`): posed, driven or
+    /// carried rigidly with the head (whichever joint moved); `None` when it does not move.
+    fn carry<T: Real, const D: usize>(
+        &self,
+        a: Vector<T, D>,
+        b: Vector<T, D>,
+        radius: T,
+        k: usize,
+    ) -> Option<Obstacle<T, D>>
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        let o = Obstacle::Capsule {
+            a: to_point(&a),
+            b: to_point(&b),
+            radius: radius.to_f64(),
+        };
+        let carried = if let Some(c) = self.posed.get(k) {
+            if *c == o {
+                return None;
+            }
+            *c
+        } else if let Some((s, rotation, to)) = self.motion {
+            if s == to {
+                return None;
+            }
+            crate::needle::moved(&o, s, &rotation, to)
+        } else {
+            let (before, after) = (self.swage?, self.swaged?);
+            if before == after {
+                return None;
+            }
+            crate::needle::carry(&o, before, after)
+        };
+        match carried {
+            Obstacle::Capsule { a, b, .. } => Some(Obstacle::Capsule {
+                a: point(a),
+                b: point(b),
+                radius,
+            }),
+            _ => None,
+        }
+    }
+}
+
+/// An instrument that follows a joint, moved by the joint's displacement `delta`.
+fn follow<T: Real, const D: usize>(o: Obstacle<T, D>, delta: Vector<T, D>) -> Obstacle<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    match o {
+        Obstacle::Sphere { center, radius } => Obstacle::Sphere {
+            center: center + delta,
+            radius,
+        },
+        Obstacle::Capsule { a, b, radius } => Obstacle::Capsule {
+            a: a + delta,
+            b: b + delta,
+            radius,
+        },
+        other => other,
+    }
 }
 
 /// After a driven needle's step: where its point went into or out of the tissue (from `tip_before`),

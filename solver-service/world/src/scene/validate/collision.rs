@@ -13,36 +13,7 @@ pub(super) fn collision(
 ) -> Result<Option<CollisionSpec>, SceneError> {
     let c = f.c;
     let Some(scheme) = scheme else {
-        // Collision knobs without a scheme would silently do nothing: refuse them.
-        let stray = [
-            c.self_collision
-                .as_ref()
-                .map(|s| ("self_collision", s.span())),
-            c.obstacles.as_ref().map(|s| ("obstacles", s.span())),
-            c.instruments.as_ref().map(|s| ("instruments", s.span())),
-            c.collision_iterations
-                .as_ref()
-                .map(|s| ("collision_iterations", s.span())),
-            c.collision_tolerance
-                .as_ref()
-                .map(|s| ("collision_tolerance", s.span())),
-            c.collision_over_relaxation
-                .as_ref()
-                .map(|s| ("collision_over_relaxation", s.span())),
-            c.collision_pushed_weight
-                .as_ref()
-                .map(|s| ("collision_pushed_weight", s.span())),
-            c.collision_together_after
-                .as_ref()
-                .map(|s| ("collision_together_after", s.span())),
-        ];
-        if let Some((field, span)) = stray.into_iter().flatten().next() {
-            return Err(f.err(
-                span,
-                field,
-                "needs `collision = \"capsules\"` or `\"paper-spheres\"`".into(),
-            ));
-        }
+        no_stray_knobs(f)?;
         return Ok(None);
     };
     let span = c.collision.as_ref().map(|s| s.span()).unwrap_or(0..0);
@@ -67,39 +38,27 @@ pub(super) fn collision(
         10_000,
         64,
     )?;
-    let tolerance = match &c.collision_tolerance {
-        Some(t) if *t.get_ref() > 0.0 && *t.get_ref() < 1.0 => *t.get_ref(),
-        Some(t) => {
-            return Err(f.err(
-                t.span(),
-                "collision_tolerance",
-                format!("{} is not strictly between 0 and 1", t.get_ref()),
-            ));
-        }
-        None => 0.01,
-    };
-    let over_relaxation = match &c.collision_over_relaxation {
-        Some(t) if *t.get_ref() >= 1.0 && *t.get_ref() < 2.0 => *t.get_ref(),
-        Some(t) => {
-            return Err(f.err(
-                t.span(),
-                "collision_over_relaxation",
-                format!("{} is not in [1, 2)", t.get_ref()),
-            ));
-        }
-        None => CollisionOptions::<f64>::default().over_relaxation,
-    };
-    let pushed_weight = match &c.collision_pushed_weight {
-        Some(t) if *t.get_ref() > 0.0 && *t.get_ref() <= 1.0 => *t.get_ref(),
-        Some(t) => {
-            return Err(f.err(
-                t.span(),
-                "collision_pushed_weight",
-                format!("{} is not in (0, 1]", t.get_ref()),
-            ));
-        }
-        None => CollisionOptions::<f64>::default().pushed_weight,
-    };
+    let tolerance = f.real_or(
+        &c.collision_tolerance,
+        "collision_tolerance",
+        |t| t > 0.0 && t < 1.0,
+        "is not strictly between 0 and 1",
+        0.01,
+    )?;
+    let over_relaxation = f.real_or(
+        &c.collision_over_relaxation,
+        "collision_over_relaxation",
+        |t| (1.0..2.0).contains(&t),
+        "is not in [1, 2)",
+        CollisionOptions::<f64>::default().over_relaxation,
+    )?;
+    let pushed_weight = f.real_or(
+        &c.collision_pushed_weight,
+        "collision_pushed_weight",
+        |t| t > 0.0 && t <= 1.0,
+        "is not in (0, 1]",
+        CollisionOptions::<f64>::default().pushed_weight,
+    )?;
     let together_after = f.count_or(
         &c.collision_together_after,
         "collision_together_after",
@@ -107,6 +66,77 @@ pub(super) fn collision(
         i64::from(tractrix::collision::MAX_TOGETHER_AFTER),
         CollisionOptions::<f64>::default().together_after,
     )?;
+    let list = named_obstacles(f, obstacles)?;
+    let mine = named_instruments(f, instruments)?;
+    Ok(Some(CollisionSpec {
+        options: CollisionOptions {
+            scheme,
+            self_collision: c.self_collision.as_ref().is_none_or(|s| *s.get_ref()),
+            thickness,
+            max_iterations,
+            tolerance,
+            over_relaxation,
+            pushed_weight,
+            together_after,
+        },
+        obstacles: list,
+        instruments: mine,
+        follows: Vec::new(),
+    }))
+}
+
+/// Whether a planar chain (z = 0) can use the obstacle: its geometry lies in the plane.
+pub(super) fn in_plane(o: &Obstacle<f64, 3>) -> bool {
+    match o {
+        Obstacle::Sphere { center, .. } => center.z == 0.0,
+        Obstacle::Capsule { a, b, .. } => a.z == 0.0 && b.z == 0.0,
+        Obstacle::HalfSpace { point, normal } => point.z == 0.0 && normal.z == 0.0,
+        // Never a scene's obstacle (a chain's tissue is spatial).
+        Obstacle::Block { .. } => false,
+    }
+}
+
+/// Collision knobs without a scheme would silently do nothing: refused.
+fn no_stray_knobs(f: &Fields<'_>) -> Result<(), SceneError> {
+    let c = f.c;
+    let stray = [
+        c.self_collision
+            .as_ref()
+            .map(|s| ("self_collision", s.span())),
+        c.obstacles.as_ref().map(|s| ("obstacles", s.span())),
+        c.instruments.as_ref().map(|s| ("instruments", s.span())),
+        c.collision_iterations
+            .as_ref()
+            .map(|s| ("collision_iterations", s.span())),
+        c.collision_tolerance
+            .as_ref()
+            .map(|s| ("collision_tolerance", s.span())),
+        c.collision_over_relaxation
+            .as_ref()
+            .map(|s| ("collision_over_relaxation", s.span())),
+        c.collision_pushed_weight
+            .as_ref()
+            .map(|s| ("collision_pushed_weight", s.span())),
+        c.collision_together_after
+            .as_ref()
+            .map(|s| ("collision_together_after", s.span())),
+    ];
+    if let Some((field, span)) = stray.into_iter().flatten().next() {
+        return Err(f.err(
+            span,
+            field,
+            "needs `collision = \"capsules\"` or `\"paper-spheres\"`".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The chain's obstacles, by name among the scene's; a planar chain's must lie in its plane.
+fn named_obstacles(
+    f: &Fields<'_>,
+    obstacles: &[(String, Obstacle<f64, 3>)],
+) -> Result<Vec<Obstacle<f64, 3>>, SceneError> {
+    let c = f.c;
     let mut list = Vec::new();
     if let Some(names) = &c.obstacles {
         for n in names.get_ref() {
@@ -127,6 +157,16 @@ pub(super) fn collision(
             list.push(*o);
         }
     }
+    Ok(list)
+}
+
+/// The chain's instruments, by name among the scene's, each once; a planar chain's must lie in its
+/// plane.
+fn named_instruments(
+    f: &Fields<'_>,
+    instruments: &[(String, Obstacle<f64, 3>)],
+) -> Result<Vec<(String, Obstacle<f64, 3>)>, SceneError> {
+    let c = f.c;
     let mut mine: Vec<(String, Obstacle<f64, 3>)> = Vec::new();
     if let Some(names) = &c.instruments {
         for n in names.get_ref() {
@@ -154,30 +194,5 @@ pub(super) fn collision(
             mine.push((n.clone(), *o));
         }
     }
-    Ok(Some(CollisionSpec {
-        options: CollisionOptions {
-            scheme,
-            self_collision: c.self_collision.as_ref().is_none_or(|s| *s.get_ref()),
-            thickness,
-            max_iterations,
-            tolerance,
-            over_relaxation,
-            pushed_weight,
-            together_after,
-        },
-        obstacles: list,
-        instruments: mine,
-        follows: Vec::new(),
-    }))
-}
-
-/// Whether a planar chain (z = 0) can use the obstacle: its geometry lies in the plane.
-pub(super) fn in_plane(o: &Obstacle<f64, 3>) -> bool {
-    match o {
-        Obstacle::Sphere { center, .. } => center.z == 0.0,
-        Obstacle::Capsule { a, b, .. } => a.z == 0.0 && b.z == 0.0,
-        Obstacle::HalfSpace { point, normal } => point.z == 0.0 && normal.z == 0.0,
-        // Never a scene's obstacle (a chain's tissue is spatial).
-        Obstacle::Block { .. } => false,
-    }
+    Ok(mine)
 }

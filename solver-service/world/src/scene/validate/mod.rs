@@ -407,17 +407,7 @@ fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
         MAX_BUNDLE_STRANDS as i64,
         (f64::from(strands).sqrt().ceil() as u32).max(1),
     )?;
-    let hang = match &b.hang {
-        None => -Vector3::z(),
-        Some(h) => {
-            let v = f.vector(h, "hang")?;
-            let n = v.norm();
-            if !(n > 0.0 && n.is_finite()) {
-                return Err(f.err(h.span(), "hang", "must be a non-zero vector".into()));
-            }
-            v / n
-        }
-    };
+    let hang = hang(&f)?;
     let substeps = f.count_or(&b.substeps, "substeps", 1, i64::from(MAX_SUBSTEPS_LIMIT), 1)?;
     let heads: Vec<Vector3<f64>> = (0..strands)
         .map(|i| {
@@ -477,6 +467,21 @@ fn bundle(b: &RawBundle, at: &At<'_>) -> Result<BundleSpec, SceneError> {
         substeps,
         two_cores: b.two_cores.as_ref().is_none_or(|t| *t.get_ref()),
         max_coordinate,
+    })
+}
+
+/// The direction a bundle's strands hang in (unit; default down, −z).
+fn hang(f: &Fields<'_, RawBundle>) -> Result<Vector3<f64>, SceneError> {
+    Ok(match &f.c.hang {
+        None => -Vector3::z(),
+        Some(h) => {
+            let v = f.vector(h, "hang")?;
+            let n = v.norm();
+            if !(n > 0.0 && n.is_finite()) {
+                return Err(f.err(h.span(), "hang", "must be a non-zero vector".into()));
+            }
+            v / n
+        }
     })
 }
 
@@ -680,6 +685,22 @@ impl<R> Fields<'_, R> {
         }
     }
 
+    /// A real field that must pass `ok` (else "`value` `what`"), or `default`.
+    fn real_or(
+        &self,
+        field: &Field<f64>,
+        name: &str,
+        ok: impl Fn(f64) -> bool,
+        what: &str,
+        default: f64,
+    ) -> Result<f64, SceneError> {
+        match field {
+            Some(t) if ok(*t.get_ref()) => Ok(*t.get_ref()),
+            Some(t) => Err(self.err(t.span(), name, format!("{} {what}", t.get_ref()))),
+            None => Ok(default),
+        }
+    }
+
     fn count_or(
         &self,
         f: &Field<i64>,
@@ -690,6 +711,113 @@ impl<R> Fields<'_, R> {
     ) -> Result<u32, SceneError> {
         f.as_ref()
             .map_or(Ok(default), |f| self.count(f, field, lo, hi))
+    }
+}
+
+/// The eyelets' friction (default 0): a number ≥ 0 (or inf), for a chain with eyelets or tissue only.
+fn eyelet_friction(f: &Fields<'_>, nothing_threaded: bool) -> Result<f64, SceneError> {
+    Ok(match &f.c.eyelet_friction {
+        Some(x) if nothing_threaded => {
+            return Err(f.err(
+                x.span(),
+                "eyelet_friction",
+                "friction is for a chain with eyelets or tissue".into(),
+            ));
+        }
+        Some(x) if *x.get_ref() >= 0.0 => *x.get_ref(),
+        Some(x) => {
+            return Err(f.err(
+                x.span(),
+                "eyelet_friction",
+                format!("{} is not a number ≥ 0 (or inf)", x.get_ref()),
+            ));
+        }
+        None => 0.0,
+    })
+}
+
+/// Whether the chain's knot is named with each state: for free spatial chains (a rope) only.
+fn knot(f: &Fields<'_>, kind: ChainKind) -> Result<bool, SceneError> {
+    Ok(match &f.c.knot {
+        Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
+            return Err(f.err(
+                k.span(),
+                "knot",
+                "a knot is named for free spatial chains (a rope), not planar or fixed-base ones"
+                    .into(),
+            ));
+        }
+        Some(k) => *k.get_ref(),
+        None => false,
+    })
+}
+
+/// A free chain must start where positions can hold its link lengths (requests beyond that are
+/// refused as too far; a chain that starts there could never be moved).
+fn within_coordinates(
+    f: &Fields<'_>,
+    kind: ChainKind,
+    points: &[Vector3<f64>],
+    max_coordinate: f64,
+) -> Result<(), SceneError> {
+    let c = f.c;
+    let far = points.iter().fold(0.0f64, |m, p| m.max(p.amax()));
+    if kind == ChainKind::Free && far > max_coordinate {
+        let span = c.base.as_ref().map(|b| b.span()).unwrap_or(c.name.span());
+        return Err(f.err(
+            span,
+            "base",
+            format!(
+                "a joint lies {far:e} from the origin, beyond {max_coordinate:e} (2^32 shortest \
+                 links in f64, 2^12 in f32), where positions cannot hold the link lengths"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The chain's method (the kernel's names; the wire's text form spells the same, the service checks)
+/// and its fixed-base strategy.
+fn method_and_strategy(f: &Fields<'_>) -> Result<(Method, Strategy), SceneError> {
+    let c = f.c;
+    let methods = Method::ALL.map(|m| (m.name(), m));
+    let method = f.choice(&c.method, "method", &methods, Method::Tractrix)?;
+    let strategy = f.choice(
+        &c.strategy,
+        "strategy",
+        &[
+            ("translate-back", Strategy::TranslateBack),
+            ("two-link", Strategy::TractrixTwoLink),
+            ("pull-back", Strategy::PullBack),
+        ],
+        Strategy::TranslateBack,
+    )?;
+    Ok((method, strategy))
+}
+
+/// The line of the chain's `links` (or `points`, or its name): where a length error points.
+fn links_line(f: &Fields<'_>) -> usize {
+    let c = f.c;
+    (f.at)(
+        c.links
+            .as_ref()
+            .map(|l| l.span())
+            .or(c.points.as_ref().map(|p| p.span()))
+            .unwrap_or(c.name.span()),
+        String::new(),
+    )
+    .line
+}
+
+/// The iterations of a held side's fixed-base solve. With joint limits the reach hierarchy cannot
+/// finish a slow iteration (its pose is kept only when it lands within them), so a held side may
+/// iterate to the limit, each pass with a try of the hierarchy: unless the scene sets
+/// `max_iterations`, a smaller default keeps a held move within the service's budget.
+fn held_iterations(f: &Fields<'_>, max_iterations: u32, limited: bool) -> u32 {
+    if f.c.max_iterations.is_none() && limited {
+        LIMITED_MAX_ITERATIONS
+    } else {
+        max_iterations
     }
 }
 
@@ -731,19 +859,7 @@ fn chain(
         &[("f64", Precision::F64), ("f32", Precision::F32)],
         Precision::F64,
     )?;
-    // The kernel's names of its methods (the wire's text form spells the same; the service checks).
-    let methods = Method::ALL.map(|m| (m.name(), m));
-    let method = f.choice(&c.method, "method", &methods, Method::Tractrix)?;
-    let strategy = f.choice(
-        &c.strategy,
-        "strategy",
-        &[
-            ("translate-back", Strategy::TranslateBack),
-            ("two-link", Strategy::TractrixTwoLink),
-            ("pull-back", Strategy::PullBack),
-        ],
-        Strategy::TranslateBack,
-    )?;
+    let (method, strategy) = method_and_strategy(&f)?;
     let shape = f.choice(
         &c.shape,
         "shape",
@@ -766,95 +882,34 @@ fn chain(
     )?;
     let (points, lengths) = geometry(&f, shape)?;
     representable_links(&f, &points, &lengths, precision)?;
-    let links_line = (f.at)(
-        c.links
-            .as_ref()
-            .map(|l| l.span())
-            .or(c.points.as_ref().map(|p| p.span()))
-            .unwrap_or(c.name.span()),
-        String::new(),
-    )
-    .line;
+    let links_line = links_line(&f);
     let anchors = anchors(&f, kind, lengths.len())?;
     let eyelets = eyelets(&f, kind, &points, &lengths, &anchors)?;
     let tissue = tissue(&f, kind)?;
-    let eyelet_friction = match &c.eyelet_friction {
-        Some(x) if eyelets.is_empty() && tissue.is_none() => {
-            return Err(f.err(
-                x.span(),
-                "eyelet_friction",
-                "friction is for a chain with eyelets or tissue".into(),
-            ));
-        }
-        Some(x) if *x.get_ref() >= 0.0 => *x.get_ref(),
-        Some(x) => {
-            return Err(f.err(
-                x.span(),
-                "eyelet_friction",
-                format!("{} is not a number ≥ 0 (or inf)", x.get_ref()),
-            ));
-        }
-        None => 0.0,
-    };
+    let eyelet_friction = eyelet_friction(&f, eyelets.is_empty() && tissue.is_none())?;
     let wound = wound(&f, tissue.is_some())?;
-    let knot = match &c.knot {
-        Some(k) if *k.get_ref() && (kind != ChainKind::Free || f.dims != 3) => {
-            return Err(f.err(
-                k.span(),
-                "knot",
-                "a knot is named for free spatial chains (a rope), not planar or fixed-base ones"
-                    .into(),
-            ));
-        }
-        Some(k) => *k.get_ref(),
-        None => false,
-    };
-    // Free chains must start where positions can hold their link lengths (requests beyond that are
-    // refused as too far; a chain that starts there could never be moved).
+    let knot = knot(&f, kind)?;
     let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
     let max_coordinate = max_coordinate(shortest, precision == Precision::F32);
-    let far = points.iter().fold(0.0f64, |m, p| m.max(p.amax()));
-    if kind == ChainKind::Free && far > max_coordinate {
-        let span = c.base.as_ref().map(|b| b.span()).unwrap_or(c.name.span());
-        return Err(f.err(
-            span,
-            "base",
-            format!(
-                "a joint lies {far:e} from the origin, beyond {max_coordinate:e} (2^32 shortest \
-                 links in f64, 2^12 in f32), where positions cannot hold the link lengths"
-            ),
-        ));
-    }
-    let thickness = match &c.thickness {
-        None => 0.0,
-        Some(t) if t.get_ref().is_finite() && *t.get_ref() >= 0.0 => *t.get_ref(),
-        Some(t) => {
-            return Err(f.err(
-                t.span(),
-                "thickness",
-                format!("{} is not a finite number ≥ 0", t.get_ref()),
-            ));
-        }
-    };
+    within_coordinates(&f, kind, &points, max_coordinate)?;
+    let thickness = f.real_or(
+        &c.thickness,
+        "thickness",
+        |t| t.is_finite() && t >= 0.0,
+        "is not a finite number ≥ 0",
+        0.0,
+    )?;
     let (max_substeps, substeps) = substeps(&f)?;
     let (tolerance, max_iterations, hierarchy_after) = iteration(&f)?;
     let collision = collision(&f, scheme, kind, thickness, obstacles, instruments)?;
     let needle = needle(&f, tissue.is_some(), collision.is_some())?;
     let limits = limits(&f, &points, &lengths)?;
-    // With joint limits the reach hierarchy cannot finish a slow iteration (its pose is kept only when
-    // it lands within them), so a held side may iterate to the limit, each pass with a try of the
-    // hierarchy: a smaller default keeps a held move within the service's budget.
-    let max_iterations = if c.max_iterations.is_none() && limits.is_some() {
-        LIMITED_MAX_ITERATIONS
-    } else {
-        max_iterations
-    };
     let reach = ReachOptions {
         strategy,
         method,
         substeps: 1,
         tolerance,
-        max_iterations,
+        max_iterations: held_iterations(&f, max_iterations, limits.is_some()),
         hierarchy_after,
     };
     Ok(ChainSpec {

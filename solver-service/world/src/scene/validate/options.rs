@@ -54,15 +54,10 @@ pub(super) fn iteration(f: &Fields<'_>) -> Result<(f64, u32, u32), SceneError> {
 /// The default `max_iterations` of a chain with joint limits.
 pub(super) const LIMITED_MAX_ITERATIONS: u32 = 64;
 
-/// The chain's joint limits (at most one of the limit fields), in radians; the initial pose must lie
-/// within them.
-pub(super) fn limits(
-    f: &Fields<'_>,
-    points: &[Vector3<f64>],
-    lengths: &[f64],
-) -> Result<Option<LimitSpec>, SceneError> {
+/// The chain's one limit field and its span, if it gives one; two are refused.
+fn limit_field(f: &Fields<'_>) -> Result<Option<(&'static str, Range<usize>)>, SceneError> {
     let c = f.c;
-    let given: Vec<(&str, Range<usize>)> = [
+    let given: Vec<(&'static str, Range<usize>)> = [
         (
             "min_bend_radius",
             c.min_bend_radius.as_ref().map(|v| v.span()),
@@ -85,7 +80,18 @@ pub(super) fn limits(
             ),
         ));
     }
-    let Some((field, span)) = given.first().cloned() else {
+    Ok(given.first().cloned())
+}
+
+/// The chain's joint limits (at most one of the limit fields), in radians; the initial pose must lie
+/// within them.
+pub(super) fn limits(
+    f: &Fields<'_>,
+    points: &[Vector3<f64>],
+    lengths: &[f64],
+) -> Result<Option<LimitSpec>, SceneError> {
+    let c = f.c;
+    let Some((field, span)) = limit_field(f)? else {
         return Ok(None);
     };
     let joints = lengths.len() + 1;
