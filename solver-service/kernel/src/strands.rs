@@ -324,6 +324,36 @@ pub(crate) struct WaveLimits<'a, T: Real> {
     pub clamps: &'a mut u32,
 }
 
+impl<T: Real> WaveLimits<'_, T> {
+    /// The link before the one `along` links from the moved joint (lane `j`) on a side of `links`
+    /// (`rev`: the tail side), toward the moved joint: its vector as the side stores it, its length
+    /// and the chain index of the joint between; `None` for a link with no joint before it.
+    #[inline(always)]
+    fn before(
+        &self,
+        links: &[Vector3<T>],
+        lengths: &[T],
+        rev: bool,
+        along: usize,
+        j: usize,
+    ) -> Option<(Vector3<T>, T, usize)> {
+        let n = links.len();
+        if rev {
+            let i = n - 1 - along;
+            if i + 1 >= n {
+                return None;
+            }
+            Some((-links[i + 1], lengths[i + 1], self.offset + i + 1))
+        } else if self.offset + along == 0 {
+            None
+        } else if along > 0 {
+            Some((links[along - 1], lengths[along - 1], self.offset + along))
+        } else {
+            Some((self.across[j], self.across_len, self.offset + along))
+        }
+    }
+}
+
 /// [`chain_wave`] with joint limits: each link, once its lane has stepped it, is turned back into its
 /// joint's limit about its neighbour toward the moved joint at the same substep (the neighbour still
 /// holds that substep's step: the lane that steps it next writes it back only after the diagonal), as
@@ -424,26 +454,9 @@ impl<T: StrandReal> pulp::WithSimd for ChainWave<'_, '_, T> {
                         if j < lo || j > hi {
                             continue;
                         }
-                        let along = d - j;
-                        let (p, pl, jt) = if rev {
-                            let i = n - 1 - along;
-                            if i + 1 >= n {
-                                continue;
-                            }
-                            (-self.links[i + 1], self.lengths[i + 1], lim.offset + i + 1)
-                        } else {
-                            if lim.offset + along == 0 {
-                                continue;
-                            }
-                            if along > 0 {
-                                (
-                                    self.links[along - 1],
-                                    self.lengths[along - 1],
-                                    lim.offset + along,
-                                )
-                            } else {
-                                (lim.across[j], lim.across_len, lim.offset + along)
-                            }
+                        let Some((p, pl, jt)) = lim.before(self.links, self.lengths, rev, d - j, j)
+                        else {
+                            continue;
                         };
                         let within = p.dot(&t[b].get(l)) >= cosines[jt] * pl * len[b][l];
                         if !within {

@@ -107,14 +107,8 @@ where
             }
             Err(stop) => {
                 if record && ws.unfinished.recorded && matches!(stop, Stop::OverWork) {
-                    let u = &mut ws.unfinished;
-                    u.ready = true;
-                    u.locked = None;
-                    u.joint = joint;
-                    u.target.clear();
-                    u.target.push(target);
-                    u.held.clone_from(&held);
-                    u.base.clone_from(&ws.pos_before);
+                    ws.unfinished
+                        .ready_for(joint, target, &held, &ws.pos_before);
                 }
                 *chain = backup;
                 return Err(stop.error(s, &ws.meter));

@@ -307,6 +307,26 @@ struct Unfinished<T: Real, const D: usize> {
 }
 
 impl<T: Real, const D: usize> Unfinished<T, D> {
+    /// The recorded passes can be resumed by the same move (`joint` to `target` with `held` held,
+    /// from the joints `base`).
+    fn ready_for(
+        &mut self,
+        joint: usize,
+        target: Vector<T, D>,
+        held: &[usize],
+        base: &[Vector<T, D>],
+    ) {
+        self.ready = true;
+        self.locked = None;
+        self.joint = joint;
+        self.target.clear();
+        self.target.push(target);
+        self.held.clear();
+        self.held.extend_from_slice(held);
+        self.base.clear();
+        self.base.extend_from_slice(base);
+    }
+
     /// Records the chain after a pass (its joints `pos`, the passes' counts `state`).
     fn record(&mut self, chain: &Chain<T, D>, pos: &[Vector<T, D>], state: resolve::PassState)
     where

@@ -210,35 +210,7 @@ where
             if skip.iter().any(|r| r.contains(&i)) {
                 continue;
             }
-            let (a, b) = (pos[i], pos[i + 1]);
-            let (s, normal, dist, clearance) = match ob {
-                Obstacle::Block { lo, hi } => {
-                    let s = closest_param_segment_block(&a, &b, lo, hi);
-                    let (nrm, dist, _) = away_from(ob, &lerp(&a, &b, s), &(b - a));
-                    (s, nrm, dist, link_r)
-                }
-                Obstacle::HalfSpace { point, normal } => {
-                    let (da, db) = ((a - point).dot(normal), (b - point).dot(normal));
-                    let s = if da <= db { T::zero() } else { T::one() };
-                    (s, *normal, da.min(db), link_r)
-                }
-                Obstacle::Sphere { center, .. } => {
-                    let s = closest_param_point_segment(center, &a, &b);
-                    let (nrm, dist, r) = away_from(ob, &lerp(&a, &b, s), &(b - a));
-                    (s, nrm, dist, link_r + r)
-                }
-                Obstacle::Capsule {
-                    a: oa,
-                    b: ob_b,
-                    radius,
-                } => {
-                    let (s, t) = closest_params_segment_segment(&a, &b, oa, ob_b);
-                    let d = lerp(&a, &b, s) - lerp(oa, ob_b, t);
-                    let dist = d.norm();
-                    let nrm = unit_or_perpendicular(&d, dist, &(b - a), &(*ob_b - *oa));
-                    (s, nrm, dist, link_r + *radius)
-                }
-            };
+            let (s, normal, dist, clearance) = link_and_obstacle(ob, &pos[i], &pos[i + 1], link_r);
             // Beside a hole only the axis is kept out of the block (the tolerance still the
             // radius's).
             let reach = if super::presses(model, k, &ws.through, ws.pressed, i) {
@@ -261,6 +233,49 @@ where
         }
     }
     Some(())
+}
+
+/// The closest point of the link `a b` to the obstacle `ob`: its parameter along the link, the unit
+/// normal away from the obstacle, the distance along it, and the clearance the link keeps there (its
+/// radius `link_r`, plus the obstacle's).
+fn link_and_obstacle<T: Real, const D: usize>(
+    ob: &Obstacle<T, D>,
+    a: &Vector<T, D>,
+    b: &Vector<T, D>,
+    link_r: T,
+) -> (T, Vector<T, D>, T, T)
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let (a, b) = (*a, *b);
+    match ob {
+        Obstacle::Block { lo, hi } => {
+            let s = closest_param_segment_block(&a, &b, lo, hi);
+            let (nrm, dist, _) = away_from(ob, &lerp(&a, &b, s), &(b - a));
+            (s, nrm, dist, link_r)
+        }
+        Obstacle::HalfSpace { point, normal } => {
+            let (da, db) = ((a - point).dot(normal), (b - point).dot(normal));
+            let s = if da <= db { T::zero() } else { T::one() };
+            (s, *normal, da.min(db), link_r)
+        }
+        Obstacle::Sphere { center, .. } => {
+            let s = closest_param_point_segment(center, &a, &b);
+            let (nrm, dist, r) = away_from(ob, &lerp(&a, &b, s), &(b - a));
+            (s, nrm, dist, link_r + r)
+        }
+        Obstacle::Capsule {
+            a: oa,
+            b: ob_b,
+            radius,
+        } => {
+            let (s, t) = closest_params_segment_segment(&a, &b, oa, ob_b);
+            let d = lerp(&a, &b, s) - lerp(oa, ob_b, t);
+            let dist = d.norm();
+            let nrm = unit_or_perpendicular(&d, dist, &(b - a), &(*ob_b - *oa));
+            (s, nrm, dist, link_r + *radius)
+        }
+    }
 }
 
 /// Projects the joints `pos` of a chain (its `lengths`) onto its lengths and its contacts' clearances
@@ -490,6 +505,50 @@ where
 {
     let r = pr.rows.len();
     let eps = T::lit(1e-9);
+    factor_links(pr, m, held, n, eps);
+    // b_l = −C (each link's length change wanted), and A⁻¹ b_l.
+    pr.bl.clear();
+    pr.bl.extend(pr.c.iter().map(|c| -*c));
+    let mut bl = std::mem::take(&mut pr.bl);
+    solve_span(&pr.lower, &pr.pivot, &pr.upper, &mut bl, 0, n - 1);
+    couple_contacts(pr, m, held, n);
+    contact_block(pr, m, held);
+    // Each row's right-hand side `b_c − Bᵀ A⁻¹ b_l`.
+    pr.full_rhs.clear();
+    for q in 0..r {
+        let gap = pr.rows[q].gap;
+        pr.full_rhs.push(gap - pr.bsparse[q].dot(&bl));
+    }
+    if !active_set(pr, n, eps, meter) {
+        return None;
+    }
+    // λ_l = A⁻¹ (b_l − B λ_c) = A⁻¹ b_l − (A⁻¹ B) λ_c.
+    pr.lam_l.clear();
+    pr.lam_l.extend_from_slice(&bl);
+    for q in 0..r {
+        let l = pr.rhs[q];
+        if l == T::zero() {
+            continue;
+        }
+        let abq = &pr.ab[q * n..(q + 1) * n];
+        for (x, y) in pr.lam_l.iter_mut().zip(abq) {
+            *x -= *y * l;
+        }
+    }
+    pr.bl = bl;
+    Some(displacement(pr, m, held, n))
+}
+
+/// The links' block `A` factored (Thomas: `pr.lower`, `pr.pivot`, `pr.upper`), `eps` on its diagonal.
+fn factor_links<T: Real, const D: usize>(
+    pr: &mut Projection<T, D>,
+    m: usize,
+    held: &[usize],
+    n: usize,
+    eps: T,
+) where
+    Vector<T, D>: Embed3<T>,
+{
     // The links' block A (tridiagonal): A_kk = w_k + w_{k+1}, A_{k,k+1} = −w_{k+1} u_k·u_{k+1}.
     pr.pivot.resize(n, T::zero());
     pr.upper.resize(n, T::zero());
@@ -514,11 +573,19 @@ where
             T::zero()
         };
     }
-    // b_l = −C (each link's length change wanted), and A⁻¹ b_l.
-    pr.bl.clear();
-    pr.bl.extend(pr.c.iter().map(|c| -*c));
-    let mut bl = std::mem::take(&mut pr.bl);
-    solve_span(&pr.lower, &pr.pivot, &pr.upper, &mut bl, 0, n - 1);
+}
+
+/// Each contact row's sparse coupling to the links (`pr.bsparse`) and its column of `B` in `pr.ab`
+/// (solved by `A⁻¹` when the row first becomes active).
+fn couple_contacts<T: Real, const D: usize>(
+    pr: &mut Projection<T, D>,
+    m: usize,
+    held: &[usize],
+    n: usize,
+) where
+    Vector<T, D>: Embed3<T>,
+{
+    let r = pr.rows.len();
     // Row q of Bᵀ (J_c W J_lᵀ): for each of the contact's joints j, link j−1 (+u at j) and link j
     // (−u at j), at most eight entries; then A⁻¹ B column by column.
     pr.bsparse.clear();
@@ -547,6 +614,14 @@ where
         }
         pr.bsparse.push(entries);
     }
+}
+
+/// The contacts' block `C` (`pr.cmat`, `r × r`).
+fn contact_block<T: Real, const D: usize>(pr: &mut Projection<T, D>, m: usize, held: &[usize])
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let r = pr.rows.len();
     // C: rows that share a joint move each other (few: a contact touches four joints), found by
     // sorting the rows' joints.
     pr.touch.clear();
@@ -577,12 +652,21 @@ where
         }
         g0 = g1;
     }
-    // Each row's right-hand side `b_c − Bᵀ A⁻¹ b_l`.
-    pr.full_rhs.clear();
-    for q in 0..r {
-        let gap = pr.rows[q].gap;
-        pr.full_rhs.push(gap - pr.bsparse[q].dot(&bl));
-    }
+}
+
+/// The active set and its multipliers (`pr.active`, `pr.rhs`), by [`ACTIVE_ROUNDS`] rounds on the
+/// complement's sub-block over the active rows, each charged to `meter` before it runs; `false`
+/// when the meter ran out.
+fn active_set<T: Real, const D: usize>(
+    pr: &mut Projection<T, D>,
+    n: usize,
+    eps: T,
+    meter: &mut super::Meter,
+) -> bool
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let r = pr.rows.len();
     // The active set: rows too close to begin with; contacts that pull leave, rows the step brings
     // too close join (Δgap_q = (S λ)_q over the active λ). `A⁻¹ B` is solved only for the rows
     // that are active in some round (a column each, once): the complement's sub-block over the
@@ -603,7 +687,7 @@ where
         let a64 = a as u64;
         if !meter.charge(a64.saturating_mul(a64).saturating_mul(a64) / 18 + (r as u64) * a64 / 6) {
             pr.idx = idx;
-            return None;
+            return false;
         }
         for &q in &idx {
             if pr.solved[q] {
@@ -680,21 +764,7 @@ where
             pr.rhs[q] = T::zero();
         }
     }
-    // λ_l = A⁻¹ (b_l − B λ_c) = A⁻¹ b_l − (A⁻¹ B) λ_c.
-    pr.lam_l.clear();
-    pr.lam_l.extend_from_slice(&bl);
-    for q in 0..r {
-        let l = pr.rhs[q];
-        if l == T::zero() {
-            continue;
-        }
-        let abq = &pr.ab[q * n..(q + 1) * n];
-        for (x, y) in pr.lam_l.iter_mut().zip(abq) {
-            *x -= *y * l;
-        }
-    }
-    pr.bl = bl;
-    Some(displacement(pr, m, held, n))
+    true
 }
 
 /// Solves the factored links' block (Thomas: `lower`, `pivot`, `upper`) for `x`, whose entries are

@@ -69,31 +69,8 @@ where
     let use_tree = opts.self_collision && opts.scheme == Scheme::Capsules;
     let span = neighbour_span(chain.min_length(), opts.thickness);
     let n = chain.n_links() as u64;
-    // What a pass costs before its pairs: refitting the tree or the paper's all pairs, and each
-    // obstacle against every link.
-    let detection = match (opts.self_collision, opts.scheme) {
-        (false, _) => 0,
-        (true, Scheme::Capsules) => n.saturating_mul(cost::REFIT_PER_LINK),
-        (true, Scheme::PaperSpheres) => {
-            (n.saturating_mul(n.saturating_sub(1)) / 2).saturating_mul(cost::SPHERE_PAIR)
-        }
-    }
-    .saturating_add(
-        model
-            .obstacles
-            .iter()
-            .map(|ob| n.saturating_mul(cost::obstacle_per_link(ob)))
-            .fold(0u64, u64::saturating_add),
-    );
-    // The passes after which a rope with held joints has its contacts and lengths projected
-    // together: never on a threaded rope's plain moves or with `together_after` 0; pulls after two.
-    let after = if ws.together {
-        PULL_PROJECT_AFTER
-    } else if threaded || opts.together_after == 0 {
-        u32::MAX
-    } else {
-        opts.together_after
-    };
+    let detection = detection_cost(n, model);
+    let after = project_after(ws.together, threaded, opts.together_after);
     let can_project = use_tree && !held.is_empty() && after != u32::MAX;
     // Passes in a row that moved no joint farther than [`SETTLED`] of the clearance.
     let mut settled = start.settled;
@@ -121,55 +98,15 @@ where
                 }
             }
         }
-        // Between held joints the joints this pass pushes are marked: a part between fixed joints
-        // that nothing pushed is left as it is, and outside a pull the relaxation moves the pushed
-        // joints less ([`CollisionOptions::pushed_weight`]).
-        ws.pushed.clear();
-        if !held.is_empty() {
-            ws.pushed.resize(ws.pos.len(), false);
-        }
-        let mut pass = Pass {
+        let pass = push_pass(
+            chain,
             m,
             held,
-            marks: std::mem::take(&mut ws.pushed),
-            pushes: Vec::new(),
-            farthest: T::zero(),
-            tol: opts.tolerance,
-            omega: opts.over_relaxation,
-            // Between held joints the rope is re-solved as a whole after the pushes, and a joint that
-            // moves farther than a substep may locks the move: the extra push is capped there.
-            capped: !held.is_empty(),
-            pushed: 0,
-            worst: T::zero(),
-            blocked: false,
-            out_of_work: false,
-        };
-        if opts.self_collision {
-            match opts.scheme {
-                Scheme::Capsules => pass.capsules(
-                    &mut ws.pos,
-                    &mut ws.tree,
-                    &mut ws.near,
-                    opts.thickness,
-                    span,
-                    iterations == start.iterations,
-                    chain.min_length(),
-                    &mut ws.meter,
-                ),
-                Scheme::PaperSpheres => pass.spheres(&mut ws.pos),
-            }
-        }
-        if pass.out_of_work {
-            return Err(Stop::OverWork);
-        }
-        for (k, ob) in model.obstacles.iter().enumerate() {
-            let skip = super::untested(model, k, &ws.through);
-            let (through, pressed) = (&ws.through, ws.pressed);
-            pass.obstacle(&mut ws.pos, ob, opts, skip, |i| {
-                super::presses(model, k, through, pressed, i)
-            });
-        }
-        ws.pushed = std::mem::take(&mut pass.marks);
+            model,
+            ws,
+            span,
+            iterations == start.iterations,
+        )?;
         if pass.blocked {
             // Only a held joint (or the hand) could give way: locked at once.
             return Err(Stop::Locked(iterations, pass.worst));
@@ -192,41 +129,7 @@ where
             }
             restraighten(chain, m, &mut ws.pos);
         } else {
-            // Between held joints the rope is re-solved as a whole; where it is nearly taut that can
-            // pull a pushed strand back across what pushed it. No joint may move farther than a
-            // substep may move the hand (half the smallest clearance): a rope that cannot give way
-            // locks instead of tunnelling.
-            // The copy of the pushed positions, the outer parts and the check of how far joints moved.
-            if !ws
-                .meter
-                .charge(n.saturating_mul(3 * cost::RESTRAIGHTEN_PER_LINK))
-            {
-                return Err(Stop::OverWork);
-            }
-            let pushed = ws.pos.clone();
-            let pushed_joints = Pushed {
-                joints: &ws.pushed,
-                weight: if ws.together {
-                    T::one()
-                } else {
-                    opts.pushed_weight
-                },
-                skip_untouched: true,
-            };
-            match restraighten_held(chain, m, held, &mut ws.pos, pushed_joints, &mut ws.meter) {
-                Restraightened::Done => {}
-                Restraightened::Failed => return Err(Stop::Locked(iterations, pass.worst)),
-                Restraightened::OutOfWork => return Err(Stop::OverWork),
-            }
-            let limit = super::smallest_clearance(chain, model) * T::lit(0.5);
-            let limit2 = limit * limit;
-            if pushed
-                .iter()
-                .zip(ws.pos.iter())
-                .any(|(a, b)| (a - b).norm_squared() > limit2)
-            {
-                return Err(Stop::Locked(iterations, pass.worst.max(limit)));
-            }
+            resolve_held_whole(chain, m, held, model, ws, iterations, pass.worst)?;
         }
         // Passes that have settled where contacts remain lock now: once no projection can run any
         // more, two passes in a row that moved no joint farther than [`SETTLED`] of the clearance
@@ -263,6 +166,167 @@ where
             );
         }
     }
+}
+
+/// One pass of pushes over the rope's contacts (its own, then each obstacle's), from the positions in
+/// the workspace; the joints it pushed marked in `ws.pushed` when the rope has held joints. `first`:
+/// the resolution's first pass (it gathers the pairs the later ones keep). Out of work when the
+/// meter ran out during it.
+fn push_pass<'a, T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    m: usize,
+    held: &'a [usize],
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+    span: usize,
+    first: bool,
+) -> Result<Pass<'a, T>, Stop<T>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let opts = &model.options;
+    // Between held joints the joints this pass pushes are marked: a part between fixed joints
+    // that nothing pushed is left as it is, and outside a pull the relaxation moves the pushed
+    // joints less ([`CollisionOptions::pushed_weight`]).
+    ws.pushed.clear();
+    if !held.is_empty() {
+        ws.pushed.resize(ws.pos.len(), false);
+    }
+    let mut pass = Pass {
+        m,
+        held,
+        marks: std::mem::take(&mut ws.pushed),
+        pushes: Vec::new(),
+        farthest: T::zero(),
+        tol: opts.tolerance,
+        omega: opts.over_relaxation,
+        // Between held joints the rope is re-solved as a whole after the pushes, and a joint that
+        // moves farther than a substep may locks the move: the extra push is capped there.
+        capped: !held.is_empty(),
+        pushed: 0,
+        worst: T::zero(),
+        blocked: false,
+        out_of_work: false,
+    };
+    if opts.self_collision {
+        match opts.scheme {
+            Scheme::Capsules => pass.capsules(
+                &mut ws.pos,
+                &mut ws.tree,
+                &mut ws.near,
+                opts.thickness,
+                span,
+                first,
+                chain.min_length(),
+                &mut ws.meter,
+            ),
+            Scheme::PaperSpheres => pass.spheres(&mut ws.pos),
+        }
+    }
+    if pass.out_of_work {
+        return Err(Stop::OverWork);
+    }
+    for (k, ob) in model.obstacles.iter().enumerate() {
+        let skip = super::untested(model, k, &ws.through);
+        let (through, pressed) = (&ws.through, ws.pressed);
+        pass.obstacle(&mut ws.pos, ob, opts, skip, |i| {
+            super::presses(model, k, through, pressed, i)
+        });
+    }
+    ws.pushed = std::mem::take(&mut pass.marks);
+    Ok(pass)
+}
+
+/// What a pass costs before its pairs (in the meter's units): refitting the tree or the paper's all
+/// pairs, and each obstacle against every one of the `n` links.
+fn detection_cost<T: Real, const D: usize>(n: u64, model: &CollisionModel<T, D>) -> u64
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let opts = &model.options;
+    // What a pass costs before its pairs: refitting the tree or the paper's all pairs, and each
+    // obstacle against every link.
+    match (opts.self_collision, opts.scheme) {
+        (false, _) => 0,
+        (true, Scheme::Capsules) => n.saturating_mul(cost::REFIT_PER_LINK),
+        (true, Scheme::PaperSpheres) => {
+            (n.saturating_mul(n.saturating_sub(1)) / 2).saturating_mul(cost::SPHERE_PAIR)
+        }
+    }
+    .saturating_add(
+        model
+            .obstacles
+            .iter()
+            .map(|ob| n.saturating_mul(cost::obstacle_per_link(ob)))
+            .fold(0u64, u64::saturating_add),
+    )
+}
+
+/// The passes after which a rope with held joints has its contacts and lengths projected together:
+/// never on a threaded rope's plain moves or with `together_after` 0; pulls (`together`) after two.
+fn project_after(together: bool, threaded: bool, together_after: u32) -> u32 {
+    if together {
+        PULL_PROJECT_AFTER
+    } else if threaded || together_after == 0 {
+        u32::MAX
+    } else {
+        together_after
+    }
+}
+
+/// A pass's pushes on a rope with held joints, followed by the rope re-solved as a whole between
+/// them ([`restraighten_held`]); locked when a joint would move farther than half the smallest
+/// clearance (a substep's reach), out of work when the meter runs out.
+fn resolve_held_whole<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    m: usize,
+    held: &[usize],
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+    iterations: u32,
+    worst: T,
+) -> Result<(), Stop<T>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let opts = &model.options;
+    let n = chain.n_links() as u64;
+    // Between held joints the rope is re-solved as a whole; where it is nearly taut that can
+    // pull a pushed strand back across what pushed it. No joint may move farther than a
+    // substep may move the hand (half the smallest clearance): a rope that cannot give way
+    // locks instead of tunnelling.
+    // The copy of the pushed positions, the outer parts and the check of how far joints moved.
+    if !ws
+        .meter
+        .charge(n.saturating_mul(3 * cost::RESTRAIGHTEN_PER_LINK))
+    {
+        return Err(Stop::OverWork);
+    }
+    let pushed = ws.pos.clone();
+    let pushed_joints = Pushed {
+        joints: &ws.pushed,
+        weight: if ws.together {
+            T::one()
+        } else {
+            opts.pushed_weight
+        },
+        skip_untouched: true,
+    };
+    match restraighten_held(chain, m, held, &mut ws.pos, pushed_joints, &mut ws.meter) {
+        Restraightened::Done => {}
+        Restraightened::Failed => return Err(Stop::Locked(iterations, worst)),
+        Restraightened::OutOfWork => return Err(Stop::OverWork),
+    }
+    let limit = super::smallest_clearance(chain, model) * T::lit(0.5);
+    let limit2 = limit * limit;
+    if pushed
+        .iter()
+        .zip(ws.pos.iter())
+        .any(|(a, b)| (a - b).norm_squared() > limit2)
+    {
+        return Err(Stop::Locked(iterations, worst.max(limit)));
+    }
+    Ok(())
 }
 
 /// Where a resolution's passes stand after a pass: what a resumed resolution goes on from
@@ -358,33 +422,12 @@ fn restraighten_held<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    let n = chain.n_links();
     let mut fixed: Vec<usize> = held.to_vec();
     if let Err(at) = fixed.binary_search(&m) {
         fixed.insert(at, m);
     }
     let (first, last) = (fixed[0], fixed[fixed.len() - 1]);
-    {
-        let (links, lengths, limits) = chain.links_lengths_limits_mut();
-        for i in last..n {
-            let d = pos[i + 1] - pos[i];
-            let len = d.norm();
-            if positive_finite(len) {
-                links[i] = d * (lengths[i] / len);
-            }
-            crate::limits::turn_back(limits, links, lengths, i, true);
-            pos[i + 1] = pos[i] + links[i];
-        }
-        for i in (0..first).rev() {
-            let d = pos[i + 1] - pos[i];
-            let len = d.norm();
-            if positive_finite(len) {
-                links[i] = d * (lengths[i] / len);
-            }
-            crate::limits::turn_back(limits, links, lengths, i, false);
-            pos[i] = pos[i + 1] - links[i];
-        }
-    }
+    outside_fixed(chain, pos, first, last);
     // With limits the reach has no hierarchy to land exactly: a looser tolerance, the closing two-link
     // solution below takes up the rest (and the move's final check the limits).
     let limits = chain.joint_limits().cloned();
@@ -479,6 +522,38 @@ where
         pos[b - 1] = pos[b - 2] + l1;
     }
     Restraightened::Done
+}
+
+/// The parts of a rope beyond its outermost fixed joints (`first`, `last`) follow the leader outward
+/// from them, each link turned back into its joint's limit: its links and its joints `pos`.
+fn outside_fixed<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    pos: &mut [Vector<T, D>],
+    first: usize,
+    last: usize,
+) where
+    Vector<T, D>: Embed3<T>,
+{
+    let n = chain.n_links();
+    let (links, lengths, limits) = chain.links_lengths_limits_mut();
+    for i in last..n {
+        let d = pos[i + 1] - pos[i];
+        let len = d.norm();
+        if positive_finite(len) {
+            links[i] = d * (lengths[i] / len);
+        }
+        crate::limits::turn_back(limits, links, lengths, i, true);
+        pos[i + 1] = pos[i] + links[i];
+    }
+    for i in (0..first).rev() {
+        let d = pos[i + 1] - pos[i];
+        let len = d.norm();
+        if positive_finite(len) {
+            links[i] = d * (lengths[i] / len);
+        }
+        crate::limits::turn_back(limits, links, lengths, i, false);
+        pos[i] = pos[i + 1] - links[i];
+    }
 }
 
 /// How [`restraighten_held`] ended.

@@ -701,6 +701,31 @@ where
             max_iterations: ws.held_iterations,
         })
     }
+
+    /// The holds of an eyelet's move carrying link `link` by `way`: the rope from each of its joints
+    /// to the nearest held joint on its side is a held side, as in a threaded move of that joint;
+    /// `None` on a chain without held joints.
+    fn of_link(
+        chain: &Chain<T, D>,
+        link: usize,
+        way: &Vector<T, D>,
+        eyelets: &[Eyelet<T, D>],
+        ws: &EyeletWorkspace<T, D>,
+    ) -> Result<Option<Self>, EyeletError> {
+        if chain.held().len() == 0 {
+            return Ok(None);
+        }
+        let tol = held_tolerance(ws);
+        let side_hold = |m: usize, h: Option<usize>| {
+            h.map(|h| hold(chain, m, h, &(ws.new[m] + way), eyelets, &ws.new, tol))
+                .transpose()
+        };
+        Ok(Some(Holds {
+            tail: side_hold(link, chain.held_around(link).0)?,
+            head: side_hold(link + 1, chain.held_around(link + 1).1)?,
+            max_iterations: ws.held_iterations,
+        }))
+    }
 }
 
 /// How closely the rope must meet a held joint, as a fraction of the rope between (at least 64 ε).
@@ -937,6 +962,108 @@ where
     Ok((0, it))
 }
 
+/// The threaded eyelets on links `lo..hi`, in the walk's order (`up`: from `lo`), into `ahead`, each
+/// with the way from it through the ones after it to `target` (and its link).
+fn eyelets_ahead<T: Real, const D: usize>(
+    eyelets: &[Eyelet<T, D>],
+    (lo, hi): (usize, usize),
+    up: bool,
+    target: Vector<T, D>,
+    ahead: &mut Vec<(usize, T, usize)>,
+) where
+    Vector<T, D>: Embed3<T>,
+{
+    ahead.clear();
+    let between = |e: &Eyelet<T, D>| e.threaded && e.link >= lo && e.link < hi;
+    if up {
+        ahead.extend(
+            eyelets
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| between(e))
+                .map(|(i, e)| (i, T::zero(), e.link)),
+        );
+    } else {
+        ahead.extend(
+            eyelets
+                .iter()
+                .enumerate()
+                .rev()
+                .filter(|(_, e)| between(e))
+                .map(|(i, e)| (i, T::zero(), e.link)),
+        );
+    }
+    let mut way = T::zero();
+    let mut next = target;
+    for (i, g, _) in ahead.iter_mut().rev() {
+        way += (next - eyelets[*i].at).norm();
+        next = eyelets[*i].at;
+        *g = way;
+    }
+}
+
+/// Where a link is led before it passes straight through the eyelet at `q`: half a link (`half`)
+/// before it on the line from `after`, where the rope goes next.
+fn lead_point<T: Real, const D: usize>(
+    q: &Vector<T, D>,
+    after: &Vector<T, D>,
+    half: T,
+) -> Vector<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let back = q - after;
+    if back.norm() > T::zero() {
+        q + back * (half / back.norm())
+    } else {
+        *q
+    }
+}
+
+/// The next joint from `x` (link length `l`, its last direction `c`) with no eyelet ahead: `keep`
+/// (the link's old direction) unless the rope left (`material`, its longest link `longest`) could
+/// then no longer reach `target`, or would have to fold back on itself; then the nearest that can.
+fn toward<T: Real, const D: usize>(
+    x: &Vector<T, D>,
+    keep: &Vector<T, D>,
+    target: &Vector<T, D>,
+    l: T,
+    (longest, material): (T, T),
+    c: &Vector<T, D>,
+) -> Vector<T, D>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let inner = (longest * T::lit(2.0) - material).max(T::zero());
+    let dk = (keep - target).norm();
+    if dk > material || dk < inner {
+        let want = dk.max(inner).min(material);
+        x + crate::fixed_base::two_link(x, target, l, want, c).0
+    } else {
+        *keep
+    }
+}
+
+/// The joint between the last two links (lengths `a1`, `a2`) from `x` to `target`, bent toward
+/// `c`, in closed form; `None` when they cannot close within 64 `slack`.
+fn close_two<T: Real, const D: usize>(
+    x: &Vector<T, D>,
+    target: &Vector<T, D>,
+    (a1, a2): (T, T),
+    c: &Vector<T, D>,
+    slack: T,
+) -> Option<Vector<T, D>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let (l1, l2) = crate::fixed_base::two_link(x, target, a1, a2, c);
+    if (x + l1 + l2 - target).norm() > slack * T::lit(64.0) {
+        None
+    } else {
+        Some(x + l1)
+    }
+}
+
 /// An alternation whose miss shrinks by less than this factor in one round has stalled.
 const STALL: f64 = 0.9;
 
@@ -972,35 +1099,7 @@ where
     if k < 2 {
         return Err(fail());
     }
-    // The eyelets between, in the walk's order, each with the way from it through the ones after it
-    // to the target.
-    ahead.clear();
-    let between = |e: &Eyelet<T, D>| e.threaded && e.link >= lo && e.link < hi;
-    if up {
-        ahead.extend(
-            eyelets
-                .iter()
-                .enumerate()
-                .filter(|(_, e)| between(e))
-                .map(|(i, e)| (i, T::zero(), e.link)),
-        );
-    } else {
-        ahead.extend(
-            eyelets
-                .iter()
-                .enumerate()
-                .rev()
-                .filter(|(_, e)| between(e))
-                .map(|(i, e)| (i, T::zero(), e.link)),
-        );
-    }
-    let mut way = T::zero();
-    let mut next = target;
-    for (i, g, _) in ahead.iter_mut().rev() {
-        way += (next - eyelets[*i].at).norm();
-        next = eyelets[*i].at;
-        *g = way;
-    }
+    eyelets_ahead(eyelets, (lo, hi), up, target, ahead);
     let longest = (0..k).fold(T::zero(), |x, i| x.max(lengths[link_of(i)]));
     let mut material = (0..k).fold(T::zero(), |x, i| x + lengths[link_of(i)]);
     let slack = |x: T| x * T::EPSILON * T::lit(64.0);
@@ -1033,13 +1132,8 @@ where
             let after = ahead
                 .get(a + 1)
                 .map_or(target, |&(i2, _, _)| eyelets[i2].at);
-            let back = q - after;
             let half = l * T::lit(0.5);
-            let lead = if back.norm() > T::zero() {
-                q + back * (half / back.norm())
-            } else {
-                q
-            };
+            let lead = lead_point(&q, &after, half);
             let rho_lead = rho - half;
             let led = (keep - lead).norm() <= rho_lead;
             // At or past the link that passed through the eyelet before: the rope is led to it
@@ -1097,14 +1191,7 @@ where
                 _ => x + crate::fixed_base::two_link(&x, &q, l, rho.max(T::zero()), &c).0,
             }
         } else {
-            let inner = (longest * T::lit(2.0) - material).max(T::zero());
-            let dk = (keep - target).norm();
-            if dk > material || dk < inner {
-                let want = dk.max(inner).min(material);
-                x + crate::fixed_base::two_link(&x, &target, l, want, &c).0
-            } else {
-                keep
-            }
+            toward(&x, &keep, &target, l, (longest, material), &c)
         };
         dst[joint(i + 1)] = y;
         x = y;
@@ -1115,11 +1202,7 @@ where
     }
     let (a1, a2) = (lengths[link_of(k - 2)], lengths[link_of(k - 1)]);
     let c = src[joint(k - 1)] - src[joint(k - 2)];
-    let (l1, l2) = crate::fixed_base::two_link(&x, &target, a1, a2, &c);
-    if (x + l1 + l2 - target).norm() > slack(a1 + a2) * T::lit(64.0) {
-        return Err(fail());
-    }
-    dst[joint(k - 1)] = x + l1;
+    dst[joint(k - 1)] = close_two(&x, &target, (a1, a2), &c, slack(a1 + a2)).ok_or_else(fail)?;
     dst[m] = target;
     Ok(())
 }

@@ -111,20 +111,7 @@ where
     if let Some(h) = [link, link + 1].into_iter().find(|&j| chain.is_held(j)) {
         return Err(EyeletError::NearHeld { held: h });
     }
-    let holds = if chain.held().len() == 0 {
-        None
-    } else {
-        let tol = held_tolerance(ws);
-        let side_hold = |m: usize, h: Option<usize>| {
-            h.map(|h| hold(chain, m, h, &(ws.new[m] + way), eyelets, &ws.new, tol))
-                .transpose()
-        };
-        Some(Holds {
-            tail: side_hold(link, chain.held_around(link).0)?,
-            head: side_hold(link + 1, chain.held_around(link + 1).1)?,
-            max_iterations: ws.held_iterations,
-        })
-    };
+    let holds = Holds::of_link(chain, link, &way, eyelets, ws)?;
     let (mut k, mut steps) = substeps(chain, &way, max_substeps)?;
     if let Some((model, _)) = &collision {
         (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
