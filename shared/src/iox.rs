@@ -153,17 +153,32 @@ mod tests {
     use super::*;
 
     #[test]
-    fn without_a_config_file_the_root_is_the_users_own() {
+    fn the_root_is_the_config_files_or_the_users_own() {
+        let root = iceoryx_root(&iceoryx_config("tractrix_").unwrap());
         if iceoryx_config_file().is_some() {
-            return; // this machine's user chose a root path; the rule then is the file's
+            // This machine's user chose a root path: the file's, as iceoryx2 loaded it.
+            let global = iceoryx2::config::Config::global_config();
+            assert_eq!(root, iceoryx_root(global));
+            return;
         }
-        let cfg = iceoryx_config("tractrix_").unwrap();
-        let root = iceoryx_root(&cfg);
+        // The machine's id of this process's user, found here: the owner of /proc/self, mapped out
+        // of a user namespace by the line of uid_map (`inside outside count`) that holds it.
         let uid = std::fs::metadata("/proc/self")
-            .map(|m| std::os::unix::fs::MetadataExt::uid(&m))
+            .map(|m| u64::from(std::os::unix::fs::MetadataExt::uid(&m)))
             .unwrap();
         let map = std::fs::read_to_string("/proc/self/uid_map").unwrap_or_default();
-        assert_eq!(root, format!("/tmp/iceoryx2.{}/", outside_uid(uid, &map)));
+        let mut outside = uid;
+        for line in map.lines() {
+            let f: Vec<u64> = line
+                .split_whitespace()
+                .map(|w| w.parse().unwrap())
+                .collect();
+            if f.len() == 3 && f[0] <= uid && uid < f[0] + f[2] {
+                outside = f[1] + (uid - f[0]);
+                break;
+            }
+        }
+        assert_eq!(root, format!("/tmp/iceoryx2.{outside}/"));
     }
 
     #[test]

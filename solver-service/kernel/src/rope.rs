@@ -110,9 +110,8 @@ where
             eyelets,
         } = self;
         match (collision, eyelets) {
-            (Some((model, cws)), Some((eyelets, ews))) => {
-                let before = cws.stats().passes;
-                let t = crate::eyelet::move_threaded_colliding(
+            (Some((model, cws)), Some((eyelets, ews))) => counting_passes(cws, |cws| {
+                crate::eyelet::move_threaded_colliding(
                     chain,
                     joint,
                     target,
@@ -121,9 +120,8 @@ where
                     model,
                     cws,
                     ews,
-                )?;
-                Ok(threaded(t, cws.stats().passes - before))
-            }
+                )
+            }),
             (None, Some((eyelets, ews))) => Ok(threaded(
                 crate::eyelet::move_threaded(
                     chain,
@@ -222,9 +220,8 @@ where
             return Err(ChainError::BadOption("the rope passes through no eyelet").into());
         };
         match collision {
-            Some((model, cws)) => {
-                let before = cws.stats().passes;
-                let t = crate::eyelet::move_eyelet_colliding(
+            Some((model, cws)) => counting_passes(cws, |cws| {
+                crate::eyelet::move_eyelet_colliding(
                     chain,
                     index,
                     to,
@@ -233,15 +230,25 @@ where
                     model,
                     cws,
                     ews,
-                )?;
-                Ok(threaded(t, cws.stats().passes - before))
-            }
+                )
+            }),
             None => Ok(threaded(
                 crate::eyelet::move_eyelet(chain, index, to, eyelets, max_substeps, ews)?,
                 0,
             )),
         }
     }
+}
+
+/// A threaded move with collision, `run` on the collision workspace, its outcome with the passes
+/// its resolutions counted.
+fn counting_passes<T: Real, const D: usize>(
+    cws: &mut CollisionWorkspace<T, D>,
+    run: impl FnOnce(&mut CollisionWorkspace<T, D>) -> Result<Threaded, EyeletError>,
+) -> Result<MoveOutcome, RopeError> {
+    let before = cws.stats().passes;
+    let t = run(cws)?;
+    Ok(threaded(t, cws.stats().passes - before))
 }
 
 /// A threaded move's outcome as every door's, with its collision passes.

@@ -153,14 +153,8 @@ where
     });
     if let (tractrix::Substeps::Fixed(k), None) = (options.substeps, half_clearance) {
         // Fixed substeps, no collision: the distances do not matter (no walk to the joint).
-        if k > options.max_substeps {
-            return Err(ChainError::TooManySubsteps {
-                required: u64::from(k),
-                limit: options.max_substeps,
-            }
-            .into());
-        }
-        let substeps = u64::from(k).saturating_mul(targets.len() as u64);
+        let k = substeps_within(f64::from(k), options.max_substeps)?;
+        let substeps = k.saturating_mul(targets.len() as u64);
         return Ok(n.saturating_mul(substeps));
     }
     let mut substeps = 0u64;
@@ -173,19 +167,7 @@ where
             tractrix::Substeps::MaxStep(s) => (d / (s * spec.shortest)).ceil(),
         };
         let needed = half_clearance.map_or(0.0, |h| (d / h).ceil());
-        let k = asked.max(needed).max(1.0);
-        let k = if k.is_finite() && k < 1e18 {
-            k as u64
-        } else {
-            u64::MAX
-        };
-        if k > u64::from(options.max_substeps) {
-            return Err(ChainError::TooManySubsteps {
-                required: k,
-                limit: options.max_substeps,
-            }
-            .into());
-        }
+        let k = substeps_within(asked.max(needed).max(1.0), options.max_substeps)?;
         substeps = substeps.saturating_add(k);
         from = *t;
     }
@@ -203,7 +185,7 @@ where
     let tries = match *req {
         Command::Move { pull: true, .. } if spec.collision.is_none() => {
             let give = spec.wound.map_or(0, |w| {
-                let threaded = { h.eyelets.iter().filter(|e| e.threaded).count() as u64 };
+                let threaded = h.eyelets.iter().filter(|e| e.threaded).count() as u64;
                 threaded.saturating_mul(w.give.ceil().clamp(1.0, 1e9) as u64)
             });
             crate::moves::PULL_TRIES.saturating_add(give)
@@ -213,6 +195,23 @@ where
     Ok(n.saturating_mul(substeps)
         .saturating_mul(1 + carried as u64)
         .saturating_mul(tries))
+}
+
+/// `k` substeps (a whole number ≥ 1, or not finite) as the kernel counts them, refused as the kernel
+/// would refuse them (`too-many-substeps`) past the chain's `limit`.
+fn substeps_within(k: f64, limit: u32) -> Result<u64, Refusal> {
+    if k.is_finite() && k <= f64::from(limit) {
+        return Ok(k as u64);
+    }
+    Err(ChainError::TooManySubsteps {
+        required: if k.is_finite() && k < 1e18 {
+            k as u64
+        } else {
+            u64::MAX
+        },
+        limit,
+    }
+    .into())
 }
 
 /// [`estimate`] of an instrument's pose: substeps of half a clearance (a link against an obstacle has
@@ -229,7 +228,7 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let n = spec.lengths.len() as u64;
-    let travel = { instrument_travel(&h.instruments()[index], centre, axis) };
+    let travel = instrument_travel(&h.instruments()[index], centre, axis);
     let link = spec
         .collision
         .as_ref()
@@ -237,15 +236,8 @@ where
             tractrix::collision::Scheme::Capsules => c.options.thickness,
             tractrix::collision::Scheme::PaperSpheres => spec.shortest,
         });
-    let k = (travel / (0.25 * link)).ceil().max(1.0);
-    if !(k.is_finite() && k <= f64::from(max_substeps)) {
-        return Err(ChainError::TooManySubsteps {
-            required: if k.is_finite() { k as u64 } else { u64::MAX },
-            limit: max_substeps,
-        }
-        .into());
-    }
-    Ok(n.saturating_mul(k as u64))
+    let k = substeps_within((travel / (0.25 * link)).ceil().max(1.0), max_substeps)?;
+    Ok(n.saturating_mul(k))
 }
 
 /// [`estimate`] of an eyelet's move to `at`.
@@ -260,24 +252,24 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let n = spec.lengths.len() as u64;
-    let from = { h.eyelets.get(index).map(|e| to_point(&e.at)) }.ok_or_else(|| {
-        refuse!(
-            BadOption,
-            "chain {:?} has {} eyelets, not {}",
-            spec.name,
-            spec.eyelets.len(),
-            index + 1
-        )
-    })?;
-    let k = ((at - from).norm() / (0.5 * spec.shortest)).ceil().max(1.0);
-    if !(k.is_finite() && k <= f64::from(max_substeps)) {
-        return Err(ChainError::TooManySubsteps {
-            required: if k.is_finite() { k as u64 } else { u64::MAX },
-            limit: max_substeps,
-        }
-        .into());
-    }
-    Ok(n.saturating_mul(k as u64))
+    let from = h
+        .eyelets
+        .get(index)
+        .map(|e| to_point(&e.at))
+        .ok_or_else(|| {
+            refuse!(
+                BadOption,
+                "chain {:?} has {} eyelets, not {}",
+                spec.name,
+                spec.eyelets.len(),
+                index + 1
+            )
+        })?;
+    let k = substeps_within(
+        ((at - from).norm() / (0.5 * spec.shortest)).ceil().max(1.0),
+        max_substeps,
+    )?;
+    Ok(n.saturating_mul(k))
 }
 
 /// Applies `req` to `h`, atomically: its estimate within the budget, then the command; on a refusal
