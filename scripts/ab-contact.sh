@@ -30,9 +30,14 @@ for l in sys.stdin:
         print(m["executable"])')
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+# Both sides run where config/iceoryx2.toml names one root path (iceoryx2 reads that file first): a BASE
+# from before the per-user root (a22b1ab) would otherwise use another directory than this bench.
+mkdir -p "$work/config"
+printf '[global]\nroot-path = "/tmp/iceoryx2.ab-%s/"\n' "$(id -u)" > "$work/config/iceoryx2.toml"
+here=$PWD
 for r in $(seq "$ROUNDS"); do
-  CARGO_TARGET_DIR=$BIN CONTACT_BENCH_ONLY=$ROWS "$bench" > "$work/base-$r.md"
-  CARGO_TARGET_DIR=$PWD/target CONTACT_BENCH_ONLY=$ROWS "$bench" > "$work/new-$r.md"
+  (cd "$work" && CARGO_TARGET_DIR=$BIN CONTACT_BENCH_ONLY=$ROWS "$bench") > "$work/base-$r.md"
+  (cd "$work" && CARGO_TARGET_DIR=$here/target CONTACT_BENCH_ONLY=$ROWS "$bench") > "$work/new-$r.md"
 done
 echo "The contact bench's first table, $base_rev (base) against $(git rev-parse --short HEAD)$(git diff --quiet HEAD -- solver-service shared clients || echo ' with uncommitted changes') (new), medians over $ROUNDS interleaved rounds on $(sed -n 's/^model name\s*: //p' /proc/cpuinfo | head -1) (µs; refused requests and the knot of each round):"
 echo

@@ -16,17 +16,23 @@ TGT=$PWD/target/ab-target
 (cd "$WT" && git checkout -q --detach "$BASE" && CARGO_TARGET_DIR=$TGT cargo build -q --profile test --bins)
 cargo build -q --profile test --bins
 SCENE=$(mktemp)
-trap 'rm -f "$SCENE"' EXIT
+# Both sides run in a directory whose config/iceoryx2.toml names one root path: iceoryx2 reads that file
+# first, and a BASE from before the per-user root (a22b1ab) would otherwise use another directory.
+IOXDIR=$(mktemp -d)
+mkdir -p "$IOXDIR/config"
+printf '[global]\nroot-path = "/tmp/iceoryx2.ab-%s/"\n' "$(id -u)" > "$IOXDIR/config/iceoryx2.toml"
+trap 'rm -rf "$SCENE" "$IOXDIR"' EXIT
+NEW=$PWD/target/debug
 printf '[[chain]]\nname = "rope40"\nlinks = 40\nlink_length = 1.0\n\n[[chain]]\nname = "rope1000"\nlinks = 1000\nlink_length = 1.0\n' > "$SCENE"
 
 # One measurement: medians of round trip and solve, in ns.
 measure() { # svc-binary chain samples tag
   local prefix="ab_${4}_$$_"
-  "$1" --scene "$SCENE" --prefix "$prefix" --no-persist --wait spin --pin 0 >/dev/null 2>&1 &
+  (cd "$IOXDIR" && exec "$1" --scene "$SCENE" --prefix "$prefix" --no-persist --wait spin --pin 0) >/dev/null 2>&1 &
   local pid=$!
   sleep 1   # the service's ready line is not read here; a second is ample on an idle machine
-  target/debug/latency client --prefix "$prefix" --wait spin --chain "$2" --samples "$3" --warmup 500 \
-    --pin 1 --json 2>/dev/null | tail -1 |
+  (cd "$IOXDIR" && exec "$NEW/latency" client --prefix "$prefix" --wait spin --chain "$2" --samples "$3" --warmup 500 \
+    --pin 1 --json 2>/dev/null) | tail -1 |
     python3 -c 'import json,sys; s=json.load(sys.stdin); print(s["round_trip"]["p50"], s["solve"]["p50"])'
   kill -TERM "$pid"; wait "$pid" 2>/dev/null || true
 }
@@ -41,7 +47,7 @@ for chain in rope40 rope1000; do
   for r in $(seq "$ROUNDS"); do
     read -r a b < <(measure "$TGT/debug/solver-service" "$chain" "$samples" "b$r")
     brt+=("$a"); bsv+=("$b")
-    read -r a b < <(measure target/debug/solver-service "$chain" "$samples" "n$r")
+    read -r a b < <(measure "$NEW/solver-service" "$chain" "$samples" "n$r")
     nrt+=("$a"); nsv+=("$b")
   done
   python3 - "$chain" "${brt[*]}" "${nrt[*]}" "${bsv[*]}" "${nsv[*]}" <<'EOF'
