@@ -54,8 +54,10 @@
 pub mod check;
 pub mod contact;
 mod diagram;
+mod kind;
 mod name;
 pub mod script;
 pub mod vec3;
 
+pub use kind::*;
 pub use name::*;

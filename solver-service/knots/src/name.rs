@@ -1,46 +1,9 @@
 //! Naming an open rope's knot: [`identify`] (six closures, majority), [`Namer`] (one closure, kept
 //! between states), [`in_series`] and [`knotted_stretch`].
 
-use crate::diagram::{Diagram, Passage};
+use crate::diagram::{Diagram, Sweep};
+use crate::kind::{KnotType, MAX_EVALUATED_CROSSINGS};
 use nalgebra::Vector3;
-
-/// The knots [`identify`] can name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum KnotType {
-    /// No knot.
-    Unknot,
-    /// The overhand knot, either hand.
-    Trefoil,
-    /// The square (reef) knot: a trefoil and its mirror in series.
-    Square,
-    /// The granny knot: two trefoils of the same hand in series.
-    Granny,
-    /// The double overhand knot (the knot 5₁, the cinquefoil): an overhand whose end passes twice
-    /// round, the first throw of the surgeon's knot (the long end wrapped twice round the needle
-    /// driver).
-    DoubleOverhand,
-    /// The surgeon's knot: a double overhand and a trefoil of the other hand in series (the square
-    /// knot with its first throw doubled; the surgeon's double throw, then a single throw the other
-    /// way).
-    Surgeons,
-    /// Anything else (including diagrams too large to evaluate).
-    Other,
-}
-
-impl KnotType {
-    /// Lower-case name, as printed by the tools.
-    pub fn name(self) -> &'static str {
-        match self {
-            KnotType::Unknot => "unknot",
-            KnotType::Trefoil => "trefoil",
-            KnotType::Square => "square",
-            KnotType::Granny => "granny",
-            KnotType::DoubleOverhand => "double-overhand",
-            KnotType::Surgeons => "surgeons",
-            KnotType::Other => "other",
-        }
-    }
-}
 
 /// What [`identify`] found.
 #[derive(Clone, Debug, PartialEq)]
@@ -60,10 +23,6 @@ pub struct KnotReport {
     /// Its Jones polynomial as `(lowest power of t, coefficients)`.
     pub jones: (i32, Vec<i64>),
 }
-
-/// Reduced diagrams larger than this are not evaluated and count as [`KnotType::Other`] (the bracket's
-/// sweep keeps at most 2^k partial states after k crossings, fewer on a narrow diagram).
-pub const MAX_EVALUATED_CROSSINGS: usize = 18;
 
 /// Names the knot tied in an open chain through `points` (joint positions, tail first).
 pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
@@ -428,146 +387,6 @@ fn projection_directions(u: &Vector3<f64>) -> [Vector3<f64>; 3] {
     let b = u.cross(&a).normalize();
     let c = (a + b * 0.61 + u * 0.37).normalize();
     [a, b, c]
-}
-
-/// One passage of the rope through a crossing.
-/// The buffers of a projection: the projected points, the segments sorted by their lowest x, the
-/// segments whose x range the sweep is in, and the passages found.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Sweep {
-    /// At most this many segment pairs tested and crossings found per projection, when set (a
-    /// namer's bound on the work of one state); beyond it the view counts as not generic.
-    budget: Option<(usize, usize)>,
-    q: Vec<[f64; 3]>,
-    order: Vec<u32>,
-    active: Vec<u32>,
-    passages: Vec<(f64, Passage)>,
-}
-
-impl Sweep {
-    /// Projects the closed polygon `p` (the last point joins the first) along `view` into `d`: its
-    /// crossings found by a sweep along the picture's x axis (only segments whose x and y ranges
-    /// overlap are tested), each with its over/under order and its sign. `false` for a degenerate
-    /// view: a crossing on a joint, two crossings at one point of the rope, strands that meet in
-    /// space, or overlapping parallel segments.
-    pub(crate) fn project(
-        &mut self,
-        p: &[Vector3<f64>],
-        view: &Vector3<f64>,
-        d: &mut Diagram,
-    ) -> bool {
-        d.seq.clear();
-        d.sign.clear();
-        self.passages.clear();
-        let e1 = view.cross(&Vector3::new(0.577, -0.211, 0.789)).normalize();
-        let e2 = view.cross(&e1);
-        let m = p.len();
-        self.q.clear();
-        self.q
-            .extend(p.iter().map(|x| [x.dot(&e1), x.dot(&e2), x.dot(view)]));
-        let q = &self.q;
-        let scale = q
-            .iter()
-            .map(|x| x[0].abs().max(x[1].abs()))
-            .fold(0.0, f64::max);
-        let eps = 1e-9;
-        let margin = 1e-9 * scale.max(1.0);
-        let x_range = |i: usize| {
-            let (a, b) = (q[i][0], q[(i + 1) % m][0]);
-            (a.min(b), a.max(b))
-        };
-        let y_range = |i: usize| {
-            let (a, b) = (q[i][1], q[(i + 1) % m][1]);
-            (a.min(b), a.max(b))
-        };
-        self.order.clear();
-        self.order.extend(0..m as u32);
-        self.order
-            .sort_unstable_by(|&a, &b| x_range(a as usize).0.total_cmp(&x_range(b as usize).0));
-        self.active.clear();
-        let (max_pairs, max_crossings) = self.budget.unwrap_or((usize::MAX, usize::MAX));
-        let mut pairs = 0usize;
-        for &s in &self.order {
-            let s = s as usize;
-            let (xs, _) = x_range(s);
-            self.active
-                .retain(|&a| x_range(a as usize).1 >= xs - margin);
-            let (ylo, yhi) = y_range(s);
-            pairs += self.active.len();
-            if pairs > max_pairs || d.sign.len() > max_crossings {
-                return false;
-            }
-            for &a in &self.active {
-                let a = a as usize;
-                let (i, j) = (a.min(s), a.max(s));
-                if j == i + 1 || (i == 0 && j == m - 1) {
-                    continue;
-                }
-                let (alo, ahi) = y_range(a);
-                if ahi < ylo - margin || alo > yhi + margin {
-                    continue;
-                }
-                let (a0, a1) = (q[i], q[(i + 1) % m]);
-                let (b0, b1) = (q[j], q[(j + 1) % m]);
-                let da = (a1[0] - a0[0], a1[1] - a0[1]);
-                let db = (b1[0] - b0[0], b1[1] - b0[1]);
-                let den = da.0 * db.1 - da.1 * db.0;
-                let r = (b0[0] - a0[0], b0[1] - a0[1]);
-                let la = da.0.hypot(da.1);
-                let lb = db.0.hypot(db.1);
-                if den.abs() <= 1e-12 * la * lb {
-                    let off = (r.0 * da.1 - r.1 * da.0).abs();
-                    if off <= margin * la {
-                        let t0 = (r.0 * da.0 + r.1 * da.1) / (la * la);
-                        let t1 = ((b1[0] - a0[0]) * da.0 + (b1[1] - a0[1]) * da.1) / (la * la);
-                        if t0.max(t1) >= 0.0 && t0.min(t1) <= 1.0 {
-                            return false;
-                        }
-                    }
-                    continue;
-                }
-                let s_ = (r.0 * db.1 - r.1 * db.0) / den;
-                let t = (r.0 * da.1 - r.1 * da.0) / den;
-                if !(-eps..=1.0 + eps).contains(&s_) || !(-eps..=1.0 + eps).contains(&t) {
-                    continue;
-                }
-                if s_ < eps || s_ > 1.0 - eps || t < eps || t > 1.0 - eps {
-                    return false; // a crossing on a joint
-                }
-                let ha = a0[2] + (a1[2] - a0[2]) * s_;
-                let hb = b0[2] + (b1[2] - b0[2]) * t;
-                if (ha - hb).abs() <= margin {
-                    return false; // the strands meet in space
-                }
-                let a_over = ha > hb;
-                let x = d.sign.len();
-                let (dover, dunder) = if a_over { (da, db) } else { (db, da) };
-                let c = dover.0 * dunder.1 - dover.1 * dunder.0;
-                d.sign.push(if c > 0.0 { 1 } else { -1 });
-                self.passages.push((
-                    i as f64 + s_,
-                    Passage {
-                        crossing: x,
-                        over: a_over,
-                    },
-                ));
-                self.passages.push((
-                    j as f64 + t,
-                    Passage {
-                        crossing: x,
-                        over: !a_over,
-                    },
-                ));
-            }
-            self.active.push(s as u32);
-        }
-        self.passages.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        if self.passages.windows(2).any(|w| w[1].0 - w[0].0 < eps) {
-            return false; // two crossings at one point of the rope
-        }
-        d.seq.extend(self.passages.iter().map(|p| p.1));
-        true
-    }
 }
 
 #[cfg(test)]
