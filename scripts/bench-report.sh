@@ -103,6 +103,10 @@ block contact "cargo bench -p clients --bench contact" \
   cargo bench -q -p clients --bench contact
 block ab-contact "scripts/ab-contact.sh c11c4fe $AB_ROUNDS" \
   scripts/ab-contact.sh c11c4fe "$AB_ROUNDS"
+block ab-rope "scripts/ab-request-path.sh b0fd115 $AB_ROUNDS" \
+  scripts/ab-request-path.sh b0fd115 "$AB_ROUNDS"
+block ab-contact-rope "scripts/ab-contact.sh b0fd115 $AB_ROUNDS" \
+  scripts/ab-contact.sh b0fd115 "$AB_ROUNDS"
 block tighten "cargo bench -p clients --bench tighten" \
   cargo bench -q -p clients --bench tighten
 block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p world --bench knots" \
