@@ -304,6 +304,9 @@ fn run(a: Args) -> Result<u8> {
                 {
                     println!("{line}");
                 }
+                if let Some(s) = clients::hand::strands_of(&mut conn, id, &k)? {
+                    println!("{}", clients::hand::strands_line(&s));
+                }
                 if let Some(s) = series_of(&mut conn, id, &k)? {
                     println!("{}", series_line(&s));
                 }

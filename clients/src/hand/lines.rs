@@ -98,7 +98,6 @@ pub fn series_line(s: &Option<knots::Series>) -> String {
     }
 }
 
-/// One line describing a knot report, as the tools print it.
 /// The knotted stretch of the chain's knot ([`knots::knotted_stretch`]) as a line: its
 /// joints, its length along the rope and in rope diameters; `None` for the unknot.
 pub fn knotted_stretch_line(
@@ -123,6 +122,65 @@ pub fn knotted_stretch_line(
     )))
 }
 
+/// The stitch of chain `chain`, where its two strands meet: its first anchor (a held joint the scene
+/// holds, not a grasp), else the joint halfway between the links of its first and last threaded
+/// eyelets (the bite); `None` for a chain with neither.
+pub fn stitch_of(conn: &mut Connection, chain: u32) -> anyhow::Result<Option<usize>> {
+    let r = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
+    anyhow::ensure!(r.is_ok(), "query refused: {}", r.header.reason_str());
+    let parts = r.parts();
+    if let Some(a) = parts.held.iter().find(|h| h.y == 1.0) {
+        return Ok(Some(a.x as usize));
+    }
+    let links: Vec<u32> = parts
+        .eyelet_states()
+        .filter(|e| e.threaded)
+        .map(|e| e.link)
+        .collect();
+    Ok(match (links.iter().min(), links.iter().max()) {
+        (Some(&lo), Some(&hi)) => Some(((lo + hi) / 2 + 1) as usize),
+        _ => None,
+    })
+}
+
+/// The two strands of the chain's knot, cut at its stitch ([`stitch_of`], [`knots::strands`]), for the
+/// knots of two throws (square, granny, surgeon's, other); `None` for the others or a chain without a
+/// stitch.
+pub fn strands_of(
+    conn: &mut Connection,
+    chain: u32,
+    knot: &knots::KnotReport,
+) -> anyhow::Result<Option<knots::Series>> {
+    use knots::KnotType;
+    if matches!(
+        knot.kind,
+        KnotType::Unknot | KnotType::Trefoil | KnotType::DoubleOverhand
+    ) {
+        return Ok(None);
+    }
+    let Some(at) = stitch_of(conn, chain)? else {
+        return Ok(None);
+    };
+    Ok(knots::strands(&joints_of(conn, chain)?, at))
+}
+
+/// The strands found by [`strands_of`] as a line: each strand's knot, and whether the knot is the real
+/// one (both strands alone unknotted).
+pub fn strands_line(s: &knots::Series) -> String {
+    format!(
+        "strands cut at joint {}: {} / {}: {}",
+        s.cut,
+        s.first.kind.name(),
+        s.second.kind.name(),
+        if s.both_unknotted() {
+            "each strand alone unknotted, the real knot"
+        } else {
+            "a strand alone is knotted: not the real knot"
+        }
+    )
+}
+
+/// One line describing a knot report, as the tools print it.
 pub fn knot_line(k: &knots::KnotReport) -> String {
     format!(
         "knot: {} ({} of {} closures agree; {} crossings, writhe {}, determinant {})",

@@ -274,7 +274,8 @@ impl Namer {
     }
 }
 
-/// Two knots one after the other along the rope, found by [`in_series`].
+/// A rope cut at one joint, each part named alone: two knots one after the other ([`in_series`]), or
+/// the two strands of a knot tied at a stitch ([`strands`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Series {
     /// The joint where the rope was cut (each half keeps it).
@@ -283,6 +284,28 @@ pub struct Series {
     pub first: KnotReport,
     /// The knot in joints `cut..`.
     pub second: KnotReport,
+}
+
+impl Series {
+    /// Whether both parts are unknotted: for [`strands`], the knot holds its strands round each
+    /// other, as a real square, granny or surgeon's knot does.
+    pub fn both_unknotted(&self) -> bool {
+        self.first.kind == KnotType::Unknot && self.second.kind == KnotType::Unknot
+    }
+}
+
+/// The two strands of a rope cut at joint `at` (the stitch: an anchor, or the bite between two
+/// eyelets), joints `0..=at` and `at..`, each closed far away by itself as [`identify`] closes a rope
+/// and named alone. A real square, granny or surgeon's knot ties the two strands round each other, so
+/// each strand alone is unknotted; an overhand in one end, or two overhands in series, leave one
+/// strand or both knotted, though the whole rope may have the same knot type. `None` unless `at` is an
+/// inner joint. Two identifications: a tool, not for the per-move path.
+pub fn strands(points: &[Vector3<f64>], at: usize) -> Option<Series> {
+    (at > 0 && at + 1 < points.len()).then(|| Series {
+        cut: at,
+        first: identify(&points[..=at]),
+        second: identify(&points[at..]),
+    })
 }
 
 /// Whether the rope's knot lies along it as two knots in series: a joint where the rope can be cut so

@@ -302,6 +302,27 @@ fn joints_of(svc: &Service, id: u32) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// The stitch of chain `id`, where its two strands meet: its first anchor (a held joint the scene
+/// holds; the query's held list marks it), else the joint halfway between the links of its threaded
+/// eyelets (the bite).
+fn stitch(svc: &Service, id: u32) -> usize {
+    let q = svc
+        .connect()
+        .call(RequestHeader::new(Command::Query, id), &[])
+        .unwrap();
+    let parts = q.parts();
+    if let Some(a) = parts.held.iter().find(|h| h.y == 1.0) {
+        return a.x as usize;
+    }
+    let links: Vec<u32> = parts
+        .eyelet_states()
+        .filter(|e| e.threaded)
+        .map(|e| e.link)
+        .collect();
+    let (lo, hi) = (links.iter().min().unwrap(), links.iter().max().unwrap());
+    ((lo + hi) / 2 + 1) as usize
+}
+
 fn knot_of(svc: &Service, chain: &str) -> knots::KnotReport {
     let mut c = svc.connect();
     let id = c.find_chain(chain).unwrap().unwrap();
@@ -766,6 +787,24 @@ pub(super) fn instrument_tie_in(
         matches!(series, None | Some(None)),
         "{chain}: the identification finds knots in series: {series:?}"
     );
+    // The real knot, strand by strand (issue 68): cut at the stitch, each strand alone is unknotted
+    // (an overhand in one end, with a throw after it, has the composite's type too, and no cut leaves
+    // a knot in each half). The tests' own determinant: 1 for each strand (a trefoil's is 3, 5₁'s 5).
+    if matches!(
+        kind,
+        KnotType::Square | KnotType::Granny | KnotType::Surgeons
+    ) {
+        let at = stitch(&svc, id);
+        let strands = (
+            tests::knot_check::determinant(&joints[..=at]).0,
+            tests::knot_check::determinant(&joints[at..]).0,
+        );
+        assert_eq!(
+            strands,
+            (1, 1),
+            "{chain}: the strands cut at the stitch (joint {at}) have determinants {strands:?}"
+        );
+    }
     // The driver was carried: its tip is on the tail (B put it there and it rode with the tail),
     // far from where the scene parked it.
     let q = svc
