@@ -111,57 +111,42 @@ pub enum Obstacle<T: Real, const D: usize> {
     },
 }
 
-/// Knobs of collision handling. Each trades speed for how strictly links are kept apart.
+/// Knobs of collision handling. Each trades speed for how strictly links are kept apart; what each
+/// buys is measured by `cargo bench -p tractrix --bench collision` and the contact bench
+/// (BENCHMARKS.md), and what was tried on the way is in docs/history.md.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CollisionOptions<T> {
-    /// Test and response.
+    /// Test and response. Default [`Scheme::Capsules`].
     pub scheme: Scheme,
-    /// Whether links collide with each other (obstacles are tested whenever any are given).
+    /// Whether links collide with each other (obstacles are tested whenever any are given). Default
+    /// `true`.
     pub self_collision: bool,
-    /// Rope diameter for [`Scheme::Capsules`], in length units; must be positive. Ignored by
-    /// [`Scheme::PaperSpheres`] (a link's sphere is as wide as the link is long). Thicker ropes need
-    /// more substeps (a substep moves the grasped joint at most half a clearance).
+    /// Rope diameter for [`Scheme::Capsules`], in length units, positive; default 0.2. Ignored by
+    /// [`Scheme::PaperSpheres`] (a link's sphere is as wide as the link is long). A substep moves the
+    /// grasped joint at most half a clearance, so a thicker rope takes more substeps.
     pub thickness: T,
-    /// Resolution passes allowed per substep before the chain is declared locked. Too few locks a rope
-    /// that would have come apart; more passes cost one detection each, and a jammed knot spends all
-    /// of them before it is refused.
+    /// Resolution passes allowed per substep before the move is locked, at least 1; default 64.
+    /// Fewer cost less and lock more moves; a jammed knot spends all of them before it is refused.
     pub max_iterations: u32,
-    /// Penetration accepted, as a fraction of each pair's clearance, in `(0, 1)`. Smaller is stricter
-    /// and costs more passes; the default keeps links within 1 % of a thickness.
+    /// Penetration accepted, as a fraction of each pair's clearance, in `(0, 1)`; default 0.01 (links
+    /// within 1 % of a thickness). Smaller is stricter and costs more passes.
     pub tolerance: T,
     /// How far each contact is pushed, as a multiple of its depth (plus half the tolerance), in
-    /// `[1, 2)`: successive over-relaxation of the pushes. A knot pulled tight jams: each pass pushes
-    /// its contacts apart and re-straightening the rope to its lengths pulls them most of the way
-    /// back, so at 1 the passes creep toward the tolerance; pushing further converges in fewer passes
-    /// (`cargo bench -p tractrix --bench collision`, the trade table's *over-relaxation* rows: passes
-    /// per move and moves locked at 1, 1.5 and 1.9). It leaves a contact at most its depth farther
-    /// apart than it need be, when that depth is above the tolerance. On
-    /// a chain with held joints the extra push is capped at the tolerance: the rope between them is
-    /// re-solved as a whole after the pushes, and a joint that moves farther than a substep may locks
-    /// the move (uncapped, a kernel test's instrument push locked); capped, the held ropes of the
-    /// built-in knots need fewer passes (`cargo bench -p clients --bench contact`).
+    /// `[1, 2)`; default 1.5 (successive over-relaxation: a jammed knot's passes converge in fewer
+    /// passes than at 1, where they creep toward the tolerance). A contact is left at most its depth
+    /// farther apart than it need be. On a chain with held joints the extra push is capped at the
+    /// tolerance.
     pub over_relaxation: T,
-    /// On a rope with held joints, how freely the joints a pass pushed move when the rope between
-    /// the fixed joints is relaxed back to its lengths after the pushes: their inverse mass in the
-    /// relaxation, in `(0, 1]` (1: like every other joint). Between fixed joints a taut rope is
-    /// lengthened by a push, and relaxing it with every joint alike carries the pushed joints most
-    /// of the way back into the contact: the passes creep toward the tolerance, hundreds per
-    /// substep. Heavier pushed joints (a smaller weight) leave more of the push in place and take
-    /// the length from the rope around it: fewer passes, but the rope beside a contact moves more,
-    /// and too small a weight locks moves and changes the knots tied (`cargo bench -p clients
-    /// --bench contact`, the trade table; at 0.5 the stitch scenes' surgeon's knot over a bite lost
-    /// its second throw and their 160-link pass locked moves, so the default stays 1). Not in pulls
-    /// (`solve_contacts_together`), where the contacts and lengths are solved together.
+    /// On a rope with held joints, the inverse mass of the joints a pass pushed when the rope between
+    /// the fixed joints is relaxed back to its lengths, in `(0, 1]`; default 1 (like every other
+    /// joint). Smaller leaves more of a push in place and takes the length from the rope around it:
+    /// fewer passes, more moves locked and, too small, other knots tied. Not used in pulls, where the
+    /// contacts and lengths are solved together.
     pub pushed_weight: T,
-    /// On a rope with held joints, the passes of pushes after which a move's contacts and lengths
-    /// are solved together (the joint projection: Newton's method on every link's length and every
-    /// contact's clearance, from the re-straightened pose) while the contacts have not parted; `0`:
-    /// never on plain moves, the passes alone. Default 2. The passes creep on a knot under tension
-    /// (each push lengthens the rope between its fixed joints and the relaxation pulls it back in);
-    /// the projection ends that in a few steps where it converges, and where it stalls (a strand
-    /// pressed between others on a taut rope) the passes go on. Not on a rope through eyelets,
-    /// where it locked moves and changed a knot; pulls always use it after two passes. The trade:
-    /// `cargo bench -p clients --bench contact`, the table of the held ropes' resolution.
+    /// On a rope with held joints, the passes of pushes after which a move's contacts and lengths are
+    /// solved together (the joint projection, docs/kernel.md) while the contacts have not parted, up
+    /// to [`MAX_TOGETHER_AFTER`]; default 2; 0: never on plain moves. Not on a rope through eyelets;
+    /// pulls always use it after two passes.
     pub together_after: u32,
 }
 
