@@ -54,9 +54,26 @@ enum Cmd {
         /// Which hand of the script this process is.
         #[arg(long, default_value = "A")]
         hand: String,
-        /// Requests per second (0: as fast as the service answers).
-        #[arg(long, default_value_t = 0.0)]
-        rate: f64,
+        /// Requests per second (0: as fast as the service answers; with `--device` its sampling
+        /// rate, default 1000).
+        #[arg(long)]
+        rate: Option<f64>,
+        /// Play the script's moves as a haptic device does: the path walked at `--speed` and sampled
+        /// at `--rate`, each request the hand's position at the first sample after the previous
+        /// answer (a late answer skips samples), never halved or sent again, the tremor always on;
+        /// at a turn's end the hand holds still until its joint is within `--settle` of it (or
+        /// `--settle-timeout`). Tightening pulls and instrument turns are played as without it.
+        #[arg(long)]
+        device: bool,
+        /// With `--device`: the hand's speed along its path, length units per second.
+        #[arg(long, default_value_t = 10.0, requires = "device")]
+        speed: f64,
+        /// With `--device`: how near (length units) the joint must come to the hand at a turn's end.
+        #[arg(long, default_value_t = 0.05, requires = "device")]
+        settle: f64,
+        /// With `--device`: the longest wait at a turn's end for the joint, seconds.
+        #[arg(long, default_value_t = 2.0, requires = "device")]
+        settle_timeout: f64,
         /// Override the script's longest hand motion per request.
         #[arg(long)]
         max_step: Option<f64>,
@@ -161,6 +178,10 @@ fn run(a: Args) -> Result<u8> {
             builtin: b,
             hand,
             rate,
+            device,
+            speed,
+            settle,
+            settle_timeout,
             max_step,
             chain,
             record,
@@ -213,10 +234,31 @@ fn run(a: Args) -> Result<u8> {
             if !(tremor.is_finite() && (0.0..=1.0).contains(&tremor)) {
                 bail!("--tremor must be 0 to 1 units");
             }
+            let rate = rate.unwrap_or(if device { 1000.0 } else { 0.0 });
             if !(rate.is_finite() && rate >= 0.0 && turn_timeout.is_finite() && turn_timeout > 0.0)
             {
                 bail!("--rate must be ≥ 0 and --turn-timeout positive");
             }
+            let device = device
+                .then(|| {
+                    let ok = rate > 0.0
+                        && speed.is_finite()
+                        && speed > 0.0
+                        && settle.is_finite()
+                        && settle > 0.0
+                        && settle_timeout.is_finite()
+                        && settle_timeout >= 0.0;
+                    ok.then(|| clients::hand::DeviceOptions {
+                        rate_hz: rate,
+                        speed,
+                        settle,
+                        settle_timeout: Duration::from_secs_f64(settle_timeout),
+                    })
+                    .context(
+                        "--device needs a positive --rate, --speed and --settle and a --settle-timeout ≥ 0",
+                    )
+                })
+                .transpose()?;
             let mut conn = connect(&a.prefix, a.wait_for_service)?;
             let cfg = HandConfig {
                 hand: hand.clone(),
@@ -227,6 +269,7 @@ fn run(a: Args) -> Result<u8> {
                 progress: !quiet,
                 frames_per_turn: if svg.is_some() { frames } else { 0 },
                 tremor: (perturb, tremor),
+                device,
             };
             let r = run_hand(&mut conn, &cfg)?;
             let refused: Vec<String> = r.refused.iter().map(|(n, c)| format!("{c} {n}")).collect();
@@ -241,6 +284,20 @@ fn run(a: Args) -> Result<u8> {
                     format!(", refused: {}", refused.join(", "))
                 }
             );
+            if cfg.device.is_some() {
+                let d = &r.device;
+                let lag = |q| d.lag(q).map_or("-".to_string(), |l| format!("{l:.4}"));
+                println!(
+                    "hand {hand}: device: {} samples sent, {} skipped while waiting for answers; the \
+                     joint's lag behind the hand p50 {} / p99 {} / max {}; {} turns unsettled",
+                    d.sent,
+                    d.skipped,
+                    lag(0.5),
+                    lag(0.99),
+                    lag(1.0),
+                    d.unsettled
+                );
+            }
             if let Some(path) = &timings {
                 let text: String =
                     std::iter::once("# round_trip_us solve_us status pull passes\n".to_string())

@@ -18,8 +18,10 @@ use shared::{Command, JOINT_HEAD, PullStop, RequestHeader, Status, Vec3};
 use std::io::Write;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+pub mod device;
 mod lines;
 mod replay;
+pub use device::{DeviceOptions, DeviceReport};
 pub use lines::*;
 pub use replay::*;
 
@@ -103,6 +105,8 @@ pub struct HandReport {
     pub timings: Vec<Timing>,
     /// How each tightening pull of this hand ended ([`knots::script::Tighten`]).
     pub tightened: Vec<Tightened>,
+    /// What a device saw of its samples (`HandConfig::device`; empty otherwise).
+    pub device: DeviceReport,
 }
 
 /// How a tightening pull ended.
@@ -225,6 +229,10 @@ pub struct HandConfig {
     /// The seed of a perturbed run (0: none) and the tremor's amplitude: every target this hand sends
     /// is shaken by [`knots::script::Tremor`] (amplitude 0: not at all).
     pub tremor: (u64, f64),
+    /// Play the script's moves as a haptic device does ([`device`]); `None`: a patient hand, which
+    /// waits for every answer and halves a move over the service's budget. Tightening pulls and
+    /// instrument turns are played by the patient hand either way.
+    pub device: Option<DeviceOptions>,
 }
 
 /// CRC-32 of joint positions, as recorded.
@@ -483,11 +491,14 @@ fn drive(
 ) -> anyhow::Result<()> {
     use anyhow::bail;
     let mut mine: Vec<usize> = Vec::new();
-    let mut tremor = knots::script::Tremor::new(
-        cfg.tremor.0,
-        &cfg.hand,
-        if cfg.tremor.0 == 0 { 0.0 } else { cfg.tremor.1 },
-    );
+    // A device always shakes (a person's hand never holds a target exactly): unperturbed, its
+    // tremor has seed 1.
+    let seed = match (cfg.tremor.0, cfg.device) {
+        (0, Some(_)) => 1,
+        (seed, _) => seed,
+    };
+    let mut tremor =
+        knots::script::Tremor::new(seed, &cfg.hand, if seed == 0 { 0.0 } else { cfg.tremor.1 });
     for (k, turn) in cfg.script.turn.iter().enumerate() {
         if turn.hand != cfg.hand {
             if k > 0 {
@@ -742,6 +753,9 @@ impl TurnRun<'_> {
         flags: u32,
     ) -> anyhow::Result<()> {
         use anyhow::bail;
+        if let Some(d) = self.cfg.device {
+            return self.device_moves(d, joint, start, targets, rotations, tremor, flags);
+        }
         let every = (targets.len() / self.cfg.frames_per_turn.max(1)).max(1);
         if self.cfg.frames_per_turn > 0 && self.report.frames.is_empty() {
             let joints = q.joints().iter().map(|p| p.to_array()).collect();

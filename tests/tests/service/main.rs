@@ -15,11 +15,13 @@
 //!   (`latency`);
 //! * SIGTERM and SIGINT in every wait mode, idle and under load, 20 times each (`signals`);
 //! * a hostile client beside a 1 kHz client (`hostile`);
-//! * joint limits from the scene, kept by every published state (`limits`).
+//! * joint limits from the scene, kept by every published state (`limits`);
+//! * a hand played as a haptic device: each target once, its recording replayed (`device`).
 
 mod bundles;
 mod c_api;
 mod crash;
+mod device;
 mod faults;
 mod holds;
 mod hostile;

@@ -1,0 +1,276 @@
+//! A hand played as a haptic device plays it (`hand run --device`): the turn's path walked at the
+//! hand's speed and sampled at the device's rate, each request the hand's position at the first
+//! sample after the previous answer arrived (a late answer skips the samples in between), never
+//! halved or sent again, tremor on; at the end of the path the hand holds still, as a person waits,
+//! until its joint is within a tolerance of where the hand is, or a timeout.
+
+use super::*;
+
+/// How a device plays a hand's turns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeviceOptions {
+    /// Samples per second, positive; `hand run --rate` (default 1000 with `--device`).
+    pub rate_hz: f64,
+    /// The hand's speed along its path, in length units per second, positive (default 10).
+    pub speed: f64,
+    /// At the end of a turn, how near (length units) the joint must come to the hand before the next
+    /// turn starts (default 0.05).
+    pub settle: f64,
+    /// The longest a hand waits at the end of a turn for its joint (default 2 s); a turn that runs
+    /// out of it is counted in [`DeviceReport::unsettled`].
+    pub settle_timeout: Duration,
+}
+
+/// What the device saw of its requests.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DeviceReport {
+    /// Samples sent.
+    pub sent: u64,
+    /// Samples skipped: ticks that passed while the device waited for an answer.
+    pub skipped: u64,
+    /// The proxy's lag of every answered sample: how far the moved joint was from the hand's
+    /// position (the target sent), in length units.
+    pub lags: Vec<f64>,
+    /// Turns whose joint did not come within [`DeviceOptions::settle`] of the hand in time.
+    pub unsettled: u64,
+}
+
+impl DeviceReport {
+    /// The lag at quantile `q` in `[0, 1]` (nearest rank); `None` without samples.
+    pub fn lag(&self, q: f64) -> Option<f64> {
+        let mut v = self.lags.clone();
+        v.sort_by(f64::total_cmp);
+        let k = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len().max(1)) - 1;
+        v.get(k).copied()
+    }
+}
+
+/// A turn's path as a device walks it: its start and targets joined by straight segments.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DevicePath {
+    points: Vec<[f64; 3]>,
+    /// Length along the path at each point.
+    along: Vec<f64>,
+}
+
+impl DevicePath {
+    /// The path from `start` through `targets`.
+    pub fn new(start: [f64; 3], targets: &[[f64; 3]]) -> Self {
+        let mut points = Vec::with_capacity(targets.len() + 1);
+        points.push(start);
+        points.extend_from_slice(targets);
+        let mut along = Vec::with_capacity(points.len());
+        let mut s = 0.0;
+        along.push(s);
+        for w in points.windows(2) {
+            s += knots::vec3::dist(w[0], w[1]);
+            along.push(s);
+        }
+        DevicePath { points, along }
+    }
+
+    /// The path's length.
+    pub fn length(&self) -> f64 {
+        self.along[self.along.len() - 1]
+    }
+
+    /// The point `s` along the path (clamped to its ends), and the index of the target that ends the
+    /// segment it lies on (0 for the start).
+    pub fn at(&self, s: f64) -> ([f64; 3], usize) {
+        let last = self.points.len() - 1;
+        if s.is_nan() || s <= 0.0 || last == 0 {
+            return (self.points[0], 0);
+        }
+        if s >= self.length() {
+            return (self.points[last], last - 1);
+        }
+        // The first point at or beyond `s`.
+        let k = self.along.partition_point(|&a| a < s).clamp(1, last);
+        let (a, b) = (self.along[k - 1], self.along[k]);
+        let t = if b > a { (s - a) / (b - a) } else { 1.0 };
+        (
+            knots::vec3::lerp(self.points[k - 1], self.points[k], t),
+            k - 1,
+        )
+    }
+}
+
+/// The tick a device samples next when an answer arrived `elapsed` seconds after the turn began, the
+/// last tick sent being `last`: the first tick of `rate_hz` at or after the answer, and at least the
+/// one after `last` (a late answer skips the ticks in between; an early one waits for the next).
+pub fn next_tick(elapsed: f64, rate_hz: f64, last: u64) -> u64 {
+    let due = (elapsed * rate_hz).ceil();
+    let due = if due.is_finite() && due > 0.0 {
+        due.min(u64::MAX as f64) as u64
+    } else {
+        0
+    };
+    due.max(last.saturating_add(1))
+}
+
+impl TurnRun<'_> {
+    /// [`TurnRun::moves`] as a device plays it ([`DeviceOptions`]): `joint` (at `start`) along the
+    /// path through `targets`, each sample shaken by the tremor and sent with `flags` (and the
+    /// rotation of the target its segment ends at, for a pose); a refused sample is counted and the
+    /// device goes on from where the rope is. A draw turn ends when its tail is left.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn device_moves(
+        &mut self,
+        d: DeviceOptions,
+        joint: u32,
+        start: [f64; 3],
+        targets: &[[f64; 3]],
+        rotations: Option<&[[f64; 3]]>,
+        tremor: &mut knots::script::Tremor,
+        flags: u32,
+    ) -> anyhow::Result<()> {
+        let path = DevicePath::new(start, targets);
+        let t0 = Instant::now();
+        let mut tick = 0u64;
+        let mut settling: Option<Instant> = None;
+        loop {
+            if self.conn.node().wait(Duration::ZERO).is_err() {
+                anyhow::bail!("interrupted (SIGINT or SIGTERM)");
+            }
+            let next = next_tick(t0.elapsed().as_secs_f64(), d.rate_hz, tick);
+            self.report.device.skipped += next - tick - 1;
+            tick = next;
+            let due = t0 + Duration::from_secs_f64(tick as f64 / d.rate_hz);
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+            let (at, k) = path.at(d.speed * tick as f64 / d.rate_hz);
+            let t = tremor.apply(at);
+            let rotation = rotations.and_then(|r| r.get(k).copied());
+            let mut h = RequestHeader::new(Command::Move, self.chain);
+            h.joint = joint;
+            h.flags = flags;
+            let to = Vec3::new(t[0], t[1], t[2]);
+            let posed;
+            let points: &[Vec3] = match rotation {
+                Some(r) => {
+                    posed = [to, Vec3::new(r[0], r[1], r[2])];
+                    &posed
+                }
+                None => std::slice::from_ref(&to),
+            };
+            let draw = self.turn.draw;
+            let sent = now_ns();
+            let called = Instant::now();
+            let (status, seq, rid, dg, served, reached, tail) =
+                self.conn.call_with(h, points, |rh, pts| {
+                    let n = (rh.n_joints as usize).min(pts.len());
+                    let j = if joint == shared::JOINT_HEAD {
+                        n.saturating_sub(1)
+                    } else {
+                        joint as usize
+                    };
+                    let tail = draw
+                        .filter(|_| rh.status == 0)
+                        .and_then(|_| tail_before_eyelet(rh, pts));
+                    (
+                        rh.status,
+                        rh.sequence,
+                        rh.request_id,
+                        digest(&pts[..n]),
+                        Served::of(rh),
+                        pts.get(j).map(|p| p.to_array()),
+                        tail,
+                    )
+                })?;
+            let name = self.report.tally(status, called, served);
+            self.report.device.sent += 1;
+            if let Some(w) = self.record.as_mut() {
+                Record {
+                    t_ns: sent,
+                    hand: self.cfg.hand.clone(),
+                    turn: self.k as u32,
+                    chain: self.turn.chain.clone(),
+                    joint,
+                    target: t,
+                    request_id: rid,
+                    status: name.to_string(),
+                    sequence: seq,
+                    digest: dg,
+                    command: move_command(),
+                    axis: None,
+                    pull: false,
+                    drive: flags & shared::FLAG_DRIVE != 0,
+                    rotation,
+                }
+                .append_to(w)?;
+            }
+            let lag = reached.map(|r| knots::vec3::dist(r, t));
+            if let Some(lag) = lag {
+                self.report.device.lags.push(lag);
+            }
+            if let (Some(dr), Some(tl)) = (draw, tail)
+                && tl <= dr.tail
+            {
+                return Ok(()); // the tail is left: the draw ends here
+            }
+            if d.speed * tick as f64 / d.rate_hz < path.length() {
+                continue;
+            }
+            // At the end of the path the hand holds still (its tremor aside) until the joint is
+            // there.
+            let since = *settling.get_or_insert_with(Instant::now);
+            if lag.is_some_and(|l| l <= d.settle) {
+                return Ok(());
+            }
+            if since.elapsed() >= d.settle_timeout {
+                self.report.device.unsettled += 1;
+                if self.cfg.progress {
+                    eprintln!(
+                        "hand {}: turn {}: the joint did not come within {} of the hand in {:?}",
+                        self.cfg.hand,
+                        self.k + 1,
+                        d.settle,
+                        d.settle_timeout
+                    );
+                }
+                return Ok(());
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_late_answer_skips_the_ticks_it_missed_and_an_early_one_waits() {
+        // At 1 kHz: an answer 0.2 ms after tick 3 was sent is followed by tick 4; one 3.5 ms late
+        // by tick 7 (4, 5 and 6 skipped); one exactly on a tick by that tick.
+        assert_eq!(next_tick(0.0032, 1000.0, 3), 4);
+        assert_eq!(next_tick(0.0065, 1000.0, 3), 7);
+        assert_eq!(next_tick(0.005, 1000.0, 3), 5);
+        assert_eq!(next_tick(0.0, 1000.0, 0), 1);
+        assert_eq!(next_tick(f64::NAN, 1000.0, 9), 10);
+    }
+
+    #[test]
+    fn the_path_is_walked_by_length_and_held_at_its_end() {
+        let p = DevicePath::new([0.0; 3], &[[1.0, 0.0, 0.0], [1.0, 2.0, 0.0]]);
+        assert_eq!(p.length(), 3.0);
+        assert_eq!(p.at(-1.0), ([0.0; 3], 0));
+        assert_eq!(p.at(0.5), ([0.5, 0.0, 0.0], 0));
+        assert_eq!(p.at(1.0), ([1.0, 0.0, 0.0], 0));
+        assert_eq!(p.at(2.0), ([1.0, 1.0, 0.0], 1));
+        assert_eq!(p.at(9.0), ([1.0, 2.0, 0.0], 1));
+    }
+
+    #[test]
+    fn lag_quantiles_are_nearest_rank() {
+        let r = DeviceReport {
+            lags: vec![0.3, 0.1, 0.2, 0.4],
+            ..DeviceReport::default()
+        };
+        assert_eq!(r.lag(0.5), Some(0.2));
+        assert_eq!(r.lag(1.0), Some(0.4));
+        assert_eq!(r.lag(0.0), Some(0.1));
+        assert_eq!(DeviceReport::default().lag(0.5), None);
+    }
+}
