@@ -181,26 +181,7 @@ impl TurnRun<'_> {
                 })?;
             let name = self.report.tally(status, called, served);
             self.report.device.sent += 1;
-            if let Some(w) = self.record.as_mut() {
-                Record {
-                    t_ns: sent,
-                    hand: self.cfg.hand.clone(),
-                    turn: self.k as u32,
-                    chain: self.turn.chain.clone(),
-                    joint,
-                    target: t,
-                    request_id: rid,
-                    status: name.to_string(),
-                    sequence: seq,
-                    digest: dg,
-                    command: move_command(),
-                    axis: None,
-                    pull: false,
-                    drive: flags & shared::FLAG_DRIVE != 0,
-                    rotation,
-                }
-                .append_to(w)?;
-            }
+            self.record_move((sent, joint, t, rotation, flags), (rid, name, seq, dg))?;
             let lag = reached.map(|r| knots::vec3::dist(r, t));
             if let Some(lag) = lag {
                 self.report.device.lags.push(lag);

@@ -737,6 +737,38 @@ impl TurnRun<'_> {
         Ok(())
     }
 
+    /// Records a move request when the hand records: sent at `t_ns`, of `joint` to `target` (with a
+    /// pose's `rotation`) and `flags`, answered with request id, status name, sequence number and the
+    /// joints' digest.
+    #[allow(clippy::type_complexity)]
+    fn record_move(
+        &mut self,
+        (t_ns, joint, target, rotation, flags): (u64, u32, [f64; 3], Option<[f64; 3]>, u32),
+        (request_id, status, sequence, digest): (u64, &str, u64, u32),
+    ) -> anyhow::Result<()> {
+        let Some(w) = self.record.as_mut() else {
+            return Ok(());
+        };
+        Record {
+            t_ns,
+            hand: self.cfg.hand.clone(),
+            turn: self.k as u32,
+            chain: self.turn.chain.clone(),
+            joint,
+            target,
+            request_id,
+            status: status.to_string(),
+            sequence,
+            digest,
+            command: move_command(),
+            axis: None,
+            pull: false,
+            drive: flags & shared::FLAG_DRIVE != 0,
+            rotation,
+        }
+        .append_to(w)
+    }
+
     /// Moves `joint` (at `start`, the rope as `q` answered) through `targets`, each shaken by the
     /// tremor and sent with `flags` (`FLAG_DRIVE` for a drive; `FLAG_POSE` for a pose, with the
     /// needle's rotation vector of each target in `rotations`); a move over the service's budget is
@@ -878,26 +910,7 @@ impl TurnRun<'_> {
                         at = t;
                         turned = rotation.or(turned);
                     }
-                    if let Some(w) = self.record.as_mut() {
-                        Record {
-                            t_ns: sent,
-                            hand: self.cfg.hand.clone(),
-                            turn: self.k as u32,
-                            chain: self.turn.chain.clone(),
-                            joint,
-                            target: t,
-                            request_id: rid,
-                            status: name.to_string(),
-                            sequence: seq,
-                            digest: dg,
-                            command: move_command(),
-                            axis: None,
-                            pull: false,
-                            drive: flags & shared::FLAG_DRIVE != 0,
-                            rotation,
-                        }
-                        .append_to(w)?;
-                    }
+                    self.record_move((sent, joint, t, rotation, flags), (rid, name, seq, dg))?;
                 }
                 if let Some(f) = frame {
                     let label = format!(
