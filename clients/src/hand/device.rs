@@ -28,8 +28,9 @@ pub struct DeviceReport {
     pub sent: u64,
     /// Samples skipped: ticks that passed while the device waited for an answer.
     pub skipped: u64,
-    /// The proxy's lag of every answered sample: how far the moved joint was from the hand's
-    /// position (the target sent), in length units.
+    /// The proxy's lag of every sample answered with the rope's joints (a refused one is answered
+    /// without them): how far the moved joint was from the hand's position (the target sent), in
+    /// length units.
     pub lags: Vec<f64>,
     /// Turns whose joint did not come within [`DeviceOptions::settle`] of the hand in time.
     pub unsettled: u64,
@@ -175,7 +176,7 @@ impl TurnRun<'_> {
                         rh.request_id,
                         digest(&pts[..n]),
                         Served::of(rh),
-                        pts.get(j).map(|p| p.to_array()),
+                        pts[..n].get(j).map(|p| p.to_array()),
                         tail,
                     )
                 })?;

@@ -305,7 +305,7 @@ fn joints_of(svc: &Service, id: u32) -> Vec<[f64; 3]> {
 /// The stitch of chain `id`, where its two strands meet: its first anchor (a held joint the scene
 /// holds; the query's held list marks it), else the joint halfway between the links of its threaded
 /// eyelets (the bite).
-fn stitch(svc: &Service, id: u32) -> usize {
+pub(super) fn stitch(svc: &Service, id: u32) -> usize {
     let q = svc
         .connect()
         .call(RequestHeader::new(Command::Query, id), &[])

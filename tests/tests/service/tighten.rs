@@ -285,6 +285,19 @@ fn tie_and_tighten(builtin: &str, chain: &str, determinant: u64, knot: u32) {
             );
         }
     }
+    // The real knot after the tightening, strand by strand (issue 68): cut at the stitch, each
+    // strand alone has the tests' own determinant 1 (an overhand in one end would give 3).
+    let at = super::knots::stitch(&svc, id);
+    let last_pts = array(&tightening.last().expect("states").1);
+    let strands = (
+        tests::knot_check::determinant(&last_pts[..=at]).0,
+        tests::knot_check::determinant(&last_pts[at..]).0,
+    );
+    assert_eq!(
+        strands,
+        (1, 1),
+        "the tightened knot's strands cut at the stitch (joint {at})"
+    );
     // The knot the service names with every state (the scene asks for it): the script's knot at the
     // end, consistent with the determinant computed here.
     let last = tightening.last().expect("states").2;
