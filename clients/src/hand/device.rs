@@ -147,15 +147,8 @@ impl TurnRun<'_> {
             let mut h = RequestHeader::new(Command::Move, self.chain);
             h.joint = joint;
             h.flags = flags;
-            let to = Vec3::new(t[0], t[1], t[2]);
-            let posed;
-            let points: &[Vec3] = match rotation {
-                Some(r) => {
-                    posed = [to, Vec3::new(r[0], r[1], r[2])];
-                    &posed
-                }
-                None => std::slice::from_ref(&to),
-            };
+            let mut buf = [Vec3::default(); 2];
+            let points = move_points(&mut buf, t, rotation);
             let draw = self.turn.draw;
             let sent = now_ns();
             let called = Instant::now();

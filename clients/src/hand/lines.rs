@@ -122,30 +122,27 @@ pub fn knotted_stretch_line(
     )))
 }
 
-/// The stitch of chain `chain`, where its two strands meet: its first anchor (a held joint the scene
-/// holds, not a grasp), else the joint halfway between the links of its first and last threaded
-/// eyelets (the bite); `None` for a chain with neither.
-pub fn stitch_of(conn: &mut Connection, chain: u32) -> anyhow::Result<Option<usize>> {
-    let r = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
-    anyhow::ensure!(r.is_ok(), "query refused: {}", r.header.reason_str());
-    let parts = r.parts();
+/// The stitch of a chain whose answer's parts are `parts`, where its two strands meet: its first
+/// anchor (a held joint the scene holds, not a grasp), else the joint halfway between the links of
+/// its first and last threaded eyelets (the bite); `None` for a chain with neither.
+pub fn stitch_of(parts: &shared::Parts<'_>) -> Option<usize> {
     if let Some(a) = parts.held.iter().find(|h| h.y == 1.0) {
-        return Ok(Some(a.x as usize));
+        return Some(a.x as usize);
     }
     let links: Vec<u32> = parts
         .eyelet_states()
         .filter(|e| e.threaded)
         .map(|e| e.link)
         .collect();
-    Ok(match (links.iter().min(), links.iter().max()) {
+    match (links.iter().min(), links.iter().max()) {
         (Some(&lo), Some(&hi)) => Some(((lo + hi) / 2 + 1) as usize),
         _ => None,
-    })
+    }
 }
 
 /// The two strands of the chain's knot, cut at its stitch ([`stitch_of`], [`knots::strands`]), for the
 /// knots of two throws (square, granny, surgeon's, other); `None` for the others or a chain without a
-/// stitch.
+/// stitch. One query.
 pub fn strands_of(
     conn: &mut Connection,
     chain: u32,
@@ -158,10 +155,18 @@ pub fn strands_of(
     ) {
         return Ok(None);
     }
-    let Some(at) = stitch_of(conn, chain)? else {
+    let r = conn.call(RequestHeader::new(Command::Query, chain), &[])?;
+    anyhow::ensure!(r.is_ok(), "query refused: {}", r.header.reason_str());
+    let parts = r.parts();
+    let Some(at) = stitch_of(&parts) else {
         return Ok(None);
     };
-    Ok(knots::strands(&joints_of(conn, chain)?, at))
+    let joints: Vec<_> = parts
+        .joints
+        .iter()
+        .map(|p| nalgebra::Vector3::new(p.x, p.y, p.z))
+        .collect();
+    Ok(knots::strands(&joints, at))
 }
 
 /// The strands found by [`strands_of`] as a line: each strand's knot, and whether the knot is the real

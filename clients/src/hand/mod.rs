@@ -235,6 +235,18 @@ pub struct HandConfig {
     pub device: Option<DeviceOptions>,
 }
 
+/// A move's points in `buf`: the target, and a pose's rotation vector after it when there is one.
+fn move_points(buf: &mut [Vec3; 2], to: [f64; 3], rotation: Option<[f64; 3]>) -> &[Vec3] {
+    buf[0] = Vec3::new(to[0], to[1], to[2]);
+    match rotation {
+        Some(r) => {
+            buf[1] = Vec3::new(r[0], r[1], r[2]);
+            &buf[..]
+        }
+        None => &buf[..1],
+    }
+}
+
 /// CRC-32 of joint positions, as recorded.
 pub fn digest(joints: &[Vec3]) -> u32 {
     let mut h = crc32fast::Hasher::new();
@@ -829,15 +841,8 @@ impl TurnRun<'_> {
                 let sent = now_ns();
                 let called = Instant::now();
                 let last = pending.is_empty();
-                let to = Vec3::new(t[0], t[1], t[2]);
-                let posed;
-                let points: &[Vec3] = match rotation {
-                    Some(r) => {
-                        posed = [to, Vec3::new(r[0], r[1], r[2])];
-                        &posed
-                    }
-                    None => std::slice::from_ref(&to),
-                };
+                let mut buf = [Vec3::default(); 2];
+                let points = move_points(&mut buf, t, rotation);
                 let draw = self.turn.draw;
                 let (status, seq, rid, dg, frame, (reason, stopped_at, served), tail) =
                     self.conn.call_with(h, points, |rh, pts| {
