@@ -198,9 +198,9 @@ def pulls(h: ResponseHeader, elements: list) -> dict:
     return {"held": held, "instruments": [list(p) for p in ps[h.n_held:]]}
 
 
-PULL_STOPS = {"pull stopped short: taut": "taut", "pull stopped short: jammed": "jammed",
-              "pull stopped short: joint limit": "joint limit",
-              "pull stopped short: work budget": "work budget"}
+PULL_STOPS = {"stopped short: taut": "taut", "stopped short: jammed": "jammed",
+              "stopped short: joint limit": "joint limit",
+              "stopped short: work budget": "work budget"}
 
 
 def pull_stop(h: ResponseHeader) -> str | None:

@@ -340,10 +340,10 @@ impl PullStop {
     /// The `reason` text of an ok response whose pull stopped short this way.
     pub const fn reason(self) -> &'static str {
         match self {
-            PullStop::Taut => "pull stopped short: taut",
-            PullStop::Jammed => "pull stopped short: jammed",
-            PullStop::Limit => "pull stopped short: joint limit",
-            PullStop::Work => "pull stopped short: work budget",
+            PullStop::Taut => "stopped short: taut",
+            PullStop::Jammed => "stopped short: jammed",
+            PullStop::Limit => "stopped short: joint limit",
+            PullStop::Work => "stopped short: work budget",
         }
     }
 

@@ -7,7 +7,7 @@ fn a_pull_stop_reads_back_from_its_reason_and_nothing_else_does() {
         assert_eq!(PullStop::of(p.reason()), Some(p));
     }
     assert_eq!(PullStop::of(""), None);
-    assert_eq!(PullStop::of("pull stopped short"), None);
+    assert_eq!(PullStop::of("stopped short"), None);
     let mut h = ResponseHeader::default();
     h.set_reason(PullStop::Work.reason());
     h.status = Status::Ok as u32;

@@ -845,7 +845,7 @@ fn a_pull_that_stops_short_says_why_in_its_ok_response() {
     let far = Vec3::new(tail.x + 100.0, tail.y, tail.z);
     let (h, payload) = door.call(&pull, &[far]);
     assert_eq!(h.status, Status::Ok as u32, "{}", h.reason_str());
-    assert_eq!(h.reason_str(), "pull stopped short: taut");
+    assert_eq!(h.reason_str(), "stopped short: taut");
     assert_eq!(h.pull_stop(), Some(shared::PullStop::Taut));
     let parts = shared::Parts::of_response(&h, &payload);
     let head = parts.joints[parts.joints.len() - 1];

@@ -69,7 +69,7 @@ pub mod pseudo_inverse;
 pub mod rope;
 pub mod strands;
 
-pub use chain::{Chain, ChainError, MoveOptions, MoveOutcome, Substeps};
+pub use chain::{Chain, ChainError, MoveOptions, MoveOutcome, Short, Substeps};
 pub use fixed_base::{ReachError, ReachOptions, ReachOutcome, ReachWorkspace, Strategy, reach};
 pub use goals::{Goal, reach_goal};
 pub use limits::{JointLimits, LimitError, LimitKind};

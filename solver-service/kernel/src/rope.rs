@@ -143,7 +143,8 @@ where
     /// Moves joint `joint` through `targets` in order, one [`Rope::move_to`] each, their outcomes
     /// summed. A free chain validates every target first and moves all or none
     /// ([`Chain::move_along`]); with collision or eyelets a refusal may leave the earlier targets
-    /// reached (the caller restores the rope, as the service's world does).
+    /// reached (the caller restores the rope, as the service's world does); a move that stops short
+    /// inside its frame ([`CollisionWorkspace::stop_short`]) ends the path there.
     pub fn move_along(
         &mut self,
         joint: usize,
@@ -159,6 +160,10 @@ where
         let mut total = MoveOutcome::default();
         for t in targets {
             total.add(&self.move_to(joint, *t, opts)?);
+            if total.short.is_some() {
+                // Stopped short inside its frame: the targets after it are not tried.
+                break;
+            }
         }
         Ok(total)
     }
@@ -259,6 +264,7 @@ fn threaded(t: Threaded, passes: u64) -> MoveOutcome {
         collision_iterations: u32::try_from(passes).unwrap_or(u32::MAX),
         left: t.left,
         stuck: t.stuck,
+        short: t.short,
         ..MoveOutcome::default()
     }
 }

@@ -9,7 +9,7 @@ use crate::command::{Answer, Command, Counts, Point, Residual};
 use crate::form::{Kept, LiveChain};
 use crate::moves::{
     Tries, give_way, instrument_travel, move_and_carry, move_eyelet, pull_instrument, pull_move,
-    push_instrument, reach_with_holds,
+    push_instrument, reach_with_holds, stop_of,
 };
 use crate::point::{point, to_point};
 use crate::refusal::Refusal;
@@ -52,6 +52,31 @@ pub(crate) fn within_budget(work: u64, budget: u64) -> Result<(), Refusal> {
 /// A pull's budget: the pull budget when set, never more than the request's.
 pub(crate) fn pull_cap(pull_budget: Option<u64>, budget: u64) -> u64 {
     pull_budget.map_or(budget, |p| p.min(budget))
+}
+
+/// The work checked against the frame before `req` runs: on a chain with collision, whose moves stop
+/// short inside their frame ([`tractrix::collision::CollisionWorkspace::stop_short`], the meter
+/// charging every sweep and solve), only the request's size (a link-step per link per point of a
+/// path: a path too long to start on every point is refused); else [`estimate`], checked in full (the
+/// substeps are still refused past the chain's limit, as the kernel would).
+pub(crate) fn frame_estimate<T: Real, const D: usize>(
+    h: &LiveChain<T, D>,
+    spec: &ChainSpec,
+    req: &Command<'_>,
+) -> Result<u64, Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let full = estimate(h, spec, req)?;
+    if spec.collision.is_none() {
+        return Ok(full);
+    }
+    let n = spec.lengths.len() as u64;
+    Ok(match *req {
+        Command::Move { targets, .. } => n.saturating_mul(targets.len() as u64),
+        Command::Instrument { .. } | Command::Eyelet { .. } => n,
+        _ => full,
+    })
 }
 
 /// The work `req` on `h` (declared by `spec`) will cost at most, in link-steps, collision work aside
@@ -283,7 +308,7 @@ pub(crate) fn apply<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    within_budget(estimate(h, cx.spec, req)?, cx.budget)?;
+    within_budget(frame_estimate(h, cx.spec, req)?, cx.budget)?;
     let n_links = cx.spec.lengths.len() as u32;
     let mut outcome = Answer {
         chain: Some(cx.chain),
@@ -303,6 +328,7 @@ where
     // the request at the budget, the chain unchanged.
     if let Some((_, ws)) = h.collision.as_mut() {
         ws.limit_work(cx.budget);
+        ws.stop_short(true);
     }
     // A pull's tries share the pull budget (a haptic hand's pulls bounded apart from the tie).
     let pulled = matches!(
@@ -401,13 +427,15 @@ where
                     (m, stop)
                 })
             } else {
-                move_and_carry(h, joint, targets, options, needle).map(|m| (m, None))
+                move_and_carry(h, joint, targets, options, needle)
+                    .map(|m| (m, m.short.map(|s| stop_of(&s.error))))
             };
             let (m, stop) = done?;
             if h.chain.is_held(joint) {
                 h.tension.joint_moved(joint, target, stop);
             }
             outcome.stopped = stop;
+            outcome.short = m.short;
             outcome.substeps = m.substeps;
             outcome.paper_fallbacks = m.paper_fallbacks;
             outcome.iterations = m.collision_iterations;
@@ -450,10 +478,12 @@ where
             let (m, stop) = if pull {
                 pull_instrument(h, index, centre, axis, max_substeps, tries)?
             } else {
-                (push_instrument(h, index, centre, axis, max_substeps)?, None)
+                let m = push_instrument(h, index, centre, axis, max_substeps)?;
+                (m, m.short.map(|s| stop_of(&s.error)))
             };
             h.tension.instrument_moved(index, centre, stop);
             outcome.stopped = stop;
+            outcome.short = m.short;
             outcome.substeps = m.substeps;
             outcome.iterations = m.collision_iterations;
             Ok(())

@@ -199,9 +199,11 @@ pub struct Answer {
     pub bundle: bool,
     /// The chain's knot after the command, when its scene asks for it (`knot = true`).
     pub knot: Option<knots::KnotType>,
-    /// Why a pulled move or instrument pose stopped short of its target (`None`: it made the whole
-    /// move, or it was no pull).
+    /// Why a move or an instrument pose stopped short of its target inside its frame (`None`: it
+    /// made the whole move).
     pub stopped: Option<Stop>,
+    /// What the kernel met where it stopped short (the substep, a lock's passes), when it did.
+    pub short: Option<tractrix::Short>,
 }
 
 /// The distance between where a joint should be and where it is.
@@ -268,9 +270,8 @@ pub enum Stop {
     Contact,
     /// A joint would have gone beyond its limit.
     Limit,
-    /// Resolving the contacts would have cost more than the request's work budget: the knot resists
-    /// more than one request can resolve (the same pull asked again, from the same state, goes on
-    /// from the resolution this one kept: `world::moves`'s pulls).
+    /// The request's frame ran out (its work budget): the next request goes on from where this one
+    /// stopped.
     Work,
 }
 

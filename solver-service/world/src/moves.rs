@@ -183,6 +183,7 @@ where
             needle_frame(g)
         };
         let m = move_path(g, joint, std::slice::from_ref(t), opts)?;
+        outcome.short = outcome.short.or(m.short);
         outcome.substeps = outcome.substeps.saturating_add(m.substeps);
         outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(m.paper_fallbacks);
         outcome.collision_iterations = outcome
@@ -248,13 +249,17 @@ where
                 g.chain.release(n)?;
             }
             let m = match m {
+                // A needle that stops short of the head would leave its swage: refused.
+                Ok(m) if needle.contains(&k) && m.short.is_some() => {
+                    g.needle_joints = joints;
+                    return Err(m.short.map_or(ChainError::NonFinite, |s| s.error).into());
+                }
                 Ok(m) => m,
                 Err(e) => {
                     g.needle_joints = joints;
                     return Err(e);
                 }
             };
-            g.set_obstacle(at, to);
             if needle.contains(&k) {
                 g.chain.write_positions(&mut joints);
             }
@@ -266,6 +271,10 @@ where
         g.needle_joints = joints;
         if let Some((_, _, tip)) = driven {
             cut(g, tip)?;
+        }
+        if outcome.short.is_some() {
+            // Stopped short inside its frame: the points after it are not tried.
+            break;
         }
     }
     Ok(outcome)
@@ -394,14 +403,13 @@ where
         return Err(ChainError::BadOption("the chain has no instruments").into());
     };
     let to = instrument_pose(&model.obstacles[at], centre, axis);
-    let m = push(g, at, &to, max_substeps)?;
-    g.set_obstacle(at, to);
-    Ok(m)
+    push(g, at, &to, max_substeps)
 }
 
 /// Instrument `at` of the model pushed to the pose `to`, the chain giving way (the kernel's door: on
 /// a chain with eyelets the links through them stay, the rope does not slide through them under a
-/// push); the instrument is not yet set there.
+/// push), and set where the push left it: at `to`, or on its way there when the push stopped short
+/// inside its frame.
 fn push<T: Real, const D: usize>(
     g: &mut LiveChain<T, D>,
     at: usize,
@@ -411,7 +419,16 @@ fn push<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    Ok(g.rope().push(at, to, max_substeps)?)
+    let Some(from) = g.collision.as_ref().map(|(model, _)| model.obstacles[at]) else {
+        return Err(ChainError::BadOption("the chain has no instruments").into());
+    };
+    let m = g.rope().push(at, to, max_substeps)?;
+    let pose = match m.short {
+        Some(s) => tractrix::collision::push_pose(&from, to, s.made, s.of)?,
+        None => *to,
+    };
+    g.set_obstacle(at, pose);
+    Ok(m)
 }
 
 /// A move or a path of `joint` on one chain (held sides solved as fixed-base chains). The chain may
@@ -753,6 +770,9 @@ pub(crate) fn pull_move<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    if g.collision.is_some() {
+        return pull_in_frame(g, joint, target, opts, needle_move, tries);
+    }
     let from = to_point(&g.chain.joint(joint));
     // On the boundary of what the held sides reach, the side solved last can close on its held joint
     // a hair off its last link's length: such a pose is not kept (the pull stops short of it).
@@ -829,6 +849,67 @@ where
     }
     let best = halve(g, tries, |g, mid| one(g, from + (goal - from) * mid))?;
     Ok((best.unwrap_or_default(), Some(stop)))
+}
+
+/// Why a move that stopped short inside its frame stopped, as its answer says.
+pub(crate) fn stop_of(e: &ChainError) -> Stop {
+    match e {
+        ChainError::OverWork { .. } => Stop::Work,
+        ChainError::JointLimit { .. } => Stop::Limit,
+        ChainError::HeldUnreachable { .. } | ChainError::HeldNotConverged { .. } => Stop::Reach,
+        _ => Stop::Contact,
+    }
+}
+
+/// [`pull_move`] on a rope with collision, inside its frame: the move goes as far as the rope lets
+/// it in the pull's work (the kernel stops it at its last whole substep,
+/// [`tractrix::collision::CollisionWorkspace::stop_short`]); when a held side went out of reach, the
+/// nearest point the held sides reach is tried from there with the work left, a few tolerances
+/// inside their shell. A pose that closes off its length on a held joint is not kept.
+fn pull_in_frame<T: Real, const D: usize>(
+    g: &mut LiveChain<T, D>,
+    joint: usize,
+    target: Point,
+    opts: &MoveOptions<f64>,
+    needle_move: NeedleMove,
+    tries: &mut Tries,
+) -> Result<(MoveOutcome, Option<Stop>), Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let one = |g: &mut LiveChain<T, D>, p: Point, tries: &mut Tries| -> Result<_, Refusal> {
+        g.keep_best();
+        let m = tries.run_keeping(g, Share::Rest, false, |g| {
+            move_and_carry(g, joint, std::slice::from_ref(&p), opts, needle_move)
+        })?;
+        if closes_exactly(g, joint) {
+            Ok(Some(m))
+        } else {
+            g.take_best();
+            Ok(None)
+        }
+    };
+    let Some(mut m) = one(g, target, tries)? else {
+        return Ok((MoveOutcome::default(), Some(Stop::Reach)));
+    };
+    let Some(short) = m.short else {
+        return Ok((m, None));
+    };
+    let stop = stop_of(&short.error);
+    if matches!(short.error, ChainError::HeldUnreachable { .. })
+        && let Ok(n) = g.chain.nearest_reachable(joint, point(target))
+    {
+        let (from, n) = (to_point(&g.chain.joint(joint)), to_point(&n));
+        let inset = 4.0 * opts.held.tolerance * g.prefix[g.prefix.len() - 1];
+        let back = from - n;
+        if back.norm() > inset {
+            let goal = n + back * (inset / back.norm());
+            if let Some(more) = one(g, goal, tries)? {
+                m.add(&more);
+            }
+        }
+    }
+    Ok((m, Some(stop)))
 }
 
 /// Tissue that gives ([`crate::scene::Wound`]): after a pull that stopped `pulled` short, each
@@ -959,6 +1040,13 @@ where
         Obstacle::Capsule { a, b, .. } => ((v(&a) + v(&b)) * 0.5, Some(v(&b) - v(&a))),
         Obstacle::HalfSpace { .. } | Obstacle::Block { .. } => (Point::zeros(), None),
     };
+    if g.collision.is_some() {
+        // Inside its frame: the push stops short where the rope does not make way.
+        let m = tries.run_keeping(g, Share::Rest, false, |g| {
+            push_instrument(g, index, centre, axis, max_substeps)
+        })?;
+        return Ok((m, m.short.map(|s| stop_of(&s.error))));
+    }
     let first = match tries.run(g, 2, |g| {
         push_instrument(g, index, centre, axis, max_substeps)
     }) {

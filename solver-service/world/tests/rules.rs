@@ -5,8 +5,9 @@
 //! written here: a refused command changes nothing
 //! (the whole state, bit for bit, and the sequence number); an accepted one keeps every link's length
 //! (1e-12 of it), every grasped joint where it was grasped, bit for bit, and publishes no NaN; the
-//! sequence number counts the accepted changes; a pulled move ends no further from its target than
-//! it started, and a held joint's pull is where it is less where it was asked to be.
+//! sequence number counts the accepted changes; a pulled move (or one that stopped short inside its
+//! frame) ends no further from its target than it started, and a held joint's pull is where it is
+//! less where it was asked to be.
 
 use proptest::prelude::*;
 use world::World;
@@ -155,9 +156,13 @@ proptest! {
                         // chain's reach tolerance (a fraction of its length) where a held side is
                         // solved as a fixed-base chain. The hand that holds a joint moves it, and it
                         // is held where it lands.
-                        // A pull may stop short, never further from its target than it started; a
-                        // held joint's pull in the payload is where it is less where it was asked.
+                        // A pull, or a move that stopped short inside its frame, ends never further
+                        // from its target than it started; a held joint's pull in the payload is
+                        // where it is less where it was asked.
                         Op::Move { joint, pull, .. } => {
+                            // Any move may stop short inside its frame (the answer says so): it is
+                            // checked as a pull is.
+                            let pull = pull || a.stopped.is_some();
                             let now = joints(&w)[0][joint];
                             let last = match &cmd { Command::Move { targets, .. } => targets[targets.len() - 1], _ => unreachable!() };
                             let miss = ((now.x - last.x).powi(2) + (now.y - last.y).powi(2) + (now.z - last.z).powi(2)).sqrt();

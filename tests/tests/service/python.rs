@@ -243,7 +243,7 @@ fn the_mujoco_loop_turns_the_pull_into_a_force_on_the_hand() {
                 "hand {over} beyond the length: force {force} N, not {}",
                 k * over
             );
-            // The service says why the pull stopped short: the rope is taut.
+            // The service says why the stopped short: the rope is taut.
             assert_eq!(
                 stop.as_deref(),
                 Some("taut"),

@@ -48,7 +48,7 @@ pub use crate::options::{MoveOptions, Substeps};
 mod sweep;
 
 /// What a successful move did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MoveOutcome {
     /// Substeps taken (0 for a move to where the joint already is).
     pub substeps: u32,
@@ -67,6 +67,22 @@ pub struct MoveOutcome {
     pub left: u32,
     /// Whether the rope stuck in its eyelets (friction): the links through them did not move.
     pub stuck: bool,
+    /// A move that stopped short inside its frame
+    /// ([`CollisionWorkspace::stop_short`](crate::collision::CollisionWorkspace::stop_short)): what
+    /// stopped it, the state that of the last substep made. `None` when the whole move was made.
+    pub short: Option<Short>,
+}
+
+/// Why and where a move stopped short of its target: the chain is left as its last whole substep
+/// left it (every length kept, its contacts resolved, its holds and eyelets kept).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Short {
+    /// What stopped the next substep (out of work, locked, a held side out of reach, a limit).
+    pub error: ChainError,
+    /// The substeps made, of `of` planned (0: the chain did not move).
+    pub made: u32,
+    /// The substeps the move was split into.
+    pub of: u32,
 }
 
 impl MoveOutcome {
@@ -82,6 +98,7 @@ impl MoveOutcome {
         self.limited = self.limited.saturating_add(o.limited);
         self.left = self.left.saturating_add(o.left);
         self.stuck |= o.stuck;
+        self.short = self.short.or(o.short);
     }
 }
 

@@ -54,6 +54,8 @@ where
     let mut pieces: Vec<(Vector<T, D>, u32)> = Vec::new();
     let mut from = start;
     let mut s = 0u32;
+    // The last substep made whole (a move stopped short keeps the state of its last piece).
+    let mut last_whole = 0u32;
     // Substeps left (`s` counts the ones done) and the stack of split pieces: (hand's end, depth).
     while s < k || !pieces.is_empty() {
         let (hand, depth) = match pieces.pop() {
@@ -69,8 +71,8 @@ where
             }
         };
         if !ws.meter.charge(held_cost) {
-            *chain = backup;
-            return Err(ws.meter.over(s));
+            let e = ws.meter.over(s);
+            return stop_here(chain, backup, None, outcome, e, (last_whole, k), ws.frame);
         }
         let piece_backup = chain.clone();
         ws.pos_before.resize(chain.n_links() + 1, Vector::zeros());
@@ -84,22 +86,13 @@ where
                 ws.meter.refund(per_pass.saturating_mul(bound - used));
             }
             Err(e) => {
-                *chain = backup;
-                return Err(e);
+                let made = Some(piece_backup);
+                return stop_here(chain, backup, made, outcome, e, (last_whole, k), ws.frame);
             }
         }
         chain.write_positions(&mut ws.pos);
         let record = keep && s == 1 && depth == 0;
-        if record {
-            // The passes about to be recorded replace the ones kept: a resolution kept before,
-            // of another move, can no longer be resumed.
-            ws.unfinished.ready = false;
-        }
-        ws.unfinished.recording = record;
-        ws.unfinished.recorded = false;
-        let resolved = resolve(chain, joint, &held, false, model, ws);
-        ws.unfinished.recording = false;
-        match resolved {
+        match resolve_recording(chain, joint, &held, record, model, ws) {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
                     outcome.collision_iterations.saturating_add(iterations);
@@ -110,24 +103,26 @@ where
                     ws.unfinished
                         .ready_for(joint, target, &held, &ws.pos_before);
                 }
-                *chain = backup;
-                return Err(stop.error(s, &ws.meter));
+                let e = stop.error(s, &ws.meter);
+                let made = Some(piece_backup);
+                return stop_here(chain, backup, made, outcome, e, (last_whole, k), ws.frame);
             }
         }
         let jump = match settle_substep(chain, joint, &mut ws.pos, &ws.pos_before) {
             Ok(jump) => jump,
             Err(e) => {
-                *chain = backup;
-                return Err(e);
+                let made = Some(piece_backup);
+                return stop_here(chain, backup, made, outcome, e, (last_whole, k), ws.frame);
             }
         };
         if ws.together && jump > limit {
             if depth >= GUARD_SPLITS {
-                *chain = backup;
-                return Err(ChainError::Jumped {
+                let e = ChainError::Jumped {
                     substep: s,
                     jump: jump.to_f64(),
-                });
+                };
+                let made = Some(piece_backup);
+                return stop_here(chain, backup, made, outcome, e, (last_whole, k), ws.frame);
             }
             // Again as two halves: the second half's end first on the stack, popped last.
             *chain = piece_backup;
@@ -138,8 +133,69 @@ where
             continue;
         }
         from = hand;
+        if pieces.is_empty() {
+            last_whole = s;
+        }
     }
     Ok(outcome)
+}
+
+/// A piece's contacts resolved with the hand and `held` fixed; with `record` (a pull's full try in
+/// one substep) its passes recorded to be resumed ([`CollisionWorkspace::keep_unfinished`]).
+fn resolve_recording<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    joint: usize,
+    held: &[usize],
+    record: bool,
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<(u32, u32), Stop<T>>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if record {
+        // The passes about to be recorded replace the ones kept: a resolution kept before, of
+        // another move, can no longer be resumed.
+        ws.unfinished.ready = false;
+    }
+    ws.unfinished.recording = record;
+    ws.unfinished.recorded = false;
+    let resolved = resolve(chain, joint, held, false, model, ws);
+    ws.unfinished.recording = false;
+    resolved
+}
+
+/// How a move with holds that cannot go on ends: with [`CollisionWorkspace::stop_short`] on and a
+/// stop that the rope met ([`stops_short_on`]), stopped short at `made` (the state before the piece
+/// that failed; `None`: the chain as it stands), `done.0` whole substeps of `done.1`; else refused
+/// with the chain restored from `backup`.
+#[allow(clippy::too_many_arguments)]
+fn stop_here<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    backup: Chain<T, D>,
+    made: Option<Chain<T, D>>,
+    mut outcome: MoveOutcome,
+    error: ChainError,
+    (whole, of): (u32, u32),
+    frame: bool,
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if frame && stops_short_on(&error) {
+        if let Some(m) = made {
+            *chain = m;
+        }
+        outcome.substeps = whole;
+        outcome.short = Some(Short {
+            error,
+            made: whole,
+            of,
+        });
+        return Ok(outcome);
+    }
+    *chain = backup;
+    Err(error)
 }
 
 /// A substep's end once its contacts are resolved: the chain placed where the passes left it (its

@@ -51,7 +51,7 @@ mod relax;
 mod resolve;
 mod tree;
 
-use crate::chain::{Chain, ChainError, MoveOptions, MoveOutcome};
+use crate::chain::{Chain, ChainError, MoveOptions, MoveOutcome, Short};
 use crate::math::{CompensatedSum, Embed3, Real, Vector, all_finite, positive_finite};
 pub use query::{
     closest_links_apart, closest_nonadjacent_links, closest_param_point_segment,
@@ -237,6 +237,11 @@ pub struct CollisionWorkspace<T: Real, const D: usize> {
     /// The joints after a resolution's previous pass (its settled passes lock).
     pos_prev: Vec<Vector<T, D>>,
     backup_links: Vec<Vector<T, D>>,
+    /// The links after the last whole substep (a move that may stop short keeps it).
+    made_links: Vec<Vector<T, D>>,
+    /// Moves stop short at their last whole substep instead of being refused
+    /// ([`CollisionWorkspace::stop_short`]).
+    frame: bool,
     tree: ChainTree<T, D>,
     meter: Meter,
     projection: project::Projection<T, D>,
@@ -460,6 +465,22 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
             .matches(chain, joint, target, &mut self.pos_before)
     }
 
+    /// Whether the calls that follow ([`move_joint_colliding`], [`push_by_obstacle`] and the
+    /// threaded moves with collision) answer a move that cannot be finished with the best valid
+    /// state it reached instead of refusing it: when a substep runs out of work, locks, finds a held
+    /// side out of reach or a joint past its limit, the chain is left as the last whole substep left
+    /// it and the outcome says why ([`MoveOutcome::short`]). A haptic device's request inside its
+    /// frame: the joint stays behind its target, a proxy. Bad input is refused as before. Off by
+    /// default.
+    pub fn stop_short(&mut self, on: bool) {
+        self.frame = on;
+    }
+
+    /// Whether [`CollisionWorkspace::stop_short`] is on.
+    pub fn stops_short(&self) -> bool {
+        self.frame
+    }
+
     /// Whether [`CollisionWorkspace::solve_contacts_together`] is on (a pull).
     pub(crate) fn together(&self) -> bool {
         self.together
@@ -588,6 +609,21 @@ impl<T: Real> Stop<T> {
     }
 }
 
+/// Whether `e` stops a move short inside its frame ([`CollisionWorkspace::stop_short`]) rather than
+/// refusing it: what the rope met on the way (work, a lock, a jump, a held side out of reach or not
+/// converging, a joint limit), not bad input.
+pub fn stops_short_on(e: &ChainError) -> bool {
+    matches!(
+        e,
+        ChainError::OverWork { .. }
+            | ChainError::Locked { .. }
+            | ChainError::Jumped { .. }
+            | ChainError::HeldUnreachable { .. }
+            | ChainError::HeldNotConverged { .. }
+            | ChainError::JointLimit { .. }
+    )
+}
+
 /// Resolves the contacts of `chain` as it stands, with joint `m` (the hand) and the joints `fixed`
 /// (ascending, without `m`) never moving, as a move's substep does: pushes, then the rope between
 /// fixed joints re-solved as fixed-base chains. For moves that place the chain by other means (an
@@ -676,36 +712,56 @@ where
         ..MoveOutcome::default()
     };
     let sweep = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
+    let mut made = backup_datum;
+    if ws.frame {
+        ws.made_links.clone_from(&ws.backup_links);
+    }
     for s in 1..=k {
-        if !ws.meter.charge(sweep) {
-            chain.links_mut().copy_from_slice(&ws.backup_links);
-            chain.place_origin_from(backup_datum.0, backup_datum.1);
-            return Err(ws.meter.over(s));
-        }
-        outcome.paper_fallbacks =
-            outcome
-                .paper_fallbacks
-                .saturating_add(chain.sweep(joint, &sd, opts.method));
-        let hand = if s == k {
-            target
+        let stop = if ws.meter.charge(sweep) {
+            outcome.paper_fallbacks =
+                outcome
+                    .paper_fallbacks
+                    .saturating_add(chain.sweep(joint, &sd, opts.method));
+            let hand = if s == k {
+                target
+            } else {
+                start + sd * T::lit(s as f64)
+            };
+            positions_from(chain, joint, hand, &mut ws.pos);
+            match resolve(chain, joint, &[], false, model, ws) {
+                Ok((iterations, contacts)) => {
+                    outcome.collision_iterations =
+                        outcome.collision_iterations.saturating_add(iterations);
+                    outcome.contacts = outcome.contacts.saturating_add(contacts);
+                    // The moved joint is where the hand put it: the datum (as after a plain move).
+                    chain.place_origin_from(joint, hand);
+                    if ws.frame {
+                        ws.made_links.copy_from_slice(chain.links());
+                        made = (joint, hand);
+                    }
+                    continue;
+                }
+                Err(stop) => stop.error(s, &ws.meter),
+            }
         } else {
-            start + sd * T::lit(s as f64)
+            ws.meter.over(s)
         };
-        positions_from(chain, joint, hand, &mut ws.pos);
-        match resolve(chain, joint, &[], false, model, ws) {
-            Ok((iterations, contacts)) => {
-                outcome.collision_iterations =
-                    outcome.collision_iterations.saturating_add(iterations);
-                outcome.contacts = outcome.contacts.saturating_add(contacts);
-            }
-            Err(stop) => {
-                chain.links_mut().copy_from_slice(&ws.backup_links);
-                chain.place_origin_from(backup_datum.0, backup_datum.1);
-                return Err(stop.error(s, &ws.meter));
-            }
+        if ws.frame {
+            // The last whole substep's state: the move stops short there.
+            chain.links_mut().copy_from_slice(&ws.made_links);
+            chain.place_origin_from(made.0, made.1);
+            chain.repin(joint);
+            outcome.substeps = s - 1;
+            outcome.short = Some(Short {
+                error: stop,
+                made: s - 1,
+                of: k,
+            });
+            return Ok(outcome);
         }
-        // The moved joint is where the hand put it: the datum (as after a plain move).
-        chain.place_origin_from(joint, hand);
+        chain.links_mut().copy_from_slice(&ws.backup_links);
+        chain.place_origin_from(backup_datum.0, backup_datum.1);
+        return Err(stop);
     }
     // The hand may hold the joint it moves: its pin follows it.
     chain.repin(joint);

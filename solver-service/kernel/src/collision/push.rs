@@ -92,37 +92,95 @@ where
         ..MoveOutcome::default()
     };
     let placing = (chain.n_links() as u64).saturating_mul(cost::RESTRAIGHTEN_PER_LINK);
+    // The state after the last whole substep (a push that may stop short keeps it).
+    let mut made = ws.frame.then(|| chain.clone());
     for s in 1..=k {
         local.obstacles[which] = if s == k {
             *to
         } else {
             path.at(T::lit(s as f64 / k as f64))
         };
-        if !ws.meter.charge(placing) {
-            *chain = backup;
-            return Err(ws.meter.over(s));
-        }
-        chain.write_positions(&mut ws.pos);
-        match resolve(chain, m, rest, !also.is_empty(), &local, ws) {
-            Ok((iterations, contacts)) => {
-                outcome.collision_iterations =
-                    outcome.collision_iterations.saturating_add(iterations);
-                outcome.contacts = outcome.contacts.saturating_add(contacts);
+        let stop = if ws.meter.charge(placing) {
+            chain.write_positions(&mut ws.pos);
+            match resolve(chain, m, rest, !also.is_empty(), &local, ws) {
+                Ok((iterations, contacts)) => {
+                    outcome.collision_iterations =
+                        outcome.collision_iterations.saturating_add(iterations);
+                    outcome.contacts = outcome.contacts.saturating_add(contacts);
+                    if !chain.is_held(0) {
+                        chain.translate_to(ws.pos[0]);
+                    }
+                    // Limits are checked on the state a push stopped short keeps.
+                    match (&mut made, chain.check_limits()) {
+                        (Some(keep), Ok(())) => keep.copy_from(chain),
+                        (Some(_), Err(e)) => {
+                            return push_short(chain, made, outcome, e, (s - 1, k));
+                        }
+                        (None, _) => {}
+                    }
+                    continue;
+                }
+                Err(stop) => stop.error(s, &ws.meter),
             }
-            Err(stop) => {
-                *chain = backup;
-                return Err(stop.error(s, &ws.meter));
-            }
+        } else {
+            ws.meter.over(s)
+        };
+        if made.is_some() {
+            return push_short(chain, made, outcome, stop, (s - 1, k));
         }
-        if !chain.is_held(0) {
-            chain.translate_to(ws.pos[0]);
-        }
+        *chain = backup;
+        return Err(stop);
     }
     if let Err(e) = chain.check_limits() {
         *chain = backup;
         return Err(e);
     }
     Ok(outcome)
+}
+
+/// A push stopped short inside its frame: the chain as its last whole substep left it (`made`),
+/// `done.0` substeps of `done.1` made; the instrument goes to [`push_pose`] of them.
+fn push_short<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    made: Option<Chain<T, D>>,
+    mut outcome: MoveOutcome,
+    error: ChainError,
+    (whole, of): (u32, u32),
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if let Some(m) = made {
+        *chain = m;
+    }
+    outcome.substeps = whole;
+    outcome.short = Some(Short {
+        error,
+        made: whole,
+        of,
+    });
+    Ok(outcome)
+}
+
+/// Where a push of an instrument from `from` to `to` that stopped short after `made` of its `of`
+/// substeps ([`MoveOutcome::short`]) left it: on its way, as the push moved it (`to` when all were
+/// made, `from` when none).
+pub fn push_pose<T: Real, const D: usize>(
+    from: &Obstacle<T, D>,
+    to: &Obstacle<T, D>,
+    made: u32,
+    of: u32,
+) -> Result<Obstacle<T, D>, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    if made >= of {
+        return Ok(*to);
+    }
+    if made == 0 {
+        return Ok(*from);
+    }
+    Ok(InstrumentPath::new(from, to)?.at(T::lit(f64::from(made) / f64::from(of))))
 }
 
 /// An instrument's motion between two poses of the same shape.

@@ -381,6 +381,9 @@ pub struct Threaded {
     /// Whether the rope stuck in the eyelets (friction, [`EyeletWorkspace::with_friction`]): the
     /// links through them did not move.
     pub stuck: bool,
+    /// A move with collision that stopped short inside its frame
+    /// ([`crate::collision::CollisionWorkspace::stop_short`]); `None` when it was made whole.
+    pub short: Option<crate::chain::Short>,
 }
 
 /// Moves joint `joint` of `chain` straight to `target` with the chain threaded through `eyelets`
@@ -534,6 +537,17 @@ fn taut(e: &EyeletError) -> bool {
     )
 }
 
+/// Whether a threaded move with collision that met `e` stops short inside its frame rather than
+/// being refused ([`crate::collision::stops_short_on`]; an eyelet that would come within a link of
+/// another, or a walk that would fold the rope through one, as a lock).
+fn stops_short(e: &EyeletError) -> bool {
+    match e {
+        EyeletError::Chain(c) => crate::collision::stops_short_on(c),
+        EyeletError::TooClose { .. } | EyeletError::Fold { .. } => true,
+        _ => false,
+    }
+}
+
 /// One try of a threaded move, the rope stuck in the eyelets (`stick`) or sliding; with collision,
 /// the contacts resolved after every substep and the chain restored from the workspace's backup on a
 /// refusal.
@@ -562,6 +576,7 @@ where
         (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
     }
     let mut out = Threaded::default();
+    let frame = collision.as_ref().is_some_and(|(_, c)| c.stops_short());
     for s in 1..=steps {
         if collision.is_some() {
             // The pose the last resolution left.
@@ -603,9 +618,33 @@ where
             Ok((left, iterations)) => {
                 out.left += left;
                 out.held_iterations += iterations;
+                if frame {
+                    // The state a move stopped short in a later substep keeps.
+                    ws.keep(chain);
+                    ws.saved.clear();
+                    ws.saved
+                        .extend(eyelets.iter().map(|e| (e.link, e.threaded)));
+                }
             }
             Err(err) => {
                 ws.put_back(collision.is_some().then_some(&mut *chain), eyelets);
+                // A stuck try that finds the rope taut is refused: the rope slides instead.
+                let slides = stick && ws.friction.is_finite() && taut(&err);
+                if frame && !slides && stops_short(&err) {
+                    out.short = Some(crate::chain::Short {
+                        error: match err {
+                            EyeletError::Chain(c) => c,
+                            _ => ChainError::Locked {
+                                substep: s,
+                                iterations: 0,
+                                penetration: 0.0,
+                            },
+                        },
+                        made: s - 1,
+                        of: steps,
+                    });
+                    return Ok(out);
+                }
                 return Err(err);
             }
         }
