@@ -31,6 +31,9 @@ use crate::collision::{CollisionModel, CollisionWorkspace, Obstacle};
 use crate::eyelet::{Eyelet, EyeletError, EyeletWorkspace, Threaded};
 use crate::math::{Embed3, Real, Vector};
 
+/// Halvings of the substep in which a move stopped short ([`Rope::move_to`]).
+pub const SHORT_HALVINGS: u32 = 5;
+
 /// Why a door of a [`Rope`] refused (the rope unchanged: chain, eyelets and workspaces' state).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum RopeError {
@@ -98,7 +101,61 @@ where
     /// Moves joint `joint` straight to `target`, the rope following: held joints stay, contacts are
     /// resolved after every substep with collision, the rope slides through its eyelets. Through
     /// eyelets only `opts.max_substeps` counts (substeps of at most half the shortest link).
+    ///
+    /// A move that stops short inside its frame ([`CollisionWorkspace::stop_short`]) on anything but
+    /// the frame's work is taken on into the substep that stopped it, by [`SHORT_HALVINGS`] halvings
+    /// of that substep's way from where it stopped: each half the rope can make is made, so the joint
+    /// stops within 2⁻⁵ of a substep of where the rope stopped it (one substep of a knot pulled
+    /// tight is the whole pull: without them a jammed knot's pull made nothing).
     pub fn move_to(
+        &mut self,
+        joint: usize,
+        target: Vector<T, D>,
+        opts: &MoveOptions<T>,
+    ) -> Result<MoveOutcome, RopeError> {
+        let outcome = self.move_once(joint, target, opts)?;
+        let from = self.chain.joint(joint);
+        self.halving(outcome, from, target, |rope, to| {
+            rope.move_once(joint, to, opts)
+        })
+    }
+
+    /// Takes a door's move that stopped short (`outcome`, from `from` where it stands now toward
+    /// `to`) on into the substep that stopped it: [`SHORT_HALVINGS`] halvings of that substep's
+    /// way, each half the rope can make made (`once` the door's single try to a point). A move
+    /// made whole, or stopped by the frame's work, is answered as it is.
+    fn halving(
+        &mut self,
+        mut outcome: MoveOutcome,
+        from: Vector<T, D>,
+        to: Vector<T, D>,
+        mut once: impl FnMut(&mut Self, Vector<T, D>) -> Result<MoveOutcome, RopeError>,
+    ) -> Result<MoveOutcome, RopeError> {
+        let Some(short) = outcome.short else {
+            return Ok(outcome);
+        };
+        if matches!(short.error, ChainError::OverWork { .. }) {
+            return Ok(outcome);
+        }
+        let way = (to - from) / T::lit(f64::from(short.of.saturating_sub(short.made).max(1)));
+        let (mut lo, mut hi) = (T::zero(), T::one());
+        for _ in 0..SHORT_HALVINGS {
+            let mid = (lo + hi) * T::lit(0.5);
+            let o = once(self, from + way * mid)?;
+            outcome.add(&MoveOutcome { short: None, ..o });
+            match o.short {
+                None => lo = mid,
+                Some(s) if matches!(s.error, ChainError::OverWork { .. }) => break,
+                // The rope made part of the half: it stands there now.
+                Some(s) if s.made > 0 => lo = mid,
+                Some(_) => hi = mid,
+            }
+        }
+        Ok(outcome)
+    }
+
+    /// [`Rope::move_to`] without the halvings of a substep that stopped short.
+    fn move_once(
         &mut self,
         joint: usize,
         target: Vector<T, D>,
@@ -209,8 +266,31 @@ where
     }
 
     /// Moves eyelet `index` to `to` (the tissue moving it), carrying the rope's point at it, in at
-    /// most `max_substeps` substeps, with collision when the rope has it. Refused without eyelets.
+    /// most `max_substeps` substeps, with collision when the rope has it; one that stops short
+    /// inside its frame is taken on into its last substep as [`Rope::move_to`] is. Refused without
+    /// eyelets.
     pub fn move_eyelet(
+        &mut self,
+        index: usize,
+        to: Vector<T, D>,
+        max_substeps: u32,
+    ) -> Result<MoveOutcome, RopeError> {
+        let outcome = self.move_eyelet_once(index, to, max_substeps)?;
+        let Some(from) = self
+            .eyelets
+            .as_ref()
+            .and_then(|(e, _)| e.get(index))
+            .map(|e| e.at)
+        else {
+            return Ok(outcome);
+        };
+        self.halving(outcome, from, to, |rope, at| {
+            rope.move_eyelet_once(index, at, max_substeps)
+        })
+    }
+
+    /// [`Rope::move_eyelet`] without the halvings of a substep that stopped short.
+    fn move_eyelet_once(
         &mut self,
         index: usize,
         to: Vector<T, D>,

@@ -495,7 +495,10 @@ where
             max_substeps,
             ..
         } => {
-            outcome.substeps = move_eyelet(h, index, point(at), max_substeps)?.substeps;
+            let m = move_eyelet(h, index, point(at), max_substeps)?;
+            outcome.substeps = m.substeps;
+            outcome.stopped = m.short.map(|s| stop_of(&s.error));
+            outcome.short = m.short;
             Ok(())
         }
         Command::Release { joint, .. } => {

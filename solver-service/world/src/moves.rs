@@ -877,9 +877,16 @@ fn pull_in_frame<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
+    // Tissue that gives moves its eyelets after a pull that stopped short ([`give_way`]): a
+    // sixteenth of the pull's work is left for them.
+    let share = if g.wound.is_some() {
+        Share::RestLeaving(1)
+    } else {
+        Share::Rest
+    };
     let one = |g: &mut LiveChain<T, D>, p: Point, tries: &mut Tries| -> Result<_, Refusal> {
         g.keep_best();
-        let m = tries.run_keeping(g, Share::Rest, false, |g| {
+        let m = tries.run_keeping(g, share, false, |g| {
             move_and_carry(g, joint, std::slice::from_ref(&p), opts, needle_move)
         })?;
         if closes_exactly(g, joint) {

@@ -548,6 +548,22 @@ fn stops_short(e: &EyeletError) -> bool {
     }
 }
 
+/// A threaded move stopped short by `err` in substep `s` of `of` (an eyelet's error as a lock).
+fn short_of(err: EyeletError, s: u32, of: u32) -> crate::chain::Short {
+    crate::chain::Short {
+        error: match err {
+            EyeletError::Chain(c) => c,
+            _ => ChainError::Locked {
+                substep: s,
+                iterations: 0,
+                penetration: 0.0,
+            },
+        },
+        made: s - 1,
+        of,
+    }
+}
+
 /// One try of a threaded move, the rope stuck in the eyelets (`stick`) or sliding; with collision,
 /// the contacts resolved after every substep and the chain restored from the workspace's backup on a
 /// refusal.
@@ -631,18 +647,7 @@ where
                 // A stuck try that finds the rope taut is refused: the rope slides instead.
                 let slides = stick && ws.friction.is_finite() && taut(&err);
                 if frame && !slides && stops_short(&err) {
-                    out.short = Some(crate::chain::Short {
-                        error: match err {
-                            EyeletError::Chain(c) => c,
-                            _ => ChainError::Locked {
-                                substep: s,
-                                iterations: 0,
-                                penetration: 0.0,
-                            },
-                        },
-                        made: s - 1,
-                        of: steps,
-                    });
+                    out.short = Some(short_of(err, s, steps));
                     return Ok(out);
                 }
                 return Err(err);

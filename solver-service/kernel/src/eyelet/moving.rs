@@ -117,6 +117,9 @@ where
         (k, steps) = clearance_substeps(chain, model, &way, k, max_substeps)?;
     }
     let mut out = Threaded::default();
+    let frame = collision.as_ref().is_some_and(|(_, c)| c.stops_short());
+    // Where the eyelet was after the last whole substep.
+    let mut made = from;
     for s in 1..=steps {
         std::mem::swap(&mut ws.old, &mut ws.new);
         // The last substep lands on the target exactly.
@@ -157,37 +160,30 @@ where
         let mut walked = one_side(link, false)
             .and_then(|a| Ok(a + one_side(link + 1, true)?))
             .and_then(|left| apart(eyelets).map(|()| left));
-        if let (Ok(_), Some((model, cws))) = (&walked, collision.as_mut()) {
-            // The contacts, the links through the eyelets fixed; the next substep starts from the
-            // resolved pose.
-            let resolved = chain
-                .set_positions(&ws.new)
-                .map_err(EyeletError::from)
-                .and_then(|()| {
-                    ws.limits.apply(chain, eyelets);
-                    let (through, pressed) =
-                        through_block(&ws.new, chain.min_length(), eyelets, model);
-                    cws.pass_through(through, pressed);
-                    resolve_threaded(chain, link, eyelets, s, model, cws, &mut ws.fixed)
-                });
-            match resolved {
-                Ok(_) if cws.together() => {
-                    chain.write_positions(&mut ws.new);
-                    // Under a pull (tissue that gives, drawn in by a tightening): the held sides
-                    // re-solved round a tightened surgeon's knot lost the knot without this.
-                    if let Err(e) = no_jump(chain, model, &ws.old, &ws.new, s) {
-                        walked = Err(e);
-                    }
-                }
-                Ok(_) => chain.write_positions(&mut ws.new),
-                Err(err) => walked = Err(err),
-            }
+        if let (Ok(_), Some((model, cws))) = (&walked, collision.as_mut())
+            && let Err(e) = resolve_carried(chain, link, eyelets, s, model, cws, ws)
+        {
+            walked = Err(e);
         }
         match walked {
-            Ok(left) => out.left += left,
+            Ok(left) => {
+                out.left += left;
+                if frame {
+                    // The state an eyelet's move stopped short in a later substep keeps.
+                    ws.keep(chain);
+                    ws.saved.clear();
+                    ws.saved
+                        .extend(eyelets.iter().map(|e| (e.link, e.threaded)));
+                    made = eyelets[index].at;
+                }
+            }
             Err(err) => {
                 ws.put_back(collision.is_some().then_some(&mut *chain), eyelets);
-                eyelets[index].at = from;
+                eyelets[index].at = made;
+                if frame && stops_short(&err) {
+                    out.short = Some(short_of(err, s, steps));
+                    return Ok(out);
+                }
                 return Err(err);
             }
         }
@@ -369,4 +365,32 @@ pub(super) fn aim<T: Real, const D: usize>(
     } else {
         leader - fallback * (len / fallback.norm())
     }
+}
+
+/// The contacts after substep `s` of an eyelet's move carrying `link`, the links through the eyelets
+/// fixed; the next substep starts from the resolved pose (written to the workspace's `new`).
+fn resolve_carried<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    link: usize,
+    eyelets: &[Eyelet<T, D>],
+    s: u32,
+    model: &crate::collision::CollisionModel<T, D>,
+    cws: &mut crate::collision::CollisionWorkspace<T, D>,
+    ws: &mut EyeletWorkspace<T, D>,
+) -> Result<(), EyeletError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    chain.set_positions(&ws.new)?;
+    ws.limits.apply(chain, eyelets);
+    let (through, pressed) = through_block(&ws.new, chain.min_length(), eyelets, model);
+    cws.pass_through(through, pressed);
+    resolve_threaded(chain, link, eyelets, s, model, cws, &mut ws.fixed)?;
+    chain.write_positions(&mut ws.new);
+    if cws.together() {
+        // Under a pull (tissue that gives, drawn in by a tightening): the held sides re-solved
+        // round a tightened surgeon's knot lost the knot without this.
+        no_jump(chain, model, &ws.old, &ws.new, s)?;
+    }
+    Ok(())
 }
