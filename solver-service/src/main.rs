@@ -96,10 +96,12 @@ struct ServeArgs {
     /// restore is refused and no file is touched.
     #[arg(long)]
     restore_from_damaged: bool,
-    /// Most work one request may cost, in link-steps (links × substeps × points; links × substeps ×
-    /// iterations for a reach; collision work metered as it runs; about 50–80 ns each). Requests
-    /// above it are refused as over-budget. Default: the scene's `budget`, else 50000.
-    #[arg(long, global = true, value_parser = clap::value_parser!(u64).range(1..))]
+    /// The frame: most work one request may cost, in link-steps (about 62 ns each here; collision
+    /// work metered as it runs). A move, pull or instrument pose that cannot be finished inside it
+    /// stops short where it got ("stopped short: work budget"); only a request whose size alone can
+    /// never fit (a path of too many points, a reach of too many iterations) is refused
+    /// over-budget. Default: the scene's `budget`, else 16000 (1 ms, a haptic device's sample).
+    #[arg(long, alias = "frame", global = true, value_parser = clap::value_parser!(u64).range(1..))]
     budget: Option<u64>,
     /// Most work one pull may cost (a move or instrument pose with the pull flag), in link-steps,
     /// at most `--budget`: a haptic hand's pulls bounded in time while other moves keep the whole

@@ -573,7 +573,7 @@ fn every_error_leaves_the_state_unchanged() {
             Status::BadOption,
             "must be positive",
         ),
-        // Issue 15: bounded work per request (the default budget, 50 000 link-steps).
+        // Issue 15: bounded work per request (the default frame, 16 000 link-steps).
         (
             "a reach of 60000 substeps and 100000 iterations",
             with(Reach, 2, &|h| {

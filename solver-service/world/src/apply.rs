@@ -5,7 +5,7 @@
 //! the owners of grasps, the undo record and the sequence number; it lends the ones a command needs
 //! in a [`Context`].
 
-use crate::command::{Answer, Command, Counts, Point, Residual};
+use crate::command::{Answer, Command, Counts, Point, Residual, Stop};
 use crate::form::{Kept, LiveChain};
 use crate::moves::{
     Tries, give_way, instrument_travel, move_and_carry, move_eyelet, pull_instrument, pull_move,
@@ -52,6 +52,70 @@ pub(crate) fn within_budget(work: u64, budget: u64) -> Result<(), Refusal> {
 /// A pull's budget: the pull budget when set, never more than the request's.
 pub(crate) fn pull_cap(pull_budget: Option<u64>, budget: u64) -> u64 {
     pull_budget.map_or(budget, |p| p.min(budget))
+}
+
+/// A move of one point on a chain without collision whose estimate passes the frame, clipped to the
+/// frame: the point over the share of the way that fits (halved until the move's estimate does, at
+/// most eight times). `None` when it is no such move, or not even a small share fits (refused, as by
+/// its size).
+fn clip_to_frame<T: Real, const D: usize>(
+    h: &LiveChain<T, D>,
+    spec: &ChainSpec,
+    req: &Command<'_>,
+    budget: u64,
+) -> Result<Option<Point>, Refusal>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let Command::Move {
+        joint,
+        targets: [target],
+        pull: false,
+        smooth: false,
+        ..
+    } = *req
+    else {
+        return Ok(None);
+    };
+    if spec.collision.is_some() || joint > spec.lengths.len() {
+        return Ok(None);
+    }
+    let from = to_point(&h.chain.joint(joint));
+    let mut share = budget as f64 / estimate(h, spec, req)? as f64;
+    for _ in 0..8 {
+        let to = [from + (target - from) * share];
+        if estimate(h, spec, &with_targets(req, &to))? <= budget {
+            return Ok(Some(to[0]));
+        }
+        share *= 0.5;
+    }
+    Ok(None)
+}
+
+/// The move `req` to `targets` instead.
+fn with_targets<'a>(req: &Command<'_>, targets: &'a [Point]) -> Command<'a> {
+    match *req {
+        Command::Move {
+            chain,
+            joint,
+            options,
+            take_over,
+            smooth,
+            pull,
+            needle,
+            ..
+        } => Command::Move {
+            chain,
+            joint,
+            targets,
+            options,
+            take_over,
+            smooth,
+            pull,
+            needle,
+        },
+        _ => unreachable!("only a move is clipped"),
+    }
 }
 
 /// The work checked against the frame before `req` runs: on a chain with collision, whose moves stop
@@ -308,7 +372,29 @@ pub(crate) fn apply<T: Real, const D: usize>(
 where
     Vector<T, D>: Embed3<T>,
 {
-    within_budget(frame_estimate(h, cx.spec, req)?, cx.budget)?;
+    let estimated = frame_estimate(h, cx.spec, req)?;
+    // A move over the frame on a chain without collision goes the share of the way that fits.
+    let mut clipped = [Point::zeros()];
+    let asked = if estimated > cx.budget {
+        let Some(to) = clip_to_frame(h, cx.spec, req, cx.budget)? else {
+            // Refused: over the frame by its size.
+            return within_budget(estimated, cx.budget).map(|()| Answer::default());
+        };
+        clipped[0] = to;
+        match *req {
+            Command::Move { joint, targets, .. } => Some((joint, targets[0])),
+            _ => None,
+        }
+    } else {
+        None
+    };
+    let clipped_req;
+    let req = if asked.is_some() {
+        clipped_req = with_targets(req, &clipped);
+        &clipped_req
+    } else {
+        req
+    };
     let n_links = cx.spec.lengths.len() as u32;
     let mut outcome = Answer {
         chain: Some(cx.chain),
@@ -340,7 +426,16 @@ where
     } else {
         cx.budget
     });
-    let result = run(h, req, n_links, &mut outcome, &mut tries);
+    let mut result = run(h, req, n_links, &mut outcome, &mut tries);
+    if let (Ok(()), Some((joint, target))) = (&result, asked) {
+        // Clipped to its frame: the joint stopped short of the target asked, its pull from there.
+        if h.chain.is_held(joint) {
+            h.tension.joint_moved(joint, target, Some(Stop::Work));
+        }
+        outcome.stopped = Some(Stop::Work);
+        outcome.residual = Residual::Landing { joint, target };
+        result = Ok(());
+    }
     let c = &mut outcome.counts;
     c.held = h.chain.held().len() as u32;
     c.instruments = h.instruments().len() as u32;

@@ -24,9 +24,11 @@ use crate::refuse;
 use crate::scene::{ChainKind, ChainSpec, Scene};
 use tractrix::{ChainError, MoveOptions, Substeps};
 
-/// The work a request may cost by default, in link-steps (one link following its tractrix once, about
-/// 80 ns here): about 4 ms. See [`World::set_budget`].
-pub const DEFAULT_BUDGET: u64 = 50_000;
+/// The frame: the work a request may cost by default, in link-steps (one link following its tractrix
+/// once, about 62 ns on the machines this project runs on): 1 ms, a haptic device's sample, with the
+/// meter's charge for collision work above its time (BENCHMARKS.md, "Every request inside its
+/// frame"). See [`World::set_budget`].
+pub const DEFAULT_BUDGET: u64 = 16_000;
 
 /// Every chain and bundle of a scene, the state sequence number, and the undo record of the last
 /// change.

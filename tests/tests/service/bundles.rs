@@ -195,7 +195,7 @@ fn a_bundle_moves_its_heads_by_target_and_by_pose_and_refusals_change_nothing() 
     let mut tail = RequestHeader::new(Command::Move, 1);
     tail.joint = 0;
     refused(&mut c, tail, &targets, Status::JointOutOfRange);
-    // 376 blocks × 20 links × 16 substeps is over the default budget of 50,000 block-steps.
+    // 376 blocks × 20 links × 16 substeps is over the default frame of 16,000 block-steps.
     let mut heavy = RequestHeader::new(Command::Move, 1);
     heavy.substep_mode = SubstepMode::Fixed as u32;
     heavy.substeps = 16;

@@ -1,6 +1,7 @@
 //! One client cannot take the service away from the others (issue 15). A hostile client sends, back to
-//! back, the most expensive requests the default budget accepts (paths of 1250 points on the 40-link
-//! rope: 50 000 link-steps each) and a few it does not; a second client moves the snake at 1 kHz beside
+//! back, the most expensive requests a frame of 50 000 link-steps accepts (`--budget 50000`, three
+//! times the default: paths of 1250 points on the 40-link rope, 50 000 link-steps each) and a few it
+//! does not; a second client moves the snake at 1 kHz beside
 //! it. The second client is served every time, the hostile requests are accepted or refused as over
 //! budget exactly as their estimate says, and the second client's round trips are printed (a timing is
 //! not asserted on these shared cores; `cargo test -p tests --test service hostile -- --nocapture` on an
@@ -26,7 +27,7 @@ fn connect(prefix: &str) -> Connection {
 
 #[test]
 fn a_hostile_client_cannot_take_the_service_from_a_1khz_client() {
-    let svc = Service::start(&unique_prefix(), &["--no-persist"]);
+    let svc = Service::start(&unique_prefix(), &["--no-persist", "--budget", "50000"]);
     let stop = Arc::new(AtomicBool::new(false));
     let (accepted, refused) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
     let hostile = {
@@ -207,7 +208,7 @@ fn flood(prefix: &str, total: u64, answered: Arc<AtomicU64>, ready: Arc<AtomicU6
 #[test]
 fn two_flooding_clients_cannot_starve_a_third_or_delay_sigterm() {
     const TOTAL: u64 = 200;
-    let mut svc = Service::start(&unique_prefix(), &["--no-persist"]);
+    let mut svc = Service::start(&unique_prefix(), &["--no-persist", "--budget", "50000"]);
     let start_flood = |svc: &Service| {
         let counters: Vec<_> = (0..2).map(|_| Arc::new(AtomicU64::new(0))).collect();
         let ready = Arc::new(AtomicU64::new(0));
@@ -303,7 +304,13 @@ fn two_clients_flooding_a_bundle_cannot_starve_a_third() {
     .unwrap();
     let svc = Service::start(
         &unique_prefix(),
-        &["--no-persist", "--scene", scene.to_str().unwrap()],
+        &[
+            "--no-persist",
+            "--budget",
+            "50000",
+            "--scene",
+            scene.to_str().unwrap(),
+        ],
     );
     let counters: Vec<_> = (0..2).map(|_| Arc::new(AtomicU64::new(0))).collect();
     let ready = Arc::new(AtomicU64::new(0));
