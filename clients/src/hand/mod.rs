@@ -175,6 +175,13 @@ impl Served {
 /// How deep a move refused as over-budget is split in halves (at most 2⁴ pieces).
 const SPLITS: u32 = 4;
 
+/// How many times the patient hand sends a target again that stopped short inside its frame (out
+/// of work).
+const PATIENT_RESENDS: u32 = 256;
+
+/// How many answers in a row that bring the joint no nearer the patient hand waits through.
+const PATIENT_STILL: u32 = 16;
+
 impl HandReport {
     /// Keeps one request's times: its round trip (since `called`) and what the service said it cost
     /// (`solve_ns` and the collision passes); returns the status's name.
@@ -834,6 +841,9 @@ impl TurnRun<'_> {
             // must, at most `SPLITS` deep: the same path in smaller requests.
             let rotation = rotations.and_then(|r| r.get(i).copied());
             let mut pending = vec![(*t, rotation, 0u32)];
+            // Requests of this target sent again after stopping short, those in a row that
+            // brought the joint no nearer, and its least distance from it so far.
+            let mut resent = (0u32, 0u32, f64::INFINITY);
             while let Some((t, rotation, depth)) = pending.pop() {
                 let mut h = RequestHeader::new(Command::Move, self.chain);
                 h.joint = joint;
@@ -844,7 +854,7 @@ impl TurnRun<'_> {
                 let mut buf = [Vec3::default(); 2];
                 let points = move_points(&mut buf, t, rotation);
                 let draw = self.turn.draw;
-                let (status, seq, rid, dg, frame, (reason, stopped_at, served), tail) =
+                let (status, seq, rid, dg, frame, (reason, stopped_at, served, short), tail) =
                     self.conn.call_with(h, points, |rh, pts| {
                         let n = (rh.n_joints as usize).min(pts.len());
                         let frame: Option<Vec<[f64; 3]>> = (keep && last && rh.status == 0)
@@ -858,7 +868,12 @@ impl TurnRun<'_> {
                             rh.request_id,
                             digest(&pts[..n]),
                             frame,
-                            (rh.reason_str(), rh.substeps, Served::of(rh)),
+                            (
+                                rh.reason_str(),
+                                rh.substeps,
+                                Served::of(rh),
+                                (rh.pull_stop() == Some(PullStop::Work)).then_some(rh.residual),
+                            ),
                             tail,
                         )
                     })?;
@@ -916,6 +931,21 @@ impl TurnRun<'_> {
                         turned = rotation.or(turned);
                     }
                     self.record_move((sent, joint, t, rotation, flags), (rid, name, seq, dg))?;
+                    // Stopped short inside its frame, out of work: a patient hand asks again from
+                    // where the rope got (the service goes on with a resolution it kept), at most
+                    // `PATIENT_RESENDS` times, and gives up after `PATIENT_STILL` answers in a row
+                    // that brought the joint no nearer.
+                    if let Some(left) = short {
+                        let still = if left < resent.2 * (1.0 - 1e-6) {
+                            0
+                        } else {
+                            resent.1 + 1
+                        };
+                        if resent.0 < PATIENT_RESENDS && still < PATIENT_STILL && !drawn {
+                            resent = (resent.0 + 1, still, left.min(resent.2));
+                            pending.push((t, rotation, depth));
+                        }
+                    }
                 }
                 if let Some(f) = frame {
                     let label = format!(

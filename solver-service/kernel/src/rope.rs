@@ -34,6 +34,9 @@ use crate::math::{Embed3, Real, Vector};
 /// Halvings of the substep in which a move stopped short ([`Rope::move_to`]).
 pub const SHORT_HALVINGS: u32 = 5;
 
+/// Tries of a move inside its frame ([`Rope::move_to`]), each with half the work left.
+pub const WORK_TRIES: u32 = 6;
+
 /// Why a door of a [`Rope`] refused (the rope unchanged: chain, eyelets and workspaces' state).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum RopeError {
@@ -113,11 +116,66 @@ where
         target: Vector<T, D>,
         opts: &MoveOptions<T>,
     ) -> Result<MoveOutcome, RopeError> {
-        let outcome = self.move_once(joint, target, opts)?;
-        let from = self.chain.joint(joint);
-        self.halving(outcome, from, target, |rope, to| {
-            rope.move_once(joint, to, opts)
-        })
+        let framed = self
+            .collision
+            .as_ref()
+            .is_some_and(|(_, ws)| ws.stops_short());
+        if !framed {
+            return self.move_once(joint, target, opts);
+        }
+        if self
+            .collision
+            .as_ref()
+            .is_some_and(|(_, ws)| ws.keeps_unfinished())
+        {
+            // A resolution out of work is kept and the next request resumes it, with all its work.
+            let outcome = self.move_once(joint, target, opts)?;
+            let from = self.chain.joint(joint);
+            return self.halving(outcome, from, target, |rope, to| {
+                rope.move_once(joint, to, opts)
+            });
+        }
+        // Each try may spend half the work left, so that one out of work before its first substep
+        // leaves work for a quarter of its way; a piece made goes on toward the target.
+        let mut outcome = MoveOutcome::default();
+        let mut goal = target;
+        for _ in 0..WORK_TRIES {
+            let o = self.try_with_half(|rope| rope.move_once(joint, goal, opts))?;
+            outcome.add(&MoveOutcome { short: None, ..o });
+            outcome.short = o.short;
+            match o.short {
+                None if goal == target => return Ok(outcome),
+                None => goal = target,
+                Some(s) if matches!(s.error, ChainError::OverWork { .. }) => {
+                    if s.made == 0 {
+                        let from = self.chain.joint(joint);
+                        goal = from + (goal - from) * T::lit(0.25);
+                    } else {
+                        goal = target;
+                    }
+                }
+                Some(_) => {
+                    let from = self.chain.joint(joint);
+                    return self.halving(outcome, from, goal, |rope, to| {
+                        rope.move_once(joint, to, opts)
+                    });
+                }
+            }
+        }
+        Ok(outcome)
+    }
+
+    /// Runs `f` on the rope with half the collision work left to spend.
+    fn try_with_half(
+        &mut self,
+        f: impl FnOnce(&mut Self) -> Result<MoveOutcome, RopeError>,
+    ) -> Result<MoveOutcome, RopeError> {
+        let limit = self.collision.as_mut().map(|(_, ws)| ws.hold_back(2));
+        let o = f(self);
+        if let (Some(l), Some((_, ws))) = (limit, self.collision.as_mut()) {
+            ws.give_back(l);
+        }
+        o
     }
 
     /// Takes a door's move that stopped short (`outcome`, from `from` where it stands now toward

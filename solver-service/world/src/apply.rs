@@ -412,9 +412,13 @@ where
     // Collision work depends on the contacts met, not known before: the kernel's meter charges
     // every unit (sweeps, held solves, detection, passes, re-solves) before doing it and stops
     // the request at the budget, the chain unchanged.
+    // A substep out of work is kept, and the next request from the state it left goes on from it
+    // (not through eyelets, whose moves are not resumed).
+    let plain = h.eyelets.is_empty() && h.tissue.is_none();
     if let Some((_, ws)) = h.collision.as_mut() {
         ws.limit_work(cx.budget);
         ws.stop_short(true);
+        ws.keep_unfinished(plain);
     }
     // A pull's tries share the pull budget (a haptic hand's pulls bounded apart from the tie).
     let pulled = matches!(
@@ -435,6 +439,9 @@ where
         outcome.stopped = Some(Stop::Work);
         outcome.residual = Residual::Landing { joint, target };
         result = Ok(());
+    }
+    if let Some((_, ws)) = h.collision.as_mut() {
+        ws.keep_unfinished(false);
     }
     let c = &mut outcome.counts;
     c.held = h.chain.held().len() as u32;

@@ -215,6 +215,8 @@ where
                 continue;
             }
             let at = g.instruments_at + k;
+            // A follower a carry before left behind (stopped short inside its frame) catches up.
+            let lag: Vector<T, D> = point(follower_lag(g, k));
             let Some((model, _)) = g.collision.as_mut() else {
                 continue;
             };
@@ -231,7 +233,7 @@ where
                         None => continue,
                     }
                 }
-                o => follow(o, delta),
+                o => follow(o, delta + lag),
             };
             if needle.contains(&k) && clear_of(&joints, model, at, &to) {
                 // No link can meet the needle on its way: it is set on its new pose.
@@ -262,6 +264,10 @@ where
             };
             if needle.contains(&k) {
                 g.chain.write_positions(&mut joints);
+            } else {
+                // Where it was asked to be, when it stopped short of it: its lag.
+                let stop = m.short.map(|s| stop_of(&s.error));
+                g.tension.instrument_moved(k, centre_of(&to), stop);
             }
             outcome.substeps = outcome.substeps.saturating_add(m.substeps);
             outcome.collision_iterations = outcome
@@ -278,6 +284,32 @@ where
         }
     }
     Ok(outcome)
+}
+
+/// The centre of an instrument (a sphere's, the middle of a capsule's axis), in f64.
+fn centre_of<T: Real, const D: usize>(o: &Obstacle<T, D>) -> Point
+where
+    Vector<T, D>: Embed3<T>,
+{
+    match o {
+        Obstacle::Sphere { center, .. } => to_point(center),
+        Obstacle::Capsule { a, b, .. } => (to_point(a) + to_point(b)) * 0.5,
+        Obstacle::HalfSpace { .. } | Obstacle::Block { .. } => Point::zeros(),
+    }
+}
+
+/// How far follower `k` is behind where its last carry asked it to be (zero when it got there).
+fn follower_lag<T: Real, const D: usize>(g: &LiveChain<T, D>, k: usize) -> Point
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let Some(asked) = g.tension.instruments.iter().find(|a| a.at == k) else {
+        return Point::zeros();
+    };
+    let Some(o) = g.instruments().get(k) else {
+        return Point::zeros();
+    };
+    Point::from(asked.target) - centre_of(o)
 }
 
 /// How a step moved the needle: its posed capsules, or its drive along its arc (from the swage,
@@ -745,7 +777,6 @@ impl Tries {
         }
         let r = f(g);
         if let Some((_, ws)) = g.collision.as_mut() {
-            ws.keep_unfinished(false);
             self.work = self.work.saturating_add(ws.work());
             ws.solve_contacts_together(false);
         }
@@ -884,9 +915,12 @@ where
     } else {
         Share::Rest
     };
+    // On a rope without eyelets a pull's resolution that runs out of work is kept, and the next
+    // pull toward a target near it goes on from it (`CollisionWorkspace::keep_unfinished`).
+    let plain = g.eyelets.is_empty() && g.tissue.is_none();
     let one = |g: &mut LiveChain<T, D>, p: Point, tries: &mut Tries| -> Result<_, Refusal> {
         g.keep_best();
-        let m = tries.run_keeping(g, share, false, |g| {
+        let m = tries.run_keeping(g, share, plain, |g| {
             move_and_carry(g, joint, std::slice::from_ref(&p), opts, needle_move)
         })?;
         if closes_exactly(g, joint) {

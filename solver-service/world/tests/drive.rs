@@ -223,6 +223,8 @@ fn once_the_needle_has_cut_a_hole_the_rope_goes_in_nowhere_else() {
     let before = (joints(&w), needle(&w), eyelets(&w));
     let head = joints(&w)[N];
     let to = [Point::new(head.x - 2.0, 0.0, -0.5)];
+    // A frame the whole move fits in (the default would stop it short, out of the tissue).
+    w.set_budget(200_000);
     let cmd = go(&w, &to, false);
     let refusal = w
         .apply(&cmd)

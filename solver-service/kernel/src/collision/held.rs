@@ -20,17 +20,17 @@ where
     Vector<T, D>: Embed3<T>,
 {
     let held: Vec<usize> = chain.held().filter(|&j| j != joint).collect();
-    // A pull's full try in one substep records its passes, or goes on from those it recorded.
-    let keep = ws.together && ws.unfinished.keep && k == 1;
-    if keep && ws.can_resume(chain, joint, &target) {
-        return resume_held(chain, joint, &held, model, ws);
-    }
-    let backup = chain.clone();
+    // Each substep records its passes, or the move goes on from those a move before it recorded.
+    let keep = ws.unfinished.keep;
     let one = MoveOptions {
         substeps: crate::chain::Substeps::Fixed(1),
         max_substeps: 1,
         ..*opts
     };
+    if keep && ws.can_resume(chain, joint, &target) {
+        return resume_and_go_on(chain, joint, target, &held, opts, model, ws);
+    }
+    let backup = chain.clone();
     let sd = (target - start) / T::lit(k as f64);
     let mut outcome = MoveOutcome {
         substeps: k,
@@ -91,18 +91,14 @@ where
             }
         }
         chain.write_positions(&mut ws.pos);
-        let record = keep && s == 1 && depth == 0;
-        match resolve_recording(chain, joint, &held, record, model, ws) {
+        let record = keep && depth == 0;
+        match resolve_recording(chain, (joint, hand), &held, record, limit, model, ws) {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
                     outcome.collision_iterations.saturating_add(iterations);
                 outcome.contacts = outcome.contacts.saturating_add(contacts);
             }
             Err(stop) => {
-                if record && ws.unfinished.recorded && matches!(stop, Stop::OverWork) {
-                    ws.unfinished
-                        .ready_for(joint, target, &held, &ws.pos_before);
-                }
                 let e = stop.error(s, &ws.meter);
                 let made = Some(piece_backup);
                 return stop_here(chain, backup, made, outcome, e, (last_whole, k), ws.frame);
@@ -140,13 +136,76 @@ where
     Ok(outcome)
 }
 
-/// A piece's contacts resolved with the hand and `held` fixed; with `record` (a pull's full try in
-/// one substep) its passes recorded to be resumed ([`CollisionWorkspace::keep_unfinished`]).
-fn resolve_recording<T: Real, const D: usize>(
+/// A move that resumes the substep a move before it recorded ([`resume_held`]): the substep
+/// finished (its hand carried to `target` first when that is within the drift), then on toward
+/// `target` as a move of its own. Inside a frame an unfinished or locked resumption stops short
+/// where the rope was.
+fn resume_and_go_on<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     joint: usize,
+    target: Vector<T, D>,
+    held: &[usize],
+    opts: &MoveOptions<T>,
+    model: &CollisionModel<T, D>,
+    ws: &mut CollisionWorkspace<T, D>,
+) -> Result<MoveOutcome, ChainError>
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let one = MoveOptions {
+        substeps: crate::chain::Substeps::Fixed(1),
+        max_substeps: 1,
+        ..*opts
+    };
+    let u = &ws.unfinished;
+    let recorded = u.target.first().copied().unwrap_or(target);
+    let to = if (recorded - target).norm() <= u.drift {
+        target
+    } else {
+        recorded
+    };
+    // Refused outside a frame, the chain is put back as it was before the resumption.
+    let backup = (!ws.frame && to != target).then(|| chain.clone());
+    let mut outcome = match resume_held(chain, joint, to, held, &one, model, ws) {
+        Ok(o) => o,
+        // Out of work again, or locked: inside a frame it stops short where it was.
+        Err(error) if ws.frame && stops_short_on(&error) => {
+            return Ok(MoveOutcome {
+                short: Some(Short {
+                    error,
+                    made: 0,
+                    of: 1,
+                }),
+                ..MoveOutcome::default()
+            });
+        }
+        Err(e) => return Err(e),
+    };
+    if to != target {
+        match move_joint_colliding(chain, joint, target, opts, model, ws) {
+            Ok(o) => outcome.add(&o),
+            Err(e) => {
+                if let Some(b) = backup {
+                    *chain = b;
+                }
+                return Err(e);
+            }
+        }
+    }
+    Ok(outcome)
+}
+
+/// A piece's contacts resolved with the hand (`joint`, put at `hand`) and `held` fixed; with
+/// `record` its passes recorded and, when its work runs out, kept to be resumed from the joints the
+/// piece started from ([`CollisionWorkspace::keep_unfinished`]; `half` half the smallest
+/// clearance).
+#[allow(clippy::too_many_arguments)]
+fn resolve_recording<T: Real, const D: usize>(
+    chain: &mut Chain<T, D>,
+    (joint, hand): (usize, Vector<T, D>),
     held: &[usize],
     record: bool,
+    half: T,
     model: &CollisionModel<T, D>,
     ws: &mut CollisionWorkspace<T, D>,
 ) -> Result<(u32, u32), Stop<T>>
@@ -162,6 +221,10 @@ where
     ws.unfinished.recorded = false;
     let resolved = resolve(chain, joint, held, false, model, ws);
     ws.unfinished.recording = false;
+    if record && ws.unfinished.recorded && matches!(resolved, Err(Stop::OverWork)) {
+        ws.unfinished
+            .ready_for(joint, hand, held, &ws.pos_before, half * T::lit(0.5));
+    }
     resolved
 }
 
@@ -229,10 +292,13 @@ where
 /// substep (the limits checked, no joint farther than half the smallest clearance from where the
 /// move started), or out of work again with the passes recorded so far kept. On any error the chain
 /// is unchanged.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn resume_held<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
     joint: usize,
+    target: Vector<T, D>,
     held: &[usize],
+    one: &MoveOptions<T>,
     model: &CollisionModel<T, D>,
     ws: &mut CollisionWorkspace<T, D>,
 ) -> Result<MoveOutcome, ChainError>
@@ -251,6 +317,24 @@ where
     chain.copy_from(saved);
     ws.pos.clone_from(&u.pos);
     ws.pos_prev.clone_from(&u.pos);
+    if u.target.first() != Some(&target) {
+        // The hand wandered within the drift: carried there from the recorded passes' pose (a held
+        // move, charged as a substep's), the passes go on from it.
+        u.target.clear();
+        u.target.push(target);
+        let per_pass = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
+        let bound = one.held.passes_bound(chain.joint_limits().is_some());
+        if !ws.meter.charge(per_pass.saturating_mul(bound)) {
+            *chain = backup;
+            return Err(ws.meter.over(1));
+        }
+        if let Err(e) = crate::hold::move_held(chain, joint, target, one) {
+            *chain = backup;
+            return Err(e);
+        }
+        chain.write_positions(&mut ws.pos);
+    }
+    let u = &mut ws.unfinished;
     u.resume_at = Some(u.state);
     u.recording = true;
     u.recorded = false;

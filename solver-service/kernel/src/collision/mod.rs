@@ -287,6 +287,9 @@ struct Unfinished<T: Real, const D: usize> {
     resume_at: Option<resolve::PassState>,
     joint: usize,
     target: Vec<Vector<T, D>>,
+    /// How far a target may be from `target` and resume the resolution (a quarter of the smallest
+    /// clearance).
+    drift: T,
     held: Vec<usize>,
     /// The joints where the move started: the state it resumes from.
     base: Vec<Vector<T, D>>,
@@ -305,8 +308,10 @@ impl<T: Real, const D: usize> Unfinished<T, D> {
         target: Vector<T, D>,
         held: &[usize],
         base: &[Vector<T, D>],
+        drift: T,
     ) {
         self.ready = true;
+        self.drift = drift;
         self.locked = None;
         self.joint = joint;
         self.target.clear();
@@ -332,8 +337,9 @@ impl<T: Real, const D: usize> Unfinished<T, D> {
         self.recorded = true;
     }
 
-    /// Whether a move of `joint` of `chain` to `target` is the one recorded: the same joint, target
-    /// and held joints, from the same joints bit for bit (written to `now`, a buffer).
+    /// Whether a move of `joint` of `chain` to `target` is the one recorded: the same joint and held
+    /// joints, a target within the drift of the recorded one, from the same joints bit for bit
+    /// (written to `now`, a buffer).
     fn matches(
         &self,
         chain: &Chain<T, D>,
@@ -346,7 +352,6 @@ impl<T: Real, const D: usize> Unfinished<T, D> {
     {
         if !(self.ready
             && self.joint == joint
-            && self.target.first() == Some(target)
             && self
                 .held
                 .iter()
@@ -357,7 +362,17 @@ impl<T: Real, const D: usize> Unfinished<T, D> {
         }
         now.resize(chain.n_links() + 1, Vector::zeros());
         chain.write_positions(now);
-        self.base == *now
+        if self.base != *now {
+            return false;
+        }
+        // A hand's target wanders (a tremor, a haptic device) and moves on: the recorded piece is
+        // resumed when its hand is within the drift of the new target, or (unless it locked) brings
+        // the joint nearer the new target than it is.
+        let Some(h) = self.target.first() else {
+            return false;
+        };
+        let (left, now_left) = ((h - target).norm(), (now[joint] - target).norm());
+        left <= self.drift || (self.locked.is_none() && left < now_left)
     }
 }
 
@@ -443,14 +458,15 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
         self.pressed = pressed;
     }
 
-    /// Whether the moves that follow keep a resolution that runs out of work, and resume it: a move
-    /// of a rope with held joints in one substep, with
-    /// [`CollisionWorkspace::solve_contacts_together`] on (a pull's full try), records its passes;
-    /// when its work runs out it is refused as before ([`ChainError::OverWork`], the chain
-    /// unchanged), and the next such move of the same joint toward the same target from the same
-    /// state goes on from its last pass (a locked one is refused so again at once, with no work).
-    /// Any other state of the chain (another move made, a hold taken or let go) makes it stale. Off
-    /// by default.
+    /// Whether the moves that follow keep a resolution that runs out of work, and resume it: each
+    /// substep of a move of a rope with held joints records its passes; when the work runs out in
+    /// one, the move stops short before it (inside a frame, [`CollisionWorkspace::stop_short`]) or
+    /// is refused ([`ChainError::OverWork`], the chain unchanged), and the next move of the same
+    /// joint from the state it left, toward a target within a quarter of the smallest clearance of
+    /// that substep's hand or one that substep brings the joint nearer to, goes on from its last
+    /// pass, then on toward its own target (a locked one is refused so again at once when the
+    /// target is within that quarter, with no work). Any other state of the chain (another move
+    /// made, a hold taken or let go) makes it stale. Off by default.
     pub fn keep_unfinished(&mut self, on: bool) {
         self.unfinished.keep = on;
     }
@@ -479,6 +495,24 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     /// Whether [`CollisionWorkspace::stop_short`] is on.
     pub fn stops_short(&self) -> bool {
         self.frame
+    }
+
+    /// Whether [`CollisionWorkspace::keep_unfinished`] is on.
+    pub(crate) fn keeps_unfinished(&self) -> bool {
+        self.unfinished.keep
+    }
+
+    /// Lets the calls that follow spend only `1/parts` of the work left; the limit to give back to
+    /// [`CollisionWorkspace::give_back`] after them.
+    pub(crate) fn hold_back(&mut self, parts: u64) -> u64 {
+        let limit = self.meter.limit;
+        self.meter.limit = self.meter.done + self.meter.left() / parts.max(1);
+        limit
+    }
+
+    /// Puts back the limit [`CollisionWorkspace::hold_back`] returned.
+    pub(crate) fn give_back(&mut self, limit: u64) {
+        self.meter.limit = limit;
     }
 
     /// Whether [`CollisionWorkspace::solve_contacts_together`] is on (a pull).

@@ -286,7 +286,7 @@ fn default_tighten_stall() -> u32 {
 }
 
 fn default_tighten_steps() -> u32 {
-    2000
+    8000
 }
 
 impl Tighten {

@@ -2,12 +2,30 @@
 
 use super::*;
 
+/// The solver's own passes and pushed joints' weight for a rope of `links` links, the shortest
+/// `shortest` long, `thickness` thick, where the scene does not set them (`collision_iterations`,
+/// `collision_pushed_weight`, for benchmarks): on links shorter than five thicknesses one contact
+/// between two strands is many nearly dependent rows and the passes creep, so a resolution may take
+/// 3.2 passes per link (at least 64, the limit on longer links); on links shorter than two
+/// thicknesses the pushed joints weigh twice the others when a held rope is relaxed (0.5; 1
+/// otherwise), which took fewer passes there (BENCHMARKS.md, contact, the held-ropes table). A rope
+/// at 40, 80, 160 or 320 links differs only in `links` and `link_length`.
+pub(crate) fn resolution_defaults(links: usize, shortest: f64, thickness: f64) -> (u32, f64) {
+    let passes = if shortest < 5.0 * thickness {
+        (3.2 * links as f64).round().clamp(64.0, 10_000.0) as u32
+    } else {
+        64
+    };
+    let pushed = if shortest < 2.0 * thickness { 0.5 } else { 1.0 };
+    (passes, pushed)
+}
+
 /// Collision handling, if the chain declares a scheme; stray collision knobs without one are refused.
 pub(super) fn collision(
     f: &Fields<'_>,
     scheme: Option<Scheme>,
     kind: ChainKind,
-    thickness: f64,
+    (links, shortest, thickness): (usize, f64, f64),
     obstacles: &[(String, Obstacle<f64, 3>)],
     instruments: &[(String, Obstacle<f64, 3>)],
 ) -> Result<Option<CollisionSpec>, SceneError> {
@@ -31,12 +49,13 @@ pub(super) fn collision(
             "capsule collision needs a positive `thickness` (the rope's diameter)".into(),
         ));
     }
+    let (passes, pushed) = resolution_defaults(links, shortest, thickness);
     let max_iterations = f.count_or(
         &c.collision_iterations,
         "collision_iterations",
         1,
         10_000,
-        64,
+        passes,
     )?;
     let tolerance = f.real_or(
         &c.collision_tolerance,
@@ -57,7 +76,7 @@ pub(super) fn collision(
         "collision_pushed_weight",
         |t| t > 0.0 && t <= 1.0,
         "is not in (0, 1]",
-        CollisionOptions::<f64>::default().pushed_weight,
+        pushed,
     )?;
     let together_after = f.count_or(
         &c.collision_together_after,

@@ -901,7 +901,8 @@ fn chain(
     )?;
     let (max_substeps, substeps) = substeps(&f)?;
     let (tolerance, max_iterations, hierarchy_after) = iteration(&f)?;
-    let collision = collision(&f, scheme, kind, thickness, obstacles, instruments)?;
+    let rope = (lengths.len(), shortest, thickness);
+    let collision = collision(&f, scheme, kind, rope, obstacles, instruments)?;
     let needle = needle(&f, tissue.is_some(), collision.is_some())?;
     let limits = limits(&f, &points, &lengths)?;
     let reach = ReachOptions {
