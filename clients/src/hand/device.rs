@@ -2,9 +2,17 @@
 //! hand's speed and sampled at the device's rate, each request the hand's position at the first
 //! sample after the previous answer arrived (a late answer skips the samples in between), never
 //! halved or sent again, tremor on; at the end of the path the hand holds still, as a person waits,
-//! until its joint is within a tolerance of where the hand is, or a timeout.
+//! until its joint is within a tolerance of where the hand is, or a timeout. A tightening turn
+//! pulls as a person does: the hand moves away from the knot at its speed whatever the rope does,
+//! the joint following as far as each answer lets it (the proxy); the hand waits while it is
+//! [`FEEL`] rope thicknesses ahead of its joint, and stops when the rope stops the joint there
+//! (taut, jammed: the pull the person feels) or the rope gives no direction.
 
 use super::*;
+
+/// How far ahead of its joint, in rope thicknesses, a device's tightening hand goes before the
+/// person feels the knot tight and stops pulling.
+pub const FEEL: f64 = 2.0;
 
 /// How a device plays a hand's turns.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -208,6 +216,114 @@ impl TurnRun<'_> {
                 return Ok(());
             }
         }
+    }
+}
+
+impl TurnRun<'_> {
+    /// A tightening pull of `joint` (index `idx`, the rope as `rope`, `thickness` thick) as a device
+    /// plays it ([`FEEL`]): at most `g.max_steps` samples, each sent with the pull flag.
+    pub(super) fn device_tighten(
+        &mut self,
+        d: DeviceOptions,
+        (joint, idx): (u32, usize),
+        rope: &[[f64; 3]],
+        (g, thickness): (&knots::script::Tighten, f64),
+        tremor: &mut knots::script::Tremor,
+    ) -> anyhow::Result<Tightened> {
+        use knots::vec3::{add, dist, norm, scale, sub};
+        let mut rope = rope.to_vec();
+        let start = rope[idx];
+        let mut hand = start;
+        let mut out = Tightened {
+            turn: self.k + 1,
+            steps: 0,
+            travel: 0.0,
+            why: "max-steps",
+            pull: 0.0,
+        };
+        let began = Instant::now();
+        let mut tick = 0u64;
+        let mut still = 0u32;
+        for i in 0..g.max_steps {
+            let next = next_tick(began.elapsed().as_secs_f64(), d.rate_hz, tick);
+            let moved = if i == 0 { 1 } else { next - tick };
+            self.report.device.skipped += moved.saturating_sub(1);
+            tick = next;
+            let due = began + Duration::from_secs_f64(tick as f64 / d.rate_hz);
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+            let Some(away) = knots::contact::away_from_knot(&rope, idx, thickness) else {
+                out.why = "stopped";
+                break;
+            };
+            // Ahead of its joint by the feel, the hand waits for the rope (the drag of a knot the
+            // service resolves over several frames); else it moves on at its speed.
+            if dist(hand, rope[idx]) <= FEEL * thickness {
+                hand = add(hand, scale(away, d.speed * moved as f64 / d.rate_hz));
+            }
+            let t = tremor.apply(hand);
+            let mut h = RequestHeader::new(Command::Move, self.chain);
+            h.joint = joint;
+            h.flags = shared::FLAG_PULL;
+            let sent = now_ns();
+            let called = Instant::now();
+            let (status, seq, rid, dg, served, joints, stop) =
+                self.conn
+                    .call_with(h, &[Vec3::new(t[0], t[1], t[2])], |rh, pts| {
+                        let n = (rh.n_joints as usize).min(pts.len());
+                        (
+                            rh.status,
+                            rh.sequence,
+                            rh.request_id,
+                            digest(&pts[..n]),
+                            Served::of(rh),
+                            pts[..n].iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+                            rh.pull_stop(),
+                        )
+                    })?;
+            let name = self.report.tally(status, called, served);
+            self.report.pulled();
+            self.report.device.sent += 1;
+            self.record_move(
+                (sent, joint, t, None, shared::FLAG_PULL),
+                (rid, name, seq, dg),
+            )?;
+            out.steps = i + 1;
+            if status != Status::Ok as u32 || joints.len() <= idx {
+                out.why = "stopped";
+                break;
+            }
+            let before = rope[idx];
+            rope = joints;
+            let lag = dist(rope[idx], t);
+            self.report.device.lags.push(lag);
+            out.pull = lag;
+            out.travel = norm(sub(rope[idx], start));
+            let why = match stop {
+                Some(PullStop::Taut) => "taut",
+                Some(PullStop::Jammed) => "jammed",
+                Some(PullStop::Limit) => "limit",
+                Some(PullStop::Work) => "out-of-work",
+                None => "stopped",
+            };
+            // The person feels the knot: the rope stops the joint (taut, jammed, a limit) with the
+            // hand the feel ahead, and the hand stops pulling. Out of work, the joint is only
+            // behind: the hand waits for it (stopping after [`PULL_WAITS`] answers without it
+            // moving).
+            still = if dist(rope[idx], before) < 1e-3 * thickness {
+                still + 1
+            } else {
+                0
+            };
+            let resists = lag > FEEL * thickness && stop.is_some_and(|s| s != PullStop::Work);
+            if resists || still > knots::script::PULL_WAITS {
+                out.why = why;
+                break;
+            }
+        }
+        Ok(out)
     }
 }
 

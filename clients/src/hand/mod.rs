@@ -988,6 +988,14 @@ impl TurnRun<'_> {
             .conn
             .call(RequestHeader::new(Command::Describe, self.chain), &[])?;
         let thickness = d.header.thickness;
+        if let Some(dev) = self.cfg.device {
+            let out = self.device_tighten(dev, (joint, idx), rope, (g, thickness), tremor)?;
+            if self.cfg.progress {
+                eprintln!("hand {}: {out}", self.cfg.hand);
+            }
+            self.report.tightened.push(out);
+            return Ok(());
+        }
         let mut rope = rope.to_vec();
         let start = rope[idx];
         let mut still = 0;
