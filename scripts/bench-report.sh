@@ -44,10 +44,14 @@ if [ "$QUICK" = 1 ]; then
   LATENCY_ARGS="--samples 500 --warmup 100 --loaded-seconds 1"
   LOAD_SECONDS=1
   AB_ROUNDS=1
+  DEVICE_RUNS=1
+  export DEVICE_BENCH_LINKS=40 DEVICE_BENCH_ONLY=square-held
 else
   LATENCY_ARGS=""
   LOAD_SECONDS=10
   AB_ROUNDS=3
+  # Perturbed runs per row of the device sweep (the 16 take about three hours here).
+  DEVICE_RUNS=${DEVICE_RUNS:-4}
   LANG_ARGS=""
   SWEEP_ARGS=""
 fi
@@ -107,6 +111,8 @@ block ab-rope "scripts/ab-request-path.sh b0fd115 $AB_ROUNDS" \
   scripts/ab-request-path.sh b0fd115 "$AB_ROUNDS"
 block ab-contact-rope "scripts/ab-contact.sh b0fd115 $AB_ROUNDS" \
   scripts/ab-contact.sh b0fd115 "$AB_ROUNDS"
+block device "DEVICE_BENCH_RUNS=$DEVICE_RUNS cargo bench -p clients --bench device" \
+  env DEVICE_BENCH_RUNS="$DEVICE_RUNS" cargo bench -q -p clients --bench device
 block tighten "cargo bench -p clients --bench tighten" \
   cargo bench -q -p clients --bench tighten
 block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p world --bench knots" \

@@ -1,6 +1,7 @@
 // A haptic loop in C++: moves the rope's head around a circle at RATE Hz (0: back to back) for N moves
-// and reports the round trip's percentiles. Usage: loop PREFIX [N] [RATE]. Prints the last joints' bits
-// for checking.
+// and reports the round trip's percentiles and the proxy's lag (how far the head stayed behind its
+// target: a move that cannot be finished inside the service's frame stops short, and the next goes on
+// from there). Usage: loop PREFIX [N] [RATE]. Prints the last joints' bits for checking.
 #include <algorithm>
 #include <chrono>
 #include <cinttypes>
@@ -27,8 +28,9 @@ int main(int argc, char **argv) {
         // starts, 200 moves per turn; the first tenth of the moves warms up and is not counted.
         const tractrix_Vec3 start_head = joints.back();
         const int warmup = n / 10;
-        std::vector<double> rtt_us;
+        std::vector<double> rtt_us, lag;
         rtt_us.reserve(n);
+        lag.reserve(n);
         using clock = std::chrono::steady_clock;
         const auto start = clock::now();
         const auto period = std::chrono::duration<double>(rate > 0 ? 1.0 / rate : 0.0);
@@ -40,12 +42,22 @@ int main(int argc, char **argv) {
             const auto t0 = clock::now();
             client.move(rope, TRACTRIX_JOINT_HEAD, target, joints);
             const double us = std::chrono::duration<double, std::micro>(clock::now() - t0).count();
-            if (i >= warmup) rtt_us.push_back(us);
+            const tractrix_Vec3 head = joints.back();
+            const double behind = std::sqrt((head.x - target.x) * (head.x - target.x) +
+                                            (head.y - target.y) * (head.y - target.y) +
+                                            (head.z - target.z) * (head.z - target.z));
+            if (i >= warmup) {
+                rtt_us.push_back(us);
+                lag.push_back(behind);
+            }
         }
+        std::sort(lag.begin(), lag.end());
         std::sort(rtt_us.begin(), rtt_us.end());
         auto pct = [&](double p) { return rtt_us[static_cast<size_t>(p * (rtt_us.size() - 1))]; };
         std::printf("%d moves at %.0f Hz: round trip p50 %.1f us, p99 %.1f us, max %.1f us\n", n, rate, pct(0.5),
                     pct(0.99), rtt_us.back());
+        std::printf("the head behind its target: p50 %.3g, p99 %.3g, max %.3g\n", lag[lag.size() / 2],
+                    lag[static_cast<size_t>(0.99 * (lag.size() - 1))], lag.back());
         for (size_t i = 0; i < joints.size(); i++)
             std::printf("joint %zu %016" PRIx64 " %016" PRIx64 " %016" PRIx64 "\n", i, bits(joints[i].x),
                         bits(joints[i].y), bits(joints[i].z));
