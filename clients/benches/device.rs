@@ -42,9 +42,21 @@ const SCRIPTS: &[(&str, &str, [&str; 4])] = &[
         "granny",
         ["hands", "hands-80", "hands-160", "hands-320"],
     ),
-    ("instrument-tie", "trefoil", ["tie", "tie-80", "tie-160", "tie-320"]),
-    ("surgeons-knot", "surgeons", ["tie", "tie-80", "tie-160", "tie-320"]),
-    ("instrument-square", "square", ["tie", "tie-80", "tie-160", "tie-320"]),
+    (
+        "instrument-tie",
+        "trefoil",
+        ["tie", "tie-80", "tie-160", "tie-320"],
+    ),
+    (
+        "surgeons-knot",
+        "surgeons",
+        ["tie", "tie-80", "tie-160", "tie-320"],
+    ),
+    (
+        "instrument-square",
+        "square",
+        ["tie", "tie-80", "tie-160", "tie-320"],
+    ),
 ];
 
 /// The resolutions, in the order of [`SCRIPTS`]' chains.
@@ -88,7 +100,14 @@ fn run_once(script: &str, chain: &str, seed: u64, dir: &Path, scene: &Path) -> R
         let out = dir.join(format!("{script}-{chain}-{seed}-{h}.out"));
         let mut cmd = Command::new(release_bin("hand")?);
         cmd.args(["--prefix", &prefix, "run", "--builtin", script, "--hand", h])
-            .args(["--chain", chain, "--device", "--quiet", "--turn-timeout", "300"])
+            .args([
+                "--chain",
+                chain,
+                "--device",
+                "--quiet",
+                "--turn-timeout",
+                "300",
+            ])
             .args(["--perturb", &seed.to_string()])
             .arg("--timings")
             .arg(&timings)
@@ -124,7 +143,8 @@ fn run_once(script: &str, chain: &str, seed: u64, dir: &Path, scene: &Path) -> R
         for line in text.lines().filter(|l| !l.starts_with('#')) {
             let f: Vec<&str> = line.split_whitespace().collect();
             if let [_, solve_us, ..] = f[..] {
-                run.solve_ns.push((solve_us.parse::<f64>()? * 1e3).round() as u64);
+                run.solve_ns
+                    .push((solve_us.parse::<f64>()? * 1e3).round() as u64);
             }
         }
         let out = std::fs::read_to_string(&*out).unwrap_or_default();
@@ -197,7 +217,10 @@ fn main() -> Result<()> {
     );
     println!("|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for &(script, want, chains) in SCRIPTS {
-        if only.as_ref().is_some_and(|o| !o.iter().any(|s| s == script)) {
+        if only
+            .as_ref()
+            .is_some_and(|o| !o.iter().any(|s| s == script))
+        {
             continue;
         }
         for (chain, n) in chains.iter().zip(LINKS) {
@@ -245,7 +268,9 @@ fn main() -> Result<()> {
                 pct(&solve, 0.99),
                 pct(&solve, 0.999),
                 pct(&solve, 1.0),
-                p50.get(p50.len().saturating_sub(1) / 2).copied().unwrap_or(f64::NAN),
+                p50.get(p50.len().saturating_sub(1) / 2)
+                    .copied()
+                    .unwrap_or(f64::NAN),
                 worst(1),
                 worst(2)
             );
