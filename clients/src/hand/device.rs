@@ -301,13 +301,6 @@ impl TurnRun<'_> {
             self.report.device.lags.push(lag);
             out.pull = lag;
             out.travel = norm(sub(rope[idx], start));
-            let why = match stop {
-                Some(PullStop::Taut) => "taut",
-                Some(PullStop::Jammed) => "jammed",
-                Some(PullStop::Limit) => "limit",
-                Some(PullStop::Work) => "out-of-work",
-                None => "stopped",
-            };
             // The person feels the knot: the rope stops the joint (taut, jammed, a limit) with the
             // hand the feel ahead, and the hand stops pulling. Out of work, the joint is only
             // behind: the hand waits for it (stopping after [`PULL_WAITS`] answers without it
@@ -319,7 +312,7 @@ impl TurnRun<'_> {
             };
             let resists = lag > FEEL * thickness && stop.is_some_and(|s| s != PullStop::Work);
             if resists || still > knots::script::PULL_WAITS {
-                out.why = why;
+                out.why = why_of(stop);
                 break;
             }
         }

@@ -1105,13 +1105,7 @@ impl TurnRun<'_> {
                 still + 1
             };
             if still >= g.stall {
-                out.why = match (taut, stop) {
-                    (true, _) | (false, Some(PullStop::Taut)) => "taut",
-                    (false, Some(PullStop::Jammed)) => "jammed",
-                    (false, Some(PullStop::Limit)) => "limit",
-                    (false, Some(PullStop::Work)) => "out-of-work",
-                    (false, None) => "stopped",
-                };
+                out.why = if taut { "taut" } else { why_of(stop) };
                 break;
             }
         }
@@ -1120,6 +1114,18 @@ impl TurnRun<'_> {
         }
         self.report.tightened.push(out);
         Ok(())
+    }
+}
+
+/// How a tightening pull ended, as [`Tightened::why`] says it, from why its last request stopped
+/// short (`None`: it did not).
+fn why_of(stop: Option<PullStop>) -> &'static str {
+    match stop {
+        Some(PullStop::Taut) => "taut",
+        Some(PullStop::Jammed) => "jammed",
+        Some(PullStop::Limit) => "limit",
+        Some(PullStop::Work) => "out-of-work",
+        None => "stopped",
     }
 }
 
