@@ -339,8 +339,7 @@ impl World {
         let points = &mut self.knot_points;
         points.clear();
         each_form!(&self.geometry[chain as usize], h => {
-            let n = h.chain.n_links();
-            points.extend((0..=n).map(|j| to_point(&h.chain.joint(j))));
+            points.extend(h.chain.joints().map(|p| to_point(&p)));
         });
         Some(namer.name(points))
     }

@@ -571,8 +571,10 @@ where
         return Ok(());
     }
     let mut b = head;
+    // Once, not `joint(k)` per joint (a pass over the links each): this runs when the head crosses.
+    let joints: Vec<Point> = g.chain.joints().map(|p| to_point(&p)).collect();
     for k in (0..n).rev() {
-        let a = to_point(&g.chain.joint(k));
+        let a = joints[k];
         if inside(&a, &bx) != inside(&b, &bx) {
             let Some(at) = surface_crossing(&a, &b, &bx) else {
                 return Ok(());

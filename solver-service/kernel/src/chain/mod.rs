@@ -614,25 +614,29 @@ where
     /// Positions are accurate to a few ulps of their magnitude whatever the chain's length (compensated
     /// prefix sum).
     pub fn write_positions(&self, out: &mut [Vector<T, D>]) {
+        for (o, p) in out[..=self.links.len()].iter_mut().zip(self.joints()) {
+            *o = p;
+        }
+    }
+
+    /// The `n + 1` joint positions, tail first, in one pass over the links (the values of
+    /// [`Chain::write_positions`], bit for bit; [`Chain::joint`] costs a pass of its own per joint).
+    pub fn joints(&self) -> impl Iterator<Item = Vector<T, D>> + '_ {
         let origin = self.origin();
         let mut acc = CompensatedSum::new(origin);
-        out[0] = origin;
         let mut pins = self.pins.iter().peekable();
+        let mut first = origin;
         if let Some(&(_, s)) = pins.next_if(|p| p.0 == 0) {
             acc = s;
-            out[0] = s.value();
+            first = s.value();
         }
-        for (i, (o, l)) in out[1..=self.links.len()]
-            .iter_mut()
-            .zip(&self.links)
-            .enumerate()
-        {
+        core::iter::once(first).chain(self.links.iter().enumerate().map(move |(i, l)| {
             acc.add(l);
             if let Some(&(_, s)) = pins.next_if(|p| p.0 == i + 1) {
                 acc = s;
             }
-            *o = acc.value();
-        }
+            acc.value()
+        }))
     }
 
     /// The joint positions as a new vector (allocates; for tests and tools, not the hot path).

@@ -412,3 +412,31 @@ mod with_collision {
         assert!(r.is_ok(), "{r:?}");
     }
 }
+
+/// `Chain::joints` (one pass, what the service names knots from) gives every joint bit for bit as
+/// `Chain::joint` does, with held joints anywhere (the tail, inside, the head) and after moves.
+#[test]
+fn the_joints_in_one_pass_are_each_joint_bit_for_bit() {
+    for (seed, held) in [
+        (1u64, vec![]),
+        (2, vec![0]),
+        (3, vec![0, 7, 19]),
+        (4, vec![5, 30]),
+    ] {
+        let mut c = rope(30, seed);
+        for &h in &held {
+            c.hold(h).unwrap();
+        }
+        let mut rng = Rng(seed + 100);
+        for step in 0..20 {
+            let j = [3usize, 12, 24, 30][step % 4];
+            if !held.contains(&j) {
+                let t = c.joint(j) + rng.dir3() * 0.3;
+                let _ = c.move_joint(j, t, &opts(Method::Tractrix, 2));
+            }
+            let one: Vec<[u64; 3]> = c.joints().map(|p| bits(&p)).collect();
+            let each: Vec<[u64; 3]> = (0..=c.n_links()).map(|i| bits(&c.joint(i))).collect();
+            assert_eq!(one, each, "seed {seed}, held {held:?}, step {step}");
+        }
+    }
+}
