@@ -37,11 +37,11 @@ where
         ..MoveOutcome::default()
     };
     ws.pos.resize(chain.n_links() + 1, Vector::zeros());
-    // Each substep's move with holds is charged its bound (the passes its options allow) before it
-    // runs, and given back what its iterations did not use after.
-    let per_pass = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
-    let bound = opts.held.passes_bound(chain.joint_limits().is_some());
-    let held_cost = per_pass.saturating_mul(bound);
+    // Each substep's move with holds is charged its bound (the passes its options allow over its
+    // held sides, the links from the joint to the nearest held joint each way) before it runs, and
+    // given back what its iterations did not use after; the free sides' sweeps, the copy back and
+    // the closing are one pass over the rope.
+    let (held_cost, per_iteration, sweep) = held_charges(chain, joint, opts);
     // The displacement guard (with `solve_contacts_together`: a pull): a held side's solve and the
     // re-solves between fixed joints can move a joint much farther than the hand, and a joint that
     // jumps more than half the smallest clearance in one substep can carry its link through another
@@ -81,9 +81,11 @@ where
             Ok(o) => {
                 outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(o.paper_fallbacks);
                 outcome.held_iterations = outcome.held_iterations.saturating_add(o.held_iterations);
-                // The iterations and the hierarchy's pass.
-                let used = u64::from(o.held_iterations).saturating_add(1).min(bound);
-                ws.meter.refund(per_pass.saturating_mul(bound - used));
+                let used = per_iteration
+                    .saturating_mul(u64::from(o.held_iterations))
+                    .saturating_add(sweep)
+                    .min(held_cost);
+                ws.meter.refund(held_cost - used);
             }
             Err(e) => {
                 let made = Some(piece_backup);
@@ -134,6 +136,32 @@ where
         }
     }
     Ok(outcome)
+}
+
+/// What one substep of a move of `joint` with holds is charged before it runs, in meter units: the
+/// bound of its held sides' iterations (each side solved on its own, an iteration a pass over the
+/// longer side) and one pass over the rope; with what an iteration and that pass cost, for the
+/// refund after it ran.
+fn held_charges<T: Real, const D: usize>(
+    chain: &Chain<T, D>,
+    joint: usize,
+    opts: &MoveOptions<T>,
+) -> (u64, u64, u64)
+where
+    Vector<T, D>: Embed3<T>,
+{
+    let (lo, hi) = chain.held_around(joint);
+    let sides = [lo.map(|h| joint - h), hi.map(|h| h - joint)];
+    let longest = sides.iter().flatten().copied().max().unwrap_or(0) as u64;
+    let count = sides.iter().flatten().count() as u64;
+    let per_iteration = longest.saturating_mul(cost::LINK_STEP);
+    let sweep = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
+    let bound = opts.held.passes_bound(chain.joint_limits().is_some());
+    let held_cost = per_iteration
+        .saturating_mul(bound)
+        .saturating_mul(count)
+        .saturating_add(sweep);
+    (held_cost, per_iteration, sweep)
 }
 
 /// A move that resumes the substep a move before it recorded ([`resume_held`]): the substep
@@ -322,15 +350,23 @@ where
         // move, charged as a substep's), the passes go on from it.
         u.target.clear();
         u.target.push(target);
-        let per_pass = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
-        let bound = one.held.passes_bound(chain.joint_limits().is_some());
-        if !ws.meter.charge(per_pass.saturating_mul(bound)) {
+        let (held_cost, per_iteration, sweep) = held_charges(chain, joint, one);
+        if !ws.meter.charge(held_cost) {
             *chain = backup;
             return Err(ws.meter.over(1));
         }
-        if let Err(e) = crate::hold::move_held(chain, joint, target, one) {
-            *chain = backup;
-            return Err(e);
+        match crate::hold::move_held(chain, joint, target, one) {
+            Ok(o) => {
+                let used = per_iteration
+                    .saturating_mul(u64::from(o.held_iterations))
+                    .saturating_add(sweep)
+                    .min(held_cost);
+                ws.meter.refund(held_cost - used);
+            }
+            Err(e) => {
+                *chain = backup;
+                return Err(e);
+            }
         }
         chain.write_positions(&mut ws.pos);
     }
