@@ -45,6 +45,7 @@ if [ "$QUICK" = 1 ]; then
   LOAD_SECONDS=1
   AB_ROUNDS=1
   DEVICE_RUNS=1
+  DEVICE_FRAME_RUNS=1
   export DEVICE_BENCH_LINKS=40 DEVICE_BENCH_ONLY=square-held
 else
   LATENCY_ARGS=""
@@ -52,6 +53,7 @@ else
   AB_ROUNDS=3
   # Perturbed runs per row of the device sweep (the 16 take about three hours here).
   DEVICE_RUNS=${DEVICE_RUNS:-4}
+  DEVICE_FRAME_RUNS=${DEVICE_FRAME_RUNS:-2}
   LANG_ARGS=""
   SWEEP_ARGS=""
 fi
@@ -113,6 +115,10 @@ block ab-contact-rope "scripts/ab-contact.sh b0fd115 $AB_ROUNDS" \
   scripts/ab-contact.sh b0fd115 "$AB_ROUNDS"
 block device "DEVICE_BENCH_RUNS=$DEVICE_RUNS cargo bench -p clients --bench device" \
   env DEVICE_BENCH_RUNS="$DEVICE_RUNS" cargo bench -q -p clients --bench device
+# What a frame buys: the sweep of the square and surgeon's knots at a quarter and four times it.
+FRAME_ONLY=${DEVICE_BENCH_ONLY:-square-held,surgeons-knot}
+block device-frames "DEVICE_BENCH_RUNS=$DEVICE_FRAME_RUNS DEVICE_BENCH_ONLY=$FRAME_ONLY DEVICE_BENCH_FRAME=4000|64000 cargo bench -p clients --bench device" \
+  bash -c "for f in 4000 64000; do DEVICE_BENCH_RUNS=$DEVICE_FRAME_RUNS DEVICE_BENCH_ONLY=$FRAME_ONLY DEVICE_BENCH_FRAME=\$f cargo bench -q -p clients --bench device || exit 1; echo; done"
 block tighten "cargo bench -p clients --bench tighten" \
   cargo bench -q -p clients --bench tighten
 block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p world --bench knots" \

@@ -12,11 +12,16 @@
 //! time per request (`solve_ns`, every request of every run) at p50, p99, p99.9 and max beside the
 //! frame; and the proxy's lag (how far the moved joint was from the hand's position, each hand's
 //! p50, p99 and max as it reports them: their median, and the largest p99 and max over the runs).
-//! The machine's noise is not probed here: the contact bench prints it for the same machine.
+//! The machine's noise (sleep lateness and busy-loop gaps on each core, nothing of ours running)
+//! is measured first and printed above the table.
 //!
 //! The binaries must be built first (`cargo build --release --bins`; `scripts/bench-report.sh` does).
 //! `DEVICE_BENCH_RUNS` (default 16) sets the runs per row; `DEVICE_BENCH_LINKS=40,80` keeps the rows
-//! of those resolutions; `DEVICE_BENCH_ONLY=square-held` those of the scripts named.
+//! of those resolutions; `DEVICE_BENCH_ONLY=square-held` those of the scripts named;
+//! `DEVICE_BENCH_FRAME=4000` runs the service with that frame (`--frame`, link-steps) instead of its
+//! default (16,000), to show what a frame buys; `DEVICE_BENCH_TIGHTEN=0.05` then tightens every
+//! knot tied, the device hands pulling their ends at that many units per request (`hand run
+//! --tighten`), and reports the knotted stretch against its ideal.
 
 use anyhow::{Context, Result, bail};
 use clients::process::{Proc, release_bin, workspace};
@@ -72,9 +77,37 @@ struct Run {
     knot: String,
     strands_unknotted: bool,
     lags: Vec<[f64; 3]>,
+    /// The knotted stretch after tightening, in rope diameters (`hand --identify`'s line).
+    stretch: Option<f64>,
 }
 
-fn run_once(script: &str, chain: &str, seed: u64, dir: &Path, scene: &Path) -> Result<Run> {
+/// The knotted stretch an open knot of `knot` tightens to, in rope diameters: the trefoil's ideal
+/// (about 10.1, Katritch et al. 1996; `docs/knots.md`), and twice it for the knots of two throws
+/// (square, granny, surgeon's) until a better reference is measured.
+fn ideal(knot: &str) -> f64 {
+    match knot {
+        "trefoil" => 10.1,
+        _ => 20.2,
+    }
+}
+
+/// The diameters of a "knotted stretch: ..., X diameters" line.
+fn stretch_of(line: &str) -> Option<f64> {
+    let rest = line.strip_prefix("knotted stretch: ")?;
+    rest.rsplit(", ")
+        .next()?
+        .strip_suffix(" diameters")?
+        .parse()
+        .ok()
+}
+
+fn run_once(
+    script: &str,
+    chain: &str,
+    seed: u64,
+    dir: &Path,
+    (scene, frame, tighten): (&Path, Option<u64>, Option<f64>),
+) -> Result<Run> {
     let hands: Vec<String> = {
         let s = Script::builtin(script).context("no such built-in script")?;
         let mut h: Vec<String> = s.turn.iter().map(|t| t.hand.clone()).collect();
@@ -91,6 +124,9 @@ fn run_once(script: &str, chain: &str, seed: u64, dir: &Path, scene: &Path) -> R
         "--pin",
         "0",
     ]);
+    if let Some(f) = frame {
+        svc.args(["--frame", &f.to_string()]);
+    }
     svc.stderr(Stdio::null());
     let mut svc = Proc::ready(svc, "solver-service")?;
     let started = Instant::now();
@@ -109,6 +145,12 @@ fn run_once(script: &str, chain: &str, seed: u64, dir: &Path, scene: &Path) -> R
                 "300",
             ])
             .args(["--perturb", &seed.to_string()])
+            .args(
+                tighten
+                    .map(|t| ["--tighten".to_string(), t.to_string()])
+                    .into_iter()
+                    .flatten(),
+            )
             .arg("--timings")
             .arg(&timings)
             .stdout(std::fs::File::create(&out)?)
@@ -124,6 +166,7 @@ fn run_once(script: &str, chain: &str, seed: u64, dir: &Path, scene: &Path) -> R
         knot: "?".into(),
         strands_unknotted: false,
         lags: Vec::new(),
+        stretch: None,
     };
     for (child, timings, out) in &mut children {
         let status = loop {
@@ -151,6 +194,9 @@ fn run_once(script: &str, chain: &str, seed: u64, dir: &Path, scene: &Path) -> R
         for l in out.lines() {
             if let Some(k) = l.strip_prefix("knot: ") {
                 run.knot = k.split_whitespace().next().unwrap_or("?").to_string();
+            }
+            if let Some(d) = stretch_of(l) {
+                run.stretch = Some(d);
             }
             if l.starts_with("strands cut at joint") {
                 run.strands_unknotted = l.contains("each strand alone unknotted");
@@ -199,23 +245,55 @@ fn main() -> Result<()> {
     let only: Option<Vec<String>> = std::env::var("DEVICE_BENCH_ONLY")
         .ok()
         .map(|v| v.split(',').map(|s| s.trim().to_string()).collect());
+    let frame: Option<u64> = std::env::var("DEVICE_BENCH_FRAME")
+        .ok()
+        .and_then(|v| v.parse().ok());
+    let tighten: Option<f64> = std::env::var("DEVICE_BENCH_TIGHTEN")
+        .ok()
+        .and_then(|v| v.parse().ok());
+    let frame_text = frame.map_or(
+        "the service's default frame (16,000 link-steps, 1 ms)".to_string(),
+        |f| format!("a frame of {f} link-steps (`--frame {f}`; the default is 16,000, 1 ms)"),
+    );
     let root = workspace();
     let scene = root.join("solver-service/scenes/knots.toml");
     let dir = tempfile::tempdir()?;
-    println!("### The device sweep\n");
+    // The machine's noise beside which the max column is read (as the contact bench prints it).
+    clients::latency_bench::noise(&mut std::io::stdout(), 2000, 1.0)?;
+    println!();
+    match frame {
+        Some(f) => println!("### The device sweep at a frame of {f} link-steps\n"),
+        None => println!("### The device sweep\n"),
+    }
     println!(
         "Both hands in device mode (1 kHz, 10 units/s, tremor on, never halved or retried) on \
-         `knots.toml` at the service's default frame (16,000 link-steps, 1 ms), {runs} perturbed \
+         `knots.toml` at {frame_text}, {runs} perturbed \
          runs per row (seeds 1..={runs}). *right knot*: the runs whose knot is the script's, for the \
          square, granny and surgeon's knots with each strand, cut at the stitch, unknotted. *solve*: the service's own time per request over every \
          request of every run (µs). *lag*: how far the moved joint was from the hand's position \
-         (units; rope thickness 0.2): the median of the hands' p50, the largest p99 and max.\n"
+         (units; rope thickness 0.2): the median of the hands' p50, the largest p99 and max.{}\n",
+        tighten.map_or(String::new(), |t| format!(
+            " Then both hands tighten the knot as devices (`--tighten {t}`, every request of it \
+             counted in *solve* and *lag*); *right knot* and *knots tied* are after it. \
+             *stretch ÷ ideal*: the knotted stretch in rope diameters over the open knot's \
+             ideal (trefoil 10.1, the knots of two throws twice that, 20.2), the median and the \
+             largest over the runs with the right knot."
+        ))
     );
+    let extra = if tighten.is_some() {
+        (" | stretch ÷ ideal p50 | max", "|---:|---:")
+    } else {
+        ("", "")
+    };
     println!(
         "| script | chain | links | right knot | knots tied | requests | solve p50 µs | p99 | p99.9 | max \
-         | lag p50 | lag p99 | lag max |"
+         | lag p50 | lag p99 | lag max{} |",
+        extra.0
     );
-    println!("|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!(
+        "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:{}|",
+        extra.1
+    );
     for &(script, want, chains) in SCRIPTS {
         if only
             .as_ref()
@@ -230,13 +308,18 @@ fn main() -> Result<()> {
             let mut solve = Vec::new();
             let (mut right, mut names) = (0, Vec::<String>::new());
             let mut lags: Vec<[f64; 3]> = Vec::new();
+            let mut stretches: Vec<f64> = Vec::new();
             for seed in 1..=runs {
-                match run_once(script, chain, seed, dir.path(), &scene) {
+                match run_once(script, chain, seed, dir.path(), (&scene, frame, tighten)) {
                     Ok(r) => {
                         // Two-strand knots: each strand alone unknotted too (one throw, an
                         // overhand over the stitch, is in one strand).
                         let two = matches!(want, "square" | "granny" | "surgeons");
-                        right += usize::from(r.knot == want && (r.strands_unknotted || !two));
+                        let good = r.knot == want && (r.strands_unknotted || !two);
+                        right += usize::from(good);
+                        if good && let Some(d) = r.stretch {
+                            stretches.push(d / ideal(want));
+                        }
                         names.push(r.knot);
                         solve.extend(r.solve_ns);
                         lags.extend(r.lags);
@@ -261,8 +344,20 @@ fn main() -> Result<()> {
             let mut p50: Vec<f64> = lags.iter().map(|l| l[0]).collect();
             p50.sort_by(f64::total_cmp);
             let worst = |i: usize| lags.iter().map(|l| l[i]).fold(f64::NAN, f64::max);
+            stretches.sort_by(f64::total_cmp);
+            let stretch = if tighten.is_none() {
+                String::new()
+            } else if stretches.is_empty() {
+                " | – | –".to_string()
+            } else {
+                format!(
+                    " | {:.2} | {:.2}",
+                    stretches[(stretches.len() - 1) / 2],
+                    stretches[stretches.len() - 1]
+                )
+            };
             println!(
-                "| `{script}` | `{chain}` | {n} | {right} of {runs} | {tied} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} | {:.3} |",
+                "| `{script}` | `{chain}` | {n} | {right} of {runs} | {tied} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} | {:.3}{stretch} |",
                 solve.len(),
                 pct(&solve, 0.5),
                 pct(&solve, 0.99),

@@ -62,7 +62,9 @@ enum Cmd {
         /// at `--rate`, each request the hand's position at the first sample after the previous
         /// answer (a late answer skips samples), never halved or sent again, the tremor always on;
         /// at a turn's end the hand holds still until its joint is within `--settle` of it (or
-        /// `--settle-timeout`). Tightening pulls and instrument turns are played as without it.
+        /// `--settle-timeout`). A tightening pull moves on at the hand's speed, waits while two rope
+        /// thicknesses ahead of its joint and stops where the rope stops the joint; instrument turns
+        /// are played as without it.
         #[arg(long)]
         device: bool,
         /// With `--device`: the hand's speed along its path, length units per second.
