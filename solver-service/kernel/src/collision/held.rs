@@ -41,7 +41,7 @@ where
     // held sides, the links from the joint to the nearest held joint each way) before it runs, and
     // given back what its iterations did not use after; the free sides' sweeps, the copy back and
     // the closing are one pass over the rope.
-    let (held_cost, per_iteration, sweep) = held_charges(chain, joint, opts);
+    let charge = HeldCharge::of(chain, joint, opts);
     // The displacement guard (with `solve_contacts_together`: a pull): a held side's solve and the
     // re-solves between fixed joints can move a joint much farther than the hand, and a joint that
     // jumps more than half the smallest clearance in one substep can carry its link through another
@@ -70,7 +70,7 @@ where
                 (hand, 0)
             }
         };
-        if !ws.meter.charge(held_cost) {
+        if !ws.meter.charge(charge.bound) {
             let e = ws.meter.over(s);
             return stop_here(chain, backup, None, outcome, e, (last_whole, k), ws.frame);
         }
@@ -81,11 +81,7 @@ where
             Ok(o) => {
                 outcome.paper_fallbacks = outcome.paper_fallbacks.saturating_add(o.paper_fallbacks);
                 outcome.held_iterations = outcome.held_iterations.saturating_add(o.held_iterations);
-                let used = per_iteration
-                    .saturating_mul(u64::from(o.held_iterations))
-                    .saturating_add(sweep)
-                    .min(held_cost);
-                ws.meter.refund(held_cost - used);
+                ws.meter.refund(charge.unused(o.held_iterations));
             }
             Err(e) => {
                 let made = Some(piece_backup);
@@ -138,30 +134,51 @@ where
     Ok(outcome)
 }
 
-/// What one substep of a move of `joint` with holds is charged before it runs, in meter units: the
-/// bound of its held sides' iterations (each side solved on its own, an iteration a pass over the
-/// longer side) and one pass over the rope; with what an iteration and that pass cost, for the
-/// refund after it ran.
-fn held_charges<T: Real, const D: usize>(
-    chain: &Chain<T, D>,
-    joint: usize,
-    opts: &MoveOptions<T>,
-) -> (u64, u64, u64)
-where
-    Vector<T, D>: Embed3<T>,
-{
-    let (lo, hi) = chain.held_around(joint);
-    let sides = [lo.map(|h| joint - h), hi.map(|h| h - joint)];
-    let longest = sides.iter().flatten().copied().max().unwrap_or(0) as u64;
-    let count = sides.iter().flatten().count() as u64;
-    let per_iteration = longest.saturating_mul(cost::LINK_STEP);
-    let sweep = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
-    let bound = opts.held.passes_bound(chain.joint_limits().is_some());
-    let held_cost = per_iteration
-        .saturating_mul(bound)
-        .saturating_mul(count)
-        .saturating_add(sweep);
-    (held_cost, per_iteration, sweep)
+/// What one substep of a move of `joint` with holds is charged, in meter units: before it runs,
+/// the bound of its held sides' iterations (each side solved on its own, an iteration a pass over
+/// the longer side) and one pass over the rope; after it ran, what its iterations used.
+#[derive(Clone, Copy, Debug)]
+struct HeldCharge {
+    /// The charge before the substep runs: `per_iteration × passes bound × sides + sweep`.
+    bound: u64,
+    /// One held iteration: a pass over the longer held side.
+    per_iteration: u64,
+    /// One pass over the whole rope (the free sides' sweeps, the copy back and the closing).
+    sweep: u64,
+}
+
+impl HeldCharge {
+    fn of<T: Real, const D: usize>(chain: &Chain<T, D>, joint: usize, opts: &MoveOptions<T>) -> Self
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        let (lo, hi) = chain.held_around(joint);
+        let sides = [lo.map(|h| joint - h), hi.map(|h| h - joint)];
+        let longest = sides.iter().flatten().copied().max().unwrap_or(0) as u64;
+        let count = sides.iter().flatten().count() as u64;
+        let per_iteration = longest.saturating_mul(cost::LINK_STEP);
+        let sweep = (chain.n_links() as u64).saturating_mul(cost::LINK_STEP);
+        let passes = opts.held.passes_bound(chain.joint_limits().is_some());
+        let bound = per_iteration
+            .saturating_mul(passes)
+            .saturating_mul(count)
+            .saturating_add(sweep);
+        Self {
+            bound,
+            per_iteration,
+            sweep,
+        }
+    }
+
+    /// What a substep whose held sides ran `iterations` gives back of its bound.
+    fn unused(&self, iterations: u32) -> u64 {
+        let used = self
+            .per_iteration
+            .saturating_mul(u64::from(iterations))
+            .saturating_add(self.sweep)
+            .min(self.bound);
+        self.bound - used
+    }
 }
 
 /// A move that resumes the substep a move before it recorded ([`resume_held`]): the substep
@@ -350,18 +367,14 @@ where
         // move, charged as a substep's), the passes go on from it.
         u.target.clear();
         u.target.push(target);
-        let (held_cost, per_iteration, sweep) = held_charges(chain, joint, one);
-        if !ws.meter.charge(held_cost) {
+        let charge = HeldCharge::of(chain, joint, one);
+        if !ws.meter.charge(charge.bound) {
             *chain = backup;
             return Err(ws.meter.over(1));
         }
         match crate::hold::move_held(chain, joint, target, one) {
             Ok(o) => {
-                let used = per_iteration
-                    .saturating_mul(u64::from(o.held_iterations))
-                    .saturating_add(sweep)
-                    .min(held_cost);
-                ws.meter.refund(held_cost - used);
+                ws.meter.refund(charge.unused(o.held_iterations));
             }
             Err(e) => {
                 *chain = backup;
