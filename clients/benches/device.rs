@@ -5,7 +5,8 @@
 //! `solver-service` on the shipped `knots.toml` (its default frame: 1 ms of work per request), pinned
 //! to core 0 and waiting on events, and the script's `hand` processes in device mode (`hand run
 //! --device`: sampled at 1 kHz at 10 units per second, each request the hand's position when the
-//! previous answer came, never halved, repeated or retried, tremor on; `--perturb SEED` changes the
+//! previous answer came, never halved, repeated or retried, tremor on, held by the coupling's pull
+//! while two rope thicknesses ahead of its joint; `--perturb SEED` changes the
 //! turns, one seed per run). Per row: the runs whose knot is the script's and, for the two-strand
 //! knots (square, granny, surgeon's), whose two strands cut at the stitch are each unknotted (as the
 //! hand's `--identify` names them); the service's own
@@ -21,7 +22,9 @@
 //! `DEVICE_BENCH_FRAME=4000` runs the service with that frame (`--frame`, link-steps) instead of its
 //! default (16,000), to show what a frame buys; `DEVICE_BENCH_TIGHTEN=0.05` then tightens every
 //! knot tied, the device hands pulling their ends at that many units per request (`hand run
-//! --tighten`), and reports the knotted stretch against its ideal.
+//! --tighten`), and reports the knotted stretch against its ideal; `DEVICE_BENCH_FEEL=inf` plays the
+//! hands without force feedback (`hand run --feel`, default 2 rope thicknesses: how far ahead of
+//! its joint a hand gets before the coupling's pull holds it).
 
 use anyhow::{Context, Result, bail};
 use clients::process::{Proc, release_bin, workspace};
@@ -79,6 +82,8 @@ struct Run {
     lags: Vec<[f64; 3]>,
     /// The knotted stretch after tightening, in rope diameters (`hand --identify`'s line).
     stretch: Option<f64>,
+    /// From the service's start to the last hand's end, seconds.
+    seconds: f64,
 }
 
 /// The knotted stretch an open knot of `knot` tightens to, in rope diameters: the trefoil's ideal
@@ -106,7 +111,7 @@ fn run_once(
     chain: &str,
     seed: u64,
     dir: &Path,
-    (scene, frame, tighten): (&Path, Option<u64>, Option<f64>),
+    (scene, frame, tighten, feel): (&Path, Option<u64>, Option<f64>, Option<f64>),
 ) -> Result<Run> {
     let hands: Vec<String> = {
         let s = Script::builtin(script).context("no such built-in script")?;
@@ -151,6 +156,11 @@ fn run_once(
                     .into_iter()
                     .flatten(),
             )
+            .args(
+                feel.map(|f| ["--feel".to_string(), f.to_string()])
+                    .into_iter()
+                    .flatten(),
+            )
             .arg("--timings")
             .arg(&timings)
             .stdout(std::fs::File::create(&out)?)
@@ -167,6 +177,7 @@ fn run_once(
         strands_unknotted: false,
         lags: Vec::new(),
         stretch: None,
+        seconds: 0.0,
     };
     for (child, timings, out) in &mut children {
         let status = loop {
@@ -208,6 +219,7 @@ fn run_once(
             }
         }
     }
+    run.seconds = started.elapsed().as_secs_f64();
     svc.stop();
     Ok(run)
 }
@@ -251,6 +263,19 @@ fn main() -> Result<()> {
     let tighten: Option<f64> = std::env::var("DEVICE_BENCH_TIGHTEN")
         .ok()
         .and_then(|v| v.parse().ok());
+    let feel: Option<f64> = std::env::var("DEVICE_BENCH_FEEL")
+        .ok()
+        .and_then(|v| v.parse().ok());
+    let feel_text = match feel {
+        Some(f) if f.is_infinite() => "without force feedback: each hand walks its path at its \
+             speed whatever the rope does (`--feel inf`)"
+            .to_string(),
+        f => format!(
+            "each hand held by the coupling's pull while more than {} rope thicknesses ahead of \
+             its joint (`--feel`)",
+            f.unwrap_or(clients::hand::FEEL)
+        ),
+    };
     let frame_text = frame.map_or(
         "the service's default frame (16,000 link-steps, 1 ms)".to_string(),
         |f| format!("a frame of {f} link-steps (`--frame {f}`; the default is 16,000, 1 ms)"),
@@ -261,17 +286,23 @@ fn main() -> Result<()> {
     // The machine's noise beside which the max column is read (as the contact bench prints it).
     clients::latency_bench::noise(&mut std::io::stdout(), 2000, 1.0)?;
     println!();
+    let without = if feel.is_some_and(f64::is_infinite) {
+        " without force feedback"
+    } else {
+        ""
+    };
     match frame {
-        Some(f) => println!("### The device sweep at a frame of {f} link-steps\n"),
-        None => println!("### The device sweep\n"),
+        Some(f) => println!("### The device sweep{without} at a frame of {f} link-steps\n"),
+        None => println!("### The device sweep{without}\n"),
     }
     println!(
-        "Both hands in device mode (1 kHz, 10 units/s, tremor on, never halved or retried) on \
-         `knots.toml` at {frame_text}, {runs} perturbed \
+        "Both hands in device mode (1 kHz, 10 units/s, tremor on, never halved or retried), \
+         {feel_text}, on `knots.toml` at {frame_text}, {runs} perturbed \
          runs per row (seeds 1..={runs}). *right knot*: the runs whose knot is the script's, for the \
          square, granny and surgeon's knots with each strand, cut at the stitch, unknotted. *solve*: the service's own time per request over every \
          request of every run (µs). *lag*: how far the moved joint was from the hand's position \
-         (units; rope thickness 0.2): the median of the hands' p50, the largest p99 and max.{}\n",
+         (units; rope thickness 0.2): the median of the hands' p50, the largest p99 and max. \
+         *tie s*: from the service's start to the last hand's end, the median run (seconds).{}\n",
         tighten.map_or(String::new(), |t| format!(
             " Then both hands tighten the knot as devices (`--tighten {t}`, every request of it \
              counted in *solve* and *lag*); *right knot* and *knots tied* are after it. \
@@ -287,11 +318,11 @@ fn main() -> Result<()> {
     };
     println!(
         "| script | chain | links | right knot | knots tied | requests | solve p50 µs | p99 | p99.9 | max \
-         | lag p50 | lag p99 | lag max{} |",
+         | lag p50 | lag p99 | lag max | tie s{} |",
         extra.0
     );
     println!(
-        "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:{}|",
+        "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:{}|",
         extra.1
     );
     for &(script, want, chains) in SCRIPTS {
@@ -309,8 +340,15 @@ fn main() -> Result<()> {
             let (mut right, mut names) = (0, Vec::<String>::new());
             let mut lags: Vec<[f64; 3]> = Vec::new();
             let mut stretches: Vec<f64> = Vec::new();
+            let mut seconds: Vec<f64> = Vec::new();
             for seed in 1..=runs {
-                match run_once(script, chain, seed, dir.path(), (&scene, frame, tighten)) {
+                match run_once(
+                    script,
+                    chain,
+                    seed,
+                    dir.path(),
+                    (&scene, frame, tighten, feel),
+                ) {
                     Ok(r) => {
                         // Two-strand knots: each strand alone unknotted too (one throw, an
                         // overhand over the stitch, is in one strand).
@@ -321,6 +359,7 @@ fn main() -> Result<()> {
                             stretches.push(d / ideal(want));
                         }
                         names.push(r.knot);
+                        seconds.push(r.seconds);
                         solve.extend(r.solve_ns);
                         lags.extend(r.lags);
                     }
@@ -345,6 +384,11 @@ fn main() -> Result<()> {
             p50.sort_by(f64::total_cmp);
             let worst = |i: usize| lags.iter().map(|l| l[i]).fold(f64::NAN, f64::max);
             stretches.sort_by(f64::total_cmp);
+            seconds.sort_by(f64::total_cmp);
+            let tie_s = seconds
+                .get(seconds.len().saturating_sub(1) / 2)
+                .copied()
+                .unwrap_or(f64::NAN);
             let stretch = if tighten.is_none() {
                 String::new()
             } else if stretches.is_empty() {
@@ -357,7 +401,7 @@ fn main() -> Result<()> {
                 )
             };
             println!(
-                "| `{script}` | `{chain}` | {n} | {right} of {runs} | {tied} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} | {:.3}{stretch} |",
+                "| `{script}` | `{chain}` | {n} | {right} of {runs} | {tied} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} | {:.3} | {tie_s:.0}{stretch} |",
                 solve.len(),
                 pct(&solve, 0.5),
                 pct(&solve, 0.99),

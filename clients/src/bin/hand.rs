@@ -62,9 +62,10 @@ enum Cmd {
         /// at `--rate`, each request the hand's position at the first sample after the previous
         /// answer (a late answer skips samples), never halved or sent again, the tremor always on;
         /// at a turn's end the hand holds still until its joint is within `--settle` of it (or
-        /// `--settle-timeout`). A tightening pull moves on at the hand's speed, waits while two rope
-        /// thicknesses ahead of its joint and stops where the rope stops the joint; instrument turns
-        /// are played as without it.
+        /// `--settle-timeout`). The hand moves on at its speed while within `--feel` rope thicknesses
+        /// of its joint, and is held there by the coupling's pull while the rope catches up; a
+        /// tightening pull stops where the rope stops the joint; instrument turns are played as
+        /// without it.
         #[arg(long)]
         device: bool,
         /// With `--device`: the hand's speed along its path, length units per second.
@@ -76,6 +77,11 @@ enum Cmd {
         /// With `--device`: the longest wait at a turn's end for the joint, seconds.
         #[arg(long, default_value_t = 2.0, requires = "device")]
         settle_timeout: f64,
+        /// With `--device`: how far ahead of its joint, in rope thicknesses, the person's hand gets
+        /// before the virtual coupling's pull holds it back (the force a person at the device
+        /// feels); positive, `inf` for a device without force feedback (the script played open loop).
+        #[arg(long, default_value_t = clients::hand::FEEL, requires = "device")]
+        feel: f64,
         /// Override the script's longest hand motion per request.
         #[arg(long)]
         max_step: Option<f64>,
@@ -184,6 +190,7 @@ fn run(a: Args) -> Result<u8> {
             speed,
             settle,
             settle_timeout,
+            feel,
             max_step,
             chain,
             record,
@@ -249,15 +256,18 @@ fn run(a: Args) -> Result<u8> {
                         && settle.is_finite()
                         && settle > 0.0
                         && settle_timeout.is_finite()
-                        && settle_timeout >= 0.0;
+                        && settle_timeout >= 0.0
+                        && feel > 0.0;
                     ok.then(|| clients::hand::DeviceOptions {
                         rate_hz: rate,
                         speed,
                         settle,
                         settle_timeout: Duration::from_secs_f64(settle_timeout),
+                        feel,
                     })
                     .context(
-                        "--device needs a positive --rate, --speed and --settle and a --settle-timeout ≥ 0",
+                        "--device needs a positive --rate, --speed, --settle and --feel and a \
+                         --settle-timeout ≥ 0",
                     )
                 })
                 .transpose()?;
@@ -291,13 +301,15 @@ fn run(a: Args) -> Result<u8> {
                 let lag = |q| d.lag(q).map_or("-".to_string(), |l| format!("{l:.4}"));
                 println!(
                     "hand {hand}: device: {} samples sent, {} skipped while waiting for answers; the \
-                     joint's lag behind the hand p50 {} / p99 {} / max {}; {} turns unsettled",
+                     joint's lag behind the hand p50 {} / p99 {} / max {}; {} turns unsettled; \
+                     held by the coupling {} ticks",
                     d.sent,
                     d.skipped,
                     lag(0.5),
                     lag(0.99),
                     lag(1.0),
-                    d.unsettled
+                    d.unsettled,
+                    d.held
                 );
             }
             if let Some(path) = &timings {

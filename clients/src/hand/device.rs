@@ -2,16 +2,21 @@
 //! hand's speed and sampled at the device's rate, each request the hand's position at the first
 //! sample after the previous answer arrived (a late answer skips the samples in between), never
 //! halved or sent again, tremor on; at the end of the path the hand holds still, as a person waits,
-//! until its joint is within a tolerance of where the hand is, or a timeout. A tightening turn
-//! pulls as a person does: the hand moves away from the knot at its speed whatever the rope does,
-//! the joint following as far as each answer lets it (the proxy); the hand waits while it is
-//! [`FEEL`] rope thicknesses ahead of its joint, and stops when the rope stops the joint there
-//! (taut, jammed: the pull the person feels) or the rope gives no direction.
+//! until its joint is within a tolerance of where the hand is, or a timeout.
+//!
+//! The person feels the proxy: the held joint is the proxy of the hand, and the virtual coupling
+//! pulls the hand toward it with a force that grows with the distance between them (the pull the
+//! service reports). A person pushing with a bounded force gets no farther ahead of the joint
+//! than [`DeviceOptions::feel`] rope thicknesses (that force over the coupling's stiffness): there
+//! the hand stops advancing along its path, its tremor aside, until the joint catches up; it is
+//! never sent back, and a sample is never repeated. A tightening turn pulls as a person does: the
+//! hand moves away from the knot at its speed, held the same way, and stops when the rope stops the
+//! joint there (taut, jammed: the pull the person feels) or the rope gives no direction.
 
 use super::*;
 
-/// How far ahead of its joint, in rope thicknesses, a device's tightening hand goes before the
-/// person feels the knot tight and stops pulling.
+/// How far ahead of its joint, in rope thicknesses, a device's hand gets before the coupling's pull
+/// holds it (the default of [`DeviceOptions::feel`]).
 pub const FEEL: f64 = 2.0;
 
 /// How a device plays a hand's turns.
@@ -27,6 +32,18 @@ pub struct DeviceOptions {
     /// The longest a hand waits at the end of a turn for its joint (default 2 s); a turn that runs
     /// out of it is counted in [`DeviceReport::unsettled`].
     pub settle_timeout: Duration,
+    /// How far ahead of its joint, in rope thicknesses, the hand gets before the coupling's pull
+    /// holds it: positive, default [`FEEL`]; `f64::INFINITY` for a device without force feedback
+    /// (the path walked at its speed whatever the rope does).
+    pub feel: f64,
+}
+
+impl DeviceOptions {
+    /// Whether a hand `lag` length units from its joint (`None`: not known yet) on a rope
+    /// `thickness` thick moves on along its path: it does while within the feel.
+    pub fn moves_on(&self, lag: Option<f64>, thickness: f64) -> bool {
+        self.feel == f64::INFINITY || lag.is_none_or(|l| l.is_nan() || l <= self.feel * thickness)
+    }
 }
 
 /// What the device saw of its requests.
@@ -42,6 +59,8 @@ pub struct DeviceReport {
     pub lags: Vec<f64>,
     /// Turns whose joint did not come within [`DeviceOptions::settle`] of the hand in time.
     pub unsettled: u64,
+    /// Ticks the hand spent held by the coupling ([`DeviceOptions::feel`]), not advancing.
+    pub held: u64,
 }
 
 impl DeviceReport {
@@ -134,8 +153,19 @@ impl TurnRun<'_> {
         flags: u32,
     ) -> anyhow::Result<()> {
         let path = DevicePath::new(start, targets);
+        let thickness = if d.feel.is_finite() {
+            let r = self
+                .conn
+                .call(RequestHeader::new(Command::Describe, self.chain), &[])?;
+            r.header.thickness
+        } else {
+            0.0
+        };
         let t0 = Instant::now();
         let mut tick = 0u64;
+        // How far along its path the hand is, and the proxy's lag at the last answer with joints.
+        let mut along = 0.0f64;
+        let mut felt: Option<f64> = None;
         let mut settling: Option<Instant> = None;
         loop {
             if self.conn.node().wait(Duration::ZERO).is_err() {
@@ -143,13 +173,18 @@ impl TurnRun<'_> {
             }
             let next = next_tick(t0.elapsed().as_secs_f64(), d.rate_hz, tick);
             self.report.device.skipped += next - tick - 1;
+            if d.moves_on(felt, thickness) {
+                along += d.speed * (next - tick) as f64 / d.rate_hz;
+            } else {
+                self.report.device.held += next - tick;
+            }
             tick = next;
             let due = t0 + Duration::from_secs_f64(tick as f64 / d.rate_hz);
             let now = Instant::now();
             if due > now {
                 std::thread::sleep(due - now);
             }
-            let (at, k) = path.at(d.speed * tick as f64 / d.rate_hz);
+            let (at, k) = path.at(along);
             let t = tremor.apply(at);
             let rotation = rotations.and_then(|r| r.get(k).copied());
             let mut h = RequestHeader::new(Command::Move, self.chain);
@@ -187,13 +222,14 @@ impl TurnRun<'_> {
             let lag = reached.map(|r| knots::vec3::dist(r, t));
             if let Some(lag) = lag {
                 self.report.device.lags.push(lag);
+                felt = Some(lag);
             }
             if let (Some(dr), Some(tl)) = (draw, tail)
                 && tl <= dr.tail
             {
                 return Ok(()); // the tail is left: the draw ends here
             }
-            if d.speed * tick as f64 / d.rate_hz < path.length() {
+            if along < path.length() {
                 continue;
             }
             // At the end of the path the hand holds still (its tremor aside) until the joint is
@@ -258,10 +294,12 @@ impl TurnRun<'_> {
                 out.why = "stopped";
                 break;
             };
-            // Ahead of its joint by the feel, the hand waits for the rope (the drag of a knot the
-            // service resolves over several frames); else it moves on at its speed.
-            if dist(hand, rope[idx]) <= FEEL * thickness {
+            // Ahead of its joint by the feel, the hand is held by the coupling (the drag of a knot
+            // the service resolves over several frames); else it moves on at its speed.
+            if d.moves_on(Some(dist(hand, rope[idx])), thickness) {
                 hand = add(hand, scale(away, d.speed * moved as f64 / d.rate_hz));
+            } else {
+                self.report.device.held += moved;
             }
             let t = tremor.apply(hand);
             let mut h = RequestHeader::new(Command::Move, self.chain);
@@ -310,7 +348,8 @@ impl TurnRun<'_> {
             } else {
                 0
             };
-            let resists = lag > FEEL * thickness && stop.is_some_and(|s| s != PullStop::Work);
+            let resists =
+                !d.moves_on(Some(lag), thickness) && stop.is_some_and(|s| s != PullStop::Work);
             if resists || still > knots::script::PULL_WAITS {
                 out.why = why_of(stop);
                 break;
@@ -344,6 +383,26 @@ mod tests {
         assert_eq!(p.at(1.0), ([1.0, 0.0, 0.0], 0));
         assert_eq!(p.at(2.0), ([1.0, 1.0, 0.0], 1));
         assert_eq!(p.at(9.0), ([1.0, 2.0, 0.0], 1));
+    }
+
+    #[test]
+    fn the_hand_moves_on_within_the_feel_and_is_held_beyond_it() {
+        let d = DeviceOptions {
+            rate_hz: 1000.0,
+            speed: 10.0,
+            settle: 0.05,
+            settle_timeout: Duration::from_secs(2),
+            feel: 2.0,
+        };
+        // A rope 0.2 thick: held beyond 0.4 units ahead of its joint.
+        assert!(d.moves_on(None, 0.2));
+        assert!(d.moves_on(Some(0.4), 0.2));
+        assert!(!d.moves_on(Some(0.41), 0.2));
+        let open = DeviceOptions {
+            feel: f64::INFINITY,
+            ..d
+        };
+        assert!(open.moves_on(Some(1e9), 0.0));
     }
 
     #[test]

@@ -21,7 +21,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 pub mod device;
 mod lines;
 mod replay;
-pub use device::{DeviceOptions, DeviceReport};
+pub use device::{DeviceOptions, DeviceReport, FEEL};
 pub use lines::*;
 pub use replay::*;
 
