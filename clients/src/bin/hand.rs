@@ -302,14 +302,15 @@ fn run(a: Args) -> Result<u8> {
                 println!(
                     "hand {hand}: device: {} samples sent, {} skipped while waiting for answers; the \
                      joint's lag behind the hand p50 {} / p99 {} / max {}; {} turns unsettled; \
-                     held by the coupling {} ticks",
+                     held by the coupling {} ticks, pushed through it {} times",
                     d.sent,
                     d.skipped,
                     lag(0.5),
                     lag(0.99),
                     lag(1.0),
                     d.unsettled,
-                    d.held
+                    d.held,
+                    d.pushed
                 );
             }
             if let Some(path) = &timings {

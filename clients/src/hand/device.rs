@@ -61,6 +61,8 @@ pub struct DeviceReport {
     pub unsettled: u64,
     /// Ticks the hand spent held by the coupling ([`DeviceOptions::feel`]), not advancing.
     pub held: u64,
+    /// Times a hand held longer than [`DeviceOptions::settle_timeout`] pushed on through the pull.
+    pub pushed: u64,
 }
 
 impl DeviceReport {
@@ -166,6 +168,7 @@ impl TurnRun<'_> {
         // How far along its path the hand is, and the proxy's lag at the last answer with joints.
         let mut along = 0.0f64;
         let mut felt: Option<f64> = None;
+        let mut held_since: Option<Instant> = None;
         let mut settling: Option<Instant> = None;
         loop {
             if self.conn.node().wait(Duration::ZERO).is_err() {
@@ -173,10 +176,18 @@ impl TurnRun<'_> {
             }
             let next = next_tick(t0.elapsed().as_secs_f64(), d.rate_hz, tick);
             self.report.device.skipped += next - tick - 1;
-            if d.moves_on(felt, thickness) {
+            // Held longer than the settle timeout (the rope taut or jammed short of the path), the
+            // person pushes on through the pull, as at a turn's end.
+            let pushed = held_since.is_some_and(|h: Instant| h.elapsed() >= d.settle_timeout);
+            if d.moves_on(felt, thickness) || pushed {
                 along += d.speed * (next - tick) as f64 / d.rate_hz;
+                if pushed {
+                    self.report.device.pushed += 1;
+                }
+                held_since = None;
             } else {
                 self.report.device.held += next - tick;
+                held_since.get_or_insert_with(Instant::now);
             }
             tick = next;
             let due = t0 + Duration::from_secs_f64(tick as f64 / d.rate_hz);
