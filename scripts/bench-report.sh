@@ -46,7 +46,7 @@ if [ "$QUICK" = 1 ]; then
   AB_ROUNDS=1
   DEVICE_RUNS=1
   DEVICE_FRAME_RUNS=1
-  export DEVICE_BENCH_LINKS=40 DEVICE_BENCH_ONLY=square-held
+  export DEVICE_BENCH_LINKS=40 DEVICE_BENCH_ONLY=square-held HOSTILE_BENCH_SECONDS=1
 else
   LATENCY_ARGS=""
   LOAD_SECONDS=10
@@ -119,6 +119,8 @@ block device "DEVICE_BENCH_RUNS=$DEVICE_RUNS cargo bench -p clients --bench devi
 FRAME_ONLY=${DEVICE_BENCH_ONLY:-square-held,surgeons-knot}
 block device-frames "DEVICE_BENCH_RUNS=$DEVICE_FRAME_RUNS DEVICE_BENCH_ONLY=$FRAME_ONLY DEVICE_BENCH_FRAME=4000|64000 cargo bench -p clients --bench device" \
   bash -c "for f in 4000 64000; do DEVICE_BENCH_RUNS=$DEVICE_FRAME_RUNS DEVICE_BENCH_ONLY=$FRAME_ONLY DEVICE_BENCH_FRAME=\$f cargo bench -q -p clients --bench device || exit 1; echo; done"
+block hostile "cargo bench -p clients --bench hostile" \
+  cargo bench -q -p clients --bench hostile
 block tighten "cargo bench -p clients --bench tighten" \
   cargo bench -q -p clients --bench tighten
 block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p world --bench knots" \
