@@ -90,10 +90,14 @@ pub fn identify(points: &[Vector3<f64>]) -> KnotReport {
 pub const NAMER_CROSSINGS: usize = 16;
 
 /// Segment pairs a [`Namer`]'s sweep may test per point of the rope in one view.
-pub const NAMER_PAIRS_PER_POINT: usize = 64;
+pub const NAMER_PAIRS_PER_POINT: usize = 16;
 
 /// Crossings a [`Namer`]'s view may have before reduction.
-pub const NAMER_RAW_CROSSINGS: usize = 1024;
+pub const NAMER_RAW_CROSSINGS: usize = 128;
+
+/// A [`Namer`] tries the closures after the first only while the first's smallest reduced diagram
+/// has more crossings than its limit and at most this many times it.
+pub const NAMER_HOPELESS: usize = 2;
 
 /// How many diagrams a [`Namer`] remembers with their names.
 pub const NAMER_MEMORY: usize = 64;
@@ -222,7 +226,10 @@ impl Namer {
                     break;
                 }
             }
-            if best.is_some_and(|b| b <= self.limit) {
+            // Named, or so far from nameable that the other closures would cost more than a
+            // request's frame and find no better (a rope crumpled into a ball: no view of it
+            // within the sweep's budget, or only diagrams far past the limit).
+            if best.is_none_or(|b| b <= self.limit || b > NAMER_HOPELESS * self.limit) {
                 break;
             }
         }
