@@ -27,6 +27,7 @@
 //! its joint a hand gets before the coupling's pull holds it).
 
 use anyhow::{Context, Result, bail};
+use clients::latency_bench::nearest_rank_us;
 use clients::process::{Proc, release_bin, workspace};
 use knots::script::Script;
 use std::path::Path;
@@ -236,15 +237,6 @@ fn lag_of(line: &str) -> Option<[f64; 3]> {
     Some([p50, p99, max])
 }
 
-/// The `q` quantile (nearest rank) of sorted `v`, in µs.
-fn pct(v: &[u64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let k = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
-    v[k] as f64 / 1e3
-}
-
 fn main() -> Result<()> {
     let runs: u64 = std::env::var("DEVICE_BENCH_RUNS")
         .ok()
@@ -403,10 +395,10 @@ fn main() -> Result<()> {
             println!(
                 "| `{script}` | `{chain}` | {n} | {right} of {runs} | {tied} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} | {:.3} | {:.3} | {tie_s:.0}{stretch} |",
                 solve.len(),
-                pct(&solve, 0.5),
-                pct(&solve, 0.99),
-                pct(&solve, 0.999),
-                pct(&solve, 1.0),
+                nearest_rank_us(&solve, 0.5),
+                nearest_rank_us(&solve, 0.99),
+                nearest_rank_us(&solve, 0.999),
+                nearest_rank_us(&solve, 1.0),
                 p50.get(p50.len().saturating_sub(1) / 2)
                     .copied()
                     .unwrap_or(f64::NAN),

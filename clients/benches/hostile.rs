@@ -17,6 +17,7 @@
 
 use anyhow::{Context, Result};
 use clients::connection::count_refusal;
+use clients::latency_bench::nearest_rank_us;
 use clients::process::{Proc, release_bin, workspace};
 use clients::{ConnectOptions, Connection};
 use shared::{Command, RequestHeader, Status, Vec3};
@@ -84,6 +85,8 @@ fn querier(prefix: &str, stop: &AtomicBool) -> Result<Vec<u64>> {
 /// What the hostile client's moves gave: each one's `solve_ns`, and the answers by status.
 #[derive(Default)]
 struct Hostile {
+    /// The rope's links, as the service describes it.
+    links: u32,
     solve_ns: Vec<u64>,
     statuses: Vec<(String, u64)>,
 }
@@ -99,7 +102,10 @@ fn hostile(prefix: &str, rope: &str, stop: &AtomicBool) -> Result<Hostile> {
         .joints()
         .to_vec();
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
-    let mut out = Hostile::default();
+    let mut out = Hostile {
+        links: d.header.n_links,
+        ..Hostile::default()
+    };
     while !stop.load(Ordering::Relaxed) {
         let n = joints.len();
         let (i, j) = (rng.below(n), rng.below(n));
@@ -123,23 +129,14 @@ fn hostile(prefix: &str, rope: &str, stop: &AtomicBool) -> Result<Hostile> {
     Ok(out)
 }
 
-/// The `q` quantile (nearest rank) of sorted `v`, in µs.
-fn pct(v: &[u64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let k = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
-    v[k] as f64 / 1e3
-}
-
 fn quantiles(v: &mut [u64]) -> String {
     v.sort_unstable();
     format!(
         "{:.0} | {:.0} | {:.0} | {:.0}",
-        pct(v, 0.5),
-        pct(v, 0.99),
-        pct(v, 0.999),
-        pct(v, 1.0)
+        nearest_rank_us(v, 0.5),
+        nearest_rank_us(v, 0.99),
+        nearest_rank_us(v, 0.999),
+        nearest_rank_us(v, 1.0)
     )
 }
 
@@ -195,19 +192,24 @@ fn main() -> Result<()> {
         };
         std::thread::sleep(Duration::from_secs_f64(seconds));
         stop.store(true, Ordering::Relaxed);
-        let mut trips = q.join().expect("querier").context("querier")?;
+        let joined = |what: &str| anyhow::anyhow!("the {what} thread panicked");
+        let mut trips = q
+            .join()
+            .map_err(|_| joined("querier"))?
+            .context("querier")?;
         let host = match host {
-            Some(h) => Some(h.join().expect("hostile").context("hostile client")?),
+            Some(h) => Some(
+                h.join()
+                    .map_err(|_| joined("hostile client's"))?
+                    .context("hostile client")?,
+            ),
             None => None,
         };
         svc.stop();
-        let (name, links) = match rope {
-            Some(r) => (
-                format!("`{r}`"),
-                r.rsplit('-').next().unwrap_or("").to_string(),
-            ),
-            None => ("(none: the querier alone)".to_string(), String::new()),
-        };
+        let name = rope.map_or("(none: the querier alone)".to_string(), |r| {
+            format!("`{r}`")
+        });
+        let links = host.as_ref().map_or(String::new(), |h| h.links.to_string());
         let (moves, answered, solve) = match host {
             Some(mut h) => {
                 let answered = h

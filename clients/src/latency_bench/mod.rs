@@ -25,6 +25,15 @@ pub use noise::noise;
 pub use load::{LoadConfig, LoadReport, load};
 use loaded::loaded;
 
+/// The `q` quantile (0 to 1, nearest rank) of `sorted` (ascending, in ns), in µs; NaN when empty.
+pub fn nearest_rank_us(sorted: &[u64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let k = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1;
+    sorted[k] as f64 / 1e3
+}
+
 /// What the bench runs.
 #[derive(Debug, Clone)]
 pub struct BenchConfig {

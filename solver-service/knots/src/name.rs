@@ -95,8 +95,9 @@ pub const NAMER_PAIRS_PER_POINT: usize = 16;
 /// Crossings a [`Namer`]'s view may have before reduction.
 pub const NAMER_RAW_CROSSINGS: usize = 128;
 
-/// A [`Namer`] tries the closures after the first only while the first's smallest reduced diagram
-/// has more crossings than its limit and at most this many times it.
+/// A [`Namer`] tries the next closure only while the smallest reduced diagram of the closures tried
+/// so far has more crossings than its limit and at most this many times it (none at all: a rope no
+/// view of which fits the sweep's budget is [`KnotType::Other`] after the first closure).
 pub const NAMER_HOPELESS: usize = 2;
 
 /// How many diagrams a [`Namer`] remembers with their names.
