@@ -566,9 +566,6 @@ pub(super) mod cost {
     /// its arithmetic (a square root and three divisions per link, about half a link-step's), not
     /// timed alone; the budget bench times whole requests against their budget.
     pub const RELAX_PER_LINK: u64 = 8;
-    /// One column of the joint projection's `A⁻¹ B` (a contact's coupling solved over the parts it
-    /// touches: two substitutions, no square root), per link of its extent.
-    pub const COLUMN_PER_LINK: u64 = 4;
     /// One iteration of a held part's re-solve, per link (up to three tractrix passes and a
     /// translation).
     pub const RESOLVE_PER_LINK: u64 = 4 * LINK_STEP;
