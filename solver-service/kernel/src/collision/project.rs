@@ -63,6 +63,15 @@ const BLOWN: f64 = 2.0;
 /// rows the step would bring too close join it.
 const ACTIVE_ROUNDS: usize = 8;
 
+/// Added to each active contact row's diagonal in the contacts' system (the Schur complement, whose
+/// diagonal is the row's squared joint weights, 0.5 to 2): a compliance, as XPBD's (Macklin, Müller
+/// & Chentanez 2016), that makes each Newton step a damped least-squares one. On links shorter than
+/// the rope is thick one contact between two strands is several nearly dependent rows; undamped,
+/// the step's multipliers grew huge (joints asked to move 10⁶ units), the active set did not settle
+/// in its rounds, and nearly every projection of the 320-link square knot stalled. With it almost
+/// none stall (patient hands, `knots.toml`, seeds 1 to 3: docs/history.md, issue 68, fifth session).
+const COMPLIANCE: f64 = 1e-2;
+
 /// One contact's row: the joints it moves with their weights (its gradient is `weight × normal` at
 /// each), the normal, and how far it is from its target distance (positive: too close).
 #[derive(Clone, Copy, Debug)]
@@ -88,10 +97,11 @@ pub(super) struct Projection<T: Real, const D: usize> {
     /// `B`, one column (of `n`) per contact, each turned into its column of `A⁻¹ B` once its row
     /// joins the active set (`solved`).
     ab: Vec<T>,
-    /// Every row's right-hand side of the Schur complement, and whether its column of `A⁻¹ B` is
-    /// solved.
+    /// Every row's right-hand side of the Schur complement, whether its column of `A⁻¹ B` is
+    /// solved, and the links over which that column can be nonzero (`start..end`).
     full_rhs: Vec<T>,
     solved: Vec<bool>,
+    ext: Vec<(usize, usize)>,
     /// `A⁻¹ B λ` over the active rows.
     y: Vec<T>,
     /// The contacts' block `C` (row-major), from each free joint's rows (joint, row, slot).
@@ -136,11 +146,21 @@ fn w<T: Real>(i: usize, m: usize, held: &[usize]) -> T {
     }
 }
 
+/// Whether only fixed joints (the hand's `m`, the `held` ones) could move the contact `row`: every
+/// joint it weighs is fixed (an obstacle met at a held or end joint, `s` = 0 or 1).
+fn immovable<T: Real, const D: usize>(row: &Row<T, D>, m: usize, held: &[usize]) -> bool {
+    (0..row.count)
+        .all(|a| row.weights[a] == T::zero() || w::<T>(row.joints[a], m, held) == T::zero())
+}
+
 /// The contacts of the rope at `pos` (capsule pairs on the tree, and the obstacles): those closer
-/// than their target distance (the clearance plus half the tolerance) into `rows`. `None` when the
-/// meter ran out.
+/// than their target distance (the clearance plus half the tolerance) into `rows`, the hand's joint
+/// `m` and the `held` ones fixed. A contact only fixed joints could move is left out (no step can
+/// meet it; the passes that follow lock the move if it is deeper than the tolerance). `None` when
+/// the meter ran out.
 fn gather<T: Real, const D: usize>(
     pos: &[Vector<T, D>],
+    (m, held): (usize, &[usize]),
     model: &CollisionModel<T, D>,
     ws: &mut CollisionWorkspace<T, D>,
     rows: &mut Vec<Row<T, D>>,
@@ -180,14 +200,17 @@ where
             if dist >= target + near_c {
                 return true;
             }
-            *worst = (*worst).max(c - dist);
-            rows.push(Row {
+            let row = Row {
                 joints: [i, i + 1, j, j + 1],
                 weights: [T::one() - s, s, -(T::one() - t), -t],
                 count: 4,
                 normal: unit_or_perpendicular(&d, dist, &(a1 - a0), &(b1 - b0)),
                 gap: target - dist,
-            });
+            };
+            if !immovable(&row, m, held) {
+                *worst = (*worst).max(c - dist);
+                rows.push(row);
+            }
             true
         });
         if !done {
@@ -222,14 +245,17 @@ where
             if dist >= goal + clearance * T::lit(NEAR) {
                 continue;
             }
-            *worst = (*worst).max(reach - dist);
-            rows.push(Row {
+            let row = Row {
                 joints: [i, i + 1, 0, 0],
                 weights: [T::one() - s, s, T::zero(), T::zero()],
                 count: 2,
                 normal,
                 gap: goal - dist,
-            });
+            };
+            if !immovable(&row, m, held) {
+                *worst = (*worst).max(reach - dist);
+                rows.push(row);
+            }
         }
     }
     Some(())
@@ -303,7 +329,7 @@ where
     let mut idle = 0;
     for _ in 0..ITERATIONS {
         let mut worst_contact = T::zero();
-        if gather(pos, model, ws, &mut pr.rows, &mut worst_contact).is_none() {
+        if gather(pos, (m, held), model, ws, &mut pr.rows, &mut worst_contact).is_none() {
             outcome = Projected::OutOfWork;
             break;
         }
@@ -357,20 +383,25 @@ where
                 best = Some(merit);
             }
         }
-        // Charged: the links' factorisation, a solve per contact and the Schur complement (about
-        // 24 flops a pair of rows; an upper bound, since only the active rows' columns are
-        // solved); each round of the active set below charges its own.
+        // Charged: the links' factorisation and solve, the displacement and the contacts' block
+        // (about 24 flops a pair of rows); each column of `A⁻¹ B` is charged when its row becomes
+        // active and it is solved, and each round of the active set below charges its own.
         let r64 = r as u64;
         let units = (n as u64)
             .saturating_mul(cost::RELAX_PER_LINK)
-            .saturating_mul(1 + r64)
             .saturating_add(r64.saturating_mul(r64).saturating_mul(4));
         if !ws.meter.charge(units) {
             outcome = Projected::OutOfWork;
             break;
         }
         ws.stats.newton_steps += 1;
-        let Some(delta) = solve_step(&mut pr, m, held, n, &mut ws.meter) else {
+        // Damped outside pulls only: a pull's steps are left undamped (see [`COMPLIANCE`]).
+        let compliance = if ws.together() {
+            T::zero()
+        } else {
+            T::lit(COMPLIANCE)
+        };
+        let Some(delta) = solve_step(&mut pr, (m, held), n, compliance, &mut ws.meter) else {
             outcome = Projected::OutOfWork;
             break;
         };
@@ -495,9 +526,9 @@ where
 /// sixteenth of a link-step). `None` when the meter ran out.
 fn solve_step<T: Real, const D: usize>(
     pr: &mut Projection<T, D>,
-    m: usize,
-    held: &[usize],
+    (m, held): (usize, &[usize]),
     n: usize,
+    compliance: T,
     meter: &mut super::Meter,
 ) -> Option<Vec<Vector<T, D>>>
 where
@@ -519,7 +550,7 @@ where
         let gap = pr.rows[q].gap;
         pr.full_rhs.push(gap - pr.bsparse[q].dot(&bl));
     }
-    if !active_set(pr, n, eps, meter) {
+    if !active_set(pr, n, eps + compliance, meter) {
         return None;
     }
     // λ_l = A⁻¹ (b_l − B λ_c) = A⁻¹ b_l − (A⁻¹ B) λ_c.
@@ -530,8 +561,9 @@ where
         if l == T::zero() {
             continue;
         }
-        let abq = &pr.ab[q * n..(q + 1) * n];
-        for (x, y) in pr.lam_l.iter_mut().zip(abq) {
+        let (start, end) = pr.ext[q];
+        let abq = &pr.ab[q * n + start..q * n + end];
+        for (x, y) in pr.lam_l[start..end].iter_mut().zip(abq) {
             *x -= *y * l;
         }
     }
@@ -589,8 +621,12 @@ fn couple_contacts<T: Real, const D: usize>(
     // Row q of Bᵀ (J_c W J_lᵀ): for each of the contact's joints j, link j−1 (+u at j) and link j
     // (−u at j), at most eight entries; then A⁻¹ B column by column.
     pr.bsparse.clear();
-    pr.ab.clear();
-    pr.ab.resize(n * r, T::zero());
+    // The columns of `A⁻¹ B` are written over their extents only, when their rows become active.
+    if pr.ab.len() < n * r {
+        pr.ab.resize(n * r, T::zero());
+    }
+    pr.ext.clear();
+    pr.ext.resize(r, (0, 0));
     for q in 0..r {
         let row = pr.rows[q];
         let mut entries = Sparse::default();
@@ -607,10 +643,6 @@ fn couple_contacts<T: Real, const D: usize>(
             if j < n {
                 entries.push(j, -(wj * pr.u[j].dot(&g)));
             }
-        }
-        let col = &mut pr.ab[q * n..(q + 1) * n];
-        for e in 0..entries.count {
-            col[entries.links[e]] += entries.values[e];
         }
         pr.bsparse.push(entries);
     }
@@ -697,8 +729,22 @@ where
             let e = pr.bsparse[q];
             let links = &e.links[..e.count];
             if let (Some(&lo), Some(&hi)) = (links.iter().min(), links.iter().max()) {
+                // The column is nonzero only over the parts its links lie in: zeroed there, its
+                // entries of `B` put in, solved there. Charged as a relaxation of the whole rope,
+                // an upper bound of its two substitutions (see docs/history.md, issue 68, sixth
+                // session, for the charge over its extent alone).
+                let (start, end) = extent(&pr.lower, &pr.upper, lo, hi);
+                if !meter.charge((n as u64).saturating_mul(cost::RELAX_PER_LINK)) {
+                    pr.idx = idx;
+                    return false;
+                }
                 let col = &mut pr.ab[q * n..(q + 1) * n];
+                col[start..end].iter_mut().for_each(|x| *x = T::zero());
+                for k in 0..e.count {
+                    col[e.links[k]] += e.values[k];
+                }
                 solve_span(&pr.lower, &pr.pivot, &pr.upper, col, lo, hi);
+                pr.ext[q] = (start, end);
             }
         }
         pr.s.clear();
@@ -707,7 +753,7 @@ where
         for (x, &q) in idx.iter().enumerate() {
             for (y, &p) in idx.iter().enumerate() {
                 let abp = &pr.ab[p * n..(p + 1) * n];
-                pr.s[x * a + y] = pr.cmat[q * r + p] - pr.bsparse[q].dot(abp);
+                pr.s[x * a + y] = pr.cmat[q * r + p] - pr.bsparse[q].dot_within(abp, pr.ext[p]);
             }
             pr.s[x * a + x] += eps;
             pr.col.push(pr.full_rhs[q]);
@@ -767,6 +813,18 @@ where
     true
 }
 
+/// The links `start..end` over which [`solve_span`] of a right-hand side nonzero only in `lo..=hi`
+/// can be nonzero: out to where the factored block falls apart (a zero off-diagonal) either side.
+fn extent<T: Real>(lower: &[T], upper: &[T], lo: usize, hi: usize) -> (usize, usize) {
+    let n = lower.len();
+    let end = (hi + 1..n).find(|&k| lower[k] == T::zero()).unwrap_or(n);
+    let start = (0..lo)
+        .rev()
+        .find(|&k| upper[k] == T::zero())
+        .map_or(0, |k| k + 1);
+    (start, end)
+}
+
 /// Solves the factored links' block (Thomas: `lower`, `pivot`, `upper`) for `x`, whose entries are
 /// zero outside `lo..=hi`. The block falls apart at fixed joints (a zero off-diagonal), so the
 /// substitutions stop where the rest of `x` stays zero: a contact's column costs the links of the
@@ -822,6 +880,13 @@ impl<T: Real> Sparse<T> {
     /// The row's coupling against a vector over the links: `Σ value · x[link]`.
     fn dot(&self, x: &[T]) -> T {
         (0..self.count).fold(T::zero(), |acc, e| acc + self.values[e] * x[self.links[e]])
+    }
+
+    /// [`Sparse::dot`] against a column that is zero outside the links `start..end`.
+    fn dot_within(&self, x: &[T], (start, end): (usize, usize)) -> T {
+        (0..self.count)
+            .filter(|&e| (start..end).contains(&self.links[e]))
+            .fold(T::zero(), |acc, e| acc + self.values[e] * x[self.links[e]])
     }
 }
 
