@@ -63,7 +63,8 @@ enum Cmd {
         /// answer (a late answer skips samples), never halved or sent again, the tremor always on;
         /// at a turn's end the hand holds still until its joint is within `--settle` of it (or
         /// `--settle-timeout`). The hand moves on at its speed while within `--feel` rope thicknesses
-        /// of its joint, and is held there by the coupling's pull while the rope catches up; a
+        /// of its joint, and is held there by the coupling's pull while the rope catches up (held
+        /// longer than `--settle-timeout`, it pushes on until the joint is within the feel); a
         /// tightening pull stops where the rope stops the joint; instrument turns are played as
         /// without it.
         #[arg(long)]

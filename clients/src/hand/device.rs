@@ -46,6 +46,44 @@ impl DeviceOptions {
     }
 }
 
+/// What the hand does on one sample of a device's path ([`Coupling::step`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hand {
+    /// It moves on along its path; `pushed`: it has just begun to push through the coupling.
+    Moves { pushed: bool },
+    /// The coupling's pull holds it where it is.
+    Held,
+}
+
+/// The person's side of the virtual coupling on a device's path: held while the joint is beyond
+/// the feel; held longer than the settle timeout (the rope taut or jammed short of the path), the
+/// person pushes on through the pull, at the hand's speed, until the joint is within the feel
+/// again.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Coupling {
+    pushing: bool,
+}
+
+impl Coupling {
+    /// One sample: `within`, whether the joint is within the feel
+    /// ([`DeviceOptions::moves_on`]); `held_for`, how long the hand has been held (`None`: it is
+    /// not held); `timeout`, the settle timeout.
+    pub fn step(&mut self, within: bool, held_for: Option<Duration>, timeout: Duration) -> Hand {
+        if within {
+            self.pushing = false;
+            return Hand::Moves { pushed: false };
+        }
+        if self.pushing {
+            return Hand::Moves { pushed: false };
+        }
+        if held_for.is_some_and(|h| h >= timeout) {
+            self.pushing = true;
+            return Hand::Moves { pushed: true };
+        }
+        Hand::Held
+    }
+}
+
 /// What the device saw of its requests.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DeviceReport {
@@ -61,7 +99,8 @@ pub struct DeviceReport {
     pub unsettled: u64,
     /// Ticks the hand spent held by the coupling ([`DeviceOptions::feel`]), not advancing.
     pub held: u64,
-    /// Times a hand held longer than [`DeviceOptions::settle_timeout`] pushed on through the pull.
+    /// Times a hand held longer than [`DeviceOptions::settle_timeout`] pushed on through the pull
+    /// (on until its joint was within the feel again, [`Coupling`]).
     pub pushed: u64,
 }
 
@@ -169,6 +208,7 @@ impl TurnRun<'_> {
         let mut along = 0.0f64;
         let mut felt: Option<f64> = None;
         let mut held_since: Option<Instant> = None;
+        let mut coupling = Coupling::default();
         let mut settling: Option<Instant> = None;
         loop {
             if self.conn.node().wait(Duration::ZERO).is_err() {
@@ -176,18 +216,18 @@ impl TurnRun<'_> {
             }
             let next = next_tick(t0.elapsed().as_secs_f64(), d.rate_hz, tick);
             self.report.device.skipped += next - tick - 1;
-            // Held longer than the settle timeout (the rope taut or jammed short of the path), the
-            // person pushes on through the pull, as at a turn's end.
-            let pushed = held_since.is_some_and(|h: Instant| h.elapsed() >= d.settle_timeout);
-            if d.moves_on(felt, thickness) || pushed {
-                along += d.speed * (next - tick) as f64 / d.rate_hz;
-                if pushed {
-                    self.report.device.pushed += 1;
+            let within = d.moves_on(felt, thickness);
+            let held_for = held_since.map(|h: Instant| h.elapsed());
+            match coupling.step(within, held_for, d.settle_timeout) {
+                Hand::Moves { pushed } => {
+                    along += d.speed * (next - tick) as f64 / d.rate_hz;
+                    self.report.device.pushed += u64::from(pushed);
+                    held_since = None;
                 }
-                held_since = None;
-            } else {
-                self.report.device.held += next - tick;
-                held_since.get_or_insert_with(Instant::now);
+                Hand::Held => {
+                    self.report.device.held += next - tick;
+                    held_since.get_or_insert_with(Instant::now);
+                }
             }
             tick = next;
             let due = t0 + Duration::from_secs_f64(tick as f64 / d.rate_hz);
@@ -414,6 +454,24 @@ mod tests {
             ..d
         };
         assert!(open.moves_on(Some(1e9), 0.0));
+    }
+
+    #[test]
+    fn a_hand_held_past_the_timeout_pushes_on_until_its_joint_is_within_the_feel() {
+        let t = Duration::from_secs(2);
+        let mut c = Coupling::default();
+        assert_eq!(c.step(true, None, t), Hand::Moves { pushed: false });
+        assert_eq!(c.step(false, None, t), Hand::Held);
+        assert_eq!(c.step(false, Some(Duration::from_secs(1)), t), Hand::Held);
+        assert_eq!(c.step(false, Some(t), t), Hand::Moves { pushed: true });
+        // Pushing, it keeps moving on every sample though it is no longer held, not one sample
+        // per timeout.
+        for _ in 0..100 {
+            assert_eq!(c.step(false, None, t), Hand::Moves { pushed: false });
+        }
+        // The joint within the feel again, the coupling holds it next time it is beyond.
+        assert_eq!(c.step(true, None, t), Hand::Moves { pushed: false });
+        assert_eq!(c.step(false, None, t), Hand::Held);
     }
 
     #[test]
