@@ -69,7 +69,8 @@ const ACTIVE_ROUNDS: usize = 8;
 /// the rope is thick one contact between two strands is several nearly dependent rows; undamped,
 /// the step's multipliers grew huge (joints asked to move 10⁶ units), the active set did not settle
 /// in its rounds, and nearly every projection of the 320-link square knot stalled. With it almost
-/// none stall (patient hands, `knots.toml`, seeds 1 to 3: docs/history.md, issue 68, fifth session).
+/// none stall. Outside pulls only: a pull's steps stay undamped, to meet each contact in full
+/// (docs/history.md, issue 68, fifth and sixth sessions).
 const COMPLIANCE: f64 = 1e-2;
 
 /// One contact's row: the joints it moves with their weights (its gradient is `weight × normal` at
