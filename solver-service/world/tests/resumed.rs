@@ -242,3 +242,147 @@ fn a_kept_resolution_is_not_resumed_after_another_pull_recorded_its_own() {
     }
     panic!("the first pull was refused for its work 64 times in a row");
 }
+
+/// Inside a frame (a haptic device's request: stopped short, never refused) at the jam, where a
+/// whole substep of the pull carries a joint too far and its first half runs out of work before
+/// any pass is recorded: the pull, asked again from the same state, goes on (its split depth and
+/// the half's passes kept) instead of doing the same work again with the same answer. The head is
+/// pulled at the default frame's work until the knot jams (eight answers in a row that stopped on
+/// the contacts); no run of 64 answers in a row left the rope unchanged out of work.
+#[test]
+fn a_pull_at_the_jam_inside_its_frame_never_answers_the_same_out_of_work_forever() {
+    let points = tied();
+    let mut rope = Chain::from_points(&points).unwrap();
+    rope.hold(0).unwrap();
+    let model = model();
+    let mut ws = CollisionWorkspace::new();
+    ws.solve_contacts_together(true);
+    ws.keep_unfinished(true);
+    ws.stop_short(true);
+    let array =
+        |p: &[Vector3<f64>]| -> Vec<[f64; 3]> { p.iter().map(|q| [q.x, q.y, q.z]).collect() };
+    let mut prev = rope.positions();
+    let (mut same, mut longest, mut jammed, mut made) = (0, 0, 0, 0);
+    for k in 0..4000 {
+        let at = prev[160];
+        let away = knots::contact::away_from_knot(&array(&prev), 160, THICKNESS).unwrap();
+        let target = at + Vector3::from(away) * 0.05;
+        ws.limit_work(world::chains::DEFAULT_BUDGET);
+        let o = move_joint_colliding(
+            &mut rope,
+            160,
+            target,
+            &MoveOptions::default(),
+            &model,
+            &mut ws,
+        )
+        .unwrap_or_else(|e| panic!("pull {k} refused inside its frame: {e}"));
+        let now = rope.positions();
+        let crossed = knots::check::crossings_between(&prev, &now, 2, 1e-9 * 0.25);
+        assert!(crossed.is_empty(), "pull {k}: links crossed: {crossed:?}");
+        match o.short.map(|s| s.error) {
+            None => {
+                made += 1;
+                jammed = 0;
+                same = 0;
+            }
+            Some(ChainError::OverWork { .. }) => {
+                jammed = 0;
+                same = if now == prev { same + 1 } else { 0 };
+            }
+            Some(_) => {
+                same = 0;
+                jammed += 1;
+            }
+        }
+        longest = longest.max(same);
+        assert!(
+            same < 64,
+            "pull {k}: 64 answers in a row out of work with the rope unchanged"
+        );
+        prev = now;
+        if jammed >= 8 {
+            break;
+        }
+    }
+    eprintln!("{made} pulls made whole; at most {longest} answers in a row out of work unchanged");
+    assert!(jammed >= 8, "the knot did not jam in 4000 pulls");
+    assert!(made > 100, "{made} pulls made whole");
+}
+
+/// The jam of the square knot at 160 links (`data/square-160-jam.txt`, a state the service reached
+/// in hand A's first tightening pull of `square-held` on `hands-160`): there a pull's whole substep
+/// carries a joint too far, and its first half ran out of the frame's work before any pass was
+/// recorded, so that the same pull asked again did the same work again with the same answer (70
+/// times in a row when found, until the hand gave up "out of work"). Pulled as the hand pulls,
+/// inside the default frame, the rope never answers 64 times in a row unchanged out of work: each
+/// answer moves it, or says it is jammed.
+#[test]
+fn the_square_knots_jam_at_160_links_never_answers_the_same_out_of_work() {
+    let text = include_str!("data/square-160-jam.txt");
+    let points: Vec<Vector3<f64>> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            Vector3::new(v[0], v[1], v[2])
+        })
+        .collect();
+    assert_eq!(points.len(), 161);
+    let mut rope = Chain::from_points(&points).unwrap();
+    for j in [0, 64, 160] {
+        rope.hold(j).unwrap();
+    }
+    // As `knots.toml` gives its 160-link ropes.
+    let model = CollisionModel {
+        options: CollisionOptions {
+            thickness: THICKNESS,
+            max_iterations: 512,
+            pushed_weight: 0.5,
+            ..CollisionOptions::default()
+        },
+        obstacles: vec![],
+        holding: Vec::new(),
+    };
+    let opts = MoveOptions {
+        max_substeps: 65_536,
+        ..MoveOptions::default()
+    };
+    let mut ws = CollisionWorkspace::new();
+    ws.solve_contacts_together(true);
+    ws.keep_unfinished(true);
+    ws.stop_short(true);
+    let array =
+        |p: &[Vector3<f64>]| -> Vec<[f64; 3]> { p.iter().map(|q| [q.x, q.y, q.z]).collect() };
+    let mut prev = rope.positions();
+    let (mut same, mut longest, mut moved) = (0, 0, 0);
+    for k in 0..200 {
+        let at = prev[160];
+        let away = knots::contact::away_from_knot(&array(&prev), 160, THICKNESS).unwrap();
+        let target = at + Vector3::from(away) * 0.05;
+        ws.limit_work(world::chains::DEFAULT_BUDGET);
+        let o = move_joint_colliding(&mut rope, 160, target, &opts, &model, &mut ws)
+            .unwrap_or_else(|e| panic!("pull {k} refused inside its frame: {e}"));
+        let now = rope.positions();
+        let crossed = knots::check::crossings_between(&prev, &now, 2, 1e-9 * 0.25);
+        assert!(crossed.is_empty(), "pull {k}: links crossed: {crossed:?}");
+        let unchanged = now == prev;
+        if !unchanged {
+            moved += 1;
+        }
+        same = match o.short.map(|s| s.error) {
+            Some(ChainError::OverWork { .. }) if unchanged => same + 1,
+            _ => 0,
+        };
+        longest = longest.max(same);
+        assert!(
+            same < 64,
+            "pull {k}: 64 answers in a row out of work with the rope unchanged"
+        );
+        prev = now;
+    }
+    eprintln!(
+        "{moved} of 200 pulls moved the rope; at most {longest} in a row out of work unchanged"
+    );
+    assert!(moved > 0, "no pull moved the rope");
+}
