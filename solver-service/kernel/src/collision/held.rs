@@ -56,38 +56,6 @@ where
     let mut s = 0u32;
     // The last substep made whole (a move stopped short keeps the state of its last piece).
     let mut last_whole = 0u32;
-    // The depth this move's first substep needed when it was last tried from this state ([`Split`]).
-    let first_hand = if k == 1 { target } else { start + sd };
-    let drift = limit * T::lit(0.5);
-    let hinted = {
-        let sp = &ws.unfinished.split;
-        let same = keep
-            && sp.depth > 0
-            && sp.joint == joint
-            && sp
-                .hand
-                .first()
-                .is_some_and(|h| (h - first_hand).norm() <= drift)
-            && {
-                ws.pos_before.resize(chain.n_links() + 1, Vector::zeros());
-                chain.write_positions(&mut ws.pos_before);
-                ws.pos_before == sp.base
-            };
-        if same { sp.depth } else { 0 }
-    };
-    if hinted > 0 {
-        // The first substep as 2^depth pieces, the last one's end first on the stack.
-        let parts = 1u32 << hinted;
-        for i in (1..=parts).rev() {
-            let end = if i == parts {
-                first_hand
-            } else {
-                start + (first_hand - start) * T::lit(f64::from(i) / f64::from(parts))
-            };
-            pieces.push((end, hinted));
-        }
-        s = 1;
-    }
     // Substeps left (`s` counts the ones done) and the stack of split pieces: (hand's end, depth).
     while s < k || !pieces.is_empty() {
         let (hand, depth) = match pieces.pop() {
@@ -121,7 +89,7 @@ where
             }
         }
         chain.write_positions(&mut ws.pos);
-        let record = keep;
+        let record = keep && depth == 0;
         match resolve_recording(chain, (joint, hand), &held, record, limit, model, ws) {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
@@ -151,18 +119,6 @@ where
                 return stop_here(chain, backup, made, outcome, e, (last_whole, k), ws.frame);
             }
             // Again as two halves: the second half's end first on the stack, popped last.
-            if keep && last_whole == 0 && s == 1 {
-                // Kept ([`Split`]): the first substep from this state needs this depth.
-                let sp = &mut ws.unfinished.split;
-                if hinted <= depth {
-                    sp.depth = depth + 1;
-                    sp.joint = joint;
-                    sp.hand.clear();
-                    sp.hand.push(first_hand);
-                    sp.base.resize(chain.n_links() + 1, Vector::zeros());
-                    backup.write_positions(&mut sp.base);
-                }
-            }
             *chain = piece_backup;
             let mid = from + (hand - from) * T::lit(0.5);
             pieces.push((hand, depth + 1));

@@ -297,26 +297,6 @@ struct Unfinished<T: Real, const D: usize> {
     chain: Option<Chain<T, D>>,
     pos: Vec<Vector<T, D>>,
     state: resolve::PassState,
-    /// A pull's first substep that jumped ([`Split`]): the same move from the same state starts
-    /// split as deep.
-    split: Split<T, D>,
-}
-
-/// A move's first substep that carried a joint farther than the displacement guard allows, so that
-/// it was done again in pieces: the move's joint, the joints where it started, the substep's end
-/// and the split depth its pieces needed. A pull at a jam does the whole substep, finds it jumped
-/// and runs out of work in its first piece before any pass is recorded; the next request, from the
-/// same state toward a target within the drift, would do the same work again and again. With the
-/// depth kept it starts at the pieces, whose resolution is recorded and resumed
-/// ([`CollisionWorkspace::keep_unfinished`]).
-#[derive(Clone, Debug, Default)]
-struct Split<T: Real, const D: usize> {
-    /// The split depth (0: none kept).
-    depth: u32,
-    joint: usize,
-    /// The substep's end (one point; empty when none is kept).
-    hand: Vec<Vector<T, D>>,
-    base: Vec<Vector<T, D>>,
 }
 
 impl<T: Real, const D: usize> Unfinished<T, D> {
@@ -586,10 +566,6 @@ pub(super) mod cost {
     /// its arithmetic (a square root and three divisions per link, about half a link-step's), not
     /// timed alone; the budget bench times whole requests against their budget.
     pub const RELAX_PER_LINK: u64 = 8;
-    /// One column of a joint projection's `A⁻¹ B` solved over a link of its extent: the factored
-    /// tridiagonal block's forward and back substitutions (two multiply-adds and a division a
-    /// link, half a relaxation's), not timed alone.
-    pub const SUBSTITUTE_PER_LINK: u64 = 4;
     /// One iteration of a held part's re-solve, per link (up to three tractrix passes and a
     /// translation).
     pub const RESOLVE_PER_LINK: u64 = 4 * LINK_STEP;

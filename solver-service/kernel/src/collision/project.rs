@@ -731,10 +731,11 @@ where
             let links = &e.links[..e.count];
             if let (Some(&lo), Some(&hi)) = (links.iter().min(), links.iter().max()) {
                 // The column is nonzero only over the parts its links lie in: zeroed there, its
-                // entries of `B` put in, solved there, and charged there (two substitutions, four
-                // units a link of its extent; see docs/history.md, issue 68, seventh session).
+                // entries of `B` put in, solved there. Charged as a relaxation of the whole rope,
+                // an upper bound of its two substitutions (see docs/history.md, issue 68, sixth
+                // session, for the charge over its extent alone).
                 let (start, end) = extent(&pr.lower, &pr.upper, lo, hi);
-                if !meter.charge(((end - start) as u64).saturating_mul(cost::SUBSTITUTE_PER_LINK)) {
+                if !meter.charge((n as u64).saturating_mul(cost::RELAX_PER_LINK)) {
                     pr.idx = idx;
                     return false;
                 }
