@@ -417,8 +417,11 @@ where
             return Err(e);
         }
     };
-    if jump > smallest_clearance(chain, model) * T::lit(0.5) {
-        // A resumed move cannot be split as a substep is: it locks, as the deepest split does.
+    // The displacement guard of a substep, on pulls only as there ([`move_held_colliding`]): a
+    // resumed pull cannot be split as a substep is, so it locks, as the deepest split does. On a
+    // plain move a substep is never guarded, and a resumed one that was would throw its finished
+    // passes away and start them again, every time (history.md, issue 68's eighth session).
+    if ws.together && jump > smallest_clearance(chain, model) * T::lit(0.5) {
         let e = ChainError::Jumped {
             substep: 1,
             jump: jump.to_f64(),

@@ -16,6 +16,8 @@
 //!   lengths kept, no holds = the free move bit for bit.
 //! * `instrument`: instruments moved by pose push the rope without penetration, keep held joints, and
 //!   lock when the rope would pass through them.
+//! * `resumed`: a held rope's substep that needs several requests' work inside a frame goes on from
+//!   its kept passes and lands, its held side moving a joint more than half a clearance.
 //! * `strands`: many strands at once, against one chain per strand, SIMD against the baseline bit for
 //!   bit, halves on two threads, refusals, lengths over 10⁵ moves.
 //! * `eyelet`: a rope threaded through fixed points slides through them both ways by any length,
@@ -39,5 +41,6 @@ mod hold;
 mod instrument;
 mod limits;
 mod link;
+mod resumed;
 mod strands;
 mod support;
