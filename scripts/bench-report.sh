@@ -119,6 +119,11 @@ block device "DEVICE_BENCH_RUNS=$DEVICE_RUNS cargo bench -p clients --bench devi
 FRAME_ONLY=${DEVICE_BENCH_ONLY:-square-held,surgeons-knot}
 block device-frames "DEVICE_BENCH_RUNS=$DEVICE_FRAME_RUNS DEVICE_BENCH_ONLY=$FRAME_ONLY DEVICE_BENCH_FRAME=4000|64000 cargo bench -p clients --bench device" \
   bash -c "for f in 4000 64000; do DEVICE_BENCH_RUNS=$DEVICE_FRAME_RUNS DEVICE_BENCH_ONLY=$FRAME_ONLY DEVICE_BENCH_FRAME=\$f cargo bench -q -p clients --bench device || exit 1; echo; done"
+# Tightened by the device hands too: the square and surgeon's knots at 160 and 320 links.
+TIGHTEN_ONLY=${DEVICE_BENCH_ONLY:-square-held,surgeons-knot}
+TIGHTEN_LINKS=${DEVICE_BENCH_LINKS:-160,320}
+block device-tighten "DEVICE_BENCH_TIGHTEN=0.05 DEVICE_BENCH_RUNS=$DEVICE_FRAME_RUNS DEVICE_BENCH_LINKS=$TIGHTEN_LINKS DEVICE_BENCH_ONLY=$TIGHTEN_ONLY cargo bench -p clients --bench device" \
+  env DEVICE_BENCH_TIGHTEN=0.05 DEVICE_BENCH_RUNS="$DEVICE_FRAME_RUNS" DEVICE_BENCH_LINKS="$TIGHTEN_LINKS" DEVICE_BENCH_ONLY="$TIGHTEN_ONLY" cargo bench -q -p clients --bench device
 block hostile "cargo bench -p clients --bench hostile" \
   cargo bench -q -p clients --bench hostile
 block tighten "cargo bench -p clients --bench tighten" \
