@@ -30,8 +30,16 @@ where
     if keep && ws.can_resume(chain, joint, &target) {
         return resume_and_go_on(chain, joint, target, &held, opts, model, ws);
     }
+    // A resumed pull of this state that jumped: its piece first, as two halves, then on from its
+    // hand toward the target in `k` substeps.
+    let halved = if keep {
+        ws.halving(chain, joint, &target)
+    } else {
+        None
+    };
+    let origin = halved.map_or(start, |(hand, _)| hand);
     let backup = chain.clone();
-    let sd = (target - start) / T::lit(k as f64);
+    let sd = (target - origin) / T::lit(k as f64);
     let mut outcome = MoveOutcome {
         substeps: k,
         ..MoveOutcome::default()
@@ -52,6 +60,10 @@ where
     // every substep of a tie, and the built-in knots failed to tie with it.
     let limit = smallest_clearance(chain, model) * T::lit(0.5);
     let mut pieces: Vec<(Vector<T, D>, u32)> = Vec::new();
+    if let Some((hand, depth)) = halved {
+        pieces.push((hand, depth));
+        pieces.push((start + (hand - start) * T::lit(0.5), depth));
+    }
     let mut from = start;
     let mut s = 0u32;
     // The last substep made whole (a move stopped short keeps the state of its last piece).
@@ -65,7 +77,7 @@ where
                 let hand = if s == k {
                     target
                 } else {
-                    start + sd * T::lit(s as f64)
+                    origin + sd * T::lit(s as f64)
                 };
                 (hand, 0)
             }
@@ -89,8 +101,7 @@ where
             }
         }
         chain.write_positions(&mut ws.pos);
-        let record = keep && depth == 0;
-        match resolve_recording(chain, (joint, hand), &held, record, limit, model, ws) {
+        match resolve_recording(chain, (joint, hand, depth), &held, keep, limit, model, ws) {
             Ok((iterations, contacts)) => {
                 outcome.collision_iterations =
                     outcome.collision_iterations.saturating_add(iterations);
@@ -204,7 +215,9 @@ where
     };
     let u = &ws.unfinished;
     let recorded = u.target.first().copied().unwrap_or(target);
-    let to = if (recorded - target).norm() <= u.drift {
+    // A piece of a split substep is resumed to its own hand: carried on to a target within the
+    // drift it would be the larger piece that jumped again.
+    let to = if u.depth == 0 && (recorded - target).norm() <= u.drift {
         target
     } else {
         recorded
@@ -240,14 +253,15 @@ where
     Ok(outcome)
 }
 
-/// A piece's contacts resolved with the hand (`joint`, put at `hand`) and `held` fixed; with
+/// A piece's contacts resolved with the hand (`joint`, put at `hand`; the piece split `depth`
+/// times) and `held` fixed; with
 /// `record` its passes recorded and, when its work runs out, kept to be resumed from the joints the
 /// piece started from ([`CollisionWorkspace::keep_unfinished`]; `half` half the smallest
 /// clearance).
 #[allow(clippy::too_many_arguments)]
 fn resolve_recording<T: Real, const D: usize>(
     chain: &mut Chain<T, D>,
-    (joint, hand): (usize, Vector<T, D>),
+    (joint, hand, depth): (usize, Vector<T, D>, u32),
     held: &[usize],
     record: bool,
     half: T,
@@ -267,8 +281,13 @@ where
     let resolved = resolve(chain, joint, held, false, model, ws);
     ws.unfinished.recording = false;
     if record && ws.unfinished.recorded && matches!(resolved, Err(Stop::OverWork)) {
-        ws.unfinished
-            .ready_for(joint, hand, held, &ws.pos_before, half * T::lit(0.5));
+        ws.unfinished.ready_for(
+            joint,
+            hand,
+            held,
+            &ws.pos_before,
+            (half * T::lit(0.5), depth),
+        );
     }
     resolved
 }
@@ -418,16 +437,24 @@ where
         }
     };
     // The displacement guard of a substep, on pulls only as there ([`move_held_colliding`]): a
-    // resumed pull cannot be split as a substep is, so it locks, as the deepest split does. On a
-    // plain move a substep is never guarded, and a resumed one that was would throw its finished
-    // passes away and start them again, every time (history.md, issue 68's eighth session).
+    // resumed pull that jumped is answered out of work and leaves its piece to be done again as two
+    // halves by the next pull from the same state ([`Unfinished::halve`]); at the deepest split it
+    // locks, as a fresh piece does. On a plain move a substep is never guarded, and a resumed one
+    // that was would throw its finished passes away and start them again, every time (history.md,
+    // issue 68's eighth session).
     if ws.together && jump > smallest_clearance(chain, model) * T::lit(0.5) {
+        *chain = backup;
+        let u = &mut ws.unfinished;
+        if u.depth < GUARD_SPLITS {
+            u.ready = false;
+            u.halve = Some(u.depth + 1);
+            return Err(ws.meter.over(1));
+        }
         let e = ChainError::Jumped {
             substep: 1,
             jump: jump.to_f64(),
         };
-        ws.unfinished.locked = Some(e);
-        *chain = backup;
+        u.locked = Some(e);
         return Err(e);
     }
     ws.unfinished.ready = false;

@@ -293,6 +293,13 @@ struct Unfinished<T: Real, const D: usize> {
     held: Vec<usize>,
     /// The joints where the move started: the state it resumes from.
     base: Vec<Vector<T, D>>,
+    /// How many times the recorded piece's substep was halved (0: a whole substep).
+    depth: u32,
+    /// A resumed pull whose passes finished but moved a joint more than half the smallest
+    /// clearance: the next move of `joint` from `base` does that piece (its hand `target[0]`) as
+    /// two halves of this depth, each recorded, as a fresh pull's substep that jumps is split
+    /// ([`held::move_held_colliding`]), then goes on toward its own target.
+    halve: Option<u32>,
     /// The chain and its joints after the last recorded pass, and the passes' counts there.
     chain: Option<Chain<T, D>>,
     pos: Vec<Vector<T, D>>,
@@ -308,10 +315,12 @@ impl<T: Real, const D: usize> Unfinished<T, D> {
         target: Vector<T, D>,
         held: &[usize],
         base: &[Vector<T, D>],
-        drift: T,
+        (drift, depth): (T, u32),
     ) {
         self.ready = true;
         self.drift = drift;
+        self.depth = depth;
+        self.halve = None;
         self.locked = None;
         self.joint = joint;
         self.target.clear();
@@ -350,19 +359,7 @@ impl<T: Real, const D: usize> Unfinished<T, D> {
     where
         Vector<T, D>: Embed3<T>,
     {
-        if !(self.ready
-            && self.joint == joint
-            && self
-                .held
-                .iter()
-                .copied()
-                .eq(chain.held().filter(|&j| j != joint)))
-        {
-            return false;
-        }
-        now.resize(chain.n_links() + 1, Vector::zeros());
-        chain.write_positions(now);
-        if self.base != *now {
+        if !(self.ready && self.same_start(chain, joint, now)) {
             return false;
         }
         // A hand's target wanders (a tremor, a haptic device) and moves on: the recorded piece is
@@ -373,6 +370,48 @@ impl<T: Real, const D: usize> Unfinished<T, D> {
         };
         let (left, now_left) = ((h - target).norm(), (now[joint] - target).norm());
         left <= self.drift || (self.locked.is_none() && left < now_left)
+    }
+
+    /// Whether `chain` stands where the recorded move started (`base`, bit for bit, written to
+    /// `now`), with the same joint moved and the same joints held.
+    fn same_start(&self, chain: &Chain<T, D>, joint: usize, now: &mut Vec<Vector<T, D>>) -> bool
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        if !(self.joint == joint
+            && self
+                .held
+                .iter()
+                .copied()
+                .eq(chain.held().filter(|&j| j != joint)))
+        {
+            return false;
+        }
+        now.resize(chain.n_links() + 1, Vector::zeros());
+        chain.write_positions(now);
+        self.base == *now
+    }
+
+    /// The piece a move of `joint` of `chain` toward `target` does first as two halves
+    /// ([`Unfinished::halve`]): its hand and the halves' depth, when the chain stands where it
+    /// started and that hand is within the drift of `target` or brings the joint nearer it.
+    fn halving(
+        &self,
+        chain: &Chain<T, D>,
+        joint: usize,
+        target: &Vector<T, D>,
+        now: &mut Vec<Vector<T, D>>,
+    ) -> Option<(Vector<T, D>, u32)>
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        let depth = self.halve?;
+        let hand = *self.target.first()?;
+        if !self.same_start(chain, joint, now) {
+            return None;
+        }
+        let (left, now_left) = ((hand - target).norm(), (now[joint] - target).norm());
+        (left <= self.drift || left < now_left).then_some((hand, depth))
     }
 }
 
@@ -479,6 +518,20 @@ impl<T: Real, const D: usize> CollisionWorkspace<T, D> {
     {
         self.unfinished
             .matches(chain, joint, target, &mut self.pos_before)
+    }
+
+    /// The piece a move of `joint` to `target` starts with in halves ([`Unfinished::halve`]).
+    fn halving(
+        &mut self,
+        chain: &Chain<T, D>,
+        joint: usize,
+        target: &Vector<T, D>,
+    ) -> Option<(Vector<T, D>, u32)>
+    where
+        Vector<T, D>: Embed3<T>,
+    {
+        self.unfinished
+            .halving(chain, joint, target, &mut self.pos_before)
     }
 
     /// Whether the calls that follow ([`move_joint_colliding`], [`push_by_obstacle`] and the
