@@ -31,6 +31,7 @@ use super::query::{
     away_from, closest_param_point_segment, closest_param_segment_block,
     closest_params_segment_segment, lerp, unit_or_perpendicular,
 };
+use super::tree::boxes_apart;
 use super::{CollisionModel, CollisionWorkspace, Obstacle, Scheme, cost, neighbour_span};
 use crate::math::{Embed3, Real, Vector, positive_finite};
 
@@ -195,6 +196,13 @@ where
                 return false;
             }
             let (a0, a1, b0, b1) = (pos[i], pos[i + 1], pos[j], pos[j + 1]);
+            // Apart along an axis by the row's reach: no closest points needed.
+            if boxes_apart(&a0, &a1, &b0, &b1, target + near_c) {
+                return true;
+            }
+            if !meter.charge(cost::CLOSEST) {
+                return false;
+            }
             let (s, t) = closest_params_segment_segment(&a0, &a1, &b0, &b1);
             let d = lerp(&a0, &a1, s) - lerp(&b0, &b1, t);
             let dist = d.norm();

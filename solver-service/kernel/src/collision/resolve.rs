@@ -725,11 +725,7 @@ impl<T: Real> Pass<'_, T> {
                 tree.refit(pos, thickness * T::lit(0.5));
                 self.farthest = T::zero();
                 let done = tree.close_pairs(meter, span, |meter, i, j| {
-                    if !meter.charge(cost::CAPSULE_PAIR) {
-                        return false;
-                    }
-                    self.capsule_pair(pos, i, j, thickness);
-                    true
+                    self.capsule_pair(pos, i, j, thickness, meter)
                 });
                 near.set_last_push(self.farthest);
                 if !done {
@@ -750,11 +746,10 @@ impl<T: Real> Pass<'_, T> {
         self.pushes = core::mem::take(acc);
         self.farthest = T::zero();
         for &(i, j) in pairs.iter() {
-            if !meter.charge(cost::CAPSULE_PAIR) {
+            if !self.capsule_pair(pos, i as usize, j as usize, thickness, meter) {
                 self.out_of_work = true;
                 break;
             }
-            self.capsule_pair(pos, i as usize, j as usize, thickness);
         }
         *acc = core::mem::take(&mut self.pushes);
         let farthest = self.farthest;
@@ -767,22 +762,37 @@ impl<T: Real> Pass<'_, T> {
     }
 
     /// Pushes the pair of links `i` and `j` apart if they are closer than `c`, counting how far it
-    /// moves each joint (into `pushes` when the pass keeps them, and the farthest).
-    fn capsule_pair<const D: usize>(&mut self, pos: &mut [Vector<T, D>], i: usize, j: usize, c: T)
+    /// moves each joint (into `pushes` when the pass keeps them, and the farthest), charging `meter`
+    /// for the box test and, when the boxes meet, for the closest points: `false` (the pair not
+    /// tested) if either charge would pass its limit.
+    fn capsule_pair<const D: usize>(
+        &mut self,
+        pos: &mut [Vector<T, D>],
+        i: usize,
+        j: usize,
+        c: T,
+        meter: &mut Meter,
+    ) -> bool
     where
         Vector<T, D>: Embed3<T>,
     {
+        if !meter.charge(cost::CAPSULE_PAIR) {
+            return false;
+        }
         let (a0, a1, b0, b1) = (pos[i], pos[i + 1], pos[j], pos[j + 1]);
         // Most candidates from overlapping leaves are farther apart than the clearance along some
         // axis: no closest points needed (the pair could not violate it).
         if boxes_apart(&a0, &a1, &b0, &b1, c) {
-            return;
+            return true;
+        }
+        if !meter.charge(cost::CLOSEST) {
+            return false;
         }
         let (s, t) = closest_params_segment_segment(&a0, &a1, &b0, &b1);
         let d = lerp(&a0, &a1, s) - lerp(&b0, &b1, t);
         let dist = d.norm();
         if !self.violates(c - dist, c) {
-            return;
+            return true;
         }
         let n = unit_or_perpendicular(&d, dist, &(a1 - a0), &(b1 - b0));
         let (w0, w1, w2, w3) = (self.w(i), self.w(i + 1), self.w(j), self.w(j + 1));
@@ -790,7 +800,7 @@ impl<T: Real> Pass<'_, T> {
         let den = w0 * s1 * s1 + w1 * s * s + w2 * t1 * t1 + w3 * t * t;
         if den <= T::zero() {
             self.blocked = true;
-            return;
+            return true;
         }
         let lambda = self.push_depth(c - dist, c) / den;
         pos[i] += n * (w0 * s1 * lambda);
@@ -813,6 +823,7 @@ impl<T: Real> Pass<'_, T> {
                 self.farthest = self.farthest.max(self.pushes[k]);
             }
         }
+        true
     }
 
     fn spheres<const D: usize>(&mut self, pos: &mut [Vector<T, D>])
@@ -992,6 +1003,54 @@ impl<T: Real> Pass<'_, T> {
 mod tests {
     use super::*;
     use nalgebra::Vector3;
+
+    /// A capsule pair is charged its box test, and its closest points only when the boxes meet
+    /// within the clearance: two links far apart cost the one, two links a clearance's tenth apart
+    /// (their boxes meeting) both and are pushed; with the closest points' charge not left, the pair
+    /// is not tested and nothing moves.
+    #[test]
+    fn a_pair_whose_boxes_meet_is_charged_its_closest_points() {
+        let held: [usize; 0] = [];
+        let mut pass = Pass {
+            m: 0,
+            held: &held,
+            marks: Vec::new(),
+            pushes: Vec::new(),
+            farthest: 0.0,
+            tol: 0.01,
+            omega: 1.0,
+            capped: false,
+            pushed: 0,
+            worst: 0.0,
+            blocked: false,
+            out_of_work: false,
+        };
+        let c = 0.2;
+        let link = |x: f64, y: f64| [Vector3::new(x, y, 0.0), Vector3::new(x + 1.0, y, 0.0)];
+        let mut pos: Vec<Vector3<f64>> = [link(0.0, 0.0), link(0.0, 5.0)].concat();
+        let mut meter = Meter::default();
+        assert!(pass.capsule_pair(&mut pos, 0, 2, c, &mut meter));
+        assert_eq!(meter.done, cost::CAPSULE_PAIR);
+        assert_eq!(pass.pushed, 0);
+
+        let mut pos: Vec<Vector3<f64>> = [link(0.0, 0.0), link(0.0, 0.1 * c)].concat();
+        let mut meter = Meter::default();
+        assert!(pass.capsule_pair(&mut pos, 0, 2, c, &mut meter));
+        assert_eq!(meter.done, cost::CAPSULE_PAIR + cost::CLOSEST);
+        assert_eq!(pass.pushed, 1);
+        assert!((pos[2].y - pos[0].y) > 0.1 * c);
+
+        let before: Vec<Vector3<f64>> = [link(0.0, 0.0), link(0.0, 0.1 * c)].concat();
+        let mut pos = before.clone();
+        let mut meter = Meter {
+            limit: cost::CAPSULE_PAIR + cost::CLOSEST - 1,
+            done: 0,
+        };
+        assert!(!pass.capsule_pair(&mut pos, 0, 2, c, &mut meter));
+        assert_eq!(meter.done, cost::CAPSULE_PAIR);
+        assert_eq!(pos, before);
+        assert_eq!(pass.pushed, 1);
+    }
 
     /// A part of 24 links of about 0.15 on a helix, its joints off their lengths by up to 5e-11
     /// (relative), as the relaxation leaves them: closed, every link is its length to rounding, the
