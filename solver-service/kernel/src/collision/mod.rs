@@ -598,9 +598,9 @@ pub(super) mod cost {
     pub const NODE_PAIR: u64 = 1;
     /// One capsule pair tested: the box test that parts most candidates.
     pub const CAPSULE_PAIR: u64 = 6;
-    /// The closest points of a capsule pair whose boxes meet, its distance and the push: timed on a
-    /// rope crumpled by random moves (where most candidates need them), about 50 ns beside a
-    /// link-step's 37 on the AMD EPYC.
+    /// The closest points of a capsule pair whose boxes meet, its distance and the push: timed (by
+    /// `perf`) on a rope crumpled by random moves, where most candidates need them, at about 50 ns
+    /// on an AMD EPYC whose plain link-step takes 37–50 ns, rounded up.
     pub const CLOSEST: u64 = 22;
     /// One pair of the paper's spheres tested.
     pub const SPHERE_PAIR: u64 = 2;
