@@ -46,7 +46,7 @@ if [ "$QUICK" = 1 ]; then
   AB_ROUNDS=1
   DEVICE_RUNS=1
   DEVICE_FRAME_RUNS=1
-  export DEVICE_BENCH_LINKS=40 DEVICE_BENCH_ONLY=square-held HOSTILE_BENCH_SECONDS=1
+  export DEVICE_BENCH_LINKS=40 DEVICE_BENCH_ONLY=square-held HOSTILE_BENCH_SECONDS=1 CRUMPLE_BENCH_MOVES=30
 else
   LATENCY_ARGS=""
   LOAD_SECONDS=10
@@ -126,6 +126,8 @@ block device-tighten "DEVICE_BENCH_TIGHTEN=0.05 DEVICE_BENCH_RUNS=$DEVICE_FRAME_
   env DEVICE_BENCH_TIGHTEN=0.05 DEVICE_BENCH_RUNS="$DEVICE_FRAME_RUNS" DEVICE_BENCH_LINKS="$TIGHTEN_LINKS" DEVICE_BENCH_ONLY="$TIGHTEN_ONLY" cargo bench -q -p clients --bench device
 block hostile "cargo bench -p clients --bench hostile" \
   cargo bench -q -p clients --bench hostile
+block crumple "cargo bench -p solver-service --bench crumple" \
+  cargo bench -q -p solver-service --bench crumple
 block tighten "cargo bench -p clients --bench tighten" \
   cargo bench -q -p clients --bench tighten
 block knots-topology "KNOT_BENCH_TABLES=topology KNOT_BENCH_RUNS=1000 cargo bench -p world --bench knots" \
